@@ -1,0 +1,62 @@
+"""Fixed conventions shared by every part of vptoolkit.
+
+Measures
+    ``MEASURES = ("VE", "VR", "VKL", "VMI")`` is the one order of every
+    ``(..., 4)`` array, table column and CLI listing. Raw values: higher is
+    better for VE (viewpoint entropy) and VR (visibility ratio), lower is better
+    for VKL (viewpoint Kullback-Leibler divergence) and VMI (viewpoint mutual
+    information). Normalised values are always in [0, 1] with 1 = best.
+    Logarithms are base 2 (bits).
+
+Views
+    ``N_VIEWS = 1000`` directions on the authors' Fibonacci sphere
+    (:func:`vptoolkit.sphere.fibonacci_sphere`). A view direction ``v`` is a
+    unit vector from the model's bounding-box centre towards the camera.
+
+Camera (defaults of :class:`vptoolkit.camera.Camera`)
+    Perspective, square image of ``RESOLUTION`` pixels a side, vertical field
+    of view ``FOV_DEG`` degrees, looking at the bounding-box centre ``c`` from
+    ``c + d v`` with ``d = DISTANCE_FACTOR * diagonal``, image up vector
+    ``UP`` (``FALLBACK_UP`` where ``v`` is parallel to ``UP``), back faces
+    culled (counter-clockwise winding is the front, right-hand rule).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Final
+
+__all__ = [
+    "MEASURES",
+    "HIGHER_IS_BETTER",
+    "N_VIEWS",
+    "RESOLUTION",
+    "FOV_DEG",
+    "DISTANCE_FACTOR",
+    "UP",
+    "FALLBACK_UP",
+]
+
+MEASURES: Final = ("VE", "VR", "VKL", "VMI")
+"""Measure names in the fixed order of every ``(..., 4)`` array."""
+
+HIGHER_IS_BETTER: Final = (True, True, False, False)
+"""For each entry of :data:`MEASURES`: is a higher raw value better?"""
+
+N_VIEWS: Final = 1000
+"""Number of candidate views on the Fibonacci sphere (the paper's choice)."""
+
+RESOLUTION: Final = 1024
+"""Side of the square triangle-ID image in pixels (the paper's choice)."""
+
+FOV_DEG: Final = 45.0
+"""Vertical (and, the image being square, horizontal) field of view in degrees."""
+
+DISTANCE_FACTOR: Final = 1.0 / math.sin(math.radians(45.0))
+"""Camera distance from the bounding-box centre, in bounding-box diagonals."""
+
+UP: Final = (0.0, -1.0, 0.0)
+"""Image up vector in model coordinates (the authors' renderer)."""
+
+FALLBACK_UP: Final = (0.0, 0.0, 1.0)
+"""Up vector used where the view direction is parallel to :data:`UP`."""

@@ -1,0 +1,82 @@
+"""The triangle mesh container used throughout vptoolkit."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.errors import InputError
+
+__all__ = ["Mesh"]
+
+
+@dataclass(frozen=True, eq=False)
+class Mesh:
+    """A triangle mesh as plain arrays.
+
+    Parameters
+    ----------
+    vertices : (n_vertices, 3) float64
+        Vertex positions in model units.
+    faces : (n_faces, 3) int64
+        Vertex indices per triangle, counter-clockwise seen from the front
+        (outward normals by the right-hand rule).
+    name : str
+        A label for messages and outputs, usually the file stem (default: "mesh").
+
+    Raises
+    ------
+    InputError
+        If the arrays have the wrong shape, hold non-finite coordinates, there
+        are no faces, or a face index is out of range. The message starts with
+        ``name``.
+    """
+
+    vertices: NDArray[np.float64]
+    faces: NDArray[np.int64]
+    name: str = field(default="mesh")
+
+    def __post_init__(self) -> None:
+        vertices = _as_array(self.vertices, np.float64, self.name, "vertices")
+        faces = _as_array(self.faces, np.int64, self.name, "faces")
+        if vertices.ndim != 2 or vertices.shape[1] != 3:
+            raise InputError(f"{self.name}: vertices must have shape (n, 3), got {vertices.shape}")
+        if faces.ndim != 2 or faces.shape[1] != 3:
+            raise InputError(f"{self.name}: faces must have shape (n, 3), got {faces.shape}")
+        if len(faces) == 0:
+            raise InputError(f"{self.name}: mesh has no faces")
+        if not np.isfinite(vertices).all():
+            n_bad = int((~np.isfinite(vertices).all(axis=1)).sum())
+            raise InputError(f"{self.name}: {n_bad} vertices have NaN or infinite coordinates")
+        low, high = int(faces.min()), int(faces.max())
+        if low < 0 or high >= len(vertices):
+            bad = low if low < 0 else high
+            raise InputError(
+                f"{self.name}: face index {bad} out of range for {len(vertices)} vertices"
+            )
+        vertices.setflags(write=False)
+        faces.setflags(write=False)
+        object.__setattr__(self, "vertices", vertices)
+        object.__setattr__(self, "faces", faces)
+
+    @property
+    def n_vertices(self) -> int:
+        """Number of vertices."""
+        return int(self.vertices.shape[0])
+
+    @property
+    def n_faces(self) -> int:
+        """Number of triangles."""
+        return int(self.faces.shape[0])
+
+    def __repr__(self) -> str:
+        return f"Mesh(name={self.name!r}, n_vertices={self.n_vertices}, n_faces={self.n_faces})"
+
+
+def _as_array(values: ArrayLike, dtype: type, name: str, what: str) -> NDArray:  # type: ignore[type-arg]
+    try:
+        return np.array(values, dtype=dtype, copy=True)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{name}: {what} cannot be read as {np.dtype(dtype).name}: {err}") from err
