@@ -1,0 +1,209 @@
+"""The pinhole camera that looks at a model from a view direction.
+
+Conventions (defaults from :mod:`vptoolkit.conventions`):
+
+* The camera looks at the bounding-box centre ``c`` from ``eye = c + d v``,
+  with ``v`` the unit view direction and ``d = distance_factor * diagonal``.
+* Camera frame: ``forward = -v``; ``right = normalise(forward x up)``;
+  ``true_up = right x forward``. Where ``v`` is parallel to ``up`` the
+  ``fallback_up`` vector is used instead.
+* Image: square, ``resolution`` pixels a side; column ``x`` grows along
+  ``right`` and row ``y`` grows *against* ``true_up`` (row 0 at the top).
+  Pixel ``(x, y)`` is sampled at its centre ``(x + 0.5, y + 0.5)``.
+* Projection: perspective with focal length
+  ``f = (resolution / 2) / tan(fov / 2)`` pixels, so a camera-frame point
+  ``(p_r, p_u, p_f)`` lands on ``(res/2 + f p_r / p_f, res/2 - f p_u / p_f)``.
+* Faces are culled when seen from behind: a face is front-facing when the eye
+  lies on the side its right-hand-rule normal points to.
+
+The whole bounding sphere of the model must lie inside the view frustum
+(``distance_factor >= 1 / (2 sin(fov / 2))``); this keeps every model fully in
+the picture and every depth positive.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.conventions import DISTANCE_FACTOR, FALLBACK_UP, FOV_DEG, UP
+from vptoolkit.errors import InputError
+from vptoolkit.sphere import as_directions
+
+__all__ = ["Camera", "ViewPoses"]
+
+
+@dataclass(frozen=True)
+class ViewPoses:
+    """Camera poses for a set of view directions.
+
+    Attributes
+    ----------
+    eyes : (n_views, 3) float64
+        Camera positions in model coordinates.
+    right, up, forward : (n_views, 3) float64
+        Orthonormal camera axes per view (``forward`` points at the model).
+    focal_px : float
+        Focal length in pixels for the image resolution the poses were made for.
+    resolution : int
+        Image side in pixels.
+    """
+
+    eyes: NDArray[np.float64]
+    right: NDArray[np.float64]
+    up: NDArray[np.float64]
+    forward: NDArray[np.float64]
+    focal_px: float
+    resolution: int
+
+    def project(self, view: int, points: ArrayLike) -> NDArray[np.float64]:
+        """Project model-space points into pixel coordinates of one view.
+
+        Parameters
+        ----------
+        view : int
+            Index of the view.
+        points : (n, 3) array_like
+            Points in model coordinates (in front of the camera).
+
+        Returns
+        -------
+        pixels : (n, 3) float64
+            Columns ``x`` (to the right), ``y`` (downwards) in pixels, and the
+            depth along ``forward`` in model units.
+        """
+        relative = np.asarray(points, dtype=np.float64) - self.eyes[view]
+        p_r = relative @ self.right[view]
+        p_u = relative @ self.up[view]
+        p_f = relative @ self.forward[view]
+        half = self.resolution / 2.0
+        return np.stack(
+            [half + self.focal_px * p_r / p_f, half - self.focal_px * p_u / p_f, p_f], axis=1
+        )
+
+    def pixel_rays(self, view: int) -> NDArray[np.float32]:
+        """Rays through the centre of every pixel of one view, row-major.
+
+        Returns
+        -------
+        rays : (resolution * resolution, 6) float32
+            Origin (the eye) and unit direction per pixel; pixel ``(x, y)`` is
+            row ``y * resolution + x``.
+        """
+        res = self.resolution
+        centres = (np.arange(res, dtype=np.float64) + 0.5 - res / 2.0) / self.focal_px
+        along_right = np.tile(centres, res)
+        along_up = -np.repeat(centres, res)
+        directions = (
+            self.forward[view][None, :]
+            + along_right[:, None] * self.right[view][None, :]
+            + along_up[:, None] * self.up[view][None, :]
+        )
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        rays = np.zeros((res * res, 6), dtype=np.float32)
+        rays[:, :3] = self.eyes[view]
+        rays[:, 3:] = directions
+        return rays
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Perspective camera conventions shared by the measures and the renderer.
+
+    Parameters
+    ----------
+    fov_deg : float
+        Vertical (and horizontal) field of view in degrees (default: 45).
+    distance_factor : float
+        Eye distance from the bounding-box centre in bounding-box diagonals
+        (default: ``1 / sin(45 deg)``, about 1.414).
+    up : tuple of 3 floats
+        Image up vector in model coordinates (default: ``(0, -1, 0)``).
+    fallback_up : tuple of 3 floats
+        Up vector used where a view direction is parallel to ``up``
+        (default: ``(0, 0, 1)``).
+    cull_back_faces : bool
+        Whether faces seen from behind are invisible (default: True).
+    """
+
+    fov_deg: float = FOV_DEG
+    distance_factor: float = DISTANCE_FACTOR
+    up: tuple[float, float, float] = UP
+    fallback_up: tuple[float, float, float] = FALLBACK_UP
+    cull_back_faces: bool = True
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.fov_deg < 180.0:
+            raise InputError(f"fov_deg: must lie in (0, 180) degrees, got {self.fov_deg}")
+        minimum = 0.5 / math.sin(math.radians(self.fov_deg) / 2.0)
+        if not self.distance_factor >= minimum:
+            raise InputError(
+                f"distance_factor: {self.distance_factor} puts the camera inside the view "
+                f"frustum's reach of the model; at fov {self.fov_deg} deg it must be >= {minimum:.4f}"
+            )
+        for name in ("up", "fallback_up"):
+            vector = np.asarray(getattr(self, name), dtype=np.float64)
+            if vector.shape != (3,) or not np.isfinite(vector).all() or not vector.any():
+                raise InputError(f"{name}: must be a finite non-zero 3-vector, got {vector}")
+        if abs(float(np.dot(_unit(self.up), _unit(self.fallback_up)))) > 0.99:
+            raise InputError("fallback_up: must not be parallel to up")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe record of the conventions, stored beside every result."""
+        record = asdict(self)
+        record["up"] = [float(c) for c in self.up]
+        record["fallback_up"] = [float(c) for c in self.fallback_up]
+        record["projection"] = "perspective"
+        record["target"] = "bounding-box centre"
+        record["distance_unit"] = "bounding-box diagonal"
+        return record
+
+    def poses(
+        self,
+        view_directions: ArrayLike,
+        *,
+        centre: ArrayLike,
+        diagonal: float,
+        resolution: int,
+    ) -> ViewPoses:
+        """Camera poses looking at ``centre`` from each view direction.
+
+        Parameters
+        ----------
+        view_directions : (n_views, 3) array_like
+            Directions from the model centre towards the camera (normalised here).
+        centre : (3,) array_like
+            Target point, the bounding-box centre.
+        diagonal : float
+            Bounding-box diagonal in model units (> 0).
+        resolution : int
+            Image side in pixels.
+
+        Returns
+        -------
+        ViewPoses
+        """
+        if not diagonal > 0.0:
+            raise InputError(f"diagonal: model has zero extent ({diagonal})")
+        directions = as_directions(view_directions, name="view_directions")
+        forward = -directions
+        up = np.broadcast_to(_unit(self.up), forward.shape).copy()
+        right = np.cross(forward, up)
+        parallel = np.linalg.norm(right, axis=1) < 1e-9
+        right[parallel] = np.cross(forward[parallel], _unit(self.fallback_up))
+        right /= np.linalg.norm(right, axis=1, keepdims=True)
+        true_up = np.cross(right, forward)
+        eyes = np.asarray(centre, dtype=np.float64)[None, :] + (
+            self.distance_factor * diagonal
+        ) * directions
+        focal = (resolution / 2.0) / math.tan(math.radians(self.fov_deg) / 2.0)
+        return ViewPoses(eyes, right, true_up, forward, focal, int(resolution))
+
+
+def _unit(vector: tuple[float, float, float] | NDArray[np.float64]) -> NDArray[np.float64]:
+    array = np.asarray(vector, dtype=np.float64)
+    return array / np.linalg.norm(array)

@@ -1,0 +1,57 @@
+"""Basic triangle-mesh geometry: face areas, normals and the bounding frame."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.mesh import Mesh
+
+__all__ = ["face_areas", "face_normals", "bounding_frame"]
+
+
+def _edge_cross(mesh: Mesh) -> NDArray[np.float64]:
+    corners = mesh.vertices[mesh.faces]
+    return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+
+
+def face_areas(mesh: Mesh) -> NDArray[np.float64]:
+    """True area of every triangle.
+
+    Returns
+    -------
+    areas : (n_faces,) float64
+        ``|(b - a) x (c - a)| / 2`` in squared model units; 0 for degenerate faces.
+    """
+    return 0.5 * np.linalg.norm(_edge_cross(mesh), axis=1)
+
+
+def face_normals(mesh: Mesh) -> NDArray[np.float64]:
+    """Unit normal of every triangle by the right-hand rule on its winding.
+
+    Returns
+    -------
+    normals : (n_faces, 3) float64
+        ``(b - a) x (c - a)`` normalised; the zero vector for degenerate faces.
+    """
+    cross = _edge_cross(mesh)
+    length = np.linalg.norm(cross, axis=1, keepdims=True)
+    return np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
+
+
+def bounding_frame(mesh: Mesh) -> tuple[NDArray[np.float64], float]:
+    """Centre and diagonal of the axis-aligned bounding box of the used vertices.
+
+    Vertices no face refers to are ignored, so stray points in a file do not
+    move the camera.
+
+    Returns
+    -------
+    centre : (3,) float64
+        Midpoint of the bounding box (the camera's target).
+    diagonal : float
+        Length of the bounding-box diagonal in model units.
+    """
+    used = mesh.vertices[np.unique(mesh.faces)]
+    low, high = used.min(axis=0), used.max(axis=0)
+    return (low + high) / 2.0, float(np.linalg.norm(high - low))
