@@ -1,0 +1,269 @@
+"""Per-view, per-face projected areas ``a_z(v)`` in pixels.
+
+For every view the model is drawn into a triangle-ID image (see
+:mod:`vptoolkit.camera` for the camera) and the pixels of each face are
+counted. Two backends give the same counts up to pixels on triangle edges:
+
+``"raster"`` (default)
+    A numba z-buffer rasteriser of triangle IDs, about a second for 1000
+    views of a 10k-face mesh at 1024 x 1024 on two cores.
+``"raycast"``
+    Open3D's ``RaycastingScene``, one ray through each pixel centre; the
+    reference, about 50 times slower.
+
+Results come as sparse histograms (:class:`ViewHistograms`), batch by batch,
+so memory stays bounded for meshes with millions of faces.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera, ViewPoses
+from vptoolkit.conventions import RESOLUTION
+from vptoolkit.errors import InputError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.mesh import Mesh
+from vptoolkit.sphere import as_directions
+
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "ViewHistograms",
+    "iter_view_histograms",
+    "face_pixel_counts",
+    "face_pixel_totals",
+]
+
+Backend = Literal["raster", "raycast"]
+BACKENDS: tuple[str, ...] = ("raster", "raycast")
+
+_BATCH_BYTES = 256 * 2**20  # output buffers of one raster batch
+
+
+@dataclass(frozen=True)
+class ViewHistograms:
+    """Sparse pixel counts per face for a run of consecutive views (CSR layout).
+
+    Attributes
+    ----------
+    offsets : (n_views + 1,) int64
+        Entries of view ``i`` are ``offsets[i]:offsets[i + 1]``.
+    face_ids : (nnz,) int32
+        Visible face of each entry (int32 keeps big meshes in memory).
+    pixel_counts : (nnz,) int32
+        Number of pixels ``a_z(v) > 0`` of that face in that view.
+    n_faces : int
+        Number of faces of the mesh.
+    first_view : int
+        Index of the first view of this run in the full list of views.
+    """
+
+    offsets: NDArray[np.int64]
+    face_ids: NDArray[np.int32]
+    pixel_counts: NDArray[np.int32]
+    n_faces: int
+    first_view: int = 0
+
+    @property
+    def n_views(self) -> int:
+        """Number of views in this run."""
+        return int(len(self.offsets) - 1)
+
+    @property
+    def nbytes(self) -> int:
+        """Memory held by the arrays, in bytes."""
+        return int(self.offsets.nbytes + self.face_ids.nbytes + self.pixel_counts.nbytes)
+
+    def view_index(self) -> NDArray[np.int64]:
+        """Local view index of every entry, ``(nnz,) int64``."""
+        return np.repeat(np.arange(self.n_views, dtype=np.int64), np.diff(self.offsets))
+
+    def to_dense(self) -> NDArray[np.int64]:
+        """Dense counts, ``(n_views, n_faces) int64``: only for a few views."""
+        dense = np.zeros((self.n_views, self.n_faces), dtype=np.int64)
+        dense[self.view_index(), self.face_ids] = self.pixel_counts
+        return dense
+
+
+def iter_view_histograms(
+    mesh: Mesh,
+    view_directions: ArrayLike,
+    *,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+) -> Iterator[ViewHistograms]:
+    """Yield the per-face pixel histograms of the views, a batch at a time.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model; faces of zero area are never drawn.
+    view_directions : (n_views, 3) array_like
+        Directions from the model centre to the camera.
+    resolution : int
+        Image side in pixels (default: 1024).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``).
+    backend : {"raster", "raycast"}
+        Which renderer counts the pixels (default: "raster").
+
+    Yields
+    ------
+    ViewHistograms
+        Consecutive runs of views covering all of ``view_directions`` in order.
+    """
+    camera = camera or Camera()
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+        raise InputError(f"resolution: must be an integer number of pixels, got {resolution!r}")
+    if not 1 <= resolution <= 16384:
+        raise InputError(f"resolution: must be between 1 and 16384 pixels, got {resolution}")
+    if backend not in BACKENDS:
+        raise InputError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    directions = as_directions(view_directions, name="view_directions")
+    centre, diagonal = bounding_frame(mesh)
+    if diagonal <= 0.0:
+        raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
+    poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=int(resolution))
+    corners = mesh.vertices[mesh.faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    offsets = np.einsum("ij,ij->i", normals, corners[:, 0])
+    is_drawable = np.linalg.norm(normals, axis=1) > 0.0
+    if backend == "raster":
+        yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+    else:
+        yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+
+
+def _raster_batches(
+    mesh: Mesh,
+    poses: ViewPoses,
+    normals: NDArray[np.float64],
+    offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    camera: Camera,
+    diagonal: float,
+) -> Iterator[ViewHistograms]:
+    from vptoolkit.visibility._raster import RasterWorkspace, histogram_capacity, rasterize_batch
+
+    resolution = poses.resolution
+    workspace = RasterWorkspace.allocate(
+        resolution=resolution, n_faces=mesh.n_faces, n_vertices=mesh.n_vertices
+    )
+    n_threads = workspace.frames.shape[0]
+    capacity = histogram_capacity(resolution, mesh.n_faces)
+    batch = int(np.clip(_BATCH_BYTES // (8 * capacity), n_threads, 64))
+    batch -= batch % n_threads
+    distance = camera.distance_factor * diagonal
+    near, far = distance - diagonal / 2.0, distance + diagonal / 2.0
+    out_ids = np.zeros((batch, capacity), dtype=np.int32)
+    out_counts = np.zeros((batch, capacity), dtype=np.int32)
+    out_lengths = np.zeros(batch, dtype=np.int64)
+    n_views = len(poses.eyes)
+    for start in range(0, n_views, batch):
+        stop = min(start + batch, n_views)
+        count = stop - start
+        rasterize_batch(
+            mesh.vertices, mesh.faces, normals, offsets, is_drawable, camera.cull_back_faces,
+            poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
+            poses.forward[start:stop], poses.focal_px, resolution, near, far,
+            workspace.frames, workspace.row_low, workspace.row_high, workspace.face_counts,
+            workspace.touched, workspace.screen_x, workspace.screen_y, workspace.inverse_depth,
+            out_ids, out_counts, out_lengths,
+        )
+        lengths = out_lengths[:count]
+        keep = np.arange(capacity)[None, :] < lengths[:, None]
+        yield ViewHistograms(
+            offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+            face_ids=out_ids[:count][keep],
+            pixel_counts=out_counts[:count][keep],
+            n_faces=mesh.n_faces,
+            first_view=start,
+        )
+
+
+def _raycast_views(
+    mesh: Mesh,
+    poses: ViewPoses,
+    normals: NDArray[np.float64],
+    offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    camera: Camera,
+    diagonal: float,
+) -> Iterator[ViewHistograms]:
+    from vptoolkit.visibility._raycast import RaycastScene
+
+    scene = RaycastScene(
+        mesh, face_normals=normals, face_offsets=offsets, is_drawable=is_drawable,
+        diagonal=diagonal,
+    )
+    for view in range(len(poses.eyes)):
+        ids = scene.face_ids(poses, view, cull_back_faces=camera.cull_back_faces)
+        counts = np.bincount(ids[ids >= 0], minlength=mesh.n_faces)
+        visible = np.flatnonzero(counts)
+        yield ViewHistograms(
+            offsets=np.array([0, len(visible)], dtype=np.int64),
+            face_ids=visible.astype(np.int32),
+            pixel_counts=counts[visible].astype(np.int32),
+            n_faces=mesh.n_faces,
+            first_view=view,
+        )
+
+
+def face_pixel_counts(
+    mesh: Mesh,
+    view_directions: ArrayLike,
+    *,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+) -> NDArray[np.int64]:
+    """Dense pixel counts ``a_z(v)`` for a few views.
+
+    Returns
+    -------
+    counts : (n_views, n_faces) int64
+        Pixels of face ``z`` in view ``v``. Dense: use
+        :func:`iter_view_histograms` for many views of a big mesh.
+    """
+    parts = [
+        h.to_dense()
+        for h in iter_view_histograms(
+            mesh, view_directions, resolution=resolution, camera=camera, backend=backend
+        )
+    ]
+    return np.concatenate(parts, axis=0)
+
+
+def face_pixel_totals(
+    mesh: Mesh,
+    view_directions: ArrayLike,
+    *,
+    resolution: int = 256,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+) -> NDArray[np.int64]:
+    """Pixels of each face summed over all views.
+
+    A face whose total is zero is seen in none of the views (hidden inside
+    the model or always behind other faces).
+
+    Returns
+    -------
+    totals : (n_faces,) int64
+        ``sum_v a_z(v)``.
+    """
+    totals = np.zeros(mesh.n_faces, dtype=np.int64)
+    for histograms in iter_view_histograms(
+        mesh, view_directions, resolution=resolution, camera=camera, backend=backend
+    ):
+        totals += np.bincount(
+            histograms.face_ids, weights=histograms.pixel_counts, minlength=mesh.n_faces
+        ).astype(np.int64)
+    return totals

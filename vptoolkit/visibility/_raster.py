@@ -1,0 +1,334 @@
+"""Triangle-ID z-buffer rasteriser on the CPU (numba), the default backend.
+
+For each view the front-facing triangles are scan-converted into one 64-bit
+key per pixel: the high bits hold the quantised inverse depth ``1/z`` (affine
+in screen space, so interpolating it is perspective-correct; larger is
+nearer), the low 32 bits hold ``face + 1``. A depth test and an ID write are
+then a single integer compare and store, and the visible face of a pixel is
+the one with the largest key (ties in depth go to the higher face index).
+
+Coverage is exact: vertices are snapped to a fixed-point grid of
+``2**-SUBPIXEL_BITS`` pixels and integer edge functions are evaluated at pixel
+centres with a top-left tie rule, so a pixel centre on an edge shared by two
+triangles is counted exactly once.
+
+The per-face histogram of each view is taken while clearing the frame, only
+over the span of each row that was written, so the full frame is never
+scanned. Views are split over the threads; each thread owns its buffers, so
+there are no atomics.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numba import get_num_threads, njit, prange
+from numpy.typing import NDArray
+
+if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
+    # Prefer OpenMP: pymeshlab ships an old TBB that numba would try first,
+    # warn about and reject.
+    numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+
+SUBPIXEL_BITS = 12
+_DEPTH_LEVELS = float(1 << 30)
+_ID_MASK = np.int64(0xFFFFFFFF)
+
+
+@dataclass
+class RasterWorkspace:
+    """Per-thread buffers reused across batches of views.
+
+    Attributes
+    ----------
+    frames : (n_threads, resolution * resolution) int64
+        Depth-and-ID keys; zero means background. Cleared by the kernel.
+    row_low, row_high : (n_threads, resolution) int64
+        Written span of each row (``low > high`` when the row is untouched).
+    face_counts : (n_threads, n_faces) int64
+        Pixel count per face of the view in progress; cleared by the kernel.
+    touched : (n_threads, capacity) int32
+        Faces with a non-zero count in the view in progress.
+    screen_x, screen_y : (n_threads, n_vertices) int64
+        Fixed-point vertex positions of the view in progress.
+    inverse_depth : (n_threads, n_vertices) float64
+        Normalised inverse depth of each vertex in [0, 1] (1 = nearest).
+    """
+
+    frames: NDArray[np.int64]
+    row_low: NDArray[np.int64]
+    row_high: NDArray[np.int64]
+    face_counts: NDArray[np.int64]
+    touched: NDArray[np.int32]
+    screen_x: NDArray[np.int64]
+    screen_y: NDArray[np.int64]
+    inverse_depth: NDArray[np.float64]
+
+    @classmethod
+    def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int) -> RasterWorkspace:
+        n_threads = get_num_threads()
+        capacity = histogram_capacity(resolution, n_faces)
+        return cls(
+            frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
+            row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
+            row_high=np.full((n_threads, resolution), -1, dtype=np.int64),
+            face_counts=np.zeros((n_threads, n_faces), dtype=np.int64),
+            touched=np.zeros((n_threads, capacity), dtype=np.int32),
+            screen_x=np.zeros((n_threads, n_vertices), dtype=np.int64),
+            screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
+            inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
+        )
+
+
+def histogram_capacity(resolution: int, n_faces: int) -> int:
+    """Most distinct faces one view can show: one per pixel, at most all faces."""
+    return int(min(resolution * resolution, n_faces))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _project_vertices(
+    vertices: NDArray[np.float64],
+    eye: NDArray[np.float64],
+    right: NDArray[np.float64],
+    up: NDArray[np.float64],
+    forward: NDArray[np.float64],
+    focal: float,
+    half: float,
+    near: float,
+    far: float,
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+) -> None:
+    scale = float(1 << SUBPIXEL_BITS)
+    inv_near = 1.0 / near
+    inv_far = 1.0 / far
+    depth_span = inv_near - inv_far
+    for i in range(vertices.shape[0]):
+        dx = vertices[i, 0] - eye[0]
+        dy = vertices[i, 1] - eye[1]
+        dz = vertices[i, 2] - eye[2]
+        p_r = dx * right[0] + dy * right[1] + dz * right[2]
+        p_u = dx * up[0] + dy * up[1] + dz * up[2]
+        p_f = dx * forward[0] + dy * forward[1] + dz * forward[2]
+        inv_f = 1.0 / p_f
+        screen_x[i] = np.int64(np.round((half + focal * p_r * inv_f) * scale))
+        screen_y[i] = np.int64(np.round((half - focal * p_u * inv_f) * scale))
+        q = (inv_f - inv_far) / depth_span
+        inverse_depth[i] = min(max(q, 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
+    # Top-left rule for the orientation used below (positive doubled area):
+    # the two triangles sharing an edge traverse it in opposite directions,
+    # so exactly one of them owns the pixel centres lying on it.
+    return dy < 0 or (dy == 0 and dx > 0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _rasterize_view(
+    faces: NDArray[np.int64],
+    is_front: NDArray[np.bool_],
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+    resolution: int,
+    frame: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+) -> None:
+    step = np.int64(1 << SUBPIXEL_BITS)
+    half_step = step // 2
+    for f in range(faces.shape[0]):
+        if not is_front[f]:
+            continue
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        ax, ay = screen_x[a], screen_y[a]
+        bx, by = screen_x[b], screen_y[b]
+        cx, cy = screen_x[c], screen_y[c]
+        qa, qb, qc = inverse_depth[a], inverse_depth[b], inverse_depth[c]
+        area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if area2 == 0:
+            continue
+        if area2 < 0:  # make the orientation positive: swap b and c
+            bx, cx = cx, bx
+            by, cy = cy, by
+            qb, qc = qc, qb
+            area2 = -area2
+        # Pixel columns/rows whose centre lies inside the triangle's bounding box.
+        x0 = max((min(ax, bx, cx) - half_step + step - 1) // step, 0)
+        x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
+        y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
+        y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
+        if x0 > x1 or y0 > y1:
+            continue
+        # Edge functions E_ab(p) = (b - a) x (p - a), positive inside.
+        # w_c := E_ab, w_a := E_bc, w_b := E_ca (barycentric weights * area2).
+        bias_ab = 0 if _owns_edge(bx - ax, by - ay) else -1
+        bias_bc = 0 if _owns_edge(cx - bx, cy - by) else -1
+        bias_ca = 0 if _owns_edge(ax - cx, ay - cy) else -1
+        px = x0 * step + half_step
+        py = y0 * step + half_step
+        row_ab = (bx - ax) * (py - ay) - (by - ay) * (px - ax) + bias_ab
+        row_bc = (cx - bx) * (py - by) - (cy - by) * (px - bx) + bias_bc
+        row_ca = (ax - cx) * (py - cy) - (ay - cy) * (px - cx) + bias_ca
+        # Steps of the edge functions per pixel along x and y.
+        sx_ab, sy_ab = -(by - ay) * step, (bx - ax) * step
+        sx_bc, sy_bc = -(cy - by) * step, (cx - bx) * step
+        sx_ca, sy_ca = -(ay - cy) * step, (ax - cx) * step
+        # Inverse depth as an affine function of the pixel position.
+        inv_area = _DEPTH_LEVELS / area2
+        dq_dx = (sx_bc * qa + sx_ca * qb + sx_ab * qc) * inv_area
+        dq_dy = (sy_bc * qa + sy_ca * qb + sy_ab * qc) * inv_area
+        q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
+        face_id = np.int64(f + 1)
+        for y in range(y0, y1 + 1):
+            e_ab, e_bc, e_ca = row_ab, row_bc, row_ca
+            q = q_row
+            base = y * resolution
+            first = -1
+            last = -1
+            for x in range(x0, x1 + 1):
+                if (e_ab | e_bc | e_ca) >= 0:
+                    if first < 0:
+                        first = x
+                    last = x
+                    key = (np.int64(q) << 32) | face_id
+                    if key > frame[base + x]:
+                        frame[base + x] = key
+                elif first >= 0:
+                    break
+                e_ab += sx_ab
+                e_bc += sx_bc
+                e_ca += sx_ca
+                q += dq_dx
+            if first >= 0:
+                if first < row_low[y]:
+                    row_low[y] = first
+                if last > row_high[y]:
+                    row_high[y] = last
+            row_ab += sy_ab
+            row_bc += sy_bc
+            row_ca += sy_ca
+            q_row += dq_dy
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _collect_histogram(
+    resolution: int,
+    frame: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+    face_counts: NDArray[np.int64],
+    touched: NDArray[np.int32],
+    out_ids: NDArray[np.int32],
+    out_counts: NDArray[np.int32],
+) -> int:
+    n_touched = 0
+    for y in range(resolution):
+        low = row_low[y]
+        high = row_high[y]
+        if low > high:
+            continue
+        base = y * resolution
+        run_id = np.int64(0)
+        run_length = 0
+        for x in range(low, high + 1):
+            key_id = frame[base + x] & _ID_MASK
+            frame[base + x] = 0
+            if key_id == run_id:
+                run_length += 1
+                continue
+            if run_id != 0:
+                face = run_id - 1
+                if face_counts[face] == 0:
+                    touched[n_touched] = face
+                    n_touched += 1
+                face_counts[face] += run_length
+            run_id = key_id
+            run_length = 1
+        if run_id != 0:
+            face = run_id - 1
+            if face_counts[face] == 0:
+                touched[n_touched] = face
+                n_touched += 1
+            face_counts[face] += run_length
+        row_low[y] = resolution
+        row_high[y] = -1
+    for j in range(n_touched):
+        face = touched[j]
+        out_ids[j] = face
+        out_counts[j] = face_counts[face]
+        face_counts[face] = 0
+    return n_touched
+
+
+@njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+def rasterize_batch(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    face_normals: NDArray[np.float64],
+    face_offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    cull_back_faces: bool,
+    eyes: NDArray[np.float64],
+    rights: NDArray[np.float64],
+    ups: NDArray[np.float64],
+    forwards: NDArray[np.float64],
+    focal: float,
+    resolution: int,
+    near: float,
+    far: float,
+    frames: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+    face_counts: NDArray[np.int64],
+    touched: NDArray[np.int32],
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+    out_ids: NDArray[np.int32],
+    out_counts: NDArray[np.int32],
+    out_lengths: NDArray[np.int64],
+) -> None:
+    """Per-face pixel histograms of a batch of views.
+
+    ``face_normals`` and ``face_offsets`` are the unnormalised face planes
+    ``n . x = offset``; a face is front-facing from ``eye`` when
+    ``n . eye > offset``. ``is_drawable`` is False for faces never drawn
+    (zero area). Results of view ``i`` go to ``out_ids[i, :out_lengths[i]]``
+    and ``out_counts[i, :out_lengths[i]]``.
+    """
+    n_views = eyes.shape[0]
+    n_threads = frames.shape[0]
+    n_faces = faces.shape[0]
+    half = resolution / 2.0
+    for thread in prange(n_threads):
+        is_front = np.zeros(n_faces, dtype=np.bool_)
+        for view in range(thread, n_views, n_threads):
+            eye = eyes[view]
+            for f in range(n_faces):
+                side = (
+                    face_normals[f, 0] * eye[0]
+                    + face_normals[f, 1] * eye[1]
+                    + face_normals[f, 2] * eye[2]
+                )
+                is_front[f] = is_drawable[f] and (not cull_back_faces or side > face_offsets[f])
+            _project_vertices(
+                vertices, eye, rights[view], ups[view], forwards[view], focal, half, near, far,
+                screen_x[thread], screen_y[thread], inverse_depth[thread],
+            )
+            _rasterize_view(
+                faces, is_front, screen_x[thread], screen_y[thread], inverse_depth[thread],
+                resolution, frames[thread], row_low[thread], row_high[thread],
+            )
+            out_lengths[view] = _collect_histogram(
+                resolution, frames[thread], row_low[thread], row_high[thread],
+                face_counts[thread], touched[thread], out_ids[view], out_counts[view],
+            )
