@@ -1,0 +1,362 @@
+"""The four viewpoint quality measures VE, VR, VKL and VMI.
+
+Notation (Bonaventura et al. 2018, as in the paper's section 3): for a view
+``v`` and a face ``z``, ``a_z(v)`` is the projected area of ``z`` in pixels
+(back faces culled), ``a_t(v) = sum_z a_z(v)`` the projected area of the model
+(background excluded), ``A_z`` the true area of ``z`` and ``A_t = sum_z A_z``.
+With ``p(z|v) = a_z(v) / a_t(v)`` and logarithms in base 2 (bits):
+
+* VE, viewpoint entropy (eq. 1), higher is better:
+  ``VE(v) = -sum_z p(z|v) log2 p(z|v)``
+* VR, visibility ratio (eq. 2), higher is better:
+  ``VR(v) = sum_z vis_z(v) A_z / A_t`` with ``vis_z(v) = [a_z(v) > 0]``
+* VKL, viewpoint Kullback-Leibler divergence (eq. 3), lower is better:
+  ``VKL(v) = sum_z p(z|v) log2(p(z|v) A_t / A_z)``
+* VMI, viewpoint mutual information (eq. 4), lower is better:
+  ``VMI(v) = sum_z p(z|v) log2(p(z|v) / p(z))`` with
+  ``p(z) = sum_v p(v) p(z|v)`` and ``p(v) = a_t(v) / sum_v' a_t(v')``, hence
+  ``p(z) = sum_v a_z(v) / sum_v a_t(v)`` over the sampled views.
+
+Per model, each measure is normalised to [0, 1] over the sampled views with
+1 = best: ``(q - worst) / (best - worst)`` (paper, eq. 5).
+
+Special cases
+    A view that sees no face (every face is back-facing from it) has
+    ``VR = 0`` and NaN for VE, VKL and VMI; its normalised value is 0 (worst)
+    for all four. A measure that is constant over the views that see
+    something normalises to 1 for all of them (every view is best). A model
+    that no view sees at all raises :class:`~vptoolkit.errors.MeasurementError`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, N_VIEWS, RESOLUTION
+from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.geometry import face_areas
+from vptoolkit.mesh import Mesh
+from vptoolkit.sphere import as_directions, fibonacci_sphere
+from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
+
+__all__ = ["ViewQuality", "compute_view_quality", "normalize_quality", "quality_from_histograms"]
+
+_STORE_BYTES = 1 << 30  # keep histograms for the VMI pass up to this size, else recompute
+
+
+@dataclass(frozen=True)
+class ViewQuality:
+    """Viewpoint quality of one model over a set of views.
+
+    Attributes
+    ----------
+    views : (n_views, 3) float64
+        Unit view directions (model centre towards the camera).
+    raw : (n_views, 4) float64
+        Raw measures in :data:`~vptoolkit.conventions.MEASURES` order, in bits
+        (VR is a fraction of the area); NaN where a view sees nothing.
+    normalized : (n_views, 4) float64
+        Per-model normalised measures in [0, 1], 1 = best.
+    measures : tuple of str
+        ``("VE", "VR", "VKL", "VMI")``.
+    best_index : (4,) int64
+        Index of the best view per measure (the first one on ties).
+    worst_index : (4,) int64
+        Index of the worst view per measure.
+    name : str
+        Name of the mesh.
+    n_faces : int
+        Faces of the mesh that was measured.
+    resolution : int
+        Image side in pixels.
+    backend : str
+        ``"raster"`` or ``"raycast"``.
+    camera : Camera
+        Camera conventions used.
+    """
+
+    views: NDArray[np.float64]
+    raw: NDArray[np.float64]
+    normalized: NDArray[np.float64]
+    best_index: NDArray[np.int64]
+    worst_index: NDArray[np.int64]
+    name: str
+    n_faces: int
+    resolution: int
+    backend: str
+    camera: Camera = field(default_factory=Camera)
+    measures: tuple[str, ...] = MEASURES
+
+    @property
+    def best_views(self) -> NDArray[np.float64]:
+        """Best view direction per measure, ``(4, 3) float64``."""
+        return self.views[self.best_index]
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe summary: best view, raw value and index per measure."""
+        return {
+            "name": self.name,
+            "n_faces": self.n_faces,
+            "n_views": int(len(self.views)),
+            "resolution": self.resolution,
+            "backend": self.backend,
+            "camera": self.camera.to_dict(),
+            "best": {
+                measure: {
+                    "view_index": int(index),
+                    "direction": [round(float(c), 6) for c in self.views[index]],
+                    "raw": float(self.raw[index, column]),
+                }
+                for column, (measure, index) in enumerate(zip(self.measures, self.best_index))
+            },
+        }
+
+    def save_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Write the arrays and conventions to an ``.npz`` file atomically.
+
+        The file holds ``views``, ``raw``, ``normalized``, ``measures``
+        (unicode), ``best_index``, ``resolution``, ``backend``, ``name`` and
+        ``camera`` (a JSON string); nothing needs pickle to load.
+        """
+        target = Path(path)
+        if target.suffix != ".npz":
+            raise InputError(f"{target.name}: output must end in .npz")
+        partial = target.with_name(f".{target.name}.partial")
+        with open(partial, "wb") as handle:
+            np.savez(
+                handle,
+                views=self.views,
+                raw=self.raw,
+                normalized=self.normalized,
+                measures=np.array(self.measures, dtype=np.str_),
+                best_index=self.best_index,
+                worst_index=self.worst_index,
+                resolution=np.int64(self.resolution),
+                backend=np.str_(self.backend),
+                name=np.str_(self.name),
+                camera=np.str_(json.dumps(self.camera.to_dict(), sort_keys=True)),
+            )
+        os.replace(partial, target)
+        return target
+
+
+def normalize_quality(raw: ArrayLike) -> NDArray[np.float64]:
+    """Normalise raw measures per column to [0, 1] with 1 = best (eq. 5).
+
+    Parameters
+    ----------
+    raw : (n_views, 4) array_like
+        Raw values in :data:`MEASURES` order; NaN marks a view that sees nothing.
+
+    Returns
+    -------
+    normalized : (n_views, 4) float64
+        ``(q - q_worst) / (q_best - q_worst)``, where best is the maximum for
+        VE and VR and the minimum for VKL and VMI; 0 for NaN entries; 1 for
+        every finite entry of a constant column.
+    """
+    values = np.asarray(raw, dtype=np.float64)
+    if values.ndim != 2 or values.shape[1] != len(MEASURES):
+        raise InputError(f"raw: expected shape (n_views, {len(MEASURES)}), got {values.shape}")
+    normalized = np.zeros_like(values)
+    for column, is_higher_better in enumerate(HIGHER_IS_BETTER):
+        finite = np.isfinite(values[:, column])
+        if not finite.any():
+            continue
+        low = values[finite, column].min()
+        high = values[finite, column].max()
+        span = high - low
+        if span <= 1e-12 * max(1.0, abs(high)):
+            normalized[finite, column] = 1.0
+            continue
+        scaled = (values[finite, column] - low) / span
+        normalized[finite, column] = scaled if is_higher_better else 1.0 - scaled
+    return normalized
+
+
+def quality_from_histograms(
+    histograms: Iterable[ViewHistograms],
+    areas: NDArray[np.float64],
+    *,
+    n_views: int,
+    recompute: Iterable[ViewHistograms] | None = None,
+    store_bytes: int = _STORE_BYTES,
+) -> NDArray[np.float64]:
+    """Raw measures from per-view histograms, in one streaming pass (or two).
+
+    Everything but VMI follows from per-view sums. VMI's ``p(z)`` needs all
+    views first, so the histograms are kept while they fit in
+    ``store_bytes``; otherwise they are dropped and ``recompute`` (a second
+    iterable over the same views) is consumed for the VMI term.
+
+    Parameters
+    ----------
+    histograms : iterable of ViewHistograms
+        Runs of views in order, covering views ``0 .. n_views - 1``.
+    areas : (n_faces,) float64
+        True face areas ``A_z``.
+    n_views : int
+        Number of views.
+    recompute : iterable of ViewHistograms, optional
+        The same histograms again, used only when they did not fit in memory.
+    store_bytes : int
+        Memory allowed for kept histograms (default: 1 GiB).
+
+    Returns
+    -------
+    raw : (n_views, 4) float64
+        VE, VR, VKL, VMI in bits (VR a fraction); NaN where ``a_t(v) = 0``.
+    """
+    total_area = float(areas.sum())
+    if not total_area > 0.0:
+        raise InputError("areas: the mesh has zero surface area")
+    log_areas = np.log2(areas, out=np.full_like(areas, -np.inf), where=areas > 0)
+    projected = np.zeros(n_views)  # a_t(v)
+    sum_a_log_a = np.zeros(n_views)  # sum_z a_z log2 a_z
+    visible_area = np.zeros(n_views)  # sum_z vis_z A_z
+    sum_a_log_area = np.zeros(n_views)  # sum_z a_z log2 A_z
+    face_totals = np.zeros(len(areas))  # sum_v a_z(v)
+    kept: list[ViewHistograms] | None = []
+    kept_bytes = 0
+    for run in histograms:
+        views = run.view_index() + run.first_view
+        counts = run.pixel_counts.astype(np.float64)
+        ids = run.face_ids
+        projected += np.bincount(views, weights=counts, minlength=n_views)
+        sum_a_log_a += np.bincount(views, weights=counts * np.log2(counts), minlength=n_views)
+        visible_area += np.bincount(views, weights=areas[ids], minlength=n_views)
+        sum_a_log_area += np.bincount(views, weights=counts * log_areas[ids], minlength=n_views)
+        face_totals += np.bincount(ids, weights=counts, minlength=len(areas))
+        if kept is not None:
+            kept_bytes += run.nbytes
+            if kept_bytes <= store_bytes:
+                kept.append(run)
+            else:
+                kept = None
+    if not projected.any():
+        raise MeasurementError("no face is visible from any of the views")
+    log_p_face = np.log2(
+        face_totals / face_totals.sum(), out=np.zeros_like(face_totals), where=face_totals > 0
+    )
+    if kept is None:
+        if recompute is None:
+            raise InputError("recompute: histograms exceed store_bytes and no second pass was given")
+        second_pass: Iterable[ViewHistograms] = recompute
+    else:
+        second_pass = kept
+    sum_a_log_p_face = np.zeros(n_views)  # sum_z a_z log2 p(z)
+    for run in second_pass:
+        views = run.view_index() + run.first_view
+        sum_a_log_p_face += np.bincount(
+            views, weights=run.pixel_counts * log_p_face[run.face_ids], minlength=n_views
+        )
+    raw = np.full((n_views, len(MEASURES)), np.nan)
+    seen = projected > 0
+    a_t = projected[seen]
+    sum_p_log_p = sum_a_log_a[seen] / a_t - np.log2(a_t)
+    raw[:, 1] = visible_area / total_area
+    raw[seen, 0] = -sum_p_log_p
+    raw[seen, 2] = sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t
+    raw[seen, 3] = sum_p_log_p - sum_a_log_p_face[seen] / a_t
+    return raw
+
+
+def compute_view_quality(
+    mesh: Mesh,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    *,
+    view_directions: ArrayLike | None = None,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+    progress: bool = False,
+) -> ViewQuality:
+    """Compute VE, VR, VKL and VMI of a mesh for every view.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model.
+    n_views : int
+        Number of Fibonacci-sphere views (default: 1000); ignored when
+        ``view_directions`` is given.
+    resolution : int
+        Side of the triangle-ID image in pixels (default: 1024).
+    view_directions : (n_views, 3) array_like, optional
+        Explicit view directions instead of the Fibonacci sphere.
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``).
+    backend : {"raster", "raycast"}
+        Pixel counting backend (default: "raster").
+    progress : bool
+        Show a progress bar over the views on stderr (default: False).
+
+    Returns
+    -------
+    ViewQuality
+        Raw and normalised measures, best and worst views.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box()
+    >>> quality = compute_view_quality(Mesh(box.vertices, box.faces), n_views=100, resolution=64)
+    >>> quality.raw.shape, quality.measures
+    ((100, 4), ('VE', 'VR', 'VKL', 'VMI'))
+    """
+    camera = camera or Camera()
+    if view_directions is None:
+        directions = fibonacci_sphere(n_views)
+    else:
+        directions = as_directions(view_directions, name="view_directions")
+    areas = face_areas(mesh)
+
+    def histograms() -> Iterable[ViewHistograms]:
+        return iter_view_histograms(
+            mesh, directions, resolution=resolution, camera=camera, backend=backend
+        )
+
+    first_pass: Iterable[ViewHistograms] = histograms()
+    if progress:
+        first_pass = _with_progress(first_pass, len(directions), mesh.name)
+    try:
+        raw = quality_from_histograms(
+            first_pass, areas, n_views=len(directions), recompute=histograms()
+        )
+    except MeasurementError as err:
+        raise MeasurementError(f"{mesh.name}: {err}") from err
+    except InputError as err:
+        raise InputError(f"{mesh.name}: {err}") from err
+    normalized = normalize_quality(raw)
+    return ViewQuality(
+        views=directions,
+        raw=raw,
+        normalized=normalized,
+        best_index=np.argmax(normalized, axis=0).astype(np.int64),
+        worst_index=np.argmin(normalized, axis=0).astype(np.int64),
+        name=mesh.name,
+        n_faces=mesh.n_faces,
+        resolution=int(resolution),
+        backend=backend,
+        camera=camera,
+    )
+
+
+def _with_progress(
+    runs: Iterable[ViewHistograms], n_views: int, name: str
+) -> Iterable[ViewHistograms]:
+    from tqdm import tqdm
+
+    with tqdm(total=n_views, desc=name, unit="view", leave=False) as bar:
+        for run in runs:
+            bar.update(run.n_views)
+            yield run
