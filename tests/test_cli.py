@@ -1,0 +1,72 @@
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from vptoolkit.cli import main
+from vptoolkit.samples import sample_path
+
+MALFORMED = Path(__file__).parent / "data" / "malformed"
+
+
+@pytest.fixture
+def runner() -> CliRunner:
+    return CliRunner()
+
+
+def test_measures_prints_the_best_view_per_measure(runner):
+    result = runner.invoke(main, ["measures", str(sample_path("suzanne.ply")),
+                                  "--views", "200", "--resolution", "128"])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("suzanne: 968 faces, 200 views at 128 px (raster")
+    assert [line.split()[0] for line in lines[2:6]] == ["VE", "VR", "VKL", "VMI"]
+
+
+def test_measures_json_and_npz_agree(runner, tmp_path):
+    out = tmp_path / "teapot.npz"
+    result = runner.invoke(main, ["measures", str(sample_path("teapot.stl")), "--views", "100",
+                                  "--resolution", "96", "--json", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert list(summary["best"]) == ["VE", "VR", "VKL", "VMI"]
+    assert summary["camera"]["fov_deg"] == 45.0
+    with np.load(out, allow_pickle=False) as stored:
+        best = stored["best_index"]
+        assert [summary["best"][m]["view_index"] for m in ("VE", "VR", "VKL", "VMI")] == list(best)
+
+
+def test_raycast_backend_from_the_command_line(runner):
+    result = runner.invoke(main, ["measures", str(sample_path("angle_block.STL")), "--views", "8",
+                                  "--resolution", "64", "--backend", "raycast", "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["backend"] == "raycast"
+
+
+@pytest.mark.parametrize("name", ["empty.obj", "empty.stl", "ply_empty_header.ply"])
+def test_malformed_mesh_is_one_line_and_exit_2(runner, name):
+    result = runner.invoke(main, ["measures", str(MALFORMED / name), "--views", "4"])
+    assert result.exit_code == 2
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+    assert result.stderr.startswith(f"vptool: error: {name}: ")
+
+
+def test_bad_output_suffix_is_bad_input(runner, tmp_path):
+    result = runner.invoke(main, ["measures", str(sample_path("teapot.stl")), "-o",
+                                  str(tmp_path / "out.txt")])
+    assert result.exit_code == 2
+    assert "out.txt: output must end in .npz" in result.stderr
+
+
+def test_missing_file_and_bad_option_exit_2(runner, tmp_path):
+    assert runner.invoke(main, ["measures", str(tmp_path / "nope.off")]).exit_code == 2
+    assert runner.invoke(main, ["measures", str(sample_path("teapot.stl")),
+                                "--views", "0"]).exit_code == 2
+
+
+def test_every_command_has_help_with_an_example(runner):
+    for command in main.commands:
+        result = runner.invoke(main, [command, "--help"])
+        assert result.exit_code == 0 and "Example" in result.output, command

@@ -1,0 +1,17 @@
+"""The loader and the CLI must not drag in the heavy packages."""
+
+import subprocess
+import sys
+
+import pytest
+
+HEAVY = ("torch", "open3d", "pymeshlab", "numba")
+
+
+@pytest.mark.parametrize("module", ["vptoolkit", "vptoolkit.cli", "vptoolkit.measures",
+                                    "vptoolkit.io"])
+def test_import_loads_no_heavy_package(module):
+    code = f"import sys, {module}; print(','.join(m for m in {HEAVY!r} if m in sys.modules))"
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True).stdout.strip()
+    assert loaded == "", f"{module} imported {loaded}"
