@@ -1,0 +1,170 @@
+"""Helpers shared by the format readers: polygon lists, number parsing, errors.
+
+A reader returns ``(vertices, polygons)``: ``(n_vertices, 3) float64``
+coordinates and a :data:`Polygons` pair. :func:`check_and_triangulate` then
+validates both and fan-triangulates the polygons for every format alike.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+from numpy.typing import NDArray
+
+Polygons = tuple[NDArray[np.int64], NDArray[np.int64]]
+"""Polygon faces as ``(flat_indices, sizes)``: ``(sum(sizes),) int64`` vertex
+indices of every polygon in file order, and ``(n_polygons,) int64`` vertex
+counts per polygon."""
+
+_MAX_MESSAGE_CHARS = 200
+
+
+class FormatError(Exception):
+    """A reader's complaint about the file content; load_mesh prefixes the name."""
+
+
+def plural(count: int, one: str, many: str) -> str:
+    """Return ``"1 vertex"`` or ``"3 vertices"``: the count, then ``one`` or ``many``."""
+    return f"{count} {one if count == 1 else many}"
+
+
+def one_line(text: str) -> str:
+    """Fold ``text`` into one line of at most 200 characters."""
+    text = " ".join(text.split())
+    if len(text) > _MAX_MESSAGE_CHARS:
+        return text[: _MAX_MESSAGE_CHARS - 3] + "..."
+    return text or "no details"
+
+
+def triangle_polygons(triangles: NDArray[np.int64]) -> Polygons:
+    """Return ``(n_faces, 3) int64`` triangles as a :data:`Polygons` pair."""
+    return triangles.reshape(-1), np.full(len(triangles), 3, dtype=np.int64)
+
+
+def polygon_of(sizes: NDArray[np.int64], position: int) -> int:
+    """Return the polygon that holds entry ``position`` of the flat index array."""
+    return int(np.searchsorted(np.cumsum(sizes), position, side="right"))
+
+
+def check_and_triangulate(vertices: NDArray[np.float64], polygons: Polygons) -> NDArray[np.int64]:
+    """Validate vertices and polygons and return ``(n_faces, 3) int64`` triangles."""
+    flat, sizes = polygons
+    n_vertices = len(vertices)
+    if n_vertices == 0 and len(sizes) == 0:
+        raise FormatError("no geometry (no vertices, no faces)")
+    is_finite = np.isfinite(vertices).all(axis=1)
+    if not is_finite.all():
+        first = int(np.argmin(is_finite))
+        n_bad = int((~is_finite).sum())
+        raise FormatError(
+            f"{plural(n_bad, 'vertex has', 'vertices have')} NaN or infinite coordinates "
+            f"(first: vertex {first})"
+        )
+    if len(sizes) == 0:
+        raise FormatError(
+            f"no faces, only {plural(n_vertices, 'vertex', 'vertices')} (a point cloud?)"
+        )
+    is_bad = (flat < 0) | (flat >= n_vertices)
+    if is_bad.any():
+        first = int(np.argmax(is_bad))
+        raise FormatError(
+            f"face {polygon_of(sizes, first)} refers to vertex {int(flat[first])}, "
+            f"file has {n_vertices} vertices"
+        )
+    faces = fan_triangulate(flat, sizes)
+    if len(faces) == 0:
+        shorter = plural(len(sizes), "shorter one", "shorter ones")
+        raise FormatError(f"no faces with 3 or more vertices, only {shorter}")
+    return faces
+
+
+def fan_triangulate(flat: NDArray[np.int64], sizes: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Fan-triangulate polygons; those with fewer than 3 vertices are dropped.
+
+    ``(a, b, c, d)`` becomes ``(a, b, c)`` and ``(a, c, d)``. Returns
+    ``(sum(max(sizes - 2, 0)), 3) int64``, the triangles of each polygon
+    contiguous and in file order.
+    """
+    if len(sizes) and (sizes == 3).all():
+        return flat.reshape(-1, 3)
+    starts = np.cumsum(sizes) - sizes
+    n_triangles = np.maximum(sizes - 2, 0)
+    polygon = np.repeat(np.arange(len(sizes)), n_triangles)
+    first_triangle = np.cumsum(n_triangles) - n_triangles
+    corner = np.arange(int(n_triangles.sum())) - first_triangle[polygon]
+    base = starts[polygon]
+    return np.stack([flat[base], flat[base + corner + 1], flat[base + corner + 2]], axis=1)
+
+
+def first_non_float_row(rows: list[list[str]]) -> int | None:
+    """Return the index of the first row with a token ``float()`` rejects, or None."""
+    for k, row in enumerate(rows):
+        try:
+            [float(token) for token in row]
+        except ValueError:
+            return k
+    return None
+
+
+def parse_floats(
+    rows: list[list[str]], line_numbers: list[int], n_columns: int, what: str
+) -> NDArray[np.float64]:
+    """Convert rows of ``n_columns`` number strings to ``(n_rows, n_columns) float64``.
+
+    A bad number raises ``line N: cannot read <what> '<row>'``.
+    """
+    if not rows:
+        return np.zeros((0, n_columns), dtype=np.float64)
+    try:
+        return np.array(rows, dtype=np.float64).reshape(len(rows), n_columns)
+    except ValueError as err:
+        k = first_non_float_row(rows)
+        if k is None:
+            raise
+        raise FormatError(
+            f"line {line_numbers[k]}: cannot read {what} {' '.join(rows[k])!r}"
+        ) from err
+
+
+def parse_counted_polygons(
+    rows: list[list[str]], line_numbers: list[int], *, lead: int, is_exact: bool, min_size: int
+) -> Polygons:
+    """Parse rows holding ``count i_1 ... i_count`` after ``lead`` other values.
+
+    With ``is_exact`` the row must end after the indices (PLY without further
+    properties); otherwise trailing values such as OFF face colours are ignored.
+    A count below ``min_size`` is an error.
+    """
+    sizes = np.zeros(len(rows), dtype=np.int64)
+    index_tokens: list[str] = []
+    for k, row in enumerate(rows):
+        try:
+            size = int(row[lead])
+        except (ValueError, IndexError) as err:
+            found = repr(row[lead]) if len(row) > lead else "nothing"
+            raise FormatError(
+                f"line {line_numbers[k]}: expected the face's vertex count, found {found}"
+            ) from err
+        n_listed = len(row) - lead - 1
+        if size < min_size:
+            raise FormatError(
+                f"line {line_numbers[k]}: face has {size} vertices, need at least {min_size}"
+            )
+        if size < 0 or n_listed < size or (is_exact and n_listed != size):
+            raise FormatError(
+                f"line {line_numbers[k]}: face declares {size} vertices but lists {n_listed} values"
+            )
+        sizes[k] = size
+        index_tokens.extend(row[lead + 1 : lead + 1 + size])
+    try:
+        flat = np.array(index_tokens, dtype=np.int64)
+    except ValueError as err:
+        for k, row in enumerate(rows):
+            for token in row[lead + 1 : lead + 1 + int(sizes[k])]:
+                if not re.fullmatch(r"[+-]?\d+", token):
+                    raise FormatError(
+                        f"line {line_numbers[k]}: face index {token!r} is not an integer"
+                    ) from err
+        raise
+    return flat, sizes
