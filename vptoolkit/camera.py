@@ -95,14 +95,15 @@ class ViewPoses:
             row ``y * resolution + x``.
         """
         res = self.resolution
-        centres = (np.arange(res, dtype=np.float64) + 0.5 - res / 2.0) / self.focal_px
-        along_right = np.tile(centres, res)
-        along_up = -np.repeat(centres, res)
+        # tangent of the angle of each pixel centre from the optical axis
+        centres = ((np.arange(res) + 0.5 - res / 2.0) / self.focal_px).astype(np.float32)
+        right, up, forward = (axis.astype(np.float32) for axis in
+                              (self.right[view], self.up[view], self.forward[view]))
         directions = (
-            self.forward[view][None, :]
-            + along_right[:, None] * self.right[view][None, :]
-            + along_up[:, None] * self.up[view][None, :]
-        )
+            forward[None, None, :]
+            + centres[None, :, None] * right[None, None, :]
+            - centres[:, None, None] * up[None, None, :]
+        ).reshape(-1, 3)
         directions /= np.linalg.norm(directions, axis=1, keepdims=True)
         rays = np.zeros((res * res, 6), dtype=np.float32)
         rays[:, :3] = self.eyes[view]

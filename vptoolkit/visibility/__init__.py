@@ -150,11 +150,21 @@ def _raster_batches(
     camera: Camera,
     diagonal: float,
 ) -> Iterator[ViewHistograms]:
-    from vptoolkit.visibility._raster import RasterWorkspace, histogram_capacity, rasterize_batch
+    from vptoolkit.visibility._raster import (
+        RasterWorkspace,
+        histogram_capacity,
+        locality_order,
+        rasterize_batch,
+    )
 
     resolution = poses.resolution
+    face_order, vertex_order, local_faces = locality_order(mesh.vertices, mesh.faces)
+    vertices = np.ascontiguousarray(mesh.vertices[vertex_order])
+    normals = np.ascontiguousarray(normals[face_order])
+    offsets = offsets[face_order]
+    is_drawable = is_drawable[face_order]
     workspace = RasterWorkspace.allocate(
-        resolution=resolution, n_faces=mesh.n_faces, n_vertices=mesh.n_vertices
+        resolution=resolution, n_faces=mesh.n_faces, n_vertices=len(vertices)
     )
     n_threads = workspace.frames.shape[0]
     capacity = histogram_capacity(resolution, mesh.n_faces)
@@ -170,7 +180,7 @@ def _raster_batches(
         stop = min(start + batch, n_views)
         count = stop - start
         rasterize_batch(
-            mesh.vertices, mesh.faces, normals, offsets, is_drawable, camera.cull_back_faces,
+            vertices, local_faces, normals, offsets, is_drawable, camera.cull_back_faces,
             poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
             poses.forward[start:stop], poses.focal_px, resolution, near, far,
             workspace.frames, workspace.row_low, workspace.row_high, workspace.face_counts,
@@ -181,7 +191,7 @@ def _raster_batches(
         keep = np.arange(capacity)[None, :] < lengths[:, None]
         yield ViewHistograms(
             offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-            face_ids=out_ids[:count][keep],
+            face_ids=face_order[out_ids[:count][keep]].astype(np.int32),
             pixel_counts=out_counts[:count][keep],
             n_faces=mesh.n_faces,
             first_view=start,

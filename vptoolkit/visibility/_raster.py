@@ -83,6 +83,42 @@ class RasterWorkspace:
         )
 
 
+def locality_order(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int32]]:
+    """Reorder faces along a Morton curve and vertices by first use.
+
+    Neighbouring faces then touch neighbouring pixels and vertices, which
+    keeps the frame and vertex buffers in cache; vertices no face uses are
+    dropped.
+
+    Returns
+    -------
+    face_order : (n_faces,) int64
+        Original index of each reordered face.
+    vertex_order : (n_used,) int64
+        Original index of each kept vertex.
+    local_faces : (n_faces, 3) int32
+        The reordered faces, indexing the kept vertices.
+    """
+    centroids = vertices[faces].mean(axis=1)
+    low = centroids.min(axis=0)
+    extent = np.maximum(centroids.max(axis=0) - low, 1e-300)
+    grid = ((centroids - low) / extent * 1023.0).astype(np.uint64)
+    code = np.zeros(len(faces), dtype=np.uint64)
+    for bit in range(10):
+        for axis in range(3):
+            code |= ((grid[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+    face_order = np.argsort(code, kind="stable")
+    flat = faces[face_order].ravel()
+    used, first_use = np.unique(flat, return_index=True)
+    vertex_order = used[np.argsort(first_use, kind="stable")]
+    renumber = np.zeros(len(vertices), dtype=np.int64)
+    renumber[vertex_order] = np.arange(len(vertex_order))
+    local_faces = renumber[flat].reshape(-1, 3).astype(np.int32)
+    return face_order, vertex_order, local_faces
+
+
 def histogram_capacity(resolution: int, n_faces: int) -> int:
     """Most distinct faces one view can show: one per pixel, at most all faces."""
     return int(min(resolution * resolution, n_faces))
@@ -131,8 +167,12 @@ def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _rasterize_view(
-    faces: NDArray[np.int64],
-    is_front: NDArray[np.bool_],
+    faces: NDArray[np.int32],
+    face_normals: NDArray[np.float64],
+    face_offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    cull_back_faces: bool,
+    eye: NDArray[np.float64],
     screen_x: NDArray[np.int64],
     screen_y: NDArray[np.int64],
     inverse_depth: NDArray[np.float64],
@@ -144,30 +184,38 @@ def _rasterize_view(
     step = np.int64(1 << SUBPIXEL_BITS)
     half_step = step // 2
     for f in range(faces.shape[0]):
-        if not is_front[f]:
+        if not is_drawable[f]:
             continue
+        if cull_back_faces:
+            side = (face_normals[f, 0] * eye[0] + face_normals[f, 1] * eye[1]
+                    + face_normals[f, 2] * eye[2])
+            if side <= face_offsets[f]:
+                continue
         a = faces[f, 0]
         b = faces[f, 1]
         c = faces[f, 2]
         ax, ay = screen_x[a], screen_y[a]
         bx, by = screen_x[b], screen_y[b]
         cx, cy = screen_x[c], screen_y[c]
-        qa, qb, qc = inverse_depth[a], inverse_depth[b], inverse_depth[c]
+        # Pixel columns/rows whose centre lies inside the triangle's bounding
+        # box: most faces of a big mesh cover no pixel centre and stop here.
+        x0 = max((min(ax, bx, cx) - half_step + step - 1) // step, 0)
+        x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
+        if x0 > x1:
+            continue
+        y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
+        y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
+        if y0 > y1:
+            continue
         area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
         if area2 == 0:
             continue
+        qa, qb, qc = inverse_depth[a], inverse_depth[b], inverse_depth[c]
         if area2 < 0:  # make the orientation positive: swap b and c
             bx, cx = cx, bx
             by, cy = cy, by
             qb, qc = qc, qb
             area2 = -area2
-        # Pixel columns/rows whose centre lies inside the triangle's bounding box.
-        x0 = max((min(ax, bx, cx) - half_step + step - 1) // step, 0)
-        x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
-        y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
-        y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
-        if x0 > x1 or y0 > y1:
-            continue
         # Edge functions E_ab(p) = (b - a) x (p - a), positive inside.
         # w_c := E_ab, w_a := E_bc, w_b := E_ca (barycentric weights * area2).
         bias_ab = 0 if _owns_edge(bx - ax, by - ay) else -1
@@ -272,7 +320,7 @@ def _collect_histogram(
 @njit(parallel=True, cache=True, nogil=True, error_model="numpy")
 def rasterize_batch(
     vertices: NDArray[np.float64],
-    faces: NDArray[np.int64],
+    faces: NDArray[np.int32],
     face_normals: NDArray[np.float64],
     face_offsets: NDArray[np.float64],
     is_drawable: NDArray[np.bool_],
@@ -307,25 +355,16 @@ def rasterize_batch(
     """
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
-    n_faces = faces.shape[0]
     half = resolution / 2.0
     for thread in prange(n_threads):
-        is_front = np.zeros(n_faces, dtype=np.bool_)
         for view in range(thread, n_views, n_threads):
-            eye = eyes[view]
-            for f in range(n_faces):
-                side = (
-                    face_normals[f, 0] * eye[0]
-                    + face_normals[f, 1] * eye[1]
-                    + face_normals[f, 2] * eye[2]
-                )
-                is_front[f] = is_drawable[f] and (not cull_back_faces or side > face_offsets[f])
             _project_vertices(
-                vertices, eye, rights[view], ups[view], forwards[view], focal, half, near, far,
-                screen_x[thread], screen_y[thread], inverse_depth[thread],
+                vertices, eyes[view], rights[view], ups[view], forwards[view], focal, half, near,
+                far, screen_x[thread], screen_y[thread], inverse_depth[thread],
             )
             _rasterize_view(
-                faces, is_front, screen_x[thread], screen_y[thread], inverse_depth[thread],
+                faces, face_normals, face_offsets, is_drawable, cull_back_faces, eyes[view],
+                screen_x[thread], screen_y[thread], inverse_depth[thread],
                 resolution, frames[thread], row_low[thread], row_high[thread],
             )
             out_lengths[view] = _collect_histogram(
