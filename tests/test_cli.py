@@ -70,3 +70,28 @@ def test_every_command_has_help_with_an_example(runner):
     for command in main.commands:
         result = runner.invoke(main, [command, "--help"])
         assert result.exit_code == 0 and "Example" in result.output, command
+
+
+def test_clean_writes_mesh_and_report(runner, tmp_path):
+    target, report = tmp_path / "bunny_clean.ply", tmp_path / "report.json"
+    result = runner.invoke(main, ["clean", str(sample_path("bunny.ply")), str(target),
+                                  "--max-faces", "3000", "--report", str(report)])
+    assert result.exit_code == 0, result.output
+    from vptoolkit.io import load_mesh
+
+    assert load_mesh(target).n_faces <= 3000
+    steps = json.loads(report.read_text())["steps"]
+    assert [step["name"] for step in steps] == ["repair", "remove_hidden", "simplify"]
+
+
+def test_sample_writes_points_with_normals(runner, tmp_path):
+    out = tmp_path / "points.npy"
+    args = ["sample", str(sample_path("teapot.stl")), "-o", str(out), "--points", "500"]
+    assert runner.invoke(main, args).exit_code == 0
+    first = np.load(out, allow_pickle=False)
+    assert first.shape == (500, 6) and first.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(first[:, 3:], axis=1), 1.0, atol=1e-5)
+    assert runner.invoke(main, args).exit_code == 0
+    np.testing.assert_array_equal(np.load(out, allow_pickle=False), first)
+    bad = runner.invoke(main, ["sample", str(MALFORMED / "empty.obj"), "-o", str(out)])
+    assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: empty.obj: ")
