@@ -50,7 +50,7 @@ from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
 
 __all__ = ["ViewQuality", "compute_view_quality", "normalize_quality", "quality_from_histograms"]
 
-_STORE_BYTES = 1 << 30  # keep histograms for the VMI pass up to this size, else recompute
+_STORE_BYTES = 1 << 29  # keep histograms for the VMI pass up to this size, else recompute
 
 
 @dataclass(frozen=True)
@@ -209,7 +209,7 @@ def quality_from_histograms(
     recompute : iterable of ViewHistograms, optional
         The same histograms again, used only when they did not fit in memory.
     store_bytes : int
-        Memory allowed for kept histograms (default: 1 GiB).
+        Memory allowed for kept histograms (default: 512 MiB).
 
     Returns
     -------

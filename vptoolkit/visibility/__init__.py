@@ -188,11 +188,11 @@ def _raster_batches(
             out_ids, out_counts, out_lengths,
         )
         lengths = out_lengths[:count]
-        keep = np.arange(capacity)[None, :] < lengths[:, None]
+        local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
         yield ViewHistograms(
             offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-            face_ids=face_order[out_ids[:count][keep]].astype(np.int32),
-            pixel_counts=out_counts[:count][keep],
+            face_ids=face_order[local_ids].astype(np.int32),
+            pixel_counts=np.concatenate([out_counts[i, : lengths[i]] for i in range(count)]),
             n_faces=mesh.n_faces,
             first_view=start,
         )
