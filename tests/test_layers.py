@@ -12,6 +12,7 @@ LAYERS = {
     "visibility": 3,
     "measures": 4,
     "clean": 5, "points": 5,
+    "dataset": 6, "data": 7, "dataset_card": 0,
     "cli": 99,
 }
 PACKAGE = Path(vptoolkit.__file__).parent
