@@ -1,0 +1,254 @@
+"""The numpy-only loader vptoolkit.data over every store format."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from test_store import FAILURES, MODELS, N_POINTS, N_VIEWS, synthetic_entries, write_synthetic
+from vptoolkit.conventions import MEASURES
+from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.errors import InputError
+from vptoolkit.sphere import fibonacci_sphere
+
+REPO = Path(__file__).resolve().parents[1]
+KINDS = {"zarr": "dataset.zarr", "zarr-zip": "dataset.zarr.zip", "hdf5": "dataset.h5"}
+LOADER_MUST_NOT_IMPORT = ("torch", "open3d", "pymeshlab", "numba", "trimesh")
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("loader")
+    return {kind: write_synthetic(folder / name) for kind, name in KINDS.items()}
+
+
+@pytest.fixture(params=list(KINDS))
+def dataset(request: pytest.FixtureRequest,
+            stores: dict[str, Path]) -> Iterator[ViewpointDataset]:
+    with open_dataset(stores[request.param]) as opened:
+        yield opened
+
+
+def test_metadata(dataset: ViewpointDataset) -> None:
+    assert len(dataset) == len(MODELS)
+    assert dataset.names == [name for _, name, _ in MODELS]
+    assert dataset.categories == [category for category, _, _ in MODELS]
+    assert dataset.splits == [split for _, _, split in MODELS]
+    assert dataset.measures == MEASURES
+    assert dataset.views.dtype == np.float64 and dataset.views.shape == (N_VIEWS, 3)
+    np.testing.assert_array_equal(dataset.views, fibonacci_sphere(N_VIEWS))
+    assert not dataset.views.flags.writeable
+    assert dataset.attrs["n_models"] == len(MODELS) and dataset.attrs["backend"] == "raster"
+    assert dataset.failures == FAILURES
+    assert [record["name"] for record in dataset.records] == dataset.names
+    assert dataset.record("chair_0001")["n_faces"] == len(synthetic_entries()[3].faces)
+
+
+def test_items_hold_the_stored_arrays(dataset: ViewpointDataset) -> None:
+    for entry, item in zip(synthetic_entries(), dataset):
+        assert (item["name"], item["category"], item["split"]) == (
+            entry.name, entry.category, entry.split)
+        for key, dtype, shape in [("points", np.float32, (N_POINTS, 3)),
+                                  ("normals", np.float32, (N_POINTS, 3)),
+                                  ("quality", np.float32, (N_VIEWS, 4)),
+                                  ("quality_raw", np.float32, (N_VIEWS, 4)),
+                                  ("best_index", np.int64, (4,))]:
+            assert item[key].dtype == dtype and item[key].shape == shape, key
+            np.testing.assert_array_equal(item[key], getattr(entry, key).astype(dtype))
+        assert item["views"] is dataset.views
+        np.testing.assert_array_equal(item["quality"][item["best_index"], np.arange(4)], 1.0)
+
+
+def test_formats_load_identically(stores: dict[str, Path]) -> None:
+    with open_dataset(stores["zarr"]) as reference:
+        for kind in ("zarr-zip", "hdf5"):
+            with open_dataset(stores[kind]) as other:
+                assert other.names == reference.names and other.attrs == reference.attrs
+                for a, b in zip(reference, other):
+                    assert a.keys() == b.keys()
+                    for key in a:
+                        np.testing.assert_array_equal(a[key], b[key], err_msg=f"{kind} {key}")
+                for name in reference.names:
+                    for x, y in zip(reference.mesh(name), other.mesh(name)):
+                        np.testing.assert_array_equal(x, y)
+
+
+def test_keys(dataset: ViewpointDataset) -> None:
+    assert dataset[-1]["name"] == "chair_0002"
+    assert dataset[np.int64(1)]["name"] == "airplane_0002"
+    np.testing.assert_array_equal(dataset["chair_0001"]["points"], dataset[3]["points"])
+    with pytest.raises(IndexError):
+        dataset[len(MODELS)]
+    with pytest.raises(IndexError):
+        dataset[-len(MODELS) - 1]
+    with pytest.raises(KeyError, match="sofa_0001"):
+        dataset["sofa_0001"]
+    with pytest.raises(InputError, match="key: expected an integer index or a model name"):
+        dataset[1.0]  # type: ignore[index]
+
+
+def test_split(dataset: ViewpointDataset) -> None:
+    train = dataset.split("train")
+    assert train.names == ["airplane_0001", "chair_0001", "chair_0002"]
+    assert set(train.splits) == {"train"} and train.categories == ["airplane", "chair", "chair"]
+    assert dataset.split("val").names == ["airplane_0003"]
+    assert dataset.split("test").names == ["airplane_0002"]
+    assert len(train.split("test")) == 0
+    np.testing.assert_array_equal(train[1]["points"], dataset["chair_0001"]["points"])
+    assert train[-1]["name"] == "chair_0002"
+    with pytest.raises(KeyError, match="airplane_0002: no such model in split 'train'"):
+        train["airplane_0002"]
+    with pytest.raises(InputError, match="split: unknown split 'training'"):
+        dataset.split("training")
+    train.close()  # a split does not own the store
+    assert dataset[0]["name"] == "airplane_0001"
+
+
+def test_quality_of_uses_the_nearest_sampled_view(dataset: ViewpointDataset) -> None:
+    rng = np.random.default_rng(7)
+    directions = rng.normal(size=(300, 3)) * rng.uniform(0.1, 10.0, size=(300, 1))
+    unit = directions / np.linalg.norm(directions, axis=1, keepdims=True)
+    nearest = np.argmax(unit @ fibonacci_sphere(N_VIEWS).T, axis=1)
+    for key in ("airplane_0003", 4):
+        quality = dataset.quality_of(key, directions)
+        assert quality.dtype == np.float32 and quality.shape == (300, 4)
+        np.testing.assert_array_equal(quality, dataset[key]["quality"][nearest])
+    best = dataset[0]["best_index"]
+    single = dataset.quality_of(0, dataset.views[best[2]] * 3.0)
+    assert single.shape == (1, 4) and single[0, 2] == 1.0
+    with pytest.raises(InputError, match="zero-length"):
+        dataset.quality_of(0, [[0.0, 0.0, 0.0]])
+    with pytest.raises(InputError, match="expected shape"):
+        dataset.quality_of(0, np.ones((2, 2)))
+
+
+def test_mesh(dataset: ViewpointDataset) -> None:
+    for index, entry in enumerate(synthetic_entries()):
+        vertices, faces = dataset.mesh(index)
+        assert vertices.dtype == np.float32 and faces.dtype == np.int32
+        np.testing.assert_array_equal(vertices, entry.vertices.astype(np.float32))
+        np.testing.assert_array_equal(faces, entry.faces)
+        assert faces.max() < len(vertices)
+    vertices, faces = dataset.mesh("chair_0002")
+    np.testing.assert_array_equal(faces, synthetic_entries()[4].faces)
+
+
+def test_close(stores: dict[str, Path]) -> None:
+    with open_dataset(stores["zarr-zip"]) as opened:
+        train = opened.split("train")
+    with pytest.raises(InputError, match="dataset is closed"):
+        opened[0]
+    with pytest.raises(InputError, match="dataset is closed"):
+        train.mesh(0)
+    assert opened.names[0] == "airplane_0001"  # metadata stays available
+
+
+def test_open_dataset_finds_the_store_in_a_folder(tmp_path: Path) -> None:
+    build = tmp_path / "build"
+    build.mkdir()
+    write_synthetic(build / "dataset.h5")
+    with open_dataset(build) as opened:
+        assert opened.path == build / "dataset.h5" and len(opened) == len(MODELS)
+    release = tmp_path / "release"
+    release.mkdir()
+    write_synthetic(release / "viewpoints-v1.zarr.zip", synthetic_entries(MODELS[:2]))
+    with open_dataset(release) as opened:
+        assert opened.names == ["airplane_0001", "airplane_0002"]
+    with pytest.raises(InputError, match="no dataset.zarr"):
+        open_dataset(tmp_path / "build" / "..")
+
+
+def test_empty_dataset(tmp_path: Path) -> None:
+    with open_dataset(write_synthetic(tmp_path / "d.zarr.zip", [])) as opened:
+        assert len(opened) == 0 and list(opened) == [] and opened.names == []
+        assert len(opened.split("train")) == 0 and opened.failures == FAILURES
+        with pytest.raises(IndexError):
+            opened[0]
+
+
+def _loaded_modules(code: str) -> list[str]:
+    probe = f"{code}; import sys; print(','.join(sorted(sys.modules)))"
+    output = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                            check=True, cwd=REPO).stdout.strip()
+    return output.split(",")
+
+
+def test_import_is_light() -> None:
+    loaded = {name.split(".")[0] for name in _loaded_modules("import vptoolkit.data")}
+    assert not loaded & {*LOADER_MUST_NOT_IMPORT, "zarr", "h5py"}, loaded
+    assert "vptoolkit.data.torch" not in _loaded_modules("import vptoolkit.data")
+
+
+def test_opening_loads_only_the_format_in_use(stores: dict[str, Path]) -> None:
+    for kind, unwanted in (("hdf5", "zarr"), ("zarr-zip", "h5py")):
+        loaded = _loaded_modules(
+            f"from vptoolkit.data import open_dataset; open_dataset({str(stores[kind])!r})[0]"
+        )
+        top = {name.split(".")[0] for name in loaded}
+        assert unwanted not in top and not top & set(LOADER_MUST_NOT_IMPORT), (kind, top)
+
+
+FRESH_VENV_SCRIPT = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    from vptoolkit.data import open_dataset
+
+    expected = np.load(sys.argv[1], allow_pickle=False)
+    for path in sys.argv[2:]:
+        with open_dataset(path) as dataset:
+            assert dataset.names == ["airplane_0001", "airplane_0002", "airplane_0003",
+                                     "chair_0001", "chair_0002"], dataset.names
+            assert dataset.split("train").names == ["airplane_0001", "chair_0001", "chair_0002"]
+            item = dataset["chair_0001"]
+            np.testing.assert_array_equal(item["points"], expected["points"])
+            np.testing.assert_array_equal(item["quality"], expected["quality"])
+            np.testing.assert_array_equal(dataset.mesh("chair_0001")[1], expected["faces"])
+            np.testing.assert_array_equal(dataset.quality_of(3, expected["directions"]),
+                                          expected["quality_of"])
+    heavy = [m for m in ("torch", "open3d", "pymeshlab", "numba", "trimesh") if m in sys.modules]
+    assert not heavy, heavy
+    print("ok")
+    """
+)
+
+
+@pytest.mark.slow
+def test_loader_works_in_a_fresh_venv_with_numpy_zarr_h5py(
+    tmp_path: Path, stores: dict[str, Path]
+) -> None:
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
+    python = venv / "bin" / "python"
+    install = subprocess.run(
+        [str(python), "-m", "pip", "install", "--quiet", "--disable-pip-version-check",
+         "numpy", "zarr>=3", "h5py"],
+        capture_output=True, text=True,
+    )
+    if install.returncode != 0:
+        message = f"pip install numpy zarr h5py failed: {install.stderr.strip()[-500:]}"
+        if os.environ.get("VPTOOLKIT_REQUIRE_ALL") == "1":
+            pytest.fail(message)
+        pytest.skip(message)
+
+    with open_dataset(stores["zarr"]) as reference:
+        directions = np.random.default_rng(3).normal(size=(20, 3))
+        np.savez(tmp_path / "expected.npz", points=reference[3]["points"],
+                 quality=reference[3]["quality"], faces=reference.mesh(3)[1],
+                 directions=directions, quality_of=reference.quality_of(3, directions))
+    environment = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
+    environment["PYTHONPATH"] = str(REPO)
+    result = subprocess.run(
+        [str(python), "-W", "error", "-c", FRESH_VENV_SCRIPT, str(tmp_path / "expected.npz"),
+         str(stores["zarr-zip"]), str(stores["hdf5"])],
+        capture_output=True, text=True, env=environment, cwd=tmp_path,
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"

@@ -1,0 +1,162 @@
+"""The torch adapter: paper-style inputs, consistent rotations, seeded per model."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import REQUIRE_ALL
+from test_store import MODELS, N_VIEWS, synthetic_entries, write_synthetic
+from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.errors import InputError
+from vptoolkit.optional import is_available
+from vptoolkit.sphere import nearest_view
+
+if not is_available("torch") and not REQUIRE_ALL:  # with REQUIRE_ALL the import below fails
+    pytest.skip("torch not installed", allow_module_level=True)
+import torch  # noqa: E402
+
+from vptoolkit.data.torch import ViewpointTorchDataset, model_key, random_rotation  # noqa: E402
+
+N_SURFACE = 2000  # enough for the paper's 1024 farthest points
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ViewpointDataset]:
+    folder = tmp_path_factory.mktemp("torch")
+    store = write_synthetic(folder / "dataset.zarr.zip", synthetic_entries(n_points=N_SURFACE))
+    with open_dataset(store) as opened:
+        yield opened
+
+
+def test_items_have_the_documented_shapes_and_dtypes(dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset)  # the paper's 4096 = 1024 FPS + 3072 random
+    assert isinstance(adapter, torch.utils.data.Dataset) and len(adapter) == len(MODELS)
+    item = adapter[0]
+    expected = {"points": ((4096, 3), torch.float32), "views": ((N_VIEWS, 3), torch.float32),
+                "quality": ((N_VIEWS, 4), torch.float32), "best_views": ((4, 3), torch.float32),
+                "best_index": ((4,), torch.int64), "rotation": ((3, 3), torch.float32)}
+    assert set(item) == {*expected, "name"}
+    for key, (shape, dtype) in expected.items():
+        assert tuple(item[key].shape) == shape and item[key].dtype == dtype, key
+    assert item["name"] == "airplane_0001"
+    rotation = item["rotation"].double().numpy()
+    np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-6)
+    assert np.linalg.det(rotation) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_points_are_farthest_points_then_random_surface_points(dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=600, n_fps=100, rotate=False, seed=5)
+    item = adapter[2]
+    surface = dataset[2]["points"]
+    points = item["points"].numpy()
+    assert np.array_equal(item["rotation"].numpy(), np.eye(3, dtype=np.float32))
+    index = nearest_rows(points, surface)
+    np.testing.assert_array_equal(points, surface[index])  # taken from the stored sample
+    assert len(np.unique(index)) == 600  # 2000 points suffice: no repeats
+
+
+def nearest_rows(points: np.ndarray, surface: np.ndarray) -> np.ndarray:
+    distance = ((points[:, None, :] - surface[None, :, :]) ** 2).sum(axis=2)
+    return distance.argmin(axis=1)
+
+
+def test_points_and_views_share_one_rotation(dataset: ViewpointDataset) -> None:
+    rotated = ViewpointTorchDataset(dataset, n_points=512, n_fps=128, seed=11)
+    plain = ViewpointTorchDataset(dataset, n_points=512, n_fps=128, rotate=False, seed=11)
+    for index in range(len(dataset)):
+        a, b = rotated[index], plain[index]
+        rotation = a["rotation"].double().numpy()
+        assert not np.allclose(rotation, np.eye(3), atol=1e-2)
+        np.testing.assert_allclose(a["points"].numpy(), b["points"].numpy() @ rotation.T, atol=1e-4)
+        np.testing.assert_allclose(a["views"].numpy(), dataset.views @ rotation.T, atol=1e-6)
+        best = dataset[index]["best_index"]
+        np.testing.assert_allclose(a["best_views"].numpy(), dataset.views[best] @ rotation.T,
+                                   atol=1e-6)
+        np.testing.assert_array_equal(a["quality"].numpy(), dataset[index]["quality"])
+
+
+def test_rotated_best_view_keeps_its_quality(dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=256, n_fps=64, seed=3)
+    for index in range(len(dataset)):
+        item = adapter[index]
+        rotation = item["rotation"].double().numpy()
+        best_views = item["best_views"].double().numpy()
+        back = best_views @ rotation  # undo v -> R v
+        quality = dataset.quality_of(item["name"], back)
+        np.testing.assert_array_equal(np.diag(quality), np.ones(4, dtype=np.float32))
+        np.testing.assert_array_equal(nearest_view(back, dataset.views), item["best_index"].numpy())
+        # and in the rotated frame the best view is still the nearest of the rotated views
+        np.testing.assert_array_equal(
+            nearest_view(best_views, item["views"].double().numpy()), item["best_index"].numpy())
+
+
+def _same(a: dict, b: dict) -> bool:
+    return all(torch.equal(a[key], b[key]) for key in a if key != "name") and a["name"] == b["name"]
+
+
+def test_items_are_deterministic_per_seed_epoch_and_model(dataset: ViewpointDataset) -> None:
+    options = {"n_points": 300, "n_fps": 50}
+    first = ViewpointTorchDataset(dataset, seed=1, **options)
+    again = ViewpointTorchDataset(dataset, seed=1, **options)
+    other = ViewpointTorchDataset(dataset, seed=2, **options)
+    assert _same(first[3], again[3]) and _same(first[3], first[3])
+    assert not torch.equal(first[3]["points"], other[3]["points"])
+    assert not torch.equal(first[3]["rotation"], other[3]["rotation"])
+    first.set_epoch(1)
+    assert not torch.equal(first[3]["rotation"], again[3]["rotation"])
+    first.set_epoch(0)
+    assert _same(first[3], again[3])
+    # Randomness follows the model, not its position: the same model in a split matches.
+    train = ViewpointTorchDataset(dataset.split("train"), seed=1, **options)
+    assert train[1]["name"] == "chair_0001" and _same(train[1], first[3])
+    assert not torch.equal(first[3]["rotation"], first[4]["rotation"])
+
+
+def test_random_rotation_is_uniform() -> None:
+    rng = np.random.default_rng(0)
+    rotations = np.stack([random_rotation(rng) for _ in range(4000)])
+    np.testing.assert_allclose(rotations @ rotations.transpose(0, 2, 1),
+                               np.broadcast_to(np.eye(3), rotations.shape), atol=1e-12)
+    np.testing.assert_allclose(np.linalg.det(rotations), 1.0, atol=1e-12)
+    # Haar measure: every entry has mean 0 and variance 1/3.
+    assert np.abs(rotations.mean(axis=0)).max() < 0.05
+    np.testing.assert_allclose((rotations**2).mean(axis=0), 1 / 3, atol=0.03)
+    with pytest.raises(InputError, match="rng: expected a numpy.random.Generator"):
+        random_rotation(0)  # type: ignore[arg-type]
+
+
+def test_model_key_is_stable() -> None:
+    assert model_key("airplane_0001") == model_key("airplane_0001") != model_key("airplane_0002")
+    assert 0 <= model_key("x") < 2**64
+
+
+def test_data_loader_batches_and_workers(dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4)
+    serial = list(torch.utils.data.DataLoader(adapter, batch_size=2))
+    assert serial[0]["points"].shape == (2, 128, 3) and serial[0]["name"] == [
+        "airplane_0001", "airplane_0002"]
+    parallel = list(torch.utils.data.DataLoader(adapter, batch_size=2, num_workers=2))
+    assert len(parallel) == len(serial) == 3
+    for a, b in zip(serial, parallel):
+        assert _same(a, b)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"n_fps": 200, "n_points": 100}, "n_fps: 200 exceeds n_points=100"),
+    ({"n_points": 0}, "n_points: expected at least 1"),
+    ({"seed": -1}, "seed: expected a non-negative integer"),
+], ids=["fps-above-points", "no-points", "negative-seed"])
+def test_bad_options(dataset: ViewpointDataset, options: dict, message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        ViewpointTorchDataset(dataset, **options)
+
+
+def test_too_few_surface_points_for_fps(tmp_path: Path) -> None:
+    store = write_synthetic(tmp_path / "small.h5", synthetic_entries(MODELS[:1], n_points=200))
+    with open_dataset(store) as small:
+        with pytest.raises(InputError, match="fewer than the n_fps=1024"):
+            ViewpointTorchDataset(small)[0]

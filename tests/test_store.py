@@ -1,0 +1,613 @@
+"""The dataset store: SCHEMA.md layout in Zarr (directory, zip) and HDF5, atomic writes."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import weakref
+import zipfile
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.dataset.store import (
+    ARRAY_NAMES,
+    BUILD_ATTRS,
+    FORMAT_NAME,
+    SCHEMA_VERSION,
+    ModelEntry,
+    array_sha256,
+    find_store,
+    from_json_bytes,
+    json_bytes,
+    open_store,
+    store_kind,
+    write_dataset,
+)
+from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.sphere import fibonacci_sphere
+
+N_POINTS = 200
+N_VIEWS = 50
+SUFFIXES = {"zarr": "dataset.zarr", "zarr-zip": "dataset.zarr.zip", "hdf5": "dataset.h5"}
+KINDS = list(SUFFIXES)
+
+# (category, name, split), already in (category, name) order.
+MODELS = [
+    ("airplane", "airplane_0001", "train"),
+    ("airplane", "airplane_0002", "test"),
+    ("airplane", "airplane_0003", "val"),
+    ("chair", "chair_0001", "train"),
+    ("chair", "chair_0002", "train"),
+]
+
+BUILD = {
+    "resolution": 128,
+    "backend": "raster",
+    "camera": {"fov_deg": 45.0, "distance_factor": 1.4142, "up": [0.0, -1.0, 0.0]},
+    "cleaning": {"enabled": True, "max_faces": 10000},
+    "split_seed": 0,
+    "split_fractions": {"train": 0.8, "val": 0.1, "test": 0.1},
+    "source": "ModelNet40",
+    "toolkit_version": "0.1.0",
+    "created": "2024-05-01T12:00:00+00:00",
+}
+FAILURES = [{"source": "bench/train/bench_0009.off", "category": "bench", "reason": "no faces"}]
+
+
+def synthetic_entry(category: str, name: str, split: str, *, n_points: int = N_POINTS,
+                    n_views: int = N_VIEWS, seed: int = 0) -> ModelEntry:
+    """A model of random arrays with realistic shapes and float64/int64 inputs."""
+    rng = np.random.default_rng([seed, int(hashlib.sha256(name.encode()).hexdigest()[:8], 16)])
+    quality = rng.random((n_views, 4)) * 0.98 + 0.01
+    best_index = rng.choice(n_views, size=4, replace=False)
+    worst_index = (best_index + 1) % n_views
+    quality[best_index, np.arange(4)] = 1.0
+    quality[worst_index, np.arange(4)] = 0.0
+    quality_raw = rng.random((n_views, 4)) * 8.0
+    quality_raw[worst_index[0], [0, 2, 3]] = np.nan  # a view that sees nothing
+    normals = rng.normal(size=(n_points, 3))
+    n_vertices = int(rng.integers(4, 40))
+    return ModelEntry(
+        name=name,
+        category=category,
+        split=split,
+        source=f"{category}/{'test' if split == 'test' else 'train'}/{name}.off",
+        source_sha256=hashlib.sha256(f"file {name}".encode()).hexdigest(),
+        points=rng.normal(size=(n_points, 3)),
+        normals=normals / np.linalg.norm(normals, axis=1, keepdims=True),
+        quality=quality,
+        quality_raw=quality_raw,
+        best_index=best_index,
+        best_value=quality_raw[best_index, np.arange(4)],
+        worst_index=worst_index,
+        worst_value=quality_raw[worst_index, np.arange(4)],
+        vertices=rng.normal(size=(n_vertices, 3)),
+        faces=rng.integers(0, n_vertices, size=(int(rng.integers(1, 60)), 3)),
+        cleaning=(None if name.endswith("2")
+                  else {"enabled": True, "faces_in": 120, "steps": ["a", "b"]}),
+    )
+
+
+def synthetic_entries(models: Sequence[tuple[str, str, str]] = MODELS,
+                      **kwargs: Any) -> list[ModelEntry]:
+    return [synthetic_entry(category, name, split, **kwargs) for category, name, split in models]
+
+
+def write_synthetic(path: Path, entries: Sequence[ModelEntry] | None = None, **kwargs: Any) -> Path:
+    return write_dataset(
+        path,
+        synthetic_entries() if entries is None else entries,
+        attrs=kwargs.pop("attrs", BUILD),
+        views=kwargs.pop("views", fibonacci_sphere(N_VIEWS)),
+        failures=kwargs.pop("failures", FAILURES),
+        **kwargs,
+    )
+
+
+class LazyEntries(Sequence[ModelEntry]):
+    """Entries made on demand; counts reads, tracks how many are alive, can fail."""
+
+    def __init__(self, entries: list[ModelEntry], *,
+                 fail: Callable[[int, int], bool] = lambda index, read: False) -> None:
+        self._entries = entries
+        self._fail = fail
+        self.reads = [0] * len(entries)
+        self.max_alive = 0
+        self._alive: list[weakref.ref[ModelEntry]] = []
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def __getitem__(self, index: int) -> ModelEntry:  # type: ignore[override]
+        self.reads[index] += 1
+        if self._fail(index, self.reads[index]):
+            raise OSError(f"simulated failure reading entry {index}")
+        source = self._entries[index]
+        entry = ModelEntry(**{k: getattr(source, k) for k in source.__dataclass_fields__})
+        self._alive = [ref for ref in self._alive if ref() is not None] + [weakref.ref(entry)]
+        self.max_alive = max(self.max_alive, len(self._alive))
+        return entry
+
+
+def expected_dtype(name: str) -> np.dtype[Any]:
+    return np.dtype({
+        "views": "<f8", "best_index": "<i8", "worst_index": "<i8", "mesh_vertex_offsets": "<i8",
+        "mesh_face_offsets": "<i8", "mesh_faces": "<i4", "models_json": "u1", "failures_json": "u1",
+    }.get(name, "<f4"))
+
+
+# --------------------------------------------------------------------------- round trip
+
+
+@pytest.fixture(scope="module")
+def stores(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    folder = tmp_path_factory.mktemp("stores")
+    return {kind: write_synthetic(folder / name) for kind, name in SUFFIXES.items()}
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_round_trip_gives_identical_entries(stores: dict[str, Path], kind: str) -> None:
+    entries = synthetic_entries()
+    with open_store(stores[kind]) as reader:
+        assert reader.kind == kind and store_kind(reader.path) == kind
+        assert reader.models() == [entry.record() for entry in entries]
+        assert reader.failures() == FAILURES
+        for index, entry in enumerate(entries):
+            stored = reader.entry(index)
+            assert stored.record() == entry.record()
+            for field, dtype in [("points", np.float32), ("normals", np.float32),
+                                 ("quality", np.float32), ("quality_raw", np.float32),
+                                 ("best_index", np.int64), ("best_value", np.float32),
+                                 ("worst_index", np.int64), ("worst_value", np.float32),
+                                 ("vertices", np.float32), ("faces", np.int32)]:
+                value = getattr(stored, field)
+                assert value.dtype == dtype, field
+                np.testing.assert_array_equal(value, getattr(entry, field).astype(dtype), field)
+        assert reader.entry(-1).name == entries[-1].name
+        with pytest.raises(IndexError):
+            reader.entry(len(entries))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_root_attributes_follow_the_schema(stores: dict[str, Path], kind: str) -> None:
+    with open_store(stores[kind]) as reader:
+        attrs = reader.attrs
+    assert attrs["format"] == FORMAT_NAME and attrs["schema_version"] == SCHEMA_VERSION
+    assert attrs["measures"] == list(MEASURES)
+    assert attrs["higher_is_better"] == [True, True, False, False]
+    assert (attrs["n_models"], attrs["n_views"], attrs["n_points"]) == (5, N_VIEWS, N_POINTS)
+    assert attrs["n_failures"] == 1
+    assert {key: attrs[key] for key in BUILD_ATTRS} == BUILD
+    assert "json_attributes" not in attrs
+    assert json.loads(json.dumps(attrs)) == attrs  # JSON types only
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_arrays_have_schema_shapes_dtypes_and_checksums(stores: dict[str, Path], kind: str) -> None:
+    n_models = len(MODELS)
+    entries = synthetic_entries()
+    n_vertices = sum(len(entry.vertices) for entry in entries)
+    n_faces = sum(len(entry.faces) for entry in entries)
+    shapes = {
+        "views": (N_VIEWS, 3),
+        "points": (n_models, N_POINTS, 3), "normals": (n_models, N_POINTS, 3),
+        "quality": (n_models, N_VIEWS, 4), "quality_raw": (n_models, N_VIEWS, 4),
+        "best_index": (n_models, 4), "best_value": (n_models, 4), "worst_index": (n_models, 4),
+        "worst_value": (n_models, 4), "mesh_vertices": (n_vertices, 3),
+        "mesh_vertex_offsets": (n_models + 1,), "mesh_faces": (n_faces, 3),
+        "mesh_face_offsets": (n_models + 1,),
+    }
+    with open_store(stores[kind]) as reader:
+        assert reader.array_names() == sorted(ARRAY_NAMES)
+        for name in ARRAY_NAMES:
+            array = reader.array(name)
+            assert np.dtype(array.dtype) == expected_dtype(name), name
+            if name in shapes:
+                assert tuple(array.shape) == shapes[name], name
+            content = np.asarray(array[...])
+            assert reader.stored_sha256(name) == array_sha256(content), name
+            assert array_sha256(array) == array_sha256(content), name  # streamed digest
+        np.testing.assert_array_equal(reader.array("views")[...], fibonacci_sphere(N_VIEWS))
+        offsets = reader.array("mesh_vertex_offsets")[...]
+        assert offsets[0] == 0 and offsets[-1] == n_vertices
+        with pytest.raises(InputError, match="no array 'nope'"):
+            reader.array("nope")
+
+
+def test_sha256_is_of_little_endian_c_order_bytes() -> None:
+    array = np.arange(12, dtype=">i4").reshape(3, 4).T  # big-endian, not C-contiguous
+    expected = hashlib.sha256(np.ascontiguousarray(array, "<i4").tobytes()).hexdigest()
+    assert array_sha256(array) == expected
+    assert array_sha256(np.zeros((0, 3), np.float32)) == hashlib.sha256(b"").hexdigest()
+
+
+def test_the_three_formats_hold_identical_arrays(stores: dict[str, Path]) -> None:
+    with open_store(stores["zarr"]) as reference:
+        for kind in ("zarr-zip", "hdf5"):
+            with open_store(stores[kind]) as other:
+                assert other.attrs == reference.attrs
+                for name in ARRAY_NAMES:
+                    a, b = reference.array(name)[...], other.array(name)[...]
+                    assert a.dtype == b.dtype and a.shape == b.shape, (kind, name)
+                    assert a.tobytes() == b.tobytes(), (kind, name)
+                    assert other.stored_sha256(name) == reference.stored_sha256(name)
+
+
+def test_chunks_follow_the_schema(stores: dict[str, Path]) -> None:
+    import h5py
+    import zarr
+
+    group = zarr.open_group(stores["zarr"], mode="r")
+    assert group["points"].chunks == (1, N_POINTS, 3)
+    assert group["quality"].chunks == (64, N_VIEWS, 4)
+    assert group["best_index"].chunks == (64, 4)
+    with h5py.File(stores["hdf5"], "r") as handle:
+        assert handle["points"].chunks == (1, N_POINTS, 3)
+        assert handle["quality"].chunks == (len(MODELS), N_VIEWS, 4)  # 64 models, clipped
+        assert handle["points"].compression == "gzip" and handle["points"].shuffle
+
+
+def test_zip_has_each_member_once(stores: dict[str, Path]) -> None:
+    names = zipfile.ZipFile(stores["zarr-zip"]).namelist()
+    assert len(names) == len(set(names))
+    assert "zarr.json" in names and "points/zarr.json" in names
+
+
+def test_hdf5_keeps_scalars_native_and_objects_as_json(stores: dict[str, Path]) -> None:
+    import h5py
+
+    with h5py.File(stores["hdf5"], "r") as handle:
+        assert int(handle.attrs["n_models"]) == len(MODELS)
+        assert handle.attrs["backend"] == "raster"
+        assert json.loads(handle.attrs["camera"]) == BUILD["camera"]
+        assert json.loads(handle.attrs["measures"]) == list(MEASURES)
+        assert set(json.loads(handle.attrs["json_attributes"])) == {
+            "measures", "higher_is_better", "camera", "cleaning", "split_fractions"}
+
+
+def test_a_store_converts_to_another_format_unchanged(stores: dict[str, Path],
+                                                      tmp_path: Path) -> None:
+    with open_store(stores["zarr"]) as reader:
+        entries = [reader.entry(index) for index in range(reader.n_models)]
+        target = write_dataset(tmp_path / "release.h5", entries, attrs=reader.attrs,
+                               views=reader.array("views")[...], failures=reader.failures())
+        with open_store(target) as converted:
+            assert converted.attrs == reader.attrs
+            for name in ARRAY_NAMES:
+                assert converted.stored_sha256(name) == reader.stored_sha256(name), name
+
+
+# --------------------------------------------------------------------------- streaming, atomicity
+
+
+def test_entries_are_read_twice_and_not_held(tmp_path: Path) -> None:
+    models = [("cat", f"m_{index:03d}", "train") for index in range(12)]
+    lazy = LazyEntries(synthetic_entries(models))
+    write_synthetic(tmp_path / "d.zarr.zip", lazy)
+    assert lazy.reads == [2] * len(models)
+    assert lazy.max_alive <= 2
+
+
+def _listing(folder: Path) -> list[str]:
+    return sorted(path.name for path in folder.iterdir())
+
+
+@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("read", [1, 2], ids=["first-pass", "while-writing"])
+def test_failed_write_leaves_no_target_and_no_leftovers(tmp_path: Path, kind: str,
+                                                        read: int) -> None:
+    lazy = LazyEntries(synthetic_entries(), fail=lambda index, n: index == 3 and n == read)
+    with pytest.raises(OSError, match="simulated failure"):
+        write_synthetic(tmp_path / SUFFIXES[kind], lazy)
+    assert _listing(tmp_path) == []
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_failed_write_keeps_the_previous_store(tmp_path: Path, kind: str) -> None:
+    target = write_synthetic(tmp_path / SUFFIXES[kind], synthetic_entries(MODELS[:2]))
+    lazy = LazyEntries(synthetic_entries(), fail=lambda index, n: index == 4 and n == 2)
+    with pytest.raises(OSError, match="simulated failure"):
+        write_synthetic(target, lazy)
+    assert _listing(tmp_path) == [target.name]
+    with open_store(target) as reader:
+        assert [record["name"] for record in reader.models()] == ["airplane_0001", "airplane_0002"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_rewrite_replaces_the_store(tmp_path: Path, kind: str) -> None:
+    target = write_synthetic(tmp_path / SUFFIXES[kind])
+    write_synthetic(target, synthetic_entries(MODELS[3:]), failures=[])
+    assert _listing(tmp_path) == [target.name]
+    with open_store(target) as reader:
+        assert [record["name"] for record in reader.models()] == ["chair_0001", "chair_0002"]
+        assert reader.failures() == [] and reader.attrs["n_failures"] == 0
+
+
+def test_entry_that_changes_between_passes_is_rejected(tmp_path: Path) -> None:
+    entries = synthetic_entries()
+
+    class Drifting(LazyEntries):
+        def __getitem__(self, index: int) -> ModelEntry:  # type: ignore[override]
+            entry = super().__getitem__(index)
+            if index == 2 and self.reads[index] == 2:
+                return synthetic_entry(entry.category, entry.name, entry.split, seed=1)
+            return entry
+
+    with pytest.raises(VerificationError, match="airplane_0003"):
+        write_synthetic(tmp_path / "d.zarr", Drifting(entries))
+    assert _listing(tmp_path) == []
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_zero_models(tmp_path: Path, kind: str) -> None:
+    target = write_synthetic(tmp_path / SUFFIXES[kind], [])
+    with open_store(target) as reader:
+        assert reader.attrs["n_models"] == 0 and reader.attrs["n_failures"] == 1
+        assert reader.models() == [] and reader.failures() == FAILURES
+        for name in ARRAY_NAMES:
+            if name not in ("views", "models_json", "failures_json", "mesh_vertex_offsets",
+                            "mesh_face_offsets"):
+                assert reader.array(name).shape[0] == 0, name
+            assert reader.stored_sha256(name) == array_sha256(reader.array(name)[...]), name
+        np.testing.assert_array_equal(reader.array("mesh_vertex_offsets")[...], [0])
+        with pytest.raises(IndexError):
+            reader.entry(0)
+
+
+# --------------------------------------------------------------------------- input checks
+
+
+def _renamed(entry: ModelEntry, **changes: Any) -> ModelEntry:
+    fields = {key: getattr(entry, key) for key in entry.__dataclass_fields__}
+    return ModelEntry(**{**fields, **changes})
+
+
+def _bad_entries(case: str) -> list[ModelEntry]:
+    entries = synthetic_entries()
+    if case == "unsorted-names":
+        entries[0], entries[1] = entries[1], entries[0]
+    elif case == "unsorted-categories":
+        entries = entries[3:] + entries[:3]
+    elif case == "duplicate-in-category":
+        entries[1] = _renamed(entries[1], name="airplane_0001")
+    elif case == "duplicate-across-categories":
+        entries[4] = _renamed(entries[4], name="airplane_0001")
+    elif case == "bad-split":
+        entries[0] = _renamed(entries[0], split="training")
+    elif case == "bad-sha":
+        entries[0] = _renamed(entries[0], source_sha256="ABC")
+    elif case == "quality-rows":
+        entries[0] = _renamed(entries[0], quality=entries[0].quality[:-1])
+    elif case == "quality-range":
+        entries[0] = _renamed(entries[0], quality=entries[0].quality * 2)
+    elif case == "point-count":
+        entries[2] = _renamed(entries[2], points=entries[2].points[:-1])
+    elif case == "face-index":
+        entries[0] = _renamed(entries[0], faces=entries[0].faces + len(entries[0].vertices))
+    elif case == "float-faces":
+        entries[0] = _renamed(entries[0], faces=entries[0].faces.astype(float))
+    elif case == "best-index":
+        entries[0] = _renamed(entries[0], best_index=np.array([0, 1, 2, N_VIEWS]))
+    elif case == "nan-points":
+        points = entries[0].points.copy()
+        points[3, 1] = np.nan
+        entries[0] = _renamed(entries[0], points=points)
+    return entries
+
+
+BAD_ENTRIES = {
+    "unsorted-names": "airplane_0001.*sorted by \\(category, name\\)",
+    "unsorted-categories": "airplane_0001.*sorted",
+    "duplicate-in-category": "duplicate model name 'airplane_0001'",
+    "duplicate-across-categories": "duplicate model name 'airplane_0001'",
+    "bad-split": "split 'training'",
+    "bad-sha": "source_sha256",
+    "quality-rows": "quality: expected shape \\(50, 4\\)",
+    "quality-range": "quality must be finite and in \\[0, 1\\]",
+    "point-count": "airplane_0003', points: expected shape \\(200, 3\\)",
+    "face-index": "faces refer to vertices",
+    "float-faces": "faces: expected integers",
+    "best-index": "best_index out of range",
+    "nan-points": "points has NaN",
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_ENTRIES))
+def test_bad_entries_are_rejected_before_writing(tmp_path: Path, case: str) -> None:
+    with pytest.raises(InputError, match=BAD_ENTRIES[case]):
+        write_synthetic(tmp_path / "d.zarr.zip", _bad_entries(case))
+    assert _listing(tmp_path) == []
+
+
+BAD_OPTIONS = {
+    "missing-attr": ({"attrs": {k: v for k, v in BUILD.items() if k != "camera"}},
+                     "missing root attributes \\['camera'\\]"),
+    "writer-attr": ({"attrs": {**BUILD, "n_models": 7}}, "'n_models' is set by the writer"),
+    "nan-attr": ({"attrs": {**BUILD, "resolution": float("nan")}}, "attrs: not JSON-safe"),
+    "views-shape": ({"views": np.zeros((N_VIEWS, 2))}, "views: expected shape"),
+    "views-unit": ({"views": fibonacci_sphere(N_VIEWS) * 2}, "views: expected unit vectors"),
+    "failure-keys": ({"failures": [{"source": "a.off", "reason": "x"}]},
+                     "failures\\[0\\]: expected exactly the keys"),
+}
+
+
+@pytest.mark.parametrize("case", list(BAD_OPTIONS))
+def test_bad_options_are_rejected(tmp_path: Path, case: str) -> None:
+    options, message = BAD_OPTIONS[case]
+    with pytest.raises(InputError, match=message):
+        write_synthetic(tmp_path / "d.h5", **options)
+    assert _listing(tmp_path) == []
+
+
+def test_bad_attributes_fail_before_any_entry_is_read(tmp_path: Path) -> None:
+    lazy = LazyEntries(synthetic_entries())
+    with pytest.raises(InputError, match="missing root attributes"):
+        write_synthetic(tmp_path / "d.zarr", lazy, attrs={})
+    assert lazy.reads == [0] * len(MODELS)
+
+
+def test_writer_checks_the_target_path(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="unknown dataset format"):
+        write_synthetic(tmp_path / "d.npz")
+    with pytest.raises(InputError, match="output folder .* does not exist"):
+        write_synthetic(tmp_path / "missing" / "d.h5")
+    (tmp_path / "d.zarr").write_text("a file")
+    with pytest.raises(InputError, match="exists and is not a directory"):
+        write_synthetic(tmp_path / "d.zarr")
+
+
+def test_json_bytes_round_trip() -> None:
+    value = {"name": "chaise_longue_ü", "n": [1, 2.5, None, True]}
+    encoded = json_bytes(value)
+    assert encoded.dtype == np.uint8 and encoded.ndim == 1
+    assert from_json_bytes(encoded) == value
+    with pytest.raises(InputError, match="not JSON-serialisable"):
+        json_bytes({"x": float("nan")})
+    with pytest.raises(InputError, match="not UTF-8 JSON"):
+        from_json_bytes(np.frombuffer(b"{oops", dtype=np.uint8))
+
+
+# --------------------------------------------------------------------------- opening
+
+
+def _edit_root_attributes(store: Path, **changes: Any) -> None:
+    metadata_path = store / "zarr.json"
+    metadata = json.loads(metadata_path.read_text())
+    metadata["attributes"].update(changes)
+    metadata_path.write_text(json.dumps(metadata))
+
+
+@pytest.fixture()
+def zarr_copy(tmp_path: Path) -> Path:
+    return write_synthetic(tmp_path / "d.zarr")
+
+
+def test_open_missing_store(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="missing.h5: no such file"):
+        open_store(tmp_path / "missing.h5")
+
+
+@pytest.mark.parametrize("name", ["junk.zarr.zip", "junk.h5"])
+def test_open_random_file(tmp_path: Path, name: str) -> None:
+    (tmp_path / name).write_bytes(np.random.default_rng(0).bytes(4096))
+    with pytest.raises(InputError, match=f"{name}: not a readable dataset store"):
+        open_store(tmp_path / name)
+
+
+def test_open_folder_that_is_not_a_store(tmp_path: Path) -> None:
+    (tmp_path / "empty.zarr").mkdir()
+    with pytest.raises(InputError, match="empty.zarr: not a readable dataset store"):
+        open_store(tmp_path / "empty.zarr")
+
+
+def test_open_other_zarr_group(tmp_path: Path) -> None:
+    import zarr
+
+    zarr.create_group(store=str(tmp_path / "other.zarr"), attributes={"title": "x"})
+    with pytest.raises(InputError, match="other.zarr: not a vptoolkit viewpoint dataset"):
+        open_store(tmp_path / "other.zarr")
+
+
+def test_open_rejects_other_schema_version(zarr_copy: Path) -> None:
+    _edit_root_attributes(zarr_copy, schema_version=2)
+    with pytest.raises(InputError, match="d.zarr: schema_version 2 is not supported"):
+        open_store(zarr_copy)
+
+
+def test_open_rejects_other_measure_order(zarr_copy: Path) -> None:
+    _edit_root_attributes(zarr_copy, measures=["VR", "VE", "VKL", "VMI"])
+    with pytest.raises(VerificationError, match="d.zarr: measures"):
+        open_store(zarr_copy)
+
+
+def test_open_rejects_other_measure_order_in_hdf5(tmp_path: Path) -> None:
+    import h5py
+
+    target = write_synthetic(tmp_path / "d.h5")
+    with h5py.File(target, "a") as handle:
+        handle.attrs["measures"] = json.dumps(["VE", "VR", "VMI", "VKL"])
+    with pytest.raises(VerificationError, match="d.h5: measures"):
+        open_store(target)
+
+
+def test_open_rejects_missing_array(zarr_copy: Path) -> None:
+    import shutil
+
+    shutil.rmtree(zarr_copy / "normals")
+    with pytest.raises(InputError, match="missing arrays \\['normals'\\]"):
+        open_store(zarr_copy)
+
+
+def test_closed_reader_refuses_access(stores: dict[str, Path]) -> None:
+    reader = open_store(stores["hdf5"])
+    reader.close()
+    reader.close()
+    with pytest.raises(InputError, match="store is closed"):
+        reader.array("points")
+
+
+# --------------------------------------------------------------------------- find_store
+
+
+def test_find_store(tmp_path: Path, stores: dict[str, Path]) -> None:
+    assert find_store(stores["zarr"]) == stores["zarr"]
+    assert find_store(stores["hdf5"]) == stores["hdf5"]
+
+    build = tmp_path / "build"
+    build.mkdir()
+    (build / "failures.json").write_text("[]")
+    write_synthetic(build / "dataset.zarr")
+    assert find_store(build) == build / "dataset.zarr"
+    write_synthetic(build / "dataset.h5")
+    with pytest.raises(InputError, match="both dataset.zarr and dataset.h5"):
+        find_store(build)
+
+    release = tmp_path / "release"
+    release.mkdir()
+    with pytest.raises(InputError, match="no dataset.zarr, dataset.h5"):
+        find_store(release)
+    write_synthetic(release / "vp-1.0.h5")
+    assert find_store(release) == release / "vp-1.0.h5"
+    write_synthetic(release / "vp-1.0.zarr.zip")
+    (release / ".vp-2.0.zarr.zip.abc.partial").write_bytes(b"")
+    (release / "MANIFEST.json").write_text("{}")
+    assert find_store(release) == release / "vp-1.0.zarr.zip"  # zip preferred
+    write_synthetic(release / "vp-2.0.zarr.zip")
+    with pytest.raises(InputError, match="holds 2 stores"):
+        find_store(release)
+
+    with pytest.raises(InputError, match="no such file or directory"):
+        find_store(tmp_path / "nowhere")
+    (tmp_path / "notes.txt").write_text("x")
+    with pytest.raises(InputError, match="not a dataset store"):
+        find_store(tmp_path / "notes.txt")
+
+
+def test_progress_bar_goes_to_stderr(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    write_synthetic(tmp_path / "d.h5", progress=True)
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert "d.h5: write" in captured.err
+
+
+def test_no_stray_files_in_cwd(stores: dict[str, Path]) -> None:
+    assert not any(name.endswith(".partial") for name in os.listdir(stores["zarr"].parent))
+
+
+def test_zip_store_is_byte_reproducible(tmp_path: Path) -> None:
+    """Two writes of the same data give identical bytes (a release's SHA256SUMS repeats)."""
+    import hashlib
+    import time
+
+    digests = []
+    for attempt in range(2):
+        path = write_synthetic(tmp_path / f"{attempt}.zarr.zip")
+        digests.append(hashlib.sha256(path.read_bytes()).hexdigest())
+        time.sleep(2.1)  # zip timestamps have a 2 s resolution
+    assert digests[0] == digests[1]

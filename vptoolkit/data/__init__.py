@@ -1,0 +1,355 @@
+"""Load the viewpoint-quality dataset with numpy alone.
+
+:func:`open_dataset` opens a store written by
+:func:`vptoolkit.dataset.store.write_dataset` (Zarr directory, Zarr zip or
+HDF5; see ``dataset_card/SCHEMA.md``) and returns a lazy
+:class:`ViewpointDataset`: the per-model records and the view directions are
+read at once, everything else only when an item is asked for.
+
+This module needs numpy plus ``zarr`` or ``h5py`` for the container in use,
+and never imports torch, open3d, pymeshlab, numba or trimesh. The torch
+adapter lives in :mod:`vptoolkit.data.torch`, which is not imported here.
+
+Examples
+--------
+>>> with open_dataset("build/") as dataset:                    # doctest: +SKIP
+...     train = dataset.split("train")
+...     item = train[0]
+...     item["points"].shape, item["quality"].shape
+((20000, 3), (1000, 4))
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.dataset.store import SPLITS, StoreReader, find_store, open_store
+from vptoolkit.errors import InputError
+from vptoolkit.sphere import nearest_view
+
+__all__ = ["ViewpointDataset", "open_dataset"]
+
+
+class _SharedStore:
+    """The open store and its small metadata, shared by a dataset and its splits.
+
+    The reader is reopened after a fork (a new process id) and is left out
+    when the object is copied to another process, so a dataset can be handed
+    to the worker processes of a data loader.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.is_closed = False
+        self._reader: StoreReader | None = None
+        self._pid = -1
+        reader = self.reader()
+        is_read = False
+        try:
+            self.attrs: dict[str, Any] = dict(reader.attrs)
+            self.records: list[dict[str, Any]] = reader.models()
+            self.failures: list[dict[str, Any]] = reader.failures()
+            views = np.asarray(reader.array("views")[...], dtype=np.float64)
+            best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
+            is_read = True
+        finally:
+            if not is_read:
+                self.close()
+        views.flags.writeable = False
+        self.views: NDArray[np.float64] = views
+        self.best_index: NDArray[np.int64] = best_index
+        self.row_of_name = {record["name"]: row for row, record in enumerate(self.records)}
+        self._vertex_offsets: NDArray[np.int64] | None = None
+        self._face_offsets: NDArray[np.int64] | None = None
+
+    def reader(self) -> StoreReader:
+        if self.is_closed:
+            raise InputError(f"{self.path.name}: dataset is closed")
+        if self._reader is None or self._pid != os.getpid():
+            self._reader = open_store(self.path)
+            self._pid = os.getpid()
+        return self._reader
+
+    def offsets(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        if self._vertex_offsets is None or self._face_offsets is None:
+            reader = self.reader()
+            self._vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
+            self._face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
+        return self._vertex_offsets, self._face_offsets
+
+    def close(self) -> None:
+        if self._reader is not None and self._pid == os.getpid():
+            self._reader.close()
+        self._reader = None
+        self.is_closed = True
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = dict(self.__dict__)
+        state["_reader"] = None
+        state["_pid"] = -1
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+
+class ViewpointDataset:
+    """A lazy, read-only view of the models of a dataset store.
+
+    Create it with :func:`open_dataset`; :meth:`split` returns further
+    datasets over the same open store.
+
+    Items (``dataset[i]``, ``dataset["airplane_0001"]``, iteration) are
+    dicts:
+
+    ==============  ==========================  ===================================
+    key             value                       meaning
+    ==============  ==========================  ===================================
+    ``points``      (n_points, 3) float32       surface points, model coordinates
+    ``normals``     (n_points, 3) float32       unit face normal at each point
+    ``quality``     (n_views, 4) float32        normalised quality, 1 = best
+    ``quality_raw`` (n_views, 4) float32        raw measures, NaN where nothing seen
+    ``views``       (n_views, 3) float64        the view directions (shared, read-only)
+    ``best_index``  (4,) int64                  best view per measure
+    ``name``        str                         model name
+    ``category``    str                         category
+    ``split``       str                         ``"train"``, ``"val"`` or ``"test"``
+    ==============  ==========================  ===================================
+
+    The last axis of size 4 follows ``measures`` (``("VE", "VR", "VKL", "VMI")``).
+    """
+
+    def __init__(self, shared: _SharedStore, rows: NDArray[np.int64], *,
+                 split_name: str | None = None, is_owner: bool = False) -> None:
+        self._shared = shared
+        self._rows = rows
+        self._split_name = split_name
+        self._is_owner = is_owner
+        self._position_of_name = {shared.records[row]["name"]: i for i, row in enumerate(rows)}
+
+    # ------------------------------------------------------------------ metadata
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def __repr__(self) -> str:
+        split = f", split={self._split_name!r}" if self._split_name else ""
+        return f"ViewpointDataset({str(self.path)!r}, n_models={len(self)}{split})"
+
+    @property
+    def path(self) -> Path:
+        """Path of the store."""
+        return self._shared.path
+
+    @property
+    def names(self) -> list[str]:
+        """Model names, in item order."""
+        return [self._shared.records[row]["name"] for row in self._rows]
+
+    @property
+    def categories(self) -> list[str]:
+        """Category of each model, in item order."""
+        return [self._shared.records[row]["category"] for row in self._rows]
+
+    @property
+    def splits(self) -> list[str]:
+        """Split of each model, in item order."""
+        return [self._shared.records[row]["split"] for row in self._rows]
+
+    @property
+    def records(self) -> list[dict[str, Any]]:
+        """Each model's ``models_json`` record (SCHEMA.md), in item order."""
+        return [dict(self._shared.records[row]) for row in self._rows]
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """Measure names, the order of every last axis of size 4."""
+        return tuple(self._shared.attrs["measures"])
+
+    @property
+    def views(self) -> NDArray[np.float64]:
+        """View directions, ``(n_views, 3) float64``, read-only."""
+        return self._shared.views
+
+    @property
+    def attrs(self) -> dict[str, Any]:
+        """Root attributes of the store (a copy)."""
+        return dict(self._shared.attrs)
+
+    @property
+    def failures(self) -> list[dict[str, Any]]:
+        """Inputs the build could not process: ``{"source", "category", "reason"}``."""
+        return [dict(failure) for failure in self._shared.failures]
+
+    # ------------------------------------------------------------------ subsets
+
+    def split(self, name: str) -> ViewpointDataset:
+        """The models of one split, over the same open store.
+
+        Parameters
+        ----------
+        name : str
+            ``"train"``, ``"val"`` or ``"test"``.
+
+        Returns
+        -------
+        subset : ViewpointDataset
+            Same API; closing it leaves the store open (close the dataset
+            :func:`open_dataset` returned).
+
+        Raises
+        ------
+        InputError
+            For any other split name.
+        """
+        if name not in SPLITS:
+            raise InputError(f"split: unknown split {name!r}, expected one of {list(SPLITS)}")
+        records = self._shared.records
+        rows = np.array([row for row in self._rows if records[row]["split"] == name], np.int64)
+        return ViewpointDataset(self._shared, rows, split_name=name)
+
+    # ------------------------------------------------------------------ items
+
+    def row(self, key: int | str) -> int:
+        """Row of a model in the store, from its item index or its name.
+
+        Raises
+        ------
+        IndexError
+            For an integer out of range (negative indices count from the end).
+        KeyError
+            For a name that is not in this dataset.
+        """
+        if isinstance(key, str):
+            if key not in self._position_of_name:
+                where = f" split {self._split_name!r} of" if self._split_name else ""
+                raise KeyError(f"{key}: no such model in{where} {self.path.name}")
+            return int(self._rows[self._position_of_name[key]])
+        if isinstance(key, bool) or not isinstance(key, (int, np.integer)):
+            raise InputError(f"key: expected an integer index or a model name, got {key!r}")
+        if not -len(self) <= key < len(self):
+            raise IndexError(f"index {key} out of range for {len(self)} models")
+        return int(self._rows[int(key)])
+
+    def record(self, key: int | str) -> dict[str, Any]:
+        """One model's ``models_json`` record (SCHEMA.md), by item index or name."""
+        return dict(self._shared.records[self.row(key)])
+
+    def __getitem__(self, key: int | str) -> dict[str, Any]:
+        row = self.row(key)
+        reader = self._shared.reader()
+        record = self._shared.records[row]
+        return {
+            "points": np.asarray(reader.array("points")[row], dtype=np.float32),
+            "normals": np.asarray(reader.array("normals")[row], dtype=np.float32),
+            "quality": np.asarray(reader.array("quality")[row], dtype=np.float32),
+            "quality_raw": np.asarray(reader.array("quality_raw")[row], dtype=np.float32),
+            "views": self.views,
+            "best_index": self._shared.best_index[row].copy(),
+            "name": record["name"],
+            "category": record["category"],
+            "split": record["split"],
+        }
+
+    def __iter__(self) -> Iterator[dict[str, Any]]:
+        for position in range(len(self)):
+            yield self[position]
+
+    def mesh(self, key: int | str) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
+        """The cleaned mesh of one model.
+
+        Parameters
+        ----------
+        key : int or str
+            Item index or model name.
+
+        Returns
+        -------
+        vertices : (n_vertices, 3) float32
+        faces : (n_faces, 3) int32
+            Indices into ``vertices``.
+        """
+        row = self.row(key)
+        vertex_offsets, face_offsets = self._shared.offsets()
+        reader = self._shared.reader()
+        vertices = reader.array("mesh_vertices")[vertex_offsets[row] : vertex_offsets[row + 1]]
+        faces = reader.array("mesh_faces")[face_offsets[row] : face_offsets[row + 1]]
+        return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
+
+    def quality_of(self, key: int | str, directions: ArrayLike) -> NDArray[np.float32]:
+        """Normalised quality of arbitrary directions, by nearest sampled view.
+
+        The authors' evaluation protocol: a direction scores the normalised
+        quality of the sampled view closest to it in angle
+        (:func:`vptoolkit.sphere.nearest_view`).
+
+        Parameters
+        ----------
+        key : int or str
+            Item index or model name.
+        directions : (n, 3) or (3,) array_like
+            Directions from the model centre, any non-zero length.
+
+        Returns
+        -------
+        quality : (n, 4) float32
+            One row per direction (a single direction gives ``(1, 4)``).
+
+        Raises
+        ------
+        InputError
+            On a wrong shape, non-finite values or a zero vector.
+        """
+        row = self.row(key)
+        nearest = nearest_view(directions, self.views)
+        quality = np.asarray(self._shared.reader().array("quality")[row], dtype=np.float32)
+        return quality[nearest]
+
+    # ------------------------------------------------------------------ lifetime
+
+    def close(self) -> None:
+        """Close the store (for the dataset :func:`open_dataset` returned).
+
+        Closing a dataset from :meth:`split` does nothing; its items stay
+        readable until the original dataset is closed.
+        """
+        if self._is_owner:
+            self._shared.close()
+
+    def __enter__(self) -> ViewpointDataset:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+def open_dataset(path: str | os.PathLike[str]) -> ViewpointDataset:
+    """Open a dataset store lazily.
+
+    Parameters
+    ----------
+    path : path-like
+        A store (``*.zarr``, ``*.zarr.zip``, ``*.h5``), a build output folder
+        or a release folder (see :func:`vptoolkit.dataset.store.find_store`).
+
+    Returns
+    -------
+    dataset : ViewpointDataset
+        All models, in store order (sorted by category, then name).
+
+    Raises
+    ------
+    InputError
+        If no store is found or it cannot be read.
+    VerificationError
+        If the store's measure order differs from ``MEASURES``.
+    """
+    shared = _SharedStore(find_store(path))
+    rows = np.arange(len(shared.records), dtype=np.int64)
+    return ViewpointDataset(shared, rows, is_owner=True)

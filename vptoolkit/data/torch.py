@@ -1,0 +1,188 @@
+"""A ``torch.utils.data.Dataset`` over a :class:`~vptoolkit.data.ViewpointDataset`.
+
+Each item is one network input with the paper's augmentations (Schelling et
+al. 2021, section "Data"):
+
+1. ``n_points`` = 4096 input points: 1024 by farthest point sampling from a
+   random start plus 3072 random others, chosen from the stored surface
+   points (:func:`vptoolkit.points.network_input`);
+2. a random rotation applied alike to the points and to every view
+   direction, so the labels stay attached to the same parts of the model.
+
+The paper draws three Euler angles uniformly from ``[0, 2 pi]``, which is not
+uniform over rotations; here the rotation is uniform on SO(3) (a normalised
+Gaussian quaternion), see :func:`random_rotation`.
+
+Randomness
+    Item randomness depends only on ``(seed, epoch, model name)``, never on
+    the item's position, the worker process or the global random state: the
+    generators are spawned from ``numpy.random.SeedSequence([seed, epoch,
+    model_key(name)])``, the first for the rotation, the second for the
+    point selection (so the points chosen do not depend on ``rotate``).
+    Call :meth:`ViewpointTorchDataset.set_epoch` before each epoch for fresh
+    augmentations; with ``persistent_workers=True`` in a DataLoader the
+    workers keep the epoch they were started with.
+
+torch is imported when this module is imported; :mod:`vptoolkit.data` never
+imports this module.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.data import ViewpointDataset
+from vptoolkit.errors import InputError
+from vptoolkit.optional import require
+
+if TYPE_CHECKING:
+    import torch
+else:
+    torch = require("torch", extra="learn")
+
+__all__ = ["ViewpointTorchDataset", "random_rotation", "model_key"]
+
+
+def model_key(name: str) -> int:
+    """A stable 64-bit integer for a model name, used to seed its augmentations.
+
+    Returns
+    -------
+    key : int
+        The first 8 bytes of ``SHA-256(name)`` (UTF-8) as a little-endian
+        unsigned integer.
+    """
+    return int.from_bytes(hashlib.sha256(name.encode("utf-8")).digest()[:8], "little")
+
+
+def random_rotation(rng: np.random.Generator) -> NDArray[np.float64]:
+    """A rotation matrix drawn uniformly from SO(3).
+
+    A quaternion with four independent standard normal components, scaled to
+    unit length, is uniform on the 3-sphere, and the rotation it represents
+    is uniform (Haar) on SO(3) (Shoemake 1992).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the four normal draws.
+
+    Returns
+    -------
+    rotation : (3, 3) float64
+        Orthonormal with determinant +1; rotate row vectors with
+        ``v @ rotation.T``.
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise InputError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
+    quaternion = rng.standard_normal(4)
+    while np.linalg.norm(quaternion) < 1e-12:  # practically never
+        quaternion = rng.standard_normal(4)
+    w, x, y, z = quaternion / np.linalg.norm(quaternion)
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+def _non_negative_int(value: Any, what: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise InputError(f"{what}: expected a non-negative integer, got {value!r}")
+    return int(value)
+
+
+class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
+    """Network inputs and labels from a :class:`~vptoolkit.data.ViewpointDataset`.
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset
+        E.g. ``open_dataset(path).split("train")``.
+    n_points : int
+        Points per input (default: 4096).
+    n_fps : int
+        How many of them farthest point sampling picks (default: 1024).
+    rotate : bool
+        Apply a random rotation (default: True); when False the rotation is
+        the identity and the points are the same as with True, unrotated.
+    seed : int
+        Base seed, non-negative (default: 0).
+
+    Notes
+    -----
+    An item is a dict:
+
+    ==============  ======================  =============================================
+    key             value                   meaning
+    ==============  ======================  =============================================
+    ``points``      (n_points, 3) float32   input points, rotated
+    ``views``       (n_views, 3) float32    all view directions, rotated
+    ``quality``     (n_views, 4) float32    normalised quality per view, 1 = best
+    ``best_views``  (4, 3) float32          best view per measure, rotated
+    ``best_index``  (4,) int64              index of the best view per measure
+    ``rotation``    (3, 3) float32          the rotation ``R``: rotated = ``v @ R.T``
+    ``name``        str                     model name
+    ==============  ======================  =============================================
+
+    Points are rotated about the origin of the model coordinates; view
+    directions are directions, so the pairing of views and surface holds
+    for any centre. To score a prediction ``p`` made on the rotated input,
+    rotate it back (``p @ R``) and look it up with
+    :meth:`ViewpointDataset.quality_of`, or compare it with ``views``
+    directly.
+    """
+
+    def __init__(self, dataset: ViewpointDataset, *, n_points: int = 4096, n_fps: int = 1024,
+                 rotate: bool = True, seed: int = 0) -> None:
+        if not isinstance(dataset, ViewpointDataset):
+            raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")
+        self.dataset = dataset
+        self.n_points = _non_negative_int(n_points, "n_points")
+        if self.n_points < 1:
+            raise InputError("n_points: expected at least 1")
+        self.n_fps = _non_negative_int(n_fps, "n_fps")
+        if self.n_fps > self.n_points:
+            raise InputError(f"n_fps: {self.n_fps} exceeds n_points={self.n_points}")
+        self.rotate = bool(rotate)
+        self.seed = _non_negative_int(seed, "seed")
+        self.epoch = 0
+
+    def __len__(self) -> int:
+        return len(self.dataset)
+
+    def set_epoch(self, epoch: int) -> None:
+        """Select the augmentations of another epoch (non-negative)."""
+        self.epoch = _non_negative_int(epoch, "epoch")
+
+    def generators(self, index: int) -> tuple[np.random.Generator, np.random.Generator]:
+        """The (rotation, point selection) generators of item ``index`` this epoch."""
+        name = self.dataset.record(index)["name"]
+        sequence = np.random.SeedSequence([self.seed, self.epoch, model_key(name)])
+        rotation_seed, points_seed = sequence.spawn(2)
+        return np.random.default_rng(rotation_seed), np.random.default_rng(points_seed)
+
+    def __getitem__(self, index: int) -> dict[str, Any]:
+        from vptoolkit.points import network_input
+
+        item = self.dataset[index]
+        rotation_rng, points_rng = self.generators(index)
+        rotation = random_rotation(rotation_rng) if self.rotate else np.eye(3)
+        points = network_input(item["points"], self.n_points, self.n_fps, rng=points_rng)
+        views = item["views"] @ rotation.T
+        best_index = item["best_index"]
+        return {
+            "points": torch.from_numpy((points @ rotation.T).astype(np.float32)),
+            "views": torch.from_numpy(views.astype(np.float32)),
+            "quality": torch.from_numpy(np.array(item["quality"], dtype=np.float32)),
+            "best_views": torch.from_numpy(views[best_index].astype(np.float32)),
+            "best_index": torch.from_numpy(np.array(best_index, dtype=np.int64)),
+            "rotation": torch.from_numpy(rotation.astype(np.float32)),
+            "name": item["name"],
+        }
