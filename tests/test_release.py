@@ -1,0 +1,508 @@
+"""Release packing, SHA-256 manifest, verification, dataset card, Croissant and info."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import re
+import shutil
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import require_package
+from vptoolkit.errors import InputError, VerificationError
+
+N_POINTS = 200
+N_VIEWS = 50
+CATEGORIES = {"airplane": 5, "chair": 4}
+SPLIT_CYCLE = ("train", "train", "val", "test")
+FAILURES = [
+    {"source": "car/train/car_0007.off", "category": "car", "reason": "no faces"},
+    {"source": "car/test/car_0100.off", "category": "car", "reason": "no view sees the model"},
+]
+DATASHEET_SECTIONS = (
+    "Motivation", "Composition", "Collection process", "Preprocessing, cleaning and labeling",
+    "Uses", "Distribution", "Maintenance",
+)
+
+
+def _entries(rng: np.random.Generator) -> list:
+    from vptoolkit.dataset.store import ModelEntry
+
+    entries = []
+    for category, count in sorted(CATEGORIES.items()):
+        for i in range(count):
+            name = f"{category}_{i:04d}"
+            n_vertices = int(rng.integers(8, 40))
+            n_faces = int(rng.integers(4, 60))
+            quality_raw = rng.random((N_VIEWS, 4)).astype(np.float32)
+            quality_raw[i % N_VIEWS, 0] = np.nan  # a view that sees nothing
+            entries.append(ModelEntry(
+                name=name,
+                category=category,
+                split=SPLIT_CYCLE[i % len(SPLIT_CYCLE)],
+                source=f"{category}/train/{name}.off",
+                source_sha256=hashlib.sha256(name.encode()).hexdigest(),
+                points=rng.normal(size=(N_POINTS, 3)),
+                normals=rng.normal(size=(N_POINTS, 3)),
+                quality=rng.random((N_VIEWS, 4)),
+                quality_raw=quality_raw,
+                best_index=rng.integers(0, N_VIEWS, 4),
+                best_value=rng.random(4),
+                worst_index=rng.integers(0, N_VIEWS, 4),
+                worst_value=rng.random(4),
+                vertices=rng.normal(size=(n_vertices, 3)),
+                faces=rng.integers(0, n_vertices, (n_faces, 3)),
+                cleaning={"faces_before": 2 * n_faces, "faces_after": n_faces},
+            ))
+    return entries
+
+
+def _attrs() -> dict:
+    return {
+        "resolution": 64,
+        "backend": "raster",
+        "camera": {"fov_deg": 45.0, "distance_factor": 1.5, "up": [0.0, -1.0, 0.0],
+                   "fallback_up": [0.0, 0.0, 1.0], "cull_back_faces": True,
+                   "projection": "perspective", "target": "bounding-box centre",
+                   "distance_unit": "bounding-box diagonal"},
+        "cleaning": {"enabled": True, "max_faces": 10000},
+        "split_seed": 7,
+        "split_fractions": {"train": 0.8, "val": 0.1, "test": 0.1},
+        "source": "ModelNet40-mini",
+        "toolkit_version": "0.1.0",
+        "created": "2025-01-02T03:04:05Z",
+    }
+
+
+@pytest.fixture(scope="session")
+def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A build output folder holding a small synthetic ``dataset.zarr``."""
+    require_package("zarr")
+    require_package("h5py")
+    from vptoolkit.dataset.store import write_dataset
+
+    rng = np.random.default_rng(20210501)
+    views = rng.normal(size=(N_VIEWS, 3))
+    views /= np.linalg.norm(views, axis=1, keepdims=True)
+    folder = tmp_path_factory.mktemp("build")
+    write_dataset(folder / "dataset.zarr", _entries(rng), attrs=_attrs(), views=views,
+                  failures=FAILURES)
+    return folder
+
+
+@pytest.fixture(scope="session")
+def release(build: Path, tmp_path_factory: pytest.TempPathFactory):
+    """The release of ``build``, packed into an existing empty folder."""
+    from vptoolkit.dataset.release import pack_release
+
+    folder = tmp_path_factory.mktemp("release") / "out"
+    folder.mkdir()
+    return pack_release(build, folder)
+
+
+@pytest.fixture()
+def release_copy(release, tmp_path: Path) -> Path:
+    """A private copy of the release to tamper with."""
+    return Path(shutil.copytree(release.path, tmp_path / "release"))
+
+
+def _source_records(build: Path) -> list[dict]:
+    from vptoolkit.dataset.store import open_store
+
+    with open_store(build / "dataset.zarr") as reader:
+        return reader.models()
+
+
+# --------------------------------------------------------------------------- pack
+
+
+def test_release_holds_every_file(release) -> None:
+    names = sorted(p.name for p in release.path.iterdir())
+    assert names == sorted([
+        "README.md", "SHA256SUMS", "croissant.json", "dataset_info.json",
+        "vptoolkit-viewpoints.h5", "vptoolkit-viewpoints.zarr.zip",
+    ])
+    assert release.zarr_zip.is_file() and release.hdf5.is_file()
+    assert release.n_models == sum(CATEGORIES.values())
+    assert release.n_failures == len(FAILURES)
+    # no staging folder left beside the release
+    assert [p.name for p in release.path.parent.iterdir()] == ["out"]
+
+
+@pytest.mark.parametrize("archive", ["zarr_zip", "hdf5"])
+def test_archive_holds_the_source_content(build: Path, release, archive: str) -> None:
+    from vptoolkit.dataset.store import open_store
+
+    with open_store(build / "dataset.zarr") as source, open_store(getattr(release, archive)) as packed:
+        assert packed.kind == ("zarr-zip" if archive == "zarr_zip" else "hdf5")
+        assert packed.array_names() == source.array_names()
+        for name in source.array_names():
+            expected, actual = source.array(name), packed.array(name)
+            assert actual.dtype == expected.dtype, name
+            np.testing.assert_array_equal(actual[...], expected[...], err_msg=name)
+            assert packed.stored_sha256(name) == source.stored_sha256(name), name
+        assert packed.models() == source.models()
+        assert packed.failures() == source.failures() == FAILURES
+        assert packed.attrs == source.attrs
+
+
+def test_sha256sums_match_hashlib(release) -> None:
+    lines = (release.path / "SHA256SUMS").read_text(encoding="utf-8").splitlines()
+    listed = {}
+    for line in lines:
+        match = re.fullmatch(r"([0-9a-f]{64})  (\S+)", line)
+        assert match, line
+        listed[match[2]] = match[1]
+    paths = [line.split("  ", 1)[1] for line in lines]
+    assert paths == sorted(paths)
+    others = sorted(p.name for p in release.path.iterdir() if p.name != "SHA256SUMS")
+    assert sorted(listed) == others
+    for name, digest in listed.items():
+        assert hashlib.sha256((release.path / name).read_bytes()).hexdigest() == digest, name
+    assert listed == release.files
+
+
+def test_pack_into_a_non_empty_folder_is_an_input_error(build: Path, tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    target = tmp_path / "mine"
+    target.mkdir()
+    (target / "notes.txt").write_text("keep me")
+    with pytest.raises(InputError, match="not empty"):
+        pack_release(build, target)
+    assert [p.name for p in target.iterdir()] == ["notes.txt"]
+    assert (target / "notes.txt").read_text() == "keep me"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine"]
+
+
+def test_pack_onto_a_file_is_an_input_error(build: Path, tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    target = tmp_path / "release"
+    target.write_text("a file")
+    with pytest.raises(InputError, match="not a folder"):
+        pack_release(build, target)
+    assert target.read_text() == "a file"
+
+
+@pytest.mark.parametrize("name", ["", "../escape", ".hidden", "a/b", "two words"])
+def test_pack_rejects_a_name_that_is_not_a_plain_file_name(build: Path, tmp_path: Path,
+                                                           name: str) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    with pytest.raises(InputError, match="name"):
+        pack_release(build, tmp_path / "release", name=name)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_failed_pack_leaves_no_release_and_no_staging(build: Path, tmp_path: Path,
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    from vptoolkit.dataset import release as release_module
+
+    def broken(*args: object, **kwargs: object) -> str:
+        raise RuntimeError("card template broke")
+
+    monkeypatch.setattr(release_module, "render_card", broken)
+    with pytest.raises(RuntimeError, match="card template broke"):
+        release_module.pack_release(build, tmp_path / "release")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    result = pack_release(build, tmp_path / "nested" / "rel", name="mini-v1", license="cc-by-4.0")
+    assert result.zarr_zip.name == "mini-v1.zarr.zip" and result.hdf5.name == "mini-v1.h5"
+    card = result.card.read_text(encoding="utf-8")
+    assert re.search(r'^license: "cc-by-4.0"$', card, re.MULTILINE)
+    assert json.loads(result.croissant.read_text())["license"] == "cc-by-4.0"
+
+
+# --------------------------------------------------------------------------- verify
+
+
+def test_verify_passes_on_a_fresh_release(release) -> None:
+    from vptoolkit.dataset.release import verify
+
+    report = verify(release.path)
+    assert report.ok, report.summary()
+    assert report.kind == "release"
+    assert report.files_checked == 5
+    assert report.arrays_checked == 2 * 15
+    assert report.warnings == []
+    report.raise_if_failed()
+    assert "OK" in report.summary()
+
+
+@pytest.mark.parametrize("path", ["store", "build folder", "release archive"])
+def test_verify_passes_on_a_single_store(build: Path, release, path: str) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    target = {"store": build / "dataset.zarr", "build folder": build,
+              "release archive": release.hdf5}[path]
+    report = verify(target)
+    assert report.ok, report.summary()
+    assert report.kind == "store" and report.arrays_checked == 15 and report.files_checked == 0
+
+
+@pytest.mark.parametrize("suffix", [".h5", ".zarr.zip"])
+def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str) -> None:
+    from vptoolkit.cli import _exit_code
+    from vptoolkit.dataset.manifest import verify
+
+    archive = release_copy / f"vptoolkit-viewpoints{suffix}"
+    content = bytearray(archive.read_bytes())
+    content[len(content) // 2] ^= 0xFF
+    archive.write_bytes(bytes(content))
+
+    report = verify(release_copy)
+    assert not report.ok
+    assert any(p.kind == "checksum" and p.target == archive.name for p in report.problems)
+    with pytest.raises(VerificationError, match=re.escape(archive.name)) as caught:
+        report.raise_if_failed()
+    assert "\n" not in str(caught.value)
+    assert _exit_code(caught.value) == 1
+
+
+def test_verify_names_a_tampered_array_in_a_zarr_directory(build: Path, tmp_path: Path) -> None:
+    import zarr
+
+    from vptoolkit.dataset.manifest import verify
+
+    folder = Path(shutil.copytree(build, tmp_path / "build"))
+    points = zarr.open_array(folder / "dataset.zarr" / "points", mode="r+")
+    points[1] = points[1] + 1.0  # rewrites one chunk; the sha256 attribute stays stale
+
+    for target, label in [(folder, "dataset.zarr:points"),
+                          (folder / "dataset.zarr", "dataset.zarr:points")]:
+        report = verify(target)
+        assert [(p.kind, p.target) for p in report.problems] == [("array", label)]
+        with pytest.raises(VerificationError, match="dataset.zarr:points"):
+            report.raise_if_failed()
+
+
+def test_verify_names_a_missing_file(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    (release_copy / "vptoolkit-viewpoints.h5").unlink()
+    report = verify(release_copy)
+    assert [(p.kind, p.target) for p in report.problems] == [
+        ("missing", "vptoolkit-viewpoints.h5")
+    ]
+    with pytest.raises(VerificationError, match="vptoolkit-viewpoints.h5"):
+        report.raise_if_failed()
+
+
+def test_verify_warns_about_an_unlisted_file(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    (release_copy / "notes.txt").write_text("added later")
+    report = verify(release_copy)
+    assert report.ok
+    assert [(p.kind, p.target) for p in report.warnings] == [("extra", "notes.txt")]
+
+
+def test_verify_names_an_edited_card(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    card = release_copy / "README.md"
+    card.write_text(card.read_text(encoding="utf-8") + "\nedited\n", encoding="utf-8")
+    report = verify(release_copy)
+    assert [(p.kind, p.target) for p in report.problems] == [("checksum", "README.md")]
+
+
+def test_verify_reports_a_malformed_or_missing_manifest(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    manifest = release_copy / "SHA256SUMS"
+    manifest.write_text(manifest.read_text() + "not a checksum line\n")
+    assert [p.kind for p in verify(release_copy).problems] == ["manifest"]
+    manifest.unlink()
+    report = verify(release_copy)
+    assert [(p.kind, p.target) for p in report.problems] == [("missing", "SHA256SUMS")]
+    assert report.arrays_checked == 30  # the archives are still checked
+
+
+def test_verify_of_a_missing_path_is_an_input_error(tmp_path: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    with pytest.raises(InputError, match="no such"):
+        verify(tmp_path / "absent")
+
+
+def test_summary_names_the_first_mismatches_and_counts_the_rest() -> None:
+    from vptoolkit.dataset.manifest import Problem, VerifyReport
+
+    report = VerifyReport(path=Path("rel"), kind="release", files_checked=5)
+    report.problems = [Problem("checksum", f"file{i}.bin", "checksum mismatch") for i in range(5)]
+    with pytest.raises(VerificationError) as caught:
+        report.raise_if_failed()
+    message = str(caught.value)
+    assert message.startswith("rel: 5 mismatches: file0.bin: checksum mismatch; file1.bin")
+    assert "file2.bin" in message and "file3.bin" not in message
+    assert message.endswith("and 2 more")
+
+
+# --------------------------------------------------------------------------- manifest helpers
+
+
+def test_sha256sums_round_trip_through_a_folder(tmp_path: Path) -> None:
+    from vptoolkit.dataset.manifest import read_sha256sums, sha256_file, write_sha256sums
+
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "b.txt").write_bytes(b"b" * (3 << 20))  # several 1 MiB blocks
+    (tmp_path / "sub" / "a.txt").write_bytes(b"")
+    sums = write_sha256sums(tmp_path)
+    assert list(sums) == ["b.txt", "sub/a.txt"]
+    assert sums["b.txt"] == hashlib.sha256(b"b" * (3 << 20)).hexdigest() == sha256_file(
+        tmp_path / "b.txt")
+    assert read_sha256sums(tmp_path / "SHA256SUMS") == sums
+
+
+@pytest.mark.parametrize("line", [f"{'0' * 64}  ../outside", f"{'0' * 64}  /etc/passwd",
+                                  "xyz  file", f"{'0' * 63}  short"])
+def test_read_sha256sums_rejects_bad_lines(tmp_path: Path, line: str) -> None:
+    from vptoolkit.dataset.manifest import read_sha256sums
+
+    (tmp_path / "SHA256SUMS").write_text(line + "\n")
+    with pytest.raises(VerificationError, match="line 1"):
+        read_sha256sums(tmp_path / "SHA256SUMS")
+
+
+# --------------------------------------------------------------------------- card
+
+
+def _front_matter(card: str) -> str:
+    match = re.match(r"---\n(.*?)\n---\n", card, re.DOTALL)
+    assert match, "no YAML front matter"
+    return match[1]
+
+
+def test_card_yaml_header(build: Path, release) -> None:
+    header = _front_matter(release.card.read_text(encoding="utf-8"))
+    records = _source_records(build)
+    for pattern in [r'^pretty_name: ".+"$', r'^license: "other"$',
+                    r"^annotations_creators:\n- machine-generated$",
+                    r'^size_categories:\n- "n<1K"$',
+                    r'^source_datasets:\n- "extended\|ModelNet40-mini"$',
+                    r"^task_categories:\n- \S+$", r"^tags:\n(- \S+\n)+",
+                    r"^dataset_info:\n  config_name: default\n  splits:$"]:
+        assert re.search(pattern, header, re.MULTILINE), pattern
+    splits = dict(re.findall(r'- name: "(\w+)"\n\s+num_examples: (\d+)', header))
+    expected = Counter(record["split"] for record in records)
+    assert {k: int(v) for k, v in splits.items()} == dict(expected)
+
+
+def test_card_has_every_datasheet_section_and_the_licence_note(release) -> None:
+    card = release.card.read_text(encoding="utf-8")
+    headings = re.findall(r"^## (.+)$", card, re.MULTILINE)
+    for section in DATASHEET_SECTIONS:
+        assert section in headings, section
+    for section in ("Counts per category and split", "Measures", "Schema", "Quality statistics"):
+        assert section in headings, section
+    assert "source meshes apply" in card
+    assert "${" not in card  # every placeholder filled
+
+
+def test_card_numbers_come_from_the_data(build: Path, release) -> None:
+    from vptoolkit.dataset.store import open_store
+
+    card = release.card.read_text(encoding="utf-8")
+    records = _source_records(build)
+    counts = Counter((r["category"], r["split"]) for r in records)
+    for category in CATEGORIES:
+        row = [counts[(category, s)] for s in ("train", "val", "test")]
+        line = f"| {category} | {row[0]} | {row[1]} | {row[2]} | {sum(row)} |"
+        assert line in card, line
+    assert f"{len(records)} models from {len(CATEGORIES)} categories" in card
+    assert f"for {N_VIEWS} views" in card and f"each with {N_POINTS} surface points" in card
+    with open_store(build / "dataset.zarr") as reader:
+        best = reader.array("best_value")[...].astype(np.float64)
+    ve = best[:, 0]
+    assert f"| VE | viewpoint entropy | higher | bits | {ve.mean():.4g} | {ve.min():.4g} | " in card
+    mean_faces = np.mean([r["n_faces"] for r in records])
+    assert f"mean {mean_faces:.4g}" in card
+    assert f"Inputs that could not be processed: {len(FAILURES)}" in card
+    for failure in FAILURES:
+        assert failure["reason"] in card
+    for name, digest in release.files.items():
+        if name.endswith((".zarr.zip", ".h5")):
+            assert digest in card
+
+
+@pytest.mark.parametrize(("n_models", "label"), [
+    (0, "n<1K"), (999, "n<1K"), (1000, "1K<n<10K"), (16000, "10K<n<100K"),
+    (250_000, "100K<n<1M"), (10**6, "1M<n<10M"),
+])
+def test_size_category(n_models: int, label: str) -> None:
+    from vptoolkit.dataset.card import size_category
+
+    assert size_category(n_models) == label
+
+
+def test_croissant_is_json_ld_with_the_manifest_sums(release) -> None:
+    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+    context = document["@context"]
+    assert context["@vocab"] == "https://schema.org/"
+    assert context["cr"] == "http://mlcommons.org/croissant/"
+    for key in ("sc", "dct", "recordSet", "field", "source", "extract", "fileObject"):
+        assert key in context, key
+    assert document["@type"] == "sc:Dataset"
+    assert document["conformsTo"] == "http://mlcommons.org/croissant/1.0"
+    assert document["name"] and document["description"] and document["license"] == "other"
+    files = {obj["contentUrl"]: obj for obj in document["distribution"]}
+    assert {"vptoolkit-viewpoints.zarr.zip", "vptoolkit-viewpoints.h5"} <= set(files)
+    for url, obj in files.items():
+        assert obj["@type"] == "cr:FileObject" and obj["encodingFormat"]
+        assert obj["sha256"] == release.files[url], url
+    (record_set,) = document["recordSet"]
+    assert record_set["@type"] == "cr:RecordSet"
+    names = [field["name"] for field in record_set["field"]]
+    assert names == ["name", "category", "split", "points", "normals", "quality"]
+    for field in record_set["field"]:
+        assert field["source"]["fileObject"]["@id"] in files
+
+
+# --------------------------------------------------------------------------- info
+
+
+def test_dataset_info_counts_per_category_and_split(build: Path, release) -> None:
+    from vptoolkit.dataset.release import dataset_info, format_info
+
+    records = _source_records(build)
+    for path in (build, release.path, release.hdf5):
+        info = dataset_info(path)
+        json.dumps(info, allow_nan=False)  # JSON-safe
+        assert info["n_models"] == len(records)
+        assert info["n_views"] == N_VIEWS and info["n_points"] == N_POINTS
+        assert info["resolution"] == 64 and info["backend"] == "raster"
+        assert info["categories"] == sorted(CATEGORIES)
+        assert info["splits"] == ["train", "val", "test"]
+        for category in CATEGORIES:
+            for split in info["splits"]:
+                expected = sum(r["category"] == category and r["split"] == split for r in records)
+                assert info["counts"][category][split] == expected
+        assert info["split_totals"] == dict(Counter(r["split"] for r in records))
+        assert info["measures"]["order"] == ["VE", "VR", "VKL", "VMI"]
+        assert info["measures"]["higher_is_better"] == [True, True, False, False]
+        assert info["measures"]["log_base"] == 2
+        assert info["camera"]["fov_deg"] == 45.0
+        assert info["toolkit_version"] == "0.1.0" and info["created"] == "2025-01-02T03:04:05Z"
+        assert info["n_failures"] == len(FAILURES) and info["failures"] == FAILURES
+    text = format_info(info)
+    assert re.search(r"^airplane\s+\d+\s+\d+\s+\d+\s+5$", text, re.MULTILINE)
+    assert re.search(rf"^total\s+\d+\s+\d+\s+\d+\s+{len(records)}$", text, re.MULTILINE)
+    assert "no view sees the model" in text
+
+
+def test_release_info_json_matches_dataset_info(release) -> None:
+    from vptoolkit.dataset.release import dataset_info
+
+    stored = json.loads((release.path / "dataset_info.json").read_text(encoding="utf-8"))
+    live = dataset_info(release.zarr_zip)
+    live.pop("path")
+    assert stored == live

@@ -1,0 +1,453 @@
+"""SHA-256 manifests of release folders and the ``verify`` check.
+
+A release folder holds a ``SHA256SUMS`` file in the format of GNU
+``sha256sum``: one line ``<64 hex digits>  <path relative to the folder>`` per
+file, sorted by path, covering every other file of the folder. ``sha256sum -c
+SHA256SUMS`` checks it without vptoolkit.
+
+:func:`verify` goes one level deeper: inside every archive (Zarr zip, Zarr
+directory or HDF5) it re-hashes each array and compares the digest with the
+array's stored ``sha256`` attribute (see ``dataset_card/SCHEMA.md``), so a
+damaged archive is caught even where no manifest exists. Files are hashed as a
+stream of 1 MiB blocks, so memory stays flat for archives of any size.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import re
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path, PurePosixPath
+from typing import Any, Literal
+
+from vptoolkit.errors import InputError, VerificationError
+
+__all__ = [
+    "MANIFEST_NAME",
+    "BLOCK_SIZE",
+    "Problem",
+    "VerifyReport",
+    "sha256_file",
+    "hash_folder",
+    "format_sha256sums",
+    "write_sha256sums",
+    "read_sha256sums",
+    "verify",
+]
+
+MANIFEST_NAME = "SHA256SUMS"
+"""File name of the manifest inside a release folder."""
+
+BLOCK_SIZE = 1 << 20
+"""Bytes read per step while hashing a file (1 MiB)."""
+
+_HEX = re.compile(r"[0-9a-f]{64}")
+_LINE = re.compile(r"^(?P<digest>[0-9a-fA-F]{64}) (?P<mode>[ *])(?P<path>.+)$")
+_ARCHIVE_SUFFIXES = (".zarr.zip", ".h5", ".hdf5")
+_SUMMARY_ITEMS = 3
+
+ProblemKind = Literal["missing", "checksum", "array", "unreadable", "manifest", "attrs", "extra"]
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One finding of :func:`verify`.
+
+    Attributes
+    ----------
+    kind : str
+        ``"missing"`` (a listed file or a schema array is absent),
+        ``"checksum"`` (a file's SHA-256 differs from the manifest),
+        ``"array"`` (an array's content differs from its ``sha256`` attribute,
+        cannot be decoded, or differs between the archives of one release),
+        ``"unreadable"`` (an archive cannot be opened or lacks a schema array),
+        ``"manifest"`` (a malformed ``SHA256SUMS`` line), ``"attrs"`` (the
+        archive's measure order differs from ``MEASURES``) or
+        ``"extra"`` (a file the manifest does not list; only ever a warning).
+    target : str
+        What is wrong: a path relative to the verified folder, or
+        ``<archive>:<array>`` for an array inside an archive.
+    detail : str
+        One line saying what differs, e.g. ``expected 3f2a…, got 91c0…``.
+    """
+
+    kind: ProblemKind
+    target: str
+    detail: str
+
+    def __str__(self) -> str:
+        return f"{self.target}: {self.detail}"
+
+    def to_dict(self) -> dict[str, str]:
+        """Return the finding as JSON types."""
+        return {"kind": self.kind, "target": self.target, "detail": self.detail}
+
+
+@dataclass
+class VerifyReport:
+    """What :func:`verify` checked and found.
+
+    Attributes
+    ----------
+    path : Path
+        The verified release folder or store.
+    kind : {"release", "store"}
+        ``"release"`` when a manifest was checked, ``"store"`` for a single store.
+    files_checked : int
+        Files re-hashed against the manifest (0 for a single store).
+    arrays_checked : int
+        Arrays re-hashed against their ``sha256`` attribute, over all archives.
+    problems : list of Problem
+        Failures; the data cannot be trusted if there is any.
+    warnings : list of Problem
+        Findings that do not fail verification (files the manifest does not list).
+    """
+
+    path: Path
+    kind: Literal["release", "store"]
+    files_checked: int = 0
+    arrays_checked: int = 0
+    problems: list[Problem] = field(default_factory=list)
+    warnings: list[Problem] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """Whether nothing failed (warnings allowed)."""
+        return not self.problems
+
+    @property
+    def mismatches(self) -> list[str]:
+        """Targets of all problems, in the order found (files, then arrays)."""
+        return [problem.target for problem in self.problems]
+
+    def summary(self) -> str:
+        """Return one line: what was checked, or the first mismatches and their count."""
+        arrays = f"{self.arrays_checked} arrays"
+        checked = f"{self.files_checked} files and {arrays}" if self.kind == "release" else arrays
+        if self.ok:
+            extra = f", {len(self.warnings)} warnings" if self.warnings else ""
+            return f"{self.path}: OK ({checked} verified{extra})"
+        shown = "; ".join(str(problem) for problem in self.problems[:_SUMMARY_ITEMS])
+        more = len(self.problems) - _SUMMARY_ITEMS
+        tail = f"; and {more} more" if more > 0 else ""
+        count = len(self.problems)
+        return f"{self.path}: {count} mismatch{'es' if count != 1 else ''}: {shown}{tail}"
+
+    def raise_if_failed(self) -> None:
+        """Raise if any check failed.
+
+        Raises
+        ------
+        VerificationError
+            With :meth:`summary` as its one-line message.
+        """
+        if not self.ok:
+            raise VerificationError(self.summary())
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the report as JSON types."""
+        return {
+            "path": str(self.path),
+            "kind": self.kind,
+            "ok": self.ok,
+            "files_checked": self.files_checked,
+            "arrays_checked": self.arrays_checked,
+            "problems": [problem.to_dict() for problem in self.problems],
+            "warnings": [problem.to_dict() for problem in self.warnings],
+        }
+
+
+def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
+    """Return the SHA-256 hex digest of a file, read in blocks.
+
+    Parameters
+    ----------
+    path : Path or str
+        The file.
+    block_size : int
+        Bytes read per step (default: 1 MiB).
+
+    Returns
+    -------
+    str
+        64 lower-case hex digits.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> file = pathlib.Path(tempfile.mkdtemp()) / "abc.txt"
+    >>> _ = file.write_bytes(b"abc")
+    >>> sha256_file(file)[:16]
+    'ba7816bf8f01cfea'
+    """
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        while block := stream.read(block_size):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _list_files(folder: Path) -> list[str]:
+    """Every file below ``folder`` as sorted POSIX paths relative to it."""
+    found = []
+    for root, dirs, files in os.walk(folder):
+        dirs.sort()
+        for name in files:
+            found.append((Path(root) / name).relative_to(folder).as_posix())
+    return sorted(found)
+
+
+def _check_listable(relative: str) -> None:
+    if "\n" in relative or "\r" in relative or "\\" in relative:
+        raise InputError(f"{relative!r}: file names with newlines or backslashes cannot be listed")
+
+
+def hash_folder(folder: Path | str, *, exclude: Iterable[str] = (MANIFEST_NAME,)) -> dict[str, str]:
+    """Return the SHA-256 of every file below ``folder``.
+
+    Parameters
+    ----------
+    folder : Path or str
+        The folder; files in subfolders are included.
+    exclude : iterable of str
+        Relative POSIX paths to leave out (default: the manifest itself).
+
+    Returns
+    -------
+    dict
+        Relative POSIX path -> 64 hex digits, sorted by path.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError(f"{folder}: not a folder")
+    skipped = set(exclude)
+    sums = {}
+    for relative in _list_files(folder):
+        if relative in skipped:
+            continue
+        _check_listable(relative)
+        sums[relative] = sha256_file(folder / relative)
+    return sums
+
+
+def format_sha256sums(sums: Mapping[str, str]) -> str:
+    """Return the text of a ``SHA256SUMS`` file: ``<hex>  <path>`` lines sorted by path.
+
+    Raises
+    ------
+    InputError
+        If a digest is not 64 lower-case hex digits or a path cannot be listed.
+    """
+    lines = []
+    for relative in sorted(sums):
+        digest = sums[relative]
+        if not _HEX.fullmatch(digest):
+            raise InputError(f"{relative}: {digest!r} is not a SHA-256 hex digest")
+        _check_listable(relative)
+        lines.append(f"{digest}  {relative}\n")
+    return "".join(lines)
+
+
+def write_sha256sums(folder: Path | str) -> dict[str, str]:
+    """Hash every file below ``folder`` and write ``folder/SHA256SUMS``.
+
+    Returns
+    -------
+    dict
+        Relative POSIX path -> SHA-256 of every file listed.
+    """
+    folder = Path(folder)
+    sums = hash_folder(folder)
+    (folder / MANIFEST_NAME).write_text(format_sha256sums(sums), encoding="utf-8", newline="\n")
+    return sums
+
+
+def read_sha256sums(path: Path | str) -> dict[str, str]:
+    """Read a ``SHA256SUMS`` file.
+
+    Accepts both ``sha256sum`` modes (``<hex>  path`` and ``<hex> *path``);
+    blank lines are skipped.
+
+    Returns
+    -------
+    dict
+        Relative POSIX path -> lower-case hex digest, in file order.
+
+    Raises
+    ------
+    VerificationError
+        On a malformed line, a repeated path, or a path that is absolute or
+        leaves the folder (``..``); the message names the line number.
+    """
+    path = Path(path)
+    sums: dict[str, str] = {}
+    text = path.read_text(encoding="utf-8")
+    for number, line in enumerate(text.splitlines(), start=1):
+        if not line.strip():
+            continue
+        match = _LINE.match(line)
+        if match is None:
+            raise VerificationError(f"{path.name}: line {number} is not '<sha256>  <path>'")
+        relative = match["path"]
+        parts = PurePosixPath(relative).parts
+        if relative.startswith("/") or ".." in parts or "\\" in relative:
+            raise VerificationError(f"{path.name}: line {number} names a path outside the folder")
+        if relative in sums:
+            raise VerificationError(f"{path.name}: line {number} repeats {relative}")
+        sums[relative] = match["digest"].lower()
+    return sums
+
+
+def _short(digest: str | None) -> str:
+    return "none" if digest is None else f"{digest[:12]}..."
+
+
+def _is_archive(path: Path) -> bool:
+    name = path.name
+    if name.endswith(".zarr") and path.is_dir():
+        return True
+    return path.is_file() and name.endswith(_ARCHIVE_SUFFIXES)
+
+
+def _check_arrays(
+    store_path: Path, label: str, report: VerifyReport
+) -> dict[str, str | None]:
+    """Re-hash every array of one store; return name -> digest of its content."""
+    from vptoolkit.dataset.store import array_sha256, open_store
+
+    digests: dict[str, str | None] = {}
+    try:
+        reader = open_store(store_path)
+    except VerificationError as err:
+        report.problems.append(Problem("attrs", label, str(err)))
+        return digests
+    except InputError as err:
+        report.problems.append(Problem("unreadable", label, f"cannot open archive ({err})"))
+        return digests
+    except Exception as err:  # noqa: BLE001 - any failure to open is the finding itself
+        report.problems.append(
+            Problem("unreadable", label, f"cannot open archive ({type(err).__name__}: {err})")
+        )
+        return digests
+    with reader:
+        for name in reader.array_names():
+            target = f"{label}:{name}"
+            report.arrays_checked += 1
+            try:
+                stored: str | None = reader.stored_sha256(name)
+            except Exception as err:  # noqa: BLE001 - reported, not swallowed
+                stored = None
+                report.problems.append(Problem("array", target, f"no sha256 attribute ({err})"))
+            try:
+                actual = array_sha256(reader.array(name))
+            except Exception as err:  # noqa: BLE001 - a damaged chunk is the finding
+                digests[name] = None
+                report.problems.append(Problem(
+                    "array", target, f"content unreadable ({type(err).__name__}: {err})"
+                ))
+                continue
+            digests[name] = actual
+            if stored is not None and actual != stored:
+                report.problems.append(Problem(
+                    "array", target,
+                    f"array checksum mismatch (stored {_short(stored)}, content {_short(actual)})",
+                ))
+    return digests
+
+
+def _compare_archives(found: dict[str, dict[str, str | None]], report: VerifyReport) -> None:
+    """Flag arrays whose content differs between the archives of one release."""
+    labels = sorted(found)
+    if len(labels) < 2:
+        return
+    first = labels[0]
+    for other in labels[1:]:
+        for name in sorted(set(found[first]) & set(found[other])):
+            a, b = found[first][name], found[other][name]
+            if a is not None and b is not None and a != b:
+                report.problems.append(Problem(
+                    "array", f"{other}:{name}", f"content differs from {first}:{name}"
+                ))
+
+
+def _verify_release(folder: Path) -> VerifyReport:
+    report = VerifyReport(path=folder, kind="release")
+    manifest = folder / MANIFEST_NAME
+    listed: dict[str, str] = {}
+    if not manifest.is_file():
+        report.problems.append(Problem("missing", MANIFEST_NAME, "manifest missing"))
+    else:
+        try:
+            listed = read_sha256sums(manifest)
+        except (VerificationError, UnicodeDecodeError) as err:
+            report.problems.append(Problem("manifest", MANIFEST_NAME, str(err)))
+    present = set(_list_files(folder)) - {MANIFEST_NAME}
+    for relative, expected in listed.items():
+        file = folder / relative
+        if not file.is_file():
+            report.problems.append(Problem("missing", relative, "listed in SHA256SUMS, not found"))
+            continue
+        report.files_checked += 1
+        actual = sha256_file(file)
+        if actual != expected:
+            report.problems.append(Problem(
+                "checksum", relative,
+                f"checksum mismatch (expected {_short(expected)}, got {_short(actual)})",
+            ))
+    if listed:
+        for relative in sorted(present - set(listed)):
+            report.warnings.append(Problem("extra", relative, "not listed in SHA256SUMS"))
+    archives = sorted(
+        entry for entry in folder.iterdir() if _is_archive(entry)
+    )
+    found = {}
+    for archive in archives:
+        found[archive.name] = _check_arrays(archive, archive.name, report)
+    _compare_archives(found, report)
+    return report
+
+
+def verify(path: Path | str) -> VerifyReport:
+    """Verify a release folder, a single store or a build output folder.
+
+    Parameters
+    ----------
+    path : Path or str
+        A release folder (it holds ``SHA256SUMS``, or ``croissant.json`` when
+        the manifest is lost): every listed file is re-hashed against the
+        manifest, files it does not list become warnings, then every array of
+        every archive in the folder is re-hashed against its ``sha256``
+        attribute and compared across archives. Otherwise any path
+        :func:`vptoolkit.dataset.store.find_store` accepts (a ``*.zarr``,
+        ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
+
+    Returns
+    -------
+    VerifyReport
+        ``report.ok`` is False if anything mismatches; call
+        ``report.raise_if_failed()`` to turn that into a
+        :class:`~vptoolkit.errors.VerificationError`.
+
+    Raises
+    ------
+    InputError
+        If ``path`` does not exist or holds no store.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file or folder")
+    if path.is_dir() and not path.name.endswith(".zarr"):
+        if (path / MANIFEST_NAME).exists() or (path / "croissant.json").exists():
+            return _verify_release(path)
+    from vptoolkit.dataset.store import find_store
+
+    store_path = find_store(path)
+    report = VerifyReport(path=path, kind="store")
+    try:
+        label = store_path.relative_to(path).as_posix() if store_path != path else path.name
+    except ValueError:
+        label = store_path.name
+    _check_arrays(store_path, label, report)
+    return report
