@@ -95,3 +95,23 @@ def test_sample_writes_points_with_normals(runner, tmp_path):
     np.testing.assert_array_equal(np.load(out, allow_pickle=False), first)
     bad = runner.invoke(main, ["sample", str(MALFORMED / "empty.obj"), "-o", str(out)])
     assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: empty.obj: ")
+
+
+def test_pack_verify_info_on_a_small_store(runner, tmp_path):
+    from test_store import write_synthetic
+
+    store = write_synthetic(tmp_path / "dataset.zarr")
+    release = tmp_path / "release"
+    packed = runner.invoke(main, ["pack", str(store), str(release)])
+    assert packed.exit_code == 0, packed.output
+    assert (release / "SHA256SUMS").exists() and (release / "README.md").exists()
+    verified = runner.invoke(main, ["verify", str(release)])
+    assert verified.exit_code == 0, verified.output
+    shown = runner.invoke(main, ["info", str(release), "--json"])
+    assert shown.exit_code == 0
+    h5 = next(release.glob("*.h5"))
+    data = bytearray(h5.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    h5.write_bytes(bytes(data))
+    broken = runner.invoke(main, ["verify", str(release)])
+    assert broken.exit_code == 1 and h5.name in broken.stderr

@@ -187,6 +187,69 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     click.echo(f"wrote {output} ({n_points} points with normals)")
 
 
+_EXISTING = click.Path(exists=True, path_type=Path)
+
+
+@main.command()
+@click.argument("dataset", type=_EXISTING)
+@click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
+@click.option("--license", "license_id", default="other", show_default=True,
+              help="Licence identifier for the card (that of the source meshes).")
+def pack(dataset: Path, release_dir: Path, name: str | None, license_id: str) -> None:
+    """Pack a built DATASET into RELEASE_DIR for publishing.
+
+    Writes a Zarr v3 zip and an HDF5 file with the same content, the dataset
+    card README.md, croissant.json and a SHA256SUMS manifest. RELEASE_DIR must
+    be new or empty.
+
+    \b
+    Example:
+      vptool pack out/ release/ --license cc-by-4.0
+    """
+    from vptoolkit.dataset.release import pack_release
+
+    result = pack_release(dataset, release_dir, name=name, license=license_id, progress=True)
+    click.echo(f"packed {result.n_models} models ({result.n_failures} failures) into "
+               f"{result.path}: {', '.join(sorted(result.files))}")
+
+
+@main.command()
+@click.argument("path", type=_EXISTING)
+@click.option("--json", "as_json", is_flag=True, help="Print the full report as JSON.")
+def verify(path: Path, as_json: bool) -> None:
+    """Re-hash a release folder or dataset store against its checksums.
+
+    Every file is checked against SHA256SUMS and every array against the
+    SHA-256 stored with it; each mismatch is named. Exit code 1 on any mismatch.
+
+    \b
+    Example:
+      vptool verify release/
+    """
+    from vptoolkit.dataset.manifest import verify as verify_path
+
+    report = verify_path(path)
+    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.summary())
+    report.raise_if_failed()
+
+
+@main.command()
+@click.argument("path", type=_EXISTING)
+@click.option("--json", "as_json", is_flag=True, help="Print the information as JSON.")
+def info(path: Path, as_json: bool) -> None:
+    """Show counts per category and split, conventions and failures of a dataset.
+
+    \b
+    Example:
+      vptool info release/
+    """
+    from vptoolkit.dataset.card import dataset_info, format_info
+
+    details = dataset_info(path)
+    click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
+
+
 def _write_text_atomically(path: Path, text: str) -> None:
     partial = path.with_name(f".{path.name}.partial")
     partial.write_text(text)
