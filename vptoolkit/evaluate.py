@@ -1,0 +1,799 @@
+"""Score predicted viewpoints against a dataset's sampled viewpoint quality.
+
+The authors' protocol (Schelling et al. 2021, section 5.2): a predicted
+direction scores the *normalised* quality (1 = best view of that model) of the
+sampled view nearest to it in angle, reported in percent. A model's score is
+taken per measure; a category's score is the mean over its models; the
+headline ``mean`` is the unweighted mean over categories, as in the paper's
+table 2 (its ML+GL ``mean`` row equals the mean of its eight category rows).
+
+Predictions come as a file (:func:`load_predictions`):
+
+``*.npz``
+    ``names`` : (n_models,) unicode, model names (any order, matched by name);
+    ``directions`` : (n_models, n_measures, 3) float, one direction per measure;
+    ``measures`` : (n_measures,) unicode, ``["VE", "VR", "VKL", "VMI"]`` or a
+    subset in that order (e.g. ``["VKL"]``). Other keys are ignored.
+    :func:`save_predictions` writes this form.
+``*.npy``
+    (n_models, 4, 3) in ``MEASURES`` order, or (n_models, 3) for the one
+    measure named by ``measure``; rows in the order of the evaluated split.
+
+Directions point from the model centre towards the camera and need not be
+unit length. Files are read with ``allow_pickle=False``.
+
+Baselines for comparison: :func:`random_directions` (uniform on the sphere),
+:func:`pca_directions` (view along the smallest principal axis) and
+:func:`oracle_directions` (the dataset's own best views, 100 % by construction).
+
+This module needs numpy alone (plus the store's zarr or h5py through
+:mod:`vptoolkit.data`); it never imports torch, open3d or pymeshlab.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import zipfile
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.dataset.store import SPLITS
+from vptoolkit.errors import InputError
+
+__all__ = [
+    "EVALUATION_SPLITS",
+    "EvaluationReport",
+    "load_predictions",
+    "save_predictions",
+    "score_directions",
+    "evaluate_predictions",
+    "random_directions",
+    "pca_directions",
+    "oracle_directions",
+]
+
+EVALUATION_SPLITS = (*SPLITS, "all")
+"""Values of ``split`` accepted by :func:`evaluate_predictions`."""
+
+_PREDICTION_KEYS = ("names", "directions", "measures")
+_MAX_LISTED = 3  # names quoted in an error message before "..."
+_NPY_MAGIC = b"\x93NUMPY"
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a zip entry, or an empty zip archive
+_SYMMETRY_TOLERANCE = 1e-9  # |third moment| / std**3 below which a cloud counts as symmetric
+
+
+# --------------------------------------------------------------------------- report
+
+
+def _percent_or_none(value: float) -> float | None:
+    return None if math.isnan(value) else float(value)
+
+
+@dataclass(frozen=True, eq=False)
+class EvaluationReport:
+    """Scores of one set of predictions on one split, in percent.
+
+    Attributes
+    ----------
+    dataset : str
+        File name of the dataset store.
+    split : str
+        ``"train"``, ``"val"``, ``"test"`` or ``"all"``.
+    predictions : str
+        File name of the predictions (``"<array>"`` for in-memory ones).
+    names : tuple of str
+        The evaluated models, in the split's order.
+    model_categories : tuple of str
+        Category of each model.
+    scores : (n_models, 4) float64
+        Normalised quality of the nearest sampled view, in percent, in
+        ``MEASURES`` order; NaN for a measure that was not predicted.
+        Read-only.
+
+    The derived tables are properties: :attr:`categories`,
+    :attr:`category_counts`, :attr:`category_scores`, :attr:`mean` (over
+    categories, the paper's headline) and :attr:`model_mean` (over models).
+    """
+
+    dataset: str
+    split: str
+    predictions: str
+    names: tuple[str, ...]
+    model_categories: tuple[str, ...]
+    scores: NDArray[np.float64]
+
+    def __post_init__(self) -> None:
+        scores = np.array(self.scores, dtype=np.float64)
+        n_models = len(self.names)
+        if n_models == 0:
+            raise InputError("scores: a report needs at least one model")
+        if scores.shape != (n_models, len(MEASURES)) or len(self.model_categories) != n_models:
+            raise InputError(
+                f"scores: expected shape ({n_models}, {len(MEASURES)}) and {n_models} categories, "
+                f"got {scores.shape} and {len(self.model_categories)}"
+            )
+        scores.flags.writeable = False
+        object.__setattr__(self, "scores", scores)
+        object.__setattr__(self, "names", tuple(self.names))
+        object.__setattr__(self, "model_categories", tuple(self.model_categories))
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """Column order of every score array: ``("VE", "VR", "VKL", "VMI")``."""
+        return tuple(MEASURES)
+
+    @property
+    def n_models(self) -> int:
+        """Number of evaluated models."""
+        return len(self.names)
+
+    @property
+    def is_scored(self) -> NDArray[np.bool_]:
+        """``(4,) bool``: was each measure predicted?"""
+        return np.asarray(~np.isnan(self.scores).all(axis=0))
+
+    @property
+    def scored_measures(self) -> tuple[str, ...]:
+        """Names of the predicted measures, in ``MEASURES`` order."""
+        return tuple(m for m, is_scored in zip(MEASURES, self.is_scored) if is_scored)
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        """The categories present, sorted."""
+        return tuple(sorted(set(self.model_categories)))
+
+    @property
+    def category_counts(self) -> NDArray[np.int64]:
+        """``(n_categories,) int64``: models per category, in :attr:`categories` order."""
+        categories = np.array(self.model_categories)
+        return np.array([int((categories == c).sum()) for c in self.categories], np.int64)
+
+    @property
+    def category_scores(self) -> NDArray[np.float64]:
+        """``(n_categories, 4) float64``: mean score of each category's models, in %."""
+        categories = np.array(self.model_categories)
+        return np.stack([self.scores[categories == c].mean(axis=0) for c in self.categories])
+
+    @property
+    def mean(self) -> NDArray[np.float64]:
+        """``(4,) float64``: unweighted mean over categories, in % (the paper's ``mean``)."""
+        return np.asarray(self.category_scores.mean(axis=0), dtype=np.float64)
+
+    @property
+    def model_mean(self) -> NDArray[np.float64]:
+        """``(4,) float64``: mean over all models regardless of category, in %."""
+        return np.asarray(self.scores.mean(axis=0), dtype=np.float64)
+
+    def to_dict(self, *, per_model: bool = False) -> dict[str, Any]:
+        """The report as JSON-safe types (NaN becomes ``None``).
+
+        Parameters
+        ----------
+        per_model : bool
+            Also list every model's scores under ``"models"`` (default: False).
+
+        Returns
+        -------
+        report : dict
+            ``dataset``, ``split``, ``predictions``, ``n_models``,
+            ``measures``, ``scored_measures``, ``unit`` (``"percent"``),
+            ``protocol``, ``categories`` (``{category: {"n_models": int,
+            "VE": float | None, ...}}``), ``mean`` (over categories) and
+            ``model_mean`` (over models), each ``{"VE": float | None, ...}``;
+            with ``per_model``, ``models``: a list of ``{"name", "category",
+            "VE", ...}``.
+        """
+
+        def by_measure(row: NDArray[np.float64]) -> dict[str, float | None]:
+            return {m: _percent_or_none(float(v)) for m, v in zip(MEASURES, row)}
+
+        categories = {
+            category: {"n_models": int(count), **by_measure(row)}
+            for category, count, row in zip(self.categories, self.category_counts,
+                                            self.category_scores)
+        }
+        report: dict[str, Any] = {
+            "dataset": self.dataset,
+            "split": self.split,
+            "predictions": self.predictions,
+            "n_models": self.n_models,
+            "measures": list(MEASURES),
+            "scored_measures": list(self.scored_measures),
+            "unit": "percent",
+            "protocol": "normalised quality of the nearest sampled view",
+            "categories": categories,
+            "mean": by_measure(self.mean),
+            "model_mean": by_measure(self.model_mean),
+        }
+        if per_model:
+            report["models"] = [
+                {"name": name, "category": category, **by_measure(row)}
+                for name, category, row in zip(self.names, self.model_categories, self.scores)
+            ]
+        return report
+
+    def format_table(self, *, transpose: bool = False, digits: int = 1) -> str:
+        """The scores as a plain-text table, one caption line first.
+
+        Parameters
+        ----------
+        transpose : bool
+            False (default): the layout of the paper's table 2, one row per
+            category plus a ``mean`` row, one column per measure, with the
+            number of models in column ``n``. True: the layout of the paper's
+            appendix table, one row per measure, one column per category plus
+            ``mean``.
+        digits : int
+            Decimals of the percentages (default: 1, as in the paper).
+
+        Returns
+        -------
+        table : str
+            Lines joined by ``"\\n"``, no trailing newline. A measure that was
+            not predicted shows ``-``.
+        """
+        if isinstance(digits, bool) or not isinstance(digits, (int, np.integer)) or digits < 0:
+            raise InputError(f"digits: expected a non-negative integer, got {digits!r}")
+
+        def cell(value: float) -> str:
+            return "-" if math.isnan(value) else f"{value:.{digits}f}"
+
+        caption = (
+            f"{self.predictions} on split {self.split!r} of {self.dataset}, {self.n_models} "
+            "models: normalised quality of the nearest sampled view in % "
+            "(mean = unweighted mean over categories)"
+        )
+        if transpose:
+            header = ["measure", *self.categories, "mean"]
+            body = [[m, *(cell(v) for v in column), cell(mean)]
+                    for m, column, mean in zip(MEASURES, self.category_scores.T, self.mean)]
+            counts = ["n", *(str(int(c)) for c in self.category_counts), str(self.n_models)]
+            rows = [header, counts, None, *body]
+        else:
+            header = ["category", "n", *MEASURES]
+            body = [[category, str(int(count)), *(cell(v) for v in row)]
+                    for category, count, row in zip(self.categories, self.category_counts,
+                                                    self.category_scores)]
+            mean_row = ["mean", str(self.n_models), *(cell(v) for v in self.mean)]
+            rows = [header, None, *body, None, mean_row]
+        cells = [row for row in rows if row is not None]
+        widths = [max(len(row[column]) for row in cells) for column in range(len(header))]
+        widths[1:] = [max(width, 5) for width in widths[1:]]  # room for "100.0" when blank
+        rule = "  ".join("-" * width for width in widths)
+        lines = [caption]
+        for row in rows:
+            if row is None:
+                lines.append(rule)
+                continue
+            first = row[0].ljust(widths[0])
+            rest = (text.rjust(width) for text, width in zip(row[1:], widths[1:]))
+            lines.append("  ".join([first, *rest]))
+        return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def _check_measure(measure: str | None) -> int | None:
+    """Column of ``measure`` in ``MEASURES`` (case-insensitive), or None."""
+    if measure is None:
+        return None
+    if not isinstance(measure, str) or measure.upper() not in MEASURES:
+        raise InputError(
+            f"measure: unknown measure {measure!r}, expected one of {', '.join(MEASURES)}"
+        )
+    return MEASURES.index(measure.upper())
+
+
+def _quoted(names: Sequence[str]) -> str:
+    listed = ", ".join(repr(name) for name in names[:_MAX_LISTED])
+    return listed + (", ..." if len(names) > _MAX_LISTED else "")
+
+
+def _count(n: int, singular: str, plural: str) -> str:
+    return f"{n} {singular if n == 1 else plural}"
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
+    """Read a ``.npy`` array or every member of a ``.npz`` archive, no pickles."""
+    suffix = path.suffix.lower()
+    if suffix not in (".npy", ".npz"):
+        raise InputError(f"{path.name}: predictions must be a .npy or .npz file")
+    if not path.is_file():
+        raise InputError(f"{path.name}: no such file")
+    # The file is opened here, not by np.load, so that it is closed even when
+    # numpy fails half-way through a damaged zip archive.
+    with path.open("rb") as handle:
+        magic = handle.read(len(_NPY_MAGIC))
+        if not (magic.startswith(_NPY_MAGIC) or magic.startswith(_ZIP_MAGIC)):
+            raise InputError(f"{path.name}: not a numpy .npy or .npz file "
+                             "(no numpy or zip header)")
+        handle.seek(0)
+        try:
+            loaded = np.load(handle, allow_pickle=False)
+            if isinstance(loaded, np.ndarray):
+                if suffix != ".npy":
+                    raise InputError(f"{path.name}: holds a single .npy array, "
+                                     "not an .npz archive")
+                return loaded
+            with loaded:
+                if suffix != ".npz":
+                    raise InputError(f"{path.name}: is an .npz archive, not a .npy array")
+                return {key: loaded[key] for key in loaded.files}
+        except InputError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+            raise InputError(f"{path.name}: cannot be read with allow_pickle=False "
+                             f"({_one_line(err)})") from err
+
+
+def _check_directions(file_name: str, directions: NDArray[Any], names: Sequence[str],
+                      measures: Sequence[str]) -> NDArray[np.float64]:
+    """Cast to float64 and reject non-finite or zero vectors, naming the model."""
+    if directions.dtype.kind not in "fiu":
+        raise InputError(f"{file_name}: directions must be numeric, got dtype {directions.dtype}")
+    values = directions.astype(np.float64)
+    is_bad = ~np.isfinite(values).all(axis=-1)
+    problem = "NaN or infinite"
+    if not is_bad.any():
+        is_bad = np.linalg.norm(values, axis=-1) < 1e-12
+        problem = "a zero vector"
+    if is_bad.any():
+        model, column = np.argwhere(is_bad)[0]
+        raise InputError(
+            f"{file_name}: direction of {names[model]!r} for {measures[column]} is {problem} "
+            f"({int(is_bad.sum())} of {is_bad.size} directions)"
+        )
+    return values
+
+
+def _unicode_vector(file_name: str, key: str, array: NDArray[Any]) -> list[str]:
+    if array.ndim != 1 or array.dtype.kind != "U":
+        raise InputError(f"{file_name}: {key!r} must be a 1-D unicode array, "
+                         f"got shape {array.shape} dtype {array.dtype}")
+    return [str(value) for value in array]
+
+
+def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str | None,
+          where: str) -> tuple[list[str], NDArray[np.float64]]:
+    path = Path(path)
+    file_name = path.name
+    column = _check_measure(measure)
+    expected_names = dataset.names
+    n_models = len(expected_names)
+    directions = np.full((n_models, len(MEASURES), 3), np.nan)
+    loaded = _read_file(path)
+
+    if isinstance(loaded, np.ndarray):
+        if loaded.ndim == 2 and loaded.shape[1] == 3:
+            if column is None:
+                raise InputError(f"{file_name}: an (n_models, 3) array needs the measure it "
+                                 "predicts (--measure)")
+            columns = [column]
+            loaded = loaded[:, None, :]
+        elif loaded.ndim == 3 and loaded.shape[1:] == (len(MEASURES), 3):
+            columns = list(range(len(MEASURES)))
+        else:
+            raise InputError(f"{file_name}: expected shape (n_models, 4, 3) or (n_models, 3), "
+                             f"got {loaded.shape}")
+        if loaded.shape[0] != n_models:
+            raise InputError(f"{file_name}: holds {loaded.shape[0]} predictions, "
+                             f"{where} has {n_models} models")
+        values = _check_directions(file_name, loaded, expected_names,
+                                   [MEASURES[c] for c in columns])
+        rows = np.arange(n_models)
+    else:
+        missing_keys = [key for key in _PREDICTION_KEYS if key not in loaded]
+        if missing_keys:
+            raise InputError(f"{file_name}: missing key(s) {', '.join(missing_keys)} "
+                             f"(has {', '.join(sorted(loaded)) or 'none'})")
+        names = _unicode_vector(file_name, "names", loaded["names"])
+        file_measures = _unicode_vector(file_name, "measures", loaded["measures"])
+        unknown_measures = [m for m in file_measures if m not in MEASURES]
+        if unknown_measures:
+            raise InputError(f"{file_name}: unknown measure(s) {_quoted(unknown_measures)}, "
+                             f"expected some of {', '.join(MEASURES)}")
+        columns = [MEASURES.index(m) for m in file_measures]
+        if not columns or columns != sorted(set(columns)):
+            raise InputError(f"{file_name}: measures {file_measures} differ from the order "
+                             f"{', '.join(MEASURES)} (or a subset in that order)")
+        raw = loaded["directions"]
+        if raw.shape != (len(names), len(columns), 3):
+            raise InputError(f"{file_name}: directions must have shape ({len(names)}, "
+                             f"{len(columns)}, 3) for {len(names)} names and "
+                             f"{len(columns)} measures, got {raw.shape}")
+        values = _check_directions(file_name, raw, names, file_measures)
+        duplicates = sorted(name for name, count in Counter(names).items() if count > 1)
+        if duplicates:
+            raise InputError(f"{file_name}: duplicate names {_quoted(duplicates)}")
+        position = {name: i for i, name in enumerate(expected_names)}
+        unknown = [name for name in names if name not in position]
+        if unknown:
+            raise InputError(f"{file_name}: {_count(len(unknown), 'name', 'names')} not in "
+                             f"{where}: {_quoted(unknown)}")
+        if len(names) != n_models:
+            have = set(names)
+            missing = [name for name in expected_names if name not in have]
+            raise InputError(f"{file_name}: holds {len(names)} predictions, {where} has "
+                             f"{n_models} models; missing {_quoted(missing)}")
+        rows = np.array([position[name] for name in names], dtype=np.int64)
+
+    if column is not None:
+        if column not in columns:
+            raise InputError(f"{file_name}: measure {MEASURES[column]!r} is not predicted "
+                             f"(file has {', '.join(MEASURES[c] for c in columns)})")
+        values = values[:, [columns.index(column)], :]
+        columns = [column]
+    directions[rows[:, None], np.array(columns)[None, :], :] = values
+    return list(expected_names), directions
+
+
+def load_predictions(
+    path: str | os.PathLike[str],
+    dataset_split: ViewpointDataset,
+    *,
+    measure: str | None = None,
+) -> tuple[list[str], NDArray[np.float64]]:
+    """Read a predictions file and align it with the models of a split.
+
+    Parameters
+    ----------
+    path : path-like
+        ``*.npz`` with ``names``, ``directions`` and ``measures``, or ``*.npy``
+        of shape (n_models, 4, 3) or (n_models, 3); see the module docstring.
+    dataset_split : ViewpointDataset
+        The models being evaluated, e.g. ``dataset.split("test")``. An
+        ``.npz`` must name each of them exactly once; an ``.npy`` must have
+        one row per model, in this order.
+    measure : str, optional
+        Score only this measure (``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"``,
+        case-insensitive). Required for an (n_models, 3) array.
+
+    Returns
+    -------
+    names : list of str
+        ``dataset_split.names``.
+    directions : (n_models, 4, 3) float64
+        Row ``i`` predicts ``names[i]``, in ``MEASURES`` order, as stored
+        (not normalised); all-NaN rows for measures not predicted.
+
+    Raises
+    ------
+    InputError
+        One line naming the file: not ``.npy``/``.npz``, missing, unreadable
+        with ``allow_pickle=False`` (e.g. an object array), a missing key,
+        wrong shape or dtype, NaN, infinite or zero vectors, duplicate or
+        unknown names, a count that differs from the split, measures that are
+        unknown or out of ``MEASURES`` order, or a ``measure`` not predicted.
+        Also for an unknown ``measure`` (naming the argument).
+    """
+    return _load(path, dataset_split, measure, f"the evaluated models of {dataset_split.path.name}")
+
+
+def save_predictions(
+    path: str | os.PathLike[str],
+    names: Sequence[str],
+    directions: ArrayLike,
+    *,
+    measures: Sequence[str] = MEASURES,
+) -> Path:
+    """Write predictions in the ``.npz`` form :func:`load_predictions` reads.
+
+    Parameters
+    ----------
+    path : path-like
+        Target file; must end in ``.npz``.
+    names : sequence of str
+        Model names, unique.
+    directions : (n_models, n_measures, 3) array_like
+        One direction per model and measure, stored as float64.
+    measures : sequence of str
+        The predicted measures, ``MEASURES`` or a subset in that order
+        (default: all four).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        If the suffix is not ``.npz``, or the shapes, names or measures do not
+        fit together.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        raise InputError(f"{path.name}: predictions must be saved as .npz")
+    name_list = [str(name) for name in names]
+    if len(set(name_list)) != len(name_list):
+        raise InputError("names: model names must be unique")
+    measure_list = [str(m) for m in measures]
+    columns = [MEASURES.index(m) if m in MEASURES else -1 for m in measure_list]
+    if not columns or -1 in columns or columns != sorted(set(columns)):
+        raise InputError(f"measures: {measure_list} is not {', '.join(MEASURES)} "
+                         "or a subset in that order")
+    values = np.asarray(directions, dtype=np.float64)
+    if values.shape != (len(name_list), len(measure_list), 3):
+        raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "
+                         f"got {values.shape}")
+    with path.open("wb") as handle:
+        np.savez(handle, names=np.array(name_list, dtype=str),
+                 directions=values, measures=np.array(measure_list, dtype=str))
+    return path
+
+
+# --------------------------------------------------------------------------- scoring
+
+
+def score_directions(
+    dataset: ViewpointDataset,
+    directions: ArrayLike,
+    *,
+    split: str | None = None,
+    predictions: str = "<array>",
+) -> EvaluationReport:
+    """Score directions given in the dataset's model order.
+
+    A direction scores ``100 * quality[nearest view, measure]``, the
+    normalised quality (1 = the model's best sampled view) of the sampled view
+    nearest to it in angle (:meth:`ViewpointDataset.quality_of`).
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset
+        The evaluated models (a whole dataset or one split).
+    directions : (n_models, 4, 3) array_like
+        Row ``i`` for ``dataset[i]``, in ``MEASURES`` order, any non-zero
+        length. A measure whose directions are NaN for every model is not
+        scored (NaN in the report).
+    split : str, optional
+        Split label of the report (default: the models' split if they all
+        share one, else ``"all"``).
+    predictions : str
+        Name of the predictions in the report (default: ``"<array>"``).
+
+    Returns
+    -------
+    EvaluationReport
+
+    Raises
+    ------
+    InputError
+        If the dataset is empty, the shape is wrong, no measure is predicted,
+        a measure is predicted for some models only, or a direction is
+        infinite or zero.
+    """
+    n_models = len(dataset)
+    if n_models == 0:
+        raise InputError(f"{dataset.path.name}: no models to evaluate")
+    values = np.asarray(directions, dtype=np.float64)
+    if values.shape != (n_models, len(MEASURES), 3):
+        raise InputError(f"directions: expected shape ({n_models}, {len(MEASURES)}, 3), "
+                         f"got {values.shape}")
+    is_missing = np.isnan(values).any(axis=2)  # (n_models, 4)
+    is_scored = ~is_missing.all(axis=0)
+    partial = [m for m, column in zip(MEASURES, is_missing.T) if 0 < column.sum() < n_models]
+    if partial:
+        raise InputError(f"directions: measure(s) {', '.join(partial)} predicted for some "
+                         "models only; predict every model or none")
+    if not is_scored.any():
+        raise InputError("directions: no measure is predicted (all NaN)")
+    columns = np.flatnonzero(is_scored)
+    scores = np.full((n_models, len(MEASURES)), np.nan)
+    for model in range(n_models):
+        quality = dataset.quality_of(model, values[model, columns])  # (n_scored, 4)
+        scores[model, columns] = 100.0 * quality[np.arange(len(columns)), columns]
+    if split is None:
+        present = set(dataset.splits)
+        split = present.pop() if len(present) == 1 else "all"
+    return EvaluationReport(
+        dataset=dataset.path.name,
+        split=split,
+        predictions=predictions,
+        names=tuple(dataset.names),
+        model_categories=tuple(dataset.categories),
+        scores=scores,
+    )
+
+
+def _select_split(dataset: ViewpointDataset, split: str) -> ViewpointDataset:
+    if split not in EVALUATION_SPLITS:
+        raise InputError(f"split: unknown split {split!r}, expected one of "
+                         f"{', '.join(EVALUATION_SPLITS)}")
+    selected = dataset if split == "all" else dataset.split(split)
+    if len(selected) == 0:
+        raise InputError(f"{dataset.path.name}: split {split!r} has no models")
+    return selected
+
+
+def evaluate_predictions(
+    dataset: ViewpointDataset | str | os.PathLike[str],
+    predictions_path: str | os.PathLike[str],
+    *,
+    split: str = "test",
+    measure: str | None = None,
+) -> EvaluationReport:
+    """Score a predictions file on one split of a dataset.
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset or path-like
+        An open dataset, or a store path to open (and close again).
+    predictions_path : path-like
+        ``*.npz`` or ``*.npy``; see :func:`load_predictions`.
+    split : str
+        ``"train"``, ``"val"``, ``"test"`` (default) or ``"all"``.
+    measure : str, optional
+        Score only this measure; required for an (n_models, 3) ``.npy``.
+
+    Returns
+    -------
+    EvaluationReport
+        Per model, per category and mean over categories, in percent.
+
+    Raises
+    ------
+    InputError
+        For an unknown split or measure, an empty split, or any problem of
+        the predictions file (one line naming the file).
+
+    Examples
+    --------
+    >>> report = evaluate_predictions("build/", "predictions.npz")   # doctest: +SKIP
+    >>> print(report.format_table())                                 # doctest: +SKIP
+    """
+    if not isinstance(dataset, ViewpointDataset):
+        with open_dataset(dataset) as opened:
+            return evaluate_predictions(opened, predictions_path, split=split, measure=measure)
+    selected = _select_split(dataset, split)
+    _check_measure(measure)
+    _, directions = _load(predictions_path, selected, measure,
+                          f"split {split!r} of {dataset.path.name}")
+    return score_directions(selected, directions, split=split,
+                            predictions=Path(predictions_path).name)
+
+
+# --------------------------------------------------------------------------- baselines
+
+
+def random_directions(n: int, *, seed: int) -> NDArray[np.float64]:
+    """Directions drawn uniformly on the unit sphere, independently per measure.
+
+    Normalised standard-normal vectors, from ``np.random.default_rng(seed)``.
+
+    Parameters
+    ----------
+    n : int
+        Number of models, at least 0.
+    seed : int
+        Seed of the generator; the same seed gives the same array.
+
+    Returns
+    -------
+    directions : (n, 4, 3) float64
+        Unit vectors.
+
+    Raises
+    ------
+    InputError
+        If ``n`` is negative or either argument is not an integer.
+    """
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise InputError(f"n: expected a non-negative integer, got {n!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise InputError(f"seed: expected an integer, got {seed!r}")
+    rng = np.random.default_rng(int(seed))
+    directions = np.zeros((int(n), len(MEASURES), 3))
+    is_todo = np.ones(directions.shape[:2], dtype=bool)
+    while is_todo.any():  # redraw the (practically impossible) near-zero draws
+        directions[is_todo] = rng.standard_normal((int(is_todo.sum()), 3))
+        is_todo = np.linalg.norm(directions, axis=2) < 1e-12
+    return np.asarray(directions / np.linalg.norm(directions, axis=2, keepdims=True))
+
+
+def _pca_direction(points: NDArray[np.float64], label: str) -> NDArray[np.float64]:
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise InputError(f"{label}: expected shape (n_points, 3), got {points.shape}")
+    if points.shape[0] < 3:
+        raise InputError(f"{label}: needs at least 3 points, got {points.shape[0]}")
+    if not np.isfinite(points).all():
+        raise InputError(f"{label}: contains NaN or infinite values")
+    centred = points - points.mean(axis=0)
+    eigenvalues, eigenvectors = np.linalg.eigh(centred.T @ centred / len(points))
+    if eigenvalues[-1] <= 1e-24:
+        raise InputError(f"{label}: all points coincide")
+    axis = eigenvectors[:, 0]  # smallest principal axis (eigh sorts ascending)
+    projection = centred @ axis
+    spread = float(np.mean(projection**2))
+    third_moment = float(np.mean(projection**3))
+    if abs(third_moment) > _SYMMETRY_TOLERANCE * max(spread, 1e-300) ** 1.5:
+        sign = -math.copysign(1.0, third_moment)
+    else:
+        sign = math.copysign(1.0, axis[int(np.argmax(np.abs(axis)))])
+    unit = sign * axis
+    return np.asarray(unit / np.linalg.norm(unit))
+
+
+def pca_directions(points: ArrayLike | Sequence[ArrayLike]) -> NDArray[np.float64]:
+    """A PCA heuristic: look along each model's smallest principal axis.
+
+    Viewing along the eigenvector of the smallest eigenvalue of the point
+    covariance puts the two largest principal axes in the image plane, so the
+    model shows its largest extent. The sign is chosen by the third central
+    moment of the points projected onto that axis: the camera goes on the
+    side of the bulk of the points, away from the long tail (a table seen
+    along its height is viewed from the top, not from the end of its legs).
+    If the projection is symmetric (``|third moment| <= 1e-9 std**3``), the
+    component of largest magnitude is made positive. The rule only uses the
+    points, so rotating a model rotates its direction with it (except in the
+    symmetric fallback). The same direction is returned for all four measures.
+
+    Parameters
+    ----------
+    points : (n_models, n_points, 3) array_like or sequence of (n_points_i, 3) array_like
+        Point clouds in model coordinates, e.g. ``dataset[i]["points"]``;
+        at least 3 points each.
+
+    Returns
+    -------
+    directions : (n_models, 4, 3) float64
+        Unit vectors, identical along the measure axis.
+
+    Raises
+    ------
+    InputError
+        On a wrong shape, fewer than 3 points, NaN or infinite coordinates,
+        or a cloud whose points all coincide (naming ``points[i]``).
+    """
+    if isinstance(points, np.ndarray):
+        if points.ndim != 3 or points.shape[2] != 3:
+            raise InputError("points: expected (n_models, n_points, 3) or a list of "
+                             f"(n_points, 3) arrays, got shape {points.shape}")
+        clouds: Sequence[ArrayLike] = list(points)
+    else:
+        clouds = list(points)  # type: ignore[arg-type]
+    directions = np.zeros((len(clouds), len(MEASURES), 3))
+    for model, cloud in enumerate(clouds):
+        try:
+            array = np.asarray(cloud, dtype=np.float64)
+        except (TypeError, ValueError) as err:
+            raise InputError(f"points[{model}]: not a numeric array ({_one_line(err)})") from err
+        directions[model] = _pca_direction(array, f"points[{model}]")[None, :]
+    return directions
+
+
+def oracle_directions(dataset: ViewpointDataset) -> NDArray[np.float64]:
+    """The dataset's own best sampled view of every model and measure.
+
+    Scores 100 % under :func:`score_directions` by construction: an upper
+    bound and a check of the evaluation itself.
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset
+        A dataset or one split.
+
+    Returns
+    -------
+    directions : (n_models, 4, 3) float64
+        ``dataset.views[dataset[i]["best_index"]]``, unit vectors in
+        ``MEASURES`` order.
+    """
+    directions = np.zeros((len(dataset), len(MEASURES), 3))
+    for model in range(len(dataset)):
+        directions[model] = dataset.views[dataset[model]["best_index"]]
+    return directions
