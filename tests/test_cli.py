@@ -115,3 +115,23 @@ def test_pack_verify_info_on_a_small_store(runner, tmp_path):
     h5.write_bytes(bytes(data))
     broken = runner.invoke(main, ["verify", str(release)])
     assert broken.exit_code == 1 and h5.name in broken.stderr
+
+
+def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_path):
+    from test_store import write_synthetic
+
+    from vptoolkit.data import open_dataset
+    from vptoolkit.evaluate import oracle_directions
+
+    store = write_synthetic(tmp_path / "dataset.zarr")
+    with open_dataset(store) as dataset:
+        test = dataset.split("test")
+        np.save(tmp_path / "oracle.npy", oracle_directions(test))
+        n_test = len(test)
+    result = runner.invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                  str(store), "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["mean"] == {m: 100.0 for m in ("VE", "VR", "VKL", "VMI")}
+    np.save(tmp_path / "bad.npy", np.zeros((n_test, 4, 3)))
+    bad = runner.invoke(main, ["evaluate", str(tmp_path / "bad.npy"), "--dataset", str(store)])
+    assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: bad.npy: ")

@@ -250,6 +250,35 @@ def info(path: Path, as_json: bool) -> None:
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
 
 
+
+@main.command()
+@click.argument("predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("--dataset", "dataset_path", required=True, type=_EXISTING,
+              help="Dataset built by build-dataset (store, build folder or release folder).")
+@click.option("--split", default="test", show_default=True,
+              type=click.Choice(["train", "val", "test", "all"]), help="Models to score.")
+@click.option("--measure", type=click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False),
+              help="The measure of an (N, 3) predictions.npy, or the only one to score.")
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | None,
+             as_json: bool) -> None:
+    """Score predicted view directions against a dataset.
+
+    PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
+    matched by name) or a .npy of shape (N, 4, 3), or (N, 3) with --measure, in
+    the split's order. The score of a direction is the normalised quality of
+    the nearest sampled view (100 % = the best view), per category and measure.
+
+    \b
+    Example:
+      vptool evaluate predictions.npz --dataset release/ --split test
+    """
+    from vptoolkit.evaluate import evaluate_predictions
+
+    report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
+    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
+
+
 def _write_text_atomically(path: Path, text: str) -> None:
     partial = path.with_name(f".{path.name}.partial")
     partial.write_text(text)
