@@ -135,3 +135,20 @@ def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_pat
     np.save(tmp_path / "bad.npy", np.zeros((n_test, 4, 3)))
     bad = runner.invoke(main, ["evaluate", str(tmp_path / "bad.npy"), "--dataset", str(store)])
     assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: bad.npy: ")
+
+
+def test_build_dataset_records_failures_and_exits_1(runner, tmp_path):
+    import shutil
+
+    src = tmp_path / "src"
+    (src / "things").mkdir(parents=True)
+    for name in ("teapot.stl", "suzanne.ply"):
+        shutil.copy(sample_path(name), src / "things" / name)
+    shutil.copy(MALFORMED / "empty.obj", src / "things" / "empty.obj")
+    result = runner.invoke(main, ["build-dataset", str(src), str(tmp_path / "out"), "--views", "40",
+                                  "--resolution", "48", "--points", "200", "--no-clean"])
+    assert result.exit_code == 1, result.output
+    assert "2 models, 1 failures" in result.stdout
+    assert "failed things/empty.obj: " in result.stderr
+    shown = runner.invoke(main, ["info", str(tmp_path / "out")])
+    assert shown.exit_code == 0 and "things" in shown.stdout
