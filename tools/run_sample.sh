@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The main job on the bundled sample meshes: build a viewpoint-quality dataset
+# (cleaning, 20000 points, 1000 views at 1024 px), pack it into a release with
+# checksums and a dataset card, verify the release and show what it holds.
+# Usage: bash tools/run_sample.sh [OUT]   (default OUT: sample_run/)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out="${1:-sample_run}"
+vptool=.venv/bin/vptool
+
+"$vptool" build-dataset vptoolkit/samples "$out/build" --workers 2
+# A release folder must be new: replace the one this script made last time.
+if [ -f "$out/release/SHA256SUMS" ]; then rm -r "$out/release"; fi
+"$vptool" pack "$out/build" "$out/release"
+"$vptool" verify "$out/release"
+"$vptool" info "$out/release"
