@@ -6,7 +6,7 @@ from pathlib import Path
 import vptoolkit
 
 LAYERS = {
-    "errors": 0, "conventions": 0, "optional": 0,
+    "errors": 0, "conventions": 0, "optional": 0, "checks": 0,
     "mesh": 1, "io": 1, "samples": 1,
     "geometry": 2, "sphere": 2, "camera": 2,
     "visibility": 3,

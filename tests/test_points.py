@@ -144,8 +144,8 @@ def test_sample_surface_is_deterministic_per_seed(uneven_box: Mesh) -> None:
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"n": 0}, "n: expected a positive integer"),
-        ({"n": 2.5}, "n: expected a positive integer"),
+        ({"n": 0}, "n: must be at least 1"),
+        ({"n": 2.5}, "n: expected an integer"),
         ({"seed": 1.5}, "seed: expected an integer"),
     ],
     ids=["zero-points", "float-points", "float-seed"],
@@ -220,7 +220,7 @@ def test_fps_is_deterministic_per_rng(sphere_points: np.ndarray) -> None:
 @pytest.mark.parametrize(
     ("n_samples", "kwargs", "message"),
     [
-        (0, {}, "n_samples: expected a positive integer"),
+        (0, {}, "n_samples: must be at least 1"),
         (20_001, {}, "n_samples: cannot pick 20001 distinct points from 20000"),
         (5, {"start_index": 20_000}, r"start_index: expected an integer in \[0, 20000\)"),
         (5, {"rng": 3}, "rng: expected a numpy.random.Generator"),

@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import check_bool, check_int, one_line
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError, MeasurementError
@@ -301,13 +302,13 @@ def clean_mesh(
     (True, ['repair', 'remove_hidden', 'simplify'])
     """
     _check_mesh(mesh)
-    max_faces = _check_int(max_faces, "max_faces", minimum=4)
-    max_rounds = _check_int(max_rounds, "max_rounds", minimum=0)
-    n_views = _check_int(n_views, "n_views", minimum=1)
-    hidden_resolution = _check_int(hidden_resolution, "hidden_resolution", minimum=8)
+    max_faces = check_int(max_faces, "max_faces", minimum=4)
+    max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
+    n_views = check_int(n_views, "n_views", minimum=1)
+    hidden_resolution = check_int(hidden_resolution, "hidden_resolution", minimum=8)
     _check_method(self_intersections)
-    orient = _check_bool(orient, "orient")
-    remesh = _check_bool(remesh, "remesh")
+    orient = check_bool(orient, "orient")
+    remesh = check_bool(remesh, "remesh")
     ml = _pymeshlab()
 
     start = time.perf_counter()
@@ -435,7 +436,7 @@ def repair_mesh(
     """
     _check_mesh(mesh)
     _check_method(self_intersections)
-    max_rounds = _check_int(max_rounds, "max_rounds", minimum=0)
+    max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
     return _repair(_pymeshlab(), mesh, self_intersections, max_rounds).repaired
 
 
@@ -478,8 +479,8 @@ def two_sided_pixel_totals(
         On a bad argument.
     """
     _check_mesh(mesh)
-    n_views = _check_int(n_views, "n_views", minimum=1)
-    resolution = _check_int(resolution, "resolution", minimum=8)
+    n_views = check_int(n_views, "n_views", minimum=1)
+    resolution = check_int(resolution, "resolution", minimum=8)
     n_faces = mesh.n_faces
     _, diagonal = bounding_frame(mesh)
     offset = _BACK_OFFSET * diagonal
@@ -572,7 +573,7 @@ def remove_hidden_faces(
     MeasurementError
         If no face is seen; the message starts with the mesh name.
     """
-    orient = _check_bool(orient, "orient")
+    orient = check_bool(orient, "orient")
     pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
     is_hidden = _keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
     is_flipped = _seen_from_behind(mesh.faces, pixels) if orient else None
@@ -622,8 +623,8 @@ def simplify_mesh(mesh: Mesh, *, max_faces: int = MAX_FACES, remesh: bool = Fals
         the mesh name.
     """
     _check_mesh(mesh)
-    max_faces = _check_int(max_faces, "max_faces", minimum=4)
-    remesh = _check_bool(remesh, "remesh")
+    max_faces = check_int(max_faces, "max_faces", minimum=4)
+    remesh = check_bool(remesh, "remesh")
     if mesh.n_faces <= max_faces and not remesh:
         return mesh
     ml = _pymeshlab()
@@ -665,18 +666,6 @@ def _pymeshlab() -> ModuleType:
 def _check_mesh(mesh: Mesh) -> None:
     if not isinstance(mesh, Mesh):
         raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
-
-
-def _check_int(value: int, what: str, *, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise InputError(f"{what}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _check_bool(value: bool, what: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise InputError(f"{what}: expected True or False, got {value!r}")
-    return bool(value)
 
 
 def _check_method(method: str) -> None:
@@ -739,12 +728,8 @@ def _apply(
         meshes.apply_filter(filter_name, **params)
     except ml.PyMeshLabException as err:
         raise MeasurementError(
-            f"{name}: {step}: pymeshlab {filter_name} failed: {_one_line(err)}"
+            f"{name}: {step}: pymeshlab {filter_name} failed: {one_line(err)}"
         ) from err
-
-
-def _one_line(err: BaseException) -> str:
-    return " ".join(str(err).replace("<br>", " ").split())
 
 
 def _n_faces(meshes: pymeshlab.MeshSet) -> int:

@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.checks import one_line
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS
@@ -303,10 +304,6 @@ def _count(n: int, singular: str, plural: str) -> str:
     return f"{n} {singular if n == 1 else plural}"
 
 
-def _one_line(error: BaseException) -> str:
-    return " ".join(str(error).split()) or type(error).__name__
-
-
 def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
     """Read a ``.npy`` array or every member of a ``.npz`` archive, no pickles."""
     suffix = path.suffix.lower()
@@ -337,7 +334,7 @@ def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
             raise
         except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
             raise InputError(f"{path.name}: cannot be read with allow_pickle=False "
-                             f"({_one_line(err)})") from err
+                             f"({one_line(err)})") from err
 
 
 def _check_directions(file_name: str, directions: NDArray[Any], names: Sequence[str],
@@ -771,7 +768,7 @@ def pca_directions(points: ArrayLike | Sequence[ArrayLike]) -> NDArray[np.float6
         try:
             array = np.asarray(cloud, dtype=np.float64)
         except (TypeError, ValueError) as err:
-            raise InputError(f"points[{model}]: not a numeric array ({_one_line(err)})") from err
+            raise InputError(f"points[{model}]: not a numeric array ({one_line(err)})") from err
         directions[model] = _pca_direction(array, f"points[{model}]")[None, :]
     return directions
 

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 
@@ -106,7 +107,7 @@ def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> S
     """
     if not isinstance(mesh, Mesh):
         raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
-    n = _positive_int(n, "n")
+    n = check_int(n, "n", minimum=1)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise InputError(f"seed: expected an integer, got {seed!r}")
 
@@ -186,7 +187,7 @@ def farthest_point_sampling(
     """
     cloud = _as_points(points, "points")
     n_points = len(cloud)
-    n_samples = _positive_int(n_samples, "n_samples")
+    n_samples = check_int(n_samples, "n_samples", minimum=1)
     if n_samples > n_points:
         raise InputError(
             f"n_samples: cannot pick {n_samples} distinct points from {n_points} points"
@@ -273,7 +274,7 @@ def network_input_indices(
         ``numpy.random.Generator``.
     """
     cloud = _as_points(points, "points")
-    n = _positive_int(n, "n")
+    n = check_int(n, "n", minimum=1)
     if isinstance(n_fps, bool) or not isinstance(n_fps, (int, np.integer)) or n_fps < 0:
         raise InputError(f"n_fps: expected a non-negative integer, got {n_fps!r}")
     if n_fps > n:
@@ -356,12 +357,6 @@ def _as_points(points: ArrayLike, what: str) -> NDArray[np.float64]:
     if not np.isfinite(cloud).all():
         raise InputError(f"{what}: contains NaN or infinite coordinates")
     return cloud
-
-
-def _positive_int(value: int, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-        raise InputError(f"{what}: expected a positive integer, got {value!r}")
-    return int(value)
 
 
 def _generator(rng: np.random.Generator) -> np.random.Generator:

@@ -52,6 +52,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.io import WRITABLE_SUFFIXES, save_mesh
 from vptoolkit.mesh import Mesh
@@ -126,7 +127,7 @@ def make_shape(category: str, *, seed: int, name: str | None = None) -> Mesh:
         raise InputError(
             f"category: unknown category {category!r}; expected one of {', '.join(CATEGORIES)}"
         )
-    seed = _check_int(seed, "seed")
+    seed = check_int(seed, "seed")
     rng = np.random.Generator(np.random.PCG64(_stable_seed("vptoolkit.synthetic", category, seed)))
     parts = _BUILDERS[category](rng)
     return _assemble(parts, name=f"{category}_{seed:04d}" if name is None else name)
@@ -186,10 +187,10 @@ def write_collection(
         If an argument is invalid; the message names it.
     """
     category_list = _check_categories(categories)
-    n_per_category = _check_int(n_per_category, "n_per_category")
+    n_per_category = check_int(n_per_category, "n_per_category")
     if n_per_category < 1:
         raise InputError(f"n_per_category: expected an int >= 1, got {n_per_category}")
-    seed = _check_int(seed, "seed")
+    seed = check_int(seed, "seed")
     if layout not in LAYOUTS:
         raise InputError(f"layout: expected one of {', '.join(LAYOUTS)}, got {layout!r}")
     is_number = isinstance(test_fraction, (int, float)) and not isinstance(test_fraction, bool)
@@ -237,13 +238,6 @@ def _check_categories(categories: Sequence[str]) -> list[str]:
     if not category_list or len(set(category_list)) != len(category_list):
         raise InputError(f"categories: expected distinct category names, got {category_list!r}")
     return category_list
-
-
-def _check_int(value: object, argument: str) -> int:
-    """Return ``value`` as an int; raise an InputError naming ``argument`` otherwise."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(f"{argument}: expected an int, got {type(value).__name__}")
-    return int(value)
 
 
 def _stable_seed(*keys: object) -> int:

@@ -77,6 +77,7 @@ from typing import Any, Literal, overload
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.camera import Camera
 from vptoolkit.dataset.store import ModelEntry, write_dataset
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
@@ -238,7 +239,7 @@ def discover_models(
         If ``src`` does not exist or is not a folder, holds no mesh files,
         or a requested category has no mesh files.
     """
-    root = _as_path(src, "src")
+    root = as_path(src, "src")
     if not root.exists():
         raise InputError(f"{root}: source folder does not exist")
     if not root.is_dir():
@@ -377,7 +378,7 @@ def assign_split(
     for value, what in ((category, "category"), (name, "name")):
         if not isinstance(value, str) or not value:
             raise InputError(f"{what}: expected a non-empty string, got {value!r}")
-    seed = _check_int(seed, "seed", minimum=None)
+    seed = check_int(seed, "seed", minimum=None)
     if folder_split not in (None, *_FOLDER_SPLITS):
         raise InputError(f"folder_split: expected 'train', 'test' or None, got {folder_split!r}")
     if folder_split == "test":
@@ -492,17 +493,17 @@ def build_dataset(
         clean=clean,
         split_seed=split_seed,
     )
-    workers = _check_int(workers, "workers", minimum=1)
+    workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise InputError(f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}")
     if scheduler is not None and workers != 1:
         raise InputError("workers: give either workers > 1 or scheduler, not both")
-    progress = _check_bool(progress, "progress")
-    out_dir = _as_path(out, "out")
+    progress = check_bool(progress, "progress")
+    out_dir = as_path(out, "out")
     _check_dependencies(options, scheduler)
 
     models = discover_models(src, categories)
-    root = _as_path(src, "src").resolve()
+    root = as_path(src, "src").resolve()
     models = _outside(models, out_dir)
     unique, duplicate_failures = _split_duplicates(models)
 
@@ -585,12 +586,12 @@ def _check_options(
 
     return {
         "format": format,
-        "n_views": _check_int(n_views, "n_views", minimum=1),
-        "resolution": _check_int(resolution, "resolution", minimum=1, maximum=16384),
-        "n_points": _check_int(n_points, "n_points", minimum=1),
-        "max_faces": _check_int(max_faces, "max_faces", minimum=4),
-        "clean": _check_bool(clean, "clean"),
-        "split_seed": _check_int(split_seed, "split_seed", minimum=None),
+        "n_views": check_int(n_views, "n_views", minimum=1),
+        "resolution": check_int(resolution, "resolution", minimum=1, maximum=16384),
+        "n_points": check_int(n_points, "n_points", minimum=1),
+        "max_faces": check_int(max_faces, "max_faces", minimum=4),
+        "clean": check_bool(clean, "clean"),
+        "split_seed": check_int(split_seed, "split_seed", minimum=None),
         "backend": BACKEND,
         "camera": Camera().to_dict(),
         "toolkit_version": vptoolkit.__version__,
@@ -1024,7 +1025,7 @@ def _run_on_cluster(
             except Exception as err:  # noqa: BLE001
                 result = _failure_result(
                     task,
-                    f"{task['source']}: cluster task failed ({type(err).__name__}: {_one_line(err)})",
+                    f"{task['source']}: cluster task failed ({type(err).__name__}: {one_line(err)})",
                     staged=False,
                 )
             future.release()
@@ -1065,16 +1066,16 @@ def _process_model(task: Mapping[str, Any]) -> dict[str, Any]:
     # The worker's environment or load, not the model: recorded but not staged, so
     # the next run tries the model again.
     except MissingDependencyError as err:
-        return _failure_result(task, f"{task['source']}: {_one_line(err)}", staged=False)
+        return _failure_result(task, f"{task['source']}: {one_line(err)}", staged=False)
     except MemoryError:
         return _failure_result(task, f"{task['source']}: out of memory", staged=False)
     except VptoolkitError as err:
-        return _failure_result(task, _with_source(task["source"], _one_line(err)))
+        return _failure_result(task, _with_source(task["source"], one_line(err)))
     # This is the one place a broad except is right: an unexpected bug on one
     # model of thousands must not stop the batch; it is recorded with its type.
     except Exception as err:  # noqa: BLE001
         return _failure_result(
-            task, f"{task['source']}: unexpected {type(err).__name__}: {_one_line(err)}"
+            task, f"{task['source']}: unexpected {type(err).__name__}: {one_line(err)}"
         )
 
 
@@ -1166,35 +1167,3 @@ def _file_sha256(path: Path) -> str:
 
 
 # --------------------------------------------------------------------------- small checks
-
-
-def _one_line(err: BaseException) -> str:
-    return " ".join(str(err).split()) or type(err).__name__
-
-
-def _as_path(path: str | os.PathLike[str], argument: str) -> Path:
-    try:
-        return Path(os.fspath(path))
-    except TypeError as err:
-        raise InputError(
-            f"{argument}: expected a str or os.PathLike, got {type(path).__name__}"
-        ) from err
-
-
-def _check_int(
-    value: int, what: str, *, minimum: int | None, maximum: int | None = None
-) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise InputError(f"{what}: expected an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise InputError(f"{what}: must be at least {minimum}, got {value}")
-    if maximum is not None and value > maximum:
-        raise InputError(f"{what}: must be at most {maximum}, got {value}")
-    return int(value)
-
-
-def _check_bool(value: bool, what: str) -> bool:
-    if not isinstance(value, (bool, np.bool_)):
-        raise InputError(f"{what}: expected True or False, got {value!r}")
-    return bool(value)
-

@@ -29,9 +29,10 @@ import secrets
 import stat
 from pathlib import Path
 
+from vptoolkit.checks import as_path, one_line
 from vptoolkit.errors import InputError, MeshLoadError
 from vptoolkit.io import gltf, obj, off, ply, stl
-from vptoolkit.io._polygons import FormatError, check_and_triangulate, one_line
+from vptoolkit.io._polygons import FormatError, check_and_triangulate
 from vptoolkit.mesh import Mesh
 
 __all__ = ["SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES", "load_mesh", "save_mesh"]
@@ -87,7 +88,7 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
     InputError
         If ``path`` is not a str or path-like object.
     """
-    path = _as_path(path, "path")
+    path = as_path(path, "path")
     file_name = path.name or str(path)
     data = _read_file(path, file_name)
     suffix = path.suffix.lower()
@@ -140,7 +141,7 @@ def save_mesh(mesh: Mesh, path: str | os.PathLike[str]) -> Path:
     """
     if not isinstance(mesh, Mesh):
         raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
-    path = _as_path(path, "path")
+    path = as_path(path, "path")
     suffix = path.suffix.lower()
     if suffix not in WRITABLE_SUFFIXES:
         raise InputError(
@@ -175,16 +176,6 @@ def _encode(mesh: Mesh, suffix: str) -> bytes:
     if suffix == ".ply":
         return ply.ply_bytes(mesh.vertices, mesh.faces, name=mesh.name)
     return stl.stl_bytes(mesh.vertices, mesh.faces, name=mesh.name)
-
-
-def _as_path(path: str | os.PathLike[str], argument: str) -> Path:
-    """Return ``path`` as a Path; raise an InputError naming ``argument`` for other types."""
-    try:
-        return Path(os.fspath(path))
-    except TypeError as err:
-        raise InputError(
-            f"{argument}: expected a str or os.PathLike, got {type(path).__name__}"
-        ) from err
 
 
 def _read_file(path: Path, file_name: str) -> bytes:

@@ -17,9 +17,6 @@ Polygons = tuple[NDArray[np.int64], NDArray[np.int64]]
 indices of every polygon in file order, and ``(n_polygons,) int64`` vertex
 counts per polygon."""
 
-_MAX_MESSAGE_CHARS = 200
-
-
 class FormatError(Exception):
     """A reader's complaint about the file content; load_mesh prefixes the name."""
 
@@ -27,14 +24,6 @@ class FormatError(Exception):
 def plural(count: int, one: str, many: str) -> str:
     """Return ``"1 vertex"`` or ``"3 vertices"``: the count, then ``one`` or ``many``."""
     return f"{count} {one if count == 1 else many}"
-
-
-def one_line(text: str) -> str:
-    """Fold ``text`` into one line of at most 200 characters."""
-    text = " ".join(text.split())
-    if len(text) > _MAX_MESSAGE_CHARS:
-        return text[: _MAX_MESSAGE_CHARS - 3] + "..."
-    return text or "no details"
 
 
 def triangle_polygons(triangles: NDArray[np.int64]) -> Polygons:

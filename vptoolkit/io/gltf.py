@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.io._polygons import FormatError, Polygons, one_line, triangle_polygons
+from vptoolkit.checks import one_line
+from vptoolkit.io._polygons import FormatError, Polygons, triangle_polygons
 
 __all__ = ["read_gltf"]
 
