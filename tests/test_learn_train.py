@@ -1,0 +1,281 @@
+"""Training, resuming and predicting on a tiny dataset built from the sample meshes."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from conftest import require_package
+
+require_package("torch")
+require_package("safetensors")
+require_package("zarr")
+
+import torch  # noqa: E402
+
+from vptoolkit.data import open_dataset  # noqa: E402
+from vptoolkit.errors import InputError  # noqa: E402
+from vptoolkit.learn import train as T  # noqa: E402
+from vptoolkit.learn.model import LevelConfig, ModelConfig, load_model  # noqa: E402
+from vptoolkit.learn.predict import Predictions, predict  # noqa: E402
+from vptoolkit.samples import sample_path  # noqa: E402
+from vptoolkit.sphere import nearest_view  # noqa: E402
+
+SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus")
+FAST = {"n_points": 512, "n_fps": 128, "rotate": False, "val_split": "train"}
+TINY = ModelConfig(
+    levels=(
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8, neighbourhood="cell"),
+        LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=16, channels=16),
+    ),
+    latent_channels=32, kernel_size=4, global_kernel_size=4, kernel_hidden=8, head_channels=(16,),
+    decoder_channels=(8, 4),
+)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def one_thread() -> Iterator[None]:
+    """One torch thread: on a busy 2-core machine two threads wait on each other."""
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)
+
+
+@pytest.fixture(scope="module")
+def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
+    """Eight sample meshes measured from 100 views at 64 px: six train, one val, one test."""
+    from vptoolkit.dataset.build import build_dataset
+
+    root = tmp_path_factory.mktemp("learn")
+    source = root / "src" / "shapes"
+    source.mkdir(parents=True)
+    for name in SHAPES:
+        path = sample_path(name)
+        shutil.copyfile(path, source / path.name)
+    build_dataset(root / "src", root / "out", n_views=100, resolution=64, n_points=2000, clean=False)
+    torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
+    return root / "out"
+
+
+@pytest.fixture(scope="module")
+def trained(dataset_dir: Path, tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> T.TrainResult:
+    """The paper's network and ML+GL labels, 30 one-batch epochs on the six training models."""
+    output = tmp_path_factory.mktemp("run") / "net.safetensors"
+    return T.train_model(dataset_dir, output, labels="ml+gl", epochs=30, batch_size=6, lr=3e-3, lr_step=5,
+                         lr_decay=0.5, seed=0, **FAST)
+
+
+def quality_of_predictions(dataset_dir: Path, predictions: Predictions) -> np.ndarray:
+    """(n_models, 4) normalised quality of the sampled view nearest to each prediction."""
+    with open_dataset(dataset_dir) as dataset:
+        rows = []
+        for name, directions in zip(predictions.names, predictions.directions):
+            item = dataset[name]
+            nearest = nearest_view(directions, item["views"])
+            rows.append(item["quality"][nearest, np.arange(4)])
+        return np.array(rows)
+
+
+def random_view_quality(dataset_dir: Path, split: str) -> np.ndarray:
+    with open_dataset(dataset_dir) as dataset:
+        return np.mean([item["quality"].mean(axis=0) for item in dataset.split(split)], axis=0)
+
+
+# ---------------------------------------------------------------- learning
+
+
+def test_tiny_run_lowers_the_loss_and_beats_a_random_view(trained, dataset_dir):
+    losses = [entry["loss"] for entry in trained.history]
+    assert trained.epochs == 30 and trained.n_train == 6 and trained.n_val == 6
+    assert [entry["phase"] for entry in trained.history] == ["ml"] * 15 + ["gl"] * 15
+    assert np.mean(losses[-5:]) < 0.5 * np.mean(losses[:3])
+    assert trained.history[0]["lr"] == 3e-3 and trained.history[-1]["lr"] == pytest.approx(3e-3 / 32)
+
+    # The kept checkpoint on fresh inputs (another point selection than training and validation).
+    predictions = predict(trained.checkpoint, dataset_dir, split="train", seed=7)
+    scores = quality_of_predictions(dataset_dir, predictions)
+    random = random_view_quality(dataset_dir, "train")
+    assert scores.mean() > random.mean() + 0.1, (scores.mean(axis=0), random)
+    best = trained.history[trained.best_epoch - 1]
+    assert best["val_score"] == trained.best_score == max(entry["val_score"] for entry in trained.history)
+
+
+def test_checkpoint_configuration_records_the_run(trained):
+    config = json.loads(trained.config_path.read_text())
+    assert config["format"] == "vptoolkit-viewpoint-model"
+    assert config["labels"] == "ml+gl" and config["measures"] == ["VE", "VR", "VKL", "VMI"]
+    assert config["architecture"] == ModelConfig().to_dict()
+    assert config["input"] == {"n_points": 512, "n_fps": 128}
+    training = config["training"]
+    assert training["arguments"]["lr"] == 3e-3 and training["arguments"]["labels"] == "ml+gl"
+    assert training["command"].startswith("vptoolkit.learn.train.train_model(")
+    assert training["epochs"] == 30 and training["epochs_completed"] == 30
+    assert training["best_epoch"] == trained.best_epoch and training["best_score"] == trained.best_score
+    assert set(training["best_scores"]) == {"VE", "VR", "VKL", "VMI"}
+    assert len(training["history"]) == 30
+    assert config["toolkit_version"] and config["torch_version"] == torch.__version__
+    names = sorted(p.name for p in trained.checkpoint.parent.iterdir())
+    assert names == ["net.json", "net.last.json", "net.last.safetensors", "net.safetensors"]
+    model, loaded = load_model(trained.checkpoint)
+    assert loaded == config and not model.training
+
+
+# ---------------------------------------------------------------- resume and determinism
+
+
+def tiny_run(dataset_dir: Path, output: Path, **options: Any) -> T.TrainResult:
+    arguments = {"labels": "ml+gl", "epochs": 4, "batch_size": 2, **FAST}
+    arguments.update(options)
+    head = {"sr": "sr", "dldl": "dldl"}.get(arguments["labels"], "direction")
+    arguments.setdefault("architecture", dataclasses.replace(TINY, head=head))
+    return T.train_model(dataset_dir, output, **arguments)
+
+
+def weights(path: Path) -> dict[str, torch.Tensor]:
+    from safetensors.torch import load_file
+
+    return load_file(str(path))
+
+
+def without_seconds(history: tuple[dict[str, Any], ...]) -> list[dict[str, Any]]:
+    return [{key: value for key, value in entry.items() if key != "seconds"} for entry in history]
+
+
+def test_resumed_run_equals_an_uninterrupted_one(dataset_dir, tmp_path, monkeypatch):
+    whole = tiny_run(dataset_dir, tmp_path / "whole")
+
+    calls = {"n": 0}
+    real_epoch = T._train_epoch
+
+    def stop_after_two(*args: Any, **kwargs: Any) -> float:
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        calls["n"] += 1
+        return real_epoch(*args, **kwargs)
+
+    monkeypatch.setattr(T, "_train_epoch", stop_after_two)
+    with pytest.raises(KeyboardInterrupt):
+        tiny_run(dataset_dir, tmp_path / "parts")
+    monkeypatch.undo()
+    state = json.loads((tmp_path / "parts" / "model.last.json").read_text())
+    assert state["epoch"] == 2
+    resumed = tiny_run(dataset_dir, tmp_path / "parts", resume=True, threads=1)
+
+    assert without_seconds(resumed.history) == without_seconds(whole.history)
+    assert resumed.best_epoch == whole.best_epoch
+    for name in ("model.safetensors", "model.last.safetensors"):
+        first, second = weights(tmp_path / "whole" / name), weights(tmp_path / "parts" / name)
+        assert first.keys() == second.keys()
+        assert all(torch.equal(first[key], second[key]) for key in first), name
+
+
+def test_resume_can_extend_a_finished_run(dataset_dir, tmp_path):
+    tiny_run(dataset_dir, tmp_path / "run", labels="sl", epochs=2)
+    extended = tiny_run(dataset_dir, tmp_path / "run", labels="sl", epochs=3, resume=True)
+    assert [entry["epoch"] for entry in extended.history] == [1, 2, 3]
+
+
+def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
+    tiny_run(dataset_dir, tmp_path / "run", epochs=1)
+    with pytest.raises(InputError, match="already holds a training run"):
+        tiny_run(dataset_dir, tmp_path / "run", epochs=1)
+    with pytest.raises(InputError, match=r"cannot resume with other options \(seed: 0 -> 1\)"):
+        tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, resume=True)
+    replaced = tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, overwrite=True)
+    assert replaced.epochs == 1
+
+
+# ---------------------------------------------------------------- every label method
+
+
+@pytest.mark.parametrize("labels", ["sl", "ml", "gl", "sr", "dldl"])
+def test_every_label_method_trains_and_predicts(labels, dataset_dir, tmp_path):
+    result = tiny_run(dataset_dir, tmp_path / labels, labels=labels, epochs=2)
+    assert all(np.isfinite(entry["loss"]) for entry in result.history)
+    model, config = load_model(result.checkpoint)
+    assert config["labels"] == labels and model.config.head == {"sr": "sr", "dldl": "dldl"}.get(labels, "direction")
+    predictions = predict(result.checkpoint, dataset_dir, split="test")
+    assert predictions.directions.shape == (1, 4, 3)
+    assert np.allclose(np.linalg.norm(predictions.directions, axis=-1), 1.0)
+
+
+# ---------------------------------------------------------------- predict
+
+
+def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path):
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    duck = sample_path("Duck")
+    surface = sample_surface(load_mesh(duck), 3000, seed=0)
+    (tmp_path / "six").mkdir()
+    (tmp_path / "three").mkdir()
+    np.save(tmp_path / "six" / "duck.npy", np.hstack([surface.points, surface.normals]).astype(np.float32))
+    np.save(tmp_path / "three" / "duck.npy", surface.points.astype(np.float32))
+    predictions = predict(trained.checkpoint, [dataset_dir, duck, tmp_path / "six" / "duck.npy"],
+                          split=None, batch_size=3)
+    with open_dataset(dataset_dir) as dataset:
+        assert predictions.names == (*dataset.names, "Duck", "duck")
+    assert predictions.measures == ("VE", "VR", "VKL", "VMI")
+    assert predictions.directions.shape == (10, 4, 3) and predictions.directions.dtype == np.float64
+    assert np.allclose(np.linalg.norm(predictions.directions, axis=-1), 1.0)
+    # (N, 6) and (N, 3) files of the same points give the same prediction; so does a rerun
+    three = predict(trained.checkpoint, tmp_path / "three" / "duck.npy")
+    assert np.array_equal(three.directions[0], predictions.directions[-1])
+    again = predict(trained.checkpoint, [duck], seed=0)
+    assert np.allclose(again.directions[0], predictions.directions[8], atol=1e-5)  # batch of 1 vs 3
+
+    path = predictions.save_npz(tmp_path / "predictions.npz")
+    with np.load(path, allow_pickle=False) as archive:
+        assert sorted(archive.files) == ["directions", "measures", "names"]
+        assert archive["names"].dtype.kind == "U" and archive["measures"].dtype.kind == "U"
+        assert archive["directions"].dtype == np.float64
+        assert archive["names"].tolist() == list(predictions.names)
+    loaded = Predictions.load_npz(path)
+    assert loaded.names == predictions.names and np.array_equal(loaded.directions, predictions.directions)
+    assert not any(p.name.startswith(".tmp") for p in tmp_path.iterdir())
+
+
+def test_predict_rejects_bad_inputs(trained, tmp_path):
+    with pytest.raises(InputError, match="no such mesh file"):
+        predict(trained.checkpoint, [tmp_path / "missing.obj"])
+    (tmp_path / "notes.txt").write_text("hello")
+    with pytest.raises(InputError, match="notes.txt: not a mesh"):
+        predict(trained.checkpoint, [tmp_path / "notes.txt"])
+    np.save(tmp_path / "bad.npy", np.zeros((10, 4)))
+    with pytest.raises(InputError, match=r"bad.npy: expected an \(N, 3\) or \(N, 6\)"):
+        predict(trained.checkpoint, [tmp_path / "bad.npy"])
+    np.save(tmp_path / "a.npy", np.random.default_rng(0).normal(size=(500, 3)))
+    (tmp_path / "b").mkdir()
+    np.save(tmp_path / "b" / "a.npy", np.random.default_rng(1).normal(size=(500, 3)))
+    with pytest.raises(InputError, match="two models are named 'a'"):
+        predict(trained.checkpoint, [tmp_path / "a.npy", tmp_path / "b" / "a.npy"])
+    with pytest.raises(InputError, match=r"\.npz"):
+        Predictions(("a",), np.zeros((1, 4, 3))).save_npz(tmp_path / "out.npy")
+
+
+def test_training_options_are_checked(dataset_dir, tmp_path):
+    with pytest.raises(InputError, match="labels: unknown label method"):
+        T.train_model(dataset_dir, tmp_path / "x", labels="best")
+    with pytest.raises(InputError, match="batch_size"):
+        T.train_model(dataset_dir, tmp_path / "x", batch_size=1)
+    with pytest.raises(InputError, match="architecture: head 'direction' does not fit labels 'sr'"):
+        T.train_model(dataset_dir, tmp_path / "x", labels="sr", architecture=TINY)
+    with pytest.raises(InputError, match="split: unknown split"):
+        T.train_model(dataset_dir, tmp_path / "x", val_split="holdout", epochs=1, **{
+            k: v for k, v in FAST.items() if k != "val_split"})
+    assert not (tmp_path / "x").exists()
+
+
+def test_learning_rate_follows_the_papers_step_decay():
+    assert T.learning_rate(0) == 1e-3 and T.learning_rate(199) == 1e-3
+    assert T.learning_rate(200) == pytest.approx(7.5e-4) and T.learning_rate(2999) == pytest.approx(1e-3 * 0.75**14)
+    assert (T.PAPER_EPOCHS, T.PAPER_BATCH_SIZE) == (3000, 8)

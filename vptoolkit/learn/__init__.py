@@ -1,0 +1,23 @@
+"""Viewpoint learning with PyTorch (Schelling et al. 2021, sections 4 and 5).
+
+Modules, one concept each (import them directly; this package imports
+nothing, so ``import vptoolkit.learn`` never loads torch):
+
+- ``vptoolkit.learn.model``: the point-cloud network: a hierarchy of voxel-grid
+  point levels, Monte Carlo convolutions normalised by a point-density
+  estimate, and one head per measure (unit direction, spherical regression or
+  a 32 x 32 sphere map); :func:`~vptoolkit.learn.model.save_model` and
+  :func:`~vptoolkit.learn.model.load_model` (safetensors + JSON, no pickle).
+- ``vptoolkit.learn.labels``: the label methods and their losses: single
+  label (SL), multiple labels (ML), Gaussian labels (GL), ML+GL, spherical
+  regression (SR) and label distribution learning (DLDL), plus the
+  nearest-view quality used to score predictions.
+- ``vptoolkit.learn.train``: :func:`~vptoolkit.learn.train.train_model`, the
+  training loop (Adam, step decay, validation, best checkpoint, resume).
+- ``vptoolkit.learn.predict``: :func:`~vptoolkit.learn.predict.predict` on
+  meshes, point files or a dataset split, and
+  :class:`~vptoolkit.learn.predict.Predictions`.
+
+Everything here needs the ``learn`` extra: ``pip install 'vptoolkit[learn]'``
+(torch and safetensors).
+"""

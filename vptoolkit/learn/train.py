@@ -1,0 +1,607 @@
+"""Train a viewpoint network on a dataset store.
+
+:func:`train_model` follows the paper's recipe (Schelling et al. 2021,
+section 4.3): Adam, batch size 8, learning rate 0.001 multiplied by 0.75
+every 200 epochs, 3000 epochs, ML labels for the first half and GL labels
+for the second (``labels="ml+gl"``), inputs of 4096 points (1024 by
+farthest point sampling plus 3072 random) under a random rotation per model
+and epoch (:class:`vptoolkit.data.torch.ViewpointTorchDataset`; views rotate
+with the points, so labels stay in the input frame).
+
+After every epoch the network predicts the validation models (eval mode,
+one fixed augmentation: that of epoch 0) and each prediction scores the
+normalised quality of its nearest sampled view
+(:func:`vptoolkit.learn.labels.nearest_view_quality`). The checkpoint with
+the best mean over the four measures is kept.
+
+Files (``OUT`` a folder, or ``OUT.safetensors`` naming the weights file)
+
+==============================  ===========================================
+``model.safetensors``           best weights (safetensors)
+``model.json``                  its configuration: architecture, label
+                                method, measures, input size, training
+                                arguments and command, epochs, best score,
+                                toolkit and torch versions
+``model.last.safetensors``      the state after the last finished epoch:
+                                weights and Adam moments
+``model.last.json``             epoch, Adam hyper-parameters, history,
+                                best score so far, arguments
+==============================  ===========================================
+
+(``<stem>.json``, ``<stem>.last.*`` beside ``OUT.safetensors``.) Nothing is
+pickled; every file is written atomically.
+
+Determinism
+    The initial weights, the order of the models in each epoch, the dropout
+    masks and the augmentations are drawn from generators seeded with
+    ``(seed, epoch, purpose)`` or ``(seed, epoch, model name)``, never from
+    the global random state, and the learning rate is a function of the
+    epoch. So the same command gives the same weights (on the same machine
+    and thread count), and ``resume=True`` continues a stopped run exactly
+    where an uninterrupted run would be.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import platform
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Final
+
+import numpy as np
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.learn.labels import (
+    check_label_method,
+    head_for_method,
+    label_loss,
+    label_phase,
+    nearest_view_quality,
+)
+from vptoolkit.learn.model import (
+    ModelConfig,
+    ViewpointNet,
+    checkpoint_paths,
+    count_parameters,
+    read_json,
+    read_safetensors,
+    save_model,
+    torch_threads,
+    write_json_atomic,
+    write_safetensors_atomic,
+)
+from vptoolkit.optional import require
+
+if TYPE_CHECKING:
+    import torch
+    from torch import Tensor
+else:
+    torch = require("torch", extra="learn")
+    Tensor = torch.Tensor
+
+__all__ = [
+    "PAPER_EPOCHS",
+    "PAPER_BATCH_SIZE",
+    "PAPER_LR",
+    "PAPER_LR_DECAY",
+    "PAPER_LR_STEP",
+    "TRAINING_STATE_FORMAT",
+    "TrainResult",
+    "train_model",
+    "learning_rate",
+    "state_paths",
+]
+
+_log = logging.getLogger(__name__)
+
+PAPER_EPOCHS: Final = 3000
+"""Epochs of the paper's runs (ML+GL switches at 1500)."""
+
+PAPER_BATCH_SIZE: Final = 8
+"""The paper's batch size."""
+
+PAPER_LR: Final = 1e-3
+"""The paper's initial learning rate (Adam)."""
+
+PAPER_LR_DECAY: Final = 0.75
+"""The paper's learning-rate factor per step."""
+
+PAPER_LR_STEP: Final = 200
+"""The paper's step: the learning rate decays every 200 epochs."""
+
+TRAINING_STATE_FORMAT: Final = "vptoolkit-training-state"
+"""``format`` entry of ``*.last.json``."""
+
+_VALIDATION_BATCH = 32
+_SEED_SHUFFLE = 1
+_SEED_DROPOUT = 2
+# Options a resumed run must share with the stopped one (``epochs`` may grow).
+_RESUME_KEYS = (
+    "labels", "batch_size", "lr", "lr_decay", "lr_step", "seed", "val_split", "max_models",
+    "n_points", "n_fps", "rotate", "architecture",
+)
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What :func:`train_model` did.
+
+    Attributes
+    ----------
+    checkpoint : Path
+        Best weights (``*.safetensors``); load with
+        :func:`vptoolkit.learn.model.load_model`.
+    config_path : Path
+        Its JSON configuration.
+    state_path : Path
+        Resumable state after the last epoch (``*.last.safetensors``).
+    labels : str
+        Label method.
+    epochs : int
+        Epochs completed (including those of a resumed run).
+    best_epoch : int
+        Epoch (1-based) of the best checkpoint.
+    best_score : float
+        Its mean validation score over the measures, in [0, 1].
+    best_scores : dict of str to float
+        Its validation score per measure.
+    history : tuple of dict
+        Per epoch: ``epoch`` (1-based), ``phase`` (loss used), ``lr``,
+        ``loss`` (mean training loss), ``val_scores`` (per measure),
+        ``val_score`` (mean) and ``seconds``.
+    n_train, n_val : int
+        Models trained and validated on.
+    n_parameters : int
+        Learned parameters of the network.
+    seconds : float
+        Wall time of this call.
+    """
+
+    checkpoint: Path
+    config_path: Path
+    state_path: Path
+    labels: str
+    epochs: int
+    best_epoch: int
+    best_score: float
+    best_scores: dict[str, float]
+    history: tuple[dict[str, Any], ...]
+    n_train: int
+    n_val: int
+    n_parameters: int
+    seconds: float
+
+
+def learning_rate(epoch: int, *, lr: float = PAPER_LR, lr_decay: float = PAPER_LR_DECAY,
+                  lr_step: int = PAPER_LR_STEP) -> float:
+    """Step decay: ``lr * lr_decay ** (epoch // lr_step)`` for a zero-based epoch."""
+    return lr * lr_decay ** (epoch // lr_step)
+
+
+def state_paths(output: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """The resumable-state files of a training output: ``<stem>.last.safetensors`` and ``.json``."""
+    weights, _ = checkpoint_paths(output)
+    stem = weights.with_suffix("")
+    return stem.with_name(stem.name + ".last.safetensors"), stem.with_name(stem.name + ".last.json")
+
+
+def _seed(*keys: int) -> int:
+    return int(np.random.SeedSequence([int(key) for key in keys]).generate_state(1, np.uint64)[0] >> 1)
+
+
+def _generator(*keys: int) -> torch.Generator:
+    return torch.Generator().manual_seed(_seed(*keys))
+
+
+def _check_int(value: Any, name: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_float(value: Any, name: str, *, positive: bool = True) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or (
+        positive and value <= 0
+    ):
+        raise InputError(f"{name}: expected a positive finite number, got {value!r}")
+    return float(value)
+
+
+def _architecture(architecture: ModelConfig | Mapping[str, Any] | None, labels: str) -> ModelConfig:
+    head = head_for_method(labels)
+    if architecture is None:
+        return ModelConfig(head=head)
+    values = architecture.to_dict() if isinstance(architecture, ModelConfig) else dict(architecture)
+    if values.setdefault("head", head) != head:
+        raise InputError(f"architecture: head {values['head']!r} does not fit labels {labels!r} (needs {head!r})")
+    return ModelConfig.from_dict(values)
+
+
+def _split(dataset: ViewpointDataset, split: str, max_models: int | None, what: str) -> tuple[ViewpointDataset, int]:
+    """A split and how many of its models (the first, in store order) to use."""
+    subset = dataset.split(split)
+    if len(subset) == 0:
+        hint = "; choose another with val_split (\"train\" for a tiny dataset)" if what == "val_split" else ""
+        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models{hint}")
+    return subset, len(subset) if max_models is None else min(len(subset), max_models)
+
+
+def _collate(items: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    batch: dict[str, Any] = {"name": [item["name"] for item in items]}
+    for key in ("points", "views", "quality", "best_views"):
+        batch[key] = torch.stack([item[key] for item in items])
+    return batch
+
+
+def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list[list[int]]:
+    order = torch.randperm(n_models, generator=generator).tolist()
+    batches = [order[start : start + batch_size] for start in range(0, n_models, batch_size)]
+    if len(batches[-1]) == 1 and n_models > 1:
+        batches.pop()  # batch norm needs two samples; this model comes back in other epochs
+    return batches
+
+
+def _validation_set(torch_dataset: Any, n_models: int) -> dict[str, Any]:
+    return _collate([torch_dataset[index] for index in range(n_models)])
+
+
+def _validate(model: ViewpointNet, validation: Mapping[str, Any]) -> Tensor:
+    model.eval()
+    scores = []
+    with torch.inference_mode():
+        for start in range(0, len(validation["points"]), _VALIDATION_BATCH):
+            part = slice(start, start + _VALIDATION_BATCH)
+            directions = model(validation["points"][part])["directions"]
+            scores.append(nearest_view_quality(directions, validation["views"][part], validation["quality"][part]))
+    return torch.cat(scores).mean(dim=0)
+
+
+def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
+    state = optimizer.state_dict()
+    tensors = {}
+    for index, values in state["state"].items():
+        for key, value in values.items():
+            tensors[f"optimizer.{index}.{key}"] = torch.as_tensor(value)
+    groups = []
+    for group in state["param_groups"]:
+        groups.append({key: (list(value) if isinstance(value, tuple) else value) for key, value in group.items()})
+    return tensors, groups
+
+
+def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tensor],
+                    groups: list[dict[str, Any]]) -> None:
+    state: dict[int, dict[str, Tensor]] = {}
+    for name, tensor in tensors.items():
+        if name.startswith("optimizer."):
+            _, index, key = name.split(".", 2)
+            state.setdefault(int(index), {})[key] = tensor
+    param_groups = []
+    for group in groups:
+        param_groups.append({key: (tuple(value) if key == "betas" else value) for key, value in group.items()})
+    optimizer.load_state_dict({"state": state, "param_groups": param_groups})
+
+
+def _json_value(value: Any) -> Any:
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, ModelConfig):
+        return value.to_dict()
+    if isinstance(value, Mapping):
+        return {str(key): _json_value(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_value(item) for item in value]
+    return value
+
+
+def _toolkit_version() -> str:
+    from vptoolkit import __version__
+
+    return __version__
+
+
+def train_model(
+    dataset_path: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    labels: str = "ml+gl",
+    epochs: int = PAPER_EPOCHS,
+    batch_size: int = PAPER_BATCH_SIZE,
+    lr: float = PAPER_LR,
+    lr_decay: float = PAPER_LR_DECAY,
+    lr_step: int = PAPER_LR_STEP,
+    seed: int = 0,
+    resume: bool = False,
+    overwrite: bool = False,
+    progress: bool = False,
+    val_split: str = "val",
+    max_models: int | None = None,
+    n_points: int = 4096,
+    n_fps: int = 1024,
+    rotate: bool = True,
+    architecture: ModelConfig | Mapping[str, Any] | None = None,
+    workers: int = 0,
+    threads: int | None = None,
+    command: str | None = None,
+) -> TrainResult:
+    """Train a viewpoint network and keep the checkpoint with the best validation score.
+
+    Parameters
+    ----------
+    dataset_path : path-like
+        A dataset store or build/release folder
+        (:func:`vptoolkit.data.open_dataset`); trains on its ``train`` split.
+    output : path-like
+        Folder for ``model.safetensors`` and friends, or a ``*.safetensors``
+        path (see the module docstring).
+    labels : {"ml+gl", "sl", "ml", "gl", "sr", "dldl"}
+        Label method (default: "ml+gl", the paper's).
+    epochs : int
+        Total epochs (default: 3000, the paper's); with ``resume`` the run
+        continues up to this number (``ml+gl`` switches to GL after half of it).
+    batch_size : int
+        Models per step, at least 2 for batch norm (default: 8).
+    lr, lr_decay, lr_step : float, float, int
+        Adam's learning rate ``lr * lr_decay ** (epoch // lr_step)``
+        (defaults: 0.001, 0.75, 200).
+    seed : int
+        Seed of weights, shuffling, dropout and augmentation (default: 0).
+    resume : bool
+        Continue from ``<stem>.last.*`` if present, else start afresh
+        (default: False).
+    overwrite : bool
+        Replace an existing run in ``output`` instead of refusing (default: False).
+    progress : bool
+        Show a tqdm bar with the loss and validation score (default: False).
+    val_split : str
+        Split that picks the best checkpoint (default: "val"; "train" for
+        tiny datasets).
+    max_models : int, optional
+        Use at most this many models of each split, in store order (default: all).
+    n_points, n_fps : int
+        Input points per model and how many of them farthest point sampling
+        picks (defaults: 4096 and 1024).
+    rotate : bool
+        Random rotation augmentation (default: True).
+    architecture : ModelConfig or mapping, optional
+        Network configuration (default: ``ModelConfig(head=...)`` for the
+        label method).
+    workers : int
+        Data-loading worker processes (default: 0, in this process).
+    threads : int, optional
+        Torch threads during the call, restored afterwards (default: None,
+        leave torch's setting). On a busy machine 1 can be much faster than
+        2, whose threads wait on each other.
+    command : str, optional
+        The command line to record in the configuration (the CLI passes it).
+
+    Returns
+    -------
+    TrainResult
+
+    Raises
+    ------
+    InputError
+        On invalid options, an empty split, an existing run in ``output``
+        without ``resume`` or ``overwrite``, or a resumed run with other options.
+    VerificationError
+        If the dataset's measure order differs from ``MEASURES``.
+    """
+    with torch_threads(threads):
+        return _train(
+            dataset_path, output, labels=labels, epochs=epochs, batch_size=batch_size, lr=lr, lr_decay=lr_decay,
+            lr_step=lr_step, seed=seed, resume=resume, overwrite=overwrite, progress=progress,
+            val_split=val_split, max_models=max_models, n_points=n_points, n_fps=n_fps, rotate=rotate,
+            architecture=architecture, workers=workers, command=command,
+        )
+
+
+def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str, epochs: int,
+           batch_size: int, lr: float, lr_decay: float, lr_step: int, seed: int, resume: bool, overwrite: bool,
+           progress: bool, val_split: str, max_models: int | None, n_points: int, n_fps: int, rotate: bool,
+           architecture: ModelConfig | Mapping[str, Any] | None, workers: int, command: str | None) -> TrainResult:
+    started = time.perf_counter()
+    labels = check_label_method(labels)
+    epochs = _check_int(epochs, "epochs", 1)
+    batch_size = _check_int(batch_size, "batch_size", 2)
+    lr = _check_float(lr, "lr")
+    lr_decay = _check_float(lr_decay, "lr_decay")
+    lr_step = _check_int(lr_step, "lr_step", 1)
+    seed = _check_int(seed, "seed", 0)
+    n_points = _check_int(n_points, "n_points", 1)
+    n_fps = _check_int(n_fps, "n_fps", 0)
+    workers = _check_int(workers, "workers", 0)
+    if max_models is not None:
+        max_models = _check_int(max_models, "max_models", 1)
+    if n_fps > n_points:
+        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
+    config = _architecture(architecture, labels)
+    arguments = {
+        "dataset_path": str(dataset_path), "output": str(output), "labels": labels, "epochs": epochs,
+        "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay, "lr_step": lr_step, "seed": seed,
+        "val_split": val_split, "max_models": max_models, "n_points": n_points, "n_fps": n_fps,
+        "rotate": bool(rotate), "architecture": config.to_dict(), "workers": workers,
+    }
+    weights_path, config_path = checkpoint_paths(output)
+    last_weights, last_json = state_paths(output)
+    from vptoolkit.data.torch import ViewpointTorchDataset
+
+    dataset = open_dataset(dataset_path)
+    try:
+        if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
+            raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ from {MEASURES}")
+        train_set, n_train = _split(dataset, "train", max_models, "dataset_path")
+        val_set, n_val = _split(dataset, val_split, max_models, "val_split")
+        if n_train < 2:
+            raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; need at least 2")
+        is_resuming = bool(resume) and last_json.exists()
+        if not is_resuming and not overwrite and (weights_path.exists() or last_json.exists()):
+            hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to start afresh"
+                    if resume else "pass resume=True to continue it or overwrite=True to replace it")
+            raise InputError(f"{weights_path.parent}: already holds a training run ({weights_path.name}); {hint}")
+        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed)
+        validation = _validation_set(
+            ViewpointTorchDataset(val_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed), n_val)
+
+        model = ViewpointNet(config, seed=_seed(seed, 0))
+        optimizer = torch.optim.Adam(model.parameters(), lr=lr)
+        history: list[dict[str, Any]] = []
+        best: dict[str, Any] = {"epoch": 0, "score": -math.inf, "scores": {}}
+        start_epoch = 0
+        if is_resuming:
+            start_epoch, history, best = _resume(model, optimizer, last_weights, last_json, arguments)
+        metadata_base = {
+            "labels": labels,
+            "input": {"n_points": n_points, "n_fps": n_fps},
+            "toolkit_version": _toolkit_version(),
+            "torch_version": torch.__version__,
+            "python_version": platform.python_version(),
+        }
+        weights_path.parent.mkdir(parents=True, exist_ok=True)
+        tqdm = require("tqdm").tqdm
+        bar = tqdm(total=epochs, initial=start_epoch, disable=not progress, desc=f"train {labels}", unit="epoch",
+                   dynamic_ncols=True)
+        try:
+            for epoch in range(start_epoch, epochs):
+                epoch_started = time.perf_counter()
+                phase = label_phase(labels, epoch, epochs)
+                rate = learning_rate(epoch, lr=lr, lr_decay=lr_decay, lr_step=lr_step)
+                for group in optimizer.param_groups:
+                    group["lr"] = rate
+                loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase, epoch=epoch, seed=seed,
+                                    batch_size=batch_size, workers=workers)
+                scores = _validate(model, validation)
+                score = float(scores.mean())
+                entry = {
+                    "epoch": epoch + 1, "phase": phase, "lr": rate, "loss": loss,
+                    "val_scores": {name: float(value) for name, value in zip(MEASURES, scores.tolist())},
+                    "val_score": score, "seconds": time.perf_counter() - epoch_started,
+                }
+                history.append(entry)
+                if score > best["score"]:
+                    best = {"epoch": epoch + 1, "score": score, "scores": entry["val_scores"]}
+                    training = _training_record(arguments, command, dataset, n_train, n_val, epochs,
+                                                epoch + 1, best)
+                    save_model(model, weights_path, metadata={**metadata_base, "training": training})
+                _save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
+                            history=history, best=best)
+                _log.info("epoch %d/%d %s loss %.4f val %.4f", epoch + 1, epochs, phase, loss, score)
+                bar.set_postfix(loss=f"{loss:.4f}", val=f"{score:.3f}", best=f"{best['score']:.3f}")
+                bar.update(1)
+        finally:
+            bar.close()
+        _update_best_record(config_path, arguments, command, dataset, n_train, n_val, epochs, history, best)
+        return TrainResult(
+            checkpoint=weights_path, config_path=config_path, state_path=last_weights, labels=labels,
+            epochs=len(history), best_epoch=int(best["epoch"]), best_score=float(best["score"]),
+            best_scores=dict(best["scores"]), history=tuple(history), n_train=n_train,
+            n_val=n_val, n_parameters=count_parameters(model),
+            seconds=time.perf_counter() - started,
+        )
+    finally:
+        dataset.close()
+
+
+def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_data: Any, n_train: int, *,
+                 phase: str, epoch: int, seed: int, batch_size: int, workers: int) -> float:
+    train_data.set_epoch(epoch)
+    batches = _batches(n_train, batch_size, _generator(seed, epoch, _SEED_SHUFFLE))
+    model.train()
+    model.set_generator(_generator(seed, epoch, _SEED_DROPOUT))
+    loader = torch.utils.data.DataLoader(train_data, batch_sampler=batches, num_workers=workers,
+                                         collate_fn=_collate)
+    total = 0.0
+    count = 0
+    for batch in loader:
+        outputs = model(batch["points"])
+        loss = label_loss(phase, outputs, batch).mean()
+        optimizer.zero_grad(set_to_none=True)
+        loss.backward()
+        optimizer.step()
+        total += float(loss.detach()) * len(batch["name"])
+        count += len(batch["name"])
+    return total / max(count, 1)
+
+
+def _training_record(arguments: Mapping[str, Any], command: str | None, dataset: ViewpointDataset,
+                     n_train: int, n_val: int, epochs: int,
+                     epochs_completed: int, best: Mapping[str, Any]) -> dict[str, Any]:
+    if command is None:
+        shown = ", ".join(f"{key}={value!r}" for key, value in arguments.items() if key != "architecture")
+        command = f"vptoolkit.learn.train.train_model({shown})"
+    return {
+        "dataset": str(dataset.path),
+        "dataset_attrs": {key: dataset.attrs.get(key) for key in ("format", "schema_version", "n_models",
+                                                                 "n_views", "toolkit_version", "created")},
+        "n_train": n_train,
+        "n_val": n_val,
+        "arguments": _json_value(arguments),
+        "command": command,
+        "epochs": epochs,
+        "epochs_completed": epochs_completed,
+        "best_epoch": int(best["epoch"]),
+        "best_score": float(best["score"]),
+        "best_scores": dict(best["scores"]),
+        "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def _update_best_record(config_path: Path, arguments: Mapping[str, Any], command: str | None,
+                        dataset: ViewpointDataset, n_train: int, n_val: int,
+                        epochs: int, history: list[dict[str, Any]], best: Mapping[str, Any]) -> None:
+    """Record the finished run's length and history in the best checkpoint's configuration."""
+    config = read_json(config_path, "model configuration")
+    config["training"] = _training_record(arguments, command, dataset, n_train, n_val, epochs,
+                                          len(history), best)
+    config["training"]["history"] = history
+    write_json_atomic(config_path, config)
+
+
+def _save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path, *,
+                arguments: Mapping[str, Any], epoch: int, history: list[dict[str, Any]],
+                best: Mapping[str, Any]) -> None:
+    tensors = {f"model.{name}": tensor for name, tensor in model.state_dict().items()}
+    optimizer_tensors, groups = _optimizer_tensors(optimizer)
+    tensors.update(optimizer_tensors)
+    write_safetensors_atomic(weights, tensors, {"format": TRAINING_STATE_FORMAT})
+    write_json_atomic(json_path, {
+        "format": TRAINING_STATE_FORMAT,
+        "format_version": 1,
+        "epoch": epoch,
+        "arguments": _json_value(arguments),
+        "optimizer_param_groups": groups,
+        "history": history,
+        "best": {"epoch": best["epoch"], "score": best["score"], "scores": best["scores"]},
+        "toolkit_version": _toolkit_version(),
+    })
+
+
+def _resume(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
+            arguments: Mapping[str, Any]) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
+    state = read_json(json_path, "training state")
+    if state.get("format") != TRAINING_STATE_FORMAT:
+        raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
+    stored = state.get("arguments", {})
+    current = _json_value(arguments)
+    differing = [key for key in _RESUME_KEYS if stored.get(key) != current.get(key)]
+    if differing:
+        details = ", ".join(f"{key}: {stored.get(key)!r} -> {current.get(key)!r}" for key in differing)
+        raise InputError(f"{json_path.name}: cannot resume with other options ({details})")
+    tensors = read_safetensors(weights)
+    model_state = {name[len("model."):]: tensor for name, tensor in tensors.items() if name.startswith("model.")}
+    try:
+        model.load_state_dict(model_state, strict=True)
+        _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
+    except (RuntimeError, ValueError, KeyError) as err:
+        raise VerificationError(f"{weights.name}: training state does not match the network ({err})") from err
+    best = dict(state["best"])
+    if best["score"] is None:
+        best["score"] = -math.inf
+    return int(state["epoch"]), list(state["history"]), best
