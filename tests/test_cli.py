@@ -152,3 +152,36 @@ def test_build_dataset_records_failures_and_exits_1(runner, tmp_path):
     assert "failed things/empty.obj: " in result.stderr
     shown = runner.invoke(main, ["info", str(tmp_path / "out")])
     assert shown.exit_code == 0 and "things" in shown.stdout
+
+
+def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
+    import shutil
+
+    from vptoolkit.synthetic import write_collection
+
+    src = tmp_path / "shapes"
+    write_collection(src, n_per_category=3, categories=("bottle", "table"), seed=0)
+    out = tmp_path / "out"
+    built = runner.invoke(main, ["build-dataset", str(src), str(out), "--views", "60",
+                                 "--resolution", "48", "--points", "1500", "--no-clean",
+                                 "--split-seed", "3"])
+    assert built.exit_code == 0, built.output
+    model = tmp_path / "model.safetensors"
+    trained = runner.invoke(main, ["train", str(out), "-o", str(model), "--epochs", "2",
+                                   "--batch-size", "2", "--threads", "1", "--val-split", "train"])
+    assert trained.exit_code == 0, trained.output
+    assert model.exists() and model.with_suffix(".json").exists()
+    predictions = tmp_path / "predictions.npz"
+    predicted = runner.invoke(main, ["predict", str(model), "--dataset", str(out), "--split", "all",
+                                     "-o", str(predictions)])
+    assert predicted.exit_code == 0, predicted.output
+    with np.load(predictions, allow_pickle=False) as stored:
+        assert stored["directions"].shape == (6, 4, 3)
+    scored = runner.invoke(main, ["evaluate", str(predictions), "--dataset", str(out),
+                                  "--split", "all", "--json"])
+    assert scored.exit_code == 0, scored.output
+    assert set(json.loads(scored.stdout)["mean"]) == {"VE", "VR", "VKL", "VMI"}
+    mesh_prediction = runner.invoke(main, ["predict", str(model), str(sample_path("teapot.stl")),
+                                           "-o", str(tmp_path / "teapot.npz")])
+    assert mesh_prediction.exit_code == 0, mesh_prediction.output
+    shutil.rmtree(out)

@@ -83,12 +83,12 @@ def main() -> None:
     for method in args.methods.split(","):
         trained = train_model(
             built.path, args.out / "models" / method.replace("+", "_"), labels=method,
-            epochs=args.epochs, seed=0, resume=True, progress=True,
+            epochs=args.epochs, seed=0, resume=True, progress=True, threads=1, workers=1,
             **({"n_points": 512, "n_fps": 128} if args.quick else {}),
         )
         timings[LABELS[method]] = sum(epoch["seconds"] for epoch in trained.history)
         n_parameters[LABELS[method]] = trained.n_parameters
-        predictions = predict(trained.checkpoint, built.path, split="test")
+        predictions = predict(trained.checkpoint, built.path, split="test", threads=1)
         with open_dataset(built.path) as dataset:
             test = dataset.split("test")
             order = [predictions.names.index(name) for name in test.names]

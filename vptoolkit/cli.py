@@ -330,6 +330,88 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
     click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
 
 
+
+@main.command()
+@click.argument("dataset", type=_EXISTING)
+@click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
+              help="Checkpoint: a folder, or a path ending in .safetensors.")
+@click.option("--labels", type=click.Choice(["sl", "ml", "gl", "ml+gl", "sr", "dldl"]),
+              default="ml+gl", show_default=True, help="Label method.")
+@click.option("--epochs", default=3000, show_default=True, type=click.IntRange(1),
+              help="Total epochs (the paper's 3000; far fewer already help).")
+@click.option("--batch-size", default=8, show_default=True, type=click.IntRange(2))
+@click.option("--lr", default=1e-3, show_default=True, type=click.FloatRange(min=0, min_open=True),
+              help="Initial learning rate (x0.75 every 200 epochs).")
+@click.option("--seed", default=0, show_default=True, type=int)
+@click.option("--val-split", default="val", show_default=True,
+              type=click.Choice(["train", "val", "test"]), help="Split that picks the best epoch.")
+@click.option("--threads", type=click.IntRange(1), help="Torch threads (default: torch's).")
+@click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
+def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int, lr: float,
+          seed: int, val_split: str, threads: int | None, resume: bool) -> None:
+    """Train a viewpoint network on the train split of DATASET.
+
+    Keeps the checkpoint with the best mean validation score (normalised
+    quality of the nearest sampled view); the checkpoint is safetensors plus a
+    JSON config, never a pickle.
+
+    \b
+    Example:
+      vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
+    """
+    from vptoolkit.learn.train import train_model
+
+    result = train_model(dataset, output, labels=labels, epochs=epochs, batch_size=batch_size,
+                         lr=lr, seed=seed, resume=resume, progress=True, threads=threads,
+                         val_split=val_split,
+                         command=" ".join(["vptool", *sys.argv[1:]]))
+    scores = ", ".join(f"{m} {100 * v:.1f}%" for m, v in result.best_scores.items())
+    click.echo(f"best epoch {result.best_epoch} of {result.epochs}: {scores}; "
+               f"wrote {result.checkpoint}")
+
+
+@main.command("predict")
+@click.argument("model", type=_EXISTING)
+@click.argument("inputs", nargs=-1, type=_EXISTING)
+@click.option("--dataset", "dataset_path", type=_EXISTING, help="Predict the models of a dataset.")
+@click.option("--split", default="test", show_default=True,
+              type=click.Choice(["train", "val", "test", "all"]), help="Split of --dataset.")
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Write names, directions (N, 4, 3) and measures to this .npz.")
+@click.option("--seed", default=0, show_default=True, type=int,
+              help="Seed of the surface sampling and input point choice.")
+def predict_command(model: Path, inputs: tuple[Path, ...], dataset_path: Path | None, split: str,
+                    output: Path, seed: int) -> None:
+    """Predict the best view per measure of meshes, point files or a dataset.
+
+    INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
+    vptool sample). Directions come back in each input's own frame, from the
+    model centre towards the camera.
+
+    \b
+    Example:
+      vptool predict model.safetensors chair.off table.ply -o predictions.npz
+      vptool predict model.safetensors --dataset release/ --split test -o test.npz
+    """
+    from vptoolkit.learn.predict import predict
+
+    if output.suffix != ".npz":
+        raise InputError(f"{output.name}: output must end in .npz")
+    sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
+    if not sources:
+        raise InputError("inputs: give mesh or point files, or --dataset")
+    predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
+                          progress=True)
+    predictions.save_npz(output)
+    for name, directions in zip(predictions.names[:10], predictions.directions[:10]):
+        cells = "  ".join(f"{m} ({x:+.2f}, {y:+.2f}, {z:+.2f})"
+                          for m, (x, y, z) in zip(predictions.measures, directions))
+        click.echo(f"{name}: {cells}")
+    if len(predictions) > 10:
+        click.echo(f"... and {len(predictions) - 10} more")
+    click.echo(f"wrote {output} ({len(predictions)} models)")
+
+
 def _write_text_atomically(path: Path, text: str) -> None:
     partial = path.with_name(f".{path.name}.partial")
     partial.write_text(text)
