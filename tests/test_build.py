@@ -290,11 +290,11 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
     assert 2 <= n_staged < 8
     created = json.loads((staging / "build.json").read_text())["created"]
     # what a kill in the middle of a write leaves behind is never read
-    (staging / ".tmp-0123456789ab-m-cup__mug-0000.npz").write_bytes(b"PK\x03\x04 half a zip")
+    (staging / ".m-cup__mug-0000.npz.0123abcd.partial").write_bytes(b"PK\x03\x04 half a zip")
 
     result = build_dataset(src, out, **SMALL)
     assert result.n_resumed == n_staged and (result.n_models, result.n_failures) == (6, 2)
-    assert not list(staging.glob(".tmp-*"))
+    assert not list(staging.glob(".*.partial"))
     resumed = read_store(result.path)
     assert resumed["attrs"]["created"] == created
     assert_same_dataset(resumed, reference[1])

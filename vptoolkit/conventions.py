@@ -26,6 +26,8 @@ from __future__ import annotations
 import math
 from typing import Final
 
+from vptoolkit.errors import InputError
+
 __all__ = [
     "MEASURES",
     "HIGHER_IS_BETTER",
@@ -35,6 +37,7 @@ __all__ = [
     "DISTANCE_FACTOR",
     "UP",
     "FALLBACK_UP",
+    "measure_index",
 ]
 
 MEASURES: Final = ("VE", "VR", "VKL", "VMI")
@@ -60,3 +63,17 @@ UP: Final = (0.0, -1.0, 0.0)
 
 FALLBACK_UP: Final = (0.0, 0.0, 1.0)
 """Up vector used where the view direction is parallel to :data:`UP`."""
+
+
+def measure_index(measure: str) -> int:
+    """Column of a measure name in :data:`MEASURES` (case-insensitive).
+
+    Raises
+    ------
+    InputError
+        One line naming the unknown measure and the known ones.
+    """
+    if not isinstance(measure, str) or measure.upper() not in MEASURES:
+        raise InputError(f"measure: unknown measure {measure!r}, expected one of "
+                         f"{', '.join(MEASURES)}")
+    return MEASURES.index(measure.upper())

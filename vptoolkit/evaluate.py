@@ -45,7 +45,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import MEASURES
+from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS
 from vptoolkit.errors import InputError
@@ -286,13 +286,7 @@ class EvaluationReport:
 
 def _check_measure(measure: str | None) -> int | None:
     """Column of ``measure`` in ``MEASURES`` (case-insensitive), or None."""
-    if measure is None:
-        return None
-    if not isinstance(measure, str) or measure.upper() not in MEASURES:
-        raise InputError(
-            f"measure: unknown measure {measure!r}, expected one of {', '.join(MEASURES)}"
-        )
-    return MEASURES.index(measure.upper())
+    return None if measure is None else measure_index(measure)
 
 
 def _quoted(names: Sequence[str]) -> str:

@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import as_directions, fibonacci_sphere
@@ -130,8 +131,7 @@ class ViewQuality:
         target = Path(path)
         if target.suffix != ".npz":
             raise InputError(f"{target.name}: output must end in .npz")
-        partial = target.with_name(f".{target.name}.partial")
-        with open(partial, "wb") as handle:
+        with atomic_write(target) as handle:
             np.savez(
                 handle,
                 views=self.views,
@@ -145,7 +145,6 @@ class ViewQuality:
                 name=np.str_(self.name),
                 camera=np.str_(json.dumps(self.camera.to_dict(), sort_keys=True)),
             )
-        os.replace(partial, target)
         return target
 
 

@@ -81,6 +81,7 @@ from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.camera import Camera
 from vptoolkit.dataset.store import ModelEntry, write_dataset
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
+from vptoolkit.files import atomic_write
 from vptoolkit.io import SUPPORTED_SUFFIXES
 from vptoolkit.optional import is_available, require
 from vptoolkit.sphere import fibonacci_sphere
@@ -114,7 +115,7 @@ _FOLDER_SPLITS = ("train", "test")
 _STAGING_VERSION = 1
 _BUILD_FILE = "build.json"
 _LOCK_FILE = "lock"
-_TEMP_PREFIX = ".tmp-"
+_TEMP_SUFFIX = ".partial"  # temporary files of vptoolkit.files.atomic_write
 _MODEL_SUFFIX = ".npz"
 _FAILURE_SUFFIX = ".failed.json"
 _HASH_BLOCK = 1 << 20
@@ -722,7 +723,7 @@ def _scan_staging(
     """
     names = sorted(os.listdir(staging))
     for name in names:
-        if name.startswith(_TEMP_PREFIX):
+        if name.endswith(_TEMP_SUFFIX):
             (staging / name).unlink(missing_ok=True)
     present = set(names)
     done: dict[str, Path] = {}
@@ -799,24 +800,14 @@ def _stage_failure(staging: Path, result: Mapping[str, Any]) -> None:
 def _write_atomic(path: Path, payload: bytes | Mapping[str, NDArray[Any]]) -> None:
     """Write bytes, or arrays as a compressed ``.npz``, to ``path`` atomically.
 
-    The data goes to ``.tmp-<random>-<name>`` in the same folder, is fsynced
-    and renamed over ``path``, so a reader (or a resumed build) sees the old
-    file or the whole new one, never a part.
+    :func:`vptoolkit.files.atomic_write`: a reader (or a resumed build) sees
+    the old file or the whole new one, never a part.
     """
-    temp = path.with_name(f"{_TEMP_PREFIX}{secrets.token_hex(6)}-{path.name}")
-    handle = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            if isinstance(payload, bytes):
-                stream.write(payload)
-            else:
-                np.savez_compressed(stream, **payload)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temp, path)
-    except BaseException:
-        temp.unlink(missing_ok=True)
-        raise
+    with atomic_write(path) as stream:
+        if isinstance(payload, bytes):
+            stream.write(payload)
+        else:
+            np.savez_compressed(stream, **payload)
     _fsync_folder(path.parent)
 
 

@@ -39,6 +39,7 @@ from vptoolkit.dataset.card import (
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
 from vptoolkit.errors import InputError
+from vptoolkit.files import write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store import ModelEntry, StoreReader
@@ -153,7 +154,7 @@ def _check_release_dir(release_dir: Path) -> None:
 
 def _write_json(path: Path, value: Any) -> None:
     text = json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False)
-    path.write_text(text + "\n", encoding="utf-8", newline="\n")
+    write_text_atomic(path, text + "\n")
 
 
 def _umask() -> int:

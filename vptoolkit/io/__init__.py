@@ -25,12 +25,12 @@ whose one-line message starts with the file name, e.g.
 from __future__ import annotations
 
 import os
-import secrets
 import stat
 from pathlib import Path
 
 from vptoolkit.checks import as_path, one_line
 from vptoolkit.errors import InputError, MeshLoadError
+from vptoolkit.files import write_bytes_atomic
 from vptoolkit.io import gltf, obj, off, ply, stl
 from vptoolkit.io._polygons import FormatError, check_and_triangulate
 from vptoolkit.mesh import Mesh
@@ -152,19 +152,7 @@ def save_mesh(mesh: Mesh, path: str | os.PathLike[str]) -> Path:
     if not directory.is_dir():
         raise InputError(f"{path.name}: target directory does not exist: {directory}")
     payload = _encode(mesh, suffix)
-    temp_path = directory / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    # O_EXCL never clobbers; mode 0o666 lets the umask decide the permissions.
-    handle = os.open(temp_path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(payload)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temp_path, path)
-    except BaseException:
-        temp_path.unlink(missing_ok=True)
-        raise
-    return path
+    return write_bytes_atomic(path, payload)
 
 
 def _encode(mesh: Mesh, suffix: str) -> bytes:
