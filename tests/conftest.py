@@ -1,8 +1,13 @@
-"""Shared fixtures: small closed-form meshes and the bundled samples."""
+"""Shared fixtures and helpers: small closed-form meshes, the bundled samples, pictures."""
 
 from __future__ import annotations
 
 import os
+import struct
+import zlib
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -48,3 +53,65 @@ def bunny() -> Mesh:
     from vptoolkit.samples import sample_path
 
     return load_mesh(sample_path("bunny.ply"))
+
+
+def primitive_mesh(kind: str, options: dict[str, Any], name: str) -> Mesh:
+    import trimesh
+
+    made = getattr(trimesh.creation, kind)(**options)
+    return Mesh(made.vertices, made.faces, name)
+
+
+# Pixels darker than this in their darkest channel are model, not (white)
+# background; the anti-aliased rim is lighter.
+MODEL_LEVEL = 215
+
+
+def decode_png(data: bytes) -> np.ndarray:
+    """A minimal PNG reader for 8-bit images with filter 0 rows (what png_bytes writes)."""
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    offset, chunks = 8, {}
+    while offset < len(data):
+        (length,) = struct.unpack(">I", data[offset:offset + 4])
+        tag = data[offset + 4:offset + 8]
+        body = data[offset + 8:offset + 8 + length]
+        (crc,) = struct.unpack(">I", data[offset + 8 + length:offset + 12 + length])
+        assert crc == zlib.crc32(tag + body) & 0xFFFFFFFF
+        chunks[tag] = chunks.get(tag, b"") + body
+        offset += 12 + length
+    width, height, depth, color_type = struct.unpack(">IIBB", chunks[b"IHDR"][:10])
+    channels = {0: 1, 2: 3, 6: 4}[color_type]
+    assert depth == 8
+    rows = np.frombuffer(zlib.decompress(chunks[b"IDAT"]), np.uint8).reshape(height, -1)
+    assert (rows[:, 0] == 0).all()
+    return rows[:, 1:].reshape(height, width, channels)
+
+
+def model_mask(image: np.ndarray) -> np.ndarray:
+    return image.min(axis=2) < MODEL_LEVEL
+
+
+def started_renderer(size: int, **options: Any) -> Iterator[Any]:
+    """Body of a renderer fixture: a started Renderer, skipped (or failed in CI) without one."""
+    require_package("open3d")
+    from vptoolkit.errors import MissingDependencyError
+    from vptoolkit.render import Renderer
+
+    shared = Renderer(size=size, **options)
+    try:
+        shared.start()
+    except MissingDependencyError as err:
+        if REQUIRE_ALL:
+            pytest.fail(f"renderer required (VPTOOLKIT_REQUIRE_ALL=1): {err}")
+        pytest.skip(str(err))
+    yield shared
+    shared.close()
+
+
+def read_png(path: Path | str) -> np.ndarray:
+    """Pixels of any PNG (matplotlib's, Chromium's) through Pillow, which matplotlib requires."""
+    require_package("PIL")
+    from PIL import Image
+
+    with Image.open(path) as image:
+        return np.asarray(image)

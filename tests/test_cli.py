@@ -172,7 +172,7 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
     assert trained.exit_code == 0, trained.output
     assert model.exists() and model.with_suffix(".json").exists()
     predictions = tmp_path / "predictions.npz"
-    predicted = runner.invoke(main, ["predict", str(model), "--dataset", str(out), "--split", "all",
+    predicted = runner.invoke(main, ["predict", "--model", str(model), "--dataset", str(out), "--split", "all",
                                      "-o", str(predictions)])
     assert predicted.exit_code == 0, predicted.output
     with np.load(predictions, allow_pickle=False) as stored:
@@ -181,7 +181,7 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
                                   "--split", "all", "--json"])
     assert scored.exit_code == 0, scored.output
     assert set(json.loads(scored.stdout)["mean"]) == {"VE", "VR", "VKL", "VMI"}
-    mesh_prediction = runner.invoke(main, ["predict", str(model), str(sample_path("teapot.stl")),
+    mesh_prediction = runner.invoke(main, ["predict", "--model", str(model), str(sample_path("teapot.stl")),
                                            "-o", str(tmp_path / "teapot.npz")])
     assert mesh_prediction.exit_code == 0, mesh_prediction.output
     shutil.rmtree(out)

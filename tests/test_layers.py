@@ -6,7 +6,7 @@ from pathlib import Path
 import vptoolkit
 
 LAYERS = {
-    "errors": 0, "conventions": 0, "optional": 0, "checks": 0,
+    "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0,
     "mesh": 1, "io": 1, "samples": 1,
     "geometry": 2, "sphere": 2, "camera": 2,
     "visibility": 3,
@@ -14,7 +14,7 @@ LAYERS = {
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9,
-    "render": 10, "sphere_map": 10, "report": 10,
+    "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10,
     "cli": 99,
 }
 PACKAGE = Path(vptoolkit.__file__).parent

@@ -8,6 +8,7 @@ import re
 import subprocess
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -268,6 +269,32 @@ def test_checkpoint_folder_layout(tmp_path):
     assert sorted(p.name for p in (tmp_path / "run").iterdir()) == ["model.json", "model.safetensors"]
     model, _ = M.load_model(tmp_path / "run")
     assert model.config == SMALL
+
+
+def test_half_precision_checkpoint_is_half_the_size_and_predicts_the_same(tmp_path, clouds):
+    model = M.ViewpointNet(seed=1).eval()
+    full, _ = M.save_model(model, tmp_path / "full")
+    half, config_path = M.save_model(model, tmp_path / "half", half=True)
+    assert json.loads(config_path.read_text())["weights_dtype"] == "float16"
+    assert half.stat().st_size < 0.52 * full.stat().st_size
+    loaded, _ = M.load_model(tmp_path / "half")
+    assert all(p.dtype == torch.float32 for p in loaded.parameters())
+    with torch.no_grad():
+        expected = model(clouds)["directions"]
+        actual = loaded(clouds)["directions"]
+    cosine = (expected * actual).sum(-1) / (expected.norm(dim=-1) * actual.norm(dim=-1))
+    assert torch.rad2deg(torch.arccos(cosine.clamp(max=1.0))).max() < 1.0
+
+
+def test_default_is_the_bundled_pretrained_checkpoint(tmp_path, monkeypatch):
+    weights, config_path = M.checkpoint_paths("default")
+    assert weights == M.PRETRAINED / "model.safetensors" and weights.stat().st_size <= 5_000_000
+    model, config = M.load_model("default")
+    assert config["labels"] == "ml+gl" and config["weights_dtype"] == "float16"
+    assert config["pretrained"]["command"].startswith("python tools/reproduce_labels.py")
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "default").mkdir()  # a folder of that name in the working directory wins
+    assert M.checkpoint_paths("default")[0] == Path("default") / "model.safetensors"
 
 
 def test_loading_bad_checkpoints_raises(tmp_path):

@@ -241,7 +241,21 @@ def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path)
         assert archive["names"].tolist() == list(predictions.names)
     loaded = Predictions.load_npz(path)
     assert loaded.names == predictions.names and np.array_equal(loaded.directions, predictions.directions)
-    assert not any(p.name.startswith(".tmp") for p in tmp_path.iterdir())
+    assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
+
+
+def test_mesh_predictor_matches_predict_on_the_file(trained):
+    from vptoolkit.io import load_mesh
+    from vptoolkit.learn.predict import MeshPredictor
+
+    duck = sample_path("Duck")
+    predictor = MeshPredictor(trained.checkpoint, seed=2)
+    directions = predictor(load_mesh(duck))
+    assert directions.shape == (4, 3) and predictor.measures == ("VE", "VR", "VKL", "VMI")
+    expected = predict(trained.checkpoint, [duck], seed=2).directions[0]
+    assert np.allclose(directions, expected, atol=1e-5)
+    with pytest.raises(InputError, match="seed"):
+        MeshPredictor(trained.checkpoint, seed=-1)
 
 
 def test_predict_rejects_bad_inputs(trained, tmp_path):

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The main job on the bundled sample meshes: build a viewpoint-quality dataset
 # (cleaning, 20000 points, 1000 views at 1024 px), pack it into a release with
-# checksums and a dataset card, verify the release and show what it holds.
+# checksums and a dataset card, verify the release and show what it holds,
+# let the bundled network predict the best views, score them, and write an HTML
+# report with pictures from the best and the predicted views.
 # Usage: bash tools/run_sample.sh [OUT]   (default OUT: sample_run/)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -14,3 +16,7 @@ if [ -f "$out/release/SHA256SUMS" ]; then rm -r "$out/release"; fi
 "$vptool" pack "$out/build" "$out/release"
 "$vptool" verify "$out/release"
 "$vptool" info "$out/release"
+"$vptool" predict --dataset "$out/release" --split all -o "$out/predictions.npz"
+"$vptool" evaluate "$out/predictions.npz" --dataset "$out/release" --split all
+"$vptool" report "$out/release" --predictions "$out/predictions.npz" -o "$out/report"
+echo "open $out/report/index.html in a browser" >&2

@@ -4,11 +4,12 @@
 #
 # System packages: libusb-1.0-0 (Open3D needs it to import), libvulkan1 and
 # mesa-vulkan-drivers (Open3D's offscreen renderer uses Vulkan; Mesa's
-# software driver serves on machines without a GPU).
+# software driver serves on machines without a GPU), chromium (the HTML
+# report's browser test drives it headless).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-APT_PACKAGES=(libusb-1.0-0 libvulkan1 mesa-vulkan-drivers)
+APT_PACKAGES=(libusb-1.0-0 libvulkan1 mesa-vulkan-drivers chromium)
 missing=()
 for package in "${APT_PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" \

@@ -24,6 +24,7 @@ from vptoolkit.errors import (
     VerificationError,
     VptoolkitError,
 )
+from vptoolkit.files import atomic_write, write_text_atomic
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -64,6 +65,20 @@ def main() -> None:
 
 
 _MESH = click.Path(exists=True, dir_okay=False, path_type=Path)
+_EXISTING = click.Path(exists=True, path_type=Path)
+def _direction(text: str | None, option: str) -> tuple[float, float, float] | None:
+    """Parse ``x,y,z`` into three floats, or say which option is wrong."""
+    if text is None:
+        return None
+    try:
+        x, y, z = (float(part) for part in text.split(","))
+    except ValueError:
+        raise InputError(f"{option}: expected three numbers x,y,z, got {text!r}") from None
+    return x, y, z
+
+
+_MEASURE_CHOICE = click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False)
+_MODEL_HELP = "Checkpoint (folder or .safetensors), or 'default' for the bundled network."
 
 
 @main.command()
@@ -147,7 +162,7 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     save_mesh(cleaned, target)
     record = report.to_dict()
     if report_path is not None:
-        _write_text_atomically(report_path, json.dumps(record, indent=2) + "\n")
+        write_text_atomic(report_path, json.dumps(record, indent=2) + "\n")
     for step in record["steps"]:
         click.echo(f"{step['name']:<14} faces {step['faces_before']:>8} -> {step['faces_after']:<8}"
                    f" {step['seconds']:7.2f} s")
@@ -180,10 +195,8 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
         raise InputError(f"{output.name}: output must end in .npy")
     surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
-    partial = output.with_name(f".{output.name}.partial")
-    with open(partial, "wb") as handle:
+    with atomic_write(output) as handle:
         np.save(handle, table, allow_pickle=False)
-    partial.replace(output)
     click.echo(f"wrote {output} ({n_points} points with normals)")
 
 
@@ -237,8 +250,6 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     if result.n_failures:
         sys.exit(EXIT_FAILURE)
 
-
-_EXISTING = click.Path(exists=True, path_type=Path)
 
 
 @main.command()
@@ -371,48 +382,195 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
 
 
 @main.command("predict")
-@click.argument("model", type=_EXISTING)
 @click.argument("inputs", nargs=-1, type=_EXISTING)
+@click.option("-m", "--model", default="default", show_default=True, help=_MODEL_HELP)
 @click.option("--dataset", "dataset_path", type=_EXISTING, help="Predict the models of a dataset.")
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "val", "test", "all"]), help="Split of --dataset.")
-@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="Write names, directions (N, 4, 3) and measures to this .npz.")
 @click.option("--seed", default=0, show_default=True, type=int,
               help="Seed of the surface sampling and input point choice.")
-def predict_command(model: Path, inputs: tuple[Path, ...], dataset_path: Path | None, split: str,
-                    output: Path, seed: int) -> None:
+def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | None, split: str,
+                    output: Path | None, seed: int) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
     INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
     vptool sample). Directions come back in each input's own frame, from the
-    model centre towards the camera.
+    model centre towards the camera. Without --model the network bundled with
+    vptoolkit predicts (trained on procedural shapes; see docs/results.md).
 
     \b
     Example:
-      vptool predict model.safetensors chair.off table.ply -o predictions.npz
-      vptool predict model.safetensors --dataset release/ --split test -o test.npz
+      vptool predict chair.off table.ply
+      vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
     """
     from vptoolkit.learn.predict import predict
 
-    if output.suffix != ".npz":
+    if output is not None and output.suffix != ".npz":
         raise InputError(f"{output.name}: output must end in .npz")
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")
     predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
                           progress=True)
-    predictions.save_npz(output)
+    if output is not None:
+        predictions.save_npz(output)
     for name, directions in zip(predictions.names[:10], predictions.directions[:10]):
         cells = "  ".join(f"{m} ({x:+.2f}, {y:+.2f}, {z:+.2f})"
                           for m, (x, y, z) in zip(predictions.measures, directions))
         click.echo(f"{name}: {cells}")
     if len(predictions) > 10:
         click.echo(f"... and {len(predictions) - 10} more")
-    click.echo(f"wrote {output} ({len(predictions)} models)")
+    if output is not None:
+        click.echo(f"wrote {output} ({len(predictions)} models)")
 
 
-def _write_text_atomically(path: Path, text: str) -> None:
-    partial = path.with_name(f".{path.name}.partial")
-    partial.write_text(text)
-    partial.replace(path)
+
+# --------------------------------------------------------------------------- pictures
+
+
+@main.command()
+@click.argument("mesh", type=_MESH)
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="PNG file to write.")
+@click.option("--view", help="Direction x,y,z from the model centre towards the camera.")
+@click.option("--best", type=_MEASURE_CHOICE, help="Draw the best sampled view of this measure.")
+@click.option("--model", "model_path", help=_MODEL_HELP + " Draws its predicted view.")
+@click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
+              help="Measure whose prediction --model draws.")
+@click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
+              help="Picture side in pixels.")
+@click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1),
+              help="Views sampled for --best.")
+@click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384),
+              help="Triangle-ID resolution of the measures for --best.")
+def render(mesh: Path, output: Path, view: str | None, best: str | None, model_path: str | None,
+           measure: str, size: int, n_views: int, resolution: int) -> None:
+    """Draw MESH through the measures' camera with Open3D's offscreen renderer.
+
+    Give exactly one of --view, --best or --model. The picture shows what the
+    measures score for that direction (same eye, target, up and field of view).
+
+    \b
+    Example:
+      vptool render bunny.ply --best VE -o bunny_ve.png
+      vptool render chair.off --model default -o chair.png
+      vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.render import RenderedView, render_best, render_predicted, render_view, save_png
+    from vptoolkit.sphere import as_directions
+
+    if sum(choice is not None for choice in (view, best, model_path)) != 1:
+        raise InputError("render: give exactly one of --view, --best or --model")
+    if output.suffix.lower() != ".png":
+        raise InputError(f"{output.name}: output must end in .png")
+    loaded = load_mesh(mesh)
+    if best is not None:
+        picture = render_best(loaded, measure=best, size=size, n_views=n_views,
+                              resolution=resolution)
+    elif model_path is not None:
+        from vptoolkit.learn.predict import MeshPredictor
+
+        picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size)
+    else:
+        direction = as_directions(_direction(view, "--view"), name="--view")[0]
+        picture = RenderedView(render_view(loaded, direction, size=size), direction, "--view")
+    save_png(picture.image, output)
+    x, y, z = picture.direction
+    click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
+
+
+@main.command("sphere-map")
+@click.argument("quality", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="PNG file to write.")
+@click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE)
+@click.option("--predicted", help="A predicted direction x,y,z to mark with a cross.")
+def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None) -> None:
+    """Draw a measure over the view sphere as a Mercator map.
+
+    QUALITY is the .npz of vptool measures -o. Colours: normalised quality
+    (1 = best); the star marks the best sampled view, the cross --predicted.
+
+    \b
+    Example:
+      vptool measures bunny.ply -o bunny.npz
+      vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
+    """
+    from vptoolkit.sphere_map import sphere_map_file
+
+    sphere_map_file(quality, output, measure=measure, predicted=_direction(predicted, "--predicted"))
+    click.echo(f"wrote {output}")
+
+
+@main.command()
+@click.argument("dataset", type=_EXISTING)
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for index.html and its pictures.")
+@click.option("--split", type=click.Choice(["train", "val", "test"]),
+              help="Report one split only (default: every model).")
+@click.option("--predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Predictions (.npz of vptool predict) to score and draw.")
+@click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
+              help="Picture side in pixels.")
+@click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
+def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
+           no_pictures: bool) -> None:
+    """Write a static HTML page with one card per model of DATASET.
+
+    Pictures from each measure's best view, the four quality maps, the scores
+    of --predictions, filters by category and split, and a summary table.
+    Open OUTPUT/index.html in any browser; no server is needed.
+
+    \b
+    Example:
+      vptool predict --model default --dataset release/ -o test.npz
+      vptool report release/ --split test --predictions test.npz -o report/
+    """
+    from vptoolkit.report import write_report
+
+    index = write_report(dataset, output, split=split, predictions=predictions, size=size,
+                         thumbnails=not no_pictures, progress=True)
+    click.echo(f"wrote {index}")
+
+
+@main.command()
+@click.argument("src", type=_EXISTING)
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
+              help="Measure whose best (or predicted) view is drawn.")
+@click.option("--model", "model_path", help=_MODEL_HELP + " Uses its predictions, measures nothing.")
+@click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
+              help="Picture side in pixels.")
+@click.option("--workers", type=click.IntRange(1), help="Measuring processes (default: CPUs).")
+@click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1))
+@click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384))
+def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size: int,
+               workers: int | None, n_views: int, resolution: int) -> None:
+    """Draw a thumbnail of every mesh under SRC from its best view into OUT.
+
+    SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
+    and the files skipped with their reasons (exit status 1 if any).
+
+    \b
+    Example:
+      vptool thumbnails models/ thumbs/ --measure VKL --size 256
+      vptool thumbnails models/ thumbs/ --model default
+    """
+    from vptoolkit.thumbnails import render_thumbnails
+
+    predictor = None
+    if model_path is not None:
+        from vptoolkit.learn.predict import MeshPredictor
+
+        predictor = MeshPredictor(model_path)
+    result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
+                               workers=workers, n_views=n_views, resolution=resolution,
+                               progress=True)
+    click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
+    for failure in result.failures:
+        click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)
+    if result.failures:
+        sys.exit(EXIT_FAILURE)

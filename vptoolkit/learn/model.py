@@ -85,7 +85,6 @@ import contextlib
 import json
 import math
 import os
-import secrets
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -93,6 +92,7 @@ from typing import TYPE_CHECKING, Any, Final, NamedTuple
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.files import write_bytes_atomic
 from vptoolkit.learn.labels import (
     decode_spherical_regression,
     decode_sphere_maps,
@@ -136,11 +136,12 @@ __all__ = [
     "count_parameters",
     "torch_threads",
     "checkpoint_paths",
+    "DEFAULT_MODEL",
+    "PRETRAINED",
     "save_model",
     "load_model",
     "read_json",
     "read_safetensors",
-    "write_bytes_atomic",
     "write_json_atomic",
     "write_safetensors_atomic",
 ]
@@ -152,6 +153,13 @@ CODE_BITS: Final = 21
 """Bits per axis of the Morton codes (cells down to ``2^-21`` of the diagonal)."""
 
 MODEL_FORMAT: Final = "vptoolkit-viewpoint-model"
+
+DEFAULT_MODEL: Final = "default"
+"""Name that stands for the bundled pretrained checkpoint wherever a checkpoint path is taken."""
+
+PRETRAINED: Final = Path(__file__).parent / "pretrained"
+"""Folder of the bundled pretrained checkpoint (``model.safetensors``, float16, and
+``model.json`` with the command that trained it); see ``docs/results.md``."""
 """``format`` entry of a checkpoint's JSON configuration."""
 
 _MAX_LEVEL = 16  # finest grid level used: (batch << 3k) | cell fits 63 bits for batches up to 2^15
@@ -1070,13 +1078,18 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     ----------
     path : path-like
         A folder (``model.safetensors`` and ``model.json`` inside it), a
-        ``*.safetensors`` file or its ``*.json`` configuration.
+        ``*.safetensors`` file or its ``*.json`` configuration, or
+        ``"default"`` for the pretrained checkpoint bundled with the package
+        (:data:`PRETRAINED`; a file or folder named ``default`` in the
+        working directory takes precedence).
 
     Returns
     -------
     weights, config : Path
         ``<stem>.safetensors`` and ``<stem>.json`` side by side.
     """
+    if str(path) == DEFAULT_MODEL and not Path(path).exists():
+        path = PRETRAINED
     path = Path(path)
     if path.suffix == ".safetensors":
         return path, path.with_suffix(".json")
@@ -1085,18 +1098,6 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     return path / "model.safetensors", path / "model.json"
 
 
-def write_bytes_atomic(path: Path, payload: bytes) -> None:
-    """Write a file through a temporary sibling and :func:`os.replace`."""
-    temporary = path.with_name(f".tmp-{secrets.token_hex(4)}-{path.name}")
-    try:
-        with open(temporary, "wb") as handle:
-            handle.write(payload)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    finally:
-        if temporary.exists():
-            temporary.unlink()
 
 
 def write_json_atomic(path: Path, values: Mapping[str, Any]) -> None:
@@ -1136,7 +1137,7 @@ def read_safetensors(path: Path) -> dict[str, Tensor]:
 
 
 def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
-               metadata: Mapping[str, Any] | None = None) -> tuple[Path, Path]:
+               metadata: Mapping[str, Any] | None = None, half: bool = False) -> tuple[Path, Path]:
     """Save a network as ``safetensors`` weights plus a JSON configuration.
 
     Parameters
@@ -1149,8 +1150,12 @@ def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
         folder is created.
     metadata : mapping, optional
         More JSON entries for the configuration (label method, training
-        arguments, scores, ...). ``format``, ``architecture``, ``measures``
-        and ``n_parameters`` are always written by this function.
+        arguments, scores, ...). ``format``, ``architecture``, ``measures``,
+        ``n_parameters`` and ``weights_dtype`` are always written by this
+        function.
+    half : bool
+        Store floating-point tensors as float16 (half the file size; they
+        are loaded back into the float32 network). Default: False.
 
     Returns
     -------
@@ -1167,8 +1172,13 @@ def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
         "architecture": model.config.to_dict(),
         "measures": list(MEASURES[: model.config.n_measures]),
         "n_parameters": count_parameters(model),
+        "weights_dtype": "float16" if half else "float32",
     })
-    write_safetensors_atomic(weights_path, model.state_dict(), {"format": MODEL_FORMAT})
+    state = model.state_dict()
+    if half:
+        state = {name: tensor.half() if tensor.is_floating_point() else tensor
+                 for name, tensor in state.items()}
+    write_safetensors_atomic(weights_path, state, {"format": MODEL_FORMAT})
     write_json_atomic(config_path, config)
     return weights_path, config_path
 
@@ -1204,7 +1214,7 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     if list(config.get("measures", [])) != list(MEASURES[: len(config.get("measures", []))]):
         raise VerificationError(f"{config_path.name}: measure order {config.get('measures')} differs from {list(MEASURES)}")
     model = ViewpointNet(ModelConfig.from_dict(config.get("architecture", {})))
-    state = read_safetensors(weights_path)
+    state = read_safetensors(weights_path)  # float16 weights are cast on loading
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:

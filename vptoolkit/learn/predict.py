@@ -26,7 +26,6 @@ same input wherever it appears. Nothing is rotated.
 from __future__ import annotations
 
 import os
-import secrets
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +36,9 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.learn.model import ViewpointNet, load_model, torch_threads
+from vptoolkit.files import atomic_write
+from vptoolkit.learn.model import DEFAULT_MODEL, ViewpointNet, load_model, torch_threads
+from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["Predictions", "predict", "predict_directions", "network_points"]
+__all__ = ["MeshPredictor", "Predictions", "predict", "predict_directions", "network_points"]
 
 _SURFACE_POINTS = 20_000
 _SEED_INPUT = 3
@@ -109,21 +110,13 @@ class Predictions:
             raise InputError(f"{path.name}: predictions must be saved as .npz")
         if not path.parent.is_dir():
             raise InputError(f"{path}: folder {path.parent} does not exist")
-        temporary = path.with_name(f".tmp-{secrets.token_hex(4)}-{path.name}")
-        try:
-            with open(temporary, "wb") as handle:
-                np.savez(
-                    handle,
-                    names=np.array(self.names, dtype=str) if self.names else np.zeros(0, dtype="<U1"),
-                    directions=self.directions,
-                    measures=np.array(self.measures, dtype=str),
-                )
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.replace(temporary, path)
-        finally:
-            if temporary.exists():
-                temporary.unlink()
+        with atomic_write(path) as handle:
+            np.savez(
+                handle,
+                names=np.array(self.names, dtype=str) if self.names else np.zeros(0, dtype="<U1"),
+                directions=self.directions,
+                measures=np.array(self.measures, dtype=str),
+            )
         return path
 
     @classmethod
@@ -283,6 +276,66 @@ def _dataset_sources(dataset: ViewpointDataset, split: str | None) -> Iterator[t
         yield name, (lambda position=position: np.asarray(subset[position]["points"], dtype=np.float64))
 
 
+def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
+    """Input size and farthest-point part: the given values, else the checkpoint's training values."""
+    trained = config.get("input", {})
+    n_points = int(trained.get("n_points", 4096)) if n_points is None else n_points
+    n_fps = int(trained.get("n_fps", 1024)) if n_fps is None else n_fps
+    for value, what in ((n_points, "n_points"), (n_fps, "n_fps")):
+        if isinstance(value, bool) or not isinstance(value, int) or value < (1 if what == "n_points" else 0):
+            raise InputError(f"{what}: expected a {'positive' if what == 'n_points' else 'non-negative'} integer, "
+                             f"got {value!r}")
+    if n_fps > n_points:
+        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
+    return n_points, n_fps
+
+
+class MeshPredictor:
+    """A checkpoint loaded once, called on meshes: ``predictor(mesh) -> (n_measures, 3)``.
+
+    The hook behind ``vptool render --model`` and ``vptool thumbnails
+    --model`` (a :data:`vptoolkit.render.DirectionSource`). A mesh becomes
+    a network input as in :func:`predict`: 20000 surface points (seed
+    ``seed``), then the checkpoint's input size chosen with a generator
+    seeded from ``seed`` and the mesh's name.
+
+    Parameters
+    ----------
+    model_path : path-like
+        A checkpoint, or ``"default"`` for the bundled pretrained one.
+    seed : int
+        Seed of the sampling (default: 0).
+    threads : int, optional
+        Torch threads during each call (default: torch's setting).
+
+    Examples
+    --------
+    >>> predictor = MeshPredictor("default")          # doctest: +SKIP
+    >>> predictor(load_mesh("chair.off")).shape        # doctest: +SKIP
+    (4, 3)
+    """
+
+    def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
+                 threads: int | None = None) -> None:
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+        self.model, self.config = load_model(model_path)
+        self.n_points, self.n_fps = _input_sizes(self.config, None, None)
+        self.measures = tuple(self.config.get("measures", MEASURES[: self.model.config.n_measures]))
+        self.seed = seed
+        self.threads = threads
+
+    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+        """Unit directions, one per measure, from the mesh centre towards the camera."""
+        from vptoolkit.points import sample_surface
+
+        surface = sample_surface(mesh, _SURFACE_POINTS, seed=self.seed).points
+        points = network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
+                                seed=self.seed, name=mesh.name)
+        with torch_threads(self.threads):
+            return predict_directions(self.model, points[None])[0]
+
+
 def predict(
     model_path: str | os.PathLike[str],
     inputs: str | os.PathLike[str] | ViewpointDataset | Sequence[str | os.PathLike[str] | ViewpointDataset],
@@ -339,15 +392,7 @@ def predict(
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
     model, config = load_model(model_path)
-    trained = config.get("input", {})
-    n_points = int(trained.get("n_points", 4096)) if n_points is None else n_points
-    n_fps = int(trained.get("n_fps", 1024)) if n_fps is None else n_fps
-    for value, what in ((n_points, "n_points"), (n_fps, "n_fps")):
-        if isinstance(value, bool) or not isinstance(value, int) or value < (1 if what == "n_points" else 0):
-            raise InputError(f"{what}: expected a {'positive' if what == 'n_points' else 'non-negative'} integer, "
-                             f"got {value!r}")
-    if n_fps > n_points:
-        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
+    n_points, n_fps = _input_sizes(config, n_points, n_fps)
     tqdm = require("tqdm").tqdm
     names: list[str] = []
     prepared: list[NDArray[np.float32]] = []

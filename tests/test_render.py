@@ -1,0 +1,303 @@
+"""Pictures of meshes: PNG encoding, shading normals and the render child.
+
+Tests marked ``renderer`` start Open3D's offscreen renderer in a child
+process; they skip where none can start (no Vulkan driver), or fail with
+``VPTOOLKIT_REQUIRE_ALL=1``. The silhouette test checks the camera against
+the measures' own: every rendered pixel must be a pixel the measures' rays
+hit (ray casting through ``ViewPoses.pixel_rays``).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import box_mesh, decode_png, model_mask, require_package, started_renderer
+from vptoolkit.camera import Camera
+from vptoolkit.conventions import MEASURES
+from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.mesh import Mesh
+from vptoolkit.render import (
+    Renderer,
+    RenderedView,
+    _shading_arrays,
+    png_bytes,
+    render_best,
+    render_predicted,
+    render_view,
+    render_views,
+    resolve_direction,
+    save_png,
+)
+
+SIZE = 128
+def pair_mesh() -> Mesh:
+    """A box and a ball, apart and off-centre: an asymmetric pair of closed meshes."""
+    import trimesh
+
+    box = trimesh.creation.box(extents=(1.0, 0.6, 0.4))
+    box.apply_translation((-0.6, 0.3, 0.1))
+    ball = trimesh.creation.icosphere(subdivisions=3, radius=0.35)
+    ball.apply_translation((0.5, -0.2, -0.3))
+    both = trimesh.util.concatenate([box, ball])
+    return Mesh(both.vertices, both.faces, "pair")
+
+
+# --------------------------------------------------------------------------- no renderer needed
+
+
+@pytest.mark.parametrize("shape", [(5, 7), (5, 7, 3), (5, 7, 4)], ids=["grey", "rgb", "rgba"])
+def test_png_round_trip(tmp_path: Path, shape: tuple[int, ...]):
+    image = np.random.default_rng(1).integers(0, 256, size=shape, dtype=np.uint8)
+    path = save_png(image, tmp_path / "image.png")
+    decoded = decode_png(path.read_bytes())
+    np.testing.assert_array_equal(decoded.reshape(shape), image)
+    assert list(tmp_path.iterdir()) == [path]  # no partial file left behind
+
+
+def test_png_opens_in_pillow(tmp_path: Path):
+    require_package("PIL")
+    from PIL import Image
+
+    image = np.zeros((4, 6, 3), np.uint8)
+    image[1, 2] = (255, 0, 10)
+    with Image.open(save_png(image, tmp_path / "dot.png")) as opened:
+        np.testing.assert_array_equal(np.asarray(opened), image)
+
+
+@pytest.mark.parametrize(
+    ("image", "name", "message"),
+    [
+        (np.zeros((4, 4, 3), np.float32), "a.png", "dtype uint8"),
+        (np.zeros((4, 4, 2), np.uint8), "a.png", "expected shape"),
+        (np.zeros((0, 4, 3), np.uint8), "a.png", "expected shape"),
+        (np.zeros((4, 4, 3), np.uint8), "a.jpg", "must end in .png"),
+    ],
+    ids=["float", "two-channels", "empty", "suffix"],
+)
+def test_save_png_rejects_bad_input(tmp_path: Path, image, name, message):
+    with pytest.raises(InputError, match=message):
+        save_png(image, tmp_path / name)
+
+
+def test_png_bytes_is_deterministic():
+    image = np.arange(48, dtype=np.uint8).reshape(4, 4, 3)
+    assert png_bytes(image) == png_bytes(image.copy())
+
+
+def test_cube_corners_keep_their_face_normals():
+    cube = box_mesh()
+    positions, normals, _, face_normals = _shading_arrays(cube, 40.0)
+    assert positions.shape == normals.shape == (3 * cube.n_faces, 3)
+    assert positions.dtype == normals.dtype == np.float32
+    np.testing.assert_allclose(normals, np.repeat(face_normals, 3, axis=0), atol=1e-6)
+
+
+def test_sphere_normals_are_smooth():
+    import trimesh
+
+    ball = trimesh.creation.icosphere(subdivisions=3)
+    sphere = Mesh(ball.vertices, ball.faces, "ball")
+    positions, normals, _, _ = _shading_arrays(sphere, 40.0)
+    radial = positions / np.linalg.norm(positions, axis=1, keepdims=True)
+    angle = np.degrees(np.arccos(np.clip(np.sum(radial * normals, axis=1), -1, 1)))
+    assert angle.max() < 2.0  # vertex normals, not the faceted face normals (~ 5 degrees off)
+    _, flat, _, _ = _shading_arrays(sphere, 0.0)
+    flat_angle = np.degrees(np.arccos(np.clip(np.sum(radial * flat, axis=1), -1, 1)))
+    assert flat_angle.max() > 3.0
+
+
+def test_degenerate_faces_are_not_drawn():
+    mesh = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]]),
+                np.array([[0, 1, 2], [0, 1, 3]]), "sliver")
+    positions, _, face_points, _ = _shading_arrays(mesh, 40.0)
+    assert positions.shape == (3, 3) and face_points.shape == (1, 3)
+
+
+@pytest.mark.parametrize(
+    ("source", "measure", "expected"),
+    [
+        ([0.0, 0.0, 2.0], "VE", [0.0, 0.0, 1.0]),
+        (np.eye(4, 3) + [0.0, 0.0, 1e-9], "vr", [0.0, 1.0, 0.0]),
+        (lambda mesh: [[3.0, 0.0, 0.0]], "VMI", [1.0, 0.0, 0.0]),
+    ],
+    ids=["one-direction", "per-measure", "callable"],
+)
+def test_resolve_direction(source, measure, expected):
+    direction = resolve_direction(box_mesh(), source, measure=measure)
+    np.testing.assert_allclose(direction, expected, atol=1e-8)
+
+
+@pytest.mark.parametrize(
+    ("source", "measure", "message"),
+    [
+        ([0.0, 0.0, 0.0], "VE", "zero-length"),
+        (np.zeros((2, 3)), "VE", "expected a"),
+        ([1.0, 0.0, 0.0], "VX", "unknown measure"),
+        (lambda mesh: "up", "VE", "not numeric"),
+    ],
+    ids=["zero", "two-rows", "measure", "text"],
+)
+def test_resolve_direction_rejects(source, measure, message):
+    with pytest.raises(InputError, match=message):
+        resolve_direction(box_mesh(), source, measure=measure)
+
+
+def test_renderer_checks_its_arguments():
+    with pytest.raises(InputError, match="size"):
+        Renderer(size=8)
+    with pytest.raises(InputError, match="frame_timeout"):
+        Renderer(frame_timeout=0)
+    with pytest.raises(InputError, match="mesh: expected a vptoolkit Mesh"):
+        Renderer().render("cube.off", [0, 0, 1])  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- the render child
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    """One render child for the module (start-up is paid once)."""
+    yield from started_renderer(SIZE, frame_timeout=30.0)
+
+
+@pytest.mark.renderer
+def test_cube_corner_view_shows_three_differently_lit_faces(renderer):
+    cube = box_mesh()
+    direction = np.array([1.0, 1.0, 1.0])
+    image = renderer.render(cube, direction)[0]
+    poses = Camera().poses(direction, centre=np.zeros(3), diagonal=np.sqrt(3), resolution=SIZE)
+    colours = []
+    for axis in range(3):  # the +x, +y and +z faces face the camera
+        centre = np.zeros(3)
+        centre[axis] = 0.5
+        x, y, _ = poses.project(0, centre[None, :])[0]
+        patch = image[int(y) - 3:int(y) + 4, int(x) - 3:int(x) + 4].reshape(-1, 3)
+        assert patch.std(axis=0).max() < 6.0  # one flat colour over the face
+        colours.append(patch.mean(axis=0))
+    brightness = sorted(float(c.mean()) for c in colours)
+    assert brightness[-1] < 240.0  # lit faces, not background
+    assert np.diff(brightness).min() > 12.0, brightness
+
+
+@pytest.mark.renderer
+def test_picture_is_not_blank(renderer, bunny):
+    image = renderer.render(bunny, [0.0, 0.0, 1.0])[0]
+    assert image.shape == (SIZE, SIZE, 3) and image.dtype == np.uint8
+    assert (image[0, 0] == 255).all()  # white background
+    covered = model_mask(image)
+    assert 0.1 < covered.mean() < 0.8
+    assert image[covered].std() > 10.0  # shaded, not a flat silhouette
+
+
+@pytest.mark.renderer
+@pytest.mark.parametrize(
+    "direction",
+    [[0.0, 0.0, 1.0], [1.0, 0.3, 0.5], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [-1.0, -1.0, 0.2]],
+    ids=["front", "oblique", "top-fallback-up", "bottom-fallback-up", "below-left"],
+)
+def test_silhouette_matches_the_measures_camera(renderer, direction):
+    o3d = pytest.importorskip("open3d")
+    mesh = pair_mesh()
+    image = renderer.render(mesh, direction)[0]
+    mask = model_mask(image)
+    centre, diagonal = bounding_frame(mesh)
+    poses = Camera().poses(direction, centre=centre, diagonal=diagonal, resolution=SIZE)
+    scene = o3d.t.geometry.RaycastingScene()
+    scene.add_triangles(mesh.vertices.astype(np.float32), mesh.faces.astype(np.uint32))
+    hits = scene.cast_rays(o3d.core.Tensor(poses.pixel_rays(0)))["t_hit"].numpy()
+    reference = np.isfinite(hits).reshape(SIZE, SIZE)
+    iou = (mask & reference).sum() / (mask | reference).sum()
+    assert iou > 0.95, iou
+    projected = poses.project(0, mesh.vertices)
+    rows, columns = np.nonzero(mask)
+    np.testing.assert_allclose(
+        [columns.min(), columns.max() + 1, rows.min(), rows.max() + 1],
+        [projected[:, 0].min(), projected[:, 0].max(), projected[:, 1].min(),
+         projected[:, 1].max()],
+        atol=1.5,
+    )
+
+
+@pytest.mark.renderer
+def test_back_faces_are_culled_like_the_measures(renderer, triangle):
+    front = renderer.render(triangle, [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+    assert model_mask(front[0]).sum() > 100
+    assert (front[1] == 255).all()  # seen from behind: nothing, as VR = 0 there
+    with Renderer(size=32, camera=Camera(cull_back_faces=False)) as both_sides:
+        assert model_mask(both_sides.render(triangle, [0.0, 0.0, -1.0])[0]).sum() > 20
+
+
+@pytest.mark.renderer
+def test_documented_return_shapes(renderer, cube):
+    images = render_views(cube, np.eye(3), renderer=renderer)
+    assert images.shape == (3, SIZE, SIZE, 3) and images.dtype == np.uint8
+    image = render_view(cube, [0.0, 0.0, 1.0], renderer=renderer)
+    assert image.shape == (SIZE, SIZE, 3)
+    np.testing.assert_array_equal(image, images[2])  # same camera, same picture
+
+
+@pytest.mark.renderer
+def test_render_best_draws_the_best_view(renderer, cube):
+    from vptoolkit.measures import compute_view_quality
+
+    quality = compute_view_quality(cube, n_views=60, resolution=48)
+    for column, measure in enumerate(MEASURES):
+        view = render_best(cube, measure=measure, quality=quality, renderer=renderer)
+        assert isinstance(view, RenderedView)
+        index = int(quality.best_index[column])
+        np.testing.assert_array_equal(view.direction, quality.views[index])
+        assert view.label == f"best {measure} (view {index} of 60)"
+        assert model_mask(view.image).any()
+
+
+@pytest.mark.renderer
+def test_render_predicted_calls_the_hook(renderer, cube):
+    seen = []
+
+    def predict(mesh: Mesh) -> np.ndarray:
+        seen.append(mesh.name)
+        return np.tile([0.0, 0.0, 1.0], (4, 1))
+
+    view = render_predicted(cube, predict, measure="VKL", renderer=renderer)
+    assert seen == ["box"] and view.label == "predicted VKL"
+    np.testing.assert_array_equal(view.image, render_view(cube, [0, 0, 1], renderer=renderer))
+
+
+@pytest.mark.renderer
+def test_a_killed_child_is_replaced(renderer, cube):
+    before = renderer.render(cube, [1.0, 1.0, 1.0])[0]
+    restarts = renderer.n_restarts
+    os.kill(renderer._child.process.pid, signal.SIGKILL)
+    after = renderer.render(cube, [1.0, 1.0, 1.0])[0]
+    assert renderer.n_restarts == restarts + 1
+    np.testing.assert_array_equal(after, before)
+
+
+@pytest.mark.renderer
+def test_a_hung_frame_is_a_measurement_error_and_the_renderer_recovers(renderer, cube):
+    renderer.frame_timeout, renderer.attempts = 1e-4, 2
+    try:
+        with pytest.raises(MeasurementError, match=r"^box: renderer: no answer within .* in 2 attempts$"):
+            renderer.render(cube, [0.0, 1.0, 0.0])
+    finally:
+        renderer.frame_timeout, renderer.attempts = 30.0, 3
+    assert model_mask(renderer.render(cube, [0.0, 1.0, 0.0])[0]).any()
+
+
+def test_no_vulkan_driver_is_a_one_line_missing_dependency(monkeypatch, cube):
+    require_package("open3d")
+    for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
+        monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
+    with pytest.raises(MissingDependencyError) as caught:
+        render_view(cube, [0.0, 0.0, 1.0], size=32)
+    message = str(caught.value)
+    assert message.startswith("renderer: Open3D's offscreen renderer could not start "
+                              "(no Vulkan driver?): ")
+    assert "\n" not in message
+    assert "SIGABRT" in message  # the abort happened in the child, not here

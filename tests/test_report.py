@@ -1,0 +1,601 @@
+"""Mercator quality maps and the static HTML report.
+
+The report is opened in a real headless Chromium (Debian's ``chromium``),
+driven over the DevTools protocol on a pipe (``--remote-debugging-pipe``,
+NUL-separated JSON; no browser download, no websocket package): the page
+must load without console errors, show every model, and filter by category
+and split, also from the address (``#category=...&split=...``). The browser
+test skips when chromium is absent, or fails with ``VPTOOLKIT_REQUIRE_ALL=1``.
+"""
+
+from __future__ import annotations
+
+import base64
+import fcntl
+import hashlib
+import html
+import json
+import os
+import re
+import select
+import shutil
+import subprocess
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from conftest import (
+    REQUIRE_ALL,
+    decode_png,
+    model_mask,
+    primitive_mesh,
+    read_png,
+    require_package,
+    started_renderer,
+)
+from vptoolkit.conventions import MEASURES
+from vptoolkit.errors import InputError
+from vptoolkit.mesh import Mesh
+from vptoolkit.sphere import fibonacci_sphere, nearest_view
+
+N_VIEWS = 200
+SIZE = 96
+# (category, name, split, trimesh primitive), in (category, name) order.
+MODELS = [
+    ("box", "box_a", "train", ("box", {"extents": (1.0, 1.0, 1.0)})),
+    ("box", "box_b", "test", ("box", {"extents": (2.0, 1.0, 0.5)})),
+    ("round", "ball", "train", ("icosphere", {"subdivisions": 2})),
+    ("round", "capsule", "test", ("capsule", {"height": 1.0, "radius": 0.4})),
+    ("round", "mug & 'co' <1>", "val", ("cylinder", {"radius": 0.5, "height": 1.0})),
+    ("thin", "cone", "val", ("cone", {"radius": 0.5, "height": 1.5})),
+]
+BUILD = {
+    "resolution": 64,
+    "backend": "raster",
+    "camera": {"fov_deg": 45.0, "distance_factor": 1.4142, "up": [0.0, -1.0, 0.0]},
+    "cleaning": {"enabled": False},
+    "split_seed": 0,
+    "split_fractions": {"train": 0.6, "val": 0.2, "test": 0.2},
+    "source": "trimesh primitives",
+    "toolkit_version": "0.1.0",
+    "created": "2025-01-01T00:00:00+00:00",
+}
+BEST_RED_MIN, BEST_GREEN_MAX = 200, 60  # the star's pure red; viridis has none
+VIRIDIS_TOP = np.array([253, 231, 37])  # the colour of quality 1
+
+
+def preferred_directions(name: str) -> np.ndarray:
+    """One made-up preferred direction per measure, derived from the model name."""
+    rng = np.random.default_rng(int(hashlib.sha256(name.encode()).hexdigest()[:8], 16))
+    directions = rng.normal(size=(len(MEASURES), 3))
+    return directions / np.linalg.norm(directions, axis=1, keepdims=True)
+
+
+def smooth_quality(views: np.ndarray, preferred: np.ndarray) -> np.ndarray:
+    """(n_views, 4) normalised quality peaking at each measure's preferred direction."""
+    quality = (1.0 + views @ preferred.T) / 2.0
+    quality -= quality.min(axis=0)
+    return quality / quality.max(axis=0)
+
+
+# --------------------------------------------------------------------------- sphere maps
+
+
+def figure_pixels(figure: Any) -> np.ndarray:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(figure)
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[:, :, :3].copy()
+
+
+def display_to_pixel(figure: Any, axes: Any, lon: float, lat: float) -> np.ndarray:
+    """Array (column, row) of a map point given in degrees."""
+    from vptoolkit.sphere_map import mercator_y
+
+    x, y = axes.transData.transform((lon, float(mercator_y([lat])[0])))
+    return np.array([x, figure.bbox.height - y])
+
+
+def axes_region(figure: Any, axes: Any, pixels: np.ndarray) -> tuple[slice, slice]:
+    box = axes.get_window_extent()
+    height = pixels.shape[0]
+    return (slice(int(height - box.y1) + 2, int(height - box.y0) - 2),
+            slice(int(box.x0) + 2, int(box.x1) - 2))
+
+
+def centroid(mask: np.ndarray) -> np.ndarray:
+    rows, columns = np.nonzero(mask)
+    assert rows.size, "no such pixels"
+    return np.array([columns.mean(), rows.mean()])
+
+
+@pytest.fixture(scope="module")
+def matplotlib_available():
+    require_package("matplotlib")
+
+
+def test_view_coordinates_frame():
+    from vptoolkit.sphere_map import view_coordinates
+
+    directions = [[1, 0, 0], [0, 0, 1], [0, 0, -1], [-1, 0, 1e-12], [0, 1, 0], [0, -2, 0]]
+    np.testing.assert_allclose(
+        view_coordinates(directions),
+        [[0, 0], [90, 0], [-90, 0], [180, 0], [0, 90], [0, -90]], atol=1e-6,
+    )
+
+
+def test_sphere_grid_holds_the_nearest_view_of_each_pixel():
+    from vptoolkit.sphere_map import mercator_y, sphere_grid
+
+    views = fibonacci_sphere(300)
+    grid = sphere_grid(views, width=120, max_latitude_deg=80.0)
+    y_max = float(mercator_y([80.0])[0])
+    height = grid.shape[0]
+    assert grid.shape == (round(120 * y_max / np.pi), 120) and grid.dtype == np.int64
+    assert sphere_grid(views, width=120, max_latitude_deg=80.0) is grid  # cached
+    for row, column in [(0, 0), (height // 2, 37), (height - 1, 119), (5, 90)]:
+        lon = np.radians(-180.0 + (column + 0.5) * 3.0)
+        lat = np.arctan(np.sinh(-y_max + (row + 0.5) * 2.0 * y_max / height))
+        direction = [np.cos(lat) * np.cos(lon), np.sin(lat), np.cos(lat) * np.sin(lon)]
+        assert grid[row, column] == nearest_view(direction, views)[0]
+
+
+@pytest.mark.parametrize("measure", MEASURES)
+def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_available, measure):
+    from vptoolkit.sphere_map import sphere_map, view_coordinates
+
+    views = fibonacci_sphere(1000)
+    quality = smooth_quality(views, preferred_directions(f"map-{measure}"))
+    figure = sphere_map(views, quality, measure=measure)
+    pixels = figure_pixels(figure)
+    axes = next(a for a in figure.axes if a.get_gid() == "map")
+    region = axes_region(figure, axes, pixels)
+    inside = pixels[region]
+    column = MEASURES.index(measure)
+    best = int(np.argmax(quality[:, column]))
+    lon, lat = view_coordinates(views[best])[0]
+    expected = display_to_pixel(figure, axes, lon, lat)
+    offset = np.array([region[1].start, region[0].start])
+    red = (inside[:, :, 0] >= BEST_RED_MIN) & (inside[:, :, 1] <= BEST_GREEN_MAX) & (
+        inside[:, :, 2] <= BEST_GREEN_MAX)
+    assert np.linalg.norm(centroid(red) + offset - expected) < 2.5
+    # The brightest (quality 1) colour of the map lies under the star too.
+    top = np.abs(inside.astype(int) - VIRIDIS_TOP).sum(axis=2) < 30
+    assert np.linalg.norm(centroid(top) + offset - expected) < 12.0
+    assert f"{measure}: best view {best}" in axes.get_title()
+
+
+def test_the_predicted_view_is_crossed_with_its_score(matplotlib_available):
+    from vptoolkit.sphere_map import sphere_map, view_coordinates
+
+    views = fibonacci_sphere(1000)
+    quality = smooth_quality(views, preferred_directions("predicted"))
+    predicted = np.array([0.3, -0.4, 0.8])
+    figure = sphere_map(views, quality, measure="VR", predicted=predicted)
+    pixels = figure_pixels(figure)
+    axes = figure.axes[0]
+    region = axes_region(figure, axes, pixels)
+    inside = pixels[region]
+    white = (inside >= 245).all(axis=2)
+    lon, lat = view_coordinates(predicted)[0]
+    expected = display_to_pixel(figure, axes, lon, lat)
+    offset = np.array([region[1].start, region[0].start])
+    assert np.linalg.norm(centroid(white) + offset - expected) < 2.5
+    score = quality[nearest_view(predicted, views)[0], 1]
+    assert axes.get_title().endswith(f"predicted {score:.2f}")
+
+
+def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
+    from vptoolkit.sphere_map import save_figure, sphere_maps
+
+    views = fibonacci_sphere(N_VIEWS)
+    quality = smooth_quality(views, preferred_directions("four"))
+    predicted = np.full((4, 3), np.nan)
+    predicted[2] = [0, 0, 1]
+    figure = sphere_maps(views, quality, predicted=predicted, title="four")
+    gids = [a.get_gid() for a in figure.axes]
+    assert gids[:4] == [f"map-{m}" for m in MEASURES]
+    crosses = [any(line.get_gid() == "predicted" for line in a.lines) for a in figure.axes[:4]]
+    assert crosses == [False, False, True, False]
+    image = read_png(save_figure(figure, tmp_path / "maps.png"))
+    assert image.shape[:2] == (340, 1200)
+
+
+def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: Path, cube):
+    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.sphere_map import sphere_map_file
+
+    quality_path = compute_view_quality(cube, n_views=100, resolution=32).save_npz(
+        tmp_path / "cube.npz")
+    written = sphere_map_file(quality_path, tmp_path / "cube.png", measure="vkl")
+    assert read_png(written).shape[:2] == (540, 640)
+    np.savez(tmp_path / "other.npz", views=fibonacci_sphere(10))
+    with pytest.raises(InputError, match="other.npz: lacks normalized"):
+        sphere_map_file(tmp_path / "other.npz", tmp_path / "other.png")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"measure": "VX"}, "unknown measure"),
+        ({"quality": np.zeros((10, 4))}, r"quality: expected shape \(200, 4\)"),
+        ({"predicted": np.zeros((2, 3))}, "predicted: expected shape"),
+        ({"predicted": [0.0, 0.0, 0.0]}, "zero-length"),
+        ({"max_latitude_deg": 90.0}, "max_latitude_deg"),
+    ],
+    ids=["measure", "quality-shape", "predicted-shape", "predicted-zero", "latitude"],
+)
+def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message):
+    from vptoolkit.sphere_map import sphere_map
+
+    views = fibonacci_sphere(N_VIEWS)
+    arguments = {"quality": np.ones((N_VIEWS, 4)), **kwargs}
+    with pytest.raises(InputError, match=message):
+        sphere_map(views, **arguments)
+
+
+# --------------------------------------------------------------------------- dataset and report
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A small dataset store of trimesh primitives with made-up smooth quality."""
+    require_package("zarr")
+    from vptoolkit.dataset.store import ModelEntry, write_dataset
+
+    views = fibonacci_sphere(N_VIEWS)
+    entries = []
+    for category, name, split, (kind, options) in MODELS:
+        mesh = primitive_mesh(kind, options, name)
+        quality = smooth_quality(views, preferred_directions(name))
+        best = np.argmax(quality, axis=0)
+        worst = np.argmin(quality, axis=0)
+        rng = np.random.default_rng(len(name))
+        normals = rng.normal(size=(32, 3))
+        entries.append(ModelEntry(
+            name=name, category=category, split=split, source=f"{category}/{name}.off",
+            source_sha256=hashlib.sha256(name.encode()).hexdigest(),
+            points=rng.normal(size=(32, 3)),
+            normals=normals / np.linalg.norm(normals, axis=1, keepdims=True),
+            quality=quality, quality_raw=quality, best_index=best,
+            best_value=quality[best, np.arange(4)], worst_index=worst,
+            worst_value=quality[worst, np.arange(4)],
+            vertices=mesh.vertices, faces=mesh.faces,
+        ))
+    failures = [{"source": "box/broken <b>.off", "category": "box", "reason": "no faces"}]
+    path = tmp_path_factory.mktemp("store") / "dataset.zarr"
+    return write_dataset(path, entries, attrs=BUILD, views=views, failures=failures)
+
+
+@pytest.fixture(scope="module")
+def report_renderer():
+    yield from started_renderer(SIZE)
+
+
+@pytest.fixture(scope="module")
+def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) -> Path:
+    from vptoolkit.report import write_report
+
+    return write_report(store, tmp_path_factory.mktemp("report") / "all",
+                        renderer=report_renderer)
+
+
+@pytest.fixture(scope="module")
+def predictions(store, tmp_path_factory) -> tuple[Path, np.ndarray]:
+    """Predictions for the test split: box_b exactly right, capsule off; no VMI."""
+    from vptoolkit.evaluate import save_predictions
+
+    views = fibonacci_sphere(N_VIEWS)
+    directions = np.zeros((2, 3, 3))
+    directions[0] = views[np.argmax(smooth_quality(views, preferred_directions("box_b")),
+                                    axis=0)[:3]]
+    directions[1] = [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.2]]
+    path = tmp_path_factory.mktemp("predictions") / "predictions.npz"
+    save_predictions(path, ["box_b", "capsule"], directions, measures=MEASURES[:3])
+    return path, directions
+
+
+@pytest.fixture(scope="module")
+def test_report(store, predictions, report_renderer, matplotlib_available,
+                tmp_path_factory) -> Path:
+    from vptoolkit.report import write_report
+
+    return write_report(store, tmp_path_factory.mktemp("report") / "test", split="test",
+                        predictions=predictions[0], renderer=report_renderer)
+
+
+def image_sources(page: str) -> list[str]:
+    return [html.unescape(src) for src in re.findall(r'<img [^>]*src="([^"]+)"', page)]
+
+
+def cards(page: str) -> list[dict[str, str]]:
+    found = re.findall(r'<article class="card" [^>]*data-name="([^"]*)" '
+                       r'data-category="([^"]*)" data-split="([^"]*)"', page)
+    return [{"name": html.unescape(n), "category": c, "split": s} for n, c, s in found]
+
+
+@pytest.mark.renderer
+def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
+    page = full_report.read_text(encoding="utf-8")
+    assert full_report.name == "index.html"
+    assert cards(page) == [{"name": n, "category": c, "split": s} for c, n, s, _ in MODELS]
+    assert "mug &amp; &#x27;co&#x27; &lt;1&gt;" in page and "<1>" not in page
+    sources = image_sources(page)
+    assert len(sources) == len(MODELS) * (len(MEASURES) + 1)  # four views and the maps
+    for source in sources:
+        assert not source.startswith(("/", "http")), source
+        image = read_png(full_report.parent / source)
+        if source.startswith("thumbs/"):
+            assert image.shape == (SIZE, SIZE, 3) and model_mask(image).any()
+    assert "1 source files were not built" in page and "box/broken &lt;b&gt;.off" in page
+
+
+@pytest.mark.renderer
+def test_report_thumbnails_are_the_best_views(full_report: Path, store, report_renderer):
+    from vptoolkit.data import open_dataset
+
+    page = full_report.read_text(encoding="utf-8")
+    with open_dataset(store) as dataset:
+        item = dataset["box_b"]
+        vertices, faces = dataset.mesh("box_b")
+        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), "box_b")
+        index = int(item["best_index"][1])
+        expected = report_renderer.render(mesh, dataset.views[index])[0]
+    source = f"thumbs/00001-box_b-v{index}.png"
+    assert f'src="{source}"' in page and f"VR · view {index} of {N_VIEWS}" in page
+    np.testing.assert_array_equal(decode_png((full_report.parent / source).read_bytes()),
+                                  expected)
+
+
+def test_summary_table_counts_models_per_category_and_split(full_report: Path):
+    table = re.search(r'<table class="summary".*?</table>', full_report.read_text("utf-8"),
+                      re.S).group(0)
+    rows = re.findall(r"<tr[^>]*><td>([^<]*)</td>((?:<td>[^<]*</td>)*)</tr>", table)
+    counts = {label: re.findall(r"<td>([^<]*)</td>", cells) for label, cells in rows}
+    # category: models, train, val, test
+    assert counts == {"box": ["2", "1", "0", "1"], "round": ["3", "1", "1", "1"],
+                      "thin": ["1", "0", "1", "0"], "all": ["6", "2", "2", "2"]}
+
+
+@pytest.mark.renderer
+def test_report_with_predictions_shows_their_scores(test_report: Path, store, predictions):
+    from vptoolkit.evaluate import evaluate_predictions
+
+    page = test_report.read_text(encoding="utf-8")
+    assert [card["name"] for card in cards(page)] == ["box_b", "capsule"]
+    report = evaluate_predictions(store, predictions[0], split="test")
+    for row, name in enumerate(report.names):
+        card = re.search(rf'data-name="{name}".*?</article>', page, re.S).group(0)
+        scores = re.findall(r'<span class="score">([^<]*)</span>', card)
+        expected = [f"{v:.1f} %" for v in report.scores[row, :3]] + ["not predicted"]
+        assert scores == expected
+        assert f"thumbs/{row:05d}-{name}-pred-VE.png" in card
+        assert "pred-VMI" not in card
+    assert report.scores[0, :3].tolist() == [100.0, 100.0, 100.0]
+    mean_row = re.search(r'<tr class="mean">.*?</tr>', page).group(0)
+    assert f"<td>{report.mean[0]:.1f}</td>" in mean_row
+
+
+def test_report_without_pictures_needs_no_renderer(store, matplotlib_available, tmp_path: Path,
+                                                   monkeypatch):
+    from vptoolkit.report import write_report
+
+    for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
+        monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
+    index = write_report(store, tmp_path / "maps", split="val", thumbnails=False)
+    page = index.read_text(encoding="utf-8")
+    assert [card["name"] for card in cards(page)] == ["mug & 'co' <1>", "cone"]
+    assert image_sources(page) == ["maps/00000-mug_co_1_.png", "maps/00001-cone.png"]
+    assert not (tmp_path / "maps" / "thumbs").exists() or not any(
+        (tmp_path / "maps" / "thumbs").iterdir())
+
+
+def test_report_rejects_an_unknown_split_and_unfit_predictions(store, predictions, tmp_path):
+    from vptoolkit.report import write_report
+
+    with pytest.raises(InputError, match="unknown split 'tset'"):
+        write_report(store, tmp_path / "r", split="tset", thumbnails=False)
+    with pytest.raises(InputError, match="predictions.npz"):
+        write_report(store, tmp_path / "r", split="train", predictions=predictions[0],
+                     thumbnails=False)
+    assert not (tmp_path / "r" / "index.html").exists()
+
+
+# --------------------------------------------------------------------------- headless Chromium
+
+CHROMIUM_FLAGS = (
+    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    "--disable-background-networking", "--disable-component-update", "--disable-sync",
+    "--remote-debugging-pipe", "--window-size=1280,1000",
+)
+
+
+class Chromium:
+    """Headless Chromium driven over the DevTools protocol on fds 3 (in) and 4 (out)."""
+
+    def __init__(self, executable: str, profile: Path, log: Path) -> None:
+        to_browser, self._to_browser = os.pipe()
+        self._from_browser, from_browser = os.pipe()
+        # Lift the child's ends above fd 10 so that "3<&A 4>&B" cannot clobber them
+        # (bash, not dash: dash reads single-digit descriptors only).
+        child_in = fcntl.fcntl(to_browser, fcntl.F_DUPFD, 10)
+        child_out = fcntl.fcntl(from_browser, fcntl.F_DUPFD, 10)
+        os.close(to_browser)
+        os.close(from_browser)
+        command = f'exec "$0" "$@" 3<&{child_in} 4>&{child_out} {child_in}<&- {child_out}>&-'
+        with open(log, "wb") as log_file:
+            self.process = subprocess.Popen(
+                ["bash", "-c", command, executable, *CHROMIUM_FLAGS,
+                 f"--user-data-dir={profile}", "about:blank"],
+                pass_fds=(child_in, child_out), stdin=subprocess.DEVNULL,
+                stdout=log_file, stderr=subprocess.STDOUT,
+            )
+        os.close(child_in)
+        os.close(child_out)
+        self._buffer = b""
+        self._next_id = 0
+        self.events: list[dict[str, Any]] = []
+
+    def _read_one(self, deadline: float) -> dict[str, Any]:
+        while b"\0" not in self._buffer:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise TimeoutError("no DevTools message in time")
+            ready, _, _ = select.select([self._from_browser], [], [], remaining)
+            if ready:
+                chunk = os.read(self._from_browser, 1 << 16)
+                if not chunk:
+                    raise EOFError("chromium closed the DevTools pipe")
+                self._buffer += chunk
+        message, self._buffer = self._buffer.split(b"\0", 1)
+        return json.loads(message)
+
+    def send(self, method: str, params: dict[str, Any] | None = None, *,
+             session: str | None = None, timeout: float = 30.0) -> dict[str, Any]:
+        self._next_id += 1
+        message: dict[str, Any] = {"id": self._next_id, "method": method, "params": params or {}}
+        if session:
+            message["sessionId"] = session
+        os.write(self._to_browser, json.dumps(message).encode() + b"\0")
+        deadline = time.monotonic() + timeout
+        while True:
+            answer = self._read_one(deadline)
+            if answer.get("id") == self._next_id:
+                if "error" in answer:
+                    raise RuntimeError(f"{method}: {answer['error']}")
+                return answer.get("result", {})
+            self.events.append(answer)
+
+    def wait_for(self, method: str, *, timeout: float = 30.0) -> dict[str, Any]:
+        deadline = time.monotonic() + timeout
+        while True:
+            for position, event in enumerate(self.events):
+                if event.get("method") == method:
+                    return self.events.pop(position)
+            self.events.append(self._read_one(deadline))
+
+    def close(self) -> None:
+        try:
+            self.send("Browser.close", timeout=5.0)
+        except (OSError, EOFError, TimeoutError, RuntimeError):
+            pass
+        try:
+            self.process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        os.close(self._to_browser)
+        os.close(self._from_browser)
+
+
+class Page:
+    """One tab: navigation, script evaluation and the errors it reported."""
+
+    def __init__(self, browser: Chromium) -> None:
+        self.browser = browser
+        target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
+        self.session = browser.send("Target.attachToTarget",
+                                    {"targetId": target, "flatten": True})["sessionId"]
+        for domain in ("Page", "Runtime", "Log"):
+            self.call(f"{domain}.enable")
+
+    def call(self, method: str, params: dict[str, Any] | None = None) -> dict[str, Any]:
+        return self.browser.send(method, params, session=self.session)
+
+    def open(self, url: str) -> None:
+        """Load ``url`` afresh (via about:blank: a change of the hash alone fires no load event)."""
+        for address in ("about:blank", url):
+            self.browser.events.clear()
+            self.call("Page.navigate", {"url": address})
+            self.browser.wait_for("Page.loadEventFired")
+
+    def evaluate(self, expression: str) -> Any:
+        result = self.call("Runtime.evaluate", {"expression": expression,
+                                                "returnByValue": True, "awaitPromise": True})
+        if "exceptionDetails" in result:
+            raise AssertionError(f"script failed: {result['exceptionDetails']}")
+        return result["result"].get("value")
+
+    def errors(self) -> list[str]:
+        found = []
+        for event in self.browser.events:
+            method, params = event.get("method"), event.get("params", {})
+            if method == "Runtime.exceptionThrown":
+                found.append(json.dumps(params["exceptionDetails"])[:300])
+            elif method == "Runtime.consoleAPICalled" and params.get("type") in (
+                    "error", "warning", "assert"):
+                found.append(json.dumps(params.get("args"))[:300])
+            elif method == "Log.entryAdded" and params["entry"]["level"] in ("error", "warning"):
+                found.append(params["entry"].get("text", "")[:300])
+        return found
+
+
+VISIBLE_NAMES = """
+Array.prototype.filter.call(document.querySelectorAll("article.card"),
+    function (card) { return card.offsetParent !== null; })
+  .map(function (card) { return card.dataset.name; })
+"""
+
+
+def choose(select_id: str, value: str) -> str:
+    """Script: pick an option of a filter as a user would (value, then a change event)."""
+    return (f'(function () {{ var s = document.getElementById("{select_id}"); '
+            f's.value = {json.dumps(value)}; s.dispatchEvent(new Event("change")); '
+            f"return [window.location.hash, document.getElementById('shown-count').textContent]; "
+            "}())")
+
+
+@pytest.fixture(scope="module")
+def chromium(tmp_path_factory: pytest.TempPathFactory):
+    executable = shutil.which("chromium") or shutil.which("chromium-browser")
+    if executable is None:
+        if REQUIRE_ALL:
+            pytest.fail("chromium is required (VPTOOLKIT_REQUIRE_ALL=1) but not installed")
+        pytest.skip("chromium not installed")
+    folder = tmp_path_factory.mktemp("chromium")
+    browser = Chromium(executable, folder / "profile", folder / "chromium.log")
+    try:
+        browser.send("Browser.getVersion", timeout=60.0)
+        yield browser
+    finally:
+        browser.close()
+
+
+@pytest.mark.renderer
+def test_report_in_headless_chromium(chromium: Chromium, full_report: Path, tmp_path: Path):
+    names = [name for _, name, _, _ in MODELS]
+    url = full_report.resolve().as_uri()
+    page = Page(chromium)
+    page.open(url)
+    assert page.evaluate("document.readyState") == "complete"
+    assert page.evaluate(VISIBLE_NAMES) == names  # every model shown
+    broken = page.evaluate(
+        "Array.prototype.filter.call(document.images, function (i) { return i.loading !== "
+        "'lazy' && !(i.complete && i.naturalWidth > 0); }).map(function (i) { return i.src; })")
+    assert broken == []
+    assert page.evaluate("document.images.length") == len(MODELS) * 5
+
+    assert page.evaluate(choose("filter-category", "round")) == [
+        "#category=round", "3 of 6 models shown"]
+    assert page.evaluate(VISIBLE_NAMES) == ["ball", "capsule", "mug & 'co' <1>"]
+    assert page.evaluate(choose("filter-split", "test"))[0] == "#category=round&split=test"
+    assert page.evaluate(VISIBLE_NAMES) == ["capsule"]
+    page.evaluate(choose("filter-category", ""))
+    assert page.evaluate(VISIBLE_NAMES) == ["box_b", "capsule"]
+    page.evaluate(choose("filter-split", ""))
+    assert page.evaluate(VISIBLE_NAMES) == names
+    assert page.errors() == []
+
+    page.open(url + "#category=thin&split=val")  # a shared link opens filtered
+    assert page.evaluate(VISIBLE_NAMES) == ["cone"]
+    assert page.evaluate("document.getElementById('filter-category').value") == "thin"
+    page.open(url + "#category=nonsense")  # an unknown value falls back to all
+    assert page.evaluate(VISIBLE_NAMES) == names
+    shot = page.call("Page.captureScreenshot", {"format": "png"})["data"]
+    (tmp_path / "report.png").write_bytes(base64.b64decode(shot))
+    assert read_png(tmp_path / "report.png").shape[2] in (3, 4)
+    assert page.errors() == []
