@@ -11,22 +11,28 @@ PCA-axis heuristic and the oracle (the dataset's own best views).
 The result replaces the section between ``<!-- labels:start -->`` and
 ``<!-- labels:end -->`` of ``docs/results.md``; every number comes from the
 run. Every stage resumes: the dataset build and each training pick up where
-an interrupted run stopped.
+an interrupted run stopped. With ``--export-pretrained DIR`` the ML+GL
+checkpoint is also saved there in float16 with this command recorded in its
+JSON: that is how ``vptoolkit/learn/pretrained`` (``--model default``) is made.
 
 Usage::
 
     python tools/reproduce_labels.py                 # the default budget (hours on 2 cores)
     python tools/reproduce_labels.py --quick         # tiny sizes, minutes; writes nothing to docs/
+    python tools/reproduce_labels.py --epochs 30 --export-pretrained vptoolkit/learn/pretrained
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import shlex
 import sys
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -38,7 +44,7 @@ from vptoolkit.dataset.build import build_dataset
 from vptoolkit.evaluate import oracle_directions, pca_directions, random_directions, score_directions
 from vptoolkit.learn.predict import predict
 from vptoolkit.learn.train import train_model
-from vptoolkit.synthetic import write_collection
+from vptoolkit.synthetic import CATEGORIES, write_collection
 
 METHODS = ("sl", "ml", "gl", "ml+gl", "sr", "dldl")
 LABELS = {"sl": "SL", "ml": "ML", "gl": "GL", "ml+gl": "ML+GL (ours)", "sr": "SR", "dldl": "DLDL"}
@@ -62,29 +68,96 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--workers", type=int, default=2, help="dataset build processes")
     parser.add_argument("--results", type=Path, default=Path("docs/results.md"))
     parser.add_argument("--quick", action="store_true", help="tiny sizes for a smoke test")
+    parser.add_argument("--export-pretrained", type=Path,
+                        help="also save the ML+GL checkpoint here in float16 "
+                             "(the package's is vptoolkit/learn/pretrained)")
     return parser.parse_args()
+
+
+@dataclass(frozen=True)
+class LabelSizes:
+    """Sizes of one table-2 run; the defaults are the full run's.
+
+    ``n_views`` Fibonacci views at ``resolution`` px per model, ``n_points``
+    stored surface points, ``clean`` runs the paper's cleaning, and every
+    method trains ``epochs`` epochs on ``train_points`` input points, the
+    first ``train_fps`` of them by farthest point sampling.
+    """
+
+    per_category: int = 50
+    epochs: int = 60
+    resolution: int = 256
+    n_views: int = 1000
+    n_points: int = 20000
+    clean: bool = True
+    train_points: int = 4096
+    train_fps: int = 1024
+
+
+QUICK = LabelSizes(per_category=3, epochs=2, resolution=64, n_views=100, n_points=2000,
+                   clean=False, train_points=512, train_fps=128)
+"""The ``--quick`` sizes: a smoke test of minutes."""
 
 
 def main() -> None:
     args = parse_args()
-    if args.quick:
-        args.per_category, args.epochs, args.resolution = 3, 2, 64
+    sizes = QUICK if args.quick else LabelSizes(
+        per_category=args.per_category, epochs=args.epochs, resolution=args.resolution)
+    command = "python tools/reproduce_labels.py " + shlex.join(sys.argv[1:])
+    table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers,
+                command=command.strip())
+    print(table)
+    if not args.quick:
+        write_section(args.results, table)
+    if args.export_pretrained is not None:
+        export_pretrained(args.out / "models" / "ml_gl", args.export_pretrained, command.strip(),
+                          sizes)
+
+
+def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: LabelSizes) -> None:
+    """Save a trained checkpoint in float16 with the command and data that made it."""
+    from vptoolkit.learn.model import load_model, save_model
+
+    model, config = load_model(checkpoint)
+    config["pretrained"] = {
+        "command": command,
+        "data": f"vptoolkit.synthetic, {len(CATEGORIES)} categories x {sizes.per_category} "
+                f"shapes (seed 0), {sizes.n_views} views at {sizes.resolution} px, "
+                f"{'cleaned' if sizes.clean else 'not cleaned'}",
+        "results": "docs/results.md",
+    }
+    weights, _ = save_model(model, target, metadata=config, half=True)
+    print(f"exported {checkpoint} to {target} ({weights.stat().st_size / 2**20:.1f} MiB)")
+
+
+def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] = METHODS,
+        workers: int = 2, command: str = "python tools/reproduce_labels.py") -> str:
+    """Build the benchmark, train every method, score it and return the markdown section.
+
+    Shapes go to ``out/shapes``, the dataset to ``out/dataset``, checkpoints to
+    ``out/models/<method>`` (``+`` becomes ``_``, so ML+GL is ``models/ml_gl``)
+    and the numbers to ``out/table2.json``. Every stage resumes. When the
+    dataset's ``val`` split is empty (tiny runs), training picks its best
+    checkpoint on ``train`` instead.
+    """
     started = time.perf_counter()
-    shapes, dataset_dir = args.out / "shapes", args.out / "dataset"
+    shapes, dataset_dir = out / "shapes", out / "dataset"
     if not shapes.exists():
-        write_collection(shapes, n_per_category=args.per_category, seed=0)
-    built = build_dataset(shapes, dataset_dir, n_views=100 if args.quick else 1000,
-                          resolution=args.resolution, n_points=2000 if args.quick else 20000,
-                          clean=not args.quick, workers=args.workers, split_seed=0,
+        write_collection(shapes, n_per_category=sizes.per_category, seed=0)
+    built = build_dataset(shapes, dataset_dir, n_views=sizes.n_views,
+                          resolution=sizes.resolution, n_points=sizes.n_points,
+                          clean=sizes.clean, workers=workers, split_seed=0,
                           progress=True)
+    with open_dataset(built.path) as dataset:
+        val_split = "val" if len(dataset.split("val")) else "train"
     rows: dict[str, np.ndarray] = {}
     timings: dict[str, float] = {}
     n_parameters = {}
-    for method in args.methods.split(","):
+    for method in methods:
         trained = train_model(
-            built.path, args.out / "models" / method.replace("+", "_"), labels=method,
-            epochs=args.epochs, seed=0, resume=True, progress=True, threads=1, workers=1,
-            **({"n_points": 512, "n_fps": 128} if args.quick else {}),
+            built.path, out / "models" / method.replace("+", "_"), labels=method,
+            epochs=sizes.epochs, seed=0, resume=True, progress=True, threads=1, workers=1,
+            n_points=sizes.train_points, n_fps=sizes.train_fps, val_split=val_split,
         )
         timings[LABELS[method]] = sum(epoch["seconds"] for epoch in trained.history)
         n_parameters[LABELS[method]] = trained.n_parameters
@@ -104,52 +177,74 @@ def main() -> None:
         }
         for label, directions in baselines.items():
             rows[label] = score_directions(test, directions).mean
-        sizes = {split: len(dataset.split(split)) for split in ("train", "val", "test")}
+        split_sizes = {split: len(dataset.split(split)) for split in ("train", "val", "test")}
     seconds = time.perf_counter() - started
-    table = render(rows, timings, n_parameters, sizes, args, seconds)
-    print(table)
-    if not args.quick:
-        write_section(args.results, table)
-    (args.out / "table2.json").write_text(json.dumps(
+    table = render(rows, timings, n_parameters, split_sizes, sizes, command, seconds)
+    (out / "table2.json").write_text(json.dumps(
         {"rows": {k: list(map(float, v)) for k, v in rows.items()}, "train_seconds": timings,
-         "sizes": sizes, "seconds": seconds}, indent=2))
+         "sizes": split_sizes, "seconds": seconds}, indent=2))
+    return table
 
 
-def render(rows, timings, n_parameters, sizes, args, seconds) -> str:
-    command = "python tools/reproduce_labels.py " + shlex.join(sys.argv[1:])
+def format_seconds(seconds: float) -> str:
+    """A wall time in the largest fitting unit: ``42 s``, ``12.5 min`` or ``3.1 h``."""
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def machine() -> str:
+    """One line naming this machine: platform, processor and CPU count."""
+    return (f"{platform.platform(terse=True)}, {platform.processor() or platform.machine()}, "
+            f"{os.cpu_count()} CPUs, no GPU used")
+
+
+def render(rows, timings, n_parameters, split_sizes, sizes: LabelSizes, command: str,
+           seconds: float) -> str:
     lines = [
         "## Table 2: label methods on procedural shapes",
         "",
-        f"Command: `{command.strip()}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
-        f"{platform.processor() or platform.machine()}, CPU only; wall time {seconds / 3600:.1f} h.",
+        f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
+        f"{machine()}; wall time {format_seconds(seconds)}.",
         "",
-        f"Dataset: `vptoolkit.synthetic`, 8 categories x {args.per_category} shapes "
-        f"(train {sizes['train']}, val {sizes['val']}, test {sizes['test']}), cleaned, "
-        f"20000 points, 1000 views, measures at {args.resolution} px. Every method trains "
-        f"{args.epochs} epochs with the paper's other settings (Adam, batch 8, lr 0.001, "
-        "x0.75 every 200 epochs, 4096 input points, random rotations); the paper trains "
-        "3000 epochs on ModelNet40. Scores: mean over categories of the normalised quality "
-        "of the nearest sampled view on the test split, in %.",
+        f"Dataset: `vptoolkit.synthetic`, 8 categories x {sizes.per_category} shapes "
+        f"(train {split_sizes['train']}, val {split_sizes['val']}, test {split_sizes['test']}), "
+        f"{'cleaned' if sizes.clean else 'not cleaned'}, {sizes.n_points} points, "
+        f"{sizes.n_views} views, measures at {sizes.resolution} px. Every method trains "
+        f"{sizes.epochs} epochs with the paper's other settings (Adam, batch 8, lr 0.001, "
+        f"x0.75 every 200 epochs, {sizes.train_points} input points, random rotations); "
+        "the paper trains 3000 epochs on ModelNet40. Scores: mean over categories of the "
+        "normalised quality of the nearest sampled view on the test split, in %.",
         "",
         "| method | " + " | ".join(MEASURES) + " | train time | paper (ModelNet40) |",
         "|---|" + "---:|" * len(MEASURES) + "---:|---|",
     ]
     for label, scores in rows.items():
         paper = " / ".join(f"{v:.1f}" for v in PAPER[label]) if label in PAPER else ""
-        train = f"{timings[label] / 60:.0f} min" if label in timings else ""
+        train = format_seconds(timings[label]) if label in timings else ""
         lines.append(f"| {label} | " + " | ".join(f"{v:.1f}" for v in scores) +
                      f" | {train} | {paper} |")
-    best = max((label for label in rows if label in PAPER), key=lambda k: rows[k].mean())
-    lines += ["", f"Best learned method by mean over the measures: {best}. "
-              f"Network parameters: {next(iter(n_parameters.values()))}."]
+    learned = [label for label in rows if label in PAPER]
+    if learned:
+        best = max(learned, key=lambda k: rows[k].mean())
+        lines += ["", f"Best learned method by mean over the measures: {best}. "
+                  f"Network parameters: {next(iter(n_parameters.values()))}."]
     return "\n".join(lines)
 
 
-def write_section(path: Path, table: str) -> None:
+def write_section(path: Path, table: str, *, start: str = START, end: str = END) -> None:
+    """Replace the text between the ``start`` and ``end`` markers of ``path`` by ``table``.
+
+    The file (and its folder) is created if missing; a section not yet in it
+    is appended, so several scripts can each own their sections of one file.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
     text = path.read_text() if path.exists() else "# Results\n\n"
-    block = f"{START}\n{table}\n{END}"
-    if START in text and END in text:
-        text = text[: text.index(START)] + block + text[text.index(END) + len(END):]
+    block = f"{start}\n{table}\n{end}"
+    if start in text and end in text:
+        text = text[: text.index(start)] + block + text[text.index(end) + len(end):]
     else:
         text = text.rstrip() + "\n\n" + block + "\n"
     path.write_text(text)
