@@ -17,9 +17,9 @@ JSON: that is how ``vptoolkit/learn/pretrained`` (``--model default``) is made.
 
 Usage::
 
-    python tools/reproduce_labels.py                 # the default budget (hours on 2 cores)
+    python tools/reproduce_labels.py                 # the default budget (about 2 h on 2 cores)
     python tools/reproduce_labels.py --quick         # tiny sizes, minutes; writes nothing to docs/
-    python tools/reproduce_labels.py --epochs 30 --export-pretrained vptoolkit/learn/pretrained
+    python tools/reproduce_labels.py --export-pretrained vptoolkit/learn/pretrained
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--out", type=Path, default=Path("reproduction/labels"),
                         help="working folder for shapes, dataset and models")
     parser.add_argument("--per-category", type=int, default=50, help="shapes per category")
-    parser.add_argument("--epochs", type=int, default=60, help="epochs per method (same for all)")
+    parser.add_argument("--epochs", type=int, default=30, help="epochs per method (same for all)")
     parser.add_argument("--resolution", type=int, default=256, help="px of the measures")
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--workers", type=int, default=2, help="dataset build processes")
@@ -85,7 +85,7 @@ class LabelSizes:
     """
 
     per_category: int = 50
-    epochs: int = 60
+    epochs: int = 30
     resolution: int = 256
     n_views: int = 1000
     n_points: int = 20000

@@ -49,6 +49,7 @@ from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS
 from vptoolkit.errors import InputError
+from vptoolkit.files import atomic_write
 
 __all__ = [
     "EVALUATION_SPLITS",
@@ -521,7 +522,7 @@ def save_predictions(
     if values.shape != (len(name_list), len(measure_list), 3):
         raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "
                          f"got {values.shape}")
-    with path.open("wb") as handle:
+    with atomic_write(path) as handle:
         np.savez(handle, names=np.array(name_list, dtype=str),
                  directions=values, measures=np.array(measure_list, dtype=str))
     return path
