@@ -71,6 +71,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--export-pretrained", type=Path,
                         help="also save the ML+GL checkpoint here in float16 "
                              "(the package's is vptoolkit/learn/pretrained)")
+    parser.add_argument("--pretrained-epochs", type=int,
+                        help="train the exported ML+GL network this many epochs instead "
+                             "(in OUT/models/ml_gl_<N>e; default: --epochs, the table's run)")
     return parser.parse_args()
 
 
@@ -110,8 +113,15 @@ def main() -> None:
     if not args.quick:
         write_section(args.results, table)
     if args.export_pretrained is not None:
-        export_pretrained(args.out / "models" / "ml_gl", args.export_pretrained, command.strip(),
-                          sizes)
+        checkpoint = args.out / "models" / "ml_gl"
+        epochs = args.pretrained_epochs or sizes.epochs
+        if epochs != sizes.epochs:
+            checkpoint = train_model(
+                args.out / "dataset", args.out / "models" / f"ml_gl_{epochs}e", labels="ml+gl",
+                epochs=epochs, seed=0, resume=True, progress=True, threads=1, workers=1,
+                n_points=sizes.train_points, n_fps=sizes.train_fps,
+            ).checkpoint
+        export_pretrained(checkpoint, args.export_pretrained, command.strip(), sizes)
 
 
 def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: LabelSizes) -> None:
