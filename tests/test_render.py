@@ -25,6 +25,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.render import (
     Renderer,
     RenderedView,
+    RenderStyle,
     _shading_arrays,
     png_bytes,
     render_best,
@@ -162,8 +163,38 @@ def test_renderer_checks_its_arguments():
 
 @pytest.fixture(scope="module")
 def renderer():
-    """One render child for the module (start-up is paid once)."""
-    yield from started_renderer(SIZE, frame_timeout=30.0)
+    """One render child for the module, with the measures' own roll (image up -y), so that
+    picture pixels are triangle-ID pixels; start-up is paid once."""
+    yield from started_renderer(SIZE, frame_timeout=30.0, style=RenderStyle(up=Camera().up))
+
+
+@pytest.fixture(scope="module")
+def upright_renderer():
+    """A render child with the default style (image up +y)."""
+    yield from started_renderer(SIZE)
+
+
+@pytest.mark.renderer
+@pytest.mark.parametrize("direction", [[1.0, 0.2, 0.6], [0.0, 0.0, 1.0]])
+def test_default_pictures_are_upright_rolls_of_the_measures_view(renderer, upright_renderer,
+                                                                 direction):
+    """Default up (+y) turns the measures' picture (up -y) by 180 degrees, nothing else."""
+    mesh = pair_mesh()
+    measures_roll = model_mask(renderer.render(mesh, direction)[0])
+    upright = model_mask(upright_renderer.render(mesh, direction)[0])
+    turned = measures_roll[::-1, ::-1]
+    assert (upright & turned).sum() / (upright | turned).sum() > 0.97
+    cube_on_y = Mesh(box_mesh().vertices + [0.0, 1.0, 0.0], box_mesh().faces, "raised")
+    both = Mesh(np.vstack([pair_mesh().vertices, cube_on_y.vertices]),
+                np.vstack([pair_mesh().faces, cube_on_y.faces + len(pair_mesh().vertices)]), "both")
+    rows = np.nonzero(model_mask(upright_renderer.render(both, [0.0, 0.0, 1.0])[0]))[0]
+    assert rows.min() < SIZE * 0.2  # the part at +y is at the top of an upright picture
+
+
+def test_render_style_checks_up():
+    with pytest.raises(InputError, match="up: expected a non-zero direction"):
+        RenderStyle(up=(0.0, 0.0, 0.0))
+    assert RenderStyle(up=(0.0, 0.0, 2.0)).up == (0.0, 0.0, 1.0)
 
 
 @pytest.mark.renderer

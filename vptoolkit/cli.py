@@ -79,6 +79,14 @@ def _direction(text: str | None, option: str) -> tuple[float, float, float] | No
 
 _MEASURE_CHOICE = click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False)
 _MODEL_HELP = "Checkpoint (folder or .safetensors), or 'default' for the bundled network."
+_UP_HELP = "Model direction shown upwards in pictures, x,y,z (0,0,1 for z-up models)."
+
+
+def _style(up: str) -> Any:
+    """A RenderStyle with the image up of ``--up``."""
+    from vptoolkit.render import RenderStyle
+
+    return RenderStyle(up=_direction(up, "--up"))
 
 
 @main.command()
@@ -445,8 +453,9 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
               help="Views sampled for --best.")
 @click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384),
               help="Triangle-ID resolution of the measures for --best.")
+@click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 def render(mesh: Path, output: Path, view: str | None, best: str | None, model_path: str | None,
-           measure: str, size: int, n_views: int, resolution: int) -> None:
+           measure: str, size: int, n_views: int, resolution: int, up: str) -> None:
     """Draw MESH through the measures' camera with Open3D's offscreen renderer.
 
     Give exactly one of --view, --best or --model. The picture shows what the
@@ -466,17 +475,20 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
         raise InputError("render: give exactly one of --view, --best or --model")
     if output.suffix.lower() != ".png":
         raise InputError(f"{output.name}: output must end in .png")
+    style = _style(up)
     loaded = load_mesh(mesh)
     if best is not None:
         picture = render_best(loaded, measure=best, size=size, n_views=n_views,
-                              resolution=resolution)
+                              resolution=resolution, style=style)
     elif model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor
 
-        picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size)
+        picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size,
+                                   style=style)
     else:
         direction = as_directions(_direction(view, "--view"), name="--view")[0]
-        picture = RenderedView(render_view(loaded, direction, size=size), direction, "--view")
+        picture = RenderedView(render_view(loaded, direction, size=size, style=style), direction,
+                               "--view")
     save_png(picture.image, output)
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
@@ -516,8 +528,9 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
+@click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
-           no_pictures: bool) -> None:
+           no_pictures: bool, up: str) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
     Pictures from each measure's best view, the four quality maps, the scores
@@ -532,7 +545,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
     from vptoolkit.report import write_report
 
     index = write_report(dataset, output, split=split, predictions=predictions, size=size,
-                         thumbnails=not no_pictures, progress=True)
+                         thumbnails=not no_pictures, style=_style(up), progress=True)
     click.echo(f"wrote {index}")
 
 
@@ -547,8 +560,9 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--workers", type=click.IntRange(1), help="Measuring processes (default: CPUs).")
 @click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1))
 @click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384))
+@click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size: int,
-               workers: int | None, n_views: int, resolution: int) -> None:
+               workers: int | None, n_views: int, resolution: int, up: str) -> None:
     """Draw a thumbnail of every mesh under SRC from its best view into OUT.
 
     SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
@@ -568,7 +582,7 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
         predictor = MeshPredictor(model_path)
     result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
                                workers=workers, n_views=n_views, resolution=resolution,
-                               progress=True)
+                               style=_style(up), progress=True)
     click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)

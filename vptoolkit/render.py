@@ -1,14 +1,21 @@
 """Shaded pictures of meshes, seen through the measures' own camera.
 
 A picture for view direction ``v`` shows what the measures scored for ``v``:
-the eye, target, image up and field of view are those of
+the eye, target and field of view are those of
 :class:`vptoolkit.camera.Camera` (``Camera().poses(v, centre=, diagonal=,
 resolution=size)`` with the bounding frame of
-:func:`vptoolkit.geometry.bounding_frame`), so pixel ``(x, y)`` of a picture
-``size`` pixels wide is pixel ``(x, y)`` of the measures' triangle-ID image
-at resolution ``size``. Back faces are culled when the camera culls them
-(the default), exactly as the measures do, so a face the measures counted
-as invisible is missing from the picture too.
+:func:`vptoolkit.geometry.bounding_frame`). Back faces are culled when the
+camera culls them (the default), exactly as the measures do, so a face the
+measures counted as invisible is missing from the picture too.
+
+Only the roll differs: the measures keep the authors' image up ``-y``, which
+shows the usual ``+y``-up model (glTF, OBJ, PLY scans) upside down, so a
+picture's image up is ``RenderStyle.up`` (default ``+y``; ``(0, 0, 1)`` for
+ModelNet-style ``+z``-up models). The roll does not change what is seen:
+the camera's distance keeps the model's bounding sphere inside the circle
+inscribed in the image. With ``RenderStyle(up=Camera().up)`` pixel ``(x,
+y)`` of a picture ``size`` pixels wide is pixel ``(x, y)`` of the measures'
+triangle-ID image at resolution ``size``.
 
 Shading
     Open3D's ``defaultLit`` material in one flat colour over a plain
@@ -55,7 +62,7 @@ import tempfile
 import threading
 import zlib
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import IO, Any
 
@@ -127,6 +134,10 @@ class RenderStyle:
         Sun intensity in Filament's lux (default: 150000).
     ambient_intensity : float
         Intensity of Open3D's image-based ambient light (default: 20000).
+    up : tuple of 3 floats
+        Model direction shown as up in the picture (default: ``(0, 1, 0)``;
+        where the view looks along it, the camera's fallback up, or the
+        measures' ``-y``, serves instead).
     """
 
     color: tuple[float, float, float] = (0.72, 0.76, 0.82)
@@ -136,6 +147,7 @@ class RenderStyle:
     light_azimuth_deg: float = 30.0
     light_intensity: float = 150000.0
     ambient_intensity: float = 20000.0
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
 
     def __post_init__(self) -> None:
         for name in ("color", "background"):
@@ -147,6 +159,10 @@ class RenderStyle:
             object.__setattr__(self, name, tuple(float(c) for c in value))
         if not 0.0 <= self.crease_angle_deg <= 180.0:
             raise InputError(f"crease_angle_deg: must lie in [0, 180], got {self.crease_angle_deg}")
+        up = np.asarray(self.up, dtype=np.float64)
+        if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
+            raise InputError(f"up: expected a non-zero direction x, y, z, got {self.up}")
+        object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
         for name in ("light_intensity", "ambient_intensity"):
             if not getattr(self, name) >= 0.0:
                 raise InputError(f"{name}: must be >= 0, got {getattr(self, name)}")
@@ -254,9 +270,18 @@ class _Frame:
     far: float
 
 
+def _picture_camera(camera: Camera, up: tuple[float, float, float]) -> Camera:
+    """The measures' camera rolled so that ``up`` is the image up."""
+    fallback = camera.fallback_up
+    if abs(float(np.dot(up, fallback / np.linalg.norm(fallback)))) > 0.99:
+        fallback = camera.up  # e.g. up = +z: fall back to the measures' own up
+    return replace(camera, up=up, fallback_up=fallback)
+
+
 def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
            centre: NDArray[np.float64], diagonal: float, size: int) -> _Frame:
-    poses = camera.poses(direction[None, :], centre=centre, diagonal=diagonal, resolution=size)
+    poses = _picture_camera(camera, style.up).poses(direction[None, :], centre=centre,
+                                                    diagonal=diagonal, resolution=size)
     eye, right, up, forward = poses.eyes[0], poses.right[0], poses.up[0], poses.forward[0]
     elevation = math.radians(style.light_elevation_deg)
     azimuth = math.radians(style.light_azimuth_deg)
