@@ -115,3 +115,14 @@ def read_png(path: Path | str) -> np.ndarray:
 
     with Image.open(path) as image:
         return np.asarray(image)
+
+
+def one_torch_thread() -> Iterator[None]:
+    """Body of a fixture running torch on one thread (on a busy 2-core machine two threads
+    wait on each other), restoring the count afterwards."""
+    import torch
+
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)

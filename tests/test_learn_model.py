@@ -7,13 +7,12 @@ import pickle
 import re
 import subprocess
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import require_package
+from conftest import one_torch_thread, require_package
 
 require_package("torch")
 require_package("safetensors")
@@ -27,13 +26,7 @@ from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread() -> Iterator[None]:
-    """One torch thread: on a busy 2-core machine two threads wait on each other."""
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
+one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
 
 
 @pytest.fixture(scope="module")
