@@ -82,7 +82,7 @@ def test_render_without_a_vulkan_driver_exits_2(runner, cube_file, tmp_path, mon
     for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
     result = runner.invoke(main, ["render", str(cube_file), "--view", "0,0,1", "--size", "32",
-                                  "-o", str(tmp_path / "x.png")])
+                                  "--engine", "open3d", "-o", str(tmp_path / "x.png")])
     assert result.exit_code == 2
     assert "could not start" in one_error_line(result)
     assert not (tmp_path / "x.png").exists()

@@ -93,7 +93,8 @@ def test_png_bytes_is_deterministic():
 
 def test_cube_corners_keep_their_face_normals():
     cube = box_mesh()
-    positions, normals, _, face_normals = _shading_arrays(cube, 40.0)
+    positions, normals, _, face_normals, kept = _shading_arrays(cube, 40.0)
+    assert kept.tolist() == list(range(cube.n_faces))
     assert positions.shape == normals.shape == (3 * cube.n_faces, 3)
     assert positions.dtype == normals.dtype == np.float32
     np.testing.assert_allclose(normals, np.repeat(face_normals, 3, axis=0), atol=1e-6)
@@ -104,11 +105,11 @@ def test_sphere_normals_are_smooth():
 
     ball = trimesh.creation.icosphere(subdivisions=3)
     sphere = Mesh(ball.vertices, ball.faces, "ball")
-    positions, normals, _, _ = _shading_arrays(sphere, 40.0)
+    positions, normals, _, _, _ = _shading_arrays(sphere, 40.0)
     radial = positions / np.linalg.norm(positions, axis=1, keepdims=True)
     angle = np.degrees(np.arccos(np.clip(np.sum(radial * normals, axis=1), -1, 1)))
     assert angle.max() < 2.0  # vertex normals, not the faceted face normals (~ 5 degrees off)
-    _, flat, _, _ = _shading_arrays(sphere, 0.0)
+    _, flat, _, _, _ = _shading_arrays(sphere, 0.0)
     flat_angle = np.degrees(np.arccos(np.clip(np.sum(radial * flat, axis=1), -1, 1)))
     assert flat_angle.max() > 3.0
 
@@ -116,8 +117,8 @@ def test_sphere_normals_are_smooth():
 def test_degenerate_faces_are_not_drawn():
     mesh = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]]),
                 np.array([[0, 1, 2], [0, 1, 3]]), "sliver")
-    positions, _, face_points, _ = _shading_arrays(mesh, 40.0)
-    assert positions.shape == (3, 3) and face_points.shape == (1, 3)
+    positions, _, face_points, _, kept = _shading_arrays(mesh, 40.0)
+    assert positions.shape == (3, 3) and face_points.shape == (1, 3) and kept.tolist() == [0]
 
 
 @pytest.mark.parametrize(
@@ -326,7 +327,7 @@ def test_no_vulkan_driver_is_a_one_line_missing_dependency(monkeypatch, cube):
     for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
     with pytest.raises(MissingDependencyError) as caught:
-        render_view(cube, [0.0, 0.0, 1.0], size=32)
+        render_view(cube, [0.0, 0.0, 1.0], size=32, engine="open3d")
     message = str(caught.value)
     assert message.startswith("renderer: Open3D's offscreen renderer could not start "
                               "(no Vulkan driver?): ")

@@ -87,7 +87,7 @@ def test_thumbnails_without_a_renderer_stop_before_any_work(mesh_folder: Path, t
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
     with pytest.raises(MissingDependencyError, match="^renderer: Open3D's offscreen renderer "
                                                      "could not start"):
-        render_thumbnails(mesh_folder, tmp_path / "out", size=32)
+        render_thumbnails(mesh_folder, tmp_path / "out", size=32, engine="open3d")
     assert not list((tmp_path / "out").rglob("*.png"))
 
 

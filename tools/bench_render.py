@@ -1,11 +1,14 @@
-"""Benchmark: seconds per picture of Open3D's offscreen renderer, in its child process.
+"""Benchmark: seconds per picture of both picture engines.
 
-Prints, for a few bundled meshes:
+Prints, for a few bundled meshes and each engine (``software``: the
+measures' rasteriser and numpy shading; ``open3d``: Filament in a child
+process):
 
 * the start-up of a render child (importing Open3D, creating the renderer and
   drawing a warm-up frame), paid once per :class:`vptoolkit.render.Renderer`;
-* seconds per frame at 256, 512 and 1024 px (median of several directions,
-  the mesh already sent to the child);
+* seconds per frame at 256, 512 and 1024 px: median and maximum over several
+  directions (the mesh already prepared); Open3D frames that hang past 60 s
+  count as failures;
 * beside them, in the same run, the seconds of the measures for 1000 views at
   1024 px (:func:`vptoolkit.measures.compute_view_quality`), and the ratio
   "one picture / all the measures", so the cost of a thumbnail can be read
@@ -27,9 +30,11 @@ import time
 
 import numpy as np
 
+from vptoolkit.errors import MeasurementError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.render import Renderer
+from vptoolkit.software_render import SoftwareRenderer
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -42,33 +47,43 @@ def main() -> None:
     args = parser.parse_args()
     sizes = (256, 512) if args.quick else (256, 512, 1024)
     meshes = [load_mesh(sample_path(name)) for name in (MESHES[:1] if args.quick else MESHES)]
-    directions = fibonacci_sphere(7 if args.quick else 15)
+    directions = fibonacci_sphere(5 if args.quick else 8)
     load_before = os.getloadavg()[0]
     compute_view_quality(meshes[0], n_views=2, resolution=64)  # compile the rasteriser first
 
-    print(f"{'mesh':<10} {'faces':>7} {'measures 1000 views':>20} "
-          + " ".join(f"{f'{size} px frame':>14}" for size in sizes) + "  frame/measures")
+    print(f"{'engine':<9} {'mesh':<10} {'faces':>7} {'measures':>10} "
+          + " ".join(f"{f'{size} px median/max':>22}" for size in sizes) + "  frame/measures")
     startups = []
     for mesh in meshes:
         started = time.perf_counter()
         compute_view_quality(mesh, n_views=1000, resolution=1024)
         measures_seconds = time.perf_counter() - started
-        frames = []
-        for size in sizes:
-            with Renderer(size=size) as renderer:
-                started = time.perf_counter()
-                renderer.start()
-                startups.append(time.perf_counter() - started)
-                renderer.render(mesh, directions[:1])  # send the mesh once
-                times = []
-                for direction in directions:
+        for engine in ("software", "open3d"):
+            cells, medians = [], []
+            for size in sizes:
+                make = (SoftwareRenderer(size=size) if engine == "software"
+                        else Renderer(size=size, frame_timeout=60.0, attempts=1))
+                with make as renderer:
                     started = time.perf_counter()
-                    renderer.render(mesh, direction)
-                    times.append(time.perf_counter() - started)
-            frames.append(statistics.median(times))
-        print(f"{mesh.name:<10} {mesh.n_faces:>7} {measures_seconds:>18.2f} s "
-              + " ".join(f"{seconds:>12.3f} s" for seconds in frames)
-              + f"  {frames[min(1, len(frames) - 1)] / measures_seconds:>8.2f} (512 px)")
+                    renderer.start()
+                    if engine == "open3d":
+                        startups.append(time.perf_counter() - started)
+                    times, failed = [], 0
+                    for direction in directions:
+                        started = time.perf_counter()
+                        try:
+                            renderer.render(mesh, direction)
+                        except MeasurementError:
+                            failed += 1
+                            continue
+                        times.append(time.perf_counter() - started)
+                median = statistics.median(times) if times else float("nan")
+                medians.append(median)
+                cells.append(f"{median:>8.2f} / {max(times, default=float('nan')):>6.1f} s"
+                             + (f" {failed} hung" if failed else ""))
+            print(f"{engine:<9} {mesh.name:<10} {mesh.n_faces:>7} {measures_seconds:>8.2f} s "
+                  + " ".join(f"{cell:>22}" for cell in cells)
+                  + f"  {medians[min(1, len(medians) - 1)] / measures_seconds:>8.3f} (512 px)")
     print(f"render child start-up: median {np.median(startups):.2f} s over {len(startups)} starts")
     print(f"load average {load_before:.2f} before, {os.getloadavg()[0]:.2f} after "
           "(the numbers mean most on an idle machine)")

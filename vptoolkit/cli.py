@@ -80,6 +80,9 @@ def _direction(text: str | None, option: str) -> tuple[float, float, float] | No
 _MEASURE_CHOICE = click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False)
 _MODEL_HELP = "Checkpoint (folder or .safetensors), or 'default' for the bundled network."
 _UP_HELP = "Model direction shown upwards in pictures, x,y,z (0,0,1 for z-up models)."
+_ENGINE_CHOICE = click.Choice(["software", "open3d"])
+_ENGINE_HELP = ("software: the measures' rasteriser, fast on any CPU; open3d: Filament's "
+                "shading via Vulkan (erratic frame times on software Vulkan).")
 
 
 def _style(up: str) -> Any:
@@ -454,9 +457,12 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 @click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384),
               help="Triangle-ID resolution of the measures for --best.")
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
+@click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
+              help=_ENGINE_HELP)
 def render(mesh: Path, output: Path, view: str | None, best: str | None, model_path: str | None,
-           measure: str, size: int, n_views: int, resolution: int, up: str) -> None:
-    """Draw MESH through the measures' camera with Open3D's offscreen renderer.
+           measure: str, size: int, n_views: int, resolution: int, up: str,
+           engine: str) -> None:
+    """Draw MESH through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best or --model. The picture shows what the
     measures score for that direction (same eye, target, up and field of view).
@@ -479,16 +485,16 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
     loaded = load_mesh(mesh)
     if best is not None:
         picture = render_best(loaded, measure=best, size=size, n_views=n_views,
-                              resolution=resolution, style=style)
+                              resolution=resolution, style=style, engine=engine)
     elif model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor
 
         picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size,
-                                   style=style)
+                                   style=style, engine=engine)
     else:
         direction = as_directions(_direction(view, "--view"), name="--view")[0]
-        picture = RenderedView(render_view(loaded, direction, size=size, style=style), direction,
-                               "--view")
+        picture = RenderedView(render_view(loaded, direction, size=size, style=style,
+                                           engine=engine), direction, "--view")
     save_png(picture.image, output)
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
@@ -529,8 +535,10 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
               help="Picture side in pixels.")
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
+@click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
+              help=_ENGINE_HELP)
 def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
-           no_pictures: bool, up: str) -> None:
+           no_pictures: bool, up: str, engine: str) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
     Pictures from each measure's best view, the four quality maps, the scores
@@ -545,7 +553,8 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
     from vptoolkit.report import write_report
 
     index = write_report(dataset, output, split=split, predictions=predictions, size=size,
-                         thumbnails=not no_pictures, style=_style(up), progress=True)
+                         thumbnails=not no_pictures, style=_style(up), engine=engine,
+                         progress=True)
     click.echo(f"wrote {index}")
 
 
@@ -561,8 +570,11 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1))
 @click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384))
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
+@click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
+              help=_ENGINE_HELP)
 def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size: int,
-               workers: int | None, n_views: int, resolution: int, up: str) -> None:
+               workers: int | None, n_views: int, resolution: int, up: str,
+               engine: str) -> None:
     """Draw a thumbnail of every mesh under SRC from its best view into OUT.
 
     SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
@@ -582,7 +594,7 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
         predictor = MeshPredictor(model_path)
     result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
                                workers=workers, n_views=n_views, resolution=resolution,
-                               style=_style(up), progress=True)
+                               style=_style(up), engine=engine, progress=True)
     click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)

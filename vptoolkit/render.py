@@ -46,6 +46,14 @@ The child process
     frames, so a batch pays the start-up (about 1-3 s) once.
 
 Open3D is imported only in the child; this module itself needs numpy alone.
+
+Engines
+    :class:`Renderer` is the ``"open3d"`` engine. On Mesa's software Vulkan
+    driver its frame time depends on the view, from 0.1 s to minutes, so
+    the functions here and ``vptool`` default to the ``"software"`` engine,
+    :class:`vptoolkit.software_render.SoftwareRenderer` (the measures'
+    rasteriser and numpy shading, same camera and style);
+    :func:`open_renderer` makes either.
 """
 
 from __future__ import annotations
@@ -90,6 +98,8 @@ __all__ = [
     "render_predicted",
     "resolve_direction",
     "check_renderer",
+    "ENGINES",
+    "open_renderer",
     "png_bytes",
     "save_png",
 ]
@@ -196,7 +206,8 @@ class RenderedView:
 
 def _shading_arrays(
     mesh: Mesh, crease_angle_deg: float
-) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float64], NDArray[np.float64]]:
+) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float64], NDArray[np.float64],
+           NDArray[np.int64]]:
     """Unshared corner positions and normals, smoothed within the crease angle.
 
     Returns
@@ -211,6 +222,8 @@ def _shading_arrays(
         The first corner of each kept face (for back-face tests).
     face_normals : (n_kept, 3) float64
         Unit normal of each kept face.
+    kept : (n_kept,) int64
+        Index of each kept face in ``mesh.faces``.
     """
     corners = mesh.vertices[mesh.faces]  # (n_faces, 3, 3)
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
@@ -255,6 +268,7 @@ def _shading_arrays(
         normals.astype(np.float32),
         mesh.vertices[faces[:, 0]],
         unit,
+        np.flatnonzero(kept),
     )
 
 
@@ -283,6 +297,17 @@ def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
     poses = _picture_camera(camera, style.up).poses(direction[None, :], centre=centre,
                                                     diagonal=diagonal, resolution=size)
     eye, right, up, forward = poses.eyes[0], poses.right[0], poses.up[0], poses.forward[0]
+    distance = camera.distance_factor * diagonal
+    radius = diagonal / 2.0
+    near = max(distance - 1.05 * radius, 1e-3 * distance)
+    far = distance + 1.05 * radius
+    return _Frame(eye, centre, up, _light_direction(style, forward, up, right), near, far)
+
+
+def _light_direction(style: RenderStyle, forward: NDArray[np.float64], up: NDArray[np.float64],
+                     right: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit direction the sunlight travels in: from ``light_elevation_deg`` above the
+    view axis towards the image up, turned ``light_azimuth_deg`` towards the image left."""
     elevation = math.radians(style.light_elevation_deg)
     azimuth = math.radians(style.light_azimuth_deg)
     towards_light = (
@@ -290,11 +315,7 @@ def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
         + up * math.sin(elevation)
         - right * math.cos(elevation) * math.sin(azimuth)
     )
-    distance = camera.distance_factor * diagonal
-    radius = diagonal / 2.0
-    near = max(distance - 1.05 * radius, 1e-3 * distance)
-    far = distance + 1.05 * radius
-    return _Frame(eye, centre, up, -towards_light / np.linalg.norm(towards_light), near, far)
+    return -towards_light / np.linalg.norm(towards_light)
 
 
 # --------------------------------------------------------------------------- messages
@@ -751,7 +772,7 @@ class Renderer:
 
     def _faces_to_draw(self, eye: NDArray[np.float64]) -> NDArray[np.int64]:
         assert self._shading is not None  # noqa: S101 (set by _prepare)
-        _, _, face_points, face_normals = self._shading
+        _, _, face_points, face_normals, _ = self._shading
         if not self.camera.cull_back_faces:
             return np.arange(len(face_points), dtype=np.int64)
         facing = np.einsum("ij,ij->i", eye[None, :] - face_points, face_normals) > 0.0
@@ -761,7 +782,7 @@ class Renderer:
         child = self._child
         assert child is not None and self._shading is not None  # noqa: S101
         if child.mesh_key != id(mesh):
-            positions, normals, _, _ = self._shading
+            positions, normals, _, _, _ = self._shading
             child.send({"op": "mesh"}, {"positions": positions, "normals": normals})
             answer, _ = child.receive(self.frame_timeout)
             if not answer.get("ok"):
@@ -875,6 +896,43 @@ def check_renderer(*, timeout: float = _START_TIMEOUT) -> str:
         return str(renderer.open3d_version)
 
 
+ENGINES = ("software", "open3d")
+"""Picture engines: ``"software"`` (:class:`vptoolkit.software_render.SoftwareRenderer`,
+the measures' rasteriser and numpy shading, in this process) and ``"open3d"``
+(:class:`Renderer`, Open3D's Filament in a child process)."""
+
+AnyRenderer = Any
+"""A :class:`Renderer` or a :class:`vptoolkit.software_render.SoftwareRenderer`."""
+
+
+def open_renderer(engine: str = "software", *, size: int = 512, camera: Camera | None = None,
+                  style: RenderStyle | None = None) -> AnyRenderer:
+    """A renderer of the given engine (not started), for use as a context manager.
+
+    Parameters
+    ----------
+    engine : {"software", "open3d"}
+        ``"software"`` (default) draws in this process in a fraction of a
+        second for any view; ``"open3d"`` uses Filament's physically based
+        shading through Vulkan, whose frame time on Mesa's software driver
+        ranges from 0.1 s to minutes depending on the view.
+    size, camera, style
+        As for :class:`Renderer`.
+
+    Raises
+    ------
+    InputError
+        On an unknown engine.
+    """
+    if engine == "open3d":
+        return Renderer(size=size, camera=camera, style=style)
+    if engine == "software":
+        from vptoolkit.software_render import SoftwareRenderer
+
+        return SoftwareRenderer(size=size, camera=camera, style=style)
+    raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
+
+
 def render_views(
     mesh: Mesh,
     directions: ArrayLike,
@@ -882,7 +940,8 @@ def render_views(
     size: int = 512,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
 ) -> NDArray[np.uint8]:
     """Draw a mesh from several view directions in one child process.
 
@@ -898,8 +957,11 @@ def render_views(
         Camera conventions (default: those of the measures).
     style : RenderStyle, optional
         Shading.
-    renderer : Renderer, optional
+    renderer : Renderer or SoftwareRenderer, optional
         An open renderer to reuse (its size, camera and style apply).
+    engine : {"software", "open3d"}
+        Engine of a renderer made for this call (default: "software"; see
+        :func:`open_renderer`).
 
     Returns
     -------
@@ -907,7 +969,7 @@ def render_views(
     """
     if renderer is not None:
         return renderer.render(mesh, directions)
-    with Renderer(size=size, camera=camera, style=style) as own:
+    with open_renderer(engine, size=size, camera=camera, style=style) as own:
         return own.render(mesh, directions)
 
 
@@ -918,7 +980,8 @@ def render_view(
     size: int = 512,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
 ) -> NDArray[np.uint8]:
     """Draw a mesh from one view direction.
 
@@ -934,8 +997,10 @@ def render_view(
         Camera conventions (default: ``Camera()``, those of the measures).
     style : RenderStyle, optional
         Shading.
-    renderer : Renderer, optional
+    renderer : Renderer or SoftwareRenderer, optional
         An open renderer to reuse.
+    engine : {"software", "open3d"}
+        Engine of a renderer made for this call (default: "software").
 
     Returns
     -------
@@ -955,7 +1020,7 @@ def render_view(
     if len(unit) != 1:
         raise InputError(f"direction: expected one direction, got {len(unit)}")
     return render_views(mesh, unit, size=size, camera=camera, style=style,
-                        renderer=renderer)[0]
+                        renderer=renderer, engine=engine)[0]
 
 
 def resolve_direction(mesh: Mesh, source: DirectionSource, *, measure: str = "VE") -> NDArray[np.float64]:
@@ -1008,7 +1073,8 @@ def render_best(
     resolution: int = RESOLUTION,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
 ) -> RenderedView:
     """Draw a mesh from its best view for one measure.
 
@@ -1032,8 +1098,10 @@ def render_best(
         Camera conventions for both measures and picture (default: ``Camera()``).
     style : RenderStyle, optional
         Shading.
-    renderer : Renderer, optional
+    renderer : Renderer or SoftwareRenderer, optional
         An open renderer to reuse.
+    engine : {"software", "open3d"}
+        Engine of a renderer made for this call (default: "software").
 
     Returns
     -------
@@ -1048,7 +1116,7 @@ def render_best(
     index = int(quality.best_index[column])
     direction = quality.views[index]
     image = render_view(mesh, direction, size=size, camera=camera or quality.camera,
-                        style=style, renderer=renderer)
+                        style=style, renderer=renderer, engine=engine)
     return RenderedView(image, direction.copy(),
                         f"best {MEASURES[column]} (view {index} of {len(quality.views)})")
 
@@ -1061,7 +1129,8 @@ def render_predicted(
     size: int = 512,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
 ) -> RenderedView:
     """Draw a mesh from a predicted view direction.
 
@@ -1076,7 +1145,7 @@ def render_predicted(
         Measure whose prediction to draw (default: "VE").
     size : int
         Picture side in pixels (default: 512).
-    camera, style, renderer
+    camera, style, renderer, engine
         As for :func:`render_view`.
 
     Returns
@@ -1086,7 +1155,7 @@ def render_predicted(
     """
     direction = resolve_direction(mesh, source, measure=measure)
     image = render_view(mesh, direction, size=size, camera=camera, style=style,
-                        renderer=renderer)
+                        renderer=renderer, engine=engine)
     return RenderedView(image, direction, f"predicted {MEASURES[measure_index(measure)]}")
 
 

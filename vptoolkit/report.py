@@ -30,7 +30,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import Renderer, RenderStyle, save_png
+from vptoolkit.render import AnyRenderer, RenderStyle, open_renderer, save_png
 
 __all__ = ["write_report"]
 
@@ -75,7 +75,8 @@ def write_report(
     thumbnails: bool = True,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
     progress: bool = False,
 ) -> Path:
     """Write a static HTML report of a dataset's models and viewpoint quality.
@@ -115,8 +116,11 @@ def write_report(
         Camera of the pictures (default: ``Camera()``, the measures' own).
     style : RenderStyle, optional
         Shading.
-    renderer : Renderer, optional
+    renderer : Renderer or SoftwareRenderer, optional
         An open renderer to use (its size, camera and style apply).
+    engine : {"software", "open3d"}
+        Engine of the renderer made when ``renderer`` is not given (default:
+        "software"; see :func:`vptoolkit.render.open_renderer`).
     progress : bool
         Show a progress bar on stderr (default: False).
 
@@ -141,7 +145,7 @@ def write_report(
             return write_report(
                 opened, out_dir, split=split, predictions=predictions, size=size,
                 thumbnails=thumbnails, camera=camera, style=style, renderer=renderer,
-                progress=progress,
+                engine=engine, progress=progress,
             )
     from vptoolkit.evaluate import load_predictions, score_directions
     from vptoolkit.optional import require
@@ -170,7 +174,7 @@ def write_report(
     records = selected.records
     own_renderer = thumbnails and renderer is None
     active = renderer if renderer is not None else (
-        Renderer(size=size, camera=camera, style=style) if thumbnails else None
+        open_renderer(engine, size=size, camera=camera, style=style) if thumbnails else None
     )
     cards: list[_Card] = []
     bar = tqdm(total=len(selected), desc="report", unit="model", disable=not progress)
@@ -205,7 +209,7 @@ def write_report(
     return write_text_atomic(index, page)
 
 
-def _draw_card_pictures(renderer: Renderer, dataset: Any, position: int, card: _Card,
+def _draw_card_pictures(renderer: AnyRenderer, dataset: Any, position: int, card: _Card,
                         views: NDArray[np.float64], predicted: NDArray[np.float64] | None,
                         target: Path) -> None:
     """Render a model's best (and predicted) views into ``thumbs/``; note failures on the card."""

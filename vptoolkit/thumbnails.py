@@ -31,7 +31,14 @@ from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import DirectionSource, Renderer, RenderStyle, resolve_direction, save_png
+from vptoolkit.render import (
+    AnyRenderer,
+    DirectionSource,
+    RenderStyle,
+    open_renderer,
+    resolve_direction,
+    save_png,
+)
 
 __all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
 
@@ -196,7 +203,8 @@ def render_thumbnails(
     resolution: int = RESOLUTION,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
-    renderer: Renderer | None = None,
+    renderer: AnyRenderer | None = None,
+    engine: str = "software",
     progress: bool = False,
 ) -> ThumbnailResult:
     """Draw a thumbnail of every mesh in a folder from its best (or predicted) view.
@@ -232,8 +240,11 @@ def render_thumbnails(
         Camera of measures and pictures (default: ``Camera()``).
     style : RenderStyle, optional
         Shading.
-    renderer : Renderer, optional
+    renderer : Renderer or SoftwareRenderer, optional
         An open renderer to use (its size, camera and style apply).
+    engine : {"software", "open3d"}
+        Engine of the renderer made when ``renderer`` is not given (default:
+        "software"; see :func:`vptoolkit.render.open_renderer`).
     progress : bool
         Show a progress bar on stderr (default: False).
 
@@ -282,7 +293,7 @@ def render_thumbnails(
                       "camera": _camera_arguments(camera)})
 
     own_renderer = renderer is None
-    active = renderer or Renderer(size=size, camera=camera, style=style)
+    active = renderer or open_renderer(engine, size=size, camera=camera, style=style)
     records: list[dict[str, Any]] = []
     done: list[Path] = []
     bar = tqdm(total=len(tasks), desc="thumbnails", unit="model", disable=not progress)

@@ -38,6 +38,7 @@ __all__ = [
     "iter_view_histograms",
     "face_pixel_counts",
     "face_pixel_totals",
+    "face_id_images",
 ]
 
 Backend = Literal["raster", "raycast"]
@@ -119,13 +120,26 @@ def iter_view_histograms(
     ViewHistograms
         Consecutive runs of views covering all of ``view_directions`` in order.
     """
+    if backend not in BACKENDS:
+        raise InputError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
+        mesh, view_directions, resolution, camera)
+    if backend == "raster":
+        yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+    else:
+        yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+
+
+def _setup(
+    mesh: Mesh, view_directions: ArrayLike, resolution: int, camera: Camera | None
+) -> tuple[Camera, ViewPoses, NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], float]:
+    """Check the arguments; return the camera, poses, face planes ``n . x = offset``,
+    which faces can be drawn (non-zero area) and the bounding-box diagonal."""
     camera = camera or Camera()
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
         raise InputError(f"resolution: must be an integer number of pixels, got {resolution!r}")
     if not 1 <= resolution <= 16384:
         raise InputError(f"resolution: must be between 1 and 16384 pixels, got {resolution}")
-    if backend not in BACKENDS:
-        raise InputError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
     directions = as_directions(view_directions, name="view_directions")
     centre, diagonal = bounding_frame(mesh)
     if diagonal <= 0.0:
@@ -135,10 +149,61 @@ def iter_view_histograms(
     normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     offsets = np.einsum("ij,ij->i", normals, corners[:, 0])
     is_drawable = np.linalg.norm(normals, axis=1) > 0.0
-    if backend == "raster":
-        yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
-    else:
-        yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+    return camera, poses, normals, offsets, is_drawable, diagonal
+
+
+def face_id_images(
+    mesh: Mesh,
+    view_directions: ArrayLike,
+    *,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+) -> NDArray[np.int32]:
+    """The triangle-ID images the ``"raster"`` backend counts, one per view.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model; faces of zero area are never drawn.
+    view_directions : (n_views, 3) array_like
+        Directions from the model centre to the camera.
+    resolution : int
+        Image side in pixels (default: 1024).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``); its ``up`` is the image up.
+
+    Returns
+    -------
+    images : (n_views, resolution, resolution) int32
+        Index of the face seen through each pixel centre, ``-1`` where no
+        face is; row 0 at the top, column 0 at the left.
+    """
+    from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
+
+    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
+        mesh, view_directions, resolution, camera)
+    distance = camera.distance_factor * diagonal
+    near, far = distance - diagonal / 2.0, distance + diagonal / 2.0
+    faces = mesh.faces.astype(np.int32)
+    screen_x = np.zeros(len(mesh.vertices), dtype=np.int64)
+    screen_y = np.zeros(len(mesh.vertices), dtype=np.int64)
+    inverse_depth = np.zeros(len(mesh.vertices), dtype=np.float64)
+    frame = np.zeros(resolution * resolution, dtype=np.int64)
+    row_low = np.zeros(resolution, dtype=np.int64)
+    row_high = np.zeros(resolution, dtype=np.int64)
+    images = np.empty((len(poses.eyes), resolution, resolution), dtype=np.int32)
+    for view in range(len(poses.eyes)):
+        frame[:] = 0
+        row_low[:] = resolution
+        row_high[:] = -1
+        _project_vertices(mesh.vertices, poses.eyes[view], poses.right[view], poses.up[view],
+                          poses.forward[view], poses.focal_px, resolution / 2.0, near, far,
+                          screen_x, screen_y, inverse_depth)
+        _rasterize_view(faces, normals, offsets, is_drawable, camera.cull_back_faces,
+                        poses.eyes[view], screen_x, screen_y, inverse_depth, resolution, frame,
+                        row_low, row_high)
+        images[view] = ((frame & 0xFFFFFFFF) - 1).reshape(resolution, resolution)
+    return images
 
 
 def _raster_batches(

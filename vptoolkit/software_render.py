@@ -1,0 +1,196 @@
+"""Shaded pictures from the measures' own triangle-ID rasteriser (no GPU, no Vulkan).
+
+:class:`SoftwareRenderer` draws the same pictures as
+:class:`vptoolkit.render.Renderer` (same camera, roll and :class:`RenderStyle`)
+without Open3D: :func:`vptoolkit.visibility.face_id_images` finds the face
+seen through every pixel at ``supersampling`` times the picture's size, and
+each pixel is shaded in numpy:
+
+* its normal is the crease-aware corner normals of that face
+  (:func:`vptoolkit.render._shading_arrays`) interpolated with the
+  barycentric coordinates of the pixel ray's hit (Moller-Trumbore), turned
+  towards the camera;
+* linear colour = ``color * (ambient + sun * max(0, n . l))`` with the sun
+  where ``RenderStyle`` puts it (above and to the left of the camera);
+  ``ambient`` and ``sun`` come from the style's intensities relative to
+  Open3D's defaults, so both engines brighten and darken together;
+* the supersampled linear image is averaged down (anti-aliasing over the
+  background) and encoded as sRGB.
+
+Why a second engine: Open3D 0.20 renders through Vulkan, and on Mesa's
+software driver (llvmpipe, the only one on a machine without a GPU) its
+frame time depends on the view in ways we cannot control: 0.06 s for one
+view of a mesh, minutes for another (measured with Open3D alone, see
+``tools/bench_render.py``). This engine takes a fraction of a second for any
+view and is the default of ``vptool render``, ``thumbnails`` and
+``report``; ``--engine open3d`` keeps Filament's physically based shading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera, ViewPoses
+from vptoolkit.checks import check_int
+from vptoolkit.errors import InputError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.mesh import Mesh
+from vptoolkit.render import (
+    RenderStyle,
+    _light_direction,
+    _picture_camera,
+    _shading_arrays,
+    _srgb_to_linear,
+)
+from vptoolkit.sphere import as_directions
+from vptoolkit.visibility import face_id_images
+
+__all__ = ["SoftwareRenderer"]
+
+_DEFAULT_SUN = RenderStyle().light_intensity
+_DEFAULT_AMBIENT = RenderStyle().ambient_intensity
+_SUN = 0.78  # diffuse weight of the default sun
+_AMBIENT = 0.30  # weight of the default ambient light
+
+
+class SoftwareRenderer:
+    """Draws meshes from view directions on the CPU, in this process.
+
+    Has the interface of :class:`vptoolkit.render.Renderer` (``size``,
+    ``camera``, ``style``, :meth:`start`, :meth:`close`, :meth:`render`, use
+    as a context manager), so every function taking a ``renderer`` takes
+    either.
+
+    Parameters
+    ----------
+    size : int
+        Side of the square pictures in pixels, 16 to 4096 (default: 512).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``, those of the measures).
+    style : RenderStyle, optional
+        Shading and image up (default: ``RenderStyle()``).
+    supersampling : int
+        Samples per pixel along each axis, 1 to 4 (default: 2).
+
+    Examples
+    --------
+    >>> with SoftwareRenderer(size=256) as renderer:           # doctest: +SKIP
+    ...     images = renderer.render(mesh, [[0, 0, 1], [1, 1, 1]])
+    """
+
+    def __init__(self, *, size: int = 512, camera: Camera | None = None,
+                 style: RenderStyle | None = None, supersampling: int = 2) -> None:
+        self.size = check_int(size, "size", minimum=16, maximum=4096)
+        self.camera = camera or Camera()
+        self.style = style or RenderStyle()
+        self.supersampling = check_int(supersampling, "supersampling", minimum=1, maximum=4)
+        self._mesh: Mesh | None = None
+        self._corners: NDArray[np.float64] | None = None
+        self._corner_normals: NDArray[np.float64] | None = None
+
+    def start(self) -> SoftwareRenderer:
+        """Nothing to start; returns self (for the interface of ``Renderer``)."""
+        return self
+
+    def close(self) -> None:
+        """Forget the cached mesh."""
+        self._mesh = self._corners = self._corner_normals = None
+
+    def __enter__(self) -> SoftwareRenderer:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def _prepare(self, mesh: Mesh) -> None:
+        """Corner positions and crease-aware corner normals per face (-1 rows: not drawn)."""
+        if self._mesh is mesh:
+            return
+        positions, normals, _, _, kept = _shading_arrays(mesh, self.style.crease_angle_deg)
+        self._corners = np.zeros((mesh.n_faces, 3, 3))
+        self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
+        self._corners[kept] = positions.reshape(-1, 3, 3)
+        self._corner_normals[kept] = normals.reshape(-1, 3, 3)
+        self._mesh = mesh
+
+    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+        """Draw a mesh from each of several view directions.
+
+        Parameters
+        ----------
+        mesh : Mesh
+            The model.
+        directions : (n, 3) or (3,) array_like
+            View directions from the model centre towards the camera.
+
+        Returns
+        -------
+        images : (n, size, size, 3) uint8
+            sRGB pictures, row 0 at the top.
+        """
+        if not isinstance(mesh, Mesh):
+            raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+        unit = as_directions(directions, name="directions")
+        self._prepare(mesh)
+        camera = _picture_camera(self.camera, self.style.up)
+        fine = self.size * self.supersampling
+        ids = face_id_images(mesh, unit, resolution=fine, camera=camera)
+        centre, diagonal = bounding_frame(mesh)
+        poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
+        images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
+        for view in range(len(unit)):
+            linear = self._shade(ids[view].reshape(-1), poses, view)
+            linear = linear.reshape(self.size, self.supersampling, self.size,
+                                    self.supersampling, 3).mean(axis=(1, 3))
+            images[view] = _to_srgb(linear)
+        return images
+
+    def _shade(self, ids: NDArray[np.int32], poses: ViewPoses, view: int) -> NDArray[np.float64]:
+        """Linear RGB of every fine pixel: background, or the lit surface it sees."""
+        assert self._corners is not None and self._corner_normals is not None  # noqa: S101
+        style = self.style
+        background = np.array([_srgb_to_linear(c) for c in style.background])
+        colour = np.array([_srgb_to_linear(c) for c in style.color])
+        linear = np.broadcast_to(background, (len(ids), 3)).copy()
+        hit = np.flatnonzero(ids >= 0)
+        if not len(hit):
+            return linear
+        faces = ids[hit]
+        # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
+        row, column = np.divmod(hit, poses.resolution)
+        half = poses.resolution / 2.0
+        across = (column + 0.5 - half) / poses.focal_px
+        down = (row + 0.5 - half) / poses.focal_px
+        ray = (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
+               - down[:, None] * poses.up[view][None, :])
+        a, b, c = (self._corners[faces, k] for k in range(3))
+        edge1, edge2 = b - a, c - a
+        p = np.cross(ray, edge2)
+        determinant = np.einsum("ij,ij->i", edge1, p)
+        determinant = np.where(np.abs(determinant) > 1e-300, determinant, 1e-300)
+        t = poses.eyes[view][None, :] - a
+        u = np.einsum("ij,ij->i", t, p) / determinant
+        v = np.einsum("ij,ij->i", ray, np.cross(t, edge1)) / determinant
+        u, v = np.clip(u, 0.0, 1.0), np.clip(v, 0.0, 1.0)
+        normals = self._corner_normals[faces]
+        normal = ((1.0 - u - v)[:, None] * normals[:, 0] + u[:, None] * normals[:, 1]
+                  + v[:, None] * normals[:, 2])
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        towards_camera = -ray / np.linalg.norm(ray, axis=1, keepdims=True)
+        facing = np.einsum("ij,ij->i", normal, towards_camera)
+        normal[facing < 0] *= -1.0  # a back face seen with culling off
+        towards_light = -_light_direction(style, poses.forward[view], poses.up[view],
+                                          poses.right[view])
+        diffuse = np.clip(normal @ towards_light, 0.0, None)
+        sun = _SUN * style.light_intensity / _DEFAULT_SUN
+        ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
+        linear[hit] = colour[None, :] * (ambient + sun * diffuse)[:, None]
+        return linear
+
+
+def _to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
+    """Linear RGB in [0, 1] (clipped) to 8-bit sRGB."""
+    value = np.clip(linear, 0.0, 1.0)
+    srgb = np.where(value <= 0.0031308, 12.92 * value, 1.055 * np.power(value, 1.0 / 2.4) - 0.055)
+    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
