@@ -793,7 +793,7 @@ def section_subdivision(options: RunOptions) -> Section:
         f"split 1-to-4 at every level up to {sizes.subdivision_levels} ({n_faces[-1]} faces).")
     lines += [
         f"Measures from {sizes.subdivision_views} views at {sizes.subdivision_resolution} px; the "
-        f"network is the ML+GL checkpoint of table 2 on {network.n_points} points picked from "
+        f"network is the ML+GL checkpoint `{checkpoint_path(options)}` on {network.n_points} points picked from "
         f"{SURFACE_POINTS} area-uniform surface points (seed 0). Angles in degrees between each "
         "level's best view (or prediction) and level 0's; VE elevation is the angle of VE's best "
         "view above the horizontal seat plane (90 = straight from the top, negative = from "
