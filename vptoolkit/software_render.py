@@ -52,6 +52,8 @@ _DEFAULT_SUN = RenderStyle().light_intensity
 _DEFAULT_AMBIENT = RenderStyle().ambient_intensity
 _SUN = 0.78  # diffuse weight of the default sun
 _AMBIENT = 0.30  # weight of the default ambient light
+_MAX_FINE = 4096  # largest supersampled side; bigger pictures get fewer samples per pixel
+_CHUNK = 1 << 20  # pixels shaded at once
 
 
 class SoftwareRenderer:
@@ -71,7 +73,8 @@ class SoftwareRenderer:
     style : RenderStyle, optional
         Shading and image up (default: ``RenderStyle()``).
     supersampling : int
-        Samples per pixel along each axis, 1 to 4 (default: 2).
+        Samples per pixel along each axis, 1 to 4 (default: 2); pictures
+        wider than 2048 px get fewer, so the rasterised side stays <= 4096.
 
     Examples
     --------
@@ -134,29 +137,34 @@ class SoftwareRenderer:
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
         camera = _picture_camera(self.camera, self.style.up)
-        fine = self.size * self.supersampling
-        ids = face_id_images(mesh, unit, resolution=fine, camera=camera)
+        factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
+        fine = self.size * factor
         centre, diagonal = bounding_frame(mesh)
         poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
         images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for view in range(len(unit)):
-            linear = self._shade(ids[view].reshape(-1), poses, view)
-            linear = linear.reshape(self.size, self.supersampling, self.size,
-                                    self.supersampling, 3).mean(axis=(1, 3))
+            ids = face_id_images(mesh, unit[view], resolution=fine, camera=camera)[0].reshape(-1)
+            linear = self._background_image(len(ids))
+            hit = np.flatnonzero(ids >= 0)
+            for start in range(0, len(hit), _CHUNK):  # bounded memory at any size
+                chunk = hit[start:start + _CHUNK]
+                linear[chunk] = self._shade(chunk, ids[chunk], poses, view)
+            linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
             images[view] = _to_srgb(linear)
         return images
 
-    def _shade(self, ids: NDArray[np.int32], poses: ViewPoses, view: int) -> NDArray[np.float64]:
-        """Linear RGB of every fine pixel: background, or the lit surface it sees."""
+    def _background_image(self, n_pixels: int) -> NDArray[np.float64]:
+        """``(n_pixels, 3)`` linear RGB of the background."""
+        background = np.array([_srgb_to_linear(c) for c in self.style.background])
+        return np.broadcast_to(background, (n_pixels, 3)).copy()
+
+    def _shade(self, hit: NDArray[np.int64], faces: NDArray[np.int32], poses: ViewPoses,
+               view: int) -> NDArray[np.float64]:
+        """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
+        see ``faces``."""
         assert self._corners is not None and self._corner_normals is not None  # noqa: S101
         style = self.style
-        background = np.array([_srgb_to_linear(c) for c in style.background])
         colour = np.array([_srgb_to_linear(c) for c in style.color])
-        linear = np.broadcast_to(background, (len(ids), 3)).copy()
-        hit = np.flatnonzero(ids >= 0)
-        if not len(hit):
-            return linear
-        faces = ids[hit]
         # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
         row, column = np.divmod(hit, poses.resolution)
         half = poses.resolution / 2.0
@@ -185,8 +193,7 @@ class SoftwareRenderer:
         diffuse = np.clip(normal @ towards_light, 0.0, None)
         sun = _SUN * style.light_intensity / _DEFAULT_SUN
         ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
-        linear[hit] = colour[None, :] * (ambient + sun * diffuse)[:, None]
-        return linear
+        return colour[None, :] * (ambient + sun * diffuse)[:, None]
 
 
 def _to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
