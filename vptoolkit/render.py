@@ -430,10 +430,10 @@ def _srgb_to_linear(value: float) -> float:
     return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
 
 
-def _linear_to_srgb_table() -> NDArray[np.uint8]:
-    linear = np.arange(256) / 255.0
-    srgb = np.where(linear <= 0.0031308, 12.92 * linear,
-                    1.055 * np.power(linear, 1.0 / 2.4) - 0.055)
+def _linear_to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
+    """Linear RGB in [0, 1] (clipped) to 8-bit sRGB."""
+    value = np.clip(linear, 0.0, 1.0)
+    srgb = np.where(value <= 0.0031308, 12.92 * value, 1.055 * np.power(value, 1.0 / 2.4) - 0.055)
     return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
 
 
@@ -463,7 +463,7 @@ class _ChildRenderer:
         self.positions: Any = None
         self.normals: Any = None
         self.has_geometry = False
-        self.to_srgb = _linear_to_srgb_table()
+        self.to_srgb = _linear_to_srgb(np.arange(256) / 255.0)  # 8-bit linear -> sRGB
 
     def warm_up(self) -> None:
         box = self.o3d.geometry.TriangleMesh.create_box()

@@ -39,6 +39,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.render import (
     RenderStyle,
     _light_direction,
+    _linear_to_srgb,
     _picture_camera,
     _shading_arrays,
     _srgb_to_linear,
@@ -150,7 +151,7 @@ class SoftwareRenderer:
                 chunk = hit[start:start + _CHUNK]
                 linear[chunk] = self._shade(chunk, ids[chunk], poses, view)
             linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
-            images[view] = _to_srgb(linear)
+            images[view] = _linear_to_srgb(linear)
         return images
 
     def _background_image(self, n_pixels: int) -> NDArray[np.float64]:
@@ -194,10 +195,3 @@ class SoftwareRenderer:
         sun = _SUN * style.light_intensity / _DEFAULT_SUN
         ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
         return colour[None, :] * (ambient + sun * diffuse)[:, None]
-
-
-def _to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
-    """Linear RGB in [0, 1] (clipped) to 8-bit sRGB."""
-    value = np.clip(linear, 0.0, 1.0)
-    srgb = np.where(value <= 0.0031308, 12.92 * value, 1.055 * np.power(value, 1.0 / 2.4) - 0.055)
-    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
