@@ -8,12 +8,12 @@ import vptoolkit
 LAYERS = {
     "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0,
     "mesh": 1, "io": 1, "samples": 1,
-    "geometry": 2, "sphere": 2, "camera": 2,
+    "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2,
     "visibility": 3,
     "measures": 4,
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
-    "synthetic": 5, "learn": 8, "evaluate": 9,
+    "synthetic": 5, "learn": 8, "evaluate": 9, "protocol": 9,
     "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10, "software_render": 10,
     "cli": 99,
 }

@@ -29,7 +29,6 @@ imports this module.
 
 from __future__ import annotations
 
-import hashlib
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -38,6 +37,7 @@ from numpy.typing import NDArray
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
+from vptoolkit.rotations import model_key, random_rotation
 
 if TYPE_CHECKING:
     import torch
@@ -47,49 +47,7 @@ else:
 __all__ = ["ViewpointTorchDataset", "random_rotation", "model_key"]
 
 
-def model_key(name: str) -> int:
-    """A stable 64-bit integer for a model name, used to seed its augmentations.
-
-    Returns
-    -------
-    key : int
-        The first 8 bytes of ``SHA-256(name)`` (UTF-8) as a little-endian
-        unsigned integer.
-    """
-    return int.from_bytes(hashlib.sha256(name.encode("utf-8")).digest()[:8], "little")
-
-
-def random_rotation(rng: np.random.Generator) -> NDArray[np.float64]:
-    """A rotation matrix drawn uniformly from SO(3).
-
-    A quaternion with four independent standard normal components, scaled to
-    unit length, is uniform on the 3-sphere, and the rotation it represents
-    is uniform (Haar) on SO(3) (Shoemake 1992).
-
-    Parameters
-    ----------
-    rng : numpy.random.Generator
-        Source of the four normal draws.
-
-    Returns
-    -------
-    rotation : (3, 3) float64
-        Orthonormal with determinant +1; rotate row vectors with
-        ``v @ rotation.T``.
-    """
-    if not isinstance(rng, np.random.Generator):
-        raise InputError(f"rng: expected a numpy.random.Generator, got {type(rng).__name__}")
-    quaternion = rng.standard_normal(4)
-    while np.linalg.norm(quaternion) < 1e-12:  # practically never
-        quaternion = rng.standard_normal(4)
-    w, x, y, z = quaternion / np.linalg.norm(quaternion)
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+_SEED_POOL = 5
 
 
 def _non_negative_int(value: Any, what: str) -> int:
@@ -114,6 +72,18 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
         the identity and the points are the same as with True, unrotated.
     seed : int
         Base seed, non-negative (default: 0).
+    fps_pool : int
+        0 (default): run farthest point sampling for every item, from a
+        start drawn per epoch. ``k > 0``: keep a pool of ``k`` farthest-point
+        subsets per model, made once (subset ``j`` from a start drawn with
+        ``SeedSequence([seed, 5, model_key(name), j])``), and give each item
+        one of them, drawn per epoch; the random part and the rotation stay
+        fresh every epoch. Farthest point sampling is most of the cost of an
+        item, so a pool makes training several times faster while a model
+        still shows ``k`` different structured subsets.
+    cache : bool
+        Keep every model's points, quality and best views in memory after
+        the first read (default: True; about 0.3 MB per model).
 
     Notes
     -----
@@ -140,7 +110,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
     """
 
     def __init__(self, dataset: ViewpointDataset, *, n_points: int = 4096, n_fps: int = 1024,
-                 rotate: bool = True, seed: int = 0) -> None:
+                 rotate: bool = True, seed: int = 0, fps_pool: int = 0, cache: bool = True) -> None:
         if not isinstance(dataset, ViewpointDataset):
             raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")
         self.dataset = dataset
@@ -152,7 +122,11 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
             raise InputError(f"n_fps: {self.n_fps} exceeds n_points={self.n_points}")
         self.rotate = bool(rotate)
         self.seed = _non_negative_int(seed, "seed")
+        self.fps_pool = _non_negative_int(fps_pool, "fps_pool")
+        self.cache = bool(cache)
         self.epoch = 0
+        self._items: dict[int, dict[str, Any]] = {}
+        self._pool: dict[tuple[int, int], NDArray[np.int64]] = {}
 
     def __len__(self) -> int:
         return len(self.dataset)
@@ -168,13 +142,37 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
         rotation_seed, points_seed = sequence.spawn(2)
         return np.random.default_rng(rotation_seed), np.random.default_rng(points_seed)
 
-    def __getitem__(self, index: int) -> dict[str, Any]:
-        from vptoolkit.points import network_input
-
+    def _item(self, index: int) -> dict[str, Any]:
+        if index in self._items:
+            return self._items[index]
         item = self.dataset[index]
+        kept = {key: item[key] for key in ("points", "quality", "best_index", "name", "views")}
+        if self.cache:
+            self._items[index] = kept
+        return kept
+
+    def _fps_subset(self, index: int, member: int, points: NDArray[np.float32]) -> NDArray[np.int64]:
+        key = (index, member)
+        if key not in self._pool:
+            from vptoolkit.points import farthest_point_sampling
+
+            name = self._item(index)["name"]
+            rng = np.random.default_rng(np.random.SeedSequence([self.seed, _SEED_POOL, model_key(name), member]))
+            self._pool[key] = farthest_point_sampling(points, self.n_fps, rng=rng)
+        return self._pool[key]
+
+    def __getitem__(self, index: int) -> dict[str, Any]:
+        from vptoolkit.points import network_input_indices
+
+        item = self._item(index)
         rotation_rng, points_rng = self.generators(index)
         rotation = random_rotation(rotation_rng) if self.rotate else np.eye(3)
-        points = network_input(item["points"], self.n_points, self.n_fps, rng=points_rng)
+        fps = None
+        if self.fps_pool and self.n_fps:
+            member = int(points_rng.integers(self.fps_pool))
+            fps = self._fps_subset(index, member, item["points"])
+        chosen = network_input_indices(item["points"], self.n_points, self.n_fps, rng=points_rng, fps_indices=fps)
+        points = item["points"][chosen]
         views = item["views"] @ rotation.T
         best_index = item["best_index"]
         return {
