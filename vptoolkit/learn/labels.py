@@ -398,7 +398,7 @@ def decode_spherical_regression(abs_directions: Tensor, sign_logits: Tensor) -> 
     directions : (..., 3) float
         ``abs_directions`` with the signs of the best category; unit length.
     """
-    signs = SIGN_PATTERNS.to(abs_directions.dtype)[sign_logits.argmax(dim=-1)]
+    signs = SIGN_PATTERNS.to(abs_directions.device, abs_directions.dtype)[sign_logits.argmax(dim=-1)]
     return abs_directions * signs
 
 
@@ -551,7 +551,7 @@ def quality_maps(views: Tensor, quality: Tensor, *, resolution: int = MAP_RESOLU
         raise InputError(f"views: expected shape (B, V, 3), got {tuple(views.shape)}")
     batch, _, n_measures = quality.shape
     _check_quality(quality, views, n_measures)
-    cells = sphere_map_directions(resolution, dtype=views.dtype).reshape(-1, 3)
+    cells = sphere_map_directions(resolution, dtype=views.dtype).to(views.device).reshape(-1, 3)
     with torch.no_grad():
         nearest = torch.einsum("cd,bvd->bcv", cells, views).argmax(dim=-1)  # (B, R*R)
     values = torch.gather(quality, 1, nearest.unsqueeze(-1).expand(-1, -1, n_measures))  # (B, R*R, M)
@@ -573,7 +573,7 @@ def decode_sphere_maps(maps: Tensor) -> Tensor:
     if maps.ndim != 4 or maps.shape[-1] != maps.shape[-2]:
         raise InputError(f"maps: expected shape (B, M, R, R), got {tuple(maps.shape)}")
     resolution = maps.shape[-1]
-    cells = sphere_map_directions(resolution, dtype=maps.dtype).reshape(-1, 3)
+    cells = sphere_map_directions(resolution, dtype=maps.dtype).to(maps.device).reshape(-1, 3)
     return cells[maps.flatten(start_dim=2).argmax(dim=-1)]
 
 
@@ -634,7 +634,10 @@ def label_loss(phase: str, outputs: Mapping[str, Tensor], batch: Mapping[str, Te
     outputs : mapping
         The network outputs (:meth:`vptoolkit.learn.model.ViewpointNet.forward`):
         ``"directions"`` (B, M, 3), plus ``"abs_directions"`` (B, M, 3) and
-        ``"sign_logits"`` (B, M, 8) for ``sr``, ``"maps"`` (B, M, R, R) for ``dldl``.
+        ``"sign_logits"`` (B, M, 8) for ``sr``, ``"maps"`` (B, M, R, R) for ``dldl``,
+        and ``"frame"`` (B, 3, 3) when the network works in a canonical input
+        frame: the ``sr`` and ``dldl`` targets are then mapped into it
+        (``v C^T``).
     batch : mapping
         ``"views"`` (B, V, 3), ``"quality"`` (B, V, M) and ``"best_views"``
         (B, M, 3), all in the input frame (the items of
@@ -648,6 +651,11 @@ def label_loss(phase: str, outputs: Mapping[str, Tensor], batch: Mapping[str, Te
     if phase == "ml+gl":
         raise InputError("phase: resolve 'ml+gl' to 'ml' or 'gl' with label_phase() first")
     directions = outputs["directions"]
+    if "frame" in outputs and phase in ("sr", "dldl"):
+        # These heads answer in the network's canonical frame: bring the labels there.
+        frame_t = outputs["frame"].transpose(1, 2).to(batch["views"].dtype)
+        batch = {**batch, "views": _as_batch_views(batch["views"], directions.shape[0]) @ frame_t,
+                 "best_views": batch["best_views"] @ frame_t}
     if phase == "sl":
         return single_label_loss(directions, batch["best_views"])
     if phase == "ml":

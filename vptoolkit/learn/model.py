@@ -93,6 +93,7 @@ from typing import TYPE_CHECKING, Any, Final, NamedTuple
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import write_bytes_atomic
+from vptoolkit.learn.frame import INPUT_FRAMES, canonical_frame, from_frame, to_frame
 from vptoolkit.learn.labels import (
     decode_spherical_regression,
     decode_sphere_maps,
@@ -250,6 +251,11 @@ class ModelConfig:
         Dropout rate in the head MLPs (default: 0.5).
     decoder_channels : tuple of int
         Channels of the DLDL decoder at 4 x 4 and 16 x 16 (default: (64, 16)).
+    input_frame : {"pca", "none"}
+        ``"pca"``: the network sees each input in its canonical principal-axis
+        frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
+        so a rotated input gets a rotated prediction; ``"none"``: the input's
+        own frame (checkpoints older than this option). Default: "pca".
     """
 
     head: str = "direction"
@@ -262,8 +268,11 @@ class ModelConfig:
     head_channels: tuple[int, ...] = (256, 64)
     dropout: float = 0.5
     decoder_channels: tuple[int, int] = field(default=(64, 16))
+    input_frame: str = "pca"
 
     def __post_init__(self) -> None:
+        if self.input_frame not in INPUT_FRAMES:
+            raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, got {self.input_frame!r}")
         if self.head not in HEADS:
             raise InputError(f"head: unknown head {self.head!r}, expected one of {list(HEADS)}")
         for name in ("n_measures", "latent_channels", "kernel_size", "global_kernel_size", "kernel_hidden"):
@@ -326,6 +335,7 @@ class ModelConfig:
         if unknown:
             raise InputError(f"architecture: unknown keys {unknown}")
         kwargs = dict(values)
+        kwargs.setdefault("input_frame", "none")  # checkpoints written before the option saw raw inputs
         if "levels" in kwargs:
             try:
                 kwargs["levels"] = tuple(LevelConfig(**dict(level)) for level in kwargs["levels"])
@@ -495,7 +505,7 @@ def input_level(points: Tensor) -> PointLevel:
     codes = morton_codes(normalised)
     order = torch.argsort(codes, dim=1, stable=True)
     sorted_points = torch.gather(normalised, 1, order.unsqueeze(-1).expand(-1, -1, 3))
-    batch = torch.arange(n_models).repeat_interleave(n_points)
+    batch = torch.arange(n_models, device=points.device).repeat_interleave(n_points)
     return PointLevel(
         sorted_points.reshape(-1, 3), batch, torch.gather(codes, 1, order).reshape(-1), n_models
     )
@@ -526,7 +536,8 @@ def grid_subsample(level: PointLevel, grid_level: int) -> PointLevel:
     """
     keys = _cell_keys(level, grid_level)
     cells, inverse, counts = torch.unique_consecutive(keys, return_inverse=True, return_counts=True)
-    sums = torch.zeros(len(cells), 3, dtype=level.points.dtype).index_add_(0, inverse, level.points)
+    sums = torch.zeros(len(cells), 3, dtype=level.points.dtype, device=level.points.device).index_add_(
+        0, inverse, level.points)
     points = sums / counts.unsqueeze(-1).to(sums.dtype)
     batch = cells >> (3 * grid_level)
     codes = (cells & ((1 << (3 * grid_level)) - 1)) << (3 * (CODE_BITS - grid_level))
@@ -544,7 +555,7 @@ def _pad_ragged(first: Tensor, count: Tensor, width: int) -> tuple[Tensor, Tenso
     Runs longer than ``width`` are subsampled evenly: slot ``s`` takes element
     ``floor((s + 1/2) count / width)``.
     """
-    slots = torch.arange(width).unsqueeze(0)
+    slots = torch.arange(width, device=first.device).unsqueeze(0)
     count_column = count.unsqueeze(-1)
     strided = torch.div((2 * slots + 1) * count_column, 2 * width, rounding_mode="floor")
     offset = torch.where(count_column > width, strided, slots)
@@ -581,7 +592,7 @@ def ball_query(source: PointLevel, centres: PointLevel, radius: float, max_neigh
     k = _ball_level(radius)
     source_keys = _cell_keys(source, k)
     cells = _grid_coordinates(centres.points, k)  # (M, 3)
-    offsets = torch.tensor(_NEIGHBOUR_CELLS, dtype=torch.int64)
+    offsets = torch.tensor(_NEIGHBOUR_CELLS, dtype=torch.int64, device=centres.points.device)
     neighbours = cells.unsqueeze(1) + offsets  # (M, 27, 3)
     # Skip cells outside the grid and cells whose nearest corner is beyond the radius.
     fraction = ((centres.points.to(torch.float64) + 0.5) * float(1 << k) - cells).unsqueeze(1)  # (M, 1, 3)
@@ -593,9 +604,9 @@ def ball_query(source: PointLevel, centres: PointLevel, radius: float, max_neigh
     stop = torch.searchsorted(source_keys, keys, side="right")
     run_length = torch.where(is_inside, stop - start, torch.zeros_like(start)).reshape(-1)
     # Expand the 27 runs of every centre into one flat candidate list, centre by centre.
-    run = torch.repeat_interleave(torch.arange(len(run_length)), run_length)
+    run = torch.repeat_interleave(torch.arange(len(run_length), device=run_length.device), run_length)
     run_shift = start.reshape(-1) - (torch.cumsum(run_length, 0) - run_length)
-    candidate = _take(run_shift, run) + torch.arange(len(run))
+    candidate = _take(run_shift, run) + torch.arange(len(run), device=run.device)
     centre = torch.div(run, len(_NEIGHBOUR_CELLS), rounding_mode="floor")
     distance2 = (_take(source.points, candidate) - _take(centres.points, centre)).square().sum(dim=-1)
     near = torch.nonzero(distance2 <= radius * radius).squeeze(-1)
@@ -737,8 +748,8 @@ class GeneratorDropout(nn.Module):
         if not self.training or self.p == 0.0:
             return x
         if self.generator is None:
-            self.generator = torch.Generator().manual_seed(0)
-        keep = torch.rand(x.shape, generator=self.generator, dtype=x.dtype) >= self.p
+            self.generator = torch.Generator(device=x.device).manual_seed(0)
+        keep = torch.rand(x.shape, generator=self.generator, dtype=x.dtype, device=x.device) >= self.p
         return x * keep / (1.0 - self.p)
 
     def extra_repr(self) -> str:
@@ -853,7 +864,7 @@ class PointEncoder(nn.Module):
         levels = hierarchy.levels
         features = levels[0].points
         n_models = levels[0].n_models
-        centre = torch.zeros(n_models, 3, dtype=features.dtype)
+        centre = torch.zeros(n_models, 3, dtype=features.dtype, device=features.device)
         targets = [level.points for level in levels[1:]] + [centre]
         for i, (conv, norm) in enumerate(zip(self.convs, self.norms)):
             source = levels[i]
@@ -969,6 +980,10 @@ class ViewpointNet(nn.Module):
           - ``"abs_directions"``: :math:`(B, M, 3)` and ``"sign_logits"``:
             :math:`(B, M, 8)` (``head="sr"``)
           - ``"maps"``: :math:`(B, M, 32, 32)` predicted quality maps (``head="dldl"``)
+          - ``"frame"``: :math:`(B, 3, 3)` the canonical frame ``C`` of each
+            input (``input_frame="pca"``); ``abs_directions``, ``sign_logits``
+            and ``maps`` are in that frame, ``directions`` are mapped back
+            with ``d C``
     """
 
     def __init__(self, config: ModelConfig | None = None, *, seed: int = 0) -> None:
@@ -994,6 +1009,7 @@ class ViewpointNet(nn.Module):
                     SphereMapDecoder(latent, config.decoder_channels) for _ in range(config.n_measures))
         self.to_empty(device="cpu")
         self.reset_parameters(seed=seed)
+        self._generator: torch.Generator | None = None
 
     def reset_parameters(self, *, seed: int = 0) -> None:
         """Initialise every weight from a generator seeded with ``seed``.
@@ -1013,14 +1029,27 @@ class ViewpointNet(nn.Module):
                 elif isinstance(module, (nn.BatchNorm1d, nn.BatchNorm2d)):
                     module.reset_parameters()
 
-    def set_generator(self, generator: torch.Generator) -> None:
-        """Make every dropout layer draw its masks from ``generator``."""
+    def set_generator(self, generator: torch.Generator | None) -> None:
+        """Draw dropout masks and, in training, ambiguous frame signs from ``generator``."""
+        self._generator = generator
         for module in self.modules():
             if isinstance(module, GeneratorDropout):
                 module.generator = generator
 
     def forward(self, points: Tensor) -> dict[str, Tensor]:
-        latent = self.encoder(points)
+        frame = None
+        if self.config.input_frame == "pca":
+            _check_points(points)
+            frame, centre = canonical_frame(points, generator=self._generator if self.training else None)
+            points = to_frame(points, frame, centre)
+        outputs = self._heads(self.encoder(points))
+        if frame is not None:
+            outputs["directions"] = from_frame(outputs["directions"], frame)
+            outputs["frame"] = frame
+        return outputs
+
+    def _heads(self, latent: Tensor) -> dict[str, Tensor]:
+        """Head outputs in the frame the encoder saw."""
         head = self.config.head
         if head == "direction":
             raw = torch.stack([mlp(latent) for mlp in self.heads], dim=1)
