@@ -234,6 +234,7 @@ def network_input_indices(
     n_fps: int = N_FPS_POINTS,
     *,
     rng: np.random.Generator,
+    fps_indices: ArrayLike | None = None,
 ) -> NDArray[np.int64]:
     """Choose the points of one network input, as indices into ``points``.
 
@@ -259,6 +260,9 @@ def network_input_indices(
         ``0 <= n_fps <= min(n, n_points)`` (default: 1024).
     rng : numpy.random.Generator
         Source of the start point and the random part.
+    fps_indices : (n_fps,) array_like of int, optional
+        Farthest-point picks made earlier (e.g. a training cache); when given
+        they are used as they are and only the random part is drawn.
 
     Returns
     -------
@@ -284,11 +288,15 @@ def network_input_indices(
             f"points: {len(cloud)} points, fewer than the n_fps={n_fps} farthest points asked for"
         )
     rng = _generator(rng)
-    fps = (
-        farthest_point_sampling(cloud, n_fps, rng=rng)
-        if n_fps > 0
-        else np.zeros(0, dtype=np.int64)
-    )
+    if fps_indices is not None:
+        fps = np.asarray(fps_indices, dtype=np.int64)
+        if fps.shape != (n_fps,) or (n_fps and not (0 <= fps.min() and fps.max() < len(cloud))):
+            raise InputError(f"fps_indices: expected {n_fps} indices into {len(cloud)} points, "
+                             f"got shape {fps.shape}")
+    elif n_fps > 0:
+        fps = farthest_point_sampling(cloud, n_fps, rng=rng)
+    else:
+        fps = np.zeros(0, dtype=np.int64)
     n_random = n - n_fps
     is_free = np.ones(len(cloud), dtype=bool)
     is_free[fps] = False

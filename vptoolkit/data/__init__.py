@@ -22,7 +22,7 @@ Examples
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -213,6 +213,21 @@ class ViewpointDataset:
         records = self._shared.records
         rows = np.array([row for row in self._rows if records[row]["split"] == name], np.int64)
         return ViewpointDataset(self._shared, rows, split_name=name)
+
+    def subset(self, names: Sequence[str]) -> ViewpointDataset:
+        """The named models, in this dataset's order, over the same open store.
+
+        Raises
+        ------
+        KeyError
+            For a name that is not in this dataset.
+        """
+        wanted = set(names)
+        missing = sorted(wanted - set(self._position_of_name))
+        if missing:
+            raise KeyError(f"{missing[0]}: no such model in {self.path.name}")
+        rows = np.array([row for row, name in zip(self._rows, self.names) if name in wanted], np.int64)
+        return ViewpointDataset(self._shared, rows, split_name=self._split_name)
 
     # ------------------------------------------------------------------ items
 

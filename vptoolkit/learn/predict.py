@@ -20,13 +20,19 @@ dataset stores or folders
 Then :func:`vptoolkit.points.network_input` picks the checkpoint's input
 size (4096 points, 1024 of them by farthest point sampling) with a
 generator seeded from ``seed`` and the model's name, so a model gets the
-same input wherever it appears. Nothing is rotated.
+same input wherever it appears. Nothing is rotated: networks with the
+canonical input frame (:mod:`vptoolkit.learn.frame`) answer in the input's
+own orientation, whatever it is.
+
+Per-category networks (:func:`vptoolkit.learn.train.train_per_category`, a
+folder with ``categories.json``) route every dataset model to its category's
+network; meshes and point files need ``category``.
 """
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -48,7 +54,8 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["MeshPredictor", "Predictions", "predict", "predict_directions", "network_points"]
+__all__ = ["MeshPredictor", "Predictions", "predict", "predict_directions", "network_points",
+           "network_predictor", "load_networks"]
 
 _SURFACE_POINTS = 20_000
 _SEED_INPUT = 3
@@ -167,7 +174,7 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
 
 
 def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | torch.Tensor, *,
-                       batch_size: int = 64) -> NDArray[np.float64]:
+                       batch_size: int = 64, device: str = "cpu") -> NDArray[np.float64]:
     """Run a network in evaluation mode on prepared inputs.
 
     Parameters
@@ -178,23 +185,29 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
         Network inputs.
     batch_size : int
         Models per forward pass (default: 64).
+    device : {"cpu", "cuda", "auto"}
+        Where the network runs (default: "cpu"; the model is moved there).
 
     Returns
     -------
     directions : (n_models, n_measures, 3) float64
         Unit directions.
     """
+    from vptoolkit.learn.train import resolve_device
+
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
         raise InputError(f"batch_size: expected a positive integer, got {batch_size!r}")
     inputs = torch.as_tensor(np.asarray(points, dtype=np.float32) if not isinstance(points, torch.Tensor)
                              else points.to(torch.float32))
     if inputs.ndim != 3 or inputs.shape[-1] != 3:
         raise InputError(f"points: expected shape (n_models, n_points, 3), got {tuple(inputs.shape)}")
-    model.eval()
+    where = resolve_device(device)
+    model.to(where).eval()
     parts = []
     with torch.inference_mode():
         for start in range(0, len(inputs), batch_size):
-            parts.append(model(inputs[start : start + batch_size])["directions"].to(torch.float64))
+            outputs = model(inputs[start : start + batch_size].to(where))
+            parts.append(outputs["directions"].to(torch.float64).cpu())
     if not parts:
         return np.zeros((0, model.config.n_measures, 3))
     directions = torch.cat(parts).numpy()
@@ -235,8 +248,11 @@ def _mesh_points(path: Path, seed: int) -> NDArray[np.float64]:
     return sample_surface(load_mesh(path), _SURFACE_POINTS, seed=seed).points
 
 
-def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[tuple[str, Callable[[], NDArray[Any]]]]:
-    """(name, loader of surface points) for every model of the inputs, in order."""
+Source = tuple[str, str | None, Callable[[], NDArray[Any]]]
+
+
+def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
+    """(name, category or None, loader of surface points) for every model of the inputs, in order."""
     from vptoolkit.data import ViewpointDataset, open_dataset
     from vptoolkit.io import SUPPORTED_SUFFIXES
 
@@ -253,11 +269,11 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[tuple[str, C
         if suffix == ".npy":
             if not path.is_file():
                 raise InputError(f"{path}: no such point file")
-            yield path.stem, (lambda path=path: _point_file(path))
+            yield path.stem, None, (lambda path=path: _point_file(path))
         elif suffix in SUPPORTED_SUFFIXES:
             if not path.is_file():
                 raise InputError(f"{path}: no such mesh file")
-            yield path.stem, (lambda path=path: _mesh_points(path, seed))
+            yield path.stem, None, (lambda path=path: _mesh_points(path, seed))
         elif _is_dataset(path):
             dataset = open_dataset(path)
             try:
@@ -270,10 +286,45 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[tuple[str, C
             )
 
 
-def _dataset_sources(dataset: ViewpointDataset, split: str | None) -> Iterator[tuple[str, Callable[[], NDArray[Any]]]]:
+def _dataset_sources(dataset: ViewpointDataset, split: str | None) -> Iterator[Source]:
     subset = dataset.split(split) if split is not None else dataset
-    for position, name in enumerate(subset.names):
-        yield name, (lambda position=position: np.asarray(subset[position]["points"], dtype=np.float64))
+    for position, (name, category) in enumerate(zip(subset.names, subset.categories)):
+        yield name, category, (lambda position=position: np.asarray(subset[position]["points"], dtype=np.float64))
+
+
+def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[ViewpointNet, dict[str, Any]]]:
+    """One checkpoint as ``{None: (model, config)}``, or a per-category folder as ``{category: ...}``.
+
+    Raises
+    ------
+    InputError
+        If a checkpoint is missing or unreadable, or ``categories.json`` is not a
+        per-category index.
+    """
+    from vptoolkit.learn.model import read_json
+    from vptoolkit.learn.train import CATEGORY_MODELS_FORMAT
+
+    index = Path(model_path) / "categories.json"
+    if str(model_path) == DEFAULT_MODEL or not index.is_file():
+        return {None: load_model(model_path)}
+    entries = read_json(index, "per-category index")
+    if entries.get("format") != CATEGORY_MODELS_FORMAT or not isinstance(entries.get("categories"), dict):
+        raise InputError(f"{index}: not a vptoolkit per-category index (format {entries.get('format')!r})")
+    return {str(name): load_model(Path(model_path) / str(folder))
+            for name, folder in sorted(entries["categories"].items())}
+
+
+def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name: str,
+           category: str | None) -> str | None:
+    """The key of the network that predicts one model."""
+    if None in networks:
+        return None
+    if category is None:
+        raise InputError(f"{name}: the model folder holds one network per category ({', '.join(map(str, networks))}); "
+                         "pass category= (--category) for meshes and point files")
+    if category not in networks:
+        raise InputError(f"{name}: no network for category {category!r} (have {', '.join(map(str, networks))})")
+    return category
 
 
 def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
@@ -290,6 +341,48 @@ def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None
     return n_points, n_fps
 
 
+def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
+                      seed: int = 0, batch_size: int = 64,
+                      device: str = "auto") -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
+    """A checkpoint as a :data:`vptoolkit.protocol.Predictor`: surface points and names to directions.
+
+    Each cloud becomes a network input as in :func:`predict` (the
+    checkpoint's input size, seeded from ``seed`` and the model's name).
+
+    Parameters
+    ----------
+    model_path : path-like
+        A checkpoint, a per-category folder or ``"default"``.
+    categories : mapping of str to str, optional
+        Model name to category, to route models to a per-category folder's networks.
+    seed, batch_size, device
+        As for :func:`predict`.
+
+    Returns
+    -------
+    predictor : callable
+        ``predictor(points, names) -> (n_models, n_measures, 3)`` unit directions.
+    """
+    networks = load_networks(model_path)
+    lookup = dict(categories or {})
+
+    def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
+        routes = [_route(networks, name, lookup.get(name)) for name in names]
+        first_model = next(iter(networks.values()))[0]
+        directions = np.zeros((len(names), first_model.config.n_measures, 3))
+        for route, (model, config) in networks.items():
+            rows = [i for i, chosen in enumerate(routes) if chosen == route]
+            if not rows:
+                continue
+            n_points, n_fps = _input_sizes(config, None, None)
+            inputs = np.stack([network_points(points[i], n_points=n_points, n_fps=n_fps, seed=seed, name=names[i])
+                               for i in rows])
+            directions[rows] = predict_directions(model, inputs, batch_size=batch_size, device=device)
+        return directions
+
+    return predictor
+
+
 class MeshPredictor:
     """A checkpoint loaded once, called on meshes: ``predictor(mesh) -> (n_measures, 3)``.
 
@@ -302,11 +395,14 @@ class MeshPredictor:
     Parameters
     ----------
     model_path : path-like
-        A checkpoint, or ``"default"`` for the bundled pretrained one.
+        A checkpoint, a per-category folder, or ``"default"`` for the bundled
+        pretrained network.
     seed : int
         Seed of the sampling (default: 0).
     threads : int, optional
         Torch threads during each call (default: torch's setting).
+    category : str, optional
+        The category whose network predicts (required for a per-category folder).
 
     Examples
     --------
@@ -316,10 +412,11 @@ class MeshPredictor:
     """
 
     def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
-                 threads: int | None = None) -> None:
+                 threads: int | None = None, category: str | None = None) -> None:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
-        self.model, self.config = load_model(model_path)
+        networks = load_networks(model_path)
+        self.model, self.config = networks[_route(networks, Path(model_path).name, category)]
         self.n_points, self.n_fps = _input_sizes(self.config, None, None)
         self.measures = tuple(self.config.get("measures", MEASURES[: self.model.config.n_measures]))
         self.seed = seed
@@ -347,6 +444,8 @@ def predict(
     n_fps: int | None = None,
     progress: bool = False,
     threads: int | None = None,
+    category: str | None = None,
+    device: str = "auto",
 ) -> Predictions:
     """Predict the best view of every input model for each measure.
 
@@ -355,7 +454,8 @@ def predict(
     model_path : path-like
         A checkpoint (folder, ``*.safetensors`` or ``*.json``) written by
         :func:`vptoolkit.learn.train.train_model` or
-        :func:`vptoolkit.learn.model.save_model`.
+        :func:`vptoolkit.learn.model.save_model`, a per-category folder of
+        :func:`vptoolkit.learn.train.train_per_category`, or ``"default"``.
     inputs : path-like, ViewpointDataset or a sequence of them
         Mesh files, ``.npy`` point files and dataset stores or folders, in
         any mix (see the module docstring).
@@ -375,6 +475,11 @@ def predict(
     threads : int, optional
         Torch threads during the call, restored afterwards (default: None,
         leave torch's setting).
+    category : str, optional
+        Category of mesh and point-file inputs, for a per-category folder
+        (dataset models carry their own).
+    device : {"auto", "cpu", "cuda"}
+        Where the network runs (default: "auto", CUDA when available).
 
     Returns
     -------
@@ -385,24 +490,34 @@ def predict(
     ------
     InputError
         On a missing or unreadable input, an unknown file type, an unknown
-        split, duplicate model names or an invalid option.
+        split, duplicate model names, a model whose category has no network,
+        or an invalid option.
     VerificationError
         If the checkpoint's weights do not match its architecture.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
-    model, config = load_model(model_path)
-    n_points, n_fps = _input_sizes(config, n_points, n_fps)
+    networks = load_networks(model_path)
     tqdm = require("tqdm").tqdm
     names: list[str] = []
+    routes: list[str | None] = []
     prepared: list[NDArray[np.float32]] = []
-    for name, load in tqdm(_sources(inputs, split, seed), disable=not progress, desc="inputs", unit="model"):
+    for name, source_category, load in tqdm(_sources(inputs, split, seed), disable=not progress, desc="inputs",
+                                            unit="model"):
         if name in names:
             raise InputError(f"inputs: two models are named {name!r}; model names must be unique")
+        route = _route(networks, name, source_category if source_category is not None else category)
+        size, fps = _input_sizes(networks[route][1], n_points, n_fps)
         names.append(name)
-        prepared.append(network_points(load(), n_points=n_points, n_fps=n_fps, seed=seed, name=name))
-    points = np.stack(prepared) if prepared else np.zeros((0, n_points, 3), dtype=np.float32)
+        routes.append(route)
+        prepared.append(network_points(load(), n_points=size, n_fps=fps, seed=seed, name=name))
+    first_model, first_config = next(iter(networks.values()))
+    measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
+    directions = np.zeros((len(names), len(measures), 3))
     with torch_threads(threads):
-        directions = predict_directions(model, points, batch_size=batch_size)
-    measures = tuple(config.get("measures", MEASURES[: model.config.n_measures]))
+        for route, (model, _) in networks.items():
+            rows = [i for i, chosen in enumerate(routes) if chosen == route]
+            if rows:
+                directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
+                                                      batch_size=batch_size, device=device)
     return Predictions(tuple(names), directions, measures)

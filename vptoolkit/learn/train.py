@@ -2,17 +2,32 @@
 
 :func:`train_model` follows the paper's recipe (Schelling et al. 2021,
 section 4.3): Adam, batch size 8, learning rate 0.001 multiplied by 0.75
-every 200 epochs, 3000 epochs, ML labels for the first half and GL labels
-for the second (``labels="ml+gl"``), inputs of 4096 points (1024 by
-farthest point sampling plus 3072 random) under a random rotation per model
-and epoch (:class:`vptoolkit.data.torch.ViewpointTorchDataset`; views rotate
-with the points, so labels stay in the input frame).
+every 200 of 3000 epochs (for another length the step scales with it, so
+every run decays 15 times), ML labels for the first half and GL labels for
+the second (``labels="ml+gl"``), inputs of 4096 points (1024 by farthest
+point sampling plus 3072 random) under a random rotation per model and epoch
+(:class:`vptoolkit.data.torch.ViewpointTorchDataset`; views rotate with the
+points, so labels stay in the input frame). The network puts every input in
+its canonical principal-axis frame (:mod:`vptoolkit.learn.frame`).
 
-After every epoch the network predicts the validation models (eval mode,
-one fixed augmentation: that of epoch 0) and each prediction scores the
-normalised quality of its nearest sampled view
+Throughput: farthest point sampling dominates the cost of an input, so each
+model keeps a pool of ``fps_pool`` farthest-point subsets made once, and
+every epoch draws one of them plus fresh random points and a fresh rotation;
+models stay in memory; Adam is the fused implementation; the resumable state
+is written every ``save_every`` epochs and at the end.
+``tools/bench_train.py`` measures the effect.
+
+After every epoch the network predicts the validation models under the
+rotated protocol (:mod:`vptoolkit.protocol`): each model under
+``val_rotations`` fixed rotations seeded by its name, eval mode, the same
+input points as :func:`vptoolkit.learn.predict.predict` would choose; each
+prediction scores the normalised quality of its nearest sampled view
 (:func:`vptoolkit.learn.labels.nearest_view_quality`). The checkpoint with
 the best mean over the four measures is kept.
+
+``categories`` restricts a run to some categories; :func:`train_per_category`
+trains the paper's set-up, one network per category, into one folder that
+:func:`vptoolkit.learn.predict.predict` routes by category.
 
 Files (``OUT`` a folder, or ``OUT.safetensors`` naming the weights file)
 
@@ -22,7 +37,8 @@ Files (``OUT`` a folder, or ``OUT.safetensors`` naming the weights file)
                                 method, measures, input size, training
                                 arguments and command, epochs, best score,
                                 toolkit and torch versions
-``model.last.safetensors``      the state after the last finished epoch:
+``model.last.safetensors``      the state after the last saved epoch
+                                (every ``save_every`` and the last):
                                 weights and Adam moments
 ``model.last.json``             epoch, Adam hyper-parameters, history,
                                 best score so far, arguments
@@ -36,9 +52,9 @@ Determinism
     masks and the augmentations are drawn from generators seeded with
     ``(seed, epoch, purpose)`` or ``(seed, epoch, model name)``, never from
     the global random state, and the learning rate is a function of the
-    epoch. So the same command gives the same weights (on the same machine
-    and thread count), and ``resume=True`` continues a stopped run exactly
-    where an uninterrupted run would be.
+    epoch. So the same command gives the same weights (on the same machine,
+    device and thread count), and ``resume=True`` continues a stopped run
+    from its last saved epoch exactly as an uninterrupted run would.
 """
 
 from __future__ import annotations
@@ -79,6 +95,7 @@ from vptoolkit.learn.model import (
     write_safetensors_atomic,
 )
 from vptoolkit.optional import require
+from vptoolkit.rotations import fixed_rotations
 
 if TYPE_CHECKING:
     import torch
@@ -96,7 +113,11 @@ __all__ = [
     "TRAINING_STATE_FORMAT",
     "TrainResult",
     "train_model",
+    "train_per_category",
+    "CATEGORY_MODELS_FORMAT",
     "learning_rate",
+    "scaled_lr_step",
+    "resolve_device",
     "state_paths",
 ]
 
@@ -120,13 +141,16 @@ PAPER_LR_STEP: Final = 200
 TRAINING_STATE_FORMAT: Final = "vptoolkit-training-state"
 """``format`` entry of ``*.last.json``."""
 
+CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
+"""``format`` entry of the ``categories.json`` index of :func:`train_per_category`."""
+
 _VALIDATION_BATCH = 32
 _SEED_SHUFFLE = 1
 _SEED_DROPOUT = 2
 # Options a resumed run must share with the stopped one (``epochs`` may grow).
 _RESUME_KEYS = (
     "labels", "batch_size", "lr", "lr_decay", "lr_step", "seed", "val_split", "max_models",
-    "n_points", "n_fps", "rotate", "architecture",
+    "n_points", "n_fps", "rotate", "architecture", "fps_pool", "val_rotations", "categories",
 )
 
 
@@ -186,6 +210,30 @@ def learning_rate(epoch: int, *, lr: float = PAPER_LR, lr_decay: float = PAPER_L
     return lr * lr_decay ** (epoch // lr_step)
 
 
+def scaled_lr_step(epochs: int) -> int:
+    """The paper's decay step (200 of 3000 epochs) scaled to a run of ``epochs``: at least 1."""
+    return max(1, round(epochs * PAPER_LR_STEP / PAPER_EPOCHS))
+
+
+def resolve_device(device: str) -> torch.device:
+    """``"auto"`` (CUDA when available, else the CPU), ``"cpu"`` or ``"cuda"`` / ``"cuda:N"``.
+
+    Raises
+    ------
+    InputError
+        For another name, or CUDA asked for where torch sees no CUDA device.
+    """
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if device == "cpu":
+        return torch.device("cpu")
+    if isinstance(device, str) and (device == "cuda" or device.startswith("cuda:")):
+        if not torch.cuda.is_available():
+            raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} sees no CUDA device")
+        return torch.device(device)
+    raise InputError(f"device: expected 'auto', 'cpu' or 'cuda', got {device!r}")
+
+
 def state_paths(output: str | os.PathLike[str]) -> tuple[Path, Path]:
     """The resumable-state files of a training output: ``<stem>.last.safetensors`` and ``.json``."""
     weights, _ = checkpoint_paths(output)
@@ -197,8 +245,8 @@ def _seed(*keys: int) -> int:
     return int(np.random.SeedSequence([int(key) for key in keys]).generate_state(1, np.uint64)[0] >> 1)
 
 
-def _generator(*keys: int) -> torch.Generator:
-    return torch.Generator().manual_seed(_seed(*keys))
+def _generator(*keys: int, device: torch.device | str = "cpu") -> torch.Generator:
+    return torch.Generator(device=device).manual_seed(_seed(*keys))
 
 
 def _check_int(value: Any, name: str, minimum: int) -> int:
@@ -234,6 +282,19 @@ def _split(dataset: ViewpointDataset, split: str, max_models: int | None, what: 
     return subset, len(subset) if max_models is None else min(len(subset), max_models)
 
 
+def _categories(dataset: ViewpointDataset, categories: Sequence[str] | str | None) -> list[str] | None:
+    if categories is None:
+        return None
+    if isinstance(categories, str):
+        categories = [categories]
+    chosen = sorted({str(name) for name in categories})
+    unknown = sorted(set(chosen) - set(dataset.categories))
+    if not chosen or unknown:
+        raise InputError(f"categories: {unknown or 'none given'} not in {dataset.path.name} "
+                         f"(it has {sorted(set(dataset.categories))})")
+    return chosen
+
+
 def _collate(items: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     batch: dict[str, Any] = {"name": [item["name"] for item in items]}
     for key in ("points", "views", "quality", "best_views"):
@@ -249,11 +310,25 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
     return batches
 
 
-def _validation_set(torch_dataset: Any, n_models: int) -> dict[str, Any]:
-    return _collate([torch_dataset[index] for index in range(n_models)])
+def _validation_set(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int, seed: int,
+                    rotations: int, device: torch.device) -> dict[str, Tensor]:
+    """The validation inputs under the rotated protocol (as stored for ``rotations=0``)."""
+    from vptoolkit.learn.predict import network_points
+
+    points, views, quality = [], [], []
+    for index in range(n_models):
+        item = subset[index]
+        base = network_points(item["points"], n_points=n_points, n_fps=n_fps, seed=seed, name=item["name"])
+        turns = fixed_rotations(item["name"], rotations, seed=seed) if rotations else np.eye(3)[None]
+        for rotation in turns:
+            points.append(base @ rotation.T)
+            views.append(item["views"] @ rotation.T)
+            quality.append(item["quality"])
+    return {key: torch.from_numpy(np.stack(values).astype(np.float32)).to(device)
+            for key, values in (("points", points), ("views", views), ("quality", quality))}
 
 
-def _validate(model: ViewpointNet, validation: Mapping[str, Any]) -> Tensor:
+def _validate(model: ViewpointNet, validation: Mapping[str, Tensor]) -> Tensor:
     model.eval()
     scores = []
     with torch.inference_mode():
@@ -261,7 +336,7 @@ def _validate(model: ViewpointNet, validation: Mapping[str, Any]) -> Tensor:
             part = slice(start, start + _VALIDATION_BATCH)
             directions = model(validation["points"][part])["directions"]
             scores.append(nearest_view_quality(directions, validation["views"][part], validation["quality"][part]))
-    return torch.cat(scores).mean(dim=0)
+    return torch.cat(scores).mean(dim=0).cpu()
 
 
 def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
@@ -316,19 +391,24 @@ def train_model(
     batch_size: int = PAPER_BATCH_SIZE,
     lr: float = PAPER_LR,
     lr_decay: float = PAPER_LR_DECAY,
-    lr_step: int = PAPER_LR_STEP,
+    lr_step: int | None = None,
     seed: int = 0,
     resume: bool = False,
     overwrite: bool = False,
     progress: bool = False,
     val_split: str = "val",
     max_models: int | None = None,
+    categories: Sequence[str] | str | None = None,
     n_points: int = 4096,
     n_fps: int = 1024,
     rotate: bool = True,
+    fps_pool: int = 8,
+    val_rotations: int = 3,
+    save_every: int = 10,
     architecture: ModelConfig | Mapping[str, Any] | None = None,
     workers: int = 0,
     threads: int | None = None,
+    device: str = "auto",
     command: str | None = None,
 ) -> TrainResult:
     """Train a viewpoint network and keep the checkpoint with the best validation score.
@@ -348,9 +428,12 @@ def train_model(
         continues up to this number (``ml+gl`` switches to GL after half of it).
     batch_size : int
         Models per step, at least 2 for batch norm (default: 8).
-    lr, lr_decay, lr_step : float, float, int
+    lr, lr_decay : float
         Adam's learning rate ``lr * lr_decay ** (epoch // lr_step)``
-        (defaults: 0.001, 0.75, 200).
+        (defaults: 0.001, 0.75).
+    lr_step : int, optional
+        Epochs per decay step (default: :func:`scaled_lr_step`, the paper's
+        200 of 3000 scaled to ``epochs``).
     seed : int
         Seed of weights, shuffling, dropout and augmentation (default: 0).
     resume : bool
@@ -365,11 +448,22 @@ def train_model(
         tiny datasets).
     max_models : int, optional
         Use at most this many models of each split, in store order (default: all).
+    categories : str or sequence of str, optional
+        Train and validate on these categories only (default: all).
     n_points, n_fps : int
         Input points per model and how many of them farthest point sampling
         picks (defaults: 4096 and 1024).
     rotate : bool
         Random rotation augmentation (default: True).
+    fps_pool : int
+        Farthest-point subsets kept per model (default: 8; 0 runs farthest
+        point sampling for every input, the slow way).
+    val_rotations : int
+        Fixed rotations per validation model (default: 3; 0 validates in the
+        stored orientation).
+    save_every : int
+        Write the resumable state every this many epochs, and after the
+        last (default: 10).
     architecture : ModelConfig or mapping, optional
         Network configuration (default: ``ModelConfig(head=...)`` for the
         label method).
@@ -378,7 +472,11 @@ def train_model(
     threads : int, optional
         Torch threads during the call, restored afterwards (default: None,
         leave torch's setting). On a busy machine 1 can be much faster than
-        2, whose threads wait on each other.
+        2, whose threads wait on each other; to use several cores, run
+        several single-threaded trainings side by side.
+    device : {"auto", "cpu", "cuda"}
+        Where the network runs (default: "auto", CUDA when torch sees it).
+        Nothing needs a GPU.
     command : str, optional
         The command line to record in the configuration (the CLI passes it).
 
@@ -398,47 +496,70 @@ def train_model(
         return _train(
             dataset_path, output, labels=labels, epochs=epochs, batch_size=batch_size, lr=lr, lr_decay=lr_decay,
             lr_step=lr_step, seed=seed, resume=resume, overwrite=overwrite, progress=progress,
-            val_split=val_split, max_models=max_models, n_points=n_points, n_fps=n_fps, rotate=rotate,
-            architecture=architecture, workers=workers, command=command,
+            val_split=val_split, max_models=max_models, categories=categories, n_points=n_points, n_fps=n_fps,
+            rotate=rotate, fps_pool=fps_pool, val_rotations=val_rotations, save_every=save_every,
+            architecture=architecture, workers=workers, device=device, command=command,
         )
 
 
+def _subset(dataset: ViewpointDataset, split: str, categories: list[str] | None, max_models: int | None,
+            what: str) -> tuple[ViewpointDataset, int]:
+    """A split (restricted to ``categories``) and how many of its models to use."""
+    subset, count = _split(dataset, split, max_models, what)
+    if categories is None:
+        return subset, count
+    keep = [name for name, category in zip(subset.names, subset.categories) if category in categories]
+    if not keep:
+        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models of {categories}")
+    chosen = subset.subset(keep)
+    return chosen, len(chosen) if max_models is None else min(len(chosen), max_models)
+
+
 def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str, epochs: int,
-           batch_size: int, lr: float, lr_decay: float, lr_step: int, seed: int, resume: bool, overwrite: bool,
-           progress: bool, val_split: str, max_models: int | None, n_points: int, n_fps: int, rotate: bool,
-           architecture: ModelConfig | Mapping[str, Any] | None, workers: int, command: str | None) -> TrainResult:
+           batch_size: int, lr: float, lr_decay: float, lr_step: int | None, seed: int, resume: bool,
+           overwrite: bool, progress: bool, val_split: str, max_models: int | None,
+           categories: Sequence[str] | str | None, n_points: int, n_fps: int, rotate: bool, fps_pool: int,
+           val_rotations: int, save_every: int, architecture: ModelConfig | Mapping[str, Any] | None,
+           workers: int, device: str, command: str | None) -> TrainResult:
     started = time.perf_counter()
     labels = check_label_method(labels)
     epochs = _check_int(epochs, "epochs", 1)
     batch_size = _check_int(batch_size, "batch_size", 2)
     lr = _check_float(lr, "lr")
     lr_decay = _check_float(lr_decay, "lr_decay")
-    lr_step = _check_int(lr_step, "lr_step", 1)
+    lr_step = scaled_lr_step(epochs) if lr_step is None else _check_int(lr_step, "lr_step", 1)
     seed = _check_int(seed, "seed", 0)
     n_points = _check_int(n_points, "n_points", 1)
     n_fps = _check_int(n_fps, "n_fps", 0)
+    fps_pool = _check_int(fps_pool, "fps_pool", 0)
+    val_rotations = _check_int(val_rotations, "val_rotations", 0)
+    save_every = _check_int(save_every, "save_every", 1)
     workers = _check_int(workers, "workers", 0)
     if max_models is not None:
         max_models = _check_int(max_models, "max_models", 1)
     if n_fps > n_points:
         raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
+    where = resolve_device(device)
     config = _architecture(architecture, labels)
-    arguments = {
-        "dataset_path": str(dataset_path), "output": str(output), "labels": labels, "epochs": epochs,
-        "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay, "lr_step": lr_step, "seed": seed,
-        "val_split": val_split, "max_models": max_models, "n_points": n_points, "n_fps": n_fps,
-        "rotate": bool(rotate), "architecture": config.to_dict(), "workers": workers,
-    }
     weights_path, config_path = checkpoint_paths(output)
     last_weights, last_json = state_paths(output)
     from vptoolkit.data.torch import ViewpointTorchDataset
 
     dataset = open_dataset(dataset_path)
     try:
+        chosen = _categories(dataset, categories)
+        arguments = {
+            "dataset_path": str(dataset_path), "output": str(output), "labels": labels, "epochs": epochs,
+            "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay, "lr_step": lr_step, "seed": seed,
+            "val_split": val_split, "max_models": max_models, "categories": chosen, "n_points": n_points,
+            "n_fps": n_fps, "rotate": bool(rotate), "fps_pool": fps_pool, "val_rotations": val_rotations,
+            "save_every": save_every, "architecture": config.to_dict(), "workers": workers,
+            "device": str(where),
+        }
         if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
             raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ from {MEASURES}")
-        train_set, n_train = _split(dataset, "train", max_models, "dataset_path")
-        val_set, n_val = _split(dataset, val_split, max_models, "val_split")
+        train_set, n_train = _subset(dataset, "train", chosen, max_models, "dataset_path")
+        val_set, n_val = _subset(dataset, val_split, chosen, max_models, "val_split")
         if n_train < 2:
             raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; need at least 2")
         is_resuming = bool(resume) and last_json.exists()
@@ -446,12 +567,13 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to start afresh"
                     if resume else "pass resume=True to continue it or overwrite=True to replace it")
             raise InputError(f"{weights_path.parent}: already holds a training run ({weights_path.name}); {hint}")
-        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed)
-        validation = _validation_set(
-            ViewpointTorchDataset(val_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed), n_val)
+        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed,
+                                           fps_pool=fps_pool)
+        validation = _validation_set(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
+                                     rotations=val_rotations, device=where)
 
-        model = ViewpointNet(config, seed=_seed(seed, 0))
-        optimizer = torch.optim.Adam(model.parameters(), lr=lr)
+        model = ViewpointNet(config, seed=_seed(seed, 0)).to(where)
+        optimizer = torch.optim.Adam(model.parameters(), lr=lr, fused=True)
         history: list[dict[str, Any]] = []
         best: dict[str, Any] = {"epoch": 0, "score": -math.inf, "scores": {}}
         start_epoch = 0
@@ -460,6 +582,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         metadata_base = {
             "labels": labels,
             "input": {"n_points": n_points, "n_fps": n_fps},
+            "categories": chosen,
             "toolkit_version": _toolkit_version(),
             "torch_version": torch.__version__,
             "python_version": platform.python_version(),
@@ -476,7 +599,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 for group in optimizer.param_groups:
                     group["lr"] = rate
                 loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase, epoch=epoch, seed=seed,
-                                    batch_size=batch_size, workers=workers)
+                                    batch_size=batch_size, workers=workers, device=where)
                 scores = _validate(model, validation)
                 score = float(scores.mean())
                 entry = {
@@ -490,8 +613,9 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                     training = _training_record(arguments, command, dataset, n_train, n_val, epochs,
                                                 epoch + 1, best)
                     save_model(model, weights_path, metadata={**metadata_base, "training": training})
-                _save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
-                            history=history, best=best)
+                if (epoch + 1) % save_every == 0 or epoch + 1 == epochs:
+                    _save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
+                                history=history, best=best)
                 _log.info("epoch %d/%d %s loss %.4f val %.4f", epoch + 1, epochs, phase, loss, score)
                 bar.set_postfix(loss=f"{loss:.4f}", val=f"{score:.3f}", best=f"{best['score']:.3f}")
                 bar.update(1)
@@ -509,17 +633,66 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         dataset.close()
 
 
+def train_per_category(
+    dataset_path: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    categories: Sequence[str] | None = None,
+    progress: bool = False,
+    **options: Any,
+) -> dict[str, TrainResult]:
+    """Train one network per category, the paper's set-up, into one folder.
+
+    Each category's run is :func:`train_model` with ``categories=[name]``
+    into ``output/<category>/``; ``output/categories.json`` indexes them
+    (``format``, ``categories``: name to checkpoint folder). Give that folder
+    to :func:`vptoolkit.learn.predict.predict`, which routes each model to
+    its category's network.
+
+    Parameters
+    ----------
+    dataset_path, output : path-like
+        As for :func:`train_model`; ``output`` is a folder.
+    categories : sequence of str, optional
+        Categories to train (default: every category with training models).
+    progress : bool
+        Progress bars (default: False).
+    **options
+        Any other :func:`train_model` option, the same for every category.
+
+    Returns
+    -------
+    results : dict of str to TrainResult
+        By category, sorted.
+    """
+    folder = Path(output)
+    if folder.suffix == ".safetensors":
+        raise InputError(f"{folder}: per-category training writes a folder, not one .safetensors file")
+    with open_dataset(dataset_path) as dataset:
+        names = _categories(dataset, categories) if categories is not None else sorted(
+            set(dataset.split("train").categories))
+    results = {}
+    for name in names:
+        results[name] = train_model(dataset_path, folder / name, categories=[name], progress=progress, **options)
+        write_json_atomic(folder / "categories.json", {
+            "format": CATEGORY_MODELS_FORMAT,
+            "categories": {done: done for done in results},
+        })
+    return results
+
+
 def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_data: Any, n_train: int, *,
-                 phase: str, epoch: int, seed: int, batch_size: int, workers: int) -> float:
+                 phase: str, epoch: int, seed: int, batch_size: int, workers: int, device: torch.device) -> float:
     train_data.set_epoch(epoch)
     batches = _batches(n_train, batch_size, _generator(seed, epoch, _SEED_SHUFFLE))
     model.train()
-    model.set_generator(_generator(seed, epoch, _SEED_DROPOUT))
+    model.set_generator(_generator(seed, epoch, _SEED_DROPOUT, device=device))
     loader = torch.utils.data.DataLoader(train_data, batch_sampler=batches, num_workers=workers,
                                          collate_fn=_collate)
     total = 0.0
     count = 0
     for batch in loader:
+        batch = {key: value.to(device) if isinstance(value, torch.Tensor) else value for key, value in batch.items()}
         outputs = model(batch["points"])
         loss = label_loss(phase, outputs, batch).mean()
         optimizer.zero_grad(set_to_none=True)
