@@ -10,7 +10,7 @@ LAYERS = {
     "mesh": 1, "io": 1, "samples": 1,
     "geometry": 2, "sphere": 2, "camera": 2,
     "visibility": 3,
-    "measures": 4,
+    "measures": 4, "view_sets": 4,
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9,
