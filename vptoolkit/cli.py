@@ -147,6 +147,73 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
 
 
 @main.command()
+@click.argument("mesh", type=_MESH)
+@click.option("--k", "k", type=click.IntRange(1),
+              help="Number of views [default: 4, or no limit with --coverage].")
+@click.option("--objective", type=click.Choice(["coverage", "information", "quality"]),
+              default="coverage", show_default=True,
+              help="coverage: area seen; information: entropy of the views' joint face "
+                   "distribution; quality: coverage, preferring good --measure views.")
+@click.option("--coverage", "target", type=click.FloatRange(0, 1, min_open=True),
+              help="Add views until the set sees this fraction of what all views see.")
+@click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
+              help="Measure of the quality objective (its best view is the first pick).")
+@click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1),
+              help="Number of Fibonacci-sphere view directions.")
+@click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384),
+              help="Side of the triangle-ID image in pixels.")
+@click.option("--min-pixels", default=1, show_default=True, type=click.IntRange(1),
+              help="Pixels a face needs in a view to count as seen.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write indices, directions and cumulative coverage to this .npz.")
+@click.option("--json", "as_json", is_flag=True, help="Print the set as JSON.")
+def views(mesh: Path, k: int | None, objective: str, target: float | None, measure: str,
+          n_views: int, resolution: int, min_pixels: int, output: Path | None,
+          as_json: bool) -> None:
+    """Choose views of MESH that together show the whole model.
+
+    A greedy search over the sampled views: each pick adds the view that best
+    complements the ones before. Prints, per pick, the view, its direction and
+    the area-weighted fraction of the surface seen so far.
+
+    \b
+    Example:
+      vptool views bunny.ply --k 4 -o bunny_views.npz
+      vptool views chair.off --coverage 0.95 --objective quality
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.view_sets import measure_view_set
+
+    if output is not None and output.suffix != ".npz":
+        raise InputError(f"{output.name}: output must end in .npz")
+    loaded = load_mesh(mesh)
+    started = time.perf_counter()
+    _, view_set = measure_view_set(
+        loaded, 4 if k is None and target is None else k, n_views=n_views,
+        resolution=resolution, progress=True, objective=objective, until_coverage=target,
+        measure=measure, min_pixels=min_pixels)
+    seconds = time.perf_counter() - started
+    if output is not None:
+        view_set.save_npz(output)
+    if as_json:
+        click.echo(json.dumps({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
+        return
+    click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
+               f"{objective} objective ({seconds:.2f} s)")
+    bits = objective == "information"
+    click.echo(f"{'pick':<5} {'view':>5}  {'direction (x, y, z)':<26} {'coverage':>9}"
+               + (f" {'H bits':>8}" if bits else ""))
+    for pick in view_set.summary()["picks"]:
+        x, y, z = pick["direction"]
+        click.echo(f"{pick['pick']:<5} {pick['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})   "
+                   f"{100 * pick['coverage']:>7.1f} %" + (f" {pick['score']:>8.3f}" if bits else ""))
+    click.echo(f"reachable: {100 * view_set.reachable:.1f} % of the surface "
+               f"(all {n_views} views together)")
+    if output is not None:
+        click.echo(f"wrote {output}")
+
+
+@main.command()
 @click.argument("source", type=_MESH)
 @click.argument("target", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),

@@ -334,7 +334,7 @@ def compute_view_quality(
 
     first_pass: Iterable[ViewHistograms] = draw()
     if progress:
-        first_pass = _with_progress(first_pass, len(directions), mesh.name)
+        first_pass = progress_runs(first_pass, len(directions), mesh.name)
     try:
         raw = quality_from_histograms(
             first_pass, areas, n_views=len(directions), recompute=draw()
@@ -358,9 +358,10 @@ def compute_view_quality(
     )
 
 
-def _with_progress(
+def progress_runs(
     runs: Iterable[ViewHistograms], n_views: int, name: str
 ) -> Iterable[ViewHistograms]:
+    """Pass runs of views through while a progress bar on stderr counts the views."""
     from tqdm import tqdm
 
     with tqdm(total=n_views, desc=name, unit="view", leave=False) as bar:

@@ -90,6 +90,7 @@ from vptoolkit.measures import (
     ViewQuality,
     compute_view_quality,
     normalize_quality,
+    progress_runs,
     quality_from_histograms,
 )
 from vptoolkit.mesh import Mesh
@@ -183,9 +184,7 @@ class FaceVisibility:
         runs: Iterable[ViewHistograms] = iter_view_histograms(
             mesh, directions, resolution=resolution, camera=camera, backend=backend)
         if progress:
-            from tqdm import tqdm
-
-            runs = tqdm(runs, desc=mesh.name, unit="batch", leave=False)
+            runs = progress_runs(runs, len(directions), mesh.name)
         return cls(directions, face_areas(mesh), tuple(runs), mesh.name)
 
     @property
