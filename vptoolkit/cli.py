@@ -400,8 +400,11 @@ def info(path: Path, as_json: bool) -> None:
 @click.option("--measure", type=click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False),
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--view-sets", is_flag=True,
+              help="PREDICTIONS holds k directions per model, (N, k, 3): report the coverage "
+                   "they reach against the greedy k-view set's.")
 def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | None,
-             as_json: bool) -> None:
+             as_json: bool, view_sets: bool) -> None:
     """Score predicted view directions against a dataset.
 
     PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
@@ -412,9 +415,14 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
     \b
     Example:
       vptool evaluate predictions.npz --dataset release/ --split test
+      vptool evaluate sets.npz --dataset release/ --view-sets
     """
-    from vptoolkit.evaluate import evaluate_predictions
+    from vptoolkit.evaluate import evaluate_predictions, evaluate_view_sets
 
+    if view_sets:
+        sets = evaluate_view_sets(dataset_path, predictions, split=split)
+        click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+        return
     report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
     click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
 

@@ -1,0 +1,84 @@
+"""Scoring predicted view sets: coverage against the greedy sets, from Python and the CLI."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import require_package
+from vptoolkit.cli import main
+from vptoolkit.errors import InputError
+from vptoolkit.evaluate import evaluate_view_sets, score_view_sets
+from vptoolkit.mesh import Mesh
+from vptoolkit.view_sets import FaceVisibility, best_view_set
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory) -> Path:
+    require_package("zarr")
+    from vptoolkit.synthetic import write_collection
+
+    root = tmp_path_factory.mktemp("tiny")
+    write_collection(root / "shapes", n_per_category=2, categories=("bottle", "table"), seed=0)
+    result = CliRunner().invoke(main, ["build-dataset", str(root / "shapes"), str(root / "out"),
+                                       "--views", "60", "--resolution", "64", "--points", "500",
+                                       "--no-clean"])
+    assert result.exit_code == 0, result.output
+    return root / "out"
+
+
+def greedy_directions(dataset, k: int) -> np.ndarray:
+    sets = []
+    for model, name in enumerate(dataset.names):
+        vertices, faces = dataset.mesh(model)
+        visibility = FaceVisibility.from_mesh(
+            Mesh(vertices.astype(float), faces.astype(np.int64), name),
+            view_directions=dataset.views, resolution=int(dataset.attrs["resolution"]))
+        chosen = best_view_set(visibility, k).directions  # fewer when k views add nothing
+        sets.append(np.concatenate([chosen, np.repeat(chosen[-1:], k - len(chosen), axis=0)]))
+    return np.stack(sets)
+
+
+def test_the_greedy_sets_score_100_percent_and_one_repeated_view_less(tiny_dataset):
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(tiny_dataset) as dataset:
+        directions = greedy_directions(dataset, 3)
+        report = score_view_sets(dataset, directions)
+        np.testing.assert_allclose(report.predicted, report.greedy)
+        np.testing.assert_allclose(report.ratio, 100.0)
+        repeated = score_view_sets(dataset, np.repeat(directions[:, :1], 3, axis=1))
+        assert (repeated.predicted[:, 0] == repeated.predicted[:, -1]).all()
+        assert (repeated.ratio < 100.0).all()
+        assert report.to_dict()["k"] == 3 and len(report.to_dict()["models"]) == len(dataset)
+
+
+def test_cli_scores_view_sets_from_an_npz(tiny_dataset, tmp_path):
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(tiny_dataset) as dataset:
+        names = dataset.names
+        directions = greedy_directions(dataset, 2)
+    path = tmp_path / "sets.npz"
+    np.savez(path, names=np.array(names[::-1]), directions=directions[::-1])
+    result = CliRunner().invoke(main, ["evaluate", str(path), "--dataset", str(tiny_dataset),
+                                       "--split", "all", "--view-sets"])
+    assert result.exit_code == 0, result.output
+    mean_row = [line for line in result.stdout.splitlines() if line.startswith("mean")][0]
+    assert mean_row.split()[-1] == "100.0"
+
+
+def test_bad_view_set_files_are_one_line_errors(tiny_dataset, tmp_path):
+    flat = tmp_path / "flat.npy"
+    np.save(flat, np.ones((4, 3)))
+    with pytest.raises(InputError, match=r"flat.npy: expected view sets of shape \(n_models, k, 3\)"):
+        evaluate_view_sets(tiny_dataset, flat, split="all")
+    short = tmp_path / "short.npy"
+    np.save(short, np.ones((1, 2, 3)))
+    result = CliRunner().invoke(main, ["evaluate", str(short), "--dataset", str(tiny_dataset),
+                                       "--split", "all", "--view-sets"])
+    assert result.exit_code == 2
+    assert "short.npy: holds 1 view sets" in result.stderr
