@@ -79,3 +79,34 @@ def test_views_rejects_bad_options_with_exit_2(runner, tmp_path, arguments, mess
                            catch_exceptions=False)
     assert result.exit_code == 2
     assert message in result.stderr and "Traceback" not in result.output
+
+
+def test_render_view_set_draws_a_contact_sheet(runner, tmp_path):
+    from conftest import read_png
+
+    output = tmp_path / "sheet.png"
+    result = runner.invoke(main, ["render", str(sample_path("teapot.stl")), "--view-set", "3",
+                                  *SMALL, "--size", "64", "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith(f"wrote {output} (3 views, views [")
+    sheet = read_png(output)
+    assert sheet.shape[1] == 3 * 64 + 4 * 6  # three tiles and four gaps in a row
+    assert sheet.shape[0] > 64 and (sheet[..., :3] < 200).any()
+
+
+def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
+    import shutil
+
+    from conftest import read_png
+
+    source = tmp_path / "models"
+    source.mkdir()
+    shutil.copy(sample_path("mug.obj"), source / "mug.obj")
+    (source / "broken.off").write_text("OFF\n3 1 0\n0 0 0\n")
+    out = tmp_path / "sheets"
+    result = runner.invoke(main, ["thumbnails", str(source), str(out), "--view-set", "2",
+                                  "--size", "48", *SMALL, "--workers", "1"])
+    assert result.exit_code == 1, result.output  # the broken file is skipped
+    assert read_png(out / "mug.png").shape[1] == 2 * 48 + 3 * 6
+    record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
+    assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")

@@ -523,6 +523,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 @click.option("--view", help="Direction x,y,z from the model centre towards the camera.")
 @click.option("--best", type=_MEASURE_CHOICE, help="Draw the best sampled view of this measure.")
 @click.option("--model", "model_path", help=_MODEL_HELP + " Draws its predicted view.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw the K-view coverage set as one contact sheet, --size per tile.")
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
               help="Measure whose prediction --model draws.")
 @click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
@@ -535,29 +537,41 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
 def render(mesh: Path, output: Path, view: str | None, best: str | None, model_path: str | None,
-           measure: str, size: int, n_views: int, resolution: int, up: str,
-           engine: str) -> None:
+           view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
+           up: str, engine: str) -> None:
     """Draw MESH through the measures' camera into a PNG picture.
 
-    Give exactly one of --view, --best or --model. The picture shows what the
-    measures score for that direction (same eye, target, up and field of view).
+    Give exactly one of --view, --best, --model or --view-set. The picture shows
+    what the measures score for that direction (same eye, target, up and field
+    of view); --view-set K draws the K views that together see the most of the
+    surface as one captioned contact sheet.
 
     \b
     Example:
       vptool render bunny.ply --best VE -o bunny_ve.png
       vptool render chair.off --model default -o chair.png
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
+      vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
     from vptoolkit.io import load_mesh
     from vptoolkit.render import RenderedView, render_best, render_predicted, render_view, save_png
     from vptoolkit.sphere import as_directions
 
-    if sum(choice is not None for choice in (view, best, model_path)) != 1:
-        raise InputError("render: give exactly one of --view, --best or --model")
+    if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
+        raise InputError("render: give exactly one of --view, --best, --model or --view-set")
     if output.suffix.lower() != ".png":
         raise InputError(f"{output.name}: output must end in .png")
     style = _style(up)
     loaded = load_mesh(mesh)
+    if view_set_k is not None:
+        from vptoolkit.contact_sheet import view_set_sheet
+
+        sheet, chosen = view_set_sheet(loaded, view_set_k, size=size, n_views=n_views,
+                                       resolution=resolution, style=style, engine=engine)
+        save_png(sheet, output)
+        click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
+                   f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+        return
     if best is not None:
         picture = render_best(loaded, measure=best, size=size, n_views=n_views,
                               resolution=resolution, style=style, engine=engine)
@@ -639,6 +653,8 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
               help="Measure whose best (or predicted) view is drawn.")
 @click.option("--model", "model_path", help=_MODEL_HELP + " Uses its predictions, measures nothing.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw each mesh's K-view coverage set as a contact sheet instead.")
 @click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")
 @click.option("--workers", type=click.IntRange(1), help="Measuring processes (default: CPUs).")
@@ -647,9 +663,9 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
-def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size: int,
-               workers: int | None, n_views: int, resolution: int, up: str,
-               engine: str) -> None:
+def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
+               view_set_k: int | None, size: int, workers: int | None, n_views: int,
+               resolution: int, up: str, engine: str) -> None:
     """Draw a thumbnail of every mesh under SRC from its best view into OUT.
 
     SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
@@ -659,6 +675,7 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
     Example:
       vptool thumbnails models/ thumbs/ --measure VKL --size 256
       vptool thumbnails models/ thumbs/ --model default
+      vptool thumbnails models/ sheets/ --view-set 4 --size 192
     """
     from vptoolkit.thumbnails import render_thumbnails
 
@@ -669,7 +686,8 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
         predictor = MeshPredictor(model_path)
     result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
                                workers=workers, n_views=n_views, resolution=resolution,
-                               style=_style(up), engine=engine, progress=True)
+                               style=_style(up), engine=engine, progress=True,
+                               view_set=view_set_k)
     click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)
