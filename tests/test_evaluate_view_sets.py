@@ -82,3 +82,26 @@ def test_bad_view_set_files_are_one_line_errors(tiny_dataset, tmp_path):
                                        "--split", "all", "--view-sets"])
     assert result.exit_code == 2
     assert "short.npy: holds 1 view sets" in result.stderr
+
+
+def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset, tmp_path):
+    require_package("matplotlib")
+    import re
+
+    from conftest import read_png
+    from vptoolkit.data import open_dataset
+    from vptoolkit.evaluate import model_visibility
+    from vptoolkit.report import write_report
+
+    index = write_report(tiny_dataset, tmp_path / "report", thumbnails=False, view_set=3)
+    page = index.read_text(encoding="utf-8")
+    rows = re.findall(r"view set: (\d) views see ([\d.]+) % of the surface", page)
+    with open_dataset(tiny_dataset) as dataset:
+        assert len(rows) == len(dataset)
+        for position, (n_views, seen) in enumerate(rows):
+            expected = best_view_set(model_visibility(dataset, position), 3)
+            assert int(n_views) == len(expected)
+            assert float(seen) == pytest.approx(100 * expected.coverage[-1], abs=0.05)
+    picture = read_png(next((tmp_path / "report" / "maps").glob("*.png")))[..., :3].astype(int)
+    orange = (picture[..., 0] > 230) & (abs(picture[..., 1] - 165) < 25) & (picture[..., 2] < 60)
+    assert orange.sum() > 20  # the numbered view-set circles

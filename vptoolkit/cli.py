@@ -623,11 +623,13 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
+@click.option("--view-set", "view_set_k", default=4, show_default=True, type=click.IntRange(0),
+              help="Views in each model's coverage view set (0 leaves it out).")
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
 def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
-           no_pictures: bool, up: str, engine: str) -> None:
+           no_pictures: bool, view_set_k: int, up: str, engine: str) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
     Pictures from each measure's best view, the four quality maps, the scores
@@ -643,7 +645,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 
     index = write_report(dataset, output, split=split, predictions=predictions, size=size,
                          thumbnails=not no_pictures, style=_style(up), engine=engine,
-                         progress=True)
+                         progress=True, view_set=view_set_k or None)
     click.echo(f"wrote {index}")
 
 

@@ -64,6 +64,7 @@ __all__ = [
     "ViewSetReport",
     "score_view_sets",
     "evaluate_view_sets",
+    "model_visibility",
 ]
 
 EVALUATION_SPLITS = (*SPLITS, "all")
@@ -909,6 +910,31 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
     return ordered
 
 
+def model_visibility(dataset: ViewpointDataset, key: int | str) -> Any:
+    """Pixel counts of one model's stored mesh from every sampled view of the dataset.
+
+    Drawn as the build drew them: the dataset's views, resolution and camera
+    (root attributes), on the cleaned mesh it stores (float32 vertices, so a
+    pixel on a triangle edge may differ from the build's count).
+
+    Returns
+    -------
+    FaceVisibility
+        See :class:`vptoolkit.view_sets.FaceVisibility`.
+    """
+    from vptoolkit.camera import Camera
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.view_sets import FaceVisibility
+
+    attrs = dataset.attrs
+    vertices, faces = dataset.mesh(key)
+    name = dataset.record(key)["name"]
+    mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name)
+    return FaceVisibility.from_mesh(mesh, view_directions=dataset.views,
+                                    resolution=int(attrs["resolution"]),
+                                    camera=Camera.from_dict(attrs.get("camera") or {}))
+
+
 def score_view_sets(
     dataset: ViewpointDataset,
     directions: ArrayLike,
@@ -945,10 +971,8 @@ def score_view_sets(
     InputError
         On an empty dataset or a wrong shape.
     """
-    from vptoolkit.camera import Camera
-    from vptoolkit.mesh import Mesh
     from vptoolkit.sphere import nearest_view
-    from vptoolkit.view_sets import FaceVisibility, best_view_set, set_coverage
+    from vptoolkit.view_sets import best_view_set, set_coverage
 
     n_models = len(dataset)
     if n_models == 0:
@@ -957,20 +981,10 @@ def score_view_sets(
     if values.ndim != 3 or values.shape[0] != n_models or values.shape[2] != 3:
         raise InputError(f"directions: expected shape ({n_models}, k, 3), got {values.shape}")
     k = values.shape[1]
-    attrs = dataset.attrs
-    camera_record = attrs.get("camera") or {}
-    camera = Camera(**{key: tuple(v) if isinstance(v, list) else v
-                       for key, v in camera_record.items()
-                       if key in ("fov_deg", "distance_factor", "up", "fallback_up",
-                                  "cull_back_faces")})
-    resolution = int(attrs["resolution"])
     predicted = np.zeros((n_models, k))
     greedy = np.zeros((n_models, k))
-    for model, name in enumerate(dataset.names):
-        vertices, faces = dataset.mesh(model)
-        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name)
-        visibility = FaceVisibility.from_mesh(mesh, view_directions=dataset.views,
-                                              resolution=resolution, camera=camera)
+    for model in range(n_models):
+        visibility = model_visibility(dataset, model)
         predicted[model] = set_coverage(visibility, nearest_view(values[model], dataset.views))
         best = best_view_set(visibility, k).coverage
         greedy[model] = np.concatenate([best, np.full(k - len(best), best[-1])])
