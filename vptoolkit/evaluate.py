@@ -65,6 +65,8 @@ __all__ = [
     "score_view_sets",
     "evaluate_view_sets",
     "model_visibility",
+    "model_view_set",
+    "stored_view_set",
 ]
 
 EVALUATION_SPLITS = (*SPLITS, "all")
@@ -910,12 +912,22 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
     return ordered
 
 
-def model_visibility(dataset: ViewpointDataset, key: int | str) -> Any:
-    """Pixel counts of one model's stored mesh from every sampled view of the dataset.
+def model_visibility(dataset: ViewpointDataset, key: int | str, *,
+                     views: ArrayLike | None = None) -> Any:
+    """Pixel counts of one model's stored mesh from the sampled views of the dataset.
 
     Drawn as the build drew them: the dataset's views, resolution and camera
     (root attributes), on the cleaned mesh it stores (float32 vertices, so a
     pixel on a triangle edge may differ from the build's count).
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset
+        The dataset.
+    key : int or str
+        Item index or model name.
+    views : (n,) array_like of int, optional
+        Draw only these rows of ``dataset.views``, in this order (default: all).
 
     Returns
     -------
@@ -930,9 +942,40 @@ def model_visibility(dataset: ViewpointDataset, key: int | str) -> Any:
     vertices, faces = dataset.mesh(key)
     name = dataset.record(key)["name"]
     mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name)
-    return FaceVisibility.from_mesh(mesh, view_directions=dataset.views,
+    chosen = dataset.views if views is None else dataset.views[np.asarray(views, dtype=np.int64)]
+    return FaceVisibility.from_mesh(mesh, view_directions=chosen,
                                     resolution=int(attrs["resolution"]),
                                     camera=Camera.from_dict(attrs.get("camera") or {}))
+
+
+def stored_view_set(dataset: ViewpointDataset, key: int | str, k: int) -> Any:
+    """The build's greedy coverage set cut to ``k`` views, if the store answers ``k``.
+
+    Returns
+    -------
+    ViewSet or None
+        None when the store has no view sets, or its set is shorter than
+        ``k`` without having stopped for lack of anything new to see.
+    """
+    stored = dataset.view_set(key)
+    if stored is None or (len(stored) < k and stored.coverage[-1] < stored.reachable - 1e-6):
+        return None
+    return dataset.view_set(key, k)
+
+
+def model_view_set(dataset: ViewpointDataset, key: int | str, k: int) -> Any:
+    """A model's greedy coverage set of ``k`` views: the stored one, else searched here.
+
+    Returns
+    -------
+    ViewSet
+        :func:`stored_view_set`, or :func:`vptoolkit.view_sets.best_view_set`
+        over :func:`model_visibility`.
+    """
+    from vptoolkit.view_sets import best_view_set
+
+    stored = stored_view_set(dataset, key, k)
+    return stored if stored is not None else best_view_set(model_visibility(dataset, key), k)
 
 
 def score_view_sets(
@@ -965,6 +1008,8 @@ def score_view_sets(
     Returns
     -------
     ViewSetReport
+        Where the dataset stores a model's greedy set (``build-dataset``
+        does, up to 6 views), only the predicted views are drawn.
 
     Raises
     ------
@@ -984,9 +1029,17 @@ def score_view_sets(
     predicted = np.zeros((n_models, k))
     greedy = np.zeros((n_models, k))
     for model in range(n_models):
-        visibility = model_visibility(dataset, model)
-        predicted[model] = set_coverage(visibility, nearest_view(values[model], dataset.views))
-        best = best_view_set(visibility, k).coverage
+        nearest = nearest_view(values[model], dataset.views)
+        stored = stored_view_set(dataset, model, k)
+        if stored is not None:
+            # the build's greedy set: only the predicted views need drawing
+            visibility = model_visibility(dataset, model, views=nearest)
+            predicted[model] = set_coverage(visibility, np.arange(k))
+            best = stored.coverage[:k]
+        else:
+            visibility = model_visibility(dataset, model)
+            predicted[model] = set_coverage(visibility, nearest)
+            best = best_view_set(visibility, k).coverage
         greedy[model] = np.concatenate([best, np.full(k - len(best), best[-1])])
     if split is None:
         present = set(dataset.splits)

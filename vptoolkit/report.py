@@ -225,12 +225,15 @@ def write_report(
 
 
 def _find_view_set(dataset: Any, position: int, k: int, card: _Card) -> None:
-    """The model's coverage view set, onto the card (or the reason it has none)."""
-    from vptoolkit.evaluate import model_visibility
-    from vptoolkit.view_sets import best_view_set
+    """The model's coverage view set, onto the card (or the reason it has none).
+
+    The set stored by the build is used when it has ``k`` views (or stopped
+    because more add nothing); otherwise it is searched here.
+    """
+    from vptoolkit.evaluate import model_view_set
 
     try:
-        chosen = best_view_set(model_visibility(dataset, position), k)
+        chosen = model_view_set(dataset, position, k)
     except VptoolkitError as err:
         card.problems.append(f"view set: {one_line(err)}")
         return

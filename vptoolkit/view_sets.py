@@ -279,6 +279,56 @@ class ViewSet:
             ],
         }
 
+    def record(self) -> dict[str, Any]:
+        """The set as a dataset's model record stores it (JSON types, 6 decimals).
+
+        ``{"objective", "min_pixels", "indices", "coverage", "reachable"}``;
+        :meth:`from_record` reads it back.
+        """
+        return {
+            "objective": self.objective,
+            "min_pixels": self.min_pixels,
+            "indices": [int(i) for i in self.indices],
+            "coverage": [round(float(c), 6) for c in self.coverage],
+            "reachable": round(float(self.reachable), 6),
+        }
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any], views: ArrayLike, *, name: str,
+                    k: int | None = None) -> ViewSet:
+        """A set from :meth:`record`'s form and the views its indices refer to.
+
+        Parameters
+        ----------
+        record : dict
+            As :meth:`record` writes it.
+        views : (n_views, 3) array_like
+            The sampled views of the dataset.
+        name : str
+            Name of the model.
+        k : int, optional
+            Keep the first ``k`` picks only (a greedy set's prefix is the
+            greedy set for fewer views).
+        """
+        directions = np.asarray(views, dtype=np.float64)  # as stored, not renormalised
+        if directions.ndim != 2 or directions.shape[1] != 3:
+            raise InputError(f"views: expected shape (n_views, 3), got {directions.shape}")
+        try:
+            indices = np.asarray(record["indices"], dtype=np.int64)
+            coverage = np.asarray(record["coverage"], dtype=np.float64)
+            objective, reachable = str(record["objective"]), float(record["reachable"])
+            min_pixels = int(record["min_pixels"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise InputError(f"{name}: view_set record is malformed ({err})") from err
+        if indices.ndim != 1 or indices.shape != coverage.shape or (
+                len(indices) and not 0 <= indices.min() <= indices.max() < len(directions)):
+            raise InputError(f"{name}: view_set record does not fit {len(directions)} views")
+        keep = len(indices) if k is None else check_int(k, "k", minimum=1)
+        return cls(name=name, objective=objective, indices=indices[:keep],
+                   directions=directions[indices[:keep]], score=coverage[:keep],
+                   coverage=coverage[:keep], reachable=reachable, n_views=len(directions),
+                   min_pixels=min_pixels)
+
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
         """Write the set to an ``.npz`` (``indices``, ``directions``, ``score``,
         ``coverage``, ``reachable``, ``objective``, ``summary`` as JSON), atomically."""
