@@ -75,7 +75,7 @@ def test_cli_scores_view_sets_from_an_npz(tiny_dataset, tmp_path):
 def test_bad_view_set_files_are_one_line_errors(tiny_dataset, tmp_path):
     flat = tmp_path / "flat.npy"
     np.save(flat, np.ones((4, 3)))
-    with pytest.raises(InputError, match=r"flat.npy: expected view sets of shape \(n_models, k, 3\)"):
+    with pytest.raises(InputError, match=r"flat.npy: expected view sets of shape \(n_models, k"):
         evaluate_view_sets(tiny_dataset, flat, split="all")
     short = tmp_path / "short.npy"
     np.save(short, np.ones((1, 2, 3)))

@@ -133,9 +133,10 @@ def main() -> None:
              f"Command: `python tools/view_set_results.py`; {date.today().isoformat()}, "
              f"{platform.platform()}, {platform.machine()}, {len_cpus()} CPUs, no GPU used; "
              f"wall time {minutes:.1f} min.", "",
-             f"Meshes: the {len(bundled)} bundled samples ({', '.join(sorted(m.name for m in bundled))}) "
-             f"and {len(procedural)} procedural shapes (`vptoolkit.synthetic`, seeds 0 and 1 of "
-             f"each of {len(CATEGORIES)} categories); {n_views} Fibonacci views at {resolution} px, "
+             f"Meshes: the {len(bundled)} bundled samples "
+             f"({', '.join(sorted(m.name for m in bundled))}) and {len(procedural)} procedural "
+             "shapes (`vptoolkit.synthetic`, seeds 0 and 1 of each of "
+             f"{len(CATEGORIES)} categories); {n_views} Fibonacci views at {resolution} px, "
              "raster backend, a face counts as seen with one pixel (the paper's VR visibility).",
              "",
              "Cells: coverage, the area-weighted fraction of the surface seen by at least one of "

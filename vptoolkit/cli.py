@@ -205,8 +205,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
                + (f" {'H bits':>8}" if bits else ""))
     for pick in view_set.summary()["picks"]:
         x, y, z = pick["direction"]
+        entropy = f" {pick['score']:>8.3f}" if bits else ""
         click.echo(f"{pick['pick']:<5} {pick['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})   "
-                   f"{100 * pick['coverage']:>7.1f} %" + (f" {pick['score']:>8.3f}" if bits else ""))
+                   f"{100 * pick['coverage']:>7.1f} %{entropy}")
     click.echo(f"reachable: {100 * view_set.reachable:.1f} % of the surface "
                f"(all {n_views} views together)")
     if output is not None:

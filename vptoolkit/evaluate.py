@@ -868,8 +868,9 @@ class ViewSetReport:
         for category, row in summary["categories"].items():
             lines.append(f"{category:<16} {row['n_models']:>4} {100 * row['predicted']:>10.1f} "
                          f"{100 * row['greedy']:>8.1f} {row['ratio_percent']:>7.1f}")
-        lines.append(f"{'mean':<16} {len(self.names):>4} {100 * self.predicted[:, -1].mean():>10.1f}"
-                     f" {100 * self.greedy[:, -1].mean():>8.1f} {self.ratio.mean():>7.1f}")
+        predicted, greedy = 100 * self.predicted[:, -1].mean(), 100 * self.greedy[:, -1].mean()
+        lines.append(f"{'mean':<16} {len(self.names):>4} {predicted:>10.1f} {greedy:>8.1f} "
+                     f"{self.ratio.mean():>7.1f}")
         per_k = "  ".join(f"{i + 1}: {100 * p:.1f}/{100 * g:.1f}" for i, (p, g) in enumerate(
             zip(self.predicted.mean(axis=0), self.greedy.mean(axis=0))))
         lines.append(f"by number of views (predicted/greedy %): {per_k}")
@@ -906,7 +907,8 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
     if len(set(names)) != len(names) or len(names) != len(expected):
         raise InputError(f"{path.name}: holds {len(names)} view sets, {where} has "
                          f"{len(expected)} models (each exactly once)")
-    values = _check_directions(path.name, raw, names, [f"view {i + 1}" for i in range(raw.shape[1])])
+    columns = [f"view {i + 1}" for i in range(raw.shape[1])]
+    values = _check_directions(path.name, raw, names, columns)
     ordered = np.zeros_like(values)
     ordered[[position[name] for name in names]] = values
     return ordered

@@ -429,8 +429,10 @@ def _greedy_coverage(entries: _Entries, areas: NDArray[np.float64], k: int,
     return picked, covered
 
 
-def _greedy_quality(entries: _Entries, areas: NDArray[np.float64], quality: NDArray[np.float64],
-                    k: int, target: float | None, tolerance: float) -> tuple[list[int], list[float]]:
+def _greedy_quality(
+    entries: _Entries, areas: NDArray[np.float64], quality: NDArray[np.float64], k: int,
+    target: float | None, tolerance: float,
+) -> tuple[list[int], list[float]]:
     uncovered = areas.copy()
     first = int(np.argmax(quality))
     picked = [first]
