@@ -65,7 +65,7 @@ def test_render_from_the_bundled_network(renderer_available, runner, tmp_path):
 
 
 @pytest.mark.parametrize("arguments, message", [
-    ([], "exactly one of --view, --best or --model"),
+    ([], "exactly one of --view, --best, --model or --view-set"),
     (["--view", "1,0,0", "--best", "VE"], "exactly one of"),
     (["--view", "1,2"], "--view: expected three numbers x,y,z"),
     (["--view", "0,0,0"], "--view"),

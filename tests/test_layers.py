@@ -10,11 +10,12 @@ LAYERS = {
     "mesh": 1, "io": 1, "samples": 1,
     "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2,
     "visibility": 3,
-    "measures": 4,
+    "measures": 4, "view_sets": 4,
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9, "protocol": 9,
     "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10, "software_render": 10,
+    "contact_sheet": 10,
     "cli": 99,
 }
 PACKAGE = Path(vptoolkit.__file__).parent

@@ -325,7 +325,9 @@ def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
     assert cards(page) == [{"name": n, "category": c, "split": s} for c, n, s, _ in MODELS]
     assert "mug &amp; &#x27;co&#x27; &lt;1&gt;" in page and "<1>" not in page
     sources = image_sources(page)
-    assert len(sources) == len(MODELS) * (len(MEASURES) + 1)  # four views and the maps
+    n_set = len(re.findall(r'alt="[^"]*, view \d+ of its set"', page))
+    assert n_set >= len(MODELS)  # each model's view set has a picture per view
+    assert len(sources) == len(MODELS) * (len(MEASURES) + 1) + n_set  # four views and the maps
     for source in sources:
         assert not source.startswith(("/", "http")), source
         image = read_png(full_report.parent / source)
@@ -577,7 +579,9 @@ def test_report_in_headless_chromium(chromium: Chromium, full_report: Path, tmp_
         "Array.prototype.filter.call(document.images, function (i) { return i.loading !== "
         "'lazy' && !(i.complete && i.naturalWidth > 0); }).map(function (i) { return i.src; })")
     assert broken == []
-    assert page.evaluate("document.images.length") == len(MODELS) * 5
+    n_set = page.evaluate("document.querySelectorAll('.view-set img').length")
+    assert n_set >= len(MODELS)  # a picture per view of each model's view set
+    assert page.evaluate("document.images.length") == len(MODELS) * 5 + n_set
 
     assert page.evaluate(choose("filter-category", "round")) == [
         "#category=round", "3 of 6 models shown"]

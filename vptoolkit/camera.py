@@ -153,6 +153,13 @@ class Camera:
         if abs(float(np.dot(_unit(self.up), _unit(self.fallback_up)))) > 0.99:
             raise InputError("fallback_up: must not be parallel to up")
 
+    @classmethod
+    def from_dict(cls, record: dict[str, Any]) -> Camera:
+        """The camera of a :meth:`to_dict` record (descriptive keys are ignored)."""
+        names = ("fov_deg", "distance_factor", "up", "fallback_up", "cull_back_faces")
+        return cls(**{name: tuple(record[name]) if isinstance(record[name], list) else record[name]
+                      for name in names if name in record})
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe record of the conventions, stored beside every result."""
         record = asdict(self)

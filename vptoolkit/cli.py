@@ -147,6 +147,74 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
 
 
 @main.command()
+@click.argument("mesh", type=_MESH)
+@click.option("--k", "k", type=click.IntRange(1),
+              help="Number of views [default: 4, or no limit with --coverage].")
+@click.option("--objective", type=click.Choice(["coverage", "information", "quality"]),
+              default="coverage", show_default=True,
+              help="coverage: area seen; information: entropy of the views' joint face "
+                   "distribution; quality: coverage, preferring good --measure views.")
+@click.option("--coverage", "target", type=click.FloatRange(0, 1, min_open=True),
+              help="Add views until the set sees this fraction of what all views see.")
+@click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
+              help="Measure of the quality objective (its best view is the first pick).")
+@click.option("--views", "n_views", default=1000, show_default=True, type=click.IntRange(1),
+              help="Number of Fibonacci-sphere view directions.")
+@click.option("--resolution", default=1024, show_default=True, type=click.IntRange(1, 16384),
+              help="Side of the triangle-ID image in pixels.")
+@click.option("--min-pixels", default=1, show_default=True, type=click.IntRange(1),
+              help="Pixels a face needs in a view to count as seen.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write indices, directions and cumulative coverage to this .npz.")
+@click.option("--json", "as_json", is_flag=True, help="Print the set as JSON.")
+def views(mesh: Path, k: int | None, objective: str, target: float | None, measure: str,
+          n_views: int, resolution: int, min_pixels: int, output: Path | None,
+          as_json: bool) -> None:
+    """Choose views of MESH that together show the whole model.
+
+    A greedy search over the sampled views: each pick adds the view that best
+    complements the ones before. Prints, per pick, the view, its direction and
+    the area-weighted fraction of the surface seen so far.
+
+    \b
+    Example:
+      vptool views bunny.ply --k 4 -o bunny_views.npz
+      vptool views chair.off --coverage 0.95 --objective quality
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.view_sets import measure_view_set
+
+    if output is not None and output.suffix != ".npz":
+        raise InputError(f"{output.name}: output must end in .npz")
+    loaded = load_mesh(mesh)
+    started = time.perf_counter()
+    _, view_set = measure_view_set(
+        loaded, 4 if k is None and target is None else k, n_views=n_views,
+        resolution=resolution, progress=True, objective=objective, until_coverage=target,
+        measure=measure, min_pixels=min_pixels)
+    seconds = time.perf_counter() - started
+    if output is not None:
+        view_set.save_npz(output)
+    if as_json:
+        click.echo(json.dumps({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
+        return
+    click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
+               f"{objective} objective ({seconds:.2f} s)")
+    bits = objective == "information"
+    click.echo(f"{'pick':<5} {'view':>5}  {'direction (x, y, z)':<26} {'coverage':>9}"
+               + (f" {'H bits':>8}" if bits else ""))
+    for pick in view_set.summary()["picks"]:
+        x, y, z = pick["direction"]
+        entropy = f" {pick['score']:>8.3f}" if bits else ""
+        click.echo(f"{pick['pick']:<5} {pick['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})   "
+                   f"{100 * pick['coverage']:>7.1f} %{entropy}")
+    click.echo(f"reachable: {100 * view_set.reachable:.1f} % of the surface "
+               f"(all {n_views} views together)")
+    if output is not None:
+        click.echo(f"wrote {output}")
+
+
+@main.command()
 @click.argument("source", type=_MESH)
 @click.argument("target", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
@@ -333,8 +401,11 @@ def info(path: Path, as_json: bool) -> None:
 @click.option("--measure", type=click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False),
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--view-sets", is_flag=True,
+              help="PREDICTIONS holds k directions per model, (N, k, 3): report the coverage "
+                   "they reach against the greedy k-view set's.")
 def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | None,
-             as_json: bool) -> None:
+             as_json: bool, view_sets: bool) -> None:
     """Score predicted view directions against a dataset.
 
     PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
@@ -345,9 +416,14 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
     \b
     Example:
       vptool evaluate predictions.npz --dataset release/ --split test
+      vptool evaluate sets.npz --dataset release/ --view-sets
     """
-    from vptoolkit.evaluate import evaluate_predictions
+    from vptoolkit.evaluate import evaluate_predictions, evaluate_view_sets
 
+    if view_sets:
+        sets = evaluate_view_sets(dataset_path, predictions, split=split)
+        click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+        return
     report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
     click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
 
@@ -448,6 +524,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 @click.option("--view", help="Direction x,y,z from the model centre towards the camera.")
 @click.option("--best", type=_MEASURE_CHOICE, help="Draw the best sampled view of this measure.")
 @click.option("--model", "model_path", help=_MODEL_HELP + " Draws its predicted view.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw the K-view coverage set as one contact sheet, --size per tile.")
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
               help="Measure whose prediction --model draws.")
 @click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
@@ -460,29 +538,41 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
 def render(mesh: Path, output: Path, view: str | None, best: str | None, model_path: str | None,
-           measure: str, size: int, n_views: int, resolution: int, up: str,
-           engine: str) -> None:
+           view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
+           up: str, engine: str) -> None:
     """Draw MESH through the measures' camera into a PNG picture.
 
-    Give exactly one of --view, --best or --model. The picture shows what the
-    measures score for that direction (same eye, target, up and field of view).
+    Give exactly one of --view, --best, --model or --view-set. The picture shows
+    what the measures score for that direction (same eye, target, up and field
+    of view); --view-set K draws the K views that together see the most of the
+    surface as one captioned contact sheet.
 
     \b
     Example:
       vptool render bunny.ply --best VE -o bunny_ve.png
       vptool render chair.off --model default -o chair.png
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
+      vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
     from vptoolkit.io import load_mesh
     from vptoolkit.render import RenderedView, render_best, render_predicted, render_view, save_png
     from vptoolkit.sphere import as_directions
 
-    if sum(choice is not None for choice in (view, best, model_path)) != 1:
-        raise InputError("render: give exactly one of --view, --best or --model")
+    if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
+        raise InputError("render: give exactly one of --view, --best, --model or --view-set")
     if output.suffix.lower() != ".png":
         raise InputError(f"{output.name}: output must end in .png")
     style = _style(up)
     loaded = load_mesh(mesh)
+    if view_set_k is not None:
+        from vptoolkit.contact_sheet import view_set_sheet
+
+        sheet, chosen = view_set_sheet(loaded, view_set_k, size=size, n_views=n_views,
+                                       resolution=resolution, style=style, engine=engine)
+        save_png(sheet, output)
+        click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
+                   f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+        return
     if best is not None:
         picture = render_best(loaded, measure=best, size=size, n_views=n_views,
                               resolution=resolution, style=style, engine=engine)
@@ -534,11 +624,13 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
+@click.option("--view-set", "view_set_k", default=4, show_default=True, type=click.IntRange(0),
+              help="Views in each model's coverage view set (0 leaves it out).")
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
 def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
-           no_pictures: bool, up: str, engine: str) -> None:
+           no_pictures: bool, view_set_k: int, up: str, engine: str) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
     Pictures from each measure's best view, the four quality maps, the scores
@@ -554,7 +646,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 
     index = write_report(dataset, output, split=split, predictions=predictions, size=size,
                          thumbnails=not no_pictures, style=_style(up), engine=engine,
-                         progress=True)
+                         progress=True, view_set=view_set_k or None)
     click.echo(f"wrote {index}")
 
 
@@ -564,6 +656,8 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE,
               help="Measure whose best (or predicted) view is drawn.")
 @click.option("--model", "model_path", help=_MODEL_HELP + " Uses its predictions, measures nothing.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw each mesh's K-view coverage set as a contact sheet instead.")
 @click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")
 @click.option("--workers", type=click.IntRange(1), help="Measuring processes (default: CPUs).")
@@ -572,9 +666,9 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--up", default="0,1,0", show_default=True, help=_UP_HELP)
 @click.option("--engine", default="software", show_default=True, type=_ENGINE_CHOICE,
               help=_ENGINE_HELP)
-def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size: int,
-               workers: int | None, n_views: int, resolution: int, up: str,
-               engine: str) -> None:
+def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
+               view_set_k: int | None, size: int, workers: int | None, n_views: int,
+               resolution: int, up: str, engine: str) -> None:
     """Draw a thumbnail of every mesh under SRC from its best view into OUT.
 
     SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
@@ -584,6 +678,7 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
     Example:
       vptool thumbnails models/ thumbs/ --measure VKL --size 256
       vptool thumbnails models/ thumbs/ --model default
+      vptool thumbnails models/ sheets/ --view-set 4 --size 192
     """
     from vptoolkit.thumbnails import render_thumbnails
 
@@ -594,7 +689,8 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None, size:
         predictor = MeshPredictor(model_path)
     result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
                                workers=workers, n_views=n_views, resolution=resolution,
-                               style=_style(up), engine=engine, progress=True)
+                               style=_style(up), engine=engine, progress=True,
+                               view_set=view_set_k)
     click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -278,6 +278,7 @@ def compute_view_quality(
     camera: Camera | None = None,
     backend: Backend = "raster",
     progress: bool = False,
+    histograms: Sequence[ViewHistograms] | None = None,
 ) -> ViewQuality:
     """Compute VE, VR, VKL and VMI of a mesh for every view.
 
@@ -298,6 +299,11 @@ def compute_view_quality(
         Pixel counting backend (default: "raster").
     progress : bool
         Show a progress bar over the views on stderr (default: False).
+    histograms : sequence of ViewHistograms, optional
+        Pixel counts already drawn for exactly these views with this
+        ``resolution``, ``camera`` and ``backend`` (e.g. kept by
+        :func:`vptoolkit.view_sets.measure_view_set` for a view set); nothing
+        is drawn then.
 
     Returns
     -------
@@ -319,17 +325,19 @@ def compute_view_quality(
         directions = as_directions(view_directions, name="view_directions")
     areas = face_areas(mesh)
 
-    def histograms() -> Iterable[ViewHistograms]:
+    def draw() -> Iterable[ViewHistograms]:
+        if histograms is not None:
+            return histograms
         return iter_view_histograms(
             mesh, directions, resolution=resolution, camera=camera, backend=backend
         )
 
-    first_pass: Iterable[ViewHistograms] = histograms()
+    first_pass: Iterable[ViewHistograms] = draw()
     if progress:
-        first_pass = _with_progress(first_pass, len(directions), mesh.name)
+        first_pass = progress_runs(first_pass, len(directions), mesh.name)
     try:
         raw = quality_from_histograms(
-            first_pass, areas, n_views=len(directions), recompute=histograms()
+            first_pass, areas, n_views=len(directions), recompute=draw()
         )
     except MeasurementError as err:
         raise MeasurementError(f"{mesh.name}: {err}") from err
@@ -350,9 +358,10 @@ def compute_view_quality(
     )
 
 
-def _with_progress(
+def progress_runs(
     runs: Iterable[ViewHistograms], n_views: int, name: str
 ) -> Iterable[ViewHistograms]:
+    """Pass runs of views through while a progress bar on stderr counts the views."""
     from tqdm import tqdm
 
     with tqdm(total=n_views, desc=name, unit="view", leave=False) as bar:

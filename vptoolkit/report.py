@@ -57,6 +57,9 @@ class _Card:
     sphere_map: str
     predicted_images: list[str | None] | None = None
     scores: list[float] | None = None
+    view_set: list[int] = field(default_factory=list)
+    view_set_coverage: list[float] = field(default_factory=list)
+    view_set_images: list[str | None] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
 
 
@@ -78,6 +81,7 @@ def write_report(
     renderer: AnyRenderer | None = None,
     engine: str = "software",
     progress: bool = False,
+    view_set: int | None = 4,
 ) -> Path:
     """Write a static HTML report of a dataset's models and viewpoint quality.
 
@@ -123,6 +127,12 @@ def write_report(
         "software"; see :func:`vptoolkit.render.open_renderer`).
     progress : bool
         Show a progress bar on stderr (default: False).
+    view_set : int or None
+        Views in each model's coverage view set (:mod:`vptoolkit.view_sets`,
+        default: 4), drawn as a row of pictures captioned with the coverage
+        reached and marked on the maps as numbered circles; None leaves it
+        out. The set is searched over the dataset's views, from pixel counts
+        of the stored mesh at the dataset's resolution.
 
     Returns
     -------
@@ -145,7 +155,7 @@ def write_report(
             return write_report(
                 opened, out_dir, split=split, predictions=predictions, size=size,
                 thumbnails=thumbnails, camera=camera, style=style, renderer=renderer,
-                engine=engine, progress=progress,
+                engine=engine, progress=progress, view_set=view_set,
             )
     from vptoolkit.evaluate import load_predictions, score_directions
     from vptoolkit.optional import require
@@ -154,6 +164,8 @@ def write_report(
     require("matplotlib")
     target = as_path(out_dir, "out_dir")
     size = check_int(size, "size", minimum=16, maximum=4096)
+    if view_set is not None:
+        view_set = check_int(view_set, "view_set", minimum=1)
     selected = dataset if split is None else dataset.split(split)
     if len(selected) == 0:
         where = f"split {split!r} of " if split else ""
@@ -192,10 +204,13 @@ def write_report(
             rows = None if predicted is None else predicted[position]
             if evaluation is not None:
                 card.scores = [float(v) for v in evaluation.scores[position]]
+            if view_set is not None:
+                _find_view_set(selected, position, view_set, card)
             if active is not None:
                 _draw_card_pictures(active, selected, position, card, views, rows, target)
             figure = sphere_maps(views, item["quality"], predicted=rows,
-                                 title=f"{name} ({card.category}, {card.split})")
+                                 title=f"{name} ({card.category}, {card.split})",
+                                 view_set=views[card.view_set] if card.view_set else None)
             save_figure(figure, target / card.sphere_map, dpi=80)
             cards.append(card)
             bar.update(1)
@@ -209,6 +224,23 @@ def write_report(
     return write_text_atomic(index, page)
 
 
+def _find_view_set(dataset: Any, position: int, k: int, card: _Card) -> None:
+    """The model's coverage view set, onto the card (or the reason it has none).
+
+    The set stored by the build is used when it has ``k`` views (or stopped
+    because more add nothing); otherwise it is searched here.
+    """
+    from vptoolkit.evaluate import model_view_set
+
+    try:
+        chosen = model_view_set(dataset, position, k)
+    except VptoolkitError as err:
+        card.problems.append(f"view set: {one_line(err)}")
+        return
+    card.view_set = [int(i) for i in chosen.indices]
+    card.view_set_coverage = [float(c) for c in chosen.coverage]
+
+
 def _draw_card_pictures(renderer: AnyRenderer, dataset: Any, position: int, card: _Card,
                         views: NDArray[np.float64], predicted: NDArray[np.float64] | None,
                         target: Path) -> None:
@@ -218,12 +250,13 @@ def _draw_card_pictures(renderer: AnyRenderer, dataset: Any, position: int, card
     except VptoolkitError as err:
         card.problems.append(f"mesh: {one_line(err)}")
         return
-    distinct = sorted(set(card.best_index))
+    distinct = sorted(set(card.best_index) | set(card.view_set))
     try:
         images = renderer.render(mesh, views[distinct])
         for index, image in zip(distinct, images):
             save_png(image, target / "thumbs" / f"{card.slug}-v{index}.png")
         card.best_images = [f"thumbs/{card.slug}-v{index}.png" for index in card.best_index]
+        card.view_set_images = [f"thumbs/{card.slug}-v{index}.png" for index in card.view_set]
     except (VptoolkitError, OSError) as err:
         card.problems.append(f"pictures: {one_line(err)}")
     if predicted is None:
@@ -400,6 +433,18 @@ def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
             parts.append(_figure(card.best_images[column], caption,
                                  f"{card.name} from its best {measure} view"))
         parts.append("</div>")
+    if card.view_set:
+        seen = 100 * card.view_set_coverage[-1]
+        parts.append(f'<div class="row-label">view set: {len(card.view_set)} views see '
+                     f'{seen:.1f} % of the surface</div><div class="views view-set">')
+        for pick, (index, coverage) in enumerate(zip(card.view_set, card.view_set_coverage), 1):
+            caption = f"{pick} · view {index} · {100 * coverage:.1f} % seen"
+            image = card.view_set_images[pick - 1] if card.view_set_images else None
+            if has_pictures:
+                parts.append(_figure(image, caption, f"{card.name}, view {pick} of its set"))
+            else:
+                parts.append(f"<figure><figcaption>{caption}</figcaption></figure>")
+        parts.append("</div>")
     if card.scores is not None:
         label = "predicted views" if has_pictures and card.predicted_images else "predictions"
         parts.append(f'<div class="row-label">{label}</div><div class="views">')
@@ -434,7 +479,8 @@ def _page(dataset: Any, cards: list[_Card], evaluation: Any, *, has_pictures: bo
             f"per model. Pictures use the measures' camera (field of view "
             f"{camera.fov_deg:g}°, distance {camera.distance_factor:.3f} bounding-box "
             f"diagonals, image up {tuple(camera.up)}). Maps: Mercator, longitude atan2(z, x), "
-            "latitude asin(y); ★ best sampled view, ✕ prediction.")
+            "latitude asin(y); ★ best sampled view, ✕ prediction, numbered circles: the view "
+            "set (views that together see the most of the surface, in selection order).")
     if evaluation is not None:
         lead += f" Predictions: {evaluation.predictions}."
     failure_html = ""

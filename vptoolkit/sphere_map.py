@@ -60,6 +60,7 @@ if TYPE_CHECKING:
 __all__ = [
     "BEST_COLOR",
     "PREDICTED_COLOR",
+    "VIEW_SET_COLOR",
     "view_coordinates",
     "mercator_y",
     "sphere_grid",
@@ -74,6 +75,9 @@ BEST_COLOR = "#ff0000"
 
 PREDICTED_COLOR = "#ffffff"
 """Face colour of the predicted-view cross (white, edged in black)."""
+
+VIEW_SET_COLOR = "#ffa500"
+"""Face colour of the numbered view-set circles (orange, edged in black)."""
 
 _MAX_LATITUDE_DEG = 85.0
 _GRID_WIDTH = 360  # map columns: one per degree of longitude
@@ -257,6 +261,7 @@ def _draw_panel(
     predicted: NDArray[np.float64] | None,
     max_latitude_deg: float,
     limits: tuple[float, float],
+    view_set: NDArray[np.float64] | None = None,
 ) -> object:
     """Draw one map on ``axes``; return the image artist (for a colour bar)."""
     y_max = float(mercator_y([max_latitude_deg])[0])
@@ -289,6 +294,14 @@ def _draw_panel(
                   markerfacecolor=PREDICTED_COLOR, markeredgecolor="black", markeredgewidth=0.8,
                   label=f"predicted: {values[nearest]:.2f}", gid="predicted", zorder=3)
         title += f", predicted {values[nearest]:.2f}"
+    if view_set is not None:
+        for pick, (lon, lat) in enumerate(view_coordinates(view_set), start=1):
+            lat = float(np.clip(lat, -max_latitude_deg, max_latitude_deg))
+            axes.plot([lon], mercator_y([lat]), linestyle="none", marker="o", markersize=10,
+                      markerfacecolor=VIEW_SET_COLOR, markeredgecolor="black",
+                      markeredgewidth=0.8, gid=f"view-set-{pick}", zorder=5)
+            axes.text(lon, float(mercator_y([lat])[0]), str(pick), ha="center", va="center",
+                      fontsize=6, color="black", zorder=6)
     axes.set_title(title, fontsize=9)
     return image
 
@@ -386,6 +399,7 @@ def sphere_maps(
     title: str | None = None,
     width: int = 180,
     max_latitude_deg: float = _MAX_LATITUDE_DEG,
+    view_set: ArrayLike | None = None,
 ) -> Figure:
     """The four measures' Mercator maps side by side, as in a report card.
 
@@ -403,6 +417,9 @@ def sphere_maps(
         Columns of each map over 360 degrees (default: 180, two degrees each).
     max_latitude_deg : float
         Latitude of the maps' edges (default: 85).
+    view_set : (k, 3) array_like, optional
+        A view set (:mod:`vptoolkit.view_sets`), drawn on every map as
+        orange circles numbered in selection order (gids ``"view-set-1"`` ...).
 
     Returns
     -------
@@ -416,6 +433,7 @@ def sphere_maps(
         raise InputError(f"quality: expected shape ({len(view_array)}, {len(MEASURES)}), "
                          f"got {np.shape(quality)}")
     rows = _predicted_rows(predicted, len(MEASURES))
+    chosen = None if view_set is None else as_directions(view_set, name="view_set")
     max_latitude_deg = _check_max_latitude(max_latitude_deg)
     grid = sphere_grid(view_array, width=width, max_latitude_deg=max_latitude_deg)
     figure = _new_figure((12.0, 3.4))
@@ -426,7 +444,7 @@ def sphere_maps(
         image = _draw_panel(
             axes, grid, view_array, values[:, column], label=measure,
             predicted=None if rows is None else rows[column],
-            max_latitude_deg=max_latitude_deg, limits=limits,
+            max_latitude_deg=max_latitude_deg, limits=limits, view_set=chosen,
         )
     colorbar = figure.colorbar(image, cax=figure.add_axes((0.945, 0.1, 0.012, 0.74)))
     colorbar.set_label("quality (1 = best)", fontsize=8)

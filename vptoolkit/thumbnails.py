@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from tqdm import tqdm
 
 from vptoolkit.camera import Camera
@@ -110,6 +111,16 @@ def _best_direction_task(task: dict[str, Any]) -> dict[str, Any]:
 
     try:
         mesh = load_mesh(task["path"])
+        if task.get("view_set"):
+            from vptoolkit.view_sets import measure_view_set
+
+            _, view_set = measure_view_set(
+                mesh, int(task["view_set"]), n_views=int(task["n_views"]),
+                resolution=int(task["resolution"]), camera=Camera(**task["camera"]))
+            return {"source": task["source"], "name": mesh.name, "vertices": mesh.vertices,
+                    "faces": mesh.faces, "direction": view_set.directions, "view_set": view_set,
+                    "label": f"view set of {len(view_set)} "
+                             f"({100 * view_set.coverage[-1]:.1f} % seen)"}
         quality = compute_view_quality(
             mesh, int(task["n_views"]), int(task["resolution"]), camera=Camera(**task["camera"])
         )
@@ -125,6 +136,14 @@ def _best_direction_task(task: dict[str, Any]) -> dict[str, Any]:
         "direction": quality.views[index],
         "label": f"best {task['measure']} (view {index} of {len(quality.views)})",
     }
+
+
+def _rounded(direction: Any) -> list[Any]:
+    """A direction (or, for a view set, each direction) as a list of 6-decimal floats."""
+    array = np.asarray(direction, dtype=np.float64)
+    if array.ndim == 2:
+        return [_rounded(row) for row in array]
+    return [round(float(c), 6) for c in array]
 
 
 def _camera_arguments(camera: Camera) -> dict[str, Any]:
@@ -206,6 +225,7 @@ def render_thumbnails(
     renderer: AnyRenderer | None = None,
     engine: str = "software",
     progress: bool = False,
+    view_set: int | None = None,
 ) -> ThumbnailResult:
     """Draw a thumbnail of every mesh in a folder from its best (or predicted) view.
 
@@ -247,6 +267,11 @@ def render_thumbnails(
         "software"; see :func:`vptoolkit.render.open_renderer`).
     progress : bool
         Show a progress bar on stderr (default: False).
+    view_set : int, optional
+        Draw each mesh's ``view_set``-view coverage set
+        (:func:`vptoolkit.view_sets.best_view_set`) as a captioned contact
+        sheet (:func:`vptoolkit.contact_sheet.view_set_sheet`), ``size``
+        pixels per tile, instead of one view; its record lists every direction.
 
     Returns
     -------
@@ -270,6 +295,10 @@ def render_thumbnails(
     workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
     n_views = check_int(n_views, "n_views", minimum=1)
     resolution = check_int(resolution, "resolution", minimum=1)
+    if view_set is not None:
+        view_set = check_int(view_set, "view_set", minimum=1)
+        if predictor is not None:
+            raise InputError("view_set: a predictor gives one view per mesh; drop one of them")
     camera = camera or (renderer.camera if renderer is not None else Camera())
     files = _mesh_files(source)
     root = source if source.is_dir() else source.parent
@@ -290,7 +319,7 @@ def render_thumbnails(
         output_of[relative] = image_path
         tasks.append({"path": str(path), "source": relative, "measure": measure,
                       "n_views": n_views, "resolution": resolution,
-                      "camera": _camera_arguments(camera)})
+                      "camera": _camera_arguments(camera), "view_set": view_set})
 
     own_renderer = renderer is None
     active = renderer or open_renderer(engine, size=size, camera=camera, style=style)
@@ -309,7 +338,12 @@ def render_thumbnails(
                 continue
             try:
                 mesh = Mesh(result["vertices"], result["faces"], result["name"])
-                image = active.render(mesh, result["direction"])[0]
+                if "view_set" in result:
+                    from vptoolkit.contact_sheet import view_set_sheet
+
+                    image, _ = view_set_sheet(mesh, view_set=result["view_set"], renderer=active)
+                else:
+                    image = active.render(mesh, result["direction"])[0]
                 image_path = output_of[relative]
                 image_path.parent.mkdir(parents=True, exist_ok=True)
                 done.append(save_png(image, image_path))
@@ -319,7 +353,7 @@ def render_thumbnails(
             records.append({
                 "source": relative,
                 "image": image_path.relative_to(target).as_posix(),
-                "direction": [round(float(c), 6) for c in result["direction"]],
+                "direction": _rounded(result["direction"]),
                 "label": result["label"],
             })
     finally:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,6 +32,9 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.dataset.store import SPLITS, StoreReader, find_store, open_store
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
+
+if TYPE_CHECKING:
+    from vptoolkit.view_sets import ViewSet
 
 __all__ = ["ViewpointDataset", "open_dataset"]
 
@@ -296,6 +299,32 @@ class ViewpointDataset:
         vertices = reader.array("mesh_vertices")[vertex_offsets[row] : vertex_offsets[row + 1]]
         faces = reader.array("mesh_faces")[face_offsets[row] : face_offsets[row + 1]]
         return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
+
+    def view_set(self, key: int | str, k: int | None = None) -> ViewSet | None:
+        """The model's greedy coverage view set, as the build stored it.
+
+        Parameters
+        ----------
+        key : int or str
+            Item index or model name.
+        k : int, optional
+            Keep the first ``k`` views (default: all stored, at most 6; fewer
+            when more views would add nothing).
+
+        Returns
+        -------
+        ViewSet or None
+            Indices into :attr:`views`, directions and the coverage after each
+            pick (:mod:`vptoolkit.view_sets`); None for a store built before
+            view sets were stored.
+        """
+        from vptoolkit.view_sets import ViewSet
+
+        record = self._shared.records[self.row(key)]
+        stored = record.get("view_set")
+        if stored is None:
+            return None
+        return ViewSet.from_record(stored, self.views, name=str(record["name"]), k=k)
 
     def quality_of(self, key: int | str, directions: ArrayLike) -> NDArray[np.float32]:
         """Normalised quality of arbitrary directions, by nearest sampled view.

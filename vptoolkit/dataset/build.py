@@ -111,6 +111,9 @@ STAGING_DIR = ".staging"
 BACKEND = "raster"
 """Pixel-counting backend of every build (:mod:`vptoolkit.visibility`)."""
 
+VIEW_SET_VIEWS = 6
+"""Most views in each model's stored coverage view set (SCHEMA.md, "Model record")."""
+
 _FOLDER_SPLITS = ("train", "test")
 _STAGING_VERSION = 1
 _BUILD_FILE = "build.json"
@@ -864,6 +867,7 @@ class _StagedEntries(Sequence[ModelEntry]):
             source=record["source"],
             source_sha256=record["source_sha256"],
             cleaning=record["cleaning"],
+            view_set=record.get("view_set"),
             **arrays,
         )
 
@@ -1073,8 +1077,8 @@ def _process_model(task: Mapping[str, Any]) -> dict[str, Any]:
 def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh
-    from vptoolkit.measures import compute_view_quality
     from vptoolkit.points import sample_surface
+    from vptoolkit.view_sets import measure_view_set
 
     path = Path(task["path"])
     source_sha256 = _file_sha256(path)
@@ -1083,7 +1087,8 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     if task["clean"]:
         mesh, report = clean_mesh(mesh, max_faces=task["max_faces"])
         cleaning = _without_timings(report.to_dict())
-    quality = compute_view_quality(mesh, task["n_views"], task["resolution"], backend=BACKEND)
+    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, n_views=task["n_views"],
+                                         resolution=task["resolution"], backend=BACKEND)
     sample = sample_surface(mesh, task["n_points"], seed=task["seed"])
     columns = np.arange(quality.raw.shape[1])
     raw = quality.raw.astype(np.float32)
@@ -1107,6 +1112,7 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
         "n_vertices": mesh.n_vertices,
         "n_faces": mesh.n_faces,
         "cleaning": cleaning,
+        "view_set": view_set.record(),
     }
     return {
         "model_id": f"{task['category']}/{task['name']}",

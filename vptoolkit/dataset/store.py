@@ -169,6 +169,10 @@ class ModelEntry:
         Triangles, indices into ``vertices``.
     cleaning : dict or None
         JSON-safe cleaning report, or None when built without cleaning.
+    view_set : dict or None
+        The greedy coverage view set (SCHEMA.md, "Model record"): ``objective``,
+        ``min_pixels``, ``indices``, ``coverage`` and ``reachable``; None in
+        stores built before view sets (the record then has no ``view_set`` key).
     """
 
     name: str
@@ -187,6 +191,7 @@ class ModelEntry:
     vertices: NDArray[Any]
     faces: NDArray[Any]
     cleaning: dict[str, Any] | None = None
+    view_set: dict[str, Any] | None = None
 
     def record(self) -> dict[str, Any]:
         """The model's record in ``models_json`` (SCHEMA.md, "Model record").
@@ -195,9 +200,10 @@ class ModelEntry:
         -------
         record : dict
             ``name``, ``category``, ``split``, ``source``, ``source_sha256``,
-            ``n_vertices``, ``n_faces`` and ``cleaning``, in that order.
+            ``n_vertices``, ``n_faces`` and ``cleaning``, in that order, then
+            ``view_set`` when the entry has one.
         """
-        return {
+        record = {
             "name": self.name,
             "category": self.category,
             "split": self.split,
@@ -207,6 +213,9 @@ class ModelEntry:
             "n_faces": int(np.shape(self.faces)[0]),
             "cleaning": self.cleaning,
         }
+        if self.view_set is not None:
+            record["view_set"] = self.view_set
+        return record
 
 
 # --------------------------------------------------------------------------- digests and JSON
@@ -1126,6 +1135,7 @@ class StoreReader:
             vertices=np.asarray(self.array("mesh_vertices")[vertex_offsets[0] : vertex_offsets[1]]),
             faces=np.asarray(self.array("mesh_faces")[face_offsets[0] : face_offsets[1]]),
             cleaning=record["cleaning"],
+            view_set=record.get("view_set"),
         )
 
     def close(self) -> None:

@@ -1,0 +1,731 @@
+"""Complementary view sets: k views that together show the whole model.
+
+The paper predicts one view per measure and names complementary views as
+future work ("a second view that best covers the unseen parts of the
+model"). From the per-view, per-face pixel counts ``a_z(v)`` of
+:mod:`vptoolkit.visibility` the brute-force answer is cheap: a greedy
+search over the sampled views. Notation as in :mod:`vptoolkit.measures`:
+``A_z`` the true area of face ``z``, ``A_t = sum_z A_z``, ``a_t(v) = sum_z
+a_z(v)``, logarithms base 2.
+
+Objectives (``objective=``)
+    ``"coverage"``
+        The area-weighted fraction of the surface seen by at least one view
+        of the set ``S``:
+
+        ``C(S) = sum_z A_z [max_{v in S} a_z(v) >= m] / A_t``
+
+        with ``m = min_pixels`` (default 1). ``C`` is monotone and
+        submodular (a weighted set cover), so the greedy choice, which adds
+        the view of largest gain ``C(S + v) - C(S)``, reaches at least
+        ``1 - (1 - 1/k)^k > 1 - 1/e ~ 0.632`` of the best k-set's coverage
+        (Nemhauser, Wolsey and Fisher 1978); the tests compare it with
+        exhaustive search. With ``m = 1`` a face counts as seen exactly when
+        the paper's visibility ``vis_z(v) = [a_z(v) > 0]`` (eq. 2) holds, so
+        ``C({v}) = VR(v)`` and the first pick is the best VR view. Why one
+        pixel: the rasteriser counts a pixel only where the pixel *centre*
+        lies inside the face (:mod:`vptoolkit.visibility`), so one pixel is
+        a real sample of the face, never an anti-aliasing fringe; a larger
+        threshold would drop every face smaller than it at the chosen
+        resolution, making the coverage depend on the tessellation, and
+        would break ``C({v}) = VR(v)``. Pass ``min_pixels`` to demand more
+        (e.g. to ignore faces seen edge-on in a few pixels).
+    ``"information"``
+        The viewpoint entropy of the set, the entropy of the views' joint
+        face distribution (Vazquez et al. 2003's entropy of a set of views;
+        the channel of :mod:`vptoolkit.measures` restricted to ``S``):
+
+        ``p_S(z) = sum_{v in S} a_z(v) / sum_{v in S} a_t(v)``,
+        ``H(S) = -sum_z p_S(z) log2 p_S(z)``
+
+        With ``p(v|S) = a_t(v) / sum_{u in S} a_t(u)`` it splits as
+        ``H(S) = I(S; Z) + sum_{v in S} p(v|S) VE(v)``: the mutual
+        information between the chosen views and the faces (high when the
+        views see *different* faces) plus their mean entropy. ``H({v}) =
+        VE(v)``, so the first pick is the best VE view. ``H`` is neither
+        monotone nor submodular; greedy carries no guarantee here.
+    ``"quality"``
+        Coverage, preferring good single views among near-ties: the first
+        pick is the best view of ``measure`` (default VE; with ``"VR"`` it is
+        also the coverage objective's first pick), and every later pick is
+        the view of highest normalised ``measure`` quality among those whose
+        coverage gain is at least ``(1 - tolerance)`` times the largest gain.
+        Each later gain is thus within ``alpha = 1 - tolerance`` of the
+        greedy one, which gives ``C(S_k) >= (1 - (1 - alpha/k)^(k-1)) C*``
+        for the best k-set's coverage ``C*``, whatever the first pick.
+
+Sets are built in selection order; ``score[i]`` is the objective after pick
+``i`` (a fraction for coverage and quality, bits for information) and
+``coverage[i]`` the coverage ``C`` after pick ``i`` for every objective.
+``k`` may be a number, or the set may grow until ``C(S) >= target *
+C(V)``, where ``C(V)``, the *reachable* coverage, is that of all sampled
+views together (faces inside the model are never seen): this answers the
+paper's "the number of good views may vary per model". Ties go to the
+lowest view index, so the same inputs give the same set.
+
+Memory: the histograms of all views are kept (about 8 bytes per visible
+face per view: 40 MB for 1000 views of a 10k-face mesh at 1024 px).
+"""
+
+from __future__ import annotations
+
+import heapq
+import json
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera
+from vptoolkit.checks import check_int
+from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
+from vptoolkit.errors import InputError
+from vptoolkit.files import atomic_write
+from vptoolkit.geometry import face_areas
+from vptoolkit.measures import (
+    ViewQuality,
+    compute_view_quality,
+    normalize_quality,
+    progress_runs,
+    quality_from_histograms,
+)
+from vptoolkit.mesh import Mesh
+from vptoolkit.sphere import as_directions, fibonacci_sphere
+from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
+
+__all__ = [
+    "OBJECTIVES",
+    "MIN_PIXELS",
+    "FaceVisibility",
+    "ViewSet",
+    "best_view_set",
+    "measure_view_set",
+    "set_coverage",
+]
+
+OBJECTIVES = ("coverage", "information", "quality")
+"""Objectives of :func:`best_view_set` (see the module docstring)."""
+
+MIN_PIXELS = 1
+"""Pixels a face needs in a view to count as seen by it (the paper's ``a_z(v) > 0``)."""
+
+_TOLERANCE = 0.05  # near-tie band of the "quality" objective
+
+
+# --------------------------------------------------------------------------- input
+
+
+@dataclass(frozen=True, eq=False)
+class FaceVisibility:
+    """Per-view, per-face pixel counts of every sampled view of one model.
+
+    Attributes
+    ----------
+    views : (n_views, 3) float64
+        Unit view directions (model centre towards the camera).
+    face_areas : (n_faces,) float64
+        True face areas ``A_z``.
+    runs : tuple of ViewHistograms
+        Sparse counts ``a_z(v)`` covering views ``0 .. n_views - 1`` in order
+        (as :func:`vptoolkit.visibility.iter_view_histograms` yields them).
+    name : str
+        Name of the model, for messages.
+    """
+
+    views: NDArray[np.float64]
+    face_areas: NDArray[np.float64]
+    runs: tuple[ViewHistograms, ...]
+    name: str = "mesh"
+
+    def __post_init__(self) -> None:
+        views = as_directions(self.views, name="views")
+        areas = np.asarray(self.face_areas, dtype=np.float64)
+        if areas.ndim != 1 or not np.isfinite(areas).all() or (areas < 0).any():
+            raise InputError(f"{self.name}: face_areas must be finite, non-negative and 1-D")
+        if not areas.sum() > 0:
+            raise InputError(f"{self.name}: the mesh has zero surface area")
+        runs = tuple(self.runs)
+        expected = 0
+        for run in runs:
+            if run.first_view != expected or run.n_faces != len(areas):
+                raise InputError(f"{self.name}: histograms must cover views 0..{len(views) - 1} "
+                                 f"in order, for {len(areas)} faces")
+            expected += run.n_views
+        if expected != len(views):
+            raise InputError(f"{self.name}: histograms cover {expected} views, "
+                             f"views has {len(views)}")
+        object.__setattr__(self, "views", views)
+        object.__setattr__(self, "face_areas", areas)
+        object.__setattr__(self, "runs", runs)
+
+    @classmethod
+    def from_mesh(
+        cls,
+        mesh: Mesh,
+        n_views: int = N_VIEWS,
+        resolution: int = RESOLUTION,
+        *,
+        view_directions: ArrayLike | None = None,
+        camera: Camera | None = None,
+        backend: Backend = "raster",
+        progress: bool = False,
+    ) -> FaceVisibility:
+        """Draw every view of a mesh once and keep its pixel counts.
+
+        Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
+        """
+        directions = (fibonacci_sphere(check_int(n_views, "n_views", minimum=1))
+                      if view_directions is None
+                      else as_directions(view_directions, name="view_directions"))
+        runs: Iterable[ViewHistograms] = iter_view_histograms(
+            mesh, directions, resolution=resolution, camera=camera, backend=backend)
+        if progress:
+            runs = progress_runs(runs, len(directions), mesh.name)
+        return cls(directions, face_areas(mesh), tuple(runs), mesh.name)
+
+    @property
+    def n_views(self) -> int:
+        """Number of sampled views."""
+        return int(len(self.views))
+
+    @property
+    def n_faces(self) -> int:
+        """Number of faces."""
+        return int(len(self.face_areas))
+
+    def quality(self) -> NDArray[np.float64]:
+        """Normalised VE, VR, VKL, VMI of every view, ``(n_views, 4) float64`` (1 = best)."""
+        raw = quality_from_histograms(self.runs, self.face_areas, n_views=self.n_views)
+        return normalize_quality(raw)
+
+    def seen_matrix(self, min_pixels: int = MIN_PIXELS) -> NDArray[np.bool_]:
+        """Dense ``(n_views, n_faces) bool``: face ``z`` has ``>= min_pixels`` pixels in view ``v``.
+
+        Dense, so only for few views or small meshes (tests, exhaustive search).
+        """
+        min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
+        return np.concatenate([run.to_dense() >= min_pixels for run in self.runs], axis=0)
+
+
+# --------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True, eq=False)
+class ViewSet:
+    """Views chosen together, in selection order.
+
+    Attributes
+    ----------
+    name : str
+        Name of the model.
+    objective : str
+        ``"coverage"``, ``"information"`` or ``"quality"``.
+    indices : (k,) int64
+        Chosen rows of ``views``, in selection order.
+    directions : (k, 3) float64
+        Their unit directions (model centre towards the camera).
+    score : (k,) float64
+        The objective after each pick: coverage fraction (``"coverage"``,
+        ``"quality"``) or entropy in bits (``"information"``).
+    coverage : (k,) float64
+        Area-weighted fraction of the surface seen after each pick.
+    reachable : float
+        Coverage of all sampled views together (the most any set reaches).
+    n_views : int
+        Number of sampled views searched.
+    min_pixels : int
+        Pixels a face needs in a view to count as seen.
+    measure : str or None
+        Measure of the ``"quality"`` objective, else None.
+    """
+
+    name: str
+    objective: str
+    indices: NDArray[np.int64]
+    directions: NDArray[np.float64]
+    score: NDArray[np.float64]
+    coverage: NDArray[np.float64]
+    reachable: float
+    n_views: int
+    min_pixels: int = MIN_PIXELS
+    measure: str | None = None
+
+    def __len__(self) -> int:
+        return int(len(self.indices))
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe record: one entry per pick with view, direction and cumulative values."""
+        return {
+            "name": self.name,
+            "objective": self.objective,
+            "measure": self.measure,
+            "n_views": self.n_views,
+            "min_pixels": self.min_pixels,
+            "reachable": round(float(self.reachable), 6),
+            "picks": [
+                {
+                    "pick": position + 1,
+                    "view_index": int(index),
+                    "direction": [round(float(c), 6) for c in direction],
+                    "score": round(float(score), 6),
+                    "coverage": round(float(coverage), 6),
+                }
+                for position, (index, direction, score, coverage) in enumerate(
+                    zip(self.indices, self.directions, self.score, self.coverage))
+            ],
+        }
+
+    def record(self) -> dict[str, Any]:
+        """The set as a dataset's model record stores it (JSON types, 6 decimals).
+
+        ``{"objective", "min_pixels", "indices", "coverage", "reachable"}``;
+        :meth:`from_record` reads it back.
+        """
+        return {
+            "objective": self.objective,
+            "min_pixels": self.min_pixels,
+            "indices": [int(i) for i in self.indices],
+            "coverage": [round(float(c), 6) for c in self.coverage],
+            "reachable": round(float(self.reachable), 6),
+        }
+
+    @classmethod
+    def from_record(cls, record: dict[str, Any], views: ArrayLike, *, name: str,
+                    k: int | None = None) -> ViewSet:
+        """A set from :meth:`record`'s form and the views its indices refer to.
+
+        Parameters
+        ----------
+        record : dict
+            As :meth:`record` writes it.
+        views : (n_views, 3) array_like
+            The sampled views of the dataset.
+        name : str
+            Name of the model.
+        k : int, optional
+            Keep the first ``k`` picks only (a greedy set's prefix is the
+            greedy set for fewer views).
+        """
+        directions = np.asarray(views, dtype=np.float64)  # as stored, not renormalised
+        if directions.ndim != 2 or directions.shape[1] != 3:
+            raise InputError(f"views: expected shape (n_views, 3), got {directions.shape}")
+        try:
+            indices = np.asarray(record["indices"], dtype=np.int64)
+            coverage = np.asarray(record["coverage"], dtype=np.float64)
+            objective, reachable = str(record["objective"]), float(record["reachable"])
+            min_pixels = int(record["min_pixels"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise InputError(f"{name}: view_set record is malformed ({err})") from err
+        if indices.ndim != 1 or indices.shape != coverage.shape or (
+                len(indices) and not 0 <= indices.min() <= indices.max() < len(directions)):
+            raise InputError(f"{name}: view_set record does not fit {len(directions)} views")
+        keep = len(indices) if k is None else check_int(k, "k", minimum=1)
+        return cls(name=name, objective=objective, indices=indices[:keep],
+                   directions=directions[indices[:keep]], score=coverage[:keep],
+                   coverage=coverage[:keep], reachable=reachable, n_views=len(directions),
+                   min_pixels=min_pixels)
+
+    def save_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Write the set to an ``.npz`` (``indices``, ``directions``, ``score``,
+        ``coverage``, ``reachable``, ``objective``, ``summary`` as JSON), atomically."""
+        target = Path(path)
+        if target.suffix != ".npz":
+            raise InputError(f"{target.name}: output must end in .npz")
+        with atomic_write(target) as handle:
+            np.savez(
+                handle,
+                indices=self.indices,
+                directions=self.directions,
+                score=self.score,
+                coverage=self.coverage,
+                reachable=np.float64(self.reachable),
+                objective=np.str_(self.objective),
+                name=np.str_(self.name),
+                summary=np.str_(json.dumps(self.summary(), sort_keys=True)),
+            )
+        return target
+
+
+# --------------------------------------------------------------------------- search
+
+
+class _Entries:
+    """Constant-time access to one view's entries across the runs.
+
+    ``uncovered`` arrays below are ``(n_faces,) float64``: ``A_z`` for a face
+    no chosen view has seen yet, else 0; a view's gain is their sum over its
+    seen faces.
+    """
+
+    def __init__(self, visibility: FaceVisibility, min_pixels: int) -> None:
+        self.runs = visibility.runs
+        self.min_pixels = min_pixels
+        self.where: list[tuple[int, int, int]] = []
+        for which, run in enumerate(self.runs):
+            bounds = run.offsets.tolist()
+            self.where.extend((which, bounds[i], bounds[i + 1]) for i in range(run.n_views))
+
+    def seen(self, view: int) -> NDArray[np.int32]:
+        """Faces with at least ``min_pixels`` pixels in ``view``."""
+        which, start, stop = self.where[view]
+        run = self.runs[which]
+        ids = run.face_ids[start:stop]
+        if self.min_pixels > 1:
+            ids = ids[run.pixel_counts[start:stop] >= self.min_pixels]
+        return ids
+
+    def entries(self, view: int) -> tuple[NDArray[np.int32], NDArray[np.float64]]:
+        """Every face of ``view`` with its pixel count."""
+        which, start, stop = self.where[view]
+        run = self.runs[which]
+        return run.face_ids[start:stop], run.pixel_counts[start:stop].astype(np.float64)
+
+    def gain(self, view: int, uncovered: NDArray[np.float64]) -> float:
+        """Area of the faces ``view`` sees that are not covered yet."""
+        return float(uncovered[self.seen(view)].sum())
+
+    def cover(self, view: int, uncovered: NDArray[np.float64]) -> None:
+        uncovered[self.seen(view)] = 0.0
+
+    def reachable(self, n_faces: int) -> NDArray[np.bool_]:
+        """Faces some view sees, ``(n_faces,) bool``."""
+        seen = np.zeros(n_faces, dtype=np.bool_)
+        for run in self.runs:
+            ids = run.face_ids
+            seen[ids if self.min_pixels == 1 else ids[run.pixel_counts >= self.min_pixels]] = True
+        return seen
+
+
+def _stop(picked: int, covered: float, k: int, target: float | None) -> bool:
+    return picked >= k or (target is not None and covered >= target)
+
+
+def _greedy_coverage(entries: _Entries, areas: NDArray[np.float64], k: int,
+                     target: float | None) -> tuple[list[int], list[float]]:
+    """Lazy greedy (Minoux 1978): gains only shrink, so an old gain bounds the new one.
+
+    Returns the picks and the covered area after each.
+    """
+    uncovered = areas.copy()
+    heap = [(-np.inf, view, -1) for view in range(len(entries.where))]  # (-bound, view, round)
+    picked: list[int] = []
+    covered: list[float] = []
+    area = 0.0
+    while heap and not _stop(len(picked), area, k, target):
+        bound, view, evaluated = heapq.heappop(heap)
+        if evaluated == len(picked):
+            if -bound <= 0.0:
+                break  # no view sees anything new
+            picked.append(view)
+            area += -bound
+            covered.append(area)
+            entries.cover(view, uncovered)
+            continue
+        heapq.heappush(heap, (-entries.gain(view, uncovered), view, len(picked)))
+    return picked, covered
+
+
+def _greedy_quality(
+    entries: _Entries, areas: NDArray[np.float64], quality: NDArray[np.float64], k: int,
+    target: float | None, tolerance: float,
+) -> tuple[list[int], list[float]]:
+    uncovered = areas.copy()
+    first = int(np.argmax(quality))
+    picked = [first]
+    area = entries.gain(first, uncovered)
+    covered = [area]
+    entries.cover(first, uncovered)
+    bounds = np.full(len(quality), np.inf)  # old gains bound the current ones
+    bounds[first] = -1.0
+    while not _stop(len(picked), area, k, target):
+        best = 0.0
+        for view in np.argsort(-bounds, kind="stable").tolist():
+            if bounds[view] < (1.0 - tolerance) * best or bounds[view] < 0.0:
+                break
+            bounds[view] = entries.gain(view, uncovered)
+            best = max(best, bounds[view])
+        if best <= 0.0:
+            break
+        # every view left unevaluated gains less than (1 - tolerance) * best
+        near = np.flatnonzero(bounds >= (1.0 - tolerance) * best)
+        # highest quality, then largest gain, then lowest index
+        view = int(near[np.lexsort((near, -bounds[near], -quality[near]))[0]])
+        picked.append(view)
+        area += float(bounds[view])
+        covered.append(area)
+        entries.cover(view, uncovered)
+        bounds[view] = -1.0
+    return picked, covered
+
+
+def _xlog2x(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    logs = np.log2(values, out=np.zeros_like(values), where=values > 0)
+    return np.asarray(values * logs, dtype=np.float64)
+
+
+def _greedy_information(visibility: FaceVisibility, entries: _Entries, k: int,
+                        target: float | None) -> tuple[list[int], list[float]]:
+    """Greedy on ``H(S)``: per pick one vectorised pass over every entry.
+
+    With ``c(z) = sum_{v in S} a_z(v)``, ``T = sum_z c(z)`` and
+    ``K = sum_z c log2 c``, adding ``v`` gives ``H = log2(T') - K'/T'`` with
+    ``T' = T + a_t(v)`` and ``K' = K + sum_{z in v} [(c + a) log2(c + a) - c log2 c]``.
+    """
+    n_views = visibility.n_views
+    counts = np.zeros(visibility.n_faces)
+    uncovered = visibility.face_areas.copy()
+    pixels, sum_c_log_c = 0.0, 0.0
+    projected = np.zeros(n_views)  # a_t(v)
+    for run in visibility.runs:
+        projected[run.first_view:run.first_view + run.n_views] = np.bincount(
+            run.view_index(), weights=run.pixel_counts, minlength=run.n_views)
+    picked: list[int] = []
+    covered: list[float] = []
+    area = 0.0
+    while not _stop(len(picked), area, k, target):
+        change = np.zeros(n_views)
+        for run in visibility.runs:
+            before = counts[run.face_ids]
+            delta = _xlog2x(before + run.pixel_counts) - _xlog2x(before)
+            change[run.first_view:run.first_view + run.n_views] = np.bincount(
+                run.view_index(), weights=delta, minlength=run.n_views)
+        after = pixels + projected
+        is_open = after > 0
+        is_open[picked] = False
+        if not is_open.any():
+            break
+        entropy = np.full(n_views, -np.inf)
+        entropy[is_open] = (np.log2(after[is_open])
+                            - (sum_c_log_c + change[is_open]) / after[is_open])
+        view = int(np.argmax(entropy))
+        picked.append(view)
+        ids, pixel_counts = entries.entries(view)
+        counts[ids] += pixel_counts
+        sum_c_log_c += float(change[view])
+        pixels += float(projected[view])
+        area += entries.gain(view, uncovered)
+        covered.append(area)
+        entries.cover(view, uncovered)
+    return picked, covered
+
+
+def set_coverage(
+    visibility: FaceVisibility,
+    indices: ArrayLike,
+    *,
+    min_pixels: int = MIN_PIXELS,
+) -> NDArray[np.float64]:
+    """Cumulative coverage of views taken in the given order.
+
+    Parameters
+    ----------
+    visibility : FaceVisibility
+        The model's pixel counts.
+    indices : (k,) array_like of int
+        Rows of ``visibility.views``; repeats add nothing.
+    min_pixels : int
+        Pixels a face needs in a view to count as seen (default: 1).
+
+    Returns
+    -------
+    coverage : (k,) float64
+        ``C({v_1, ..., v_i})`` for ``i = 1 .. k``, fractions of ``A_t``.
+    """
+    min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
+    chosen = np.asarray(indices)
+    if chosen.ndim != 1 or chosen.dtype.kind not in "iu":
+        raise InputError(f"indices: expected a 1-D array of view indices, got {chosen!r}")
+    if len(chosen) and (chosen.min() < 0 or chosen.max() >= visibility.n_views):
+        raise InputError(f"indices: must lie in 0..{visibility.n_views - 1}")
+    entries = _Entries(visibility, min_pixels)
+    uncovered = visibility.face_areas.copy()
+    coverage = np.zeros(len(chosen))
+    area = 0.0
+    for position, view in enumerate(chosen.tolist()):
+        area += entries.gain(view, uncovered)
+        entries.cover(view, uncovered)
+        coverage[position] = area
+    return coverage / float(visibility.face_areas.sum())
+
+
+def _check_k(k: int | None, until_coverage: float | None, n_views: int) -> tuple[int, float | None]:
+    if k is None and until_coverage is None:
+        raise InputError("k: give a number of views, a coverage target, or both")
+    limit = n_views if k is None else check_int(k, "k", minimum=1)
+    if until_coverage is not None:
+        value = float(until_coverage)
+        if not 0.0 < value <= 1.0:
+            raise InputError(f"until_coverage: must lie in (0, 1], got {until_coverage}")
+        return min(limit, n_views), value
+    return min(limit, n_views), None
+
+
+def best_view_set(
+    source: Mesh | FaceVisibility,
+    k: int | None = 4,
+    *,
+    objective: str = "coverage",
+    until_coverage: float | None = None,
+    measure: str = "VE",
+    tolerance: float = _TOLERANCE,
+    min_pixels: int = MIN_PIXELS,
+    quality: ArrayLike | None = None,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+) -> ViewSet:
+    """Choose views that together show the model, greedily (see the module docstring).
+
+    Parameters
+    ----------
+    source : Mesh or FaceVisibility
+        A mesh (its views are drawn here with ``n_views``, ``resolution``,
+        ``camera`` and ``backend``) or pixel counts already drawn.
+    k : int or None
+        Number of views (default: 4); with ``until_coverage`` the most views.
+        Fewer come back when ``k`` exceeds the sampled views, or when no
+        view adds coverage any more (``"coverage"``, ``"quality"``).
+    objective : {"coverage", "information", "quality"}
+        What the greedy search maximises (default: "coverage").
+    until_coverage : float, optional
+        Stop as soon as the coverage reaches ``until_coverage`` times the
+        reachable coverage (that of all sampled views), a value in (0, 1].
+    measure : str
+        Measure of the ``"quality"`` objective (default: "VE").
+    tolerance : float
+        Near-tie band of the ``"quality"`` objective, in [0, 1) (default: 0.05).
+    min_pixels : int
+        Pixels a face needs in a view to count as seen (default: 1).
+    quality : (n_views, 4) array_like, optional
+        Normalised quality of the views, if already computed (``"quality"`` only).
+    n_views, resolution, camera, backend
+        How a mesh is drawn (defaults: 1000 views, 1024 px, ``Camera()``, raster).
+
+    Returns
+    -------
+    ViewSet
+        Indices, directions, objective and coverage after each pick.
+
+    Raises
+    ------
+    InputError
+        On an unknown objective or measure, or a bad ``k``, target,
+        tolerance or ``min_pixels``.
+
+    Examples
+    --------
+    >>> from vptoolkit.io import load_mesh
+    >>> from vptoolkit.samples import sample_path
+    >>> views = best_view_set(load_mesh(sample_path("teapot.stl")), 3, n_views=200,
+    ...                       resolution=128)
+    >>> len(views), bool(views.coverage[-1] > views.coverage[0])
+    (3, True)
+    """
+    if objective not in OBJECTIVES:
+        raise InputError(f"objective: expected one of {', '.join(OBJECTIVES)}, got {objective!r}")
+    column = measure_index(measure)
+    min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
+    if not 0.0 <= float(tolerance) < 1.0:
+        raise InputError(f"tolerance: must lie in [0, 1), got {tolerance}")
+    if isinstance(source, Mesh):
+        visibility = FaceVisibility.from_mesh(source, n_views, resolution, camera=camera,
+                                              backend=backend)
+    elif isinstance(source, FaceVisibility):
+        visibility = source
+    else:
+        raise InputError(f"source: expected a Mesh or FaceVisibility, got {type(source).__name__}")
+    limit, target = _check_k(k, until_coverage, visibility.n_views)
+    entries = _Entries(visibility, min_pixels)
+    areas = visibility.face_areas
+    total = float(areas.sum())
+    reachable = float(areas[entries.reachable(visibility.n_faces)].sum()) / total
+    wanted = None if target is None else target * reachable * total * (1.0 - 1e-12)
+    if objective == "coverage":
+        picked, covered = _greedy_coverage(entries, areas, limit, wanted)
+    elif objective == "quality":
+        values = visibility.quality() if quality is None else np.asarray(quality, np.float64)
+        if values.shape != (visibility.n_views, len(MEASURES)):
+            raise InputError(f"quality: expected shape ({visibility.n_views}, {len(MEASURES)}), "
+                             f"got {values.shape}")
+        picked, covered = _greedy_quality(entries, areas, values[:, column], limit, wanted,
+                                          float(tolerance))
+    else:
+        picked, covered = _greedy_information(visibility, entries, limit, wanted)
+    indices = np.array(picked, dtype=np.int64)
+    coverage = np.array(covered, dtype=np.float64) / total
+    score = coverage if objective != "information" else _set_entropy(entries, indices,
+                                                                     visibility.n_faces)
+    return ViewSet(
+        name=visibility.name,
+        objective=objective,
+        indices=indices,
+        directions=visibility.views[indices].copy(),
+        score=score.copy(),
+        coverage=coverage,
+        reachable=reachable,
+        n_views=visibility.n_views,
+        min_pixels=min_pixels,
+        measure=MEASURES[column] if objective == "quality" else None,
+    )
+
+
+def _set_entropy(entries: _Entries, indices: NDArray[np.int64],
+                 n_faces: int) -> NDArray[np.float64]:
+    """``H({v_1, ..., v_i})`` in bits for every prefix of ``indices``."""
+    counts = np.zeros(n_faces)
+    entropy = np.zeros(len(indices))
+    for position, view in enumerate(indices.tolist()):
+        ids, pixel_counts = entries.entries(view)
+        counts[ids] += pixel_counts
+        total = float(counts.sum())
+        entropy[position] = np.log2(total) - float(_xlog2x(counts).sum()) / total if total else 0.0
+    return entropy
+
+
+def measure_view_set(
+    mesh: Mesh,
+    k: int | None = 4,
+    *,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    backend: Backend = "raster",
+    progress: bool = False,
+    **options: Any,
+) -> tuple[ViewQuality, ViewSet]:
+    """The four measures and a view set of a mesh from one drawing of its views.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model.
+    k : int or None
+        As for :func:`best_view_set`.
+    n_views, resolution, camera, backend
+        As for :func:`vptoolkit.measures.compute_view_quality`.
+    progress : bool
+        Show a progress bar while the views are drawn (default: False).
+    **options
+        ``objective``, ``until_coverage``, ``measure``, ``tolerance`` and
+        ``min_pixels`` of :func:`best_view_set`.
+
+    Returns
+    -------
+    quality : ViewQuality
+        Exactly what :func:`vptoolkit.measures.compute_view_quality` returns.
+    view_set : ViewSet
+        The set, searched over the same views.
+    """
+    visibility = FaceVisibility.from_mesh(mesh, n_views, resolution, camera=camera,
+                                          backend=backend, progress=progress)
+    quality = compute_view_quality(mesh, resolution=resolution, view_directions=visibility.views,
+                                   camera=camera, backend=backend,
+                                   histograms=list(visibility.runs))
+    view_set = best_view_set(visibility, k, quality=quality.normalized, **options)
+    return quality, view_set
+
