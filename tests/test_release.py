@@ -113,8 +113,10 @@ def release_copy(release, tmp_path: Path) -> Path:
 def _source_records(build: Path) -> list[dict]:
     from vptoolkit.dataset.store import open_store
 
+    from vptoolkit.dataset.store import published_split
+
     with open_store(build / "dataset.zarr") as reader:
-        return reader.models()
+        return [{**r, "split": published_split(r["split"])} for r in reader.models()]
 
 
 # --------------------------------------------------------------------------- pack
@@ -415,7 +417,7 @@ def test_card_numbers_come_from_the_data(build: Path, release) -> None:
     records = _source_records(build)
     counts = Counter((r["category"], r["split"]) for r in records)
     for category in CATEGORIES:
-        row = [counts[(category, s)] for s in ("train", "val", "test")]
+        row = [counts[(category, s)] for s in ("train", "validation", "test")]
         line = f"| {category} | {row[0]} | {row[1]} | {row[2]} | {sum(row)} |"
         assert line in card, line
     assert f"{len(records)} models from {len(CATEGORIES)} categories" in card
@@ -481,7 +483,7 @@ def test_dataset_info_counts_per_category_and_split(build: Path, release) -> Non
         assert info["n_views"] == N_VIEWS and info["n_points"] == N_POINTS
         assert info["resolution"] == 64 and info["backend"] == "raster"
         assert info["categories"] == sorted(CATEGORIES)
-        assert info["splits"] == ["train", "val", "test"]
+        assert info["splits"] == ["train", "validation", "test"]
         for category in CATEGORIES:
             for split in info["splits"]:
                 expected = sum(r["category"] == category and r["split"] == split for r in records)

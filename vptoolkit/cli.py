@@ -47,10 +47,25 @@ class _Group(click.Group):
         except VptoolkitError as error:
             click.echo(f"vptool: error: {error}", err=True)
             sys.exit(_exit_code(error))
+        except ModuleNotFoundError as error:
+            click.echo(f"vptool: error: {_missing_module_line(error)}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
         except OSError as error:
             where = f"{error.filename}: " if error.filename else ""
             click.echo(f"vptool: error: {where}{error.strerror or error}", err=True)
             sys.exit(EXIT_BAD_INPUT)
+
+
+def _missing_module_line(error: ModuleNotFoundError) -> str:
+    """One line for a package this install lacks: which one, and the extra that brings it.
+
+    A plain ``pip install vptoolkit`` is the light reader; a command that needs
+    a heavy stack (measures, cleaning, learning, pictures) lands here.
+    """
+    from vptoolkit.optional import install_hint
+
+    module = error.name or "a package"
+    return f"{module}: not installed; this command needs it: {install_hint(module)}"
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -329,7 +344,7 @@ def info(path: Path, as_json: bool) -> None:
 @click.option("--dataset", "dataset_path", required=True, type=_EXISTING,
               help="Dataset built by build-dataset (store, build folder or release folder).")
 @click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "val", "test", "all"]), help="Models to score.")
+              type=click.Choice(["train", "validation", "val", "test", "all"]), help="Models to score.")
 @click.option("--measure", type=click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False),
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
@@ -366,7 +381,7 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
               help="Initial learning rate (x0.75 every 200 epochs).")
 @click.option("--seed", default=0, show_default=True, type=int)
 @click.option("--val-split", default="val", show_default=True,
-              type=click.Choice(["train", "val", "test"]), help="Split that picks the best epoch.")
+              type=click.Choice(["train", "validation", "val", "test"]), help="Split that picks the best epoch.")
 @click.option("--threads", type=click.IntRange(1), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
 def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int, lr: float,
@@ -397,7 +412,7 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
 @click.option("-m", "--model", default="default", show_default=True, help=_MODEL_HELP)
 @click.option("--dataset", "dataset_path", type=_EXISTING, help="Predict the models of a dataset.")
 @click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "val", "test", "all"]), help="Split of --dataset.")
+              type=click.Choice(["train", "validation", "val", "test", "all"]), help="Split of --dataset.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="Write names, directions (N, 4, 3) and measures to this .npz.")
 @click.option("--seed", default=0, show_default=True, type=int,
@@ -527,7 +542,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
 @click.argument("dataset", type=_EXISTING)
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for index.html and its pictures.")
-@click.option("--split", type=click.Choice(["train", "val", "test"]),
+@click.option("--split", type=click.Choice(["train", "validation", "val", "test"]),
               help="Report one split only (default: every model).")
 @click.option("--predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")

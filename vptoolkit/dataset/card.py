@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.dataset.store import SPLITS, published_split
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
@@ -42,7 +43,7 @@ __all__ = [
     "croissant_jsonld",
 ]
 
-SPLIT_ORDER = ("train", "val", "test")
+SPLIT_ORDER = SPLITS
 """Order of the splits in every table; any other split name follows, sorted."""
 
 LOG_BASE = 2
@@ -237,8 +238,12 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         ``source``, ``category``, ``reason``) with ``n_failures``.
     """
     attrs = dict(reader.attrs)
-    models = reader.models()
+    models = [{**record, "split": published_split(str(record["split"]))}
+              for record in reader.models()]
     failures = reader.failures()
+    if isinstance(attrs.get("split_fractions"), Mapping):
+        attrs["split_fractions"] = {published_split(str(name)): value
+                                    for name, value in attrs["split_fractions"].items()}
     categories = sorted({str(record["category"]) for record in models})
     splits = _ordered_splits({str(record["split"]) for record in models})
     pairs = Counter((str(record["category"]), str(record["split"])) for record in models)
