@@ -539,6 +539,12 @@ def render_card(
     pretty_name: str | None = None,
     file_sizes: Mapping[str, int] | None = None,
     shards: Sequence[ParquetShard] | None = None,
+    version: str = "1.0.0",
+    created: str | None = None,
+    source_url: str | None = None,
+    license_name: str | None = None,
+    license_link: str | None = None,
+    warnings: Sequence[str] = (),
 ) -> str:
     """Fill ``dataset_card/template.md`` into a release ``README.md``.
 
@@ -558,11 +564,23 @@ def render_card(
     shards : sequence of ParquetShard, optional
         The release's Parquet shards; the YAML header then carries the hub's
         ``configs`` and a full ``dataset_info`` (see :func:`hub_yaml`).
+    version : str
+        Dataset version (default: ``"1.0.0"``).
+    created : str, optional
+        Release time (default: the store's ``created``).
+    source_url : str, optional
+        Where the source meshes come from.
+    license_name, license_link : str, optional
+        The hub's fields for a licence ``other``.
+    warnings : sequence of str
+        Lines shown in a warning block at the top (an empty split, say).
 
     Returns
     -------
     str
-        Markdown with a YAML front matter block.
+        Markdown with a YAML front matter block. Each model record's
+        ``provenance`` (licence, author, url) is tabled under the licence
+        note.
     """
     info = info_from_reader(reader)
     source = _source_name(info)
@@ -607,6 +625,33 @@ def render_card(
                              "the measures are computed on the source meshes as read.")
     split_sentence = ", ".join(f"{name} {_fmt(value)}" for name, value in fractions.items())
 
+    license_extra = "".join(
+        f"\n{key}: {_yaml_str(value)}"
+        for key, value in (("license_name", license_name), ("license_link", license_link))
+        if value
+    )
+    records = reader.models()
+    licensed = [r for r in records if r.get("provenance")]
+    provenance_rows = [
+        [f"`{r['name']}`", r["provenance"].get("license", "-"),
+         r["provenance"].get("author", "-"), r["provenance"].get("url", "-")]
+        for r in licensed
+    ]
+    if licensed:
+        provenance_sentence = (
+            f"The licence and attribution of {_plural(len(licensed), 'source mesh')}"
+            f"{'' if len(licensed) == len(records) else f' (of {len(records)})'} are "
+            "recorded per model (`provenance` in each model record, the `license`, `author` "
+            "and `url` columns of the Parquet shards, and `LICENSES.csv`):"
+        )
+    else:
+        provenance_sentence = ("vptoolkit was given no licence table for them "
+                               "(`vptool pack --licenses FILE.csv`); check them before "
+                               "redistributing.")
+    formats = [label for suffix, label in ((".zarr.zip", "a Zarr v3 zip store"),
+                                           (".h5", "an HDF5 file"),
+                                           (".parquet", "Parquet shards per split"))
+               if any(name.endswith(suffix) for name in files)]
     archives = [name for name in sorted(files) if name.endswith(".zarr.zip")]
     hdf5_files = [name for name in sorted(files) if name.endswith((".h5", ".hdf5"))]
     n_failures = info["n_failures"]
@@ -621,8 +666,17 @@ def render_card(
         "hdf5_name": hdf5_files[0] if hdf5_files else "dataset.h5",
         "yaml_pretty_name": _yaml_str(title),
         "yaml_license": _yaml_str(license),
+        "yaml_license_extra": license_extra,
+        "version": version,
+        "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
+        "warnings_block": "".join(f"\n> **Warning.** {line}.\n" for line in warnings),
+        "provenance_sentence": provenance_sentence,
+        "provenance_table": (_markdown_table(["model", "licence", "author", "url"],
+                                             provenance_rows, ["l", "l", "l", "l"])
+                             if provenance_rows else ""),
+        "formats_sentence": " and ".join(formats) or "no archive",
+        "split_names": ", ".join(f"`{s}`" for s in info["splits"]),
         "yaml_size_category": _yaml_str(size_category(info["n_models"])),
-        "yaml_source_dataset": _yaml_str(f"extended|{source}"),
         "yaml_hub": yaml_hub,
         "title": title,
         "license": license,
@@ -641,7 +695,7 @@ def render_card(
         "split_seed": info.get("split_seed"),
         "split_fractions": split_sentence or "not recorded",
         "toolkit_version": info.get("toolkit_version"),
-        "created": info.get("created"),
+        "created": created or info.get("created"),
         "cleaning_sentence": cleaning_sentence,
         "n_failures": info["n_failures"],
         "failure_reasons": (
