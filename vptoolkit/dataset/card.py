@@ -50,6 +50,7 @@ __all__ = [
     "hub_yaml",
     "croissant_jsonld",
     "card_sections",
+    "rai_fields",
 ]
 
 SPLIT_ORDER = SPLITS
@@ -790,7 +791,7 @@ def _bullets(text: str) -> list[str]:
     return items
 
 
-def _rai_fields(card: str) -> dict[str, str]:
+def rai_fields(card: str) -> dict[str, str]:
     """The Croissant RAI fields, each taken from a section (or one bullet) of the datasheet."""
     sections = card_sections(card)
     fields = {}
@@ -959,7 +960,7 @@ def croissant_jsonld(
     if source_url:
         document["isBasedOn"] = source_url
     if card:
-        document.update(_rai_fields(card))
+        document.update(rai_fields(card))
     document["distribution"] = distribution
     document["recordSet"] = record_sets
     return document

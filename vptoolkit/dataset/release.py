@@ -71,6 +71,7 @@ __all__ = [
     "INFO_NAME",
     "ReleaseResult",
     "pack_release",
+    "update_card",
     "verify",
     "VerifyReport",
     "dataset_info",
@@ -603,3 +604,70 @@ def _write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str,
         source_url=options.source_url, creator=options.creator,
     )
     _write_json(folder / CROISSANT_NAME, croissant)
+
+
+def update_card(release_dir: Path | str) -> list[str]:
+    """Bring ``croissant.json`` and ``SHA256SUMS`` in line with an edited card.
+
+    A person may edit a release's ``README.md`` (wording, a contact, a
+    correction). This rewrites what depends on it: in ``croissant.json`` the
+    card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
+    text, then ``SHA256SUMS``. Archives, shards and every other file are
+    checked against the manifest first and never written.
+
+    Parameters
+    ----------
+    release_dir : Path or str
+        A release folder written by :func:`pack_release`.
+
+    Returns
+    -------
+    list of str
+        The files rewritten: ``["croissant.json", "SHA256SUMS"]``.
+
+    Raises
+    ------
+    InputError
+        If the folder lacks ``README.md``, ``croissant.json`` or
+        ``SHA256SUMS``, or ``croissant.json`` is not JSON.
+    VerificationError
+        If a file other than the card and the files derived from it differs
+        from the manifest: only the card may be edited.
+    """
+    from vptoolkit.dataset.card import rai_fields
+    from vptoolkit.dataset.manifest import read_sha256sums
+    from vptoolkit.errors import VerificationError
+
+    folder = Path(release_dir)
+    for required in (CARD_NAME, CROISSANT_NAME, MANIFEST_NAME):
+        if not (folder / required).is_file():
+            raise InputError(f"{folder / required}: missing; --update-card needs a packed release")
+    derived = {CARD_NAME, CROISSANT_NAME}
+    for relative, digest in read_sha256sums(folder / MANIFEST_NAME).items():
+        if relative in derived:
+            continue
+        if not (folder / relative).is_file() or sha256_file(folder / relative) != digest:
+            raise VerificationError(
+                f"{relative}: differs from SHA256SUMS; only {CARD_NAME} may be edited "
+                "(run vptool verify to see what changed)"
+            )
+    try:
+        document = json.loads((folder / CROISSANT_NAME).read_text(encoding="utf-8"))
+    except ValueError as err:
+        raise InputError(f"{CROISSANT_NAME}: not JSON ({err})") from err
+    card = (folder / CARD_NAME).read_text(encoding="utf-8")
+    for key in [key for key in document if key.startswith("rai:")]:
+        del document[key]
+    rai = rai_fields(card)
+    distribution = document.pop("distribution", [])
+    record_sets = document.pop("recordSet", [])
+    document.update(rai)
+    for item in distribution:
+        if isinstance(item, dict) and item.get("contentUrl") == CARD_NAME:
+            item["sha256"] = sha256_file(folder / CARD_NAME)
+            item["contentSize"] = f"{(folder / CARD_NAME).stat().st_size} B"
+    document["distribution"] = distribution
+    document["recordSet"] = record_sets
+    _write_json(folder / CROISSANT_NAME, document)
+    write_sha256sums(folder)
+    return [CROISSANT_NAME, MANIFEST_NAME]
