@@ -452,3 +452,12 @@ def test_plain_install_needs_no_heavy_package() -> None:
     for package in ("numba", "trimesh"):
         assert any(dep.startswith(package) for dep in extras["measures"])
     assert {"datasets", "mlcroissant"} <= {re.split(r"[<>=]", d)[0] for d in extras["dev"]}
+
+
+def test_the_sample_licence_table_covers_every_sample_mesh() -> None:
+    from vptoolkit.dataset.release import read_licenses
+    from vptoolkit.samples import sample_names, sample_path
+
+    table = read_licenses(sample_path("bunny.ply").parent / "LICENSES.csv")
+    assert sorted(table) == sorted(Path(name).stem for name in sample_names())
+    assert {row["license"] for row in table.values()} == {"mit", "zlib"}
