@@ -265,6 +265,17 @@ def _check_formats(formats: Sequence[str]) -> tuple[str, ...]:
     return chosen
 
 
+def _require_formats(formats: Sequence[str]) -> None:
+    """Fail before any work when a chosen format's library is missing."""
+    from vptoolkit.dataset.store import _require_zarr
+    from vptoolkit.optional import require
+
+    if "zarr" in formats:
+        _require_zarr()
+    if "parquet" in formats:
+        require("pyarrow", extra="dataset")
+
+
 def _check_version(version: str) -> str:
     if not isinstance(version, str) or not _VERSION.fullmatch(version):
         raise InputError(f"version: {version!r} is not MAJOR.MINOR.PATCH (e.g. 1.0.0)")
@@ -489,6 +500,7 @@ def pack_release(
     provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
                   else dict(licenses) if licenses is not None else None)
     source = find_store(dataset)
+    _require_formats(chosen)
     target.parent.mkdir(parents=True, exist_ok=True)
 
     stem = f"{base}-{version}"
