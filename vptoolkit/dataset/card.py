@@ -250,7 +250,8 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         ``split_totals``, ``category_totals``, ``measures`` (order,
         higher_is_better, log_base, units, normalisation), ``camera``,
         ``cleaning``, ``split_seed``, ``split_fractions``, ``source``,
-        ``toolkit_version``, ``created``, ``statistics`` (best raw value per
+        ``toolkit_version``, ``created``, ``dataset_version`` (of a release,
+        else None), ``statistics`` (best raw value per
         measure; vertex and face counts) and ``failures`` (records with
         ``source``, ``category``, ``reason``) with ``n_failures``.
     """
@@ -301,6 +302,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "source": attrs.get("source"),
         "toolkit_version": attrs.get("toolkit_version"),
         "created": attrs.get("created"),
+        "dataset_version": attrs.get("dataset_version"),
         "split_seed": attrs.get("split_seed"),
         "split_fractions": attrs.get("split_fractions"),
         "categories": categories,
@@ -417,7 +419,8 @@ def format_info(info: Mapping[str, Any]) -> str:
         f"models {info['n_models']}, views {info['n_views']}, points per model "
         f"{info['n_points']}, resolution {info['resolution']} px ({info['backend']})",
         f"source {info['source']}, created {info['created']}, vptoolkit "
-        f"{info['toolkit_version']}",
+        f"{info['toolkit_version']}"
+        + (f", dataset version {info['dataset_version']}" if info.get("dataset_version") else ""),
         f"measures: {_measures_sentence(info)}",
         f"camera: {_camera_sentence(info.get('camera'))}",
         "",
