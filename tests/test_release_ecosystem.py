@@ -506,3 +506,27 @@ def test_a_plain_pip_install_reads_a_release(release, tmp_path: Path) -> None:
     info = subprocess.run([str(venv / "bin" / "vptool"), "info", str(release.path)],
                           capture_output=True, text=True, env=environment)
     assert info.returncode == 0 and f"models {N_MODELS}" in info.stdout
+
+
+def test_cli_pack_options_reach_the_release(tmp_path: Path, licenses_csv: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    release = tmp_path / "release"
+    result = CliRunner().invoke(main, [
+        "pack", str(build), str(release), "--formats", "parquet,hdf5", "--version", "0.2.0",
+        "--created", "2026-03-04T06:06:07+01:00", "--licenses", str(licenses_csv),
+        "--pretty-name", "CLI viewpoints", "--source-url", "https://example.org/src",
+        "--license-name", "mixed", "--license-link", "https://example.org/terms"])
+    assert result.exit_code == 0, result.output
+    assert f"version 0.2.0, created {CREATED}" in result.stdout
+    assert (release / "vptoolkit-viewpoints-0.2.0.h5").is_file()
+    assert not list(release.glob("*.zarr.zip"))
+    card = (release / "README.md").read_text(encoding="utf-8")
+    assert 'license_name: "mixed"' in card and 'license_link: "https://example.org/terms"' in card
+    assert card.startswith('---\npretty_name: "CLI viewpoints"\n')
+    bad = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "r2"), "--version", "v1"])
+    assert bad.exit_code == 2
+    assert bad.stderr == "vptool: error: version: 'v1' is not MAJOR.MINOR.PATCH (e.g. 1.0.0)\n"
