@@ -4,12 +4,10 @@ The archives (Zarr zip, HDF5) hold the whole layout of ``SCHEMA.md`` as a
 handful of large arrays; dataset hubs and their libraries read rows. So a
 release also carries, written with pyarrow:
 
-==================================  =============================================
-file                                content
-==================================  =============================================
-``data/<split>-00000-of-00001.parquet``  one row per model of the split, the columns of :func:`model_columns`
-``views/views-00000-of-00001.parquet``   one row per view direction, shared by every model
-==================================  =============================================
+- ``data/<split>-00000-of-00001.parquet``: one row per model of the split,
+  the columns of :func:`model_columns`;
+- ``views/views-00000-of-00001.parquet``: one row per view direction, shared
+  by every model (:func:`view_columns`).
 
 Splits use the names of :data:`vptoolkit.dataset.store.SPLITS`
 (``train``, ``validation``, ``test``); an empty split gets no file. Arrays
