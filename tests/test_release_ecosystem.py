@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import re
 import shutil
 import subprocess
@@ -478,8 +479,6 @@ print(len(names), sorted(shapes), heavy)
 @pytest.mark.slow
 def test_a_plain_pip_install_reads_a_release(release, tmp_path: Path) -> None:
     """The README's light install: `pip install vptoolkit`, no extras, then load a release."""
-    import os
-
     venv = tmp_path / "venv"
     subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
     python = venv / "bin" / "python"
@@ -530,3 +529,10 @@ def test_cli_pack_options_reach_the_release(tmp_path: Path, licenses_csv: Path) 
     bad = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "r2"), "--version", "v1"])
     assert bad.exit_code == 2
     assert bad.stderr == "vptool: error: version: 'v1' is not MAJOR.MINOR.PATCH (e.g. 1.0.0)\n"
+
+
+def test_a_zarr_directory_store_gets_the_umask_mode_not_0700(tmp_path: Path) -> None:
+    build = _write_build(tmp_path / "build")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (build / "dataset.zarr").stat().st_mode & 0o777 == 0o777 & ~mask
