@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import require_package
-from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, STEM, _attrs, _entries
+from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -336,7 +336,7 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
 
     report = verify(release_copy)
     assert report.problems == [] and not report.ok
-    assert [p.target for p in report.skipped] == [f"mini-2.1.0.zarr.zip"]
+    assert [p.target for p in report.skipped] == ["mini-2.1.0.zarr.zip"]
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
         report.raise_if_failed()
     result = CliRunner().invoke(main, ["verify", str(release_copy)])
