@@ -15,6 +15,7 @@ import pytest
 from test_store import FAILURES, MODELS, N_POINTS, N_VIEWS, synthetic_entries, write_synthetic
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.dataset.store import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -40,7 +41,8 @@ def test_metadata(dataset: ViewpointDataset) -> None:
     assert len(dataset) == len(MODELS)
     assert dataset.names == [name for _, name, _ in MODELS]
     assert dataset.categories == [category for category, _, _ in MODELS]
-    assert dataset.splits == [split for _, _, split in MODELS]
+    assert dataset.splits == [published_split(split) for _, _, split in MODELS]
+    assert set(dataset.splits) <= {"train", "validation", "test"}
     assert dataset.measures == MEASURES
     assert dataset.views.dtype == np.float64 and dataset.views.shape == (N_VIEWS, 3)
     np.testing.assert_array_equal(dataset.views, fibonacci_sphere(N_VIEWS))
@@ -54,7 +56,7 @@ def test_metadata(dataset: ViewpointDataset) -> None:
 def test_items_hold_the_stored_arrays(dataset: ViewpointDataset) -> None:
     for entry, item in zip(synthetic_entries(), dataset):
         assert (item["name"], item["category"], item["split"]) == (
-            entry.name, entry.category, entry.split)
+            entry.name, entry.category, published_split(entry.split))
         for key, dtype, shape in [("points", np.float32, (N_POINTS, 3)),
                                   ("normals", np.float32, (N_POINTS, 3)),
                                   ("quality", np.float32, (N_VIEWS, 4)),
@@ -98,7 +100,8 @@ def test_split(dataset: ViewpointDataset) -> None:
     train = dataset.split("train")
     assert train.names == ["airplane_0001", "chair_0001", "chair_0002"]
     assert set(train.splits) == {"train"} and train.categories == ["airplane", "chair", "chair"]
-    assert dataset.split("val").names == ["airplane_0003"]
+    assert dataset.split("validation").names == ["airplane_0003"]
+    assert dataset.split("val").names == ["airplane_0003"]  # the stored name is an alias
     assert dataset.split("test").names == ["airplane_0002"]
     assert len(train.split("test")) == 0
     np.testing.assert_array_equal(train[1]["points"], dataset["chair_0001"]["points"])

@@ -321,7 +321,7 @@ def test_bad_predictions_give_one_line_naming_the_file(
 
 @pytest.mark.parametrize("keyword, value, message", [
     ("measure", "ENT", "measure: unknown measure 'ENT'"),
-    ("split", "validation", "split: unknown split 'validation'"),
+    ("split", "training", "split: unknown split 'training'"),
 ], ids=["measure", "split"])
 def test_bad_options_name_the_argument(store: Path, tmp_path: Path, keyword: str, value: str,
                                        message: str) -> None:

@@ -23,6 +23,9 @@ FAILURES = [
     {"source": "car/train/car_0007.off", "category": "car", "reason": "no faces"},
     {"source": "car/test/car_0100.off", "category": "car", "reason": "no view sees the model"},
 ]
+STEM = "vptoolkit-viewpoints-1.0.0"
+PARQUET_FILES = ["data/test-00000-of-00001.parquet", "data/train-00000-of-00001.parquet",
+                 "data/validation-00000-of-00001.parquet", "views/views-00000-of-00001.parquet"]
 DATASHEET_SECTIONS = (
     "Motivation", "Composition", "Collection process", "Preprocessing, cleaning and labeling",
     "Uses", "Distribution", "Maintenance",
@@ -113,18 +116,21 @@ def release_copy(release, tmp_path: Path) -> Path:
 def _source_records(build: Path) -> list[dict]:
     from vptoolkit.dataset.store import open_store
 
+    from vptoolkit.dataset.store import published_split
+
     with open_store(build / "dataset.zarr") as reader:
-        return reader.models()
+        return [{**r, "split": published_split(r["split"])} for r in reader.models()]
 
 
 # --------------------------------------------------------------------------- pack
 
 
 def test_release_holds_every_file(release) -> None:
-    names = sorted(p.name for p in release.path.iterdir())
+    names = sorted(p.relative_to(release.path).as_posix() for p in release.path.rglob("*")
+                   if p.is_file())
     assert names == sorted([
-        "README.md", "SHA256SUMS", "croissant.json", "dataset_info.json",
-        "vptoolkit-viewpoints.h5", "vptoolkit-viewpoints.zarr.zip",
+        "README.md", "SCHEMA.md", "SHA256SUMS", "croissant.json", "dataset_info.json",
+        f"{STEM}.h5", f"{STEM}.zarr.zip", *PARQUET_FILES,
     ])
     assert release.zarr_zip.is_file() and release.hdf5.is_file()
     assert release.n_models == sum(CATEGORIES.values())
@@ -141,13 +147,15 @@ def test_archive_holds_the_source_content(build: Path, release, archive: str) ->
         assert packed.kind == ("zarr-zip" if archive == "zarr_zip" else "hdf5")
         assert packed.array_names() == source.array_names()
         for name in source.array_names():
+            if name == "models_json":  # the release publishes split "val" as "validation"
+                continue
             expected, actual = source.array(name), packed.array(name)
             assert actual.dtype == expected.dtype, name
             np.testing.assert_array_equal(actual[...], expected[...], err_msg=name)
             assert packed.stored_sha256(name) == source.stored_sha256(name), name
-        assert packed.models() == source.models()
+        assert packed.models() == _source_records(build)
         assert packed.failures() == source.failures() == FAILURES
-        assert packed.attrs == source.attrs
+        assert packed.attrs == {**source.attrs, "dataset_version": "1.0.0"}
 
 
 def test_sha256sums_match_hashlib(release) -> None:
@@ -159,7 +167,8 @@ def test_sha256sums_match_hashlib(release) -> None:
         listed[match[2]] = match[1]
     paths = [line.split("  ", 1)[1] for line in lines]
     assert paths == sorted(paths)
-    others = sorted(p.name for p in release.path.iterdir() if p.name != "SHA256SUMS")
+    others = sorted(p.relative_to(release.path).as_posix() for p in release.path.rglob("*")
+                    if p.is_file() and p.name != "SHA256SUMS")
     assert sorted(listed) == others
     for name, digest in listed.items():
         assert hashlib.sha256((release.path / name).read_bytes()).hexdigest() == digest, name
@@ -216,7 +225,8 @@ def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> No
     from vptoolkit.dataset.release import pack_release
 
     result = pack_release(build, tmp_path / "nested" / "rel", name="mini-v1", license="cc-by-4.0")
-    assert result.zarr_zip.name == "mini-v1.zarr.zip" and result.hdf5.name == "mini-v1.h5"
+    assert result.zarr_zip.name == "mini-v1-1.0.0.zarr.zip"
+    assert result.hdf5.name == "mini-v1-1.0.0.h5"
     card = result.card.read_text(encoding="utf-8")
     assert re.search(r'^license: "cc-by-4.0"$', card, re.MULTILINE)
     assert json.loads(result.croissant.read_text())["license"] == "cc-by-4.0"
@@ -231,7 +241,7 @@ def test_verify_passes_on_a_fresh_release(release) -> None:
     report = verify(release.path)
     assert report.ok, report.summary()
     assert report.kind == "release"
-    assert report.files_checked == 5
+    assert report.files_checked == 10
     assert report.arrays_checked == 2 * 15
     assert report.warnings == []
     report.raise_if_failed()
@@ -254,7 +264,7 @@ def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str
     from vptoolkit.cli import _exit_code
     from vptoolkit.dataset.manifest import verify
 
-    archive = release_copy / f"vptoolkit-viewpoints{suffix}"
+    archive = release_copy / f"{STEM}{suffix}"
     content = bytearray(archive.read_bytes())
     content[len(content) // 2] ^= 0xFF
     archive.write_bytes(bytes(content))
@@ -288,12 +298,10 @@ def test_verify_names_a_tampered_array_in_a_zarr_directory(build: Path, tmp_path
 def test_verify_names_a_missing_file(release_copy: Path) -> None:
     from vptoolkit.dataset.manifest import verify
 
-    (release_copy / "vptoolkit-viewpoints.h5").unlink()
+    (release_copy / f"{STEM}.h5").unlink()
     report = verify(release_copy)
-    assert [(p.kind, p.target) for p in report.problems] == [
-        ("missing", "vptoolkit-viewpoints.h5")
-    ]
-    with pytest.raises(VerificationError, match="vptoolkit-viewpoints.h5"):
+    assert [(p.kind, p.target) for p in report.problems] == [("missing", f"{STEM}.h5")]
+    with pytest.raises(VerificationError, match=f"{STEM}.h5"):
         report.raise_if_failed()
 
 
@@ -388,11 +396,14 @@ def test_card_yaml_header(build: Path, release) -> None:
     for pattern in [r'^pretty_name: ".+"$', r'^license: "other"$',
                     r"^annotations_creators:\n- machine-generated$",
                     r'^size_categories:\n- "n<1K"$',
-                    r'^source_datasets:\n- "extended\|ModelNet40-mini"$',
+                    r'^license_name: "source-mesh-licenses"$', r'^license_link: "README.md"$',
                     r"^task_categories:\n- \S+$", r"^tags:\n(- \S+\n)+",
-                    r"^dataset_info:\n  config_name: default\n  splits:$"]:
+                    r"^configs:\n- config_name: default\n", r"^dataset_info:\n- config_name: default$"]:
         assert re.search(pattern, header, re.MULTILINE), pattern
-    splits = dict(re.findall(r'- name: "(\w+)"\n\s+num_examples: (\d+)', header))
+    assert "source_datasets" not in header  # a local folder name is no hub dataset id
+    default_info = header.split("dataset_info:")[1].split("- config_name: views")[0]
+    splits = dict(re.findall(r"- name: (\w+)\n\s+num_bytes: \d+\n\s+num_examples: (\d+)",
+                             default_info))
     expected = Counter(record["split"] for record in records)
     assert {k: int(v) for k, v in splits.items()} == dict(expected)
 
@@ -415,7 +426,7 @@ def test_card_numbers_come_from_the_data(build: Path, release) -> None:
     records = _source_records(build)
     counts = Counter((r["category"], r["split"]) for r in records)
     for category in CATEGORIES:
-        row = [counts[(category, s)] for s in ("train", "val", "test")]
+        row = [counts[(category, s)] for s in ("train", "validation", "test")]
         line = f"| {category} | {row[0]} | {row[1]} | {row[2]} | {sum(row)} |"
         assert line in card, line
     assert f"{len(records)} models from {len(CATEGORIES)} categories" in card
@@ -452,19 +463,32 @@ def test_croissant_is_json_ld_with_the_manifest_sums(release) -> None:
     for key in ("sc", "dct", "recordSet", "field", "source", "extract", "fileObject"):
         assert key in context, key
     assert document["@type"] == "sc:Dataset"
-    assert document["conformsTo"] == "http://mlcommons.org/croissant/1.0"
+    assert document["conformsTo"] == "http://mlcommons.org/croissant/1.1"
     assert document["name"] and document["description"] and document["license"] == "other"
-    files = {obj["contentUrl"]: obj for obj in document["distribution"]}
-    assert {"vptoolkit-viewpoints.zarr.zip", "vptoolkit-viewpoints.h5"} <= set(files)
+    assert document["version"] == "1.0.0" and document["datePublished"] == "2025-01-02T03:04:05Z"
+    assert document["creator"]["name"]
+    assert document["rai:dataCollection"] and document["rai:dataLimitations"]
+    files = {obj["contentUrl"]: obj for obj in document["distribution"]
+             if obj["@type"] == "cr:FileObject"}
+    assert {f"{STEM}.zarr.zip", f"{STEM}.h5", *PARQUET_FILES} <= set(files)
     for url, obj in files.items():
-        assert obj["@type"] == "cr:FileObject" and obj["encodingFormat"]
+        assert obj["encodingFormat"]
         assert obj["sha256"] == release.files[url], url
-    (record_set,) = document["recordSet"]
-    assert record_set["@type"] == "cr:RecordSet"
-    names = [field["name"] for field in record_set["field"]]
-    assert names == ["name", "category", "split", "points", "normals", "quality"]
-    for field in record_set["field"]:
-        assert field["source"]["fileObject"]["@id"] in files
+    ids = {obj["@id"] for obj in document["distribution"]}
+    record_sets = {record_set["@id"]: record_set for record_set in document["recordSet"]}
+    assert list(record_sets) == ["models", "views"]
+    names = [field["name"] for field in record_sets["models"]["field"]]
+    assert names[:3] == ["name", "category", "split"] and "points" in names
+    for record_set in record_sets.values():
+        for field in record_set["field"]:
+            source = field["source"]
+            (reference,) = [source[k]["@id"] for k in ("fileObject", "fileSet") if k in source]
+            assert reference in ids
+            assert list(source["extract"]) == ["column"]  # one extract per field
+            assert "repeated" not in field
+    points = next(f for f in record_sets["models"]["field"] if f["name"] == "points")
+    assert points["isArray"] and points["arrayShape"] == f"{N_POINTS},3"
+    assert points["dataType"] == "cr:Float32"
 
 
 # --------------------------------------------------------------------------- info
@@ -481,7 +505,7 @@ def test_dataset_info_counts_per_category_and_split(build: Path, release) -> Non
         assert info["n_views"] == N_VIEWS and info["n_points"] == N_POINTS
         assert info["resolution"] == 64 and info["backend"] == "raster"
         assert info["categories"] == sorted(CATEGORIES)
-        assert info["splits"] == ["train", "val", "test"]
+        assert info["splits"] == ["train", "validation", "test"]
         for category in CATEGORIES:
             for split in info["splits"]:
                 expected = sum(r["category"] == category and r["split"] == split for r in records)

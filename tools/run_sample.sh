@@ -13,7 +13,10 @@ vptool=.venv/bin/vptool
 "$vptool" build-dataset vptoolkit/samples "$out/build" --workers 2
 # A release folder must be new: replace the one this script made last time.
 if [ -f "$out/release/SHA256SUMS" ]; then rm -r "$out/release"; fi
-"$vptool" pack "$out/build" "$out/release"
+# Reproducible: the same build and release time give the same SHA256SUMS anywhere.
+"$vptool" pack "$out/build" "$out/release" --version 1.0.0 --created 2026-01-01T00:00:00Z \
+    --pretty-name "Viewpoint quality of the vptoolkit sample meshes" \
+    --licenses vptoolkit/samples/LICENSES.csv
 "$vptool" verify "$out/release"
 "$vptool" info "$out/release"
 "$vptool" predict --dataset "$out/release" --split all -o "$out/predictions.npz"

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Set up .venv/ with vptoolkit, its optional extras and the test tools, on a
-# Debian-like machine with Python >= 3.10. Safe to run again.
+# Debian-like machine with Python >= 3.11. Safe to run again.
 #
 # System packages: libusb-1.0-0 (Open3D needs it to import), libvulkan1 and
 # mesa-vulkan-drivers (Open3D's offscreen renderer uses Vulkan; Mesa's

@@ -47,10 +47,25 @@ class _Group(click.Group):
         except VptoolkitError as error:
             click.echo(f"vptool: error: {error}", err=True)
             sys.exit(_exit_code(error))
+        except ModuleNotFoundError as error:
+            click.echo(f"vptool: error: {_missing_module_line(error)}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
         except OSError as error:
             where = f"{error.filename}: " if error.filename else ""
             click.echo(f"vptool: error: {where}{error.strerror or error}", err=True)
             sys.exit(EXIT_BAD_INPUT)
+
+
+def _missing_module_line(error: ModuleNotFoundError) -> str:
+    """One line for a package this install lacks: which one, and the extra that brings it.
+
+    A plain ``pip install vptoolkit`` is the light reader; a command that needs
+    a heavy stack (measures, cleaning, learning, pictures) lands here.
+    """
+    from vptoolkit.optional import install_hint
+
+    module = error.name or "a package"
+    return f"{module}: not installed; this command needs it: {install_hint(module)}"
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -333,26 +348,71 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
 
 @main.command()
 @click.argument("dataset", type=_EXISTING)
-@click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path))
+@click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path), required=False)
 @click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
 @click.option("--license", "license_id", default="other", show_default=True,
               help="Licence identifier for the card (that of the source meshes).")
-def pack(dataset: Path, release_dir: Path, name: str | None, license_id: str) -> None:
+@click.option("--formats", default="parquet,zarr,hdf5", show_default=True,
+              help="Containers to write, comma-separated: parquet, zarr, hdf5.")
+@click.option("--version", "dataset_version", default="1.0.0", show_default=True,
+              help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant, file names).")
+@click.option("--created", help="Release time, ISO 8601 (default: $SOURCE_DATE_EPOCH, else the "
+              "build's). The same build and --created give byte-identical files.")
+@click.option("--pretty-name", help="Title of the card and the Croissant name.")
+@click.option("--source-url", help="Where the source meshes come from.")
+@click.option("--url", help="Where the release is published (Croissant url).")
+@click.option("--creator", help="Who made the release (Croissant creator).")
+@click.option("--licenses", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="CSV with the columns name, license, author, url: one row per model.")
+@click.option("--license-name", help="The hub's license_name when --license is other.")
+@click.option("--license-link", help="The hub's license_link when --license is other.")
+@click.option("--update-card", is_flag=True,
+              help="DATASET is a release whose README.md was edited: rewrite croissant.json "
+              "and SHA256SUMS to match it, leaving the archives as they are.")
+def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: str,
+         formats: str, dataset_version: str, created: str | None, pretty_name: str | None,
+         source_url: str | None, url: str | None, creator: str | None,
+         licenses: Path | None, license_name: str | None, license_link: str | None,
+         update_card: bool) -> None:
     """Pack a built DATASET into RELEASE_DIR for publishing.
 
-    Writes a Zarr v3 zip and an HDF5 file with the same content, the dataset
-    card README.md, croissant.json and a SHA256SUMS manifest. RELEASE_DIR must
-    be new or empty.
+    Writes Parquet shards per split, a Zarr v3 zip and an HDF5 file with the
+    same content, the dataset card README.md (with the hub's configs),
+    croissant.json, SCHEMA.md and a SHA256SUMS manifest. RELEASE_DIR must be
+    new or empty. With --update-card, DATASET is an existing release whose
+    card a person edited; only croissant.json and SHA256SUMS are rewritten.
 
     \b
     Example:
-      vptool pack out/ release/ --license cc-by-4.0
+      vptool pack out/ release/ --version 1.0.0 --created 2026-01-01T00:00:00Z \\
+          --licenses licenses.csv --pretty-name "Viewpoints of my meshes"
+      vptool pack --update-card release/
     """
+    if update_card:
+        from vptoolkit.dataset.release import update_card as rewrite
+
+        if release_dir is not None:
+            raise InputError("--update-card: takes the release folder only, no RELEASE_DIR")
+        changed = rewrite(dataset)
+        click.echo(f"updated {dataset}: {', '.join(changed)}")
+        return
+    if release_dir is None:
+        raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
     from vptoolkit.dataset.release import pack_release
 
-    result = pack_release(dataset, release_dir, name=name, license=license_id, progress=True)
-    click.echo(f"packed {result.n_models} models ({result.n_failures} failures) into "
-               f"{result.path}: {', '.join(sorted(result.files))}")
+    chosen = [part.strip() for part in formats.split(",") if part.strip()]
+    result = pack_release(
+        dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
+        version=dataset_version, created=created, pretty_name=pretty_name,
+        source_url=source_url, url=url, creator=creator, licenses=licenses,
+        license_name=license_name, license_link=license_link,
+    )
+    for line in result.warnings:
+        click.echo(f"vptool: warning: {line}", err=True)
+    top = sorted({name.split("/")[0] + ("/" if "/" in name else "") for name in result.files})
+    click.echo(f"packed {result.n_models} models ({result.n_failures} failures), version "
+               f"{result.version}, created {result.created}, into {result.path}: "
+               f"{', '.join(top)}")
 
 
 @main.command()
@@ -362,7 +422,9 @@ def verify(path: Path, as_json: bool) -> None:
     """Re-hash a release folder or dataset store against its checksums.
 
     Every file is checked against SHA256SUMS and every array against the
-    SHA-256 stored with it; each mismatch is named. Exit code 1 on any mismatch.
+    SHA-256 stored with it; each mismatch and each unlisted file is named.
+    Exit code 1 on any mismatch; 2 if an archive could not be checked because
+    a package is missing (the line says which to install).
 
     \b
     Example:
@@ -371,7 +433,14 @@ def verify(path: Path, as_json: bool) -> None:
     from vptoolkit.dataset.manifest import verify as verify_path
 
     report = verify_path(path)
-    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.summary())
+    # The summary is printed once: on stdout when all is well, else as the error line.
+    if as_json:
+        click.echo(json.dumps(report.to_dict(), indent=2))
+        if not report.ok:
+            sys.exit(EXIT_FAILURE if report.problems else EXIT_BAD_INPUT)
+        return
+    if report.ok:
+        click.echo(report.summary())
     report.raise_if_failed()
 
 
@@ -397,7 +466,7 @@ def info(path: Path, as_json: bool) -> None:
 @click.option("--dataset", "dataset_path", required=True, type=_EXISTING,
               help="Dataset built by build-dataset (store, build folder or release folder).")
 @click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "val", "test", "all"]), help="Models to score.")
+              type=click.Choice(["train", "validation", "val", "test", "all"]), help="Models to score.")
 @click.option("--measure", type=click.Choice(["VE", "VR", "VKL", "VMI"], case_sensitive=False),
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
@@ -442,7 +511,7 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
               help="Initial learning rate (x0.75 every 200 epochs).")
 @click.option("--seed", default=0, show_default=True, type=int)
 @click.option("--val-split", default="val", show_default=True,
-              type=click.Choice(["train", "val", "test"]), help="Split that picks the best epoch.")
+              type=click.Choice(["train", "validation", "val", "test"]), help="Split that picks the best epoch.")
 @click.option("--threads", type=click.IntRange(1), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
 def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int, lr: float,
@@ -473,7 +542,7 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
 @click.option("-m", "--model", default="default", show_default=True, help=_MODEL_HELP)
 @click.option("--dataset", "dataset_path", type=_EXISTING, help="Predict the models of a dataset.")
 @click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "val", "test", "all"]), help="Split of --dataset.")
+              type=click.Choice(["train", "validation", "val", "test", "all"]), help="Split of --dataset.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="Write names, directions (N, 4, 3) and measures to this .npz.")
 @click.option("--seed", default=0, show_default=True, type=int,
@@ -617,7 +686,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
 @click.argument("dataset", type=_EXISTING)
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for index.html and its pictures.")
-@click.option("--split", type=click.Choice(["train", "val", "test"]),
+@click.option("--split", type=click.Choice(["train", "validation", "val", "test"]),
               help="Report one split only (default: every model).")
 @click.option("--predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")

@@ -47,7 +47,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.checks import one_line
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.store import SPLITS
+from vptoolkit.dataset.store import SPLITS, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
 
@@ -609,6 +609,7 @@ def score_directions(
 
 
 def _select_split(dataset: ViewpointDataset, split: str) -> ViewpointDataset:
+    split = published_split(split)
     if split not in EVALUATION_SPLITS:
         raise InputError(f"split: unknown split {split!r}, expected one of "
                          f"{', '.join(EVALUATION_SPLITS)}")

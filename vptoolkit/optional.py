@@ -17,10 +17,54 @@ from types import ModuleType
 
 from vptoolkit.errors import MissingDependencyError
 
-__all__ = ["require", "is_available"]
+__all__ = ["require", "is_available", "install_hint", "EXTRAS"]
 
 # pip distribution name for each importable module, where they differ.
 _DISTRIBUTIONS = {"open3d": "open3d-cpu"}
+
+EXTRAS = {
+    "numba": "measures",
+    "trimesh": "measures",
+    "open3d": "measures",
+    "pymeshlab": "clean",
+    "zarr": "dataset",
+    "pyarrow": "dataset",
+    "distributed": "cluster",
+    "dask": "cluster",
+    "torch": "learn",
+    "safetensors": "learn",
+    "matplotlib": "pictures",
+}
+"""The vptoolkit extra that installs each optional top-level module.
+
+A plain ``pip install vptoolkit`` holds only the reader (numpy, click, tqdm,
+h5py); ``pip install 'vptoolkit[all]'`` installs every extra.
+"""
+
+
+def install_hint(module: str, extra: str | None = None) -> str:
+    """Return the pip command that installs ``module``.
+
+    Parameters
+    ----------
+    module : str
+        Importable module name; only its top-level package is looked up.
+    extra : str, optional
+        The extra to name (default: the one :data:`EXTRAS` gives, else the
+        package itself).
+
+    Examples
+    --------
+    >>> install_hint("open3d.core")
+    "pip install 'vptoolkit[measures]'"
+    >>> install_hint("h5py")
+    'pip install h5py'
+    """
+    top = module.split(".")[0]
+    chosen = extra or EXTRAS.get(top)
+    if chosen:
+        return f"pip install 'vptoolkit[{chosen}]'"
+    return f"pip install {_DISTRIBUTIONS.get(top, top)}"
 
 
 def is_available(module: str) -> bool:
@@ -50,11 +94,7 @@ def require(module: str, *, extra: str | None = None) -> ModuleType:
     try:
         return importlib.import_module(module)
     except ImportError as err:
-        hint = (
-            f"pip install 'vptoolkit[{extra}]'"
-            if extra
-            else f"pip install {_DISTRIBUTIONS.get(module, module)}"
-        )
+        hint = install_hint(module, extra)
         raise MissingDependencyError(
             f"{module}: not importable ({err}); install it with {hint}"
         ) from err

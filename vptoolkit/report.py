@@ -299,7 +299,7 @@ table.summary tr.mean td { font-weight: 600; }
         padding: 14px 16px; margin: 14px 0; }
 .card-head { display: flex; gap: 10px; align-items: baseline; flex-wrap: wrap; }
 .badge { font-size: 12px; padding: 1px 8px; border-radius: 10px; background: #e6ebf2; }
-.badge.split-test { background: #fde8c8; } .badge.split-val { background: #dff0d8; }
+.badge.split-test { background: #fde8c8; } .badge.split-validation { background: #dff0d8; }
 .meta { color: var(--muted); font-size: 12px; }
 .views { display: grid; grid-template-columns: repeat(4, minmax(0, 1fr)); gap: 10px;
          margin-top: 10px; max-width: 760px; }

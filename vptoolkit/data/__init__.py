@@ -29,7 +29,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.dataset.store import SPLITS, StoreReader, find_store, open_store
+from vptoolkit.dataset.store import (
+    SPLITS,
+    StoreReader,
+    find_store,
+    open_store,
+    published_split,
+)
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -56,7 +62,10 @@ class _SharedStore:
         is_read = False
         try:
             self.attrs: dict[str, Any] = dict(reader.attrs)
-            self.records: list[dict[str, Any]] = reader.models()
+            self.records: list[dict[str, Any]] = [
+                {**record, "split": published_split(str(record["split"]))}
+                for record in reader.models()
+            ]
             self.failures: list[dict[str, Any]] = reader.failures()
             views = np.asarray(reader.array("views")[...], dtype=np.float64)
             best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
@@ -122,7 +131,7 @@ class ViewpointDataset:
     ``best_index``  (4,) int64                  best view per measure
     ``name``        str                         model name
     ``category``    str                         category
-    ``split``       str                         ``"train"``, ``"val"`` or ``"test"``
+    ``split``       str                         ``"train"``, ``"validation"`` or ``"test"``
     ==============  ==========================  ===================================
 
     The last axis of size 4 follows ``measures`` (``("VE", "VR", "VKL", "VMI")``).
@@ -198,7 +207,8 @@ class ViewpointDataset:
         Parameters
         ----------
         name : str
-            ``"train"``, ``"val"`` or ``"test"``.
+            ``"train"``, ``"validation"`` or ``"test"``; ``"val"`` is an
+            alias of ``"validation"``.
 
         Returns
         -------
@@ -211,6 +221,7 @@ class ViewpointDataset:
         InputError
             For any other split name.
         """
+        name = published_split(name)
         if name not in SPLITS:
             raise InputError(f"split: unknown split {name!r}, expected one of {list(SPLITS)}")
         records = self._shared.records

@@ -27,6 +27,14 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.dataset.parquet import (
+    VIEWS_CONFIG,
+    Column,
+    ParquetShard,
+    model_columns,
+    view_columns,
+)
+from vptoolkit.dataset.store import SPLITS, published_split
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
@@ -39,10 +47,13 @@ __all__ = [
     "dataset_info",
     "format_info",
     "render_card",
+    "hub_yaml",
     "croissant_jsonld",
+    "card_sections",
+    "rai_fields",
 ]
 
-SPLIT_ORDER = ("train", "val", "test")
+SPLIT_ORDER = SPLITS
 """Order of the splits in every table; any other split name follows, sorted."""
 
 LOG_BASE = 2
@@ -82,14 +93,17 @@ _SIZE_STEPS = (
 _CROISSANT_CONTEXT: dict[str, Any] = {
     "@language": "en",
     "@vocab": "https://schema.org/",
+    "arrayShape": "cr:arrayShape",
     "citeAs": "cr:citeAs",
     "column": "cr:column",
     "conformsTo": "dct:conformsTo",
+    "containedIn": "cr:containedIn",
     "cr": "http://mlcommons.org/croissant/",
     "rai": "http://mlcommons.org/croissant/RAI/",
     "data": {"@id": "cr:data", "@type": "@json"},
     "dataType": {"@id": "cr:dataType", "@type": "@vocab"},
     "dct": "http://purl.org/dc/terms/",
+    "equivalentProperty": "cr:equivalentProperty",
     "examples": {"@id": "cr:examples", "@type": "@json"},
     "extract": "cr:extract",
     "field": "cr:field",
@@ -98,6 +112,7 @@ _CROISSANT_CONTEXT: dict[str, Any] = {
     "fileSet": "cr:fileSet",
     "format": "cr:format",
     "includes": "cr:includes",
+    "isArray": "cr:isArray",
     "isLiveDataset": "cr:isLiveDataset",
     "jsonPath": "cr:jsonPath",
     "key": "cr:key",
@@ -109,6 +124,7 @@ _CROISSANT_CONTEXT: dict[str, Any] = {
     "regex": "cr:regex",
     "repeated": "cr:repeated",
     "replace": "cr:replace",
+    "samplingRate": "cr:samplingRate",
     "sc": "https://schema.org/",
     "separator": "cr:separator",
     "source": "cr:source",
@@ -127,6 +143,8 @@ _CITATION = """@article{schelling2021viewpoint,
 
 _ENCODINGS = (
     (".zarr.zip", "application/zip", "Zarr v3 store in a zip file"),
+    (".parquet", "application/x-parquet", "Parquet shard"),
+    (".csv", "text/csv", "CSV table"),
     (".h5", "application/x-hdf5", "HDF5 file"),
     (".hdf5", "application/x-hdf5", "HDF5 file"),
     (".md", "text/markdown", "dataset card"),
@@ -232,13 +250,18 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         ``split_totals``, ``category_totals``, ``measures`` (order,
         higher_is_better, log_base, units, normalisation), ``camera``,
         ``cleaning``, ``split_seed``, ``split_fractions``, ``source``,
-        ``toolkit_version``, ``created``, ``statistics`` (best raw value per
+        ``toolkit_version``, ``created``, ``dataset_version`` (of a release,
+        else None), ``statistics`` (best raw value per
         measure; vertex and face counts) and ``failures`` (records with
         ``source``, ``category``, ``reason``) with ``n_failures``.
     """
     attrs = dict(reader.attrs)
-    models = reader.models()
+    models = [{**record, "split": published_split(str(record["split"]))}
+              for record in reader.models()]
     failures = reader.failures()
+    if isinstance(attrs.get("split_fractions"), Mapping):
+        attrs["split_fractions"] = {published_split(str(name)): value
+                                    for name, value in attrs["split_fractions"].items()}
     categories = sorted({str(record["category"]) for record in models})
     splits = _ordered_splits({str(record["split"]) for record in models})
     pairs = Counter((str(record["category"]), str(record["split"])) for record in models)
@@ -279,6 +302,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "source": attrs.get("source"),
         "toolkit_version": attrs.get("toolkit_version"),
         "created": attrs.get("created"),
+        "dataset_version": attrs.get("dataset_version"),
         "split_seed": attrs.get("split_seed"),
         "split_fractions": attrs.get("split_fractions"),
         "categories": categories,
@@ -395,7 +419,8 @@ def format_info(info: Mapping[str, Any]) -> str:
         f"models {info['n_models']}, views {info['n_views']}, points per model "
         f"{info['n_points']}, resolution {info['resolution']} px ({info['backend']})",
         f"source {info['source']}, created {info['created']}, vptoolkit "
-        f"{info['toolkit_version']}",
+        f"{info['toolkit_version']}"
+        + (f", dataset version {info['dataset_version']}" if info.get("dataset_version") else ""),
         f"measures: {_measures_sentence(info)}",
         f"camera: {_camera_sentence(info.get('camera'))}",
         "",
@@ -415,6 +440,66 @@ def format_info(info: Mapping[str, Any]) -> str:
     lines.append(f"failures: {info['n_failures']}")
     for record in info["failures"]:
         lines.append(f"  {record.get('source')}: {record.get('reason')}")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- hub YAML
+
+
+def _yaml_feature(column: Column) -> str:
+    """One feature of a hub ``dataset_info``, as the hub's YAML writes it."""
+    head = f"  - name: {column.name}\n"
+    if not column.shape:
+        return head + f"    dtype: {column.dtype}"
+    if len(column.shape) == 1:
+        return head + f"    list: {column.dtype}\n    length: {column.shape[0]}"
+    dims = "\n".join(f"        - {'null' if d is None else d}" for d in column.shape)
+    return (head + f"    dtype:\n      array{len(column.shape)}_d:\n        shape:\n{dims}\n"
+            f"        dtype: {column.dtype}")
+
+
+def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> str:
+    """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
+
+    Two configurations: ``default`` (one Parquet shard per split, one row
+    per model, columns :func:`~vptoolkit.dataset.parquet.model_columns`) and
+    ``views`` (the shared view directions, as split ``train``, the hub's
+    name for a configuration's only split). ``datasets.load_dataset(release)``
+    then reads the shards, offline or streaming, with the declared features.
+
+    Parameters
+    ----------
+    shards : sequence of ParquetShard
+        What :func:`~vptoolkit.dataset.parquet.write_parquet_shards` wrote.
+    n_points, n_views : int
+        Points and views per model, the shapes of the array features.
+
+    Returns
+    -------
+    str
+        YAML lines without a trailing newline.
+    """
+    model_shards = [shard for shard in shards if shard.split != VIEWS_CONFIG]
+    view_shards = [shard for shard in shards if shard.split == VIEWS_CONFIG]
+    lines = ["configs:", "- config_name: default", "  default: true", "  data_files:"]
+    lines += [f"  - split: {shard.split}\n    path: {shard.path}" for shard in model_shards]
+    for shard in view_shards:
+        lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:",
+                  f"  - split: train\n    path: {shard.path}"]
+    lines.append("dataset_info:")
+    configs = [("default", model_columns(n_points, n_views), model_shards),
+               (VIEWS_CONFIG, view_columns(), view_shards)]
+    for config_name, columns, chosen in configs:
+        if not chosen:
+            continue
+        lines += [f"- config_name: {config_name}", "  features:"]
+        lines += [_yaml_feature(column) for column in columns]
+        lines.append("  splits:")
+        for shard in chosen:
+            split = "train" if config_name == VIEWS_CONFIG else shard.split
+            lines += [f"  - name: {split}", f"    num_bytes: {shard.num_bytes}",
+                      f"    num_examples: {shard.n_rows}"]
+        lines.append(f"  dataset_size: {sum(shard.num_bytes for shard in chosen)}")
     return "\n".join(lines)
 
 
@@ -457,6 +542,13 @@ def render_card(
     license: str = "other",  # noqa: A002 - the dataset-hub field is called license
     pretty_name: str | None = None,
     file_sizes: Mapping[str, int] | None = None,
+    shards: Sequence[ParquetShard] | None = None,
+    version: str = "1.0.0",
+    created: str | None = None,
+    source_url: str | None = None,
+    license_name: str | None = None,
+    license_link: str | None = None,
+    warnings: Sequence[str] = (),
 ) -> str:
     """Fill ``dataset_card/template.md`` into a release ``README.md``.
 
@@ -473,11 +565,26 @@ def render_card(
         Human-readable title (default: derived from the source folder name).
     file_sizes : mapping of str to int, optional
         Release file name -> size in bytes, listed beside the digests.
+    shards : sequence of ParquetShard, optional
+        The release's Parquet shards; the YAML header then carries the hub's
+        ``configs`` and a full ``dataset_info`` (see :func:`hub_yaml`).
+    version : str
+        Dataset version (default: ``"1.0.0"``).
+    created : str, optional
+        Release time (default: the store's ``created``).
+    source_url : str, optional
+        Where the source meshes come from.
+    license_name, license_link : str, optional
+        The hub's fields for a licence ``other``.
+    warnings : sequence of str
+        Lines shown in a warning block at the top (an empty split, say).
 
     Returns
     -------
     str
-        Markdown with a YAML front matter block.
+        Markdown with a YAML front matter block. Each model record's
+        ``provenance`` (licence, author, url) is tabled under the licence
+        note.
     """
     info = info_from_reader(reader)
     source = _source_name(info)
@@ -488,10 +595,15 @@ def render_card(
     cleaning = info.get("cleaning") or {}
     fractions = info.get("split_fractions") or {}
 
-    yaml_splits = "\n".join(
-        f"  - name: {_yaml_str(s)}\n    num_examples: {info['split_totals'][s]}"
-        for s in info["splits"]
-    ) or "  []"
+    if shards:
+        yaml_hub = hub_yaml(shards, n_points=int(info["n_points"] or 0),
+                            n_views=int(info["n_views"]))
+    else:
+        yaml_splits = "\n".join(
+            f"  - name: {_yaml_str(s)}\n    num_examples: {info['split_totals'][s]}"
+            for s in info["splits"]
+        ) or "  []"
+        yaml_hub = f"dataset_info:\n  config_name: default\n  splits:\n{yaml_splits}"
 
     count_header, count_rows = _count_rows(info)
     measure_rows = [
@@ -517,6 +629,33 @@ def render_card(
                              "the measures are computed on the source meshes as read.")
     split_sentence = ", ".join(f"{name} {_fmt(value)}" for name, value in fractions.items())
 
+    license_extra = "".join(
+        f"\n{key}: {_yaml_str(value)}"
+        for key, value in (("license_name", license_name), ("license_link", license_link))
+        if value
+    )
+    records = reader.models()
+    licensed = [r for r in records if r.get("provenance")]
+    provenance_rows = [
+        [f"`{r['name']}`", r["provenance"].get("license", "-"),
+         r["provenance"].get("author", "-"), r["provenance"].get("url", "-")]
+        for r in licensed
+    ]
+    if licensed:
+        provenance_sentence = (
+            f"The licence and attribution of {_plural(len(licensed), 'source mesh')}"
+            f"{'' if len(licensed) == len(records) else f' (of {len(records)})'} are "
+            "recorded per model (`provenance` in each model record, the `license`, `author` "
+            "and `url` columns of the Parquet shards, and `LICENSES.csv`):"
+        )
+    else:
+        provenance_sentence = ("vptoolkit was given no licence table for them "
+                               "(`vptool pack --licenses FILE.csv`); check them before "
+                               "redistributing.")
+    formats = [label for suffix, label in ((".zarr.zip", "a Zarr v3 zip store"),
+                                           (".h5", "an HDF5 file"),
+                                           (".parquet", "Parquet shards per split"))
+               if any(name.endswith(suffix) for name in files)]
     archives = [name for name in sorted(files) if name.endswith(".zarr.zip")]
     hdf5_files = [name for name in sorted(files) if name.endswith((".h5", ".hdf5"))]
     n_failures = info["n_failures"]
@@ -531,9 +670,18 @@ def render_card(
         "hdf5_name": hdf5_files[0] if hdf5_files else "dataset.h5",
         "yaml_pretty_name": _yaml_str(title),
         "yaml_license": _yaml_str(license),
+        "yaml_license_extra": license_extra,
+        "version": version,
+        "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
+        "warnings_block": "".join(f"\n> **Warning.** {line}.\n" for line in warnings),
+        "provenance_sentence": provenance_sentence,
+        "provenance_table": (_markdown_table(["model", "licence", "author", "url"],
+                                             provenance_rows, ["l", "l", "l", "l"])
+                             if provenance_rows else ""),
+        "formats_sentence": " and ".join(formats) or "no archive",
+        "split_names": ", ".join(f"`{s}`" for s in info["splits"]),
         "yaml_size_category": _yaml_str(size_category(info["n_models"])),
-        "yaml_source_dataset": _yaml_str(f"extended|{source}"),
-        "yaml_splits": yaml_splits,
+        "yaml_hub": yaml_hub,
         "title": title,
         "license": license,
         "source": source,
@@ -551,7 +699,7 @@ def render_card(
         "split_seed": info.get("split_seed"),
         "split_fractions": split_sentence or "not recorded",
         "toolkit_version": info.get("toolkit_version"),
-        "created": info.get("created"),
+        "created": created or info.get("created"),
         "cleaning_sentence": cleaning_sentence,
         "n_failures": info["n_failures"],
         "failure_reasons": (
@@ -594,6 +742,87 @@ def _encoding(name: str) -> tuple[str, str]:
     return "application/octet-stream", "file"
 
 
+_CROISSANT_TYPES = {
+    "string": "sc:Text",
+    "float32": "cr:Float32",
+    "float64": "cr:Float64",
+    "int32": "cr:Int32",
+    "int64": "cr:Int64",
+}
+
+_RAI_SECTIONS = (
+    # (rai property, card section, bullet prefix or None for the whole section)
+    ("rai:dataCollection", "Collection process", None),
+    ("rai:dataCollectionType", "Collection process", "- The source meshes"),
+    ("rai:dataPreprocessingProtocol", "Preprocessing, cleaning and labeling", None),
+    ("rai:dataAnnotationProtocol", "Preprocessing, cleaning and labeling", "- Labels are"),
+    ("rai:dataUseCases", "Uses", None),
+    ("rai:dataLimitations", "Uses", "- Not suitable"),
+    ("rai:dataBiases", "Uses", "- Results depend"),
+    ("rai:personalSensitiveInformation", "Composition", "- *Confidential or personal data?*"),
+    ("rai:dataReleaseMaintenancePlan", "Maintenance", None),
+)
+
+
+def card_sections(card: str) -> dict[str, str]:
+    """The ``## `` sections of a card's Markdown body, heading -> text.
+
+    Text is joined into single spaces, with Markdown emphasis and code marks
+    kept; the YAML header is skipped.
+    """
+    body = card.split("\n---\n", 1)[1] if card.startswith("---\n") else card
+    sections: dict[str, list[str]] = {}
+    current: list[str] | None = None
+    for line in body.splitlines():
+        if line.startswith("## "):
+            current = sections.setdefault(line[3:].strip(), [])
+        elif line.startswith("# "):
+            current = None
+        elif current is not None:
+            current.append(line)
+    return {heading: "\n".join(lines).strip() for heading, lines in sections.items()}
+
+
+def _bullets(text: str) -> list[str]:
+    """The bullets of a section, each joined onto one line."""
+    items: list[str] = []
+    for line in text.splitlines():
+        if line.startswith("- "):
+            items.append(line.strip())
+        elif items and line.startswith("  ") and line.strip():
+            items[-1] += " " + line.strip()
+    return items
+
+
+def rai_fields(card: str) -> dict[str, str]:
+    """The Croissant RAI fields, each taken from a section (or one bullet) of the datasheet."""
+    sections = card_sections(card)
+    fields = {}
+    for key, heading, prefix in _RAI_SECTIONS:
+        bullets = _bullets(sections.get(heading, ""))
+        if prefix is not None:
+            bullets = [item for item in bullets if item.startswith(prefix)]
+        text = " ".join(item[2:] for item in bullets)
+        if text:
+            fields[key] = text
+    return fields
+
+
+def _croissant_field(record_set: str, column: Column, source: dict[str, Any]) -> dict[str, Any]:
+    spec: dict[str, Any] = {
+        "@type": "cr:Field",
+        "@id": f"{record_set}/{column.name}",
+        "name": column.name,
+        "description": column.description,
+        "dataType": _CROISSANT_TYPES[column.dtype],
+        "source": {**source, "extract": {"column": column.name}},
+    }
+    if column.shape:
+        spec["isArray"] = True
+        spec["arrayShape"] = ",".join("-1" if d is None else str(d) for d in column.shape)
+    return spec
+
+
 def croissant_jsonld(
     reader: StoreReader,
     files: Mapping[str, str],
@@ -601,8 +830,15 @@ def croissant_jsonld(
     license: str = "other",  # noqa: A002 - the Croissant field is called license
     name: str | None = None,
     file_sizes: Mapping[str, int] | None = None,
+    shards: Sequence[ParquetShard] | None = None,
+    card: str | None = None,
+    version: str = "1.0.0",
+    date_published: str | None = None,
+    url: str | None = None,
+    source_url: str | None = None,
+    creator: str | None = None,
 ) -> dict[str, Any]:
-    """Return Croissant 1.0 JSON-LD metadata of a release.
+    """Return Croissant 1.1 JSON-LD metadata of a release.
 
     Parameters
     ----------
@@ -611,26 +847,43 @@ def croissant_jsonld(
     files : mapping of str to str
         Release file name -> SHA-256 hex digest; each becomes a
         ``cr:FileObject`` with ``contentUrl`` (relative to the metadata file),
-        ``encodingFormat`` and ``sha256``.
+        ``encodingFormat``, ``sha256`` and ``contentSize`` where known.
     license : str
-        Licence identifier (default: ``"other"``).
+        Licence identifier or URL (default: ``"other"``).
     name : str, optional
-        Dataset name (default: derived from the source folder name).
+        Dataset name (default: derived from the source name).
     file_sizes : mapping of str to int, optional
         File name -> size in bytes (``contentSize``).
+    shards : sequence of ParquetShard, optional
+        The Parquet shards. Record sets are read from them (mlcroissant
+        reads Parquet, not HDF5 or Zarr): ``models`` (one record per model,
+        the columns of :func:`~vptoolkit.dataset.parquet.model_columns`,
+        arrays with ``isArray``/``arrayShape``) from the FileSet
+        ``model-shards``, and ``views`` from the FileObject of the views shard.
+        Without shards there are no record sets.
+    card : str, optional
+        The release's ``README.md``; the ``rai:`` fields are taken from its
+        datasheet sections.
+    version : str
+        Dataset version, ``MAJOR.MINOR.PATCH`` (default: ``"1.0.0"``).
+    date_published : str, optional
+        ISO 8601 time of the release (default: the store's ``created``).
+    url : str, optional
+        Where the dataset is published (default: ``source_url``).
+    source_url : str, optional
+        Where the source meshes come from (``isBasedOn``).
+    creator : str, optional
+        Who made the release (default: ``"vptoolkit"``).
 
     Returns
     -------
     dict
-        JSON types only. The record set ``models`` has one record per model
-        with the fields ``name``, ``category``, ``split`` (from the
-        ``models_json`` array), ``points``, ``normals`` and ``quality``; each
-        field's ``extract.column`` names the array inside the archive.
+        JSON types only; ``mlcroissant validate`` reports no error.
     """
     info = info_from_reader(reader)
     source = _source_name(info)
     sizes = file_sizes or {}
-    distribution = []
+    distribution: list[dict[str, Any]] = []
     for file_name, digest in sorted(files.items()):
         mime, description = _encoding(file_name)
         entry: dict[str, Any] = {
@@ -645,67 +898,72 @@ def croissant_jsonld(
         if file_name in sizes:
             entry["contentSize"] = f"{int(sizes[file_name])} B"
         distribution.append(entry)
-    archives = [f for f in sorted(files) if f.endswith((".zarr.zip", ".h5", ".hdf5"))]
-    primary = archives[0] if archives else None
+    record_sets: list[dict[str, Any]] = []
+    model_shards = [s for s in shards or () if s.split != VIEWS_CONFIG]
+    view_shards = [s for s in shards or () if s.split == VIEWS_CONFIG]
     n_views, n_points = info["n_views"], info["n_points"]
-    field_specs = [
-        ("name", "sc:Text", "models_json", "unique model name"),
-        ("category", "sc:Text", "models_json", "object category"),
-        ("split", "sc:Text", "models_json",
-         f"train/val/test split ({', '.join(info['splits'])})"),
-        ("points", "sc:Float", "points",
-         f"({n_points}, 3) float32 points sampled on the cleaned mesh"),
-        ("normals", "sc:Float", "normals", f"({n_points}, 3) float32 unit normals"),
-        ("quality", "sc:Float", "quality",
-         f"({n_views}, {len(MEASURES)}) float32 normalised quality per view, columns "
-         f"{', '.join(info['measures']['order'])}, 1 = best"),
-    ]
-    fields = []
-    for field_name, data_type, array, description in field_specs:
-        spec: dict[str, Any] = {
-            "@type": "cr:Field",
-            "@id": f"models/{field_name}",
-            "name": field_name,
-            "description": description,
-            "dataType": data_type,
-        }
-        if primary is not None:
-            extract: dict[str, Any] = {"column": array}
-            if array == "models_json":
-                extract = {"column": array, "jsonPath": f"$[*].{field_name}"}
-            spec["source"] = {"fileObject": {"@id": primary}, "extract": extract}
-        if array in ("points", "normals", "quality"):
-            spec["repeated"] = True
-        fields.append(spec)
+    if model_shards:
+        folder = model_shards[0].path.rsplit("/", 1)[0]
+        distribution.append({
+            "@type": "cr:FileSet",
+            "@id": "model-shards",
+            "name": "model-shards",
+            "description": (f"Parquet shards, one per split ({', '.join(s.split for s in model_shards)}),"
+                            " one row per model"),
+            "encodingFormat": "application/x-parquet",
+            "includes": f"{folder}/*.parquet",
+        })
+        columns = model_columns(int(n_points or 0), int(n_views))
+        record_sets.append({
+            "@type": "cr:RecordSet",
+            "@id": "models",
+            "name": "models",
+            "description": (f"One record per model, {info['n_models']} in all; the split of each "
+                            f"is one of {', '.join(SPLITS)}"),
+            "key": {"@id": "models/name"},
+            "field": [_croissant_field("models", c, {"fileSet": {"@id": "model-shards"}})
+                      for c in columns],
+        })
+    for shard in view_shards:
+        record_sets.append({
+            "@type": "cr:RecordSet",
+            "@id": VIEWS_CONFIG,
+            "name": VIEWS_CONFIG,
+            "description": f"The {n_views} view directions shared by every model",
+            "key": {"@id": f"{VIEWS_CONFIG}/view_index"},
+            "field": [_croissant_field(VIEWS_CONFIG, c, {"fileObject": {"@id": shard.path}})
+                      for c in view_columns()],
+        })
     title = name or f"Viewpoint quality of {source} models"
-    return {
+    document: dict[str, Any] = {
         "@context": dict(_CROISSANT_CONTEXT),
         "@type": "sc:Dataset",
-        "conformsTo": "http://mlcommons.org/croissant/1.0",
+        "conformsTo": "http://mlcommons.org/croissant/1.1",
         "name": title,
         "description": (
             f"{_plural(info['n_models'], 'model')} from {len(info['categories'])} categories of "
             f"{source}, each with {n_points} surface points and normals and the viewpoint "
             f"quality measures {', '.join(info['measures']['order'])} for {n_views} views on "
-            f"a Fibonacci sphere (rendered at {info['resolution']} px). Arrays are stored in "
-            "Zarr v3 and HDF5 with the same schema; 'column' names an array in the archive."
+            f"a Fibonacci sphere (rendered at {info['resolution']} px). Records come from the "
+            "Parquet shards; the Zarr v3 zip and the HDF5 file hold the same arrays with the "
+            "layout of SCHEMA.md."
         ),
         "license": license,
         "citeAs": _CITATION,
-        "version": str(info.get("toolkit_version") or "0.0.0"),
+        "version": version,
+        "datePublished": date_published or info.get("created"),
         "dateCreated": info.get("created"),
+        "creator": {"@type": "sc:Organization", "name": creator or "vptoolkit"},
         "keywords": ["3D", "point cloud", "mesh", "viewpoint selection", "viewpoint quality",
                      *info["categories"]],
         "isAccessibleForFree": True,
-        "distribution": distribution,
-        "recordSet": [
-            {
-                "@type": "cr:RecordSet",
-                "@id": "models",
-                "name": "models",
-                "description": (f"One record per model, {info['n_models']} in all, in the "
-                                "row order of the archives"),
-                "field": fields,
-            }
-        ],
     }
+    if url or source_url:
+        document["url"] = url or source_url
+    if source_url:
+        document["isBasedOn"] = source_url
+    if card:
+        document.update(rai_fields(card))
+    document["distribution"] = distribution
+    document["recordSet"] = record_sets
+    return document

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 __all__ = [
     "MANIFEST_NAME",
@@ -48,7 +48,8 @@ _LINE = re.compile(r"^(?P<digest>[0-9a-fA-F]{64}) (?P<mode>[ *])(?P<path>.+)$")
 _ARCHIVE_SUFFIXES = (".zarr.zip", ".h5", ".hdf5")
 _SUMMARY_ITEMS = 3
 
-ProblemKind = Literal["missing", "checksum", "array", "unreadable", "manifest", "attrs", "extra"]
+ProblemKind = Literal["missing", "checksum", "array", "unreadable", "manifest", "attrs", "extra",
+                      "skipped"]
 
 
 @dataclass(frozen=True)
@@ -103,6 +104,10 @@ class VerifyReport:
         Failures; the data cannot be trusted if there is any.
     warnings : list of Problem
         Findings that do not fail verification (files the manifest does not list).
+    skipped : list of Problem
+        Archives whose arrays could not be checked because a package is
+        missing (kind ``"skipped"``, detail: what to install). Nothing is
+        known to be wrong with them, but the check is incomplete.
     """
 
     path: Path
@@ -111,11 +116,12 @@ class VerifyReport:
     arrays_checked: int = 0
     problems: list[Problem] = field(default_factory=list)
     warnings: list[Problem] = field(default_factory=list)
+    skipped: list[Problem] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        """Whether nothing failed (warnings allowed)."""
-        return not self.problems
+        """Whether nothing failed and nothing was skipped (warnings allowed)."""
+        return not self.problems and not self.skipped
 
     @property
     def mismatches(self) -> list[str]:
@@ -127,8 +133,15 @@ class VerifyReport:
         arrays = f"{self.arrays_checked} arrays"
         checked = f"{self.files_checked} files and {arrays}" if self.kind == "release" else arrays
         if self.ok:
-            extra = f", {len(self.warnings)} warnings" if self.warnings else ""
+            extra = ""
+            if self.warnings:
+                count = len(self.warnings)
+                extra = (f", {count} warning{'s' if count != 1 else ''}: "
+                         + "; ".join(str(warning) for warning in self.warnings))
             return f"{self.path}: OK ({checked} verified{extra})"
+        if not self.problems:
+            shown = "; ".join(str(problem) for problem in self.skipped)
+            return f"{self.path}: NOT VERIFIED ({checked} verified; skipped {shown})"
         shown = "; ".join(str(problem) for problem in self.problems[:_SUMMARY_ITEMS])
         more = len(self.problems) - _SUMMARY_ITEMS
         tail = f"; and {more} more" if more > 0 else ""
@@ -141,10 +154,15 @@ class VerifyReport:
         Raises
         ------
         VerificationError
-            With :meth:`summary` as its one-line message.
+            With :meth:`summary` as its one-line message, if anything mismatches.
+        MissingDependencyError
+            If nothing mismatches but an archive was skipped for lack of a
+            package (the message says which to install).
         """
-        if not self.ok:
+        if self.problems:
             raise VerificationError(self.summary())
+        if self.skipped:
+            raise MissingDependencyError(self.summary())
 
     def to_dict(self) -> dict[str, Any]:
         """Return the report as JSON types."""
@@ -156,6 +174,7 @@ class VerifyReport:
             "arrays_checked": self.arrays_checked,
             "problems": [problem.to_dict() for problem in self.problems],
             "warnings": [problem.to_dict() for problem in self.warnings],
+            "skipped": [problem.to_dict() for problem in self.skipped],
         }
 
 
@@ -320,6 +339,9 @@ def _check_arrays(
     digests: dict[str, str | None] = {}
     try:
         reader = open_store(store_path)
+    except MissingDependencyError as err:
+        report.skipped.append(Problem("skipped", label, f"arrays not checked: {err}"))
+        return digests
     except VerificationError as err:
         report.problems.append(Problem("attrs", label, str(err)))
         return digests
@@ -372,6 +394,28 @@ def _compare_archives(found: dict[str, dict[str, str | None]], report: VerifyRep
                 ))
 
 
+def _croissant_sums(folder: Path) -> dict[str, str]:
+    """File -> SHA-256 as ``croissant.json`` lists them: a second witness beside the manifest."""
+    import json
+
+    try:
+        document = json.loads((folder / "croissant.json").read_text(encoding="utf-8"))
+        return {str(item["contentUrl"]): str(item["sha256"]).lower()
+                for item in document.get("distribution", [])
+                if isinstance(item, dict) and "contentUrl" in item and "sha256" in item}
+    except (OSError, ValueError, AttributeError, TypeError):
+        return {}
+
+
+def _is_release_folder(path: Path) -> bool:
+    """A folder that is a release rather than a build: a manifest, Croissant or archives."""
+    if (path / "dataset.zarr").exists() or (path / "dataset.h5").exists():
+        return False
+    if (path / MANIFEST_NAME).exists() or (path / "croissant.json").exists():
+        return True
+    return any(_is_archive(entry) for entry in path.iterdir() if not entry.name.startswith("."))
+
+
 def _verify_release(folder: Path) -> VerifyReport:
     report = VerifyReport(path=folder, kind="release")
     manifest = folder / MANIFEST_NAME
@@ -384,24 +428,37 @@ def _verify_release(folder: Path) -> VerifyReport:
         except (VerificationError, UnicodeDecodeError) as err:
             report.problems.append(Problem("manifest", MANIFEST_NAME, str(err)))
     present = set(_list_files(folder)) - {MANIFEST_NAME}
-    for relative, expected in listed.items():
+    witness = _croissant_sums(folder)
+    for number, (relative, expected) in enumerate(listed.items(), start=1):
         file = folder / relative
         if not file.is_file():
             report.problems.append(Problem("missing", relative, "listed in SHA256SUMS, not found"))
             continue
         report.files_checked += 1
         actual = sha256_file(file)
-        if actual != expected:
+        if actual == expected:
+            continue
+        if witness.get(relative) == actual:
+            # The file is what croissant.json says it is: the manifest line is wrong.
             report.problems.append(Problem(
-                "checksum", relative,
-                f"checksum mismatch (expected {_short(expected)}, got {_short(actual)})",
+                "manifest", MANIFEST_NAME,
+                f"the line for {relative} has digest {_short(expected)}, but the file matches "
+                f"croissant.json ({_short(actual)}); the manifest is damaged",
             ))
+            continue
+        report.problems.append(Problem(
+            "checksum", relative,
+            f"checksum mismatch (expected {_short(expected)}, got {_short(actual)})",
+        ))
     if listed:
         for relative in sorted(present - set(listed)):
             report.warnings.append(Problem("extra", relative, "not listed in SHA256SUMS"))
     archives = sorted(
-        entry for entry in folder.iterdir() if _is_archive(entry)
+        entry for entry in folder.iterdir() if _is_archive(entry) and not entry.name.startswith(".")
     )
+    if not archives:
+        report.problems.append(Problem("missing", folder.name or str(folder),
+                                       "no archive (*.zarr.zip, *.h5) in the release"))
     found = {}
     for archive in archives:
         found[archive.name] = _check_arrays(archive, archive.name, report)
@@ -415,11 +472,13 @@ def verify(path: Path | str) -> VerifyReport:
     Parameters
     ----------
     path : Path or str
-        A release folder (it holds ``SHA256SUMS``, or ``croissant.json`` when
-        the manifest is lost): every listed file is re-hashed against the
-        manifest, files it does not list become warnings, then every array of
-        every archive in the folder is re-hashed against its ``sha256``
-        attribute and compared across archives. Otherwise any path
+        A release folder (it holds ``SHA256SUMS``, ``croissant.json`` or
+        archives, and no ``dataset.zarr``/``dataset.h5`` of a build): every
+        listed file is re-hashed against the manifest (a missing manifest is
+        a problem), files it does not list become warnings, then every array
+        of every archive in the folder is re-hashed against its ``sha256``
+        attribute and compared across archives. An archive that cannot be
+        opened for lack of a package is ``skipped``, not damaged. Otherwise any path
         :func:`vptoolkit.dataset.store.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
 
@@ -438,9 +497,8 @@ def verify(path: Path | str) -> VerifyReport:
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file or folder")
-    if path.is_dir() and not path.name.endswith(".zarr"):
-        if (path / MANIFEST_NAME).exists() or (path / "croissant.json").exists():
-            return _verify_release(path)
+    if path.is_dir() and not path.name.endswith(".zarr") and _is_release_folder(path):
+        return _verify_release(path)
     from vptoolkit.dataset.store import find_store
 
     store_path = find_store(path)

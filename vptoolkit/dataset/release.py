@@ -1,13 +1,22 @@
 """Pack a built dataset into a release folder.
 
-A release folder holds, for ``name = "vptoolkit-viewpoints"``::
+A release folder holds, for ``name = "vptoolkit-viewpoints"`` and
+``version = "1.0.0"``::
 
-    vptoolkit-viewpoints.zarr.zip   Zarr v3 zip store
-    vptoolkit-viewpoints.h5         HDF5 file, same arrays and attributes
-    README.md                       dataset card (YAML header + datasheet)
-    croissant.json                  Croissant 1.0 JSON-LD, FileObjects with SHA-256
+    vptoolkit-viewpoints-1.0.0.zarr.zip    Zarr v3 zip store             (format zarr)
+    vptoolkit-viewpoints-1.0.0.h5          HDF5 file, same arrays        (format hdf5)
+    data/<split>-00000-of-00001.parquet    one row per model per split   (format parquet)
+    views/views-00000-of-00001.parquet     the shared view directions    (format parquet)
+    README.md                       dataset card (hub YAML header + datasheet)
+    croissant.json                  Croissant 1.1 JSON-LD, record sets over the Parquet shards
     dataset_info.json               :func:`~vptoolkit.dataset.card.dataset_info` as JSON
+    SCHEMA.md                       the layout of the archives
+    LICENSES.csv                    per-mesh licence and attribution (with ``licenses``)
     SHA256SUMS                      ``sha256sum`` manifest of every other file
+
+Packing is reproducible: the same build, options and ``created`` time give
+the same bytes in every file, so a third party can rebuild a release and
+compare its ``SHA256SUMS``.
 
 :func:`pack_release` writes all of it into a hidden temporary sibling folder
 and renames that into place at the end, so the release folder either does not
@@ -19,14 +28,18 @@ here so the command line needs one import.
 
 from __future__ import annotations
 
+import csv
+import dataclasses
 import errno
+import importlib.resources
 import json
 import os
 import re
 import shutil
 import tempfile
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
@@ -38,19 +51,27 @@ from vptoolkit.dataset.card import (
     render_card,
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
+from vptoolkit.dataset.store import SPLITS, ModelEntry, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.files import write_text_atomic
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import ModelEntry, StoreReader
+    from vptoolkit.dataset.parquet import ParquetShard
+    from vptoolkit.dataset.store import StoreReader
 
 __all__ = [
     "DEFAULT_NAME",
+    "DEFAULT_VERSION",
+    "FORMATS",
+    "LICENSE_COLUMNS",
+    "read_licenses",
+    "release_created",
     "CARD_NAME",
     "CROISSANT_NAME",
     "INFO_NAME",
     "ReleaseResult",
     "pack_release",
+    "update_card",
     "verify",
     "VerifyReport",
     "dataset_info",
@@ -63,8 +84,21 @@ DEFAULT_NAME = "vptoolkit-viewpoints"
 CARD_NAME = "README.md"
 CROISSANT_NAME = "croissant.json"
 INFO_NAME = "dataset_info.json"
+SCHEMA_NAME = "SCHEMA.md"
+LICENSES_NAME = "LICENSES.csv"
+
+FORMATS = ("parquet", "zarr", "hdf5")
+"""Containers :func:`pack_release` can write; all three by default."""
+
+DEFAULT_VERSION = "1.0.0"
+"""Dataset version when :func:`pack_release` is given none."""
+
+LICENSE_COLUMNS = ("name", "license", "author", "url")
+"""Header of a per-mesh licence table (``--licenses FILE.csv``)."""
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+_VERSION = re.compile(r"(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)")
+_CREATED = "%Y-%m-%dT%H:%M:%SZ"
 
 
 @dataclass(frozen=True)
@@ -77,10 +111,11 @@ class ReleaseResult:
         The release folder.
     name : str
         Base name of the archives.
-    zarr_zip : Path
-        The Zarr v3 zip store, ``<path>/<name>.zarr.zip``.
-    hdf5 : Path
-        The HDF5 file, ``<path>/<name>.h5``.
+    zarr_zip : Path or None
+        The Zarr v3 zip store, ``<path>/<name>-<version>.zarr.zip`` (None
+        without the ``zarr`` format).
+    hdf5 : Path or None
+        The HDF5 file, ``<path>/<name>-<version>.h5`` (None without ``hdf5``).
     card : Path
         The dataset card, ``README.md``.
     croissant : Path
@@ -93,18 +128,31 @@ class ReleaseResult:
         Models in the release.
     n_failures : int
         Inputs the build could not process (listed in the archives and the card).
+    version : str
+        The dataset version.
+    created : str
+        The release time written everywhere, ISO 8601 UTC.
+    parquet : tuple of Path
+        The Parquet shards (empty without the ``parquet`` format).
+    warnings : tuple of str
+        One line per thing a publisher should know (an empty split, models
+        without a licence).
     """
 
     path: Path
     name: str
-    zarr_zip: Path
-    hdf5: Path
+    zarr_zip: Path | None
+    hdf5: Path | None
     card: Path
     croissant: Path
     manifest: Path
     files: dict[str, str]
     n_models: int
     n_failures: int
+    version: str = DEFAULT_VERSION
+    created: str = ""
+    parquet: tuple[Path, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     @property
     def total_bytes(self) -> int:
@@ -112,12 +160,33 @@ class ReleaseResult:
         return sum((self.path / name).stat().st_size for name in [*self.files, MANIFEST_NAME])
 
 
-class _ReaderEntries(Sequence["ModelEntry"]):
-    """The models of an open store as a lazy sequence: entry ``i`` is read on access."""
+@dataclass(frozen=True, eq=False)
+class _ReleaseEntry(ModelEntry):
+    """A model as it goes into a release: its record also carries its provenance."""
 
-    def __init__(self, reader: StoreReader) -> None:
+    provenance: dict[str, str] | None = None
+
+    def record(self) -> dict[str, Any]:
+        """The model's record, with ``provenance`` (licence, author, url) when known."""
+        record = super().record()
+        if self.provenance is not None:
+            record["provenance"] = dict(self.provenance)
+        return record
+
+
+class _ReaderEntries(Sequence["ModelEntry"]):
+    """The models of an open store as a lazy sequence: entry ``i`` is read on access.
+
+    Splits come out under their published names, and a model named in
+    ``provenance`` gets its licence, author and url.
+    """
+
+    def __init__(self, reader: StoreReader,
+                 provenance: Mapping[str, dict[str, str]] | None = None) -> None:
         self._reader = reader
-        self._length = len(reader.models())
+        self._records = reader.models()
+        self._length = len(self._records)
+        self._provenance = provenance or {}
 
     def __len__(self) -> int:
         return self._length
@@ -130,8 +199,13 @@ class _ReaderEntries(Sequence["ModelEntry"]):
 
     def __getitem__(self, index: int | slice) -> ModelEntry | Sequence[ModelEntry]:
         if isinstance(index, slice):
-            return [self._reader.entry(i) for i in range(*index.indices(self._length))]
-        return self._reader.entry(index)
+            return [self[i] for i in range(*index.indices(self._length))]
+        entry = self._reader.entry(index)
+        fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
+        fields["split"] = published_split(entry.split)
+        fields["provenance"] = (self._provenance.get(entry.name)
+                                or self._records[index].get("provenance"))
+        return _ReleaseEntry(**fields)
 
 
 def _check_name(name: str) -> None:
@@ -182,6 +256,152 @@ def _publish(staging: Path, release_dir: Path) -> None:
         raise
 
 
+def _check_formats(formats: Sequence[str]) -> tuple[str, ...]:
+    chosen = tuple(dict.fromkeys(formats))
+    unknown = [f for f in chosen if f not in FORMATS]
+    if unknown or not chosen:
+        raise InputError(f"formats: expected one or more of {', '.join(FORMATS)}, got "
+                         f"{', '.join(formats) or 'none'}")
+    return chosen
+
+
+def _require_formats(formats: Sequence[str]) -> None:
+    """Fail before any work when a chosen format's library is missing."""
+    from vptoolkit.dataset.store import _require_zarr
+    from vptoolkit.optional import require
+
+    if "zarr" in formats:
+        _require_zarr()
+    if "parquet" in formats:
+        require("pyarrow", extra="dataset")
+
+
+def _check_version(version: str) -> str:
+    if not isinstance(version, str) or not _VERSION.fullmatch(version):
+        raise InputError(f"version: {version!r} is not MAJOR.MINOR.PATCH (e.g. 1.0.0)")
+    return version
+
+
+def release_created(created: str | None, default: str | None) -> str:
+    """The release time to write, ISO 8601 UTC (``2026-01-02T03:04:05Z``).
+
+    Parameters
+    ----------
+    created : str, optional
+        An ISO 8601 time; one without a zone is taken as UTC.
+    default : str, optional
+        Used when ``created`` is None and ``SOURCE_DATE_EPOCH`` is unset
+        (the build's own ``created`` attribute).
+
+    Returns
+    -------
+    str
+        ``created``, else ``$SOURCE_DATE_EPOCH`` (seconds since 1970, the
+        reproducible-builds convention), else ``default``, else now.
+
+    Raises
+    ------
+    InputError
+        If ``created`` or ``SOURCE_DATE_EPOCH`` cannot be read.
+    """
+    if created is not None:
+        try:
+            moment = datetime.fromisoformat(created.replace("Z", "+00:00"))
+        except ValueError as err:
+            raise InputError(f"created: {created!r} is not an ISO 8601 time") from err
+        if moment.tzinfo is None:
+            moment = moment.replace(tzinfo=timezone.utc)
+        return moment.astimezone(timezone.utc).strftime(_CREATED)
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch:
+        if not epoch.isdigit():
+            raise InputError(f"SOURCE_DATE_EPOCH: {epoch!r} is not a whole number of seconds")
+        return datetime.fromtimestamp(int(epoch), timezone.utc).strftime(_CREATED)
+    if default:
+        return default
+    return datetime.now(timezone.utc).strftime(_CREATED)
+
+
+def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
+    """Read a per-mesh licence table.
+
+    Parameters
+    ----------
+    path : Path or str
+        A UTF-8 CSV file whose header holds ``name``, ``license``, ``author``
+        and ``url`` (other columns are ignored); one row per model name.
+
+    Returns
+    -------
+    dict
+        Model name -> ``{"license", "author", "url"}`` (empty cells dropped).
+
+    Raises
+    ------
+    InputError
+        On a missing column, an empty name or licence, or a repeated name;
+        the message names the file and the line.
+    """
+    source = Path(path)
+    try:
+        text = source.read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as err:
+        raise InputError(f"{source.name}: cannot read ({err})") from err
+    rows = csv.DictReader(text.splitlines())
+    missing = [c for c in LICENSE_COLUMNS if c not in (rows.fieldnames or [])]
+    if missing:
+        raise InputError(f"{source.name}: header lacks the column(s) {', '.join(missing)}")
+    table: dict[str, dict[str, str]] = {}
+    for line, row in enumerate(rows, start=2):
+        name = (row.get("name") or "").strip()
+        licence = (row.get("license") or "").strip()
+        if not name or not licence:
+            raise InputError(f"{source.name}: line {line} needs a name and a license")
+        if name in table:
+            raise InputError(f"{source.name}: line {line} repeats the model {name!r}")
+        table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
+                       if (row.get(key) or "").strip()}
+    return table
+
+
+def _write_licenses(path: Path, records: Sequence[Mapping[str, Any]]) -> None:
+    lines = [",".join(LICENSE_COLUMNS)]
+    for record in records:
+        provenance = record.get("provenance") or {}
+        cells = [record["name"], *(provenance.get(key, "") for key in LICENSE_COLUMNS[1:])]
+        lines.append(",".join(_csv_cell(str(cell)) for cell in cells))
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8", newline="\n")
+
+
+def _csv_cell(text: str) -> str:
+    if any(c in text for c in ',"\n'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _copy_schema(target: Path) -> None:
+    resource = importlib.resources.files("vptoolkit.dataset_card").joinpath(SCHEMA_NAME)
+    target.write_text(resource.read_text(encoding="utf-8"), encoding="utf-8", newline="\n")
+
+
+def _release_warnings(records: Sequence[Mapping[str, Any]], has_licenses: bool) -> list[str]:
+    found = []
+    counts = {split: 0 for split in SPLITS}
+    for record in records:
+        counts[published_split(str(record["split"]))] = counts.get(
+            published_split(str(record["split"])), 0) + 1
+    for split, count in counts.items():
+        if count == 0:
+            found.append(f"split {split!r} is empty: no model will be "
+                         f"{'tested' if split == 'test' else 'used'} from it")
+    if has_licenses:
+        unlicensed = [r["name"] for r in records if not r.get("provenance")]
+        if unlicensed:
+            shown = ", ".join(unlicensed[:5]) + (" ..." if len(unlicensed) > 5 else "")
+            found.append(f"{len(unlicensed)} model(s) have no row in the licence table: {shown}")
+    return found
+
+
 def pack_release(
     dataset: Path | str,
     release_dir: Path | str,
@@ -189,15 +409,26 @@ def pack_release(
     name: str | None = None,
     license: str = "other",  # noqa: A002 - the dataset-hub field is called license
     progress: bool = False,
+    formats: Sequence[str] = FORMATS,
+    version: str = DEFAULT_VERSION,
+    created: str | None = None,
+    pretty_name: str | None = None,
+    source_url: str | None = None,
+    url: str | None = None,
+    creator: str | None = None,
+    licenses: Path | str | Mapping[str, dict[str, str]] | None = None,
+    license_name: str | None = None,
+    license_link: str | None = None,
 ) -> ReleaseResult:
     """Pack a built dataset into a release folder.
 
-    The models are copied entry by entry (never all in memory) into a Zarr v3
-    zip store and an HDF5 file with the same attributes and failure log, then
-    the dataset card, Croissant metadata, a JSON summary and the
-    ``SHA256SUMS`` manifest are written. Everything goes into a hidden
-    temporary sibling of ``release_dir`` that is renamed into place at the
-    end; on any error it is removed and ``release_dir`` is left as it was.
+    The models are copied entry by entry (never all in memory) into the
+    chosen containers (a Zarr v3 zip store, an HDF5 file, Parquet shards
+    per split), then the dataset card, Croissant metadata, a JSON summary,
+    ``SCHEMA.md`` and the ``SHA256SUMS`` manifest are written. Everything
+    goes into a hidden temporary sibling of ``release_dir`` that is renamed
+    into place at the end; on any error it is removed and ``release_dir`` is
+    left as it was.
 
     Parameters
     ----------
@@ -208,55 +439,122 @@ def pack_release(
         Output folder; must not exist or be empty. Its parent folders are
         created.
     name : str, optional
-        Base name of the archives (default: ``"vptoolkit-viewpoints"``).
+        Base name of the archives (default: ``"vptoolkit-viewpoints"``); the
+        files are called ``<name>-<version>.zarr.zip`` and ``.h5``.
     license : str
         Licence identifier of the annotations for the card and Croissant
         metadata (default: ``"other"``; the source meshes' licences apply).
     progress : bool
         Show progress bars while the archives are written (default: False).
+    formats : sequence of str
+        Containers to write, from :data:`FORMATS` (default: all three).
+    version : str
+        Dataset version ``MAJOR.MINOR.PATCH`` (default: ``"1.0.0"``), written
+        into the attributes (``dataset_version``), card, Croissant and file
+        names.
+    created : str, optional
+        Release time, ISO 8601 (default: ``$SOURCE_DATE_EPOCH``, else the
+        build's ``created``); written into the archives' ``created``
+        attribute, the card and Croissant. The same build, options and
+        ``created`` give byte-identical files.
+    pretty_name : str, optional
+        Title of the card and Croissant name (default: from the source name).
+    source_url : str, optional
+        Where the source meshes come from.
+    url : str, optional
+        Where the release is published (Croissant ``url``).
+    creator : str, optional
+        Who made the release (Croissant ``creator``; default ``"vptoolkit"``).
+    licenses : Path, str or mapping, optional
+        A per-mesh licence table (:func:`read_licenses`) or its parsed
+        mapping; each model's record then carries ``provenance``, the card
+        tables it and the release ships it as ``LICENSES.csv``.
+    license_name, license_link : str, optional
+        The hub's ``license_name`` / ``license_link`` for ``license="other"``
+        (default: ``"source-mesh-licenses"`` and ``LICENSES.csv`` or
+        ``README.md``).
 
     Returns
     -------
     ReleaseResult
+        ``warnings`` names an empty split and models without a licence.
 
     Raises
     ------
     InputError
-        If ``release_dir`` exists and is not an empty folder, ``name`` is not a
-        plain file name, or ``dataset`` holds no readable store.
+        If ``release_dir`` exists and is not an empty folder, ``name``,
+        ``version``, ``created`` or ``formats`` is malformed, the licence
+        table is bad, or ``dataset`` holds no readable store.
+    MissingDependencyError
+        If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
+        install 'vptoolkit[dataset]'``).
     """
     from vptoolkit.dataset.store import find_store, open_store, write_dataset
 
     base = DEFAULT_NAME if name is None else name
     _check_name(base)
+    chosen = _check_formats(formats)
+    _check_version(version)
     target = Path(release_dir)
     _check_release_dir(target)
+    provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
+                  else dict(licenses) if licenses is not None else None)
     source = find_store(dataset)
+    _require_formats(chosen)
     target.parent.mkdir(parents=True, exist_ok=True)
 
-    zip_name, h5_name = f"{base}.zarr.zip", f"{base}.h5"
+    stem = f"{base}-{version}"
+    archive_names = {"zarr": f"{stem}.zarr.zip", "hdf5": f"{stem}.h5"}
+    written = [archive_names[f] for f in ("zarr", "hdf5") if f in chosen]
+    # Without an archive, a hidden HDF5 copy serves the descriptions and is removed.
+    described_name = written[0] if written else f".{stem}.describe.h5"
     staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial",
                                     dir=target.parent))
     try:
         with open_store(source) as reader:
-            entries = _ReaderEntries(reader)
+            attrs = dict(reader.attrs)
+            when = release_created(created, attrs.get("created"))
+            attrs["created"] = when
+            attrs["dataset_version"] = version
+            entries = _ReaderEntries(reader, provenance)
             views = reader.array("views")[:]
             failures = reader.failures()
-            for archive in (zip_name, h5_name):
-                write_dataset(staging / archive, entries, attrs=dict(reader.attrs), views=views,
+            for archive in dict.fromkeys([*written, described_name]):
+                write_dataset(staging / archive, entries, attrs=attrs, views=views,
                               failures=failures, progress=progress)
-        archives = {archive: sha256_file(staging / archive) for archive in (zip_name, h5_name)}
-        sizes = {archive: (staging / archive).stat().st_size for archive in archives}
-        with open_store(staging / zip_name) as packed:
-            info = info_from_reader(packed)
-            card = render_card(packed, archives, license=license, file_sizes=sizes)
+        digests = {archive: sha256_file(staging / archive) for archive in written}
+        shards: list[ParquetShard] = []
+        with open_store(staging / described_name) as packed:
+            records = packed.models()
+            if "parquet" in chosen:
+                from vptoolkit.dataset.parquet import write_parquet_shards
+
+                shards = write_parquet_shards(packed, staging)
+                digests.update({s.path: sha256_file(staging / s.path) for s in shards})
+            found = _release_warnings(records, provenance is not None)
+            if provenance is not None:
+                _write_licenses(staging / LICENSES_NAME, records)
+            _copy_schema(staging / SCHEMA_NAME)
+            for extra in (LICENSES_NAME, SCHEMA_NAME):
+                if (staging / extra).exists():
+                    digests[extra] = sha256_file(staging / extra)
+            sizes = {file: (staging / file).stat().st_size for file in digests}
+            options = _ReleaseOptions(
+                license=license, version=version, created=when, pretty_name=pretty_name,
+                source_url=source_url, url=url, creator=creator,
+                license_name=license_name or ("source-mesh-licenses" if license == "other"
+                                              else None),
+                license_link=license_link or (
+                    (LICENSES_NAME if provenance is not None else CARD_NAME)
+                    if license == "other" else None),
+            )
+            card = render_card(packed, digests, file_sizes=sizes, shards=shards,
+                               **options.card_arguments(), warnings=found)
             (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
-            described = dict(archives)
-            described[CARD_NAME] = sha256_file(staging / CARD_NAME)
-            sizes[CARD_NAME] = (staging / CARD_NAME).stat().st_size
-            croissant = croissant_jsonld(packed, described, license=license,
-                                         file_sizes=sizes)
-        _write_json(staging / CROISSANT_NAME, croissant)
+            _write_descriptions(staging, packed, digests, sizes, shards, options)
+            info = info_from_reader(packed)
+        if described_name not in written:
+            (staging / described_name).unlink()
         _write_json(staging / INFO_NAME, info)
         files = write_sha256sums(staging)
         _check_release_dir(target)
@@ -267,12 +565,121 @@ def pack_release(
     return ReleaseResult(
         path=target,
         name=base,
-        zarr_zip=target / zip_name,
-        hdf5=target / h5_name,
+        zarr_zip=target / archive_names["zarr"] if "zarr" in chosen else None,
+        hdf5=target / archive_names["hdf5"] if "hdf5" in chosen else None,
         card=target / CARD_NAME,
         croissant=target / CROISSANT_NAME,
         manifest=target / MANIFEST_NAME,
         files=files,
         n_models=int(info["n_models"]),
         n_failures=int(info["n_failures"]),
+        version=version,
+        created=when,
+        parquet=tuple(target / s.path for s in shards),
+        warnings=tuple(found),
     )
+
+
+@dataclass(frozen=True)
+class _ReleaseOptions:
+    """What a publisher said about a release, kept in ``croissant.json`` for later rewrites."""
+
+    license: str
+    version: str
+    created: str
+    pretty_name: str | None = None
+    source_url: str | None = None
+    url: str | None = None
+    creator: str | None = None
+    license_name: str | None = None
+    license_link: str | None = None
+
+    def card_arguments(self) -> dict[str, Any]:
+        return {"license": self.license, "pretty_name": self.pretty_name,
+                "version": self.version, "created": self.created,
+                "source_url": self.source_url, "license_name": self.license_name,
+                "license_link": self.license_link}
+
+
+def _write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],
+                        sizes: Mapping[str, int], shards: Sequence[ParquetShard],
+                        options: _ReleaseOptions) -> None:
+    """Write croissant.json from the card in ``folder`` (which it lists with its digest)."""
+    card = (folder / CARD_NAME).read_text(encoding="utf-8")
+    described = dict(digests)
+    described[CARD_NAME] = sha256_file(folder / CARD_NAME)
+    all_sizes = dict(sizes)
+    all_sizes[CARD_NAME] = (folder / CARD_NAME).stat().st_size
+    croissant = croissant_jsonld(
+        reader, described, license=options.license, name=options.pretty_name, file_sizes=all_sizes, shards=shards, card=card,
+        version=options.version, date_published=options.created, url=options.url,
+        source_url=options.source_url, creator=options.creator,
+    )
+    _write_json(folder / CROISSANT_NAME, croissant)
+
+
+def update_card(release_dir: Path | str) -> list[str]:
+    """Bring ``croissant.json`` and ``SHA256SUMS`` in line with an edited card.
+
+    A person may edit a release's ``README.md`` (wording, a contact, a
+    correction). This rewrites what depends on it: in ``croissant.json`` the
+    card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
+    text, then ``SHA256SUMS``. Archives, shards and every other file are
+    checked against the manifest first and never written.
+
+    Parameters
+    ----------
+    release_dir : Path or str
+        A release folder written by :func:`pack_release`.
+
+    Returns
+    -------
+    list of str
+        The files rewritten: ``["croissant.json", "SHA256SUMS"]``.
+
+    Raises
+    ------
+    InputError
+        If the folder lacks ``README.md``, ``croissant.json`` or
+        ``SHA256SUMS``, or ``croissant.json`` is not JSON.
+    VerificationError
+        If a file other than the card and the files derived from it differs
+        from the manifest: only the card may be edited.
+    """
+    from vptoolkit.dataset.card import rai_fields
+    from vptoolkit.dataset.manifest import read_sha256sums
+    from vptoolkit.errors import VerificationError
+
+    folder = Path(release_dir)
+    for required in (CARD_NAME, CROISSANT_NAME, MANIFEST_NAME):
+        if not (folder / required).is_file():
+            raise InputError(f"{folder / required}: missing; --update-card needs a packed release")
+    derived = {CARD_NAME, CROISSANT_NAME}
+    for relative, digest in read_sha256sums(folder / MANIFEST_NAME).items():
+        if relative in derived:
+            continue
+        if not (folder / relative).is_file() or sha256_file(folder / relative) != digest:
+            raise VerificationError(
+                f"{relative}: differs from SHA256SUMS; only {CARD_NAME} may be edited "
+                "(run vptool verify to see what changed)"
+            )
+    try:
+        document = json.loads((folder / CROISSANT_NAME).read_text(encoding="utf-8"))
+    except ValueError as err:
+        raise InputError(f"{CROISSANT_NAME}: not JSON ({err})") from err
+    card = (folder / CARD_NAME).read_text(encoding="utf-8")
+    for key in [key for key in document if key.startswith("rai:")]:
+        del document[key]
+    rai = rai_fields(card)
+    distribution = document.pop("distribution", [])
+    record_sets = document.pop("recordSet", [])
+    document.update(rai)
+    for item in distribution:
+        if isinstance(item, dict) and item.get("contentUrl") == CARD_NAME:
+            item["sha256"] = sha256_file(folder / CARD_NAME)
+            item["contentSize"] = f"{(folder / CARD_NAME).stat().st_size} B"
+    document["distribution"] = distribution
+    document["recordSet"] = record_sets
+    _write_json(folder / CROISSANT_NAME, document)
+    write_sha256sums(folder)
+    return [CROISSANT_NAME, MANIFEST_NAME]

@@ -29,6 +29,7 @@ only the one for the container in use.
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata
 import json
 import math
 import os
@@ -46,8 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.optional import require
+from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
+from vptoolkit.optional import is_available, require
 
 __all__ = [
     "FORMAT_NAME",
@@ -56,6 +57,8 @@ __all__ = [
     "BUILD_ATTRS",
     "WRITER_ATTRS",
     "SPLITS",
+    "SPLIT_ALIASES",
+    "published_split",
     "FAILURE_KEYS",
     "ModelEntry",
     "write_dataset",
@@ -66,6 +69,7 @@ __all__ = [
     "array_sha256",
     "json_bytes",
     "from_json_bytes",
+    "zarr_is_usable",
 ]
 
 FORMAT_NAME = "vptoolkit-viewpoint-dataset"
@@ -118,8 +122,30 @@ WRITER_ATTRS = (
 )
 """Root attributes :func:`write_dataset` sets itself."""
 
-SPLITS = ("train", "val", "test")
-"""The split names a model record may carry."""
+SPLITS = ("train", "validation", "test")
+"""The split names, one vocabulary everywhere a user sees one.
+
+The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
+shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
+hub does. Stores written before it (and builds, schema 1) may record
+``"val"``; :func:`published_split` maps it, and every API that takes a split
+accepts ``"val"`` as an alias.
+"""
+
+SPLIT_ALIASES = {"val": "validation"}
+"""Other names a model record or a caller may use for a split in :data:`SPLITS`."""
+
+
+def published_split(name: str) -> str:
+    """The name in :data:`SPLITS` of a split, resolving aliases.
+
+    Examples
+    --------
+    >>> published_split("val"), published_split("test")
+    ('validation', 'test')
+    """
+    return SPLIT_ALIASES.get(name, name)
+
 
 FAILURE_KEYS = ("source", "category", "reason")
 """The keys of one record of ``failures_json``."""
@@ -146,7 +172,7 @@ class ModelEntry:
     category : str
         Category, e.g. ``"airplane"``.
     split : str
-        ``"train"``, ``"val"`` or ``"test"``.
+        ``"train"``, ``"validation"`` (or its alias ``"val"``) or ``"test"``.
     source : str
         Path of the source mesh relative to the source folder.
     source_sha256 : str
@@ -385,7 +411,10 @@ def find_store(path: str | os.PathLike[str]) -> Path:
     if built:
         return built[0]
     visible = sorted(p for p in target.iterdir() if not p.name.startswith("."))
-    for suffixes in ((".zarr.zip",), (".h5", ".hdf5")):
+    containers: list[tuple[str, ...]] = [(".zarr.zip",), (".h5", ".hdf5")]
+    if not zarr_is_usable() and is_available("h5py"):
+        containers.reverse()  # a release holds both: open the one this install can read
+    for suffixes in containers:
         found = [p for p in visible if p.is_file() and p.name.lower().endswith(suffixes)]
         if len(found) == 1:
             return found[0]
@@ -456,7 +485,7 @@ def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None) 
                 f"entries[{position}]: {field} must be a non-empty string, got {value!r}"
             )
     name = entry.name
-    if entry.split not in SPLITS:
+    if published_split(entry.split) not in SPLITS:
         raise InputError(f"entries: model {name!r}, split {entry.split!r} is not one of {SPLITS}")
     if not _SHA256_HEX.fullmatch(entry.source_sha256):
         raise InputError(f"entries: model {name!r}, source_sha256 is not 64 lower-case hex digits")
@@ -651,7 +680,7 @@ class _ZarrSink:
     """Writes a Zarr v3 hierarchy to a directory or a zip file."""
 
     def __init__(self, path: Path, kind: str, root_attrs: dict[str, Any]) -> None:
-        zarr = require("zarr", extra="dataset")
+        zarr = _require_zarr()
         self._codec = zarr.codecs.BloscCodec(
             cname="zstd", clevel=5, shuffle=zarr.codecs.BloscShuffle.shuffle
         )
@@ -702,7 +731,7 @@ class _Hdf5Sink:
     """Writes the layout to an HDF5 file."""
 
     def __init__(self, path: Path, root_attrs: dict[str, Any]) -> None:
-        h5py = require("h5py", extra="dataset")
+        h5py = require("h5py")  # a core dependency
         self._file = h5py.File(path, "w", track_order=True)
         json_keys = []
         int64 = np.iinfo(np.int64)
@@ -799,6 +828,9 @@ def _move_into_place(temporary: Path, target: Path, kind: str) -> None:
         os.chmod(temporary, 0o666 & ~umask)  # mkstemp made it private (0600)
         os.replace(temporary, target)
         return
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o777 & ~umask)  # mkdtemp made it private (0700)
     if not target.exists():
         os.rename(temporary, target)
         return
@@ -1153,8 +1185,32 @@ class StoreReader:
             raise InputError(f"{self.path.name}: {name} is not UTF-8 JSON") from err
 
 
-def _open_zarr(path: Path, kind: str) -> tuple[Any, Any, dict[str, Any], list[str]]:
+def zarr_is_usable() -> bool:
+    """Whether zarr >= 3 (which reads Zarr v3 stores) is installed, without importing it."""
+    if not is_available("zarr"):
+        return False
+    try:
+        major = importlib.metadata.version("zarr").split(".")[0]
+    except importlib.metadata.PackageNotFoundError:
+        return False
+    return major.isdigit() and int(major) >= 3
+
+
+def _require_zarr() -> Any:
+    """zarr >= 3, or a MissingDependencyError saying what to install instead."""
     zarr = require("zarr", extra="dataset")
+    version = str(getattr(zarr, "__version__", "0"))
+    major = version.split(".")[0]
+    if not (major.isdigit() and int(major) >= 3):
+        raise MissingDependencyError(
+            f"zarr {version}: Zarr v3 stores need zarr>=3 (Python >= 3.11); install it with "
+            "pip install 'zarr>=3', or read the release's .h5 file with h5py"
+        )
+    return zarr
+
+
+def _open_zarr(path: Path, kind: str) -> tuple[Any, Any, dict[str, Any], list[str]]:
+    zarr = _require_zarr()
     if kind == "zarr-zip":
         # Check the zip first: zarr 3.1's ZipStore.close() raises AttributeError
         # after a failed open, which would hide the real error.
@@ -1176,7 +1232,7 @@ def _open_zarr(path: Path, kind: str) -> tuple[Any, Any, dict[str, Any], list[st
 
 
 def _open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
-    h5py = require("h5py", extra="dataset")
+    h5py = require("h5py")  # a core dependency
     handle = h5py.File(path, "r")
     is_open = False
     try:

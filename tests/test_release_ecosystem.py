@@ -1,0 +1,538 @@
+"""A release as the ML-datasets ecosystem sees it: Parquet for datasets, Croissant for
+mlcroissant, reproducible bytes, per-mesh provenance, and verify's integrity rows."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import require_package
+from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries
+from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
+
+CREATED = "2026-03-04T05:06:07Z"
+N_MODELS = sum(CATEGORIES.values())
+
+
+def _write_build(folder: Path, *, created: str = "2025-01-02T03:04:05Z",
+                 splits: dict[str, str] | None = None) -> Path:
+    """A build folder with the synthetic models; ``splits`` overrides some models' split."""
+    require_package("zarr")
+    require_package("pyarrow")
+    from vptoolkit.dataset.store import write_dataset
+
+    rng = np.random.default_rng(20210501)
+    views = rng.normal(size=(N_VIEWS, 3))
+    views /= np.linalg.norm(views, axis=1, keepdims=True)
+    entries = _entries(rng)
+    if splits:
+        entries = [dataclasses.replace(e, split=splits.get(e.name, e.split)) for e in entries]
+    folder.mkdir(parents=True, exist_ok=True)
+    write_dataset(folder / "dataset.zarr", entries, attrs={**_attrs(), "created": created},
+                  views=views, failures=FAILURES)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def licenses_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("licences") / "licenses.csv"
+    rows = ["name,license,author,url",
+            'airplane_0000,cc-by-4.0,"Ada, L.",https://example.org/a0',
+            "chair_0001,mit,Bob,https://example.org/c1"]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+@pytest.fixture(scope="module")
+def release(tmp_path_factory: pytest.TempPathFactory, licenses_csv: Path):
+    from vptoolkit.dataset.release import pack_release
+
+    base = tmp_path_factory.mktemp("eco")
+    build = _write_build(base / "build")
+    return pack_release(build, base / "release", created=CREATED, version="2.1.0",
+                        name="mini", pretty_name="Mini viewpoints", licenses=licenses_csv,
+                        source_url="https://example.org/src", creator="Tester")
+
+
+@pytest.fixture()
+def release_copy(release, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(release.path, tmp_path / "release"))
+
+
+# --------------------------------------------------------------------------- Hugging Face
+
+
+def test_datasets_loads_the_release_offline_with_splits_and_shapes(release, tmp_path: Path,
+                                                                   monkeypatch) -> None:
+    require_package("datasets")
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    import datasets
+
+    loaded = datasets.load_dataset(str(release.path), cache_dir=str(tmp_path / "cache"))
+    assert list(loaded) == ["train", "validation", "test"]
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(release.path) as reference:
+        for split, rows in loaded.items():
+            assert rows.num_rows == len(reference.split(split))
+            first = rows.with_format("numpy")[0]
+            expected = reference.split(split)[0]
+            assert first["name"] == expected["name"] and first["split"] == split
+            assert first["points"].shape == (N_POINTS, 3) and first["points"].dtype == np.float32
+            assert first["quality"].shape == (N_VIEWS, 4)
+            np.testing.assert_array_equal(first["quality"], expected["quality"])
+            np.testing.assert_array_equal(first["best_index"], expected["best_index"])
+    views = datasets.load_dataset(str(release.path), "views", cache_dir=str(tmp_path / "cache"))
+    directions = np.array(views["train"].to_dict()["direction"])  # float64 as stored
+    with open_dataset(release.path) as reference:
+        np.testing.assert_array_equal(directions, reference.views)
+
+
+def test_datasets_streams_the_release(release, monkeypatch) -> None:
+    require_package("datasets")
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    import datasets
+
+    stream = datasets.load_dataset(str(release.path), split="validation", streaming=True)
+    first = next(iter(stream))
+    assert first["split"] == "validation" and np.asarray(first["normals"]).shape == (N_POINTS, 3)
+
+
+def test_card_dataset_info_has_features_and_sizes(release) -> None:
+    require_package("datasets")
+    import yaml
+    from datasets import DatasetInfo, Features
+
+    card = release.card.read_text(encoding="utf-8")
+    header = yaml.safe_load(card.split("---\n")[1])
+    default = next(c for c in header["dataset_info"] if c["config_name"] == "default")
+    features = Features._from_yaml_list(default["features"])
+    assert features["points"].shape == (N_POINTS, 3) and features["points"].dtype == "float32"
+    assert features["mesh_faces"].shape == (None, 3)
+    assert all(split["num_bytes"] > 0 for split in default["splits"])
+    assert sum(split["num_examples"] for split in default["splits"]) == N_MODELS
+    DatasetInfo._from_yaml_dict(default)  # the hub's own parser accepts it
+    assert header["license_name"] and header["license_link"] == "LICENSES.csv"
+    assert header["pretty_name"] == "Mini viewpoints"
+
+
+# --------------------------------------------------------------------------- Croissant
+
+
+# rdflib and pandas, under mlcroissant, warn about their own APIs; not ours.
+@pytest.mark.filterwarnings("ignore:ConjunctiveGraph is deprecated:DeprecationWarning")
+@pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.reset_index")
+def test_mlcroissant_validates_and_loads_a_record_of_each_record_set(release) -> None:
+    require_package("mlcroissant")
+    croissant = release.path / "croissant.json"
+    checked = subprocess.run(
+        [sys.executable, "-m", "mlcroissant.scripts.validate", "--jsonld", str(croissant)],
+        capture_output=True, text=True, cwd=release.path,
+    )  # what `mlcroissant validate --jsonld croissant.json` runs
+    assert checked.returncode == 0, checked.stderr[-2000:]
+    assert "Done." in checked.stderr
+    logged = re.findall(r"^([EW])\d{4} .*$", checked.stderr, re.MULTILINE)
+    assert logged == [], checked.stderr[-2000:]  # no error and no warning
+    import mlcroissant
+
+    dataset = mlcroissant.Dataset(jsonld=str(croissant))
+    model = next(iter(dataset.records(record_set="models")))
+    assert np.asarray(model["models/points"]).shape == (N_POINTS, 3)
+    assert np.asarray(model["models/quality"]).shape == (N_VIEWS, 4)
+    assert model["models/split"] in (b"train", b"validation", b"test")
+    view = next(iter(dataset.records(record_set="views")))
+    assert np.asarray(view["views/direction"]).shape == (3,)
+
+
+def test_croissant_carries_version_dates_creator_and_rai(release) -> None:
+    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+    assert document["version"] == "2.1.0"
+    assert document["datePublished"] == CREATED
+    assert document["url"] == "https://example.org/src"
+    assert document["creator"]["name"] == "Tester"
+    card = release.card.read_text(encoding="utf-8")
+    for key in ("rai:dataCollection", "rai:dataPreprocessingProtocol", "rai:dataUseCases",
+                "rai:dataLimitations", "rai:personalSensitiveInformation",
+                "rai:dataReleaseMaintenancePlan"):
+        assert document[key], key
+    assert "geometric proxies" in document["rai:dataLimitations"]
+    assert "geometric proxies" in card
+
+
+# --------------------------------------------------------------------------- versions, provenance
+
+
+def test_version_goes_into_names_attributes_card_and_croissant(release) -> None:
+    from vptoolkit.dataset.store import open_store
+
+    assert release.zarr_zip.name == "mini-2.1.0.zarr.zip" and release.hdf5.name == "mini-2.1.0.h5"
+    with open_store(release.hdf5) as reader:
+        assert reader.attrs["dataset_version"] == "2.1.0"
+        assert reader.attrs["created"] == CREATED
+    card = release.card.read_text(encoding="utf-8")
+    assert f"Version\n2.1.0, released {CREATED}" in card
+
+
+def test_provenance_is_stored_per_model_tabled_and_shipped(release) -> None:
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(release.path) as dataset:
+        assert dataset.record("airplane_0000")["provenance"] == {
+            "license": "cc-by-4.0", "author": "Ada, L.", "url": "https://example.org/a0"}
+        assert "provenance" not in dataset.record("airplane_0001")
+    card = release.card.read_text(encoding="utf-8")
+    assert "| `chair_0001` | mit | Bob | https://example.org/c1 |" in card
+    shipped = (release.path / "LICENSES.csv").read_text(encoding="utf-8").splitlines()
+    assert shipped[0] == "name,license,author,url" and len(shipped) == 1 + N_MODELS
+    assert 'airplane_0000,cc-by-4.0,"Ada, L.",https://example.org/a0' in shipped
+    assert any("no row in the licence table" in line for line in release.warnings)
+    require_package("pyarrow")
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(release.path / "data" / "train-00000-of-00001.parquet")
+    row = table.to_pylist()[0]
+    assert row["name"] == "airplane_0000" and row["license"] == "cc-by-4.0"
+
+
+def test_schema_ships_inside_the_release(release) -> None:
+    schema = (release.path / "SCHEMA.md").read_text(encoding="utf-8")
+    assert "models_json" in schema
+    assert "SCHEMA.md" in release.files
+
+
+@pytest.mark.parametrize("bad, message", [
+    ({"version": "1.0"}, "version: '1.0' is not MAJOR.MINOR.PATCH"),
+    ({"created": "yesterday"}, "created: 'yesterday' is not an ISO 8601 time"),
+    ({"formats": ["parquet", "csv"]}, "formats: expected one or more of"),
+], ids=["version", "created", "formats"])
+def test_bad_release_options_are_input_errors(tmp_path: Path, bad: dict, message: str) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    build = _write_build(tmp_path / "build")
+    with pytest.raises(InputError, match=re.escape(message)):
+        pack_release(build, tmp_path / "release", **bad)
+    assert not (tmp_path / "release").exists()
+
+
+def test_a_licence_table_without_its_columns_names_the_file(tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import read_licenses
+
+    (tmp_path / "l.csv").write_text("name,licence\nx,mit\n", encoding="utf-8")
+    with pytest.raises(InputError, match="l.csv: header lacks the column"):
+        read_licenses(tmp_path / "l.csv")
+    (tmp_path / "l.csv").write_text("name,license,author,url\nx,mit,,\nx,mit,,\n")
+    with pytest.raises(InputError, match="l.csv: line 3 repeats the model 'x'"):
+        read_licenses(tmp_path / "l.csv")
+
+
+def test_an_empty_split_is_a_loud_warning(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    entries_split = {f"{c}_{i:04d}": "train" for c, n in CATEGORIES.items() for i in range(n)}
+    build = _write_build(tmp_path / "build", splits=entries_split)
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release")])
+    assert result.exit_code == 0, result.output
+    assert "vptool: warning: split 'validation' is empty" in result.stderr
+    assert "vptool: warning: split 'test' is empty" in result.stderr
+    card = (tmp_path / "release" / "README.md").read_text(encoding="utf-8")
+    assert "> **Warning.** split 'test' is empty" in card
+    assert "data/test-" not in card  # no config for a split without rows
+
+
+def test_parquet_only_release(tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    build = _write_build(tmp_path / "build")
+    result = pack_release(build, tmp_path / "release", formats=["parquet"])
+    assert result.zarr_zip is None and result.hdf5 is None
+    names = sorted(p.name for p in result.path.iterdir())
+    assert not [n for n in names if n.endswith((".h5", ".zip"))] and "data" in names
+    assert not [p for p in result.path.rglob(".*")]  # the describing copy is gone
+
+
+# --------------------------------------------------------------------------- reproducibility
+
+
+def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
+                                                             monkeypatch) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    first = _write_build(tmp_path / "a" / "build", created="2025-01-01T00:00:00Z")
+    second = _write_build(tmp_path / "b" / "build", created="2025-06-30T12:00:00Z")
+    one = pack_release(first, tmp_path / "a" / "release", created=CREATED)
+    two = pack_release(second, tmp_path / "b" / "release", created=CREATED)
+    manifest = (one.path / "SHA256SUMS").read_text()
+    assert manifest == (two.path / "SHA256SUMS").read_text()
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", "1772600767")  # 2026-03-04T05:06:07Z
+    three = pack_release(second, tmp_path / "c" / "release")
+    assert three.created == CREATED
+    assert (three.path / "SHA256SUMS").read_text() == manifest
+
+
+# --------------------------------------------------------------------------- verify rows
+
+
+def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
+        release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    (release_copy / "SHA256SUMS").unlink()
+    (release_copy / "croissant.json").unlink()
+    report = verify(release_copy)
+    assert not report.ok and report.kind == "release"
+    assert ("missing", "SHA256SUMS") in [(p.kind, p.target) for p in report.problems]
+    assert report.arrays_checked == 2 * 15  # the .h5 is checked too
+
+
+def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    (release_copy / "notes.txt").write_text("added")
+    (release_copy / "data" / "extra.parquet").write_bytes(b"x")
+    summary = verify(release_copy).summary()
+    assert "OK" in summary and "2 warnings" in summary
+    assert "notes.txt" in summary and "data/extra.parquet" in summary
+
+
+def test_verify_blames_the_manifest_for_a_bad_digest_line(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    manifest = release_copy / "SHA256SUMS"
+    lines = manifest.read_text().splitlines()
+    index = next(i for i, line in enumerate(lines) if line.endswith("  README.md"))
+    lines[index] = "0" * 64 + "  README.md"
+    manifest.write_text("\n".join(lines) + "\n")
+    report = verify(release_copy)
+    assert [(p.kind, p.target) for p in report.problems] == [("manifest", "SHA256SUMS")]
+    assert "README.md" in report.problems[0].detail
+
+
+def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
+        release_copy: Path, monkeypatch) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.dataset import store
+
+    def no_zarr() -> None:
+        raise MissingDependencyError("zarr: not importable; install it with pip install "
+                                     "'vptoolkit[dataset]'")
+
+    monkeypatch.setattr(store, "_require_zarr", no_zarr)
+    from vptoolkit.dataset.manifest import verify
+
+    report = verify(release_copy)
+    assert report.problems == [] and not report.ok
+    assert [p.target for p in report.skipped] == ["mini-2.1.0.zarr.zip"]
+    with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
+        report.raise_if_failed()
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 2 and "skipped" in result.stderr and result.stdout == ""
+
+
+def test_verify_prints_its_summary_once(release_copy: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    (release_copy / "README.md").write_text("edited\n")
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 1
+    assert result.stdout == "" and result.stderr.count("README.md") == 1
+    assert len(result.stderr.splitlines()) == 1
+
+
+def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypatch) -> None:
+    from vptoolkit.data import open_dataset
+    from vptoolkit.dataset import store
+
+    monkeypatch.setattr(store, "zarr_is_usable", lambda: False)
+    with open_dataset(release.path) as dataset:
+        assert dataset.path.name == "mini-2.1.0.h5" and len(dataset) == N_MODELS
+
+
+def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
+    import types
+
+    from vptoolkit.dataset import store
+
+    old = types.SimpleNamespace(__version__="2.18.3")
+    monkeypatch.setattr(store, "require", lambda module, extra=None: old)
+    with pytest.raises(MissingDependencyError, match=r"zarr 2.18.3: .*pip install 'zarr>=3'"):
+        store.open_store(release.zarr_zip)
+
+
+# --------------------------------------------------------------------------- card workflow
+
+
+def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release import update_card
+
+    before = {p.name: p.read_bytes() for p in release_copy.iterdir() if p.is_file()}
+    assert update_card(release_copy) == ["croissant.json", "SHA256SUMS"]
+    assert before["croissant.json"] == (release_copy / "croissant.json").read_bytes()
+    card = release_copy / "README.md"
+    text = card.read_text(encoding="utf-8").replace(
+        "geometric proxies", "geometric proxies (ask someone@example.org)")
+    card.write_text(text, encoding="utf-8")
+    assert not verify(release_copy).ok
+    update_card(release_copy)
+    assert verify(release_copy).ok
+    document = json.loads((release_copy / "croissant.json").read_text())
+    assert "someone@example.org" in document["rai:dataLimitations"]
+    for name, content in before.items():
+        if name not in ("README.md", "croissant.json", "SHA256SUMS"):
+            assert (release_copy / name).read_bytes() == content, name
+
+
+def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None:
+    from vptoolkit.dataset.release import update_card
+
+    archive = release_copy / "mini-2.1.0.h5"
+    data = bytearray(archive.read_bytes())
+    data[-10] ^= 0xFF
+    archive.write_bytes(bytes(data))
+    with pytest.raises(VerificationError, match="mini-2.1.0.h5: differs from SHA256SUMS"):
+        update_card(release_copy)
+
+
+def test_cli_update_card(release_copy: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    result = CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+    assert result.exit_code == 0, result.output
+    assert "croissant.json, SHA256SUMS" in result.stdout
+
+
+# --------------------------------------------------------------------------- light install
+
+
+def test_a_command_needing_an_extra_says_which_in_one_line(monkeypatch, tmp_path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    def missing(*args: object, **kwargs: object) -> None:
+        raise ModuleNotFoundError("No module named 'trimesh'", name="trimesh")
+
+    import vptoolkit.io
+
+    monkeypatch.setattr(vptoolkit.io, "load_mesh", missing)
+    mesh = tmp_path / "a.off"
+    mesh.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+    result = CliRunner().invoke(main, ["measures", str(mesh)])
+    assert result.exit_code == 2
+    assert result.stderr == ("vptool: error: trimesh: not installed; this command needs it: "
+                             "pip install 'vptoolkit[measures]'\n")
+
+
+def test_plain_install_needs_no_heavy_package() -> None:
+    import tomllib
+
+    project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
+    core = [re.split(r"[<>=;\[ ]", dep)[0] for dep in project["project"]["dependencies"]]
+    assert sorted(core) == ["click", "h5py", "numpy", "tqdm"]
+    extras = project["project"]["optional-dependencies"]
+    assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures]" in extras["all"]
+    for package in ("numba", "trimesh"):
+        assert any(dep.startswith(package) for dep in extras["measures"])
+    assert {"datasets", "mlcroissant"} <= {re.split(r"[<>=]", d)[0] for d in extras["dev"]}
+
+
+def test_the_sample_licence_table_covers_every_sample_mesh() -> None:
+    from vptoolkit.dataset.release import read_licenses
+    from vptoolkit.samples import sample_names, sample_path
+
+    table = read_licenses(sample_path("bunny.ply").parent / "LICENSES.csv")
+    assert sorted(table) == sorted(Path(name).stem for name in sample_names())
+    assert {row["license"] for row in table.values()} == {"mit", "zlib"}
+
+
+LIGHT_SCRIPT = """
+import sys
+from vptoolkit.data import open_dataset
+
+with open_dataset(sys.argv[1]) as dataset:
+    names = [item["name"] for item in dataset]
+    shapes = {item["quality"].shape for item in dataset.split("validation")}
+heavy = [m for m in ("torch", "open3d", "pymeshlab", "numba", "trimesh") if m in sys.modules]
+print(len(names), sorted(shapes), heavy)
+"""
+
+
+@pytest.mark.slow
+def test_a_plain_pip_install_reads_a_release(release, tmp_path: Path) -> None:
+    """The README's light install: `pip install vptoolkit`, no extras, then load a release."""
+    venv = tmp_path / "venv"
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True)
+    python = venv / "bin" / "python"
+    repo = Path(__file__).resolve().parents[1]
+    install = subprocess.run([str(python), "-m", "pip", "install", "--quiet",
+                              "--disable-pip-version-check", str(repo)],
+                             capture_output=True, text=True)
+    if install.returncode != 0:
+        message = f"pip install failed: {install.stderr.strip()[-500:]}"
+        if os.environ.get("VPTOOLKIT_REQUIRE_ALL") == "1":
+            pytest.fail(message)
+        pytest.skip(message)
+    size = sum(p.stat().st_size for p in venv.rglob("*") if p.is_file() and not p.is_symlink())
+    assert size < 250 * 2**20, f"{size / 2**20:.0f} MiB"
+    listed = subprocess.run([str(python), "-m", "pip", "list", "--format=freeze"],
+                            capture_output=True, text=True, check=True).stdout.lower()
+    for heavy in ("open3d", "torch", "numba", "pymeshlab", "trimesh"):
+        assert f"\n{heavy}" not in f"\n{listed}", heavy
+    environment = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    result = subprocess.run([str(python), "-W", "error", "-c", LIGHT_SCRIPT, str(release.path)],
+                            capture_output=True, text=True, env=environment, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == f"{N_MODELS} [({N_VIEWS}, 4)] []"
+    info = subprocess.run([str(venv / "bin" / "vptool"), "info", str(release.path)],
+                          capture_output=True, text=True, env=environment)
+    assert info.returncode == 0 and f"models {N_MODELS}" in info.stdout
+
+
+def test_cli_pack_options_reach_the_release(tmp_path: Path, licenses_csv: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    release = tmp_path / "release"
+    result = CliRunner().invoke(main, [
+        "pack", str(build), str(release), "--formats", "parquet,hdf5", "--version", "0.2.0",
+        "--created", "2026-03-04T06:06:07+01:00", "--licenses", str(licenses_csv),
+        "--pretty-name", "CLI viewpoints", "--source-url", "https://example.org/src",
+        "--license-name", "mixed", "--license-link", "https://example.org/terms"])
+    assert result.exit_code == 0, result.output
+    assert f"version 0.2.0, created {CREATED}" in result.stdout
+    assert (release / "vptoolkit-viewpoints-0.2.0.h5").is_file()
+    assert not list(release.glob("*.zarr.zip"))
+    card = (release / "README.md").read_text(encoding="utf-8")
+    assert 'license_name: "mixed"' in card and 'license_link: "https://example.org/terms"' in card
+    assert card.startswith('---\npretty_name: "CLI viewpoints"\n')
+    bad = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "r2"), "--version", "v1"])
+    assert bad.exit_code == 2
+    assert bad.stderr == "vptool: error: version: 'v1' is not MAJOR.MINOR.PATCH (e.g. 1.0.0)\n"
+
+
+def test_a_zarr_directory_store_gets_the_umask_mode_not_0700(tmp_path: Path) -> None:
+    build = _write_build(tmp_path / "build")
+    mask = os.umask(0)
+    os.umask(mask)
+    assert (build / "dataset.zarr").stat().st_mode & 0o777 == 0o777 & ~mask
