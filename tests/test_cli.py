@@ -182,6 +182,21 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
     assert scored.exit_code == 0, scored.output
     assert set(json.loads(scored.stdout)["mean"]) == {"VE", "VR", "VKL", "VMI"}
     mesh_prediction = runner.invoke(main, ["predict", "--model", str(model), str(sample_path("teapot.stl")),
-                                           "-o", str(tmp_path / "teapot.npz")])
+                                           "-o", str(tmp_path / "teapot.npz"), "--device", "cpu"])
     assert mesh_prediction.exit_code == 0, mesh_prediction.output
+
+    per_category = tmp_path / "per_category"
+    trained = runner.invoke(main, ["train", str(out), "-o", str(per_category), "--per-category", "--epochs", "1",
+                                   "--batch-size", "2", "--threads", "1", "--val-split", "train",
+                                   "--device", "cpu"])
+    assert trained.exit_code == 0, trained.output
+    assert trained.stdout.startswith("bottle: best epoch 1 of 1") and "table: best epoch" in trained.stdout
+    routed = runner.invoke(main, ["predict", "--model", str(per_category), "--dataset", str(out),
+                                  "--split", "all"])
+    assert routed.exit_code == 0, routed.output
+    unrouted = runner.invoke(main, ["predict", "--model", str(per_category), str(sample_path("teapot.stl"))])
+    assert unrouted.exit_code == 2 and "one network per category" in unrouted.stderr
+    chosen = runner.invoke(main, ["predict", "--model", str(per_category), str(sample_path("teapot.stl")),
+                                  "--category", "table"])
+    assert chosen.exit_code == 0, chosen.output
     shutil.rmtree(out)

@@ -81,6 +81,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--epochs", type=int, default=100, help="epochs per method (same for all)")
     parser.add_argument("--resolution", type=int, default=256, help="px of the measures")
     parser.add_argument("--rotations", type=int, default=4, help="fixed test rotations per model")
+    parser.add_argument("--remesh", action="store_true",
+                        help="remesh the shapes isotropically (realistic tessellation for VE)")
     parser.add_argument("--methods", default=",".join(METHODS))
     parser.add_argument("--category-networks", action="store_true",
                         help="also train ML+GL as one network per category (the paper's set-up)")
@@ -106,7 +108,8 @@ class LabelSizes:
     stored surface points, ``clean`` runs the paper's cleaning, and every
     method trains ``epochs`` epochs on ``train_points`` input points, the
     first ``train_fps`` of them by farthest point sampling. Test models are
-    scored under ``rotations`` fixed rotations each.
+    scored under ``rotations`` fixed rotations each. ``remesh`` writes the
+    shapes isotropically remeshed (``write_collection(remesh=True)``).
     """
 
     per_category: int = 50
@@ -118,6 +121,7 @@ class LabelSizes:
     train_points: int = 4096
     train_fps: int = 1024
     rotations: int = 4
+    remesh: bool = False
 
 
 QUICK = LabelSizes(per_category=3, epochs=2, resolution=64, n_views=100, n_points=2000,
@@ -129,7 +133,7 @@ def main() -> None:
     args = parse_args()
     sizes = QUICK if args.quick else LabelSizes(
         per_category=args.per_category, epochs=args.epochs, resolution=args.resolution,
-        rotations=args.rotations)
+        rotations=args.rotations, remesh=args.remesh)
     command = "python tools/reproduce_labels.py " + shlex.join(sys.argv[1:])
     table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers, jobs=args.jobs,
                 category_networks=args.category_networks, command=command.strip())
@@ -156,7 +160,7 @@ def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: Label
     config["pretrained"] = {
         "command": command,
         "data": f"vptoolkit.synthetic, {len(CATEGORIES)} categories x {sizes.per_category} "
-                f"shapes (seed 0), {sizes.n_views} views at {sizes.resolution} px, "
+                f"shapes (seed 0{', remeshed' if sizes.remesh else ''}), {sizes.n_views} views at {sizes.resolution} px, "
                 f"{'cleaned' if sizes.clean else 'not cleaned'}",
         "results": "docs/results.md",
     }
@@ -205,19 +209,19 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     Shapes go to ``out/shapes``, the dataset to ``out/dataset``, checkpoints to
     ``out/models/<method>`` (``+`` becomes ``_``, so ML+GL is ``models/ml_gl``)
     and the numbers to ``out/table2.json``. Every stage resumes. When the
-    dataset's ``val`` split is empty (tiny runs), training picks its best
+    dataset's ``validation`` split is empty (tiny runs), training picks its best
     checkpoint on ``train`` instead.
     """
     started = time.perf_counter()
     shapes, dataset_dir = out / "shapes", out / "dataset"
     if not shapes.exists():
-        write_collection(shapes, n_per_category=sizes.per_category, seed=0)
+        write_collection(shapes, n_per_category=sizes.per_category, seed=0, remesh=sizes.remesh)
     built = build_dataset(shapes, dataset_dir, n_views=sizes.n_views,
                           resolution=sizes.resolution, n_points=sizes.n_points,
                           clean=sizes.clean, workers=workers, split_seed=0,
                           progress=True)
     with open_dataset(built.path) as dataset:
-        val_split = "val" if len(dataset.split("val")) else "train"
+        val_split = "validation" if len(dataset.split("validation")) else "train"
     trained = train_all(built.path, out, sizes, methods, val_split=val_split, jobs=jobs,
                         category_networks=category_networks)
     timings = {label: seconds for label, (_, seconds) in trained.items()}
@@ -234,7 +238,7 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
             for label, predictor in predictors.items():
                 tables[orientation][label] = score_protocol(test, predictor, n_rotations=sizes.rotations,
                                                             rotate=rotate)
-        split_sizes = {split: len(dataset.split(split)) for split in ("train", "val", "test")}
+        split_sizes = {split: len(dataset.split(split)) for split in ("train", "validation", "test")}
     seconds = time.perf_counter() - started
     table = render(tables, timings, split_sizes, sizes, command, seconds)
     (out / "table2.json").write_text(json.dumps({
@@ -320,8 +324,9 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
         f"{machine()}; wall time {format_seconds(seconds)}.",
         "",
-        f"Dataset: `vptoolkit.synthetic`, 8 categories x {sizes.per_category} shapes "
-        f"(train {split_sizes['train']}, val {split_sizes['val']}, test {split_sizes['test']}), "
+        f"Dataset: `vptoolkit.synthetic`, 8 categories x {sizes.per_category} shapes"
+        f"{' remeshed isotropically' if sizes.remesh else ''} "
+        f"(train {split_sizes['train']}, validation {split_sizes['validation']}, test {split_sizes['test']}), "
         f"{'cleaned' if sizes.clean else 'not cleaned'}, {sizes.n_points} points, "
         f"{sizes.n_views} views, measures at {sizes.resolution} px. Every method trains "
         f"{sizes.epochs} epochs with the paper's other settings (Adam, batch 8, lr 0.001, "

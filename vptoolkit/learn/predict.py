@@ -368,19 +368,27 @@ def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
-        first_model = next(iter(networks.values()))[0]
-        directions = np.zeros((len(names), first_model.config.n_measures, 3))
-        for route, (model, config) in networks.items():
-            rows = [i for i, chosen in enumerate(routes) if chosen == route]
-            if not rows:
-                continue
-            n_points, n_fps = _input_sizes(config, None, None)
-            inputs = np.stack([network_points(points[i], n_points=n_points, n_fps=n_fps, seed=seed, name=names[i])
-                               for i in rows])
-            directions[rows] = predict_directions(model, inputs, batch_size=batch_size, device=device)
-        return directions
+        prepared = []
+        for cloud, name, route in zip(points, names, routes):
+            n_points, n_fps = _input_sizes(networks[route][1], None, None)
+            prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed, name=name))
+        return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
 
     return predictor
+
+
+def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]],
+                    prepared: Sequence[NDArray[np.float32]], routes: Sequence[str | None], *,
+                    batch_size: int, device: str) -> NDArray[np.float64]:
+    """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
+    first_model = next(iter(networks.values()))[0]
+    directions = np.zeros((len(prepared), first_model.config.n_measures, 3))
+    for route, (model, _) in networks.items():
+        rows = [i for i, chosen in enumerate(routes) if chosen == route]
+        if rows:
+            directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
+                                                  batch_size=batch_size, device=device)
+    return directions
 
 
 class MeshPredictor:
@@ -513,11 +521,6 @@ def predict(
         prepared.append(network_points(load(), n_points=size, n_fps=fps, seed=seed, name=name))
     first_model, first_config = next(iter(networks.values()))
     measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
-    directions = np.zeros((len(names), len(measures), 3))
     with torch_threads(threads):
-        for route, (model, _) in networks.items():
-            rows = [i for i, chosen in enumerate(routes) if chosen == route]
-            if rows:
-                directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
-                                                      batch_size=batch_size, device=device)
-    return Predictions(tuple(names), directions, measures)
+        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
+    return Predictions(tuple(names), directions.reshape(len(names), len(measures), 3), measures)

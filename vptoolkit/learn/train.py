@@ -74,6 +74,7 @@ import numpy as np
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.dataset.store import published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.learn.labels import (
     check_label_method,
@@ -396,7 +397,7 @@ def train_model(
     resume: bool = False,
     overwrite: bool = False,
     progress: bool = False,
-    val_split: str = "val",
+    val_split: str = "validation",
     max_models: int | None = None,
     categories: Sequence[str] | str | None = None,
     n_points: int = 4096,
@@ -444,8 +445,8 @@ def train_model(
     progress : bool
         Show a tqdm bar with the loss and validation score (default: False).
     val_split : str
-        Split that picks the best checkpoint (default: "val"; "train" for
-        tiny datasets).
+        Split that picks the best checkpoint (default: "validation", alias
+        "val"; "train" for tiny datasets).
     max_models : int, optional
         Use at most this many models of each split, in store order (default: all).
     categories : str or sequence of str, optional
@@ -551,7 +552,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         arguments = {
             "dataset_path": str(dataset_path), "output": str(output), "labels": labels, "epochs": epochs,
             "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay, "lr_step": lr_step, "seed": seed,
-            "val_split": val_split, "max_models": max_models, "categories": chosen, "n_points": n_points,
+            "val_split": published_split(val_split), "max_models": max_models, "categories": chosen,
+            "n_points": n_points,
             "n_fps": n_fps, "rotate": bool(rotate), "fps_pool": fps_pool, "val_rotations": val_rotations,
             "save_every": save_every, "architecture": config.to_dict(), "workers": workers,
             "device": str(where),
@@ -761,7 +763,8 @@ def _resume(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path
     state = read_json(json_path, "training state")
     if state.get("format") != TRAINING_STATE_FORMAT:
         raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
-    stored = state.get("arguments", {})
+    stored = dict(state.get("arguments", {}))
+    stored["val_split"] = published_split(str(stored.get("val_split")))  # runs saved before the rename say "val"
     current = _json_value(arguments)
     differing = [key for key in _RESUME_KEYS if stored.get(key) != current.get(key)]
     if differing:
