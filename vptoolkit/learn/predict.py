@@ -468,7 +468,7 @@ def predict(
         Mesh files, ``.npy`` point files and dataset stores or folders, in
         any mix (see the module docstring).
     split : str, optional
-        Split of dataset inputs: ``"train"``, ``"val"``, ``"test"`` or None
+        Split of dataset inputs: ``"train"``, ``"validation"``, ``"test"`` or None
         for every model (default: "test").
     batch_size : int
         Models per forward pass (default: 64).
