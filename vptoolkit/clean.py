@@ -660,7 +660,46 @@ def count_self_intersections(mesh: Mesh) -> int:
 
 
 def _pymeshlab() -> ModuleType:
-    return require("pymeshlab", extra="clean")
+    ml = require("pymeshlab", extra="clean")
+    global _is_flag_state_settled
+    if not _is_flag_state_settled:
+        _settle_flag_state(ml)
+        _is_flag_state_settled = True
+    return ml
+
+
+_is_flag_state_settled = False
+_SETTLE_CALLS = 64
+
+
+def _settle_flag_state(ml: ModuleType) -> None:
+    """Put pymeshlab's process-wide face flag state where it stays, before any cleaning.
+
+    vcglib hands out "user bit" face flags from one counter per process.
+    ``meshing_close_holes`` and ``meshing_re_orient_faces_coherently`` take
+    bits they never give back, so after a few calls the counter runs out and
+    stays out; from then on the self-intersection test checks each pair of
+    faces both ways (instead of once), and selects a few more faces. Left
+    alone, a model's cleaning would depend on how many models the same process
+    cleaned before it (a worker pool, a Dask worker, a resumed build). Running
+    the leaking filter on a tiny open box well past the counter's 32 bits at
+    the first use of pymeshlab makes every model see the final state, so the
+    same mesh is always cleaned the same way.
+    """
+    vertices = np.array(
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+        dtype=np.float64,
+    )
+    faces = np.array(
+        [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5],
+         [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6]],
+        dtype=np.int32,
+    )
+    for _ in range(_SETTLE_CALLS):
+        meshes = ml.MeshSet(verbose=False)
+        meshes.add_mesh(ml.Mesh(vertex_matrix=vertices, face_matrix=faces), "settle")
+        meshes.apply_filter("meshing_re_orient_faces_coherently")
+        meshes.apply_filter("meshing_close_holes", maxholesize=_HOLE_EDGES)
 
 
 def _check_mesh(mesh: Mesh) -> None:
@@ -701,16 +740,31 @@ def _to_meshset(
 def _arrays(
     meshes: pymeshlab.MeshSet,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
-    """Vertices, faces and face origins (-1 for faces pymeshlab created)."""
+    """Vertices, faces and face origins (-1 for faces pymeshlab created).
+
+    Each face is rotated to start at its smallest vertex index (same winding):
+    some filters (the boolean union's multi-threaded remeshing) return the
+    same triangles starting at a vertex that varies from run to run, and later
+    filters and the point sampling depend on that order.
+    """
     current = meshes.current_mesh()
     current.compact()
     vertices = np.array(current.vertex_matrix(), dtype=np.float64).reshape(-1, 3)
-    faces = np.array(current.face_matrix(), dtype=np.int64).reshape(-1, 3)
+    faces = _canonical_rotation(np.array(current.face_matrix(), dtype=np.int64).reshape(-1, 3))
     if current.has_face_scalar() and len(faces):
         origin = np.rint(np.asarray(current.face_scalar_array())).astype(np.int64) - 1
     else:
         origin = np.full(len(faces), -1, dtype=np.int64)
     return vertices, faces, origin
+
+
+def _canonical_rotation(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Rotate each face ``(n_faces, 3)`` to start at its smallest index, keeping its winding."""
+    if len(faces) == 0:
+        return faces
+    first = np.argmin(faces, axis=1)
+    rows = np.arange(len(faces))[:, None]
+    return np.ascontiguousarray(faces[rows, (first[:, None] + np.arange(3)) % 3])
 
 
 def _to_mesh(meshes: pymeshlab.MeshSet, name: str, step: str) -> Mesh:
