@@ -38,7 +38,7 @@ from vptoolkit.dataset.card import (
     render_card,
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
-from vptoolkit.errors import InputError
+from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import write_text_atomic
 
 if TYPE_CHECKING:
@@ -142,6 +142,23 @@ def _check_name(name: str) -> None:
         )
 
 
+def _check_source_intact(source: Path) -> None:
+    """Re-hash every array of the store to pack against its ``sha256``, before writing anything.
+
+    Packing re-computes each array's digest from what it reads, so a damaged
+    chunk (a flipped byte, or a deleted one that zarr reads as zeros) would
+    otherwise ship with a fresh, matching checksum.
+
+    Raises
+    ------
+    VerificationError
+        Naming the mismatching arrays; nothing is written.
+    """
+    report = verify(source)
+    if not report.ok:
+        raise VerificationError(f"{report.summary()}; nothing packed")
+
+
 def _check_release_dir(release_dir: Path) -> None:
     if release_dir.exists() or release_dir.is_symlink():
         if not release_dir.is_dir():
@@ -224,6 +241,9 @@ def pack_release(
     InputError
         If ``release_dir`` exists and is not an empty folder, ``name`` is not a
         plain file name, or ``dataset`` holds no readable store.
+    VerificationError
+        If an array of ``dataset`` differs from its stored SHA-256 (checked
+        before anything is written).
     """
     from vptoolkit.dataset.store import find_store, open_store, write_dataset
 
@@ -232,6 +252,7 @@ def pack_release(
     target = Path(release_dir)
     _check_release_dir(target)
     source = find_store(dataset)
+    _check_source_intact(source)
     target.parent.mkdir(parents=True, exist_ok=True)
 
     zip_name, h5_name = f"{base}.zarr.zip", f"{base}.h5"
