@@ -761,11 +761,25 @@ def _signature(model: SourceModel) -> dict[str, Any]:
 
 
 def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
+    """Whether a staged model is whole and was made from the same source file.
+
+    Every member is read in full, so a bad CRC or a truncated member anywhere
+    in the file (not just in ``meta``) counts as unreadable: the model is
+    computed again after one warning, instead of failing the final write.
+    """
     try:
         # np.load leaks its file handle when the zip is broken, so open the file here.
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
             meta = _decode_json(staged["meta"])
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):  # unreadable: redo it
+            missing = [name for name in _ARRAY_NAMES if name not in staged.files]
+            if missing:
+                raise KeyError(f"no member {missing[0]!r}")
+            for name in _ARRAY_NAMES:
+                staged[name]  # reads the member in full and checks its CRC
+    # unreadable: redo it
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, UnicodeDecodeError) as err:
+        _log.warning("%s: staged model unreadable (%s); computing it again", path.name,
+                     one_line(err))
         return False
     return bool(meta.get("signature") == signature)
 
@@ -950,7 +964,8 @@ def _run_locally(
     window = 2 * workers
     while pending:
         crashed: list[dict[str, Any]] = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                 initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
             running: dict[Future[dict[str, Any]], dict[str, Any]] = {}
             while (pending or running) and not crashed:
                 while pending and len(running) < window:
@@ -976,7 +991,8 @@ def _run_alone(
     function: Callable[[Mapping[str, Any]], dict[str, Any]],
 ) -> dict[str, Any]:
     """Retry a task whose pool broke in a process of its own; a second crash is a failure."""
-    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+    with ProcessPoolExecutor(max_workers=1, mp_context=context,
+                             initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
         try:
             return pool.submit(function, task).result()
         except BrokenProcessPool:
@@ -985,6 +1001,44 @@ def _run_alone(
                 f"{task['source']}: the worker process died while processing it",
                 staged=False,
             )
+
+
+_PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
+_WATCHDOG_SECONDS = 1.0
+
+
+def _die_with_parent(build_pid: int) -> None:
+    """Initializer of every worker process: end it when the build process ends.
+
+    A worker started by the ``forkserver`` is the server's child, not the
+    build's, so a build killed with ``kill -9`` would leave its workers (each
+    holding a mesh and numba's buffers) running forever. On Linux the kernel
+    sends SIGKILL to the worker when its parent dies (``PR_SET_PDEATHSIG``,
+    through ctypes); everywhere, a daemon thread checks every second that the
+    build process is alive and exits the worker if not.
+    """
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+    def watch() -> None:
+        while True:
+            time.sleep(_WATCHDOG_SECONDS)
+            try:
+                os.kill(build_pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # pragma: no cover - pid reused by another user
+                os._exit(1)
+
+    threading.Thread(target=watch, name="vptoolkit-build-watchdog", daemon=True).start()
 
 
 def _run_on_cluster(
