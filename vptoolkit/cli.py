@@ -9,7 +9,9 @@ stays fast.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -24,6 +26,7 @@ from vptoolkit.errors import (
     VerificationError,
     VptoolkitError,
 )
+from vptoolkit.checks import check_npy_header, one_line
 from vptoolkit.files import atomic_write, write_text_atomic
 
 EXIT_FAILURE = 1
@@ -33,6 +36,9 @@ EXIT_BAD_INPUT = 2
 def _exit_code(error: BaseException) -> int:
     if isinstance(error, (InputError, MissingDependencyError)):
         return EXIT_BAD_INPUT
+    if isinstance(error, VerificationError) and isinstance(error.__cause__, RuntimeError) \
+            and "weights do not match the architecture" in str(error):
+        return EXIT_BAD_INPUT  # a checkpoint whose JSON disagrees with its weights: a bad file
     if isinstance(error, (MeasurementError, VerificationError)):
         return EXIT_FAILURE
     return EXIT_FAILURE
@@ -41,16 +47,59 @@ def _exit_code(error: BaseException) -> int:
 class _Group(click.Group):
     """A click group that turns toolkit errors into one line and an exit code."""
 
+    def main(self, args: Any = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True,
+             **extra: Any) -> Any:
+        """Run the command line; option errors become the same one line as every other error."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            returned = super().main(args, prog_name, complete_var, False, **extra)
+        except click.UsageError as error:
+            where = (f"{error.ctx.info_name}: "
+                     if error.ctx is not None and error.ctx.parent is not None else "")
+            click.echo(f"vptool: error: {where}{one_line(error.format_message())}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        except click.ClickException as error:
+            click.echo(f"vptool: error: {one_line(error.format_message())}", err=True)
+            sys.exit(error.exit_code)
+        except click.Abort:
+            click.echo("vptool: error: aborted", err=True)
+            sys.exit(EXIT_FAILURE)
+        sys.exit(returned if isinstance(returned, int) else 0)
+
     def invoke(self, context: click.Context) -> Any:
         try:
             return super().invoke(context)
         except VptoolkitError as error:
-            click.echo(f"vptool: error: {error}", err=True)
+            click.echo(f"vptool: error: {one_line_error(error)}", err=True)
             sys.exit(_exit_code(error))
         except OSError as error:
             where = f"{error.filename}: " if error.filename else ""
-            click.echo(f"vptool: error: {where}{error.strerror or error}", err=True)
+            click.echo(f"vptool: error: {where}{one_line(error.strerror or error)}", err=True)
             sys.exit(EXIT_BAD_INPUT)
+        except MemoryError:
+            click.echo(f"vptool: error: {context.invoked_subcommand or 'vptool'}: not enough "
+                       "memory for these options; ask for less", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+
+
+def one_line_error(error: BaseException) -> str:
+    """The message of an error on one line, without the length cap of :func:`one_line`."""
+    return " ".join(str(error).replace("<br>", " ").split()) or type(error).__name__
+
+
+class _Path(click.Path):
+    """click.Path that names a symlink loop instead of saying the path does not exist."""
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        try:
+            os.stat(os.fspath(value))
+        except OSError as err:
+            if err.errno == errno.ELOOP:
+                self.fail(f"{os.fsdecode(value)}: symbolic link loop ({err.strerror})", param, ctx)
+        return super().convert(value, param, ctx)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -64,8 +113,8 @@ def main() -> None:
     """
 
 
-_MESH = click.Path(exists=True, dir_okay=False, path_type=Path)
-_EXISTING = click.Path(exists=True, path_type=Path)
+_MESH = _Path(exists=True, dir_okay=False, path_type=Path)
+_EXISTING = _Path(exists=True, path_type=Path)
 def _direction(text: str | None, option: str) -> tuple[float, float, float] | None:
     """Parse ``x,y,z`` into three floats, or say which option is wrong."""
     if text is None:
@@ -184,9 +233,10 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
 @click.argument("mesh", type=_MESH)
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Write the points to this .npy file.")
-@click.option("--points", "n_points", default=20000, show_default=True, type=click.IntRange(1),
-              help="Number of points.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--points", "n_points", default=20000, show_default=True,
+              type=click.IntRange(1, 100_000_000), help="Number of points.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(0),
+              help="Random seed.")
 def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     """Sample points uniformly by area on MESH, with face normals.
 
@@ -213,7 +263,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 
 
 @main.command("build-dataset")
-@click.argument("src", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("src", type=_Path(exists=True, file_okay=False, path_type=Path))
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
 @click.option("--format", "store_format", type=click.Choice(["zarr", "hdf5"]), default="zarr",
               show_default=True, help="Container of OUT/dataset.*.")
@@ -325,7 +375,7 @@ def info(path: Path, as_json: bool) -> None:
 
 
 @main.command()
-@click.argument("predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("predictions", type=_Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--dataset", "dataset_path", required=True, type=_EXISTING,
               help="Dataset built by build-dataset (store, build folder or release folder).")
 @click.option("--split", default="test", show_default=True,
@@ -383,6 +433,10 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
     """
     from vptoolkit.learn.train import train_model
 
+    most_threads = 8 * (os.cpu_count() or 1)
+    if threads is not None and threads > most_threads:
+        raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
+                         f"got {threads}")
     result = train_model(dataset, output, labels=labels, epochs=epochs, batch_size=batch_size,
                          lr=lr, seed=seed, resume=resume, progress=True, threads=threads,
                          val_split=val_split,
@@ -423,6 +477,10 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")
+    for source in sources:
+        if source.suffix.lower() == ".npy" and source.is_file():
+            with open(source, "rb") as stream:
+                check_npy_header(stream, source.name, source.stat().st_size)
     predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
                           progress=True)
     if output is not None:
@@ -501,7 +559,7 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
 
 
 @main.command("sphere-map")
-@click.argument("quality", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("quality", type=_Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="PNG file to write.")
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE)
@@ -529,7 +587,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
               help="Folder for index.html and its pictures.")
 @click.option("--split", type=click.Choice(["train", "val", "test"]),
               help="Report one split only (default: every model).")
-@click.option("--predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+@click.option("--predictions", type=_Path(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import one_line
+from vptoolkit.checks import check_npy_header, one_line
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS
@@ -314,6 +314,8 @@ def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
             raise InputError(f"{path.name}: not a numpy .npy or .npz file "
                              "(no numpy or zip header)")
         handle.seek(0)
+        if magic.startswith(_NPY_MAGIC):
+            check_npy_header(handle, path.name, path.stat().st_size)
         try:
             loaded = np.load(handle, allow_pickle=False)
             if isinstance(loaded, np.ndarray):
@@ -324,6 +326,13 @@ def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
             with loaded:
                 if suffix != ".npz":
                     raise InputError(f"{path.name}: is an .npz archive, not a .npy array")
+                for info in loaded.zip.infolist():
+                    if not info.filename.endswith(".npy"):
+                        raise InputError(f"{path.name}: member {info.filename!r} is not a "
+                                         ".npy array")
+                    with loaded.zip.open(info) as member:
+                        check_npy_header(member, f"{path.name}: member {info.filename}",  # type: ignore[arg-type]
+                                         info.file_size)
                 return {key: loaded[key] for key in loaded.files}
         except InputError:
             raise

@@ -120,6 +120,11 @@ _MODEL_SUFFIX = ".npz"
 _FAILURE_SUFFIX = ".failed.json"
 _HASH_BLOCK = 1 << 20
 _CONNECT_TIMEOUT = "30s"  # to reach a Dask scheduler
+# Dask's comm protocols; http:// (a dashboard) and bare words are refused before connecting.
+_SCHEDULER_ADDRESS = re.compile(
+    r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}"
+    r"|inproc://\S+"
+)
 _ARRAY_NAMES = (
     "points",
     "normals",
@@ -497,6 +502,11 @@ def build_dataset(
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise InputError(f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}")
+    if scheduler is not None and not _SCHEDULER_ADDRESS.fullmatch(scheduler.strip()):
+        raise InputError(
+            f"scheduler: {scheduler!r} is not a Dask scheduler address; expected "
+            "tcp://host:port (or tls://, ws://, wss://, ucx://, inproc://)"
+        )
     if scheduler is not None and workers != 1:
         raise InputError("workers: give either workers > 1 or scheduler, not both")
     progress = check_bool(progress, "progress")
