@@ -112,3 +112,15 @@ def test_one_worker_two_workers_and_dask_give_identical_arrays(src, tmp_path):
                                 **TINY)
     assert two == one
     assert _array_hashes(on_dask.path) == one
+
+
+def test_cleaning_removes_the_intersections_that_decimation_brings_back():
+    require_package("pymeshlab")
+    from vptoolkit.clean import clean_mesh, count_self_intersections
+    from vptoolkit.io import load_mesh
+
+    # Decimating this truck to 2000 faces used to leave 5 faces intersecting (a raw
+    # ModelNet airplane at 10000 faces: 233, 2.3 %).
+    cleaned, report = clean_mesh(load_mesh(TRUCK), max_faces=2000)
+    assert cleaned.n_faces <= 2000
+    assert report.self_intersections_after == count_self_intersections(cleaned) == 0
