@@ -27,7 +27,7 @@ from vptoolkit.errors import (
     VptoolkitError,
 )
 from vptoolkit.checks import check_npy_header, one_line
-from vptoolkit.files import atomic_write, write_text_atomic
+from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -168,6 +168,8 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
 
     if output is not None and output.suffix != ".npz":
         raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_output_folder(output, "--output")  # before the work, not after
     loaded = load_mesh(mesh)
     started = time.perf_counter()
     quality = compute_view_quality(
@@ -218,6 +220,9 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh, save_mesh
 
+    check_output_folder(target, "TARGET")
+    if report_path is not None:
+        check_output_folder(report_path, "--report")  # before writing the mesh
     cleaned, report = clean_mesh(load_mesh(source), max_faces=max_faces, remesh=remesh)
     save_mesh(cleaned, target)
     record = report.to_dict()
@@ -254,6 +259,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 
     if output.suffix != ".npy":
         raise InputError(f"{output.name}: output must end in .npy")
+    check_output_folder(output, "--output")
     surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
     with atomic_write(output) as handle:
@@ -474,6 +480,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 
     if output is not None and output.suffix != ".npz":
         raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_output_folder(output, "--output")
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")
@@ -539,6 +547,7 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
         raise InputError("render: give exactly one of --view, --best or --model")
     if output.suffix.lower() != ".png":
         raise InputError(f"{output.name}: output must end in .png")
+    check_output_folder(output, "--output")
     style = _style(up)
     loaded = load_mesh(mesh)
     if best is not None:
@@ -577,6 +586,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
     """
     from vptoolkit.sphere_map import sphere_map_file
 
+    check_output_folder(output, "--output")
     sphere_map_file(quality, output, measure=measure, predicted=_direction(predicted, "--predicted"))
     click.echo(f"wrote {output}")
 

@@ -594,6 +594,11 @@ def score_directions(
     if not is_scored.any():
         raise InputError("directions: no measure is predicted (all NaN)")
     columns = np.flatnonzero(is_scored)
+    # Only the direction counts: bring each vector to a largest component of 1 so
+    # that its length cannot overflow (directions scaled by 1e308 were scored wrongly).
+    scale = np.abs(values).max(axis=2, keepdims=True)
+    is_scalable = np.isfinite(scale) & (scale > 0)
+    values = np.where(is_scalable, values / np.where(is_scalable, scale, 1.0), values)
     scores = np.full((n_models, len(MEASURES)), np.nan)
     for model in range(n_models):
         quality = dataset.quality_of(model, values[model, columns])  # (n_scored, 4)

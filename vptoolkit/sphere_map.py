@@ -501,6 +501,14 @@ def sphere_map_file(
     source = as_path(quality_path, "quality_path")
     measure_index(measure)
     try:
+        with open(source, "rb") as stream:
+            is_zip = stream.read(4) == b"PK\x03\x04"
+    except OSError as err:
+        raise InputError(f"{source.name}: cannot be read ({err.strerror or err})") from err
+    if not is_zip:  # np.load would call a text file "pickled data"
+        raise InputError(f"{source.name}: not an .npz archive (expected the .npz of "
+                         "vptool measures -o)")
+    try:
         with np.load(source, allow_pickle=False) as archive:
             missing = [key for key in ("views", "normalized") if key not in archive.files]
             if missing:

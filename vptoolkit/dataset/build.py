@@ -522,6 +522,7 @@ def build_dataset(
     with _build_lock(staging):
         created = _resume_or_start(staging, options, root)
         done, staged_failures, todo = _scan_staging(staging, unique)
+        _warn_about_models_left_out(staging, unique, out_dir)
         n_resumed = len(done) + len(staged_failures)
         run_failures: dict[str, dict[str, str]] = {}
         tasks = [_task(model, options) for model in todo]
@@ -758,6 +759,28 @@ def _scan_staging(
         failure_file.unlink(missing_ok=True)
         todo.append(model)
     return done, failed, todo
+
+
+def _warn_about_models_left_out(
+    staging: Path, models: Sequence[SourceModel], out_dir: Path
+) -> None:
+    """Say so when this run's store will hold fewer models than the folder has staged.
+
+    A rerun with other ``categories`` (or with models removed from the source)
+    writes a store of this run's models only; the other staged models are
+    kept, and a later run that includes them again takes them from there.
+    """
+    wanted = {f"{_stage_key(model.model_id)}{_MODEL_SUFFIX}" for model in models}
+    others = [
+        name for name in sorted(os.listdir(staging))
+        if name.startswith("m-") and name.endswith(_MODEL_SUFFIX) and name not in wanted
+    ]
+    if others:
+        _log.warning(
+            "%s: %d staged models are not part of this run (other --categories or removed "
+            "sources); the store will hold only this run's %d models (the staged ones are "
+            "kept for a later run)", out_dir, len(others), len(models),
+        )
 
 
 def _signature(model: SourceModel) -> dict[str, Any]:

@@ -39,7 +39,7 @@ from vptoolkit.dataset.card import (
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import write_text_atomic
+from vptoolkit.files import remove_stale_partials, temporary_prefix, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store import ModelEntry, StoreReader
@@ -256,7 +256,7 @@ def pack_release(
     target.parent.mkdir(parents=True, exist_ok=True)
 
     zip_name, h5_name = f"{base}.zarr.zip", f"{base}.h5"
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial",
+    staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
                                     dir=target.parent))
     try:
         with open_store(source) as reader:
@@ -282,6 +282,7 @@ def pack_release(
         files = write_sha256sums(staging)
         _check_release_dir(target)
         _publish(staging, target)
+        remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

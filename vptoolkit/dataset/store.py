@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
+from vptoolkit.files import remove_stale_partials, temporary_prefix
 from vptoolkit.optional import require
 
 __all__ = [
@@ -770,7 +771,7 @@ class _RowWriter:
 
 
 def _temporary_sibling(target: Path, kind: str) -> Path:
-    prefix, suffix = f".{target.name}.", ".partial"
+    prefix, suffix = temporary_prefix(target.name), ".partial"
     if kind == "zarr":
         return Path(tempfile.mkdtemp(prefix=prefix, suffix=suffix, dir=target.parent))
     handle, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
@@ -957,6 +958,7 @@ def write_dataset(
         finally:
             sink.close()
         _move_into_place(temporary, target, kind)
+        remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
         is_done = True
     finally:
         if not is_done:

@@ -69,8 +69,9 @@ class RasterWorkspace:
 
     @classmethod
     def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int) -> RasterWorkspace:
-        n_threads = get_num_threads()
         capacity = histogram_capacity(resolution, n_faces)
+        n_threads = threads_within_budget(resolution=resolution, n_faces=n_faces,
+                                          n_vertices=n_vertices, capacity=capacity)
         return cls(
             frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
             row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
@@ -81,6 +82,27 @@ class RasterWorkspace:
             screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
             inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
         )
+
+
+FRAME_BUDGET_BYTES = 1 << 30
+"""Most bytes the per-thread buffers may take together; more threads than fit share views.
+
+At 16384 px one frame is 2 GiB of int64 keys, so each thread's own frame
+would multiply that by the thread count (3.2 GB on 2 threads).
+"""
+
+
+def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
+                          capacity: int) -> int:
+    """Threads whose buffers fit :data:`FRAME_BUDGET_BYTES`: at least 1, at most numba's.
+
+    The result depends only on the sizes and the thread count, never on the
+    views, and every view is drawn the same way on any thread, so the counts
+    are identical whatever it returns.
+    """
+    per_thread = (8 * resolution * resolution + 16 * resolution + 8 * n_faces + 4 * capacity
+                  + 24 * n_vertices)
+    return int(max(1, min(get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
 
 
 def locality_order(
