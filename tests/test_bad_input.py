@@ -163,3 +163,27 @@ def test_a_symlink_loop_is_named_as_such(tmp_path: Path) -> None:
     code, text = _run("sample", tmp_path / "a.off", "-o", tmp_path / "p.npy")
     _assert_one_line_bad_input(code, text, "symbolic link loop")
     assert "does not exist" not in text
+
+
+def test_sphere_map_inputs_that_cannot_be_drawn(tmp_path: Path) -> None:
+    views = np.eye(3)
+    cases = {
+        "nan.npz": {"views": views, "normalized": np.full((3, 4), np.nan)},
+        "names.npz": {"views": views, "normalized": np.ones((3, 4)),
+                      "measures": np.array(["A", "B", "C", "D"])},
+        "shape.npz": {"views": views, "normalized": np.ones((5, 4))},
+    }
+    for file_name, members in cases.items():
+        np.savez(tmp_path / file_name, **members)
+        code, text = _run("sphere-map", tmp_path / file_name, "-o", tmp_path / "m.png")
+        _assert_one_line_bad_input(code, text, f"{file_name}: ")
+    assert not (tmp_path / "m.png").exists()
+
+
+def test_a_short_glb_buffer_is_named(tmp_path: Path) -> None:
+    data = sample_path("Duck").read_bytes()
+    short = tmp_path / "short.glb"
+    short.write_bytes(data[: len(data) // 2])
+    code, text = _run("sample", short, "-o", tmp_path / "p.npy")
+    _assert_one_line_bad_input(code, text, "short.glb: ")
+    assert "no details" not in text
