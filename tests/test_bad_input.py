@@ -187,3 +187,17 @@ def test_a_short_glb_buffer_is_named(tmp_path: Path) -> None:
     code, text = _run("sample", short, "-o", tmp_path / "p.npy")
     _assert_one_line_bad_input(code, text, "short.glb: ")
     assert "no details" not in text
+
+
+@pytest.mark.parametrize("scale", [1e30, 1e-12])
+def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) -> None:
+    require_package("open3d")
+    from vptoolkit.io import load_mesh
+    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.mesh import Mesh
+
+    teapot = load_mesh(sample_path("teapot"))
+    scaled = Mesh(teapot.vertices * scale, teapot.faces, name="teapot")
+    raster = compute_view_quality(scaled, 20, 64, backend="raster").raw
+    raycast = compute_view_quality(scaled, 20, 64, backend="raycast").raw
+    np.testing.assert_allclose(raycast, raster, rtol=0.01)
