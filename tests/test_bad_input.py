@@ -201,3 +201,34 @@ def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) 
     raster = compute_view_quality(scaled, 20, 64, backend="raster").raw
     raycast = compute_view_quality(scaled, 20, 64, backend="raycast").raw
     np.testing.assert_allclose(raycast, raster, rtol=0.01)
+
+
+def test_train_on_too_few_points_says_how_many_it_needs(build: Path, tmp_path: Path) -> None:  # noqa: F811
+    code, text = _run("train", build, "-o", tmp_path / "m", "--epochs", "1")
+    _assert_one_line_bad_input(code, text, "200 points", "at least 1024")
+
+
+def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Path,  # noqa: F811
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    import vptoolkit.learn.train as train
+    import vptoolkit.points as points
+    from vptoolkit.errors import InputError
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise InputError("m: already holds a training run (model.safetensors); pass "
+                         "resume=True to continue it or overwrite=True to replace it")
+
+    monkeypatch.setattr(points, "N_FPS_POINTS", 100)
+    monkeypatch.setattr(train, "train_model", refuse)
+    code, text = _run("train", build, "-o", tmp_path / "m")
+    _assert_one_line_bad_input(code, text, "--resume")
+    assert "resume=True" not in text and "overwrite=True" not in text
+
+
+@pytest.mark.parametrize("points", [np.zeros((1, 3)), np.ones((50, 6))],
+                         ids=["one-point", "identical-points"])
+def test_predict_refuses_a_cloud_without_extent(tmp_path: Path, points: np.ndarray) -> None:
+    path = tmp_path / "cloud.npy"
+    np.save(path, points.astype(np.float32))
+    code, text = _run("predict", path)
+    _assert_one_line_bad_input(code, text, "cloud.npy: ", "extent")

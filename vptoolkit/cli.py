@@ -439,14 +439,29 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
     """
     from vptoolkit.learn.train import train_model
 
+    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.points import N_FPS_POINTS
+
     most_threads = 8 * (os.cpu_count() or 1)
     if threads is not None and threads > most_threads:
         raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
                          f"got {threads}")
-    result = train_model(dataset, output, labels=labels, epochs=epochs, batch_size=batch_size,
-                         lr=lr, seed=seed, resume=resume, progress=True, threads=threads,
-                         val_split=val_split,
-                         command=" ".join(["vptool", *sys.argv[1:]]))
+    with open_store(find_store(dataset)) as store:
+        n_points = int(store.attrs["n_points"])
+    if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
+        raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
+                         f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
+                         "or more; the paper uses 20000)")
+    try:
+        result = train_model(dataset, output, labels=labels, epochs=epochs,
+                             batch_size=batch_size, lr=lr, seed=seed, resume=resume,
+                             progress=True, threads=threads, val_split=val_split,
+                             command=" ".join(["vptool", *sys.argv[1:]]))
+    except InputError as error:
+        if "already holds a training run" not in str(error):
+            raise
+        raise InputError(f"{output}: already holds a training run; add --resume to continue it, "
+                         "or give another -o (or delete it) to start afresh") from error
     scores = ", ".join(f"{m} {100 * v:.1f}%" for m, v in result.best_scores.items())
     click.echo(f"best epoch {result.best_epoch} of {result.epochs}: {scores}; "
                f"wrote {result.checkpoint}")
@@ -487,8 +502,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
         raise InputError("inputs: give mesh or point files, or --dataset")
     for source in sources:
         if source.suffix.lower() == ".npy" and source.is_file():
-            with open(source, "rb") as stream:
-                check_npy_header(stream, source.name, source.stat().st_size)
+            _check_point_file(source)
     predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
                           progress=True)
     if output is not None:
@@ -502,6 +516,23 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     if output is not None:
         click.echo(f"wrote {output} ({len(predictions)} models)")
 
+
+
+def _check_point_file(path: Path) -> None:
+    """Refuse a point file whose header lies or whose points have no extent, before predicting."""
+    import numpy as np
+
+    with open(path, "rb") as stream:
+        check_npy_header(stream, path.name, path.stat().st_size)
+    try:
+        table = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
+    if table.ndim == 2 and table.shape[1] in (3, 6) and np.issubdtype(table.dtype, np.number):
+        points = table[:, :3]
+        if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
+            raise InputError(f"{path.name}: its {len(points)} point(s) do not span any extent; "
+                             "a view can only be predicted for a shape (at least 2 distinct points)")
 
 
 # --------------------------------------------------------------------------- pictures
