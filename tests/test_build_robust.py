@@ -102,3 +102,17 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
         for name in ARRAY_NAMES:
             assert np.array_equal(np.asarray(store.array(name)[...]), reference[name],
                                   equal_nan=True), name
+
+
+def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> None:
+    from vptoolkit.dataset.build import STAGES
+
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copyfile(sample_path("teapot"), src / "teapot.stl")
+    result = build_dataset(src, tmp_path / "out", **SMALL)
+    assert set(result.stage_seconds) == set(STAGES) and result.n_computed == 1
+    assert all(spent >= 0.0 for spent in result.stage_seconds.values())
+    assert result.stage_seconds["measure"] > 0.0
+    again = build_dataset(src, tmp_path / "out", **SMALL)  # all resumed: nothing computed
+    assert again.n_computed == 0 and again.stage_seconds["measure"] == 0.0

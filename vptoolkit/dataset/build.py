@@ -69,7 +69,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Literal, overload
@@ -89,6 +89,7 @@ from vptoolkit.sphere import fibonacci_sphere
 __all__ = [
     "FORMATS",
     "SPLIT_FRACTIONS",
+    "STAGES",
     "STAGING_DIR",
     "BuildResult",
     "SourceModel",
@@ -104,6 +105,9 @@ FORMATS: dict[str, str] = {"zarr": "dataset.zarr", "hdf5": "dataset.h5"}
 
 SPLIT_FRACTIONS: dict[str, float] = {"train": 0.8, "val": 0.1, "test": 0.1}
 """Fractions of the train/val/test split (SCHEMA.md)."""
+
+STAGES = ("load", "clean", "sample", "measure", "write")
+"""Stages of a model whose seconds :class:`BuildResult` reports."""
 
 STAGING_DIR = ".staging"
 """Folder inside OUT that holds the finished models of a build in progress."""
@@ -203,6 +207,15 @@ class BuildResult:
     n_resumed : int
         Models (and failures) taken from the staging folder instead of being
         computed again (default: 0).
+    stage_seconds : dict
+        Seconds spent per stage of :data:`STAGES` over the models computed in
+        this call (``load``, ``clean``, ``measure``, ``sample``: summed over
+        the workers' models, so with several workers they add up to more than
+        the wall-clock time; ``write``: staging files and the final store, in
+        the main process). Never stored: timings differ from run to run.
+    n_computed : int
+        Models computed (not resumed) in this call, the count behind
+        ``stage_seconds`` (default: 0).
     """
 
     path: Path
@@ -211,6 +224,8 @@ class BuildResult:
     failures: tuple[dict[str, str], ...]
     seconds: float
     n_resumed: int = 0
+    stage_seconds: dict[str, float] = field(default_factory=dict)
+    n_computed: int = 0
 
 
 # --------------------------------------------------------------------------- discovery
@@ -525,6 +540,7 @@ def build_dataset(
         _warn_about_models_left_out(staging, unique, out_dir)
         n_resumed = len(done) + len(staged_failures)
         run_failures: dict[str, dict[str, str]] = {}
+        stage_seconds = dict.fromkeys((*STAGES, "models"), 0.0)
         tasks = [_task(model, options) for model in todo]
         with _progress_bar(
             len(unique) + len(duplicate_failures),
@@ -536,7 +552,12 @@ def build_dataset(
             def finished(result: Mapping[str, Any]) -> None:
                 model_id = result["model_id"]
                 if result["status"] == "ok":
+                    started_write = time.perf_counter()
                     done[model_id] = _stage_model(staging, result)
+                    for stage, spent in result.get("seconds", {}).items():
+                        stage_seconds[stage] += spent
+                    stage_seconds["write"] += time.perf_counter() - started_write
+                    stage_seconds["models"] += 1
                 else:
                     if result["staged"]:
                         _stage_failure(staging, result)
@@ -563,6 +584,7 @@ def build_dataset(
             key=lambda failure: (failure["source"], failure["reason"]),
         )
         store_path = out_dir / FORMATS[options["format"]]
+        started_store = time.perf_counter()
         write_dataset(
             store_path,
             entries,
@@ -571,6 +593,9 @@ def build_dataset(
             failures=failures,
             progress=progress,
         )
+        store_seconds = time.perf_counter() - started_store
+    n_computed = int(stage_seconds.pop("models"))
+    stage_seconds["write"] += store_seconds
     return BuildResult(
         path=store_path,
         n_models=len(entries),
@@ -578,6 +603,8 @@ def build_dataset(
         failures=tuple(failures),
         seconds=time.perf_counter() - started,
         n_resumed=n_resumed,
+        stage_seconds=stage_seconds,
+        n_computed=n_computed,
     )
 
 
@@ -1164,14 +1191,23 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     from vptoolkit.points import sample_surface
 
     path = Path(task["path"])
+    seconds: dict[str, float] = {}
+    started = time.perf_counter()
     source_sha256 = _file_sha256(path)
     mesh = load_mesh(path)
+    seconds["load"] = time.perf_counter() - started
     cleaning = None
+    started = time.perf_counter()
     if task["clean"]:
         mesh, report = clean_mesh(mesh, max_faces=task["max_faces"])
         cleaning = _without_timings(report.to_dict())
+    seconds["clean"] = time.perf_counter() - started
+    started = time.perf_counter()
     quality = compute_view_quality(mesh, task["n_views"], task["resolution"], backend=BACKEND)
+    seconds["measure"] = time.perf_counter() - started
+    started = time.perf_counter()
     sample = sample_surface(mesh, task["n_points"], seed=task["seed"])
+    seconds["sample"] = time.perf_counter() - started
     columns = np.arange(quality.raw.shape[1])
     raw = quality.raw.astype(np.float32)
     arrays = {
@@ -1200,6 +1236,7 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
         "status": "ok",
         "meta": {"signature": task["signature"], "record": record},
         "arrays": arrays,
+        "seconds": seconds,  # wall-clock per stage: reported, never stored
     }
 
 
