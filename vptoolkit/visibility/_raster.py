@@ -188,6 +188,22 @@ def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
+               k_high: np.int64) -> tuple[np.int64, np.int64]:
+    """Narrow ``[k_low, k_high]`` to the offsets ``k`` with ``edge + k * step >= 0``."""
+    if step > 0:
+        if edge < 0:
+            k_low = max(k_low, -((edge) // step))  # ceil(-edge / step)
+    elif step < 0:
+        if edge < 0:
+            return np.int64(1), np.int64(0)
+        k_high = min(k_high, edge // (-step))
+    elif edge < 0:
+        return np.int64(1), np.int64(0)
+    return k_low, k_high
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _rasterize_view(
     faces: NDArray[np.int32],
     face_normals: NDArray[np.float64],
@@ -258,26 +274,30 @@ def _rasterize_view(
         dq_dy = (sy_bc * qa + sy_ca * qb + sy_ab * qc) * inv_area
         q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
         face_id = np.int64(f + 1)
+        width = x1 - x0
         for y in range(y0, y1 + 1):
-            e_ab, e_bc, e_ca = row_ab, row_bc, row_ca
-            q = q_row
+            # The covered pixels of a row form one run: solve each edge function
+            # e + k * sx >= 0 for the pixel offset k instead of testing every
+            # pixel of the bounding box (wide triangles spend most time outside).
+            k_low = np.int64(0)
+            k_high = width
+            k_low, k_high = _edge_span(row_ab, sx_ab, k_low, k_high)
+            k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
+            k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
             base = y * resolution
             first = -1
             last = -1
-            for x in range(x0, x1 + 1):
-                if (e_ab | e_bc | e_ca) >= 0:
-                    if first < 0:
-                        first = x
-                    last = x
+            if k_low <= k_high:
+                first = x0 + k_low
+                last = x0 + k_high
+                q = q_row
+                for _ in range(k_low):  # the same additions as a pixel-by-pixel walk
+                    q += dq_dx
+                for x in range(first, last + 1):
                     key = (np.int64(q) << 32) | face_id
                     if key > frame[base + x]:
                         frame[base + x] = key
-                elif first >= 0:
-                    break
-                e_ab += sx_ab
-                e_bc += sx_bc
-                e_ca += sx_ca
-                q += dq_dx
+                    q += dq_dx
             if first >= 0:
                 if first < row_low[y]:
                     row_low[y] = first
