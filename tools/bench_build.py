@@ -6,7 +6,9 @@ Makes a ModelNet-style tree from the bundled sample meshes (every sample,
 For each build it prints the wall-clock seconds, the models per hour and the
 speed-up over the first worker count of the same run (the baseline), then
 the bytes per model of the Zarr store, of the same data written as HDF5 and
-of the staging folder the build keeps for resuming.
+of the staging folder the build keeps for resuming. Under each build it prints
+the seconds per model of each stage (load, clean, sample, measure, write;
+``BuildResult.stage_seconds``) and its share of the time.
 
 Default sizes are the paper's: 1000 views at 1024 px, 20000 points, cleaning
 on with at most 10000 faces. ``--quick`` uses 100 views at 128 px, 2000
@@ -129,6 +131,13 @@ def main(argv: list[str] | None = None) -> int:
                          "models_per_hour": per_hour, "speed_up": speed_up, "load_average": load})
             print(f"{workers:>7} {result.n_models:>6} {result.n_failures:>6} {seconds:>8.1f} "
                   f"{per_hour:>12.0f} {speed_up:>8.2f}x  load {load:.1f}", flush=True)
+            runs[-1]["stage_seconds"] = dict(result.stage_seconds)
+            total = sum(result.stage_seconds.values()) or 1.0
+            per_model = max(1, result.n_computed)
+            print("        per model: " + ", ".join(
+                f"{stage} {spent / per_model:.2f} s ({100 * spent / total:.0f} %)"
+                for stage, spent in result.stage_seconds.items()
+            ))
             for failure in result.failures:
                 print(f"        failed: {failure['reason']}")
 

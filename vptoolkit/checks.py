@@ -7,14 +7,16 @@ argument's name, e.g. ``max_faces: must be at least 4, got 2``.
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 
 from vptoolkit.errors import InputError
 
-__all__ = ["as_path", "check_bool", "check_int", "one_line"]
+__all__ = ["as_path", "check_bool", "check_int", "check_npy_header", "one_line"]
 
 _MAX_MESSAGE_CHARS = 200
 
@@ -61,3 +63,48 @@ def one_line(error: BaseException | str) -> str:
     if len(text) > _MAX_MESSAGE_CHARS:
         return text[: _MAX_MESSAGE_CHARS - 3] + "..."
     return text
+
+
+def check_npy_header(stream: BinaryIO, label: str, n_bytes: int) -> None:
+    """Refuse an ``.npy`` stream whose header claims more data than it holds.
+
+    ``np.load`` trusts the header and allocates the whole array first, so a
+    damaged or hostile header (e.g. a shape of 8.7 TiB) would exhaust memory
+    before any read fails. The stream is left where it was.
+
+    Parameters
+    ----------
+    stream : binary file object
+        Positioned at the start of the ``.npy`` data (its magic string).
+    label : str
+        The file (or ``archive:member``) named in the message.
+    n_bytes : int
+        Bytes of the ``.npy`` data, header included.
+
+    Raises
+    ------
+    InputError
+        If the header is unreadable, holds objects (pickles), or its shape and
+        dtype need more bytes than ``n_bytes`` leaves after the header.
+    """
+    start = stream.tell()
+    try:
+        version = np.lib.format.read_magic(stream)
+        reader = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                  else np.lib.format.read_array_header_2_0)
+        shape, _, dtype = reader(stream)
+        header_bytes = stream.tell() - start
+    except (ValueError, OSError, EOFError, SyntaxError) as err:
+        raise InputError(f"{label}: not a readable .npy array ({one_line(err)})") from err
+    finally:
+        stream.seek(start)
+    if dtype.hasobject:
+        raise InputError(f"{label}: .npy array holds Python objects; they are never unpickled "
+                         "(allow_pickle=False)")
+    needed = math.prod(shape) * dtype.itemsize
+    available = n_bytes - header_bytes
+    if needed > available:
+        raise InputError(
+            f"{label}: .npy header claims shape {tuple(shape)} of {dtype} ({needed:,} bytes) "
+            f"but the file holds {max(available, 0):,}"
+        )

@@ -87,6 +87,9 @@ Coincident copies would leave faces touching at a point without sharing a
 vertex, which pymeshlab's self-intersection test reports unreliably.
 """
 
+_AFTER_DECIMATION_ROUNDS = 3
+"""Rounds of removing the faces that decimation left intersecting (see :func:`clean_mesh`)."""
+
 _BACK_OFFSET = 1e-5
 """Offset of the reversed copy of each face in :func:`hidden_faces`, in diagonals."""
 
@@ -149,7 +152,8 @@ class CleaningReport:
     self_intersections_after_repair : int
         The same count after step 1: zero unless ``max_rounds`` was 0.
     self_intersections_after : int
-        The same count on the cleaned mesh (decimation may create a few).
+        The same count on the cleaned mesh. Decimation creates some; step 3
+        removes them again (up to three rounds), so this is normally 0.
     hidden_area_removed : float
         Area of the faces removed in step 2, in model units squared.
     hidden_area_fraction : float
@@ -336,6 +340,13 @@ def clean_mesh(
     start = time.perf_counter()
     meshes = _to_meshset(ml, visible.vertices, visible.faces, visible.name)
     _simplify(ml, meshes, mesh.name, max_faces, remesh)
+    for _ in range(_AFTER_DECIMATION_ROUNDS):
+        # Quadric collapses do not test for intersections and bring some back
+        # (2.3 % of a raw ModelNet airplane's faces): remove them, without closing
+        # holes, which would also fill the model's own openings and add faces.
+        if not _count_self_intersections(meshes):
+            break
+        _remove_intersections(ml, meshes, mesh.name, 0, step="simplify")
     intersections_after = _count_self_intersections(meshes)
     simplified = _to_mesh(meshes, mesh.name, "simplify")
     steps.append(_step("simplify", visible, simplified, start))
@@ -593,8 +604,10 @@ def simplify_mesh(mesh: Mesh, *, max_faces: int = MAX_FACES, remesh: bool = Fals
     a plain quadric, before giving up.
 
     Quadric decimation does not check for intersections: on models with thin
-    parts close together (wings, seams left by step 1) it can create some,
-    which :class:`CleaningReport` counts as ``self_intersections_after``.
+    parts close together (wings, seams left by step 1) it can create some.
+    :func:`clean_mesh` removes those faces afterwards (without closing the
+    holes, which would also fill the model's own openings);
+    :func:`simplify_mesh` alone leaves them.
 
     With ``remesh=True`` an isotropic explicit remeshing (10 iterations,
     creases above 30 degrees kept, vertices reprojected onto the surface)
@@ -660,7 +673,49 @@ def count_self_intersections(mesh: Mesh) -> int:
 
 
 def _pymeshlab() -> ModuleType:
-    return require("pymeshlab", extra="clean")
+    ml = require("pymeshlab", extra="clean")
+    global _is_flag_state_settled
+    if not _is_flag_state_settled:
+        _settle_flag_state(ml)
+        _is_flag_state_settled = True
+    return ml
+
+
+_is_flag_state_settled = False
+_SETTLE_CALLS = 64
+
+
+def _settle_flag_state(ml: ModuleType) -> None:
+    """Put pymeshlab's process-wide face flag state where it stays, before any cleaning.
+
+    vcglib hands out "user bit" face flags from one counter per process.
+    ``meshing_close_holes`` and ``meshing_re_orient_faces_coherently`` take
+    bits they never give back, so after a few calls the counter runs out and
+    stays out; from then on the self-intersection test checks each pair of
+    faces both ways (instead of once), and selects a few more faces. Left
+    alone, a model's cleaning would depend on how many models the same process
+    cleaned before it (a worker pool, a Dask worker, a resumed build). Running
+    the leaking filter on a tiny open box well past the counter's 32 bits at
+    the first use of pymeshlab makes every model see the final state, so the
+    same mesh is always cleaned the same way.
+    """
+    vertices = np.array(
+        [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]],
+        dtype=np.float64,
+    )
+    faces = np.array(
+        [[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5],
+         [0, 5, 4], [1, 2, 6], [1, 6, 5], [2, 3, 7], [2, 7, 6]],
+        dtype=np.int32,
+    )
+    for _ in range(_SETTLE_CALLS):
+        meshes = ml.MeshSet(verbose=False)
+        meshes.add_mesh(ml.Mesh(vertex_matrix=vertices, face_matrix=faces), "settle")
+        try:
+            meshes.apply_filter("meshing_re_orient_faces_coherently")
+            meshes.apply_filter("meshing_close_holes", maxholesize=_HOLE_EDGES)
+        except ml.PyMeshLabException:  # pragma: no cover - a pymeshlab without these filters
+            return
 
 
 def _check_mesh(mesh: Mesh) -> None:
@@ -701,16 +756,31 @@ def _to_meshset(
 def _arrays(
     meshes: pymeshlab.MeshSet,
 ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64]]:
-    """Vertices, faces and face origins (-1 for faces pymeshlab created)."""
+    """Vertices, faces and face origins (-1 for faces pymeshlab created).
+
+    Each face is rotated to start at its smallest vertex index (same winding):
+    some filters (the boolean union's multi-threaded remeshing) return the
+    same triangles starting at a vertex that varies from run to run, and later
+    filters and the point sampling depend on that order.
+    """
     current = meshes.current_mesh()
     current.compact()
     vertices = np.array(current.vertex_matrix(), dtype=np.float64).reshape(-1, 3)
-    faces = np.array(current.face_matrix(), dtype=np.int64).reshape(-1, 3)
+    faces = _canonical_rotation(np.array(current.face_matrix(), dtype=np.int64).reshape(-1, 3))
     if current.has_face_scalar() and len(faces):
         origin = np.rint(np.asarray(current.face_scalar_array())).astype(np.int64) - 1
     else:
         origin = np.full(len(faces), -1, dtype=np.int64)
     return vertices, faces, origin
+
+
+def _canonical_rotation(faces: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Rotate each face ``(n_faces, 3)`` to start at its smallest index, keeping its winding."""
+    if len(faces) == 0:
+        return faces
+    first = np.argmin(faces, axis=1)
+    rows = np.arange(len(faces))[:, None]
+    return np.ascontiguousarray(faces[rows, (first[:, None] + np.arange(3)) % 3])
 
 
 def _to_mesh(meshes: pymeshlab.MeshSet, name: str, step: str) -> Mesh:
@@ -1060,9 +1130,9 @@ def _union_closed_parts(
 
 
 def _remove_intersections(
-    ml: ModuleType, meshes: pymeshlab.MeshSet, name: str, max_rounds: int
+    ml: ModuleType, meshes: pymeshlab.MeshSet, name: str, max_rounds: int, *,
+    step: str = "repair",
 ) -> None:
-    step = "repair"
     for round_index in range(max_rounds + 1):
         _refresh(meshes, name)
         _apply(meshes, name, step, "compute_selection_by_self_intersections_per_face")

@@ -9,7 +9,9 @@ stays fast.
 
 from __future__ import annotations
 
+import errno
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -24,7 +26,8 @@ from vptoolkit.errors import (
     VerificationError,
     VptoolkitError,
 )
-from vptoolkit.files import atomic_write, write_text_atomic
+from vptoolkit.checks import check_npy_header, one_line
+from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -33,6 +36,9 @@ EXIT_BAD_INPUT = 2
 def _exit_code(error: BaseException) -> int:
     if isinstance(error, (InputError, MissingDependencyError)):
         return EXIT_BAD_INPUT
+    if isinstance(error, VerificationError) and isinstance(error.__cause__, RuntimeError) \
+            and "weights do not match the architecture" in str(error):
+        return EXIT_BAD_INPUT  # a checkpoint whose JSON disagrees with its weights: a bad file
     if isinstance(error, (MeasurementError, VerificationError)):
         return EXIT_FAILURE
     return EXIT_FAILURE
@@ -41,19 +47,62 @@ def _exit_code(error: BaseException) -> int:
 class _Group(click.Group):
     """A click group that turns toolkit errors into one line and an exit code."""
 
+    def main(self, args: Any = None, prog_name: str | None = None,
+             complete_var: str | None = None, standalone_mode: bool = True,
+             **extra: Any) -> Any:
+        """Run the command line; option errors become the same one line as every other error."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            returned = super().main(args, prog_name, complete_var, False, **extra)
+        except click.UsageError as error:
+            where = (f"{error.ctx.info_name}: "
+                     if error.ctx is not None and error.ctx.parent is not None else "")
+            click.echo(f"vptool: error: {where}{one_line(error.format_message())}", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+        except click.ClickException as error:
+            click.echo(f"vptool: error: {one_line(error.format_message())}", err=True)
+            sys.exit(error.exit_code)
+        except click.Abort:
+            click.echo("vptool: error: aborted", err=True)
+            sys.exit(EXIT_FAILURE)
+        sys.exit(returned if isinstance(returned, int) else 0)
+
     def invoke(self, context: click.Context) -> Any:
         try:
             return super().invoke(context)
         except VptoolkitError as error:
-            click.echo(f"vptool: error: {error}", err=True)
+            click.echo(f"vptool: error: {one_line_error(error)}", err=True)
             sys.exit(_exit_code(error))
         except ModuleNotFoundError as error:
             click.echo(f"vptool: error: {_missing_module_line(error)}", err=True)
             sys.exit(EXIT_BAD_INPUT)
         except OSError as error:
             where = f"{error.filename}: " if error.filename else ""
-            click.echo(f"vptool: error: {where}{error.strerror or error}", err=True)
+            click.echo(f"vptool: error: {where}{one_line(error.strerror or error)}", err=True)
             sys.exit(EXIT_BAD_INPUT)
+        except MemoryError:
+            click.echo(f"vptool: error: {context.invoked_subcommand or 'vptool'}: not enough "
+                       "memory for these options; ask for less", err=True)
+            sys.exit(EXIT_BAD_INPUT)
+
+
+def one_line_error(error: BaseException) -> str:
+    """The message of an error on one line, without the length cap of :func:`one_line`."""
+    return " ".join(str(error).replace("<br>", " ").split()) or type(error).__name__
+
+
+class _Path(click.Path):
+    """click.Path that names a symlink loop instead of saying the path does not exist."""
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        try:
+            os.stat(os.fspath(value))
+        except OSError as err:
+            if err.errno == errno.ELOOP:
+                self.fail(f"{os.fsdecode(value)}: symbolic link loop ({err.strerror})", param, ctx)
+        return super().convert(value, param, ctx)
 
 
 def _missing_module_line(error: ModuleNotFoundError) -> str:
@@ -79,8 +128,8 @@ def main() -> None:
     """
 
 
-_MESH = click.Path(exists=True, dir_okay=False, path_type=Path)
-_EXISTING = click.Path(exists=True, path_type=Path)
+_MESH = _Path(exists=True, dir_okay=False, path_type=Path)
+_EXISTING = _Path(exists=True, path_type=Path)
 def _direction(text: str | None, option: str) -> tuple[float, float, float] | None:
     """Parse ``x,y,z`` into three floats, or say which option is wrong."""
     if text is None:
@@ -134,6 +183,8 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
 
     if output is not None and output.suffix != ".npz":
         raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_output_folder(output, "--output")  # before the work, not after
     loaded = load_mesh(mesh)
     started = time.perf_counter()
     quality = compute_view_quality(
@@ -252,6 +303,9 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh, save_mesh
 
+    check_output_folder(target, "TARGET")
+    if report_path is not None:
+        check_output_folder(report_path, "--report")  # before writing the mesh
     cleaned, report = clean_mesh(load_mesh(source), max_faces=max_faces, remesh=remesh)
     save_mesh(cleaned, target)
     record = report.to_dict()
@@ -267,9 +321,10 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
 @click.argument("mesh", type=_MESH)
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Write the points to this .npy file.")
-@click.option("--points", "n_points", default=20000, show_default=True, type=click.IntRange(1),
-              help="Number of points.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--points", "n_points", default=20000, show_default=True,
+              type=click.IntRange(1, 100_000_000), help="Number of points.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(0),
+              help="Random seed.")
 def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     """Sample points uniformly by area on MESH, with face normals.
 
@@ -287,6 +342,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 
     if output.suffix != ".npy":
         raise InputError(f"{output.name}: output must end in .npy")
+    check_output_folder(output, "--output")
     surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
     with atomic_write(output) as handle:
@@ -296,7 +352,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 
 
 @main.command("build-dataset")
-@click.argument("src", type=click.Path(exists=True, file_okay=False, path_type=Path))
+@click.argument("src", type=_Path(exists=True, file_okay=False, path_type=Path))
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
 @click.option("--format", "store_format", type=click.Choice(["zarr", "hdf5"]), default="zarr",
               show_default=True, help="Container of OUT/dataset.*.")
@@ -462,7 +518,7 @@ def info(path: Path, as_json: bool) -> None:
 
 
 @main.command()
-@click.argument("predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("predictions", type=_Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("--dataset", "dataset_path", required=True, type=_EXISTING,
               help="Dataset built by build-dataset (store, build folder or release folder).")
 @click.option("--split", default="test", show_default=True,
@@ -539,14 +595,33 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
     """
     from vptoolkit.learn.train import train_model, train_per_category
 
+    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.points import N_FPS_POINTS
+
+    most_threads = 8 * (os.cpu_count() or 1)
+    if threads is not None and threads > most_threads:
+        raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
+                         f"got {threads}")
+    with open_store(find_store(dataset)) as store:
+        n_points = int(store.attrs["n_points"])
+    if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
+        raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
+                         f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
+                         "or more; the paper uses 20000)")
     options = {"labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
                "resume": resume, "progress": True, "threads": threads, "val_split": val_split,
                "fps_pool": fps_pool, "device": device, "command": " ".join(["vptool", *sys.argv[1:]])}
     chosen = [name.strip() for name in categories.split(",")] if categories else None
-    if per_category:
-        results = train_per_category(dataset, output, categories=chosen, **options)
-    else:
-        results = {"": train_model(dataset, output, categories=chosen, **options)}
+    try:
+        if per_category:
+            results = train_per_category(dataset, output, categories=chosen, **options)
+        else:
+            results = {"": train_model(dataset, output, categories=chosen, **options)}
+    except InputError as error:
+        if "already holds a training run" not in str(error):
+            raise
+        raise InputError(f"{output}: already holds a training run; add --resume to continue it, "
+                         "or give another -o (or delete it) to start afresh") from error
     for category, result in results.items():
         scores = ", ".join(f"{m} {100 * v:.1f}%" for m, v in result.best_scores.items())
         click.echo(f"{category + ': ' if category else ''}best epoch {result.best_epoch} of {result.epochs}: "
@@ -584,9 +659,14 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 
     if output is not None and output.suffix != ".npz":
         raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_output_folder(output, "--output")
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")
+    for source in sources:
+        if source.suffix.lower() == ".npy" and source.is_file():
+            _check_point_file(source)
     predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
                           progress=True, category=category, device=device)
     if output is not None:
@@ -600,6 +680,23 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     if output is not None:
         click.echo(f"wrote {output} ({len(predictions)} models)")
 
+
+
+def _check_point_file(path: Path) -> None:
+    """Refuse a point file whose header lies or whose points have no extent, before predicting."""
+    import numpy as np
+
+    with open(path, "rb") as stream:
+        check_npy_header(stream, path.name, path.stat().st_size)
+    try:
+        table = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
+    if table.ndim == 2 and table.shape[1] in (3, 6) and np.issubdtype(table.dtype, np.number):
+        points = table[:, :3]
+        if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
+            raise InputError(f"{path.name}: its {len(points)} point(s) do not span any extent; "
+                             "a view can only be predicted for a shape (at least 2 distinct points)")
 
 
 # --------------------------------------------------------------------------- pictures
@@ -650,6 +747,7 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
         raise InputError("render: give exactly one of --view, --best, --model or --view-set")
     if output.suffix.lower() != ".png":
         raise InputError(f"{output.name}: output must end in .png")
+    check_output_folder(output, "--output")
     style = _style(up)
     loaded = load_mesh(mesh)
     if view_set_k is not None:
@@ -679,7 +777,7 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
 
 
 @main.command("sphere-map")
-@click.argument("quality", type=click.Path(exists=True, dir_okay=False, path_type=Path))
+@click.argument("quality", type=_Path(exists=True, dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="PNG file to write.")
 @click.option("--measure", default="VE", show_default=True, type=_MEASURE_CHOICE)
@@ -697,6 +795,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
     """
     from vptoolkit.sphere_map import sphere_map_file
 
+    check_output_folder(output, "--output")
     sphere_map_file(quality, output, measure=measure, predicted=_direction(predicted, "--predicted"))
     click.echo(f"wrote {output}")
 
@@ -707,7 +806,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: str | None)
               help="Folder for index.html and its pictures.")
 @click.option("--split", type=click.Choice(["train", "validation", "val", "test"]),
               help="Report one split only (default: every model).")
-@click.option("--predictions", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+@click.option("--predictions", type=_Path(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")
 @click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
               help="Picture side in pixels.")

@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import one_line
+from vptoolkit.checks import check_npy_header, one_line
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS, published_split
@@ -320,6 +320,8 @@ def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
             raise InputError(f"{path.name}: not a numpy .npy or .npz file "
                              "(no numpy or zip header)")
         handle.seek(0)
+        if magic.startswith(_NPY_MAGIC):
+            check_npy_header(handle, path.name, path.stat().st_size)
         try:
             loaded = np.load(handle, allow_pickle=False)
             if isinstance(loaded, np.ndarray):
@@ -330,6 +332,13 @@ def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
             with loaded:
                 if suffix != ".npz":
                     raise InputError(f"{path.name}: is an .npz archive, not a .npy array")
+                for info in loaded.zip.infolist():
+                    if not info.filename.endswith(".npy"):
+                        raise InputError(f"{path.name}: member {info.filename!r} is not a "
+                                         ".npy array")
+                    with loaded.zip.open(info) as member:
+                        check_npy_header(member, f"{path.name}: member {info.filename}",  # type: ignore[arg-type]
+                                         info.file_size)
                 return {key: loaded[key] for key in loaded.files}
         except InputError:
             raise
@@ -591,6 +600,11 @@ def score_directions(
     if not is_scored.any():
         raise InputError("directions: no measure is predicted (all NaN)")
     columns = np.flatnonzero(is_scored)
+    # Only the direction counts: bring each vector to a largest component of 1 so
+    # that its length cannot overflow (directions scaled by 1e308 were scored wrongly).
+    scale = np.abs(values).max(axis=2, keepdims=True)
+    is_scalable = np.isfinite(scale) & (scale > 0)
+    values = np.where(is_scalable, values / np.where(is_scalable, scale, 1.0), values)
     scores = np.full((n_models, len(MEASURES)), np.nan)
     for model in range(n_models):
         quality = dataset.quality_of(model, values[model, columns])  # (n_scored, 4)

@@ -10,14 +10,26 @@ write leaves the previous file (or no file) and no partial one.
 
 from __future__ import annotations
 
+import hashlib
 import os
 import secrets
+import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import BinaryIO
 
-__all__ = ["atomic_write", "write_bytes_atomic", "write_text_atomic"]
+from vptoolkit.errors import InputError
+
+__all__ = [
+    "atomic_write",
+    "check_output_folder",
+    "remove_stale_partials",
+    "temporary_name",
+    "temporary_prefix",
+    "write_bytes_atomic",
+    "write_text_atomic",
+]
 
 
 @contextmanager
@@ -35,19 +47,99 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
         Write the whole content to it. When the ``with`` block ends without
         an exception the content is fsynced and renamed over ``path``;
         otherwise the temporary file is removed and ``path`` is untouched.
+
+    Raises
+    ------
+    InputError
+        If the folder of ``path`` does not exist.
+    OSError
+        If writing fails (e.g. a full disk); its ``filename`` is ``path``,
+        never the temporary file.
     """
     target = Path(path)
-    temporary = target.with_name(f".{target.name}.{secrets.token_hex(4)}.partial")
-    # O_EXCL never clobbers; mode 0o666 lets the umask decide the permissions.
-    handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    check_output_folder(target)
+    temporary = target.with_name(temporary_name(target.name))
+    try:
+        # O_EXCL never clobbers; mode 0o666 lets the umask decide the permissions.
+        handle = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    except OSError as err:  # name the user's file, not the hidden temporary one
+        raise OSError(err.errno, err.strerror, str(target)) from err
     try:
         with os.fdopen(handle, "wb") as stream:
-            yield stream
-            stream.flush()
-            os.fsync(stream.fileno())
+            try:
+                yield stream
+                stream.flush()
+                os.fsync(stream.fileno())
+            except OSError as err:
+                if err.filename is None or str(err.filename) == str(temporary):
+                    # e.g. a full disk: say which output could not be written
+                    raise OSError(err.errno, err.strerror, str(target)) from err
+                raise
         os.replace(temporary, target)
     finally:
         temporary.unlink(missing_ok=True)
+
+
+_MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS
+_SUFFIX_BYTES = len(".12345678.partial") + 8  # room for mkstemp's longer random part
+
+
+def temporary_prefix(name: str) -> str:
+    """Start of the name of every hidden temporary sibling of ``name``.
+
+    ``.<name>.``, or ``.<start of name>~<16 hex of its SHA-256>.`` where a
+    temporary name would otherwise pass the 255-byte limit of a file name, so
+    that every valid output name can be written.
+    """
+    encoded = name.encode("utf-8", "surrogateescape")
+    if len(encoded) + len(".") + _SUFFIX_BYTES <= _MAX_NAME_BYTES:
+        return f".{name}."
+    digest = hashlib.sha256(encoded).hexdigest()[:16]
+    start = encoded[:160].decode("utf-8", "ignore")
+    return f".{start}~{digest}."
+
+
+def temporary_name(name: str) -> str:
+    """``temporary_prefix(name)`` + 8 random hex digits + ``.partial``."""
+    return f"{temporary_prefix(name)}{secrets.token_hex(4)}.partial"
+
+
+def check_output_folder(path: str | os.PathLike[str], argument: str | None = None) -> Path:
+    """Fail early, naming ``path``, when the folder an output goes into is missing.
+
+    Call it before long work, so that a typo in an output path does not cost
+    the whole computation.
+
+    Raises
+    ------
+    InputError
+        If the parent folder of ``path`` does not exist or is not a folder.
+    """
+    target = Path(path)
+    folder = target.parent
+    label = f"{argument}: " if argument else ""
+    if not folder.is_dir():
+        what = "is not a folder" if folder.exists() else "does not exist"
+        raise InputError(f"{label}{target}: output folder {folder} {what}")
+    return target
+
+
+def remove_stale_partials(folder: str | os.PathLike[str], name: str) -> None:
+    """Delete the temporary siblings of ``name`` that an interrupted write left in ``folder``.
+
+    Call it only after a write of ``name`` succeeded; a ``kill -9`` in the
+    middle of a write leaves its ``.<name>.*.partial`` file or folder behind.
+    """
+    root = Path(folder)
+    if not root.is_dir():
+        return
+    prefix = temporary_prefix(name)
+    for entry in sorted(root.iterdir()):
+        if entry.name.startswith(prefix) and entry.name.endswith(".partial"):
+            if entry.is_dir() and not entry.is_symlink():
+                shutil.rmtree(entry, ignore_errors=True)
+            else:
+                entry.unlink(missing_ok=True)
 
 
 def write_bytes_atomic(path: str | os.PathLike[str], payload: bytes) -> Path:

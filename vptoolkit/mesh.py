@@ -9,7 +9,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
 
-__all__ = ["Mesh"]
+__all__ = ["MAX_COORDINATE", "Mesh"]
+
+MAX_COORDINATE = 1e38
+"""Largest coordinate magnitude a mesh may have: float32 (points, stored meshes) ends at 3.4e38.
+
+Below it every product the measures, the cleaning and the sampling form
+(cross products, squared lengths) stays finite in float64.
+"""
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,7 +36,8 @@ class Mesh:
     Raises
     ------
     InputError
-        If the arrays have the wrong shape, hold non-finite coordinates, there
+        If the arrays have the wrong shape, hold non-finite coordinates or
+        coordinates beyond :data:`MAX_COORDINATE` in magnitude, there
         are no faces, or a face index is out of range. The message starts with
         ``name``.
     """
@@ -50,6 +58,12 @@ class Mesh:
         if not np.isfinite(vertices).all():
             n_bad = int((~np.isfinite(vertices).all(axis=1)).sum())
             raise InputError(f"{self.name}: {n_bad} vertices have NaN or infinite coordinates")
+        largest = float(np.abs(vertices).max()) if vertices.size else 0.0
+        if largest > MAX_COORDINATE:
+            raise InputError(
+                f"{self.name}: coordinates up to {largest:.3g} overflow the float32 of points, "
+                f"stored meshes and pictures (limit {MAX_COORDINATE:.0e}); rescale the mesh"
+            )
         low, high = int(faces.min()), int(faces.max())
         if low < 0 or high >= len(vertices):
             bad = low if low < 0 else high

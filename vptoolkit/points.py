@@ -23,6 +23,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 
 __all__ = [
+    "MAX_SURFACE_POINTS",
     "N_SURFACE_POINTS",
     "N_NETWORK_POINTS",
     "N_FPS_POINTS",
@@ -35,6 +36,9 @@ __all__ = [
 
 N_SURFACE_POINTS = 20_000
 """Points sampled on each mesh surface (the paper's 20k)."""
+
+MAX_SURFACE_POINTS = 100_000_000
+"""Most points :func:`sample_surface` draws: about 10 GB of work arrays at float64."""
 
 N_NETWORK_POINTS = 4096
 """Points in one network input (the paper's 4096)."""
@@ -79,9 +83,9 @@ def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> S
     mesh : Mesh
         The surface to sample; its total area must be positive.
     n : int
-        Number of points, at least 1 (default: 20000, the paper's choice).
+        Number of points, 1 to :data:`MAX_SURFACE_POINTS` (default: 20000, the paper's choice).
     seed : int
-        Seed of the ``numpy.random.Generator`` used; the same mesh, ``n`` and
+        Seed (>= 0) of the ``numpy.random.Generator`` used; the same mesh, ``n`` and
         seed always give the same sample (default: 0).
 
     Returns
@@ -107,9 +111,8 @@ def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> S
     """
     if not isinstance(mesh, Mesh):
         raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
-    n = check_int(n, "n", minimum=1)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise InputError(f"seed: expected an integer, got {seed!r}")
+    n = check_int(n, "n", minimum=1, maximum=MAX_SURFACE_POINTS)
+    seed = check_int(seed, "seed", minimum=0)  # numpy refuses negative seeds
 
     corners = mesh.vertices[mesh.faces]  # (n_faces, 3 corners, 3)
     edge_b = corners[:, 1] - corners[:, 0]

@@ -519,6 +519,14 @@ def sphere_map_file(
     source = as_path(quality_path, "quality_path")
     measure_index(measure)
     try:
+        with open(source, "rb") as stream:
+            is_zip = stream.read(4) == b"PK\x03\x04"
+    except OSError as err:
+        raise InputError(f"{source.name}: cannot be read ({err.strerror or err})") from err
+    if not is_zip:  # np.load would call a text file "pickled data"
+        raise InputError(f"{source.name}: not an .npz archive (expected the .npz of "
+                         "vptool measures -o)")
+    try:
         with np.load(source, allow_pickle=False) as archive:
             missing = [key for key in ("views", "normalized") if key not in archive.files]
             if missing:
@@ -527,7 +535,18 @@ def sphere_map_file(
             views = np.asarray(archive["views"], dtype=np.float64)
             normalized = np.asarray(archive["normalized"], dtype=np.float64)
             name = str(archive["name"]) if "name" in archive.files else source.stem
+            stored_measures = ([str(item) for item in archive["measures"]]
+                               if "measures" in archive.files else list(MEASURES))
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{source.name}: cannot be read as .npz ({err})") from err
-    figure = sphere_map(views, normalized, measure=measure, predicted=predicted, title=name)
+    if stored_measures != list(MEASURES):
+        raise InputError(f"{source.name}: measures {stored_measures} are not {list(MEASURES)}")
+    column = measure_index(measure)
+    if normalized.ndim == 2 and normalized.shape[1] == len(MEASURES) \
+            and not np.isfinite(normalized[:, column]).any():
+        raise InputError(f"{source.name}: no finite {MEASURES[column]} value to draw (all NaN)")
+    try:
+        figure = sphere_map(views, normalized, measure=measure, predicted=predicted, title=name)
+    except InputError as err:  # "quality: ..." and "views: ..." name the file too
+        raise InputError(f"{source.name}: {err}") from err
     return save_figure(figure, output)

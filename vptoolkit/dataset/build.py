@@ -69,7 +69,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Literal, overload
@@ -89,6 +89,7 @@ from vptoolkit.sphere import fibonacci_sphere
 __all__ = [
     "FORMATS",
     "SPLIT_FRACTIONS",
+    "STAGES",
     "STAGING_DIR",
     "BuildResult",
     "SourceModel",
@@ -104,6 +105,9 @@ FORMATS: dict[str, str] = {"zarr": "dataset.zarr", "hdf5": "dataset.h5"}
 
 SPLIT_FRACTIONS: dict[str, float] = {"train": 0.8, "val": 0.1, "test": 0.1}
 """Fractions of the train/val/test split (SCHEMA.md)."""
+
+STAGES = ("load", "clean", "sample", "measure", "write")
+"""Stages of a model whose seconds :class:`BuildResult` reports."""
 
 STAGING_DIR = ".staging"
 """Folder inside OUT that holds the finished models of a build in progress."""
@@ -123,6 +127,11 @@ _MODEL_SUFFIX = ".npz"
 _FAILURE_SUFFIX = ".failed.json"
 _HASH_BLOCK = 1 << 20
 _CONNECT_TIMEOUT = "30s"  # to reach a Dask scheduler
+# Dask's comm protocols; http:// (a dashboard) and bare words are refused before connecting.
+_SCHEDULER_ADDRESS = re.compile(
+    r"(?:(?:tcp|tls|ws|wss|ucx)://)?(?:\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):\d{1,5}"
+    r"|inproc://\S+"
+)
 _ARRAY_NAMES = (
     "points",
     "normals",
@@ -201,6 +210,15 @@ class BuildResult:
     n_resumed : int
         Models (and failures) taken from the staging folder instead of being
         computed again (default: 0).
+    stage_seconds : dict
+        Seconds spent per stage of :data:`STAGES` over the models computed in
+        this call (``load``, ``clean``, ``measure``, ``sample``: summed over
+        the workers' models, so with several workers they add up to more than
+        the wall-clock time; ``write``: staging files and the final store, in
+        the main process). Never stored: timings differ from run to run.
+    n_computed : int
+        Models computed (not resumed) in this call, the count behind
+        ``stage_seconds`` (default: 0).
     """
 
     path: Path
@@ -209,6 +227,8 @@ class BuildResult:
     failures: tuple[dict[str, str], ...]
     seconds: float
     n_resumed: int = 0
+    stage_seconds: dict[str, float] = field(default_factory=dict)
+    n_computed: int = 0
 
 
 # --------------------------------------------------------------------------- discovery
@@ -500,6 +520,11 @@ def build_dataset(
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
         raise InputError(f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}")
+    if scheduler is not None and not _SCHEDULER_ADDRESS.fullmatch(scheduler.strip()):
+        raise InputError(
+            f"scheduler: {scheduler!r} is not a Dask scheduler address; expected "
+            "tcp://host:port (or tls://, ws://, wss://, ucx://, inproc://)"
+        )
     if scheduler is not None and workers != 1:
         raise InputError("workers: give either workers > 1 or scheduler, not both")
     progress = check_bool(progress, "progress")
@@ -515,8 +540,10 @@ def build_dataset(
     with _build_lock(staging):
         created = _resume_or_start(staging, options, root)
         done, staged_failures, todo = _scan_staging(staging, unique)
+        _warn_about_models_left_out(staging, unique, out_dir)
         n_resumed = len(done) + len(staged_failures)
         run_failures: dict[str, dict[str, str]] = {}
+        stage_seconds = dict.fromkeys((*STAGES, "models"), 0.0)
         tasks = [_task(model, options) for model in todo]
         with _progress_bar(
             len(unique) + len(duplicate_failures),
@@ -528,7 +555,12 @@ def build_dataset(
             def finished(result: Mapping[str, Any]) -> None:
                 model_id = result["model_id"]
                 if result["status"] == "ok":
+                    started_write = time.perf_counter()
                     done[model_id] = _stage_model(staging, result)
+                    for stage, spent in result.get("seconds", {}).items():
+                        stage_seconds[stage] += spent
+                    stage_seconds["write"] += time.perf_counter() - started_write
+                    stage_seconds["models"] += 1
                 else:
                     if result["staged"]:
                         _stage_failure(staging, result)
@@ -555,6 +587,7 @@ def build_dataset(
             key=lambda failure: (failure["source"], failure["reason"]),
         )
         store_path = out_dir / FORMATS[options["format"]]
+        started_store = time.perf_counter()
         write_dataset(
             store_path,
             entries,
@@ -563,6 +596,9 @@ def build_dataset(
             failures=failures,
             progress=progress,
         )
+        store_seconds = time.perf_counter() - started_store
+    n_computed = int(stage_seconds.pop("models"))
+    stage_seconds["write"] += store_seconds
     return BuildResult(
         path=store_path,
         n_models=len(entries),
@@ -570,6 +606,8 @@ def build_dataset(
         failures=tuple(failures),
         seconds=time.perf_counter() - started,
         n_resumed=n_resumed,
+        stage_seconds=stage_seconds,
+        n_computed=n_computed,
     )
 
 
@@ -753,6 +791,28 @@ def _scan_staging(
     return done, failed, todo
 
 
+def _warn_about_models_left_out(
+    staging: Path, models: Sequence[SourceModel], out_dir: Path
+) -> None:
+    """Say so when this run's store will hold fewer models than the folder has staged.
+
+    A rerun with other ``categories`` (or with models removed from the source)
+    writes a store of this run's models only; the other staged models are
+    kept, and a later run that includes them again takes them from there.
+    """
+    wanted = {f"{_stage_key(model.model_id)}{_MODEL_SUFFIX}" for model in models}
+    others = [
+        name for name in sorted(os.listdir(staging))
+        if name.startswith("m-") and name.endswith(_MODEL_SUFFIX) and name not in wanted
+    ]
+    if others:
+        _log.warning(
+            "%s: %d staged models are not part of this run (other --categories or removed "
+            "sources); the store will hold only this run's %d models (the staged ones are "
+            "kept for a later run)", out_dir, len(others), len(models),
+        )
+
+
 def _signature(model: SourceModel) -> dict[str, Any]:
     """What identifies the staged result of a source file: id, path, size and mtime."""
     try:
@@ -764,11 +824,25 @@ def _signature(model: SourceModel) -> dict[str, Any]:
 
 
 def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
+    """Whether a staged model is whole and was made from the same source file.
+
+    Every member is read in full, so a bad CRC or a truncated member anywhere
+    in the file (not just in ``meta``) counts as unreadable: the model is
+    computed again after one warning, instead of failing the final write.
+    """
     try:
         # np.load leaks its file handle when the zip is broken, so open the file here.
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
             meta = _decode_json(staged["meta"])
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):  # unreadable: redo it
+            missing = [name for name in _ARRAY_NAMES if name not in staged.files]
+            if missing:
+                raise KeyError(f"no member {missing[0]!r}")
+            for name in _ARRAY_NAMES:
+                staged[name]  # reads the member in full and checks its CRC
+    # unreadable: redo it
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, UnicodeDecodeError) as err:
+        _log.warning("%s: staged model unreadable (%s); computing it again", path.name,
+                     one_line(err))
         return False
     return bool(meta.get("signature") == signature)
 
@@ -954,7 +1028,8 @@ def _run_locally(
     window = 2 * workers
     while pending:
         crashed: list[dict[str, Any]] = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                                 initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
             running: dict[Future[dict[str, Any]], dict[str, Any]] = {}
             while (pending or running) and not crashed:
                 while pending and len(running) < window:
@@ -980,7 +1055,8 @@ def _run_alone(
     function: Callable[[Mapping[str, Any]], dict[str, Any]],
 ) -> dict[str, Any]:
     """Retry a task whose pool broke in a process of its own; a second crash is a failure."""
-    with ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+    with ProcessPoolExecutor(max_workers=1, mp_context=context,
+                             initializer=_die_with_parent, initargs=(os.getpid(),)) as pool:
         try:
             return pool.submit(function, task).result()
         except BrokenProcessPool:
@@ -989,6 +1065,44 @@ def _run_alone(
                 f"{task['source']}: the worker process died while processing it",
                 staged=False,
             )
+
+
+_PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
+_WATCHDOG_SECONDS = 1.0
+
+
+def _die_with_parent(build_pid: int) -> None:
+    """Initializer of every worker process: end it when the build process ends.
+
+    A worker started by the ``forkserver`` is the server's child, not the
+    build's, so a build killed with ``kill -9`` would leave its workers (each
+    holding a mesh and numba's buffers) running forever. On Linux the kernel
+    sends SIGKILL to the worker when its parent dies (``PR_SET_PDEATHSIG``,
+    through ctypes); everywhere, a daemon thread checks every second that the
+    build process is alive and exits the worker if not.
+    """
+    import signal
+    import sys
+    import threading
+
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+
+    def watch() -> None:
+        while True:
+            time.sleep(_WATCHDOG_SECONDS)
+            try:
+                os.kill(build_pid, 0)
+            except ProcessLookupError:
+                os._exit(1)
+            except PermissionError:  # pragma: no cover - pid reused by another user
+                os._exit(1)
+
+    threading.Thread(target=watch, name="vptoolkit-build-watchdog", daemon=True).start()
 
 
 def _run_on_cluster(
@@ -1081,15 +1195,24 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     from vptoolkit.view_sets import measure_view_set
 
     path = Path(task["path"])
+    seconds: dict[str, float] = {}
+    started = time.perf_counter()
     source_sha256 = _file_sha256(path)
     mesh = load_mesh(path)
+    seconds["load"] = time.perf_counter() - started
     cleaning = None
+    started = time.perf_counter()
     if task["clean"]:
         mesh, report = clean_mesh(mesh, max_faces=task["max_faces"])
         cleaning = _without_timings(report.to_dict())
+    seconds["clean"] = time.perf_counter() - started
+    started = time.perf_counter()
     quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, n_views=task["n_views"],
                                          resolution=task["resolution"], backend=BACKEND)
+    seconds["measure"] = time.perf_counter() - started
+    started = time.perf_counter()
     sample = sample_surface(mesh, task["n_points"], seed=task["seed"])
+    seconds["sample"] = time.perf_counter() - started
     columns = np.arange(quality.raw.shape[1])
     raw = quality.raw.astype(np.float32)
     arrays = {
@@ -1119,6 +1242,7 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
         "status": "ok",
         "meta": {"signature": task["signature"], "record": record},
         "arrays": arrays,
+        "seconds": seconds,  # wall-clock per stage: reported, never stored
     }
 
 

@@ -52,8 +52,8 @@ from vptoolkit.dataset.card import (
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
 from vptoolkit.dataset.store import SPLITS, ModelEntry, published_split
-from vptoolkit.errors import InputError
-from vptoolkit.files import write_text_atomic
+from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.files import remove_stale_partials, temporary_prefix, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -214,6 +214,23 @@ def _check_name(name: str) -> None:
             f"name: {name!r} must start with a letter or digit and hold only letters, "
             "digits, '.', '_' and '-'"
         )
+
+
+def _check_source_intact(source: Path) -> None:
+    """Re-hash every array of the store to pack against its ``sha256``, before writing anything.
+
+    Packing re-computes each array's digest from what it reads, so a damaged
+    chunk (a flipped byte, or a deleted one that zarr reads as zeros) would
+    otherwise ship with a fresh, matching checksum.
+
+    Raises
+    ------
+    VerificationError
+        Naming the mismatching arrays; nothing is written.
+    """
+    report = verify(source)
+    if not report.ok:
+        raise VerificationError(f"{report.summary()}; nothing packed")
 
 
 def _check_release_dir(release_dir: Path) -> None:
@@ -488,6 +505,9 @@ def pack_release(
     MissingDependencyError
         If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
         install 'vptoolkit[dataset]'``).
+    VerificationError
+        If an array of ``dataset`` differs from its stored SHA-256 (checked
+        before anything is written).
     """
     from vptoolkit.dataset.store import find_store, open_store, write_dataset
 
@@ -501,6 +521,7 @@ def pack_release(
                   else dict(licenses) if licenses is not None else None)
     source = find_store(dataset)
     _require_formats(chosen)
+    _check_source_intact(source)
     target.parent.mkdir(parents=True, exist_ok=True)
 
     stem = f"{base}-{version}"
@@ -508,7 +529,7 @@ def pack_release(
     written = [archive_names[f] for f in ("zarr", "hdf5") if f in chosen]
     # Without an archive, a hidden HDF5 copy serves the descriptions and is removed.
     described_name = written[0] if written else f".{stem}.describe.h5"
-    staging = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".partial",
+    staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
                                     dir=target.parent))
     try:
         with open_store(source) as reader:
@@ -559,6 +580,7 @@ def pack_release(
         files = write_sha256sums(staging)
         _check_release_dir(target)
         _publish(staging, target)
+        remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

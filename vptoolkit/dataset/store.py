@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib.metadata
+import itertools
 import json
 import math
 import os
@@ -47,7 +48,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
+from vptoolkit.errors import InputError, MissingDependencyError, VerificationError, VptoolkitError
+from vptoolkit.files import remove_stale_partials, temporary_prefix
 from vptoolkit.optional import is_available, require
 
 __all__ = [
@@ -702,6 +704,9 @@ class _ZarrSink:
             compressors=self._codec,
             fill_value=0,
             attributes={"sha256": sha256},
+            # Every chunk is stored, even all zeros: a reader can then tell a
+            # deleted chunk (an error) from an empty one (see _check_chunks).
+            config={"write_empty_chunks": True},
         )
 
     def close(self) -> None:
@@ -804,7 +809,7 @@ class _RowWriter:
 
 
 def _temporary_sibling(target: Path, kind: str) -> Path:
-    prefix, suffix = f".{target.name}.", ".partial"
+    prefix, suffix = temporary_prefix(target.name), ".partial"
     if kind == "zarr":
         return Path(tempfile.mkdtemp(prefix=prefix, suffix=suffix, dir=target.parent))
     handle, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
@@ -994,6 +999,7 @@ def write_dataset(
         finally:
             sink.close()
         _move_into_place(temporary, target, kind)
+        remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
         is_done = True
     finally:
         if not is_done:
@@ -1256,7 +1262,7 @@ def _open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
     return handle, handle, attrs, names
 
 
-def open_store(path: str | os.PathLike[str]) -> StoreReader:
+def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> StoreReader:
     """Open a dataset store for reading.
 
     Parameters
@@ -1264,6 +1270,10 @@ def open_store(path: str | os.PathLike[str]) -> StoreReader:
     path : path-like
         A ``*.zarr`` directory, a ``*.zarr.zip`` file or an ``*.h5`` /
         ``*.hdf5`` file (use :func:`find_store` for folders).
+    check_chunks : bool
+        Refuse a Zarr store with a missing chunk, which would read as zeros
+        (default: True; :func:`vptoolkit.dataset.manifest.verify` turns it
+        off to report every damaged array itself).
 
     Returns
     -------
@@ -1278,7 +1288,9 @@ def open_store(path: str | os.PathLike[str]) -> StoreReader:
     VerificationError
         If its ``measures`` or ``higher_is_better`` attribute differs from
         :data:`~vptoolkit.conventions.MEASURES` and
-        :data:`~vptoolkit.conventions.HIGHER_IS_BETTER`.
+        :data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, or (with
+        ``check_chunks``) a chunk is missing; the message names the array and
+        its models.
     """
     source = Path(path)
     kind = store_kind(source)
@@ -1297,6 +1309,8 @@ def open_store(path: str | os.PathLike[str]) -> StoreReader:
     is_valid = False
     try:
         _check_root(reader)
+        if check_chunks:
+            _check_chunks(reader)
         is_valid = True
     finally:
         if not is_valid:
@@ -1331,3 +1345,82 @@ def _check_root(reader: StoreReader) -> None:
     for key in ("n_models", "n_views", "n_points"):
         if not isinstance(attrs.get(key), int):
             raise InputError(f"{label}: root attribute {key!r} is missing or not an integer")
+
+
+_PER_MODEL_ARRAYS = (
+    "points", "normals", "quality", "quality_raw",
+    "best_index", "best_value", "worst_index", "worst_value",
+)
+_MESH_ARRAYS = {"mesh_vertices": "mesh_vertex_offsets", "mesh_faces": "mesh_face_offsets"}
+_MAX_NAMED_MODELS = 3
+
+
+def _stored_keys(reader: StoreReader) -> set[str]:
+    """Every key (``array/c/0/0``) of a Zarr directory or zip store."""
+    if reader.kind == "zarr-zip":
+        with zipfile.ZipFile(reader.path) as archive:
+            return set(archive.namelist())
+    keys = set()
+    for folder, _, files in os.walk(reader.path):
+        relative = Path(folder).relative_to(reader.path).as_posix()
+        keys.update(name if relative == "." else f"{relative}/{name}" for name in files)
+    return keys
+
+
+def _check_chunks(reader: StoreReader) -> None:
+    """Refuse a Zarr store with a missing chunk, which zarr would read as zeros.
+
+    The writer stores every chunk (``write_empty_chunks``), so a missing one
+    was deleted or lost. A store from an older writer, which skipped all-zero
+    chunks, passes when the array's content still matches its ``sha256``
+    attribute (hashed only then).
+
+    Raises
+    ------
+    VerificationError
+        Naming the array, the chunk and the models it holds.
+    """
+    if reader.kind == "hdf5":
+        return  # HDF5 chunks live inside one file; damage shows as a read error
+    keys = _stored_keys(reader)
+    for name in reader.array_names():
+        array = reader.array(name)
+        if not array.shape or 0 in array.shape:
+            continue
+        grid = [range(count) for count in array.cdata_shape]
+        missing = [
+            coords
+            for coords in itertools.product(*grid)
+            if f"{name}/{array.metadata.encode_chunk_key(coords)}" not in keys
+        ]
+        if not missing or array_sha256(array) == reader.stored_sha256(name):
+            continue
+        key = array.metadata.encode_chunk_key(missing[0])
+        more = f" (and {len(missing) - 1} more chunks)" if len(missing) > 1 else ""
+        raise VerificationError(
+            f"{reader.path.name}: array {name!r} chunk {key} is missing{more}, "
+            f"{_models_of_rows(reader, name, missing[0][0], array.chunks[0])}; "
+            "it would read as zeros (run vptool verify)"
+        )
+
+
+def _models_of_rows(reader: StoreReader, name: str, chunk_index: int, chunk_rows: int) -> str:
+    """Which models the rows of one chunk belong to, for an error message."""
+    first, stop = chunk_index * chunk_rows, (chunk_index + 1) * chunk_rows
+    try:
+        names = [str(record.get("name")) for record in reader.models()]
+        if name in _PER_MODEL_ARRAYS:
+            rows = list(range(first, min(stop, len(names))))
+        elif name in _MESH_ARRAYS:
+            offsets = np.asarray(reader.array(_MESH_ARRAYS[name])[...])
+            rows = [
+                row for row in range(len(names))
+                if offsets[row] < stop and offsets[row + 1] > first
+            ]
+        else:
+            return "which every model uses"
+    except (VptoolkitError, KeyError, ValueError, TypeError, AttributeError):
+        return "models unknown (models_json unreadable)"
+    shown = ", ".join(names[row] for row in rows[:_MAX_NAMED_MODELS])
+    extra = f" and {len(rows) - _MAX_NAMED_MODELS} more" if len(rows) > _MAX_NAMED_MODELS else ""
+    return f"models {shown}{extra}" if rows else "no model"

@@ -92,6 +92,7 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
     file_name = path.name or str(path)
     data = _read_file(path, file_name)
     suffix = path.suffix.lower()
+    label = ply.file_label.set(file_name)
     try:
         if suffix in _BYTE_READERS:
             vertices, polygons = _BYTE_READERS[suffix](data)
@@ -105,6 +106,8 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
             f"{file_name}: cannot parse {_FORMAT_LABELS[suffix]} file "
             f"({type(err).__name__}: {one_line(str(err))})"
         ) from err
+    finally:
+        ply.file_label.reset(label)
     try:
         return Mesh(vertices=vertices, faces=faces, name=path.stem)
     except InputError as err:  # pragma: no cover - the checks above are stricter

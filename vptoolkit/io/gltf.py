@@ -53,7 +53,13 @@ def read_gltf(path: Path, data: bytes) -> tuple[NDArray[np.float64], Polygons]:
             raise FormatError(f"invalid glTF JSON ({one_line(str(err))})") from err
     elif not data.startswith(b"glTF"):
         raise FormatError("not a GLB file (it does not start with 'glTF')")
-    scene = trimesh.load_scene(str(path), file_type=suffix[1:], process=False)
+    try:
+        scene = trimesh.load_scene(str(path), file_type=suffix[1:], process=False)
+    except AssertionError as err:  # trimesh asserts on buffers shorter than their views
+        raise FormatError(
+            "truncated or inconsistent glTF (a buffer is shorter than its views and "
+            f"accessors declare{': ' + one_line(str(err)) if str(err) else ''})"
+        ) from err
     vertex_blocks: list[NDArray[np.float64]] = []
     face_blocks: list[NDArray[np.int64]] = []
     n_vertices = n_other_points = 0

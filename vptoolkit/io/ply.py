@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextvars
+import logging
 import re
 from typing import NamedTuple
 
@@ -18,6 +20,11 @@ from vptoolkit.io._polygons import (
 )
 
 __all__ = ["ply_bytes", "read_ply"]
+
+_log = logging.getLogger(__name__)
+
+file_label: contextvars.ContextVar[str] = contextvars.ContextVar("file_label", default="PLY file")
+"""Name of the file being read, for warnings (set by :func:`vptoolkit.io.load_mesh`)."""
 
 _TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -229,8 +236,20 @@ def _ascii_element(
     # the face index list after `lead` scalars; anything else with lists is rare
     list_positions = [i for i, prop in enumerate(props) if prop.count_dtype is not None]
     position = next((i for i, prop in enumerate(props) if prop.name in names), None)
-    if position is None or list_positions[0] != position or len(list_positions) != 1:
+    if position is None or list_positions[0] != position:
         raise FormatError(f"PLY element {element.name!r} has an unsupported ASCII list layout")
+    if len(list_positions) != 1:
+        # MeshLab (VCGLIB) writes e.g. `list uchar float texcoord` and colours after
+        # the indices, and its lines may carry more values than the header says.
+        # The index list comes first, so it reads unambiguously; the rest is skipped.
+        _log.warning(
+            "%s: PLY element %r: reading only its %r list; the %d properties after it "
+            "(lists whose lines need not match the header) are ignored",
+            file_label.get(), element.name, props[position].name, len(props) - position - 1,
+        )
+        return {props[position].name: parse_counted_polygons(
+            rows, numbers, lead=position, is_exact=False, min_size=0
+        )}
     n_trailing = len(props) - position - 1
     rows_without_tail = [row[: len(row) - n_trailing] for row in rows] if n_trailing else rows
     return {props[position].name: parse_counted_polygons(

@@ -122,6 +122,13 @@ def iter_view_histograms(
     """
     if backend not in BACKENDS:
         raise InputError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    if backend == "raycast":
+        # Open3D casts in float32 with absolute epsilons: a model scaled by 1e30 or
+        # 1e-12 fails there. Pixel counts do not depend on the scale (the camera
+        # stands at a multiple of the diagonal), so cast on the unit-diagonal copy.
+        centre, diagonal = bounding_frame(mesh)
+        if diagonal > 0.0:
+            mesh = Mesh((mesh.vertices - centre) / diagonal, mesh.faces, name=mesh.name)
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, view_directions, resolution, camera)
     if backend == "raster":

@@ -69,8 +69,9 @@ class RasterWorkspace:
 
     @classmethod
     def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int) -> RasterWorkspace:
-        n_threads = get_num_threads()
         capacity = histogram_capacity(resolution, n_faces)
+        n_threads = threads_within_budget(resolution=resolution, n_faces=n_faces,
+                                          n_vertices=n_vertices, capacity=capacity)
         return cls(
             frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
             row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
@@ -81,6 +82,27 @@ class RasterWorkspace:
             screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
             inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
         )
+
+
+FRAME_BUDGET_BYTES = 1 << 30
+"""Most bytes the per-thread buffers may take together; more threads than fit share views.
+
+At 16384 px one frame is 2 GiB of int64 keys, so each thread's own frame
+would multiply that by the thread count (3.2 GB on 2 threads).
+"""
+
+
+def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
+                          capacity: int) -> int:
+    """Threads whose buffers fit :data:`FRAME_BUDGET_BYTES`: at least 1, at most numba's.
+
+    The result depends only on the sizes and the thread count, never on the
+    views, and every view is drawn the same way on any thread, so the counts
+    are identical whatever it returns.
+    """
+    per_thread = (8 * resolution * resolution + 16 * resolution + 8 * n_faces + 4 * capacity
+                  + 24 * n_vertices)
+    return int(max(1, min(get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
 
 
 def locality_order(
@@ -166,6 +188,22 @@ def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
+               k_high: np.int64) -> tuple[np.int64, np.int64]:
+    """Narrow ``[k_low, k_high]`` to the offsets ``k`` with ``edge + k * step >= 0``."""
+    if step > 0:
+        if edge < 0:
+            k_low = max(k_low, -((edge) // step))  # ceil(-edge / step)
+    elif step < 0:
+        if edge < 0:
+            return np.int64(1), np.int64(0)
+        k_high = min(k_high, edge // (-step))
+    elif edge < 0:
+        return np.int64(1), np.int64(0)
+    return k_low, k_high
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _rasterize_view(
     faces: NDArray[np.int32],
     face_normals: NDArray[np.float64],
@@ -236,26 +274,30 @@ def _rasterize_view(
         dq_dy = (sy_bc * qa + sy_ca * qb + sy_ab * qc) * inv_area
         q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
         face_id = np.int64(f + 1)
+        width = x1 - x0
         for y in range(y0, y1 + 1):
-            e_ab, e_bc, e_ca = row_ab, row_bc, row_ca
-            q = q_row
+            # The covered pixels of a row form one run: solve each edge function
+            # e + k * sx >= 0 for the pixel offset k instead of testing every
+            # pixel of the bounding box (wide triangles spend most time outside).
+            k_low = np.int64(0)
+            k_high = width
+            k_low, k_high = _edge_span(row_ab, sx_ab, k_low, k_high)
+            k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
+            k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
             base = y * resolution
             first = -1
             last = -1
-            for x in range(x0, x1 + 1):
-                if (e_ab | e_bc | e_ca) >= 0:
-                    if first < 0:
-                        first = x
-                    last = x
+            if k_low <= k_high:
+                first = x0 + k_low
+                last = x0 + k_high
+                q = q_row
+                for _ in range(k_low):  # the same additions as a pixel-by-pixel walk
+                    q += dq_dx
+                for x in range(first, last + 1):
                     key = (np.int64(q) << 32) | face_id
                     if key > frame[base + x]:
                         frame[base + x] = key
-                elif first >= 0:
-                    break
-                e_ab += sx_ab
-                e_bc += sx_bc
-                e_ca += sx_ca
-                q += dq_dx
+                    q += dq_dx
             if first >= 0:
                 if first < row_low[y]:
                     row_low[y] = first

@@ -1,0 +1,234 @@
+"""Bad input is one line on stderr and exit status 2: never a traceback, a hang or a bad file.
+
+Each case here once gave a traceback, a numpy warning storm, a 60 s hang, a segfault,
+a 74 GiB allocation or an output full of inf; see issue 15.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import require_package
+from test_pack_integrity import build  # noqa: F401 - a small store for evaluate
+from vptoolkit.cli import main
+from vptoolkit.samples import sample_path
+
+TETRAHEDRON = "0 0 0\n{s} 0 0\n0 {s} 0\n0 0 {s}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
+
+
+def _run(*args: str) -> tuple[int, str]:
+    outcome = CliRunner().invoke(main, [str(arg) for arg in args])
+    return outcome.exit_code, outcome.output
+
+
+def _assert_one_line_bad_input(code: int, output: str, *needles: str) -> None:
+    assert code == 2, output
+    assert output.count("\n") == 1 and output.startswith("vptool: error: "), output
+    assert "Traceback" not in output
+    for needle in needles:
+        assert needle in output, output
+
+
+@pytest.fixture()
+def huge_tetrahedron(tmp_path: Path) -> Path:
+    path = tmp_path / "huge.off"
+    path.write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e300"))
+    return path
+
+
+@pytest.mark.parametrize("command", ["sample", "measures", "render"])
+def test_overflowing_coordinates_are_bad_input(huge_tetrahedron: Path, tmp_path: Path,
+                                               command: str) -> None:
+    output = {"sample": ["-o", tmp_path / "p.npy"], "measures": ["--views", "10"],
+              "render": ["--view", "0,0,1", "-o", tmp_path / "p.png"]}[command]
+    code, text = _run(command, huge_tetrahedron, *output)
+    _assert_one_line_bad_input(code, text, "huge.off", "1e+300", "rescale")
+    assert not list(tmp_path.glob("p.*"))
+
+
+def test_a_mesh_at_1e30_is_still_fine() -> None:
+    from vptoolkit.mesh import Mesh
+
+    mesh = Mesh(np.eye(3) * 1e30, np.array([[0, 1, 2]]))
+    assert mesh.vertices.max() == 1e30
+
+
+def test_meshlab_ascii_ply_with_texture_lists_reads_its_indices_and_warns_once(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    from vptoolkit.io import load_mesh
+
+    header = (
+        "ply\nformat ascii 1.0\ncomment VCGLIB generated\nelement vertex 4\n"
+        "property float x\nproperty float y\nproperty float z\nelement face 4\n"
+        "property list uchar int vertex_indices\nproperty list uchar float texcoord\n"
+        "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar alpha\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+    )
+    tail = " 6 0.06 0.74 0.1 0.2 0.3 0.4 9 1 1 1 1 1 1 1 1 1\n"  # more values than declared
+    faces = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+    path = tmp_path / "meshlab.ply"
+    path.write_text(header + "".join("3 %d %d %d" % face + tail for face in faces))
+    with caplog.at_level(logging.WARNING):
+        mesh = load_mesh(path)
+    assert mesh.faces.tolist() == [list(face) for face in faces]
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert len(warnings) == 1 and warnings[0].startswith("meshlab.ply: ")
+    assert "vertex_indices" in warnings[0]
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--points", "10000000000"], "--points"),
+    (["--seed", "-1"], "--seed"),
+], ids=["74-GiB-points", "negative-seed"])
+def test_sample_options_out_of_range(tmp_path: Path, args: list[str], needle: str) -> None:
+    code, text = _run("sample", sample_path("teapot"), "-o", tmp_path / "p.npy", *args)
+    _assert_one_line_bad_input(code, text, needle)
+
+
+def _absurd_npy() -> bytes:
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(
+        header, {"descr": "<f8", "fortran_order": False, "shape": (400_000_000_000, 4, 3)}
+    )
+    return header.getvalue() + bytes(96)
+
+
+def test_predictions_that_are_not_npy_or_claim_terabytes(build: Path, tmp_path: Path) -> None:  # noqa: F811
+    not_npy = tmp_path / "p.npz"
+    with zipfile.ZipFile(not_npy, "w") as archive:
+        archive.writestr("names.txt", "chair")
+        archive.writestr("directions.npy", b"not an array")
+    code, text = _run("evaluate", not_npy, "--dataset", build)
+    _assert_one_line_bad_input(code, text, "p.npz", "names.txt", "not a .npy array")
+
+    absurd = tmp_path / "p.npy"
+    absurd.write_bytes(_absurd_npy())
+    code, text = _run("evaluate", absurd, "--dataset", build)
+    _assert_one_line_bad_input(code, text, "p.npy", "(400000000000, 4, 3)")
+    code, text = _run("predict", absurd)
+    _assert_one_line_bad_input(code, text, "p.npy", "but the file holds 96")
+
+
+@pytest.mark.parametrize("address", ["not a url", "http://127.0.0.1:8787"])
+def test_a_scheduler_that_is_not_a_dask_address_is_refused_at_once(tmp_path: Path,
+                                                                   address: str) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "teapot.stl").write_bytes(sample_path("teapot").read_bytes())
+    code, text = _run("build-dataset", src, tmp_path / "out", "--no-clean", "--scheduler", address)
+    _assert_one_line_bad_input(code, text, "scheduler", "tcp://host:port")
+    assert not (tmp_path / "out").exists()
+
+
+def test_train_threads_beyond_the_machine(build: Path, tmp_path: Path) -> None:  # noqa: F811
+    code, text = _run("train", build, "-o", tmp_path / "m", "--threads", "100000")
+    _assert_one_line_bad_input(code, text, "--threads")
+
+
+def test_a_checkpoint_whose_json_disagrees_with_its_weights(tmp_path: Path) -> None:
+    require_package("torch")
+    from vptoolkit.learn import model as M
+
+    small = M.ModelConfig(levels=(
+        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                      neighbourhood="cell"),
+    ))
+    M.save_model(M.ViewpointNet(small), tmp_path / "small.safetensors")
+    M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")
+    (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
+    code, text = _run("predict", "-m", tmp_path / "small.safetensors", sample_path("teapot"))
+    _assert_one_line_bad_input(code, text, "small.safetensors: weights do not match")
+
+
+def test_option_errors_are_one_line_like_every_other_error() -> None:
+    code, text = _run("measures", sample_path("teapot"), "--views", "0")
+    _assert_one_line_bad_input(code, text, "measures: ", "--views")
+    code, text = _run("no-such-command")
+    _assert_one_line_bad_input(code, text, "no-such-command")
+    code, text = _run("--help")
+    assert code == 0 and "Usage:" in text
+
+
+def test_a_symlink_loop_is_named_as_such(tmp_path: Path) -> None:
+    (tmp_path / "a.off").symlink_to(tmp_path / "b.off")
+    (tmp_path / "b.off").symlink_to(tmp_path / "a.off")
+    code, text = _run("sample", tmp_path / "a.off", "-o", tmp_path / "p.npy")
+    _assert_one_line_bad_input(code, text, "symbolic link loop")
+    assert "does not exist" not in text
+
+
+def test_sphere_map_inputs_that_cannot_be_drawn(tmp_path: Path) -> None:
+    views = np.eye(3)
+    cases = {
+        "nan.npz": {"views": views, "normalized": np.full((3, 4), np.nan)},
+        "names.npz": {"views": views, "normalized": np.ones((3, 4)),
+                      "measures": np.array(["A", "B", "C", "D"])},
+        "shape.npz": {"views": views, "normalized": np.ones((5, 4))},
+    }
+    for file_name, members in cases.items():
+        np.savez(tmp_path / file_name, **members)
+        code, text = _run("sphere-map", tmp_path / file_name, "-o", tmp_path / "m.png")
+        _assert_one_line_bad_input(code, text, f"{file_name}: ")
+    assert not (tmp_path / "m.png").exists()
+
+
+def test_a_short_glb_buffer_is_named(tmp_path: Path) -> None:
+    data = sample_path("Duck").read_bytes()
+    short = tmp_path / "short.glb"
+    short.write_bytes(data[: len(data) // 2])
+    code, text = _run("sample", short, "-o", tmp_path / "p.npy")
+    _assert_one_line_bad_input(code, text, "short.glb: ")
+    assert "no details" not in text
+
+
+@pytest.mark.parametrize("scale", [1e30, 1e-12])
+def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) -> None:
+    require_package("open3d")
+    from vptoolkit.io import load_mesh
+    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.mesh import Mesh
+
+    teapot = load_mesh(sample_path("teapot"))
+    scaled = Mesh(teapot.vertices * scale, teapot.faces, name="teapot")
+    raster = compute_view_quality(scaled, 20, 64, backend="raster").raw
+    raycast = compute_view_quality(scaled, 20, 64, backend="raycast").raw
+    np.testing.assert_allclose(raycast, raster, rtol=0.01)
+
+
+def test_train_on_too_few_points_says_how_many_it_needs(build: Path, tmp_path: Path) -> None:  # noqa: F811
+    code, text = _run("train", build, "-o", tmp_path / "m", "--epochs", "1")
+    _assert_one_line_bad_input(code, text, "200 points", "at least 1024")
+
+
+def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Path,  # noqa: F811
+                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+    import vptoolkit.learn.train as train
+    import vptoolkit.points as points
+    from vptoolkit.errors import InputError
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise InputError("m: already holds a training run (model.safetensors); pass "
+                         "resume=True to continue it or overwrite=True to replace it")
+
+    monkeypatch.setattr(points, "N_FPS_POINTS", 100)
+    monkeypatch.setattr(train, "train_model", refuse)
+    code, text = _run("train", build, "-o", tmp_path / "m")
+    _assert_one_line_bad_input(code, text, "--resume")
+    assert "resume=True" not in text and "overwrite=True" not in text
+
+
+@pytest.mark.parametrize("points", [np.zeros((1, 3)), np.ones((50, 6))],
+                         ids=["one-point", "identical-points"])
+def test_predict_refuses_a_cloud_without_extent(tmp_path: Path, points: np.ndarray) -> None:
+    path = tmp_path / "cloud.npy"
+    np.save(path, points.astype(np.float32))
+    code, text = _run("predict", path)
+    _assert_one_line_bad_input(code, text, "cloud.npy: ", "extent")

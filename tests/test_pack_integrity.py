@@ -1,0 +1,114 @@
+"""Nothing corrupt is ever packed, and no reader takes a lost chunk for zeros.
+
+``pack`` re-hashes every array it copies, so before this check a flipped byte or a
+deleted chunk of ``OUT/dataset.zarr`` shipped with a fresh, matching checksum and
+``verify`` said OK on the release.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import require_package
+from test_release import FAILURES, N_VIEWS, _attrs, _entries
+from vptoolkit.cli import main
+from vptoolkit.errors import VerificationError
+
+CHUNK = Path("dataset.zarr") / "quality" / "c" / "0" / "0" / "0"
+
+
+@pytest.fixture()
+def build(tmp_path: Path) -> Path:
+    """A build folder with a small synthetic ``dataset.zarr`` (9 models in one quality chunk)."""
+    require_package("zarr")
+    require_package("h5py")
+    from vptoolkit.dataset.store import write_dataset
+
+    rng = np.random.default_rng(15)
+    views = rng.normal(size=(N_VIEWS, 3))
+    views /= np.linalg.norm(views, axis=1, keepdims=True)
+    folder = tmp_path / "out"
+    folder.mkdir()
+    write_dataset(folder / "dataset.zarr", _entries(rng), attrs=_attrs(), views=views,
+                  failures=FAILURES)
+    return folder
+
+
+def _flip_one_byte(path: Path) -> None:
+    content = bytearray(path.read_bytes())
+    content[len(content) // 2] ^= 0x01
+    path.write_bytes(bytes(content))
+
+
+@pytest.mark.parametrize("damage", ["flipped byte", "deleted chunk"])
+def test_pack_refuses_a_damaged_store_and_writes_nothing(build: Path, tmp_path: Path,
+                                                         damage: str) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    if damage == "flipped byte":
+        _flip_one_byte(build / CHUNK)
+    else:
+        (build / CHUNK).unlink()
+    release = tmp_path / "release"
+    with pytest.raises(VerificationError, match=r"dataset\.zarr:quality.*nothing packed"):
+        pack_release(build, release)
+    assert not release.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no temporary folder left
+
+    outcome = CliRunner().invoke(main, ["pack", str(build), str(release)])
+    assert outcome.exit_code == 1
+    assert outcome.output.count("\n") == 1 and "vptool: error:" in outcome.output
+    assert not release.exists()
+
+
+def test_readers_refuse_a_missing_chunk_naming_array_and_models(build: Path) -> None:
+    from vptoolkit.data import open_dataset
+    from vptoolkit.dataset.store import open_store
+
+    (build / CHUNK).unlink()
+    expected = re.escape("array 'quality' chunk c/0/0/0 is missing, models airplane_0000")
+    with pytest.raises(VerificationError, match=expected):
+        open_store(build / "dataset.zarr")
+    with pytest.raises(VerificationError, match=expected):
+        open_dataset(build)
+    predictions = build.parent / "p.npy"
+    np.save(predictions, np.tile([0.0, 0.0, 1.0], (9, 4, 1)))
+    outcome = CliRunner().invoke(main, ["evaluate", str(predictions), "--dataset", str(build),
+                                        "--split", "all"])
+    assert outcome.exit_code == 1
+    assert "quality" in outcome.output and outcome.output.count("\n") == 1
+
+
+def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(build: Path) -> None:
+    from vptoolkit.dataset.store import open_store
+
+    (build / "dataset.zarr" / "mesh_faces" / "c" / "0" / "0").unlink()
+    with pytest.raises(VerificationError, match=r"'mesh_faces' chunk c/0/0 .*airplane_0000, "):
+        open_store(build / "dataset.zarr")
+
+
+def test_every_chunk_is_written_even_all_zeros_and_an_old_empty_chunk_still_reads(
+    build: Path, tmp_path: Path
+) -> None:
+    import zarr
+
+    from vptoolkit.dataset.store import array_sha256, open_store
+
+    # A chunk of zeros is stored (zarr would skip it by default) ...
+    source = build / "dataset.zarr"
+    with open_store(source) as reader:
+        assert reader.array("quality").nchunks_initialized == reader.array("quality").nchunks
+    # ... and one that an older writer skipped reads as zeros, because the hash agrees.
+    old = Path(shutil.copytree(source, tmp_path / "old.zarr"))
+    array = zarr.open_array(old / "best_index", mode="r+")
+    array[...] = 0  # zarr's default, as the older writer did: the all-zero chunk is dropped
+    array.attrs["sha256"] = array_sha256(np.zeros(array.shape, array.dtype))
+    assert not (old / "best_index" / "c" / "0" / "0").exists()
+    with open_store(old) as reader:
+        assert not np.asarray(reader.array("best_index")[...]).any()
