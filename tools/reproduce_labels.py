@@ -108,8 +108,8 @@ class LabelSizes:
     stored surface points, ``clean`` runs the paper's cleaning, and every
     method trains ``epochs`` epochs on ``train_points`` input points, the
     first ``train_fps`` of them by farthest point sampling. Test models are
-    scored under ``rotations`` fixed rotations each. ``remesh`` writes the
-    shapes isotropically remeshed (``write_collection(remesh=True)``).
+    scored under ``rotations`` fixed rotations each. ``remesh`` remeshes the
+    shapes isotropically when cleaning them (``build_dataset(remesh=True)``).
     """
 
     per_category: int = 50
@@ -215,10 +215,10 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     started = time.perf_counter()
     shapes, dataset_dir = out / "shapes", out / "dataset"
     if not shapes.exists():
-        write_collection(shapes, n_per_category=sizes.per_category, seed=0, remesh=sizes.remesh)
+        write_collection(shapes, n_per_category=sizes.per_category, seed=0)
     built = build_dataset(shapes, dataset_dir, n_views=sizes.n_views,
                           resolution=sizes.resolution, n_points=sizes.n_points,
-                          clean=sizes.clean, workers=workers, split_seed=0,
+                          clean=sizes.clean, remesh=sizes.remesh, workers=workers, split_seed=0,
                           progress=True)
     with open_dataset(built.path) as dataset:
         val_split = "validation" if len(dataset.split("validation")) else "train"

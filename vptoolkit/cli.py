@@ -366,6 +366,8 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 @click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
               help="Face budget of the cleaned meshes.")
 @click.option("--no-clean", is_flag=True, help="Measure the meshes as they are.")
+@click.option("--remesh", is_flag=True,
+              help="Also remesh isotropically when cleaning (a tessellation-independent VE).")
 @click.option("--workers", default=1, show_default=True, type=click.IntRange(1),
               help="Local worker processes.")
 @click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
@@ -373,7 +375,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
               help="Seed of the train/val/test assignment.")
 def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
                   n_views: int, resolution: int, n_points: int, max_faces: int,
-                  no_clean: bool, workers: int, scheduler: str | None, split_seed: int) -> None:
+                  no_clean: bool, remesh: bool, workers: int, scheduler: str | None, split_seed: int) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
@@ -391,7 +393,7 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
     result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
                    resolution=resolution, n_points=n_points, max_faces=max_faces,
-                   clean=not no_clean, workers=workers, scheduler=scheduler,
+                   clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
                    split_seed=split_seed, progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")

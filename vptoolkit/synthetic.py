@@ -142,7 +142,6 @@ def write_collection(
     layout: str = "modelnet",
     test_fraction: float = 0.2,
     file_format: str = ".off",
-    remesh: bool = False,
 ) -> list[Path]:
     """Write a ModelNet40-style tree of synthetic shapes.
 
@@ -176,15 +175,6 @@ def write_collection(
     file_format : str
         Suffix of the files, one of :data:`vptoolkit.io.WRITABLE_SUFFIXES`
         (default: ".off", as in ModelNet40).
-    remesh : bool
-        Remesh every shape isotropically (:func:`vptoolkit.clean.simplify_mesh`
-        with ``remesh=True``; needs pymeshlab) before writing it (default:
-        False). The shapes are assembled from primitives with few, large
-        faces (a box top is two triangles), unlike scanned or decimated real
-        meshes; viewpoint entropy (VE) depends on the tessellation, and on
-        the primitive one it rewards views that real meshes do not (on 16
-        shapes the PCA view scores 41 % VE against 64 % for a random view;
-        remeshed, 79 % against 78 %, as on real meshes).
 
     Returns
     -------
@@ -229,10 +219,6 @@ def write_collection(
             folder.mkdir(parents=True, exist_ok=True)
             model_seed = _stable_seed("vptoolkit.synthetic.collection", seed, number)
             mesh = make_shape(category, seed=model_seed, name=name)
-            if remesh:
-                from vptoolkit.clean import simplify_mesh
-
-                mesh = simplify_mesh(mesh, remesh=True)
             written.append(save_mesh(mesh, folder / f"{name}{suffix}"))
     return written
 

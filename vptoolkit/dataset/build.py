@@ -153,6 +153,7 @@ _RESUME_OPTIONS = (
     "n_points",
     "max_faces",
     "clean",
+    "remesh",
     "split_seed",
     "backend",
     "camera",
@@ -442,6 +443,7 @@ def build_dataset(
     n_points: int = 20000,
     max_faces: int = 10000,
     clean: bool = True,
+    remesh: bool = False,
     workers: int = 1,
     scheduler: str | None = None,
     split_seed: int = 0,
@@ -471,6 +473,14 @@ def build_dataset(
         Face budget of the cleaned meshes (default: 10000).
     clean : bool
         Clean each mesh before measuring (default: True).
+    remesh : bool
+        With ``clean``, also remesh isotropically in the last cleaning step
+        (:func:`vptoolkit.clean.clean_mesh`; default: False). Viewpoint
+        entropy depends on the tessellation: shapes assembled from a few
+        large faces (``vptoolkit.synthetic``) reward views that scanned or
+        decimated real meshes do not, and remeshing removes that difference
+        (on 16 procedural shapes the PCA view scores 41 % VE against 64 % for
+        a random view as assembled, 79 % against 78 % remeshed).
     workers : int
         Local worker processes (default: 1, in this process).
     scheduler : str, optional
@@ -515,6 +525,7 @@ def build_dataset(
         n_points=n_points,
         max_faces=max_faces,
         clean=clean,
+        remesh=remesh,
         split_seed=split_seed,
     )
     workers = check_int(workers, "workers", minimum=1)
@@ -619,6 +630,7 @@ def _check_options(
     n_points: int,
     max_faces: int,
     clean: bool,
+    remesh: bool,
     split_seed: int,
 ) -> dict[str, Any]:
     """Validate the options that define the result; return them as JSON types."""
@@ -633,6 +645,7 @@ def _check_options(
         "n_points": check_int(n_points, "n_points", minimum=1),
         "max_faces": check_int(max_faces, "max_faces", minimum=4),
         "clean": check_bool(clean, "clean"),
+        "remesh": check_bool(remesh, "remesh"),
         "split_seed": check_int(split_seed, "split_seed", minimum=None),
         "backend": BACKEND,
         "camera": Camera().to_dict(),
@@ -657,7 +670,7 @@ def _store_attrs(options: Mapping[str, Any], *, source: str, created: str) -> di
         "resolution": options["resolution"],
         "backend": options["backend"],
         "camera": options["camera"],
-        "cleaning": {"enabled": options["clean"], "max_faces": options["max_faces"]},
+        "cleaning": {"enabled": options["clean"], "max_faces": options["max_faces"], "remesh": options["remesh"]},
         "split_seed": options["split_seed"],
         "split_fractions": dict(SPLIT_FRACTIONS),
         "source": source,
@@ -720,7 +733,7 @@ def _resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> s
     if build_file.exists():
         try:
             recorded = json.loads(build_file.read_text(encoding="utf-8"))
-            staged_options = recorded["options"]
+            staged_options = {"remesh": False, **recorded["options"]}  # builds before the option did not remesh
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:
             raise InputError(f"{build_file}: unreadable build record ({err})") from err
@@ -995,6 +1008,7 @@ def _task(model: SourceModel, options: Mapping[str, Any]) -> dict[str, Any]:
         "n_points": options["n_points"],
         "max_faces": options["max_faces"],
         "clean": options["clean"],
+        "remesh": options["remesh"],
         "seed": _model_seed(options["split_seed"], model.model_id),
         "signature": _signature(model),
         "numba_threads": None,
@@ -1203,7 +1217,7 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     cleaning = None
     started = time.perf_counter()
     if task["clean"]:
-        mesh, report = clean_mesh(mesh, max_faces=task["max_faces"])
+        mesh, report = clean_mesh(mesh, max_faces=task["max_faces"], remesh=task["remesh"])
         cleaning = _without_timings(report.to_dict())
     seconds["clean"] = time.perf_counter() - started
     started = time.perf_counter()
