@@ -211,7 +211,7 @@ def test_build_stores_every_model_with_records_splits_and_failures(src, referenc
     attrs = stored["attrs"]
     assert attrs["n_models"] == 6 and attrs["n_failures"] == 2
     assert (attrs["n_views"], attrs["n_points"], attrs["resolution"]) == (60, 300, 64)
-    assert attrs["cleaning"] == {"enabled": True, "max_faces": 2000}
+    assert attrs["cleaning"] == {"enabled": True, "max_faces": 2000, "remesh": False}
     assert attrs["split_seed"] == 0 and attrs["source"] == "modelnet"
     assert attrs["split_fractions"] == {"train": 0.8, "val": 0.1, "test": 0.1}
     assert attrs["backend"] == "raster" and attrs["camera"]["fov_deg"] == 45.0

@@ -48,7 +48,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.predict import network_predictor
-from vptoolkit.learn.train import train_model, train_per_category
+from vptoolkit.learn.train import scaled_lr_step, train_model, train_per_category
 from vptoolkit.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -292,27 +292,33 @@ def _comparisons(rows: dict[str, ProtocolScores], reference: str) -> list[str]:
 
 
 def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -> str:
-    """One sentence: does ``reference`` beat every other row on every measure beyond 2 standard errors?"""
+    """Which rows ``reference`` beats, ties and loses to, per measure, at two paired standard errors."""
     if reference not in rows:
         return ""
-    lost, unsure = [], []
+    beats, ties, loses = [], [], []
     for label, scores in rows.items():
         if label == reference:
             continue
         delta, sem = paired_difference(rows[reference], scores)
-        for measure, d, e in zip(MEASURES, delta, sem):
-            if d < -2 * e:
-                lost.append(f"{label} on {measure}")
-            elif d <= 2 * e:
-                unsure.append(f"{label} on {measure}")
-    if not lost and not unsure:
-        return f"{reference} beats every other row on all four measures, each margin above two standard errors."
-    parts = []
-    if lost:
-        parts.append("it is significantly worse than " + ", ".join(lost))
-    if unsure:
-        parts.append("within two standard errors of " + ", ".join(unsure))
-    return f"{reference} does not beat every row everywhere: " + "; ".join(parts) + "."
+        won = [m for m, d, e in zip(MEASURES, delta, sem) if d > 2 * e]
+        lost = [m for m, d, e in zip(MEASURES, delta, sem) if d < -2 * e]
+        if len(won) == len(MEASURES):
+            beats.append(label)
+            continue
+        if won:
+            beats.append(f"{label} ({', '.join(won)})")
+        if lost:
+            loses.append(f"{label} ({', '.join(lost)})")
+        tied = [m for m in MEASURES if m not in won and m not in lost]
+        if tied:
+            ties.append(f"{label} ({', '.join(tied)})")
+    parts = [f"{reference} beats " + ("; ".join(beats) if beats else "no other row")
+             + " (all four measures where none are named)"]
+    if ties:
+        parts.append("is within two standard errors of " + "; ".join(ties))
+    if loses:
+        parts.append("and is significantly worse than " + "; ".join(loses))
+    return ", ".join(parts) + "."
 
 
 def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, float], split_sizes: dict[str, int],
@@ -330,7 +336,7 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         f"{'cleaned' if sizes.clean else 'not cleaned'}, {sizes.n_points} points, "
         f"{sizes.n_views} views, measures at {sizes.resolution} px. Every method trains "
         f"{sizes.epochs} epochs with the paper's other settings (Adam, batch 8, lr 0.001, "
-        f"x0.75 every {sizes.epochs // 15 or 1} epochs, i.e. the paper's schedule scaled to the run, "
+        f"x0.75 every {scaled_lr_step(sizes.epochs)} epochs, i.e. the paper's schedule scaled to the run, "
         f"ML+GL switching at half, {sizes.train_points} input points, random rotations), in the "
         "canonical principal-axis input frame; the paper trains 3000 epochs on ModelNet40. "
         "Each method keeps its best validation epoch (validation under 3 fixed rotations per model).",
