@@ -448,7 +448,7 @@ def test_zarr_and_hdf5_hold_the_same_dataset(src, tmp_path):
     in_zarr, in_hdf5 = read_store(zarr_build.path), read_store(hdf5_build.path)
     assert [m["name"] for m in in_zarr["models"]] == ["angle_block", "suzanne", "table"]
     assert all(m["cleaning"] is None for m in in_zarr["models"])
-    assert in_zarr["attrs"]["cleaning"] == {"enabled": False, "max_faces": 2000}
+    assert in_zarr["attrs"]["cleaning"] == {"enabled": False, "max_faces": 2000, "remesh": False}
     assert_same_dataset(in_zarr, in_hdf5)
 
 

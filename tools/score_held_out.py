@@ -21,6 +21,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
+import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +32,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.predict import network_predictor
+from reproduce_labels import machine, write_section  # the tools folder is on sys.path when run as a script
 from vptoolkit.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -51,6 +55,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--json", type=Path, help="also write the scores here")
+    parser.add_argument("--results", type=Path, help="also write the table into this markdown file ...")
+    parser.add_argument("--section", default="held_out", help="... between <!-- SECTION:start/end --> markers")
     return parser.parse_args()
 
 
@@ -91,9 +97,17 @@ def main() -> None:
     built = build_dataset(args.meshes, out, n_views=args.views, resolution=args.resolution, n_points=20000,
                           clean=True, workers=args.workers, split_seed=0, progress=True)
     rows = score(built.path, args.model, rotations=args.rotations, train=args.train)
-    print(f"{args.meshes}: {len(next(iter(rows.values())).names)} meshes ({built.n_failures} failed to build), "
-          f"{args.rotations} rotations each, normalised quality of the nearest view in %")
+    heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes ({built.n_failures} failed "
+               f"to build), cleaned, {args.views} views at {args.resolution} px, each under {args.rotations} "
+               "fixed rotations; normalised quality of the nearest sampled view in %, mean over meshes ± "
+               "standard error; * marks a paired difference beyond two standard errors.")
+    print(heading)
     print(table(rows))
+    if args.results is not None:
+        command = "python tools/score_held_out.py " + shlex.join(sys.argv[1:])
+        write_section(args.results, f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
+                      f"{heading}\n\n{table(rows)}",
+                      start=f"<!-- {args.section}:start -->", end=f"<!-- {args.section}:end -->")
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"names": list(s.names), "per_model": s.scores.tolist(),
                                                  "mean": s.mean.tolist(), "sem": s.sem.tolist()}
