@@ -15,15 +15,17 @@ direction of the training split) and the paired differences to ML+GL.
 The result replaces the section between ``<!-- labels:start -->`` and
 ``<!-- labels:end -->`` of ``docs/results.md``; every number comes from the
 run. Every stage resumes: the dataset build and each training pick up where
-an interrupted run stopped. With ``--export-pretrained DIR`` the ML+GL
-checkpoint is also saved there in float16 with this command recorded in its
-JSON: that is how ``vptoolkit/learn/pretrained`` (``--model default``) is made.
+an interrupted run stopped. With ``--export-pretrained DIR`` one more network
+(``--pretrained-method``, ``--pretrained-epochs``, ``--pretrained-head``) is
+trained and saved there in float16 with this command recorded in its JSON:
+that is how ``vptoolkit/learn/pretrained`` (``--model default``) is made.
 
 Usage::
 
     python tools/reproduce_labels.py --category-networks   # the default budget (about 1 h on 2 cores)
     python tools/reproduce_labels.py --quick         # tiny sizes, minutes; writes nothing to docs/
-    python tools/reproduce_labels.py --export-pretrained vptoolkit/learn/pretrained
+    python tools/reproduce_labels.py --out reproduction/labels_remeshed --remesh --methods sr \\
+        --export-pretrained vptoolkit/learn/pretrained --pretrained-method sr --pretrained-head 128,64
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ import numpy as np
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.learn.labels import head_for_method
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.learn.train import scaled_lr_step, train_model, train_per_category
 from vptoolkit.protocol import (
@@ -90,13 +93,19 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--jobs", type=int, default=2,
                         help="trainings run side by side, one torch thread each")
     parser.add_argument("--results", type=Path, default=Path("docs/results.md"))
+    parser.add_argument("--section", default="labels",
+                        help="the table goes between <!-- SECTION:start/end --> in --results")
     parser.add_argument("--quick", action="store_true", help="tiny sizes for a smoke test")
     parser.add_argument("--export-pretrained", type=Path,
-                        help="also save the ML+GL checkpoint here in float16 "
+                        help="also train a network for shipping and save it here in float16 "
                              "(the package's is vptoolkit/learn/pretrained)")
+    parser.add_argument("--pretrained-method", default="ml+gl", choices=METHODS,
+                        help="label method of the exported network")
     parser.add_argument("--pretrained-epochs", type=int,
-                        help="train the exported ML+GL network this many epochs instead "
-                             "(in OUT/models/ml_gl_<N>e; default: --epochs, the table's run)")
+                        help="epochs of the exported network (default: --epochs)")
+    parser.add_argument("--pretrained-head", default="256,64",
+                        help="hidden widths of its head MLPs (the default network's 256,64; "
+                             "SR's two heads per measure need 128,64 to stay under 5 MB)")
     return parser.parse_args()
 
 
@@ -139,16 +148,16 @@ def main() -> None:
                 category_networks=args.category_networks, command=command.strip())
     print(table)
     if not args.quick:
-        write_section(args.results, table)
+        write_section(args.results, table, start=f"<!-- {args.section}:start -->", end=f"<!-- {args.section}:end -->")
     if args.export_pretrained is not None:
-        checkpoint = args.out / "models" / "ml_gl"
-        epochs = args.pretrained_epochs or sizes.epochs
-        if epochs != sizes.epochs:
-            checkpoint = train_model(
-                args.out / "dataset", args.out / "models" / f"ml_gl_{epochs}e", labels="ml+gl",
-                epochs=epochs, seed=0, resume=True, progress=True, threads=1,
-                n_points=sizes.train_points, n_fps=sizes.train_fps,
-            ).checkpoint
+        method, epochs = args.pretrained_method, args.pretrained_epochs or sizes.epochs
+        head = [int(width) for width in args.pretrained_head.split(",")]
+        folder = f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
+        checkpoint = train_model(
+            args.out / "dataset", args.out / "models" / folder, labels=method, epochs=epochs, seed=0,
+            resume=True, progress=True, threads=1, n_points=sizes.train_points, n_fps=sizes.train_fps,
+            architecture={"head": head_for_method(method), "head_channels": head},
+        ).checkpoint
         export_pretrained(checkpoint, args.export_pretrained, command.strip(), sizes)
 
 
