@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -139,10 +141,28 @@ def test_losses_do_not_depend_on_the_orientation(head, phase, clouds):
     assert np.allclose(losses[0], losses[1], atol=2e-3) and np.allclose(losses[0], losses[2], atol=2e-3), losses
 
 
-def test_old_configurations_keep_the_raw_input_frame():
+def test_old_checkpoints_keep_the_raw_input_frame(tmp_path):
     values = M.ModelConfig().to_dict()
     assert values["input_frame"] == "pca"
     del values["input_frame"]
-    assert M.ModelConfig.from_dict(values).input_frame == "none"
+    assert M.ModelConfig.from_dict(values).input_frame == "pca"  # a partial architecture gets the default
+    weights, config_path = M.save_model(M.ViewpointNet(M.ModelConfig(input_frame="none")), tmp_path / "old")
+    config = json.loads(config_path.read_text())
+    del config["architecture"]["input_frame"]  # as written before the option existed
+    config_path.write_text(json.dumps(config))
+    assert M.load_model(tmp_path / "old")[0].config.input_frame == "none"
     with pytest.raises(InputError, match="input_frame"):
         M.ModelConfig(input_frame="octant")
+
+
+def test_the_shipped_network_turns_with_its_input(clouds):
+    network, _ = M.load_model("default")
+    assert network.config.input_frame == "pca"
+    errors = []
+    with torch.no_grad():
+        for name, cloud in clouds.items():
+            reference = network(torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
+            for rotation in fixed_rotations(name, 3, seed=2):
+                turned = network(torch.tensor((cloud @ rotation.T)[None], dtype=torch.float32))
+                errors.extend(angles(turned["directions"][0].numpy() @ rotation, reference))
+    assert np.median(errors) < 10.0, np.round(errors, 1)

@@ -334,7 +334,7 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
            sizes: LabelSizes, command: str, seconds: float) -> str:
     rotated, stored = tables["rotated"], tables["stored"]
     lines = [
-        "## Table 2: label methods on procedural shapes",
+        f"## Table 2{'b' if sizes.remesh else ''}: label methods on procedural shapes{', remeshed' if sizes.remesh else ''}",
         "",
         f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
         f"{machine()}; wall time {format_seconds(seconds)}.",

@@ -255,7 +255,8 @@ class ModelConfig:
         ``"pca"``: the network sees each input in its canonical principal-axis
         frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
         so a rotated input gets a rotated prediction; ``"none"``: the input's
-        own frame (checkpoints older than this option). Default: "pca".
+        own frame (:func:`load_model` gives it to checkpoints older than this
+        option). Default: "pca".
     """
 
     head: str = "direction"
@@ -335,7 +336,6 @@ class ModelConfig:
         if unknown:
             raise InputError(f"architecture: unknown keys {unknown}")
         kwargs = dict(values)
-        kwargs.setdefault("input_frame", "none")  # checkpoints written before the option saw raw inputs
         if "levels" in kwargs:
             try:
                 kwargs["levels"] = tuple(LevelConfig(**dict(level)) for level in kwargs["levels"])
@@ -1242,7 +1242,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         raise InputError(f"{config_path.name}: not a vptoolkit model configuration (format {config.get('format')!r})")
     if list(config.get("measures", [])) != list(MEASURES[: len(config.get("measures", []))]):
         raise VerificationError(f"{config_path.name}: measure order {config.get('measures')} differs from {list(MEASURES)}")
-    model = ViewpointNet(ModelConfig.from_dict(config.get("architecture", {})))
+    architecture = dict(config.get("architecture", {}))
+    architecture.setdefault("input_frame", "none")  # checkpoints written before the option saw raw inputs
+    model = ViewpointNet(ModelConfig.from_dict(architecture))
     state = read_safetensors(weights_path)  # float16 weights are cast on loading
     try:
         model.load_state_dict(state, strict=True)
