@@ -44,7 +44,6 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
-import numpy as np
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset

@@ -89,11 +89,17 @@ from vptoolkit.learn.model import (
     checkpoint_paths,
     count_parameters,
     read_json,
-    read_safetensors,
     save_model,
     torch_threads,
     write_json_atomic,
-    write_safetensors_atomic,
+)
+from vptoolkit.learn.state import (
+    TRAINING_STATE_FORMAT,
+    json_value,
+    load_state,
+    save_state,
+    state_paths,
+    toolkit_version,
 )
 from vptoolkit.optional import require
 from vptoolkit.rotations import fixed_rotations
@@ -138,9 +144,6 @@ PAPER_LR_DECAY: Final = 0.75
 
 PAPER_LR_STEP: Final = 200
 """The paper's step: the learning rate decays every 200 epochs."""
-
-TRAINING_STATE_FORMAT: Final = "vptoolkit-training-state"
-"""``format`` entry of ``*.last.json``."""
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of :func:`train_per_category`."""
@@ -233,13 +236,6 @@ def resolve_device(device: str) -> torch.device:
             raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} sees no CUDA device")
         return torch.device(device)
     raise InputError(f"device: expected 'auto', 'cpu' or 'cuda', got {device!r}")
-
-
-def state_paths(output: str | os.PathLike[str]) -> tuple[Path, Path]:
-    """The resumable-state files of a training output: ``<stem>.last.safetensors`` and ``.json``."""
-    weights, _ = checkpoint_paths(output)
-    stem = weights.with_suffix("")
-    return stem.with_name(stem.name + ".last.safetensors"), stem.with_name(stem.name + ".last.json")
 
 
 def _seed(*keys: int) -> int:
@@ -338,49 +334,6 @@ def _validate(model: ViewpointNet, validation: Mapping[str, Tensor]) -> Tensor:
             directions = model(validation["points"][part])["directions"]
             scores.append(nearest_view_quality(directions, validation["views"][part], validation["quality"][part]))
     return torch.cat(scores).mean(dim=0).cpu()
-
-
-def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
-    state = optimizer.state_dict()
-    tensors = {}
-    for index, values in state["state"].items():
-        for key, value in values.items():
-            tensors[f"optimizer.{index}.{key}"] = torch.as_tensor(value)
-    groups = []
-    for group in state["param_groups"]:
-        groups.append({key: (list(value) if isinstance(value, tuple) else value) for key, value in group.items()})
-    return tensors, groups
-
-
-def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tensor],
-                    groups: list[dict[str, Any]]) -> None:
-    state: dict[int, dict[str, Tensor]] = {}
-    for name, tensor in tensors.items():
-        if name.startswith("optimizer."):
-            _, index, key = name.split(".", 2)
-            state.setdefault(int(index), {})[key] = tensor
-    param_groups = []
-    for group in groups:
-        param_groups.append({key: (tuple(value) if key == "betas" else value) for key, value in group.items()})
-    optimizer.load_state_dict({"state": state, "param_groups": param_groups})
-
-
-def _json_value(value: Any) -> Any:
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, ModelConfig):
-        return value.to_dict()
-    if isinstance(value, Mapping):
-        return {str(key): _json_value(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_value(item) for item in value]
-    return value
-
-
-def _toolkit_version() -> str:
-    from vptoolkit import __version__
-
-    return __version__
 
 
 def train_model(
@@ -580,12 +533,12 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         best: dict[str, Any] = {"epoch": 0, "score": -math.inf, "scores": {}}
         start_epoch = 0
         if is_resuming:
-            start_epoch, history, best = _resume(model, optimizer, last_weights, last_json, arguments)
+            start_epoch, history, best = load_state(model, optimizer, last_weights, last_json, arguments, _RESUME_KEYS)
         metadata_base = {
             "labels": labels,
             "input": {"n_points": n_points, "n_fps": n_fps},
             "categories": chosen,
-            "toolkit_version": _toolkit_version(),
+            "toolkit_version": toolkit_version(),
             "torch_version": torch.__version__,
             "python_version": platform.python_version(),
         }
@@ -616,7 +569,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                                                 epoch + 1, best)
                     save_model(model, weights_path, metadata={**metadata_base, "training": training})
                 if (epoch + 1) % save_every == 0 or epoch + 1 == epochs:
-                    _save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
+                    save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
                                 history=history, best=best)
                 _log.info("epoch %d/%d %s loss %.4f val %.4f", epoch + 1, epochs, phase, loss, score)
                 bar.set_postfix(loss=f"{loss:.4f}", val=f"{score:.3f}", best=f"{best['score']:.3f}")
@@ -717,7 +670,7 @@ def _training_record(arguments: Mapping[str, Any], command: str | None, dataset:
                                                                  "n_views", "toolkit_version", "created")},
         "n_train": n_train,
         "n_val": n_val,
-        "arguments": _json_value(arguments),
+        "arguments": json_value(arguments),
         "command": command,
         "epochs": epochs,
         "epochs_completed": epochs_completed,
@@ -737,47 +690,3 @@ def _update_best_record(config_path: Path, arguments: Mapping[str, Any], command
                                           len(history), best)
     config["training"]["history"] = history
     write_json_atomic(config_path, config)
-
-
-def _save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path, *,
-                arguments: Mapping[str, Any], epoch: int, history: list[dict[str, Any]],
-                best: Mapping[str, Any]) -> None:
-    tensors = {f"model.{name}": tensor for name, tensor in model.state_dict().items()}
-    optimizer_tensors, groups = _optimizer_tensors(optimizer)
-    tensors.update(optimizer_tensors)
-    write_safetensors_atomic(weights, tensors, {"format": TRAINING_STATE_FORMAT})
-    write_json_atomic(json_path, {
-        "format": TRAINING_STATE_FORMAT,
-        "format_version": 1,
-        "epoch": epoch,
-        "arguments": _json_value(arguments),
-        "optimizer_param_groups": groups,
-        "history": history,
-        "best": {"epoch": best["epoch"], "score": best["score"], "scores": best["scores"]},
-        "toolkit_version": _toolkit_version(),
-    })
-
-
-def _resume(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
-            arguments: Mapping[str, Any]) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
-    state = read_json(json_path, "training state")
-    if state.get("format") != TRAINING_STATE_FORMAT:
-        raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
-    stored = dict(state.get("arguments", {}))
-    stored["val_split"] = published_split(str(stored.get("val_split")))  # runs saved before the rename say "val"
-    current = _json_value(arguments)
-    differing = [key for key in _RESUME_KEYS if stored.get(key) != current.get(key)]
-    if differing:
-        details = ", ".join(f"{key}: {stored.get(key)!r} -> {current.get(key)!r}" for key in differing)
-        raise InputError(f"{json_path.name}: cannot resume with other options ({details})")
-    tensors = read_safetensors(weights)
-    model_state = {name[len("model."):]: tensor for name, tensor in tensors.items() if name.startswith("model.")}
-    try:
-        model.load_state_dict(model_state, strict=True)
-        _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
-    except (RuntimeError, ValueError, KeyError) as err:
-        raise VerificationError(f"{weights.name}: training state does not match the network ({err})") from err
-    best = dict(state["best"])
-    if best["score"] is None:
-        best["score"] = -math.inf
-    return int(state["epoch"]), list(state["history"]), best

@@ -1,0 +1,146 @@
+"""The resumable state of a training run: weights, Adam moments and history, without pickle.
+
+A run writes ``<stem>.last.safetensors`` (the network's ``state_dict`` as
+``model.*`` and every Adam tensor as ``optimizer.<index>.<key>``) and
+``<stem>.last.json`` (``format``, the epoch, the run's arguments, Adam's
+parameter groups, the history and the best score so far). :func:`load_state`
+refuses a state whose arguments differ from the resumed run's in any of the
+keys that define the result.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Final
+
+from vptoolkit.dataset.store import published_split
+from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.learn.model import (
+    ModelConfig,
+    ViewpointNet,
+    checkpoint_paths,
+    read_json,
+    read_safetensors,
+    write_json_atomic,
+    write_safetensors_atomic,
+)
+from vptoolkit.optional import require
+
+if TYPE_CHECKING:
+    import torch
+    from torch import Tensor
+else:
+    torch = require("torch", extra="learn")
+    Tensor = torch.Tensor
+
+__all__ = ["TRAINING_STATE_FORMAT", "state_paths", "save_state", "load_state", "json_value", "toolkit_version"]
+
+TRAINING_STATE_FORMAT: Final = "vptoolkit-training-state"
+"""``format`` entry of ``*.last.json``."""
+
+
+def state_paths(output: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """The resumable-state files of a training output: ``<stem>.last.safetensors`` and ``.json``."""
+    weights, _ = checkpoint_paths(output)
+    stem = weights.with_suffix("")
+    return stem.with_name(stem.name + ".last.safetensors"), stem.with_name(stem.name + ".last.json")
+
+
+def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
+    state = optimizer.state_dict()
+    tensors = {}
+    for index, values in state["state"].items():
+        for key, value in values.items():
+            tensors[f"optimizer.{index}.{key}"] = torch.as_tensor(value)
+    groups = []
+    for group in state["param_groups"]:
+        groups.append({key: (list(value) if isinstance(value, tuple) else value) for key, value in group.items()})
+    return tensors, groups
+
+
+def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tensor],
+                    groups: list[dict[str, Any]]) -> None:
+    state: dict[int, dict[str, Tensor]] = {}
+    for name, tensor in tensors.items():
+        if name.startswith("optimizer."):
+            _, index, key = name.split(".", 2)
+            state.setdefault(int(index), {})[key] = tensor
+    param_groups = []
+    for group in groups:
+        param_groups.append({key: (tuple(value) if key == "betas" else value) for key, value in group.items()})
+    optimizer.load_state_dict({"state": state, "param_groups": param_groups})
+
+
+def json_value(value: Any) -> Any:
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, ModelConfig):
+        return value.to_dict()
+    if isinstance(value, Mapping):
+        return {str(key): json_value(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_value(item) for item in value]
+    return value
+
+
+def toolkit_version() -> str:
+    from vptoolkit import __version__
+
+    return __version__
+
+
+def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path, *,
+                arguments: Mapping[str, Any], epoch: int, history: list[dict[str, Any]],
+                best: Mapping[str, Any]) -> None:
+    tensors = {f"model.{name}": tensor for name, tensor in model.state_dict().items()}
+    optimizer_tensors, groups = _optimizer_tensors(optimizer)
+    tensors.update(optimizer_tensors)
+    write_safetensors_atomic(weights, tensors, {"format": TRAINING_STATE_FORMAT})
+    write_json_atomic(json_path, {
+        "format": TRAINING_STATE_FORMAT,
+        "format_version": 1,
+        "epoch": epoch,
+        "arguments": json_value(arguments),
+        "optimizer_param_groups": groups,
+        "history": history,
+        "best": {"epoch": best["epoch"], "score": best["score"], "scores": best["scores"]},
+        "toolkit_version": toolkit_version(),
+    })
+
+
+def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
+               arguments: Mapping[str, Any], keys: Sequence[str]) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
+    """Load a saved state into ``model`` and ``optimizer``; return (epoch, history, best).
+
+    Raises
+    ------
+    InputError
+        If the file is not a training state or its arguments differ from
+        ``arguments`` in any of ``keys``.
+    VerificationError
+        If the weights or Adam state do not fit the network.
+    """
+    state = read_json(json_path, "training state")
+    if state.get("format") != TRAINING_STATE_FORMAT:
+        raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
+    stored = dict(state.get("arguments", {}))
+    stored["val_split"] = published_split(str(stored.get("val_split")))  # runs saved before the rename say "val"
+    current = json_value(arguments)
+    differing = [key for key in keys if stored.get(key) != current.get(key)]
+    if differing:
+        details = ", ".join(f"{key}: {stored.get(key)!r} -> {current.get(key)!r}" for key in differing)
+        raise InputError(f"{json_path.name}: cannot resume with other options ({details})")
+    tensors = read_safetensors(weights)
+    model_state = {name[len("model."):]: tensor for name, tensor in tensors.items() if name.startswith("model.")}
+    try:
+        model.load_state_dict(model_state, strict=True)
+        _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
+    except (RuntimeError, ValueError, KeyError) as err:
+        raise VerificationError(f"{weights.name}: training state does not match the network ({err})") from err
+    best = dict(state["best"])
+    if best["score"] is None:
+        best["score"] = -math.inf
+    return int(state["epoch"]), list(state["history"]), best
