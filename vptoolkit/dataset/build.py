@@ -82,7 +82,7 @@ from vptoolkit.camera import Camera
 from vptoolkit.dataset.store import ModelEntry, write_dataset
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
 from vptoolkit.files import atomic_write
-from vptoolkit.io import SUPPORTED_SUFFIXES
+from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
 from vptoolkit.optional import is_available, require
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -271,7 +271,7 @@ def discover_models(
         raise InputError(f"{root}: source is not a folder")
     root = root.resolve()
     wanted = _check_categories(categories)
-    models = [_source_model(root, path) for path in _mesh_files(root)]
+    models = [_source_model(root, path) for path in find_mesh_files(root)]
     if not models:
         raise InputError(
             f"{root}: no mesh files found (looked for {', '.join(SUPPORTED_SUFFIXES)})"
@@ -286,15 +286,6 @@ def discover_models(
             )
         models = [model for model in models if model.category in wanted]
     return sorted(models, key=lambda model: (model.category, model.name, model.source))
-
-
-def _mesh_files(root: Path) -> Iterator[Path]:
-    """Yield the non-hidden files with a supported suffix under ``root``, sorted."""
-    for folder, subfolders, files in os.walk(root):
-        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
-        for name in sorted(files):
-            if not name.startswith(".") and Path(name).suffix.lower() in SUPPORTED_SUFFIXES:
-                yield Path(folder) / name
 
 
 def _source_model(root: Path, path: Path) -> SourceModel:
