@@ -17,7 +17,8 @@ LAYERS = {
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9, "protocol": 9,
-    "shading": 10, "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10, "software_render": 10,
+    "shading": 10, "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10,
+    "software_render": 10,
     "contact_sheet": 10,
     "cli": 99,
 }

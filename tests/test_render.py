@@ -23,8 +23,8 @@ from vptoolkit.errors import InputError, MeasurementError, MissingDependencyErro
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
 from vptoolkit.render import (
-    Renderer,
     RenderedView,
+    Renderer,
     RenderStyle,
     png_bytes,
     render_best,
@@ -315,7 +315,8 @@ def test_a_killed_child_is_replaced(renderer, cube):
 def test_a_hung_frame_is_a_measurement_error_and_the_renderer_recovers(renderer, cube):
     renderer.frame_timeout, renderer.attempts = 1e-4, 2
     try:
-        with pytest.raises(MeasurementError, match=r"^box: renderer: no answer within .* in 2 attempts$"):
+        with pytest.raises(MeasurementError,
+                           match=r"^box: renderer: no answer within .* in 2 attempts$"):
             renderer.render(cube, [0.0, 1.0, 0.0])
     finally:
         renderer.frame_timeout, renderer.attempts = 30.0, 3

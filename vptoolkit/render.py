@@ -269,7 +269,8 @@ def _serve() -> None:
                     image = session.render(header, arrays["faces"])
                     _write_message(protocol_out, {"ok": True}, {"image": image})
                 else:
-                    _write_message(protocol_out, {"ok": False, "error": f"unknown op {operation!r}"})
+                    _write_message(protocol_out,
+                                   {"ok": False, "error": f"unknown op {operation!r}"})
             except (RuntimeError, ValueError, KeyError) as err:
                 _write_message(protocol_out, {"ok": False, "error": one_line(err)})
     except EOFError:
@@ -623,7 +624,8 @@ class Renderer:
         facing = np.einsum("ij,ij->i", eye[None, :] - face_points, face_normals) > 0.0
         return np.flatnonzero(facing).astype(np.int64)
 
-    def _render_once(self, mesh: Mesh, frame: _Frame, faces: NDArray[np.int64]) -> NDArray[np.uint8]:
+    def _render_once(self, mesh: Mesh, frame: _Frame,
+                     faces: NDArray[np.int64]) -> NDArray[np.uint8]:
         child = self._child
         assert child is not None and self._shading is not None  # noqa: S101
         if child.mesh_key != id(mesh):
@@ -868,7 +870,8 @@ def render_view(
                         renderer=renderer, engine=engine)[0]
 
 
-def resolve_direction(mesh: Mesh, source: DirectionSource, *, measure: str = "VE") -> NDArray[np.float64]:
+def resolve_direction(mesh: Mesh, source: DirectionSource, *,
+                      measure: str = "VE") -> NDArray[np.float64]:
     """The view direction a direction source gives for a mesh and measure.
 
     Parameters
@@ -1030,7 +1033,9 @@ def png_bytes(image: ArrayLike) -> bytes:
     if array.ndim == 2:
         array = array[:, :, None]
     if array.ndim != 3 or array.shape[2] not in (1, 3, 4) or 0 in array.shape:
-        raise InputError(f"image: expected shape (h, w), (h, w, 3) or (h, w, 4), got {np.shape(image)}")
+        raise InputError(
+            f"image: expected shape (h, w), (h, w, 3) or (h, w, 4), got {np.shape(image)}"
+        )
     height, width, channels = array.shape
     color_type = {1: 0, 3: 2, 4: 6}[channels]
     rows = np.zeros((height, 1 + width * channels), dtype=np.uint8)  # filter byte 0 per row
