@@ -14,7 +14,13 @@ import pytest
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError, MeshLoadError
-from vptoolkit.io import SUPPORTED_SUFFIXES, WRITABLE_SUFFIXES, load_mesh, save_mesh
+from vptoolkit.io import (
+    SUPPORTED_SUFFIXES,
+    WRITABLE_SUFFIXES,
+    find_mesh_files,
+    load_mesh,
+    save_mesh,
+)
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_names, sample_path
 
@@ -671,3 +677,25 @@ def test_save_rejects_bad_targets(tmp_path: Path, suzanne: Mesh, name: str, mess
 def test_save_rejects_non_mesh(tmp_path: Path) -> None:
     with pytest.raises(InputError, match=r"^mesh: expected a vptoolkit Mesh, got ndarray$"):
         save_mesh(np.zeros((3, 3)), tmp_path / "x.off")  # type: ignore[arg-type]
+
+
+def test_find_mesh_files_skips_hidden_files_and_folders_and_sorts(tmp_path: Path) -> None:
+    root = tmp_path / ".cache" / "meshes"  # a hidden root is still searched
+    for relative in ["b/z.off", "b/a.PLY", "a.stl", "b/c/d.obj", "notes.txt", ".partial.off",
+                     ".git/x.off", "b/.hidden/y.obj", "b/c/.e.glb"]:
+        (root / relative).parent.mkdir(parents=True, exist_ok=True)
+        (root / relative).write_bytes(b"")
+    found = find_mesh_files(root)
+    assert [p.relative_to(root).as_posix() for p in found] == [
+        "a.stl", "b/a.PLY", "b/c/d.obj", "b/z.off"
+    ]
+    assert found == sorted(found)
+    assert find_mesh_files(str(root)) == found
+
+
+def test_find_mesh_files_needs_a_folder(tmp_path: Path) -> None:
+    (tmp_path / "a.off").write_bytes(b"")
+    with pytest.raises(InputError, match="a.off: not a folder"):
+        find_mesh_files(tmp_path / "a.off")
+    with pytest.raises(InputError, match="missing: not a folder"):
+        find_mesh_files(tmp_path / "missing")

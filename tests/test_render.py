@@ -23,10 +23,9 @@ from vptoolkit.errors import InputError, MeasurementError, MissingDependencyErro
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
 from vptoolkit.render import (
-    Renderer,
     RenderedView,
+    Renderer,
     RenderStyle,
-    _shading_arrays,
     png_bytes,
     render_best,
     render_predicted,
@@ -35,6 +34,7 @@ from vptoolkit.render import (
     resolve_direction,
     save_png,
 )
+from vptoolkit.shading import crease_normals
 
 SIZE = 128
 def pair_mesh() -> Mesh:
@@ -93,7 +93,7 @@ def test_png_bytes_is_deterministic():
 
 def test_cube_corners_keep_their_face_normals():
     cube = box_mesh()
-    positions, normals, _, face_normals, kept = _shading_arrays(cube, 40.0)
+    positions, normals, _, face_normals, kept = crease_normals(cube, 40.0)
     assert kept.tolist() == list(range(cube.n_faces))
     assert positions.shape == normals.shape == (3 * cube.n_faces, 3)
     assert positions.dtype == normals.dtype == np.float32
@@ -105,11 +105,11 @@ def test_sphere_normals_are_smooth():
 
     ball = trimesh.creation.icosphere(subdivisions=3)
     sphere = Mesh(ball.vertices, ball.faces, "ball")
-    positions, normals, _, _, _ = _shading_arrays(sphere, 40.0)
+    positions, normals, _, _, _ = crease_normals(sphere, 40.0)
     radial = positions / np.linalg.norm(positions, axis=1, keepdims=True)
     angle = np.degrees(np.arccos(np.clip(np.sum(radial * normals, axis=1), -1, 1)))
     assert angle.max() < 2.0  # vertex normals, not the faceted face normals (~ 5 degrees off)
-    _, flat, _, _, _ = _shading_arrays(sphere, 0.0)
+    _, flat, _, _, _ = crease_normals(sphere, 0.0)
     flat_angle = np.degrees(np.arccos(np.clip(np.sum(radial * flat, axis=1), -1, 1)))
     assert flat_angle.max() > 3.0
 
@@ -117,7 +117,7 @@ def test_sphere_normals_are_smooth():
 def test_degenerate_faces_are_not_drawn():
     mesh = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]]),
                 np.array([[0, 1, 2], [0, 1, 3]]), "sliver")
-    positions, _, face_points, _, kept = _shading_arrays(mesh, 40.0)
+    positions, _, face_points, _, kept = crease_normals(mesh, 40.0)
     assert positions.shape == (3, 3) and face_points.shape == (1, 3) and kept.tolist() == [0]
 
 
@@ -315,7 +315,8 @@ def test_a_killed_child_is_replaced(renderer, cube):
 def test_a_hung_frame_is_a_measurement_error_and_the_renderer_recovers(renderer, cube):
     renderer.frame_timeout, renderer.attempts = 1e-4, 2
     try:
-        with pytest.raises(MeasurementError, match=r"^box: renderer: no answer within .* in 2 attempts$"):
+        with pytest.raises(MeasurementError,
+                           match=r"^box: renderer: no answer within .* in 2 attempts$"):
             renderer.render(cube, [0.0, 1.0, 0.0])
     finally:
         renderer.frame_timeout, renderer.attempts = 30.0, 3

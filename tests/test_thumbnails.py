@@ -100,3 +100,13 @@ def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
         render_thumbnails(tmp_path / "missing", tmp_path / "out")
     with pytest.raises(InputError, match="workers"):
         render_thumbnails(mesh_folder, tmp_path / "out", workers=0)
+
+
+def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):
+    from vptoolkit.thumbnails import _mesh_files
+
+    (mesh_folder / ".git").mkdir()
+    (mesh_folder / ".git" / "old.off").write_bytes(b"")
+    (mesh_folder / "nested" / ".ball.stl.partial.stl").write_bytes(b"")
+    names = [p.relative_to(mesh_folder).as_posix() for p in _mesh_files(mesh_folder)]
+    assert names == ["bad.off", "cube.obj", "cube.off", "empty.obj", "nested/ball.stl"]

@@ -14,7 +14,8 @@ Predictions come as a file (:func:`load_predictions`):
     ``directions`` : (n_models, n_measures, 3) float, one direction per measure;
     ``measures`` : (n_measures,) unicode, ``["VE", "VR", "VKL", "VMI"]`` or a
     subset in that order (e.g. ``["VKL"]``). Other keys are ignored.
-    :func:`save_predictions` writes this form.
+    :func:`save_predictions` writes this form (the format is owned by
+    :mod:`vptoolkit.predictions`).
 ``*.npy``
     (n_models, 4, 3) in ``MEASURES`` order, or (n_models, 3) for the one
     measure named by ``measure``; rows in the order of the evaluated split.
@@ -34,7 +35,6 @@ from __future__ import annotations
 
 import math
 import os
-import zipfile
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -44,12 +44,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import check_npy_header, one_line
+from vptoolkit.checks import one_line
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import SPLITS, published_split
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write
+from vptoolkit.predictions import (
+    parse_predictions,
+    read_arrays,
+    unicode_vector,
+    write_predictions,
+)
 
 __all__ = [
     "EVALUATION_SPLITS",
@@ -72,10 +77,7 @@ __all__ = [
 EVALUATION_SPLITS = (*SPLITS, "all")
 """Values of ``split`` accepted by :func:`evaluate_predictions`."""
 
-_PREDICTION_KEYS = ("names", "directions", "measures")
 _MAX_LISTED = 3  # names quoted in an error message before "..."
-_NPY_MAGIC = b"\x93NUMPY"
-_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a zip entry, or an empty zip archive
 _SYMMETRY_TOLERANCE = 1e-9  # |third moment| / std**3 below which a cloud counts as symmetric
 
 
@@ -305,48 +307,6 @@ def _count(n: int, singular: str, plural: str) -> str:
     return f"{n} {singular if n == 1 else plural}"
 
 
-def _read_file(path: Path) -> NDArray[Any] | dict[str, NDArray[Any]]:
-    """Read a ``.npy`` array or every member of a ``.npz`` archive, no pickles."""
-    suffix = path.suffix.lower()
-    if suffix not in (".npy", ".npz"):
-        raise InputError(f"{path.name}: predictions must be a .npy or .npz file")
-    if not path.is_file():
-        raise InputError(f"{path.name}: no such file")
-    # The file is opened here, not by np.load, so that it is closed even when
-    # numpy fails half-way through a damaged zip archive.
-    with path.open("rb") as handle:
-        magic = handle.read(len(_NPY_MAGIC))
-        if not (magic.startswith(_NPY_MAGIC) or magic.startswith(_ZIP_MAGIC)):
-            raise InputError(f"{path.name}: not a numpy .npy or .npz file "
-                             "(no numpy or zip header)")
-        handle.seek(0)
-        if magic.startswith(_NPY_MAGIC):
-            check_npy_header(handle, path.name, path.stat().st_size)
-        try:
-            loaded = np.load(handle, allow_pickle=False)
-            if isinstance(loaded, np.ndarray):
-                if suffix != ".npy":
-                    raise InputError(f"{path.name}: holds a single .npy array, "
-                                     "not an .npz archive")
-                return loaded
-            with loaded:
-                if suffix != ".npz":
-                    raise InputError(f"{path.name}: is an .npz archive, not a .npy array")
-                for info in loaded.zip.infolist():
-                    if not info.filename.endswith(".npy"):
-                        raise InputError(f"{path.name}: member {info.filename!r} is not a "
-                                         ".npy array")
-                    with loaded.zip.open(info) as member:
-                        check_npy_header(member, f"{path.name}: member {info.filename}",  # type: ignore[arg-type]
-                                         info.file_size)
-                return {key: loaded[key] for key in loaded.files}
-        except InputError:
-            raise
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
-            raise InputError(f"{path.name}: cannot be read with allow_pickle=False "
-                             f"({one_line(err)})") from err
-
-
 def _check_directions(file_name: str, directions: NDArray[Any], names: Sequence[str],
                       measures: Sequence[str]) -> NDArray[np.float64]:
     """Cast to float64 and reject non-finite or zero vectors, naming the model."""
@@ -367,13 +327,6 @@ def _check_directions(file_name: str, directions: NDArray[Any], names: Sequence[
     return values
 
 
-def _unicode_vector(file_name: str, key: str, array: NDArray[Any]) -> list[str]:
-    if array.ndim != 1 or array.dtype.kind != "U":
-        raise InputError(f"{file_name}: {key!r} must be a 1-D unicode array, "
-                         f"got shape {array.shape} dtype {array.dtype}")
-    return [str(value) for value in array]
-
-
 def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str | None,
           where: str) -> tuple[list[str], NDArray[np.float64]]:
     path = Path(path)
@@ -382,7 +335,7 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
     expected_names = dataset.names
     n_models = len(expected_names)
     directions = np.full((n_models, len(MEASURES), 3), np.nan)
-    loaded = _read_file(path)
+    loaded = read_arrays(path)
 
     if isinstance(loaded, np.ndarray):
         if loaded.ndim == 2 and loaded.shape[1] == 3:
@@ -403,25 +356,9 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
                                    [MEASURES[c] for c in columns])
         rows = np.arange(n_models)
     else:
-        missing_keys = [key for key in _PREDICTION_KEYS if key not in loaded]
-        if missing_keys:
-            raise InputError(f"{file_name}: missing key(s) {', '.join(missing_keys)} "
-                             f"(has {', '.join(sorted(loaded)) or 'none'})")
-        names = _unicode_vector(file_name, "names", loaded["names"])
-        file_measures = _unicode_vector(file_name, "measures", loaded["measures"])
-        unknown_measures = [m for m in file_measures if m not in MEASURES]
-        if unknown_measures:
-            raise InputError(f"{file_name}: unknown measure(s) {_quoted(unknown_measures)}, "
-                             f"expected some of {', '.join(MEASURES)}")
+        names_tuple, raw, measures_tuple = parse_predictions(file_name, loaded)
+        names, file_measures = list(names_tuple), list(measures_tuple)
         columns = [MEASURES.index(m) for m in file_measures]
-        if not columns or columns != sorted(set(columns)):
-            raise InputError(f"{file_name}: measures {file_measures} differ from the order "
-                             f"{', '.join(MEASURES)} (or a subset in that order)")
-        raw = loaded["directions"]
-        if raw.shape != (len(names), len(columns), 3):
-            raise InputError(f"{file_name}: directions must have shape ({len(names)}, "
-                             f"{len(columns)}, 3) for {len(names)} names and "
-                             f"{len(columns)} measures, got {raw.shape}")
         values = _check_directions(file_name, raw, names, file_measures)
         duplicates = sorted(name for name, count in Counter(names).items() if count > 1)
         if duplicates:
@@ -522,25 +459,7 @@ def save_predictions(
         If the suffix is not ``.npz``, or the shapes, names or measures do not
         fit together.
     """
-    path = Path(path)
-    if path.suffix.lower() != ".npz":
-        raise InputError(f"{path.name}: predictions must be saved as .npz")
-    name_list = [str(name) for name in names]
-    if len(set(name_list)) != len(name_list):
-        raise InputError("names: model names must be unique")
-    measure_list = [str(m) for m in measures]
-    columns = [MEASURES.index(m) if m in MEASURES else -1 for m in measure_list]
-    if not columns or -1 in columns or columns != sorted(set(columns)):
-        raise InputError(f"measures: {measure_list} is not {', '.join(MEASURES)} "
-                         "or a subset in that order")
-    values = np.asarray(directions, dtype=np.float64)
-    if values.shape != (len(name_list), len(measure_list), 3):
-        raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "
-                         f"got {values.shape}")
-    with atomic_write(path) as handle:
-        np.savez(handle, names=np.array(name_list, dtype=str),
-                 directions=values, measures=np.array(measure_list, dtype=str))
-    return path
+    return write_predictions(path, names, directions, measures=measures)
 
 
 # --------------------------------------------------------------------------- scoring
@@ -896,7 +815,7 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
                     where: str) -> NDArray[np.float64]:
     """``(n_models, k, 3)`` directions in the dataset's order from a .npy or .npz."""
     path = Path(path)
-    loaded = _read_file(path)
+    loaded = read_arrays(path)
     expected = dataset.names
     if isinstance(loaded, np.ndarray):
         names, raw = list(expected), loaded
@@ -905,7 +824,7 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
         if missing_keys:
             raise InputError(f"{path.name}: missing key(s) {', '.join(missing_keys)} "
                              f"(has {', '.join(sorted(loaded)) or 'none'})")
-        names, raw = _unicode_vector(path.name, "names", loaded["names"]), loaded["directions"]
+        names, raw = unicode_vector(path.name, "names", loaded["names"]), loaded["directions"]
     if raw.ndim != 3 or raw.shape[2] != 3 or raw.shape[1] < 1:
         raise InputError(f"{path.name}: expected view sets of shape (n_models, k, 3), "
                          f"got {raw.shape}")

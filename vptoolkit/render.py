@@ -59,7 +59,6 @@ Engines
 from __future__ import annotations
 
 import json
-import math
 import os
 import queue
 import signal
@@ -70,7 +69,7 @@ import tempfile
 import threading
 import zlib
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
@@ -85,6 +84,14 @@ from vptoolkit.files import write_bytes_atomic
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.measures import ViewQuality
 from vptoolkit.mesh import Mesh
+from vptoolkit.shading import (
+    RenderStyle,
+    crease_normals,
+    light_direction,
+    linear_to_srgb,
+    picture_camera,
+    srgb_to_linear,
+)
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -119,69 +126,6 @@ _HEADER = struct.Struct("<I")  # byte length of a message's JSON header
 _PAYLOAD = struct.Struct("<Q")  # byte length of a message's payload
 
 
-# --------------------------------------------------------------------------- style
-
-
-@dataclass(frozen=True)
-class RenderStyle:
-    """How a picture is shaded (the camera itself is :class:`~vptoolkit.camera.Camera`).
-
-    Parameters
-    ----------
-    color : tuple of 3 floats
-        Surface colour, sRGB in [0, 1] (default: a light blue-grey).
-    background : tuple of 3 floats
-        Background colour, sRGB in [0, 1] (default: white).
-    crease_angle_deg : float
-        Normals are averaged over faces meeting at less than this angle and
-        kept apart across sharper edges, in degrees (default: 40; 0 gives
-        flat shading).
-    light_elevation_deg, light_azimuth_deg : float
-        Where the sun stands, seen from the camera: degrees above the view
-        axis towards the image up, then around it towards the image left
-        (defaults: 35 and 30).
-    light_intensity : float
-        Sun intensity in Filament's lux (default: 150000).
-    ambient_intensity : float
-        Intensity of Open3D's image-based ambient light (default: 20000).
-    up : tuple of 3 floats
-        Model direction shown as up in the picture (default: ``(0, 1, 0)``;
-        where the view looks along it, the camera's fallback up, or the
-        measures' ``-y``, serves instead).
-    """
-
-    color: tuple[float, float, float] = (0.72, 0.76, 0.82)
-    background: tuple[float, float, float] = (1.0, 1.0, 1.0)
-    crease_angle_deg: float = 40.0
-    light_elevation_deg: float = 35.0
-    light_azimuth_deg: float = 30.0
-    light_intensity: float = 150000.0
-    ambient_intensity: float = 20000.0
-    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
-
-    def __post_init__(self) -> None:
-        for name in ("color", "background"):
-            value = np.asarray(getattr(self, name), dtype=np.float64)
-            if value.shape != (3,) or not np.isfinite(value).all() or (value < 0).any() or (
-                value > 1
-            ).any():
-                raise InputError(f"{name}: expected three values in [0, 1], got {getattr(self, name)}")
-            object.__setattr__(self, name, tuple(float(c) for c in value))
-        if not 0.0 <= self.crease_angle_deg <= 180.0:
-            raise InputError(f"crease_angle_deg: must lie in [0, 180], got {self.crease_angle_deg}")
-        up = np.asarray(self.up, dtype=np.float64)
-        if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
-            raise InputError(f"up: expected a non-zero direction x, y, z, got {self.up}")
-        object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
-        for name in ("light_intensity", "ambient_intensity"):
-            if not getattr(self, name) >= 0.0:
-                raise InputError(f"{name}: must be >= 0, got {getattr(self, name)}")
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe record of the style."""
-        return asdict(self)
-
-
 @dataclass(frozen=True, eq=False)
 class RenderedView:
     """A picture and the direction it was taken from.
@@ -204,74 +148,6 @@ class RenderedView:
 # --------------------------------------------------------------------------- geometry
 
 
-def _shading_arrays(
-    mesh: Mesh, crease_angle_deg: float
-) -> tuple[NDArray[np.float32], NDArray[np.float32], NDArray[np.float64], NDArray[np.float64],
-           NDArray[np.int64]]:
-    """Unshared corner positions and normals, smoothed within the crease angle.
-
-    Returns
-    -------
-    positions : (3 * n_kept, 3) float32
-        The corners of every kept face (degenerate faces are dropped), face by face.
-    normals : (3 * n_kept, 3) float32
-        Unit normal per corner: the area-weighted mean of the normals of the
-        faces at that vertex whose normal is within ``crease_angle_deg`` of
-        the corner's own face.
-    face_points : (n_kept, 3) float64
-        The first corner of each kept face (for back-face tests).
-    face_normals : (n_kept, 3) float64
-        Unit normal of each kept face.
-    kept : (n_kept,) int64
-        Index of each kept face in ``mesh.faces``.
-    """
-    corners = mesh.vertices[mesh.faces]  # (n_faces, 3, 3)
-    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    double_area = np.linalg.norm(cross, axis=1)
-    scale = max(float(np.abs(corners).max()), 1e-300)
-    kept = double_area > 1e-14 * scale * scale
-    faces = mesh.faces[kept]
-    cross = cross[kept]
-    unit = cross / double_area[kept][:, None]
-    n_kept = len(faces)
-    corner_vertex = faces.reshape(-1)  # (3 n_kept,)
-    corner_face = np.repeat(np.arange(n_kept), 3)
-    normals = np.repeat(unit, 3, axis=0)
-    if crease_angle_deg > 0.0 and n_kept:
-        order = np.argsort(corner_vertex, kind="stable")
-        sorted_vertex = corner_vertex[order]
-        starts = np.flatnonzero(np.r_[True, sorted_vertex[1:] != sorted_vertex[:-1]])
-        sizes = np.diff(np.r_[starts, len(order)])
-        size_of_corner = np.repeat(sizes, sizes)  # group size, per sorted corner
-        start_of_corner = np.repeat(starts, sizes)
-        if int((sizes.astype(np.int64) ** 2).sum()) <= 50_000_000:
-            total = int(size_of_corner.sum())
-            first = np.repeat(np.arange(len(order)), size_of_corner)  # sorted position of a
-            offset = np.arange(total) - np.repeat(np.cumsum(size_of_corner) - size_of_corner,
-                                                  size_of_corner)
-            second = np.repeat(start_of_corner, size_of_corner) + offset  # sorted position of b
-            face_a = corner_face[order[first]]
-            face_b = corner_face[order[second]]
-            cosine = np.einsum("ij,ij->i", unit[face_a], unit[face_b])
-            keep = cosine >= math.cos(math.radians(crease_angle_deg)) - 1e-9
-            target = order[first[keep]]
-            weights = cross[face_b[keep]]  # area-weighted
-            summed = np.zeros((3 * n_kept, 3))
-            for axis in range(3):
-                summed[:, axis] = np.bincount(target, weights=weights[:, axis],
-                                              minlength=3 * n_kept)
-            length = np.linalg.norm(summed, axis=1, keepdims=True)
-            normals = np.where(length > 0, summed / np.where(length > 0, length, 1.0), normals)
-    positions = mesh.vertices[faces].reshape(-1, 3)
-    return (
-        positions.astype(np.float32),
-        normals.astype(np.float32),
-        mesh.vertices[faces[:, 0]],
-        unit,
-        np.flatnonzero(kept),
-    )
-
-
 @dataclass(frozen=True)
 class _Frame:
     """Everything the child needs for one picture (computed here, not in the child)."""
@@ -284,38 +160,17 @@ class _Frame:
     far: float
 
 
-def _picture_camera(camera: Camera, up: tuple[float, float, float]) -> Camera:
-    """The measures' camera rolled so that ``up`` is the image up."""
-    fallback = camera.fallback_up
-    if abs(float(np.dot(up, fallback / np.linalg.norm(fallback)))) > 0.99:
-        fallback = camera.up  # e.g. up = +z: fall back to the measures' own up
-    return replace(camera, up=up, fallback_up=fallback)
-
-
 def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
            centre: NDArray[np.float64], diagonal: float, size: int) -> _Frame:
-    poses = _picture_camera(camera, style.up).poses(direction[None, :], centre=centre,
-                                                    diagonal=diagonal, resolution=size)
+    poses = picture_camera(camera, style.up).poses(direction[None, :], centre=centre,
+                                                   diagonal=diagonal, resolution=size)
     eye, right, up, forward = poses.eyes[0], poses.right[0], poses.up[0], poses.forward[0]
     distance = camera.distance_factor * diagonal
     radius = diagonal / 2.0
     near = max(distance - 1.05 * radius, 1e-3 * distance)
     far = distance + 1.05 * radius
-    return _Frame(eye, centre, up, _light_direction(style, forward, up, right), near, far)
+    return _Frame(eye, centre, up, light_direction(style, forward, up, right), near, far)
 
-
-def _light_direction(style: RenderStyle, forward: NDArray[np.float64], up: NDArray[np.float64],
-                     right: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Unit direction the sunlight travels in: from ``light_elevation_deg`` above the
-    view axis towards the image up, turned ``light_azimuth_deg`` towards the image left."""
-    elevation = math.radians(style.light_elevation_deg)
-    azimuth = math.radians(style.light_azimuth_deg)
-    towards_light = (
-        -forward * math.cos(elevation) * math.cos(azimuth)
-        + up * math.sin(elevation)
-        - right * math.cos(elevation) * math.sin(azimuth)
-    )
-    return -towards_light / np.linalg.norm(towards_light)
 
 
 # --------------------------------------------------------------------------- messages
@@ -414,7 +269,8 @@ def _serve() -> None:
                     image = session.render(header, arrays["faces"])
                     _write_message(protocol_out, {"ok": True}, {"image": image})
                 else:
-                    _write_message(protocol_out, {"ok": False, "error": f"unknown op {operation!r}"})
+                    _write_message(protocol_out,
+                                   {"ok": False, "error": f"unknown op {operation!r}"})
             except (RuntimeError, ValueError, KeyError) as err:
                 _write_message(protocol_out, {"ok": False, "error": one_line(err)})
     except EOFError:
@@ -425,16 +281,6 @@ def _serve() -> None:
         # Filament's shutdown can hang; the parent has what it needs.
         os._exit(0)
 
-
-def _srgb_to_linear(value: float) -> float:
-    return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
-
-
-def _linear_to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
-    """Linear RGB in [0, 1] (clipped) to 8-bit sRGB."""
-    value = np.clip(linear, 0.0, 1.0)
-    srgb = np.where(value <= 0.0031308, 12.92 * value, 1.055 * np.power(value, 1.0 / 2.4) - 0.055)
-    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)
 
 
 class _ChildRenderer:
@@ -457,13 +303,13 @@ class _ChildRenderer:
         scene.scene.enable_sun_light(True)
         self.material = rendering.MaterialRecord()
         self.material.shader = "defaultLit"
-        self.material.base_color = [*(_srgb_to_linear(c) for c in style.color), 1.0]
+        self.material.base_color = [*(srgb_to_linear(c) for c in style.color), 1.0]
         self.material.base_roughness = 0.7
         self.material.base_reflectance = 0.3
         self.positions: Any = None
         self.normals: Any = None
         self.has_geometry = False
-        self.to_srgb = _linear_to_srgb(np.arange(256) / 255.0)  # 8-bit linear -> sRGB
+        self.to_srgb = linear_to_srgb(np.arange(256) / 255.0)  # 8-bit linear -> sRGB
 
     def warm_up(self) -> None:
         box = self.o3d.geometry.TriangleMesh.create_box()
@@ -766,7 +612,7 @@ class Renderer:
         centre, diagonal = bounding_frame(mesh)
         if not diagonal > 0.0:
             raise InputError(f"{mesh.name}: model has zero extent")
-        self._shading = _shading_arrays(mesh, self.style.crease_angle_deg)
+        self._shading = crease_normals(mesh, self.style.crease_angle_deg)
         self._frame_of_mesh = (centre, diagonal)
         self._mesh = mesh
 
@@ -778,7 +624,8 @@ class Renderer:
         facing = np.einsum("ij,ij->i", eye[None, :] - face_points, face_normals) > 0.0
         return np.flatnonzero(facing).astype(np.int64)
 
-    def _render_once(self, mesh: Mesh, frame: _Frame, faces: NDArray[np.int64]) -> NDArray[np.uint8]:
+    def _render_once(self, mesh: Mesh, frame: _Frame,
+                     faces: NDArray[np.int64]) -> NDArray[np.uint8]:
         child = self._child
         assert child is not None and self._shading is not None  # noqa: S101
         if child.mesh_key != id(mesh):
@@ -1023,7 +870,8 @@ def render_view(
                         renderer=renderer, engine=engine)[0]
 
 
-def resolve_direction(mesh: Mesh, source: DirectionSource, *, measure: str = "VE") -> NDArray[np.float64]:
+def resolve_direction(mesh: Mesh, source: DirectionSource, *,
+                      measure: str = "VE") -> NDArray[np.float64]:
     """The view direction a direction source gives for a mesh and measure.
 
     Parameters
@@ -1185,7 +1033,9 @@ def png_bytes(image: ArrayLike) -> bytes:
     if array.ndim == 2:
         array = array[:, :, None]
     if array.ndim != 3 or array.shape[2] not in (1, 3, 4) or 0 in array.shape:
-        raise InputError(f"image: expected shape (h, w), (h, w, 3) or (h, w, 4), got {np.shape(image)}")
+        raise InputError(
+            f"image: expected shape (h, w), (h, w, 3) or (h, w, 4), got {np.shape(image)}"
+        )
     height, width, channels = array.shape
     color_type = {1: 0, 3: 2, 4: 6}[channels]
     rows = np.zeros((height, 1 + width * channels), dtype=np.uint8)  # filter byte 0 per row

@@ -7,7 +7,7 @@ seen through every pixel at ``supersampling`` times the picture's size, and
 each pixel is shaded in numpy:
 
 * its normal is the crease-aware corner normals of that face
-  (:func:`vptoolkit.render._shading_arrays`) interpolated with the
+  (:func:`vptoolkit.shading.crease_normals`) interpolated with the
   barycentric coordinates of the pixel ray's hit (Moller-Trumbore), turned
   towards the camera;
 * linear colour = ``color * (ambient + sun * max(0, n . l))`` with the sun
@@ -36,13 +36,13 @@ from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import (
+from vptoolkit.shading import (
     RenderStyle,
-    _light_direction,
-    _linear_to_srgb,
-    _picture_camera,
-    _shading_arrays,
-    _srgb_to_linear,
+    crease_normals,
+    light_direction,
+    linear_to_srgb,
+    picture_camera,
+    srgb_to_linear,
 )
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import face_id_images
@@ -111,7 +111,7 @@ class SoftwareRenderer:
         """Corner positions and crease-aware corner normals per face (-1 rows: not drawn)."""
         if self._mesh is mesh:
             return
-        positions, normals, _, _, kept = _shading_arrays(mesh, self.style.crease_angle_deg)
+        positions, normals, _, _, kept = crease_normals(mesh, self.style.crease_angle_deg)
         self._corners = np.zeros((mesh.n_faces, 3, 3))
         self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
         self._corners[kept] = positions.reshape(-1, 3, 3)
@@ -137,7 +137,7 @@ class SoftwareRenderer:
             raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
-        camera = _picture_camera(self.camera, self.style.up)
+        camera = picture_camera(self.camera, self.style.up)
         factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
         fine = self.size * factor
         centre, diagonal = bounding_frame(mesh)
@@ -151,12 +151,12 @@ class SoftwareRenderer:
                 chunk = hit[start:start + _CHUNK]
                 linear[chunk] = self._shade(chunk, ids[chunk], poses, view)
             linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
-            images[view] = _linear_to_srgb(linear)
+            images[view] = linear_to_srgb(linear)
         return images
 
     def _background_image(self, n_pixels: int) -> NDArray[np.float64]:
         """``(n_pixels, 3)`` linear RGB of the background."""
-        background = np.array([_srgb_to_linear(c) for c in self.style.background])
+        background = np.array([srgb_to_linear(c) for c in self.style.background])
         return np.broadcast_to(background, (n_pixels, 3)).copy()
 
     def _shade(self, hit: NDArray[np.int64], faces: NDArray[np.int32], poses: ViewPoses,
@@ -165,7 +165,7 @@ class SoftwareRenderer:
         see ``faces``."""
         assert self._corners is not None and self._corner_normals is not None  # noqa: S101
         style = self.style
-        colour = np.array([_srgb_to_linear(c) for c in style.color])
+        colour = np.array([srgb_to_linear(c) for c in style.color])
         # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
         row, column = np.divmod(hit, poses.resolution)
         half = poses.resolution / 2.0
@@ -189,8 +189,8 @@ class SoftwareRenderer:
         towards_camera = -ray / np.linalg.norm(ray, axis=1, keepdims=True)
         facing = np.einsum("ij,ij->i", normal, towards_camera)
         normal[facing < 0] *= -1.0  # a back face seen with culling off
-        towards_light = -_light_direction(style, poses.forward[view], poses.up[view],
-                                          poses.right[view])
+        towards_light = -light_direction(style, poses.forward[view], poses.up[view],
+                                         poses.right[view])
         diffuse = np.clip(normal @ towards_light, 0.0, None)
         sun = _SUN * style.light_intensity / _DEFAULT_SUN
         ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT

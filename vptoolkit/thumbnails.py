@@ -85,16 +85,14 @@ class ThumbnailResult:
 
 
 def _mesh_files(source: Path) -> list[Path]:
-    from vptoolkit.io import SUPPORTED_SUFFIXES
+    """``source`` itself if a file, else its mesh files (hidden ones skipped), sorted."""
+    from vptoolkit.io import find_mesh_files
 
     if source.is_file():
         return [source]
     if not source.is_dir():
         raise InputError(f"{source}: no such file or folder")
-    return sorted(
-        path for path in source.rglob("*")
-        if path.is_file() and path.suffix.lower() in SUPPORTED_SUFFIXES
-    )
+    return find_mesh_files(source)
 
 
 def _best_direction_task(task: dict[str, Any]) -> dict[str, Any]:
@@ -230,7 +228,8 @@ def render_thumbnails(
     """Draw a thumbnail of every mesh in a folder from its best (or predicted) view.
 
     Every file below ``src`` with a suffix :func:`vptoolkit.io.load_mesh`
-    reads is loaded, measured (:func:`vptoolkit.measures.compute_view_quality`)
+    reads (:func:`vptoolkit.io.find_mesh_files`: hidden files and folders are
+    skipped) is loaded, measured (:func:`vptoolkit.measures.compute_view_quality`)
     and drawn from its best view for ``measure``; with ``predictor`` the
     direction comes from it instead and nothing is measured. The picture of
     ``src/a/b.off`` is ``out/a/b.png``. Measuring runs in ``workers``

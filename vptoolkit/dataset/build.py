@@ -77,12 +77,12 @@ from typing import Any, Literal, overload
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.camera import Camera
+from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.dataset.store import ModelEntry, write_dataset
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
 from vptoolkit.files import atomic_write
-from vptoolkit.io import SUPPORTED_SUFFIXES
+from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
 from vptoolkit.optional import is_available, require
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -271,7 +271,7 @@ def discover_models(
         raise InputError(f"{root}: source is not a folder")
     root = root.resolve()
     wanted = _check_categories(categories)
-    models = [_source_model(root, path) for path in _mesh_files(root)]
+    models = [_source_model(root, path) for path in find_mesh_files(root)]
     if not models:
         raise InputError(
             f"{root}: no mesh files found (looked for {', '.join(SUPPORTED_SUFFIXES)})"
@@ -286,15 +286,6 @@ def discover_models(
             )
         models = [model for model in models if model.category in wanted]
     return sorted(models, key=lambda model: (model.category, model.name, model.source))
-
-
-def _mesh_files(root: Path) -> Iterator[Path]:
-    """Yield the non-hidden files with a supported suffix under ``root``, sorted."""
-    for folder, subfolders, files in os.walk(root):
-        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
-        for name in sorted(files):
-            if not name.startswith(".") and Path(name).suffix.lower() in SUPPORTED_SUFFIXES:
-                yield Path(folder) / name
 
 
 def _source_model(root: Path, path: Path) -> SourceModel:
@@ -530,7 +521,9 @@ def build_dataset(
     )
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None and (not isinstance(scheduler, str) or not scheduler.strip()):
-        raise InputError(f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}")
+        raise InputError(
+            f"scheduler: expected an address such as tcp://host:8786, got {scheduler!r}"
+        )
     if scheduler is not None and not _SCHEDULER_ADDRESS.fullmatch(scheduler.strip()):
         raise InputError(
             f"scheduler: {scheduler!r} is not a Dask scheduler address; expected "
@@ -655,7 +648,10 @@ def _check_options(
 
 def _check_dependencies(options: Mapping[str, Any], scheduler: str | None) -> None:
     """Fail before any work when a needed package is missing, instead of failing every model."""
-    needed = [("zarr" if options["format"] == "zarr" else "h5py", "dataset")]
+    # h5py is a core dependency (plain `pip install vptoolkit`); zarr comes with [dataset].
+    needed: list[tuple[str, str | None]] = [
+        ("zarr", "dataset") if options["format"] == "zarr" else ("h5py", None)
+    ]
     if options["clean"]:
         needed.append(("pymeshlab", "clean"))
     if scheduler is not None:
@@ -670,7 +666,8 @@ def _store_attrs(options: Mapping[str, Any], *, source: str, created: str) -> di
         "resolution": options["resolution"],
         "backend": options["backend"],
         "camera": options["camera"],
-        "cleaning": {"enabled": options["clean"], "max_faces": options["max_faces"], "remesh": options["remesh"]},
+        "cleaning": {"enabled": options["clean"], "max_faces": options["max_faces"],
+                     "remesh": options["remesh"]},
         "split_seed": options["split_seed"],
         "split_fractions": dict(SPLIT_FRACTIONS),
         "source": source,
@@ -733,7 +730,8 @@ def _resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> s
     if build_file.exists():
         try:
             recorded = json.loads(build_file.read_text(encoding="utf-8"))
-            staged_options = {"remesh": False, **recorded["options"]}  # builds before the option did not remesh
+            # builds from before the option did not remesh
+            staged_options = {"remesh": False, **recorded["options"]}
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:
             raise InputError(f"{build_file}: unreadable build record ({err})") from err
@@ -1148,7 +1146,8 @@ def _run_on_cluster(
             except Exception as err:  # noqa: BLE001
                 result = _failure_result(
                     task,
-                    f"{task['source']}: cluster task failed ({type(err).__name__}: {one_line(err)})",
+                    f"{task['source']}: cluster task failed "
+                    f"({type(err).__name__}: {one_line(err)})",
                     staged=False,
                 )
             future.release()

@@ -35,7 +35,7 @@ from vptoolkit.io import gltf, obj, off, ply, stl
 from vptoolkit.io._polygons import FormatError, check_and_triangulate
 from vptoolkit.mesh import Mesh
 
-__all__ = ["SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES", "load_mesh", "save_mesh"]
+__all__ = ["SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES", "find_mesh_files", "load_mesh", "save_mesh"]
 
 #: File suffixes :func:`load_mesh` reads (compared case-insensitively).
 SUPPORTED_SUFFIXES: tuple[str, ...] = (".off", ".obj", ".ply", ".stl", ".glb", ".gltf")
@@ -59,6 +59,43 @@ _BYTE_READERS = {
     ".ply": ply.read_ply,
     ".stl": stl.read_stl,
 }
+
+
+def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
+    """The mesh files below a folder, in sorted order.
+
+    A mesh file is one whose suffix is in :data:`SUPPORTED_SUFFIXES` (any
+    letter case). Hidden files and everything in hidden folders (a name
+    starting with ``.``, below ``folder``) are skipped, e.g. editor backups and
+    partial downloads; ``folder`` itself may be hidden. Symbolic links to
+    folders are not followed.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The folder searched, recursively.
+
+    Returns
+    -------
+    list of Path
+        ``folder / relative path`` for every mesh file, sorted.
+
+    Raises
+    ------
+    InputError
+        If ``folder`` is not an existing folder.
+    """
+    root = as_path(folder, "folder")
+    if not root.is_dir():
+        raise InputError(f"{root}: not a folder")
+    found = []
+    for parent, subfolders, files in os.walk(root):
+        subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
+        found.extend(
+            Path(parent) / name for name in files
+            if not name.startswith(".") and Path(name).suffix.lower() in SUPPORTED_SUFFIXES
+        )
+    return sorted(found)
 
 
 def load_mesh(path: str | os.PathLike[str]) -> Mesh:

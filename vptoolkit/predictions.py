@@ -1,0 +1,257 @@
+"""The predictions file: one ``.npz`` of predicted view directions, read and written here.
+
+Format (``*.npz``, nothing pickled):
+
+``names`` : (n_models,) unicode
+    Model names, unique, in any order.
+``directions`` : (n_models, n_measures, 3) float64
+    One direction per model and measure, from the model centre towards the
+    camera (need not be unit length).
+``measures`` : (n_measures,) unicode
+    ``MEASURES`` (``["VE", "VR", "VKL", "VMI"]``) or a subset in that order.
+
+Other keys are ignored. :func:`write_predictions` writes the file atomically
+(:func:`vptoolkit.files.atomic_write`); :func:`read_predictions` reads it back
+with ``allow_pickle=False`` and closes the file on every path.
+:func:`read_arrays` is the safe reader under both: a ``.npy`` array or every
+member of a ``.npz`` archive. Scoring against a dataset (which names, which
+split) lives in :mod:`vptoolkit.evaluate`.
+
+Numpy only.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.checks import check_npy_header, one_line
+from vptoolkit.conventions import MEASURES
+from vptoolkit.errors import InputError
+from vptoolkit.files import atomic_write
+
+__all__ = [
+    "PREDICTION_KEYS",
+    "PredictionArrays",
+    "read_arrays",
+    "read_predictions",
+    "parse_predictions",
+    "unicode_vector",
+    "write_predictions",
+]
+
+PREDICTION_KEYS = ("names", "directions", "measures")
+"""The arrays every predictions ``.npz`` holds."""
+
+_NPY_MAGIC = b"\x93NUMPY"
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a zip entry, or an empty zip archive
+
+
+class PredictionArrays(NamedTuple):
+    """The three arrays of a predictions file, checked against each other.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Model names, as stored (not yet checked for duplicates).
+    directions : (n_models, n_measures, 3) array
+        As stored (dtype not yet checked; see :func:`parse_predictions`).
+    measures : tuple of str
+        ``MEASURES`` or a subset in that order.
+    """
+
+    names: tuple[str, ...]
+    directions: NDArray[Any]
+    measures: tuple[str, ...]
+
+
+def read_arrays(path: str | os.PathLike[str]) -> NDArray[Any] | dict[str, NDArray[Any]]:
+    """Read a ``.npy`` array or every member of a ``.npz`` archive, no pickles.
+
+    Returns
+    -------
+    arrays : ndarray or dict of str to ndarray
+        The array of a ``.npy`` file, or each member of a ``.npz`` by key.
+
+    Raises
+    ------
+    InputError
+        One line naming the file: wrong suffix, missing, no numpy or zip
+        header, a suffix that disagrees with the content, a member that is not
+        an ``.npy`` array, or unreadable with ``allow_pickle=False``.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".npy", ".npz"):
+        raise InputError(f"{path.name}: predictions must be a .npy or .npz file")
+    if not path.is_file():
+        raise InputError(f"{path.name}: no such file")
+    # The file is opened here, not by np.load, so that it is closed even when
+    # numpy fails half-way through a damaged zip archive.
+    with path.open("rb") as handle:
+        magic = handle.read(len(_NPY_MAGIC))
+        if not (magic.startswith(_NPY_MAGIC) or magic.startswith(_ZIP_MAGIC)):
+            raise InputError(f"{path.name}: not a numpy .npy or .npz file "
+                             "(no numpy or zip header)")
+        handle.seek(0)
+        if magic.startswith(_NPY_MAGIC):
+            check_npy_header(handle, path.name, path.stat().st_size)
+        try:
+            loaded = np.load(handle, allow_pickle=False)
+            if isinstance(loaded, np.ndarray):
+                if suffix != ".npy":
+                    raise InputError(f"{path.name}: holds a single .npy array, "
+                                     "not an .npz archive")
+                return loaded
+            with loaded:
+                if suffix != ".npz":
+                    raise InputError(f"{path.name}: is an .npz archive, not a .npy array")
+                for info in loaded.zip.infolist():
+                    if not info.filename.endswith(".npy"):
+                        raise InputError(f"{path.name}: member {info.filename!r} is not a "
+                                         ".npy array")
+                    with loaded.zip.open(info) as member:
+                        check_npy_header(member, f"{path.name}: member {info.filename}",  # type: ignore[arg-type]
+                                         info.file_size)
+                return {key: loaded[key] for key in loaded.files}
+        except InputError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as err:
+            raise InputError(f"{path.name}: cannot be read with allow_pickle=False "
+                             f"({one_line(err)})") from err
+
+
+def unicode_vector(file_name: str, key: str, array: NDArray[Any]) -> list[str]:
+    """The strings of a 1-D unicode array, or an :class:`InputError` naming ``key``."""
+    if array.ndim != 1 or array.dtype.kind != "U":
+        raise InputError(f"{file_name}: {key!r} must be a 1-D unicode array, "
+                         f"got shape {array.shape} dtype {array.dtype}")
+    return [str(value) for value in array]
+
+
+def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]]) -> PredictionArrays:
+    """Check the members of a predictions ``.npz`` against the format.
+
+    Parameters
+    ----------
+    file_name : str
+        Named in error messages.
+    arrays : dict of str to ndarray
+        The archive's members (:func:`read_arrays`).
+
+    Raises
+    ------
+    InputError
+        A missing key, ``names`` or ``measures`` not a 1-D unicode array, an
+        unknown measure, measures out of ``MEASURES`` order, or ``directions``
+        not of shape ``(n_names, n_measures, 3)``.
+    """
+    missing_keys = [key for key in PREDICTION_KEYS if key not in arrays]
+    if missing_keys:
+        raise InputError(f"{file_name}: missing key(s) {', '.join(missing_keys)} "
+                         f"(has {', '.join(sorted(arrays)) or 'none'})")
+    names = unicode_vector(file_name, "names", arrays["names"])
+    file_measures = unicode_vector(file_name, "measures", arrays["measures"])
+    unknown_measures = [m for m in file_measures if m not in MEASURES]
+    if unknown_measures:
+        listed = ", ".join(repr(name) for name in unknown_measures[:3])
+        listed += ", ..." if len(unknown_measures) > 3 else ""
+        raise InputError(f"{file_name}: unknown measure(s) {listed}, "
+                         f"expected some of {', '.join(MEASURES)}")
+    columns = [MEASURES.index(m) for m in file_measures]
+    if not columns or columns != sorted(set(columns)):
+        raise InputError(f"{file_name}: measures {file_measures} differ from the order "
+                         f"{', '.join(MEASURES)} (or a subset in that order)")
+    raw = arrays["directions"]
+    if raw.shape != (len(names), len(columns), 3):
+        raise InputError(f"{file_name}: directions must have shape ({len(names)}, "
+                         f"{len(columns)}, 3) for {len(names)} names and "
+                         f"{len(columns)} measures, got {raw.shape}")
+    return PredictionArrays(tuple(names), raw, tuple(file_measures))
+
+
+def read_predictions(path: str | os.PathLike[str]) -> PredictionArrays:
+    """Read a predictions ``.npz`` (``allow_pickle=False``; the file is closed on return).
+
+    Returns
+    -------
+    predictions : PredictionArrays
+        ``names``, ``directions (n_models, n_measures, 3) float64`` and
+        ``measures``.
+
+    Raises
+    ------
+    InputError
+        As :func:`read_arrays` and :func:`parse_predictions`, or if the file is
+        a ``.npy`` or ``directions`` is not numeric.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        raise InputError(f"{path.name}: predictions must be a .npz file")
+    arrays = read_arrays(path)
+    if not isinstance(arrays, dict):  # read_arrays already refuses a .npy named .npz
+        raise InputError(f"{path.name}: holds a single .npy array, not an .npz archive")
+    parsed = parse_predictions(path.name, arrays)
+    if parsed.directions.dtype.kind not in "fiu":
+        raise InputError(f"{path.name}: directions must be numeric, "
+                         f"got dtype {parsed.directions.dtype}")
+    return parsed._replace(directions=parsed.directions.astype(np.float64))
+
+
+def write_predictions(
+    path: str | os.PathLike[str],
+    names: Sequence[str],
+    directions: ArrayLike,
+    *,
+    measures: Sequence[str] = MEASURES,
+) -> Path:
+    """Write predictions as a ``.npz``, atomically.
+
+    Parameters
+    ----------
+    path : path-like
+        Target file; must end in ``.npz``.
+    names : sequence of str
+        Model names, unique.
+    directions : (n_models, n_measures, 3) array_like
+        One direction per model and measure, stored as float64.
+    measures : sequence of str
+        The predicted measures, ``MEASURES`` or a subset in that order
+        (default: all four).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    InputError
+        If the suffix is not ``.npz``, or the shapes, names or measures do not
+        fit together.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".npz":
+        raise InputError(f"{path.name}: predictions must be saved as .npz")
+    name_list = [str(name) for name in names]
+    if len(set(name_list)) != len(name_list):
+        raise InputError("names: model names must be unique")
+    measure_list = [str(m) for m in measures]
+    columns = [MEASURES.index(m) if m in MEASURES else -1 for m in measure_list]
+    if not columns or -1 in columns or columns != sorted(set(columns)):
+        raise InputError(f"measures: {measure_list} is not {', '.join(MEASURES)} "
+                         "or a subset in that order")
+    values = np.asarray(directions, dtype=np.float64)
+    if values.shape != (len(name_list), len(measure_list), 3):
+        raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "
+                         f"got {values.shape}")
+    with atomic_write(path) as handle:
+        np.savez(handle, names=np.array(name_list, dtype=str),
+                 directions=values, measures=np.array(measure_list, dtype=str))
+    return path
