@@ -64,10 +64,6 @@ def module_name(path: Path) -> str:
 
 MODULES = {module_name(path): path for path in sorted(PACKAGE.rglob("*.py"))}
 
-# Imports inside functions that go round: both in learn/, left for its own change.
-KNOWN_LAZY_CYCLES = {("vptoolkit.learn.predict", "vptoolkit.learn.train")}
-
-
 def module_level_nodes(tree: ast.Module) -> list[ast.AST]:
     """Statements run at import: the module body, into if/try/with blocks, not into defs."""
     found: list[ast.AST] = []
@@ -131,6 +127,5 @@ def test_no_import_cycle_at_module_level():
 
 
 def test_no_import_cycle_through_imports_inside_functions():
-    found = [cycle for cycle in cycles(import_graph(module_level_only=False))
-             if tuple(sorted(set(cycle))) not in KNOWN_LAZY_CYCLES]
+    found = cycles(import_graph(module_level_only=False))
     assert not found, [" -> ".join(cycle) for cycle in found]

@@ -136,6 +136,7 @@ __all__ = [
     "ViewpointNet",
     "count_parameters",
     "torch_threads",
+    "resolve_device",
     "checkpoint_paths",
     "DEFAULT_MODEL",
     "PRETRAINED",
@@ -1095,6 +1096,25 @@ def torch_threads(threads: int | None) -> Iterator[None]:
         yield
     finally:
         torch.set_num_threads(previous)
+
+
+def resolve_device(device: str) -> torch.device:
+    """``"auto"`` (CUDA when available, else the CPU), ``"cpu"`` or ``"cuda"`` / ``"cuda:N"``.
+
+    Raises
+    ------
+    InputError
+        For another name, or CUDA asked for where torch sees no CUDA device.
+    """
+    if device == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    if device == "cpu":
+        return torch.device("cpu")
+    if isinstance(device, str) and (device == "cuda" or device.startswith("cuda:")):
+        if not torch.cuda.is_available():
+            raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} sees no CUDA device")
+        return torch.device(device)
+    raise InputError(f"device: expected 'auto', 'cpu' or 'cuda', got {device!r}")
 
 
 # ====================================================================== checkpoint files

@@ -35,15 +35,20 @@ import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write
-from vptoolkit.learn.model import DEFAULT_MODEL, ViewpointNet, load_model, torch_threads
+from vptoolkit.learn.model import (
+    DEFAULT_MODEL,
+    ViewpointNet,
+    load_model,
+    resolve_device,
+    torch_threads,
+)
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 
@@ -56,6 +61,10 @@ else:
 
 __all__ = ["MeshPredictor", "Predictions", "predict", "predict_directions", "network_points",
            "network_predictor", "load_networks"]
+
+CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
+"""``format`` entry of the ``categories.json`` index of per-category networks
+(:func:`vptoolkit.learn.train.train_per_category`)."""
 
 _SURFACE_POINTS = 20_000
 _SEED_INPUT = 3
@@ -95,7 +104,8 @@ class Predictions:
         return len(self.names)
 
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
-        """Write ``names``, ``directions`` and ``measures`` to an ``.npz`` file, atomically.
+        """Write ``names``, ``directions`` and ``measures`` to an ``.npz`` file, atomically
+        (:func:`vptoolkit.predictions.write_predictions`, the one owner of the format).
 
         The arrays are ``names (n_models,) unicode``, ``directions
         (n_models, n_measures, 3) float64`` and ``measures (n_measures,)
@@ -112,37 +122,22 @@ class Predictions:
         InputError
             If ``path`` does not end in ``.npz`` or its folder does not exist.
         """
-        path = Path(path)
-        if path.suffix.lower() != ".npz":
-            raise InputError(f"{path.name}: predictions must be saved as .npz")
-        if not path.parent.is_dir():
-            raise InputError(f"{path}: folder {path.parent} does not exist")
-        with atomic_write(path) as handle:
-            np.savez(
-                handle,
-                names=np.array(self.names, dtype=str) if self.names else np.zeros(0, dtype="<U1"),
-                directions=self.directions,
-                measures=np.array(self.measures, dtype=str),
-            )
-        return path
+        from vptoolkit.predictions import write_predictions
+
+        return write_predictions(path, self.names, self.directions, measures=self.measures)
 
     @classmethod
     def load_npz(cls, path: str | os.PathLike[str]) -> Predictions:
-        """Read predictions written by :meth:`save_npz` (``allow_pickle=False``).
+        """Read predictions written by :meth:`save_npz` (:func:`vptoolkit.predictions.read_predictions`).
 
         Raises
         ------
         InputError
             If the file is missing, unreadable or lacks an array.
         """
-        path = Path(path)
-        try:
-            with np.load(path, allow_pickle=False) as archive:
-                names = [str(name) for name in archive["names"]]
-                directions = np.asarray(archive["directions"], dtype=np.float64)
-                measures = [str(name) for name in archive["measures"]]
-        except (OSError, ValueError, KeyError) as err:
-            raise InputError(f"{path.name}: cannot read predictions ({err})") from err
+        from vptoolkit.predictions import read_predictions
+
+        names, directions, measures = read_predictions(path)
         return cls(tuple(names), directions, tuple(measures))
 
 
@@ -193,7 +188,6 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     directions : (n_models, n_measures, 3) float64
         Unit directions.
     """
-    from vptoolkit.learn.train import resolve_device
 
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
         raise InputError(f"batch_size: expected a positive integer, got {batch_size!r}")
@@ -302,7 +296,6 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
         per-category index.
     """
     from vptoolkit.learn.model import read_json
-    from vptoolkit.learn.train import CATEGORY_MODELS_FORMAT
 
     index = Path(model_path) / "categories.json"
     if str(model_path) == DEFAULT_MODEL or not index.is_file():

@@ -89,10 +89,12 @@ from vptoolkit.learn.model import (
     checkpoint_paths,
     count_parameters,
     read_json,
+    resolve_device,
     save_model,
     torch_threads,
     write_json_atomic,
 )
+from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT, network_points
 from vptoolkit.learn.state import (
     TRAINING_STATE_FORMAT,
     json_value,
@@ -144,9 +146,6 @@ PAPER_LR_DECAY: Final = 0.75
 
 PAPER_LR_STEP: Final = 200
 """The paper's step: the learning rate decays every 200 epochs."""
-
-CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
-"""``format`` entry of the ``categories.json`` index of :func:`train_per_category`."""
 
 _VALIDATION_BATCH = 32
 _SEED_SHUFFLE = 1
@@ -217,25 +216,6 @@ def learning_rate(epoch: int, *, lr: float = PAPER_LR, lr_decay: float = PAPER_L
 def scaled_lr_step(epochs: int) -> int:
     """The paper's decay step (200 of 3000 epochs) scaled to a run of ``epochs``: at least 1."""
     return max(1, round(epochs * PAPER_LR_STEP / PAPER_EPOCHS))
-
-
-def resolve_device(device: str) -> torch.device:
-    """``"auto"`` (CUDA when available, else the CPU), ``"cpu"`` or ``"cuda"`` / ``"cuda:N"``.
-
-    Raises
-    ------
-    InputError
-        For another name, or CUDA asked for where torch sees no CUDA device.
-    """
-    if device == "auto":
-        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-    if device == "cpu":
-        return torch.device("cpu")
-    if isinstance(device, str) and (device == "cuda" or device.startswith("cuda:")):
-        if not torch.cuda.is_available():
-            raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} sees no CUDA device")
-        return torch.device(device)
-    raise InputError(f"device: expected 'auto', 'cpu' or 'cuda', got {device!r}")
 
 
 def _seed(*keys: int) -> int:
@@ -310,8 +290,6 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
 def _validation_set(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int, seed: int,
                     rotations: int, device: torch.device) -> dict[str, Tensor]:
     """The validation inputs under the rotated protocol (as stored for ``rotations=0``)."""
-    from vptoolkit.learn.predict import network_points
-
     points, views, quality = [], [], []
     for index in range(n_models):
         item = subset[index]
