@@ -1,0 +1,108 @@
+"""Checkpoint files: where a network's weights and configuration live, read and written safely.
+
+A checkpoint is ``<stem>.safetensors`` (weights) beside ``<stem>.json`` (the
+configuration); ``"default"`` names the network bundled with the package
+(:data:`PRETRAINED`). Every write is atomic and nothing is ever unpickled.
+:func:`vptoolkit.learn.model.save_model` and ``load_model`` use these.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Final
+
+from vptoolkit.errors import InputError
+from vptoolkit.files import write_bytes_atomic
+from vptoolkit.optional import require
+
+if TYPE_CHECKING:
+    from torch import Tensor
+
+__all__ = [
+    "MODEL_FORMAT",
+    "DEFAULT_MODEL",
+    "PRETRAINED",
+    "checkpoint_paths",
+    "read_json",
+    "read_safetensors",
+    "write_json_atomic",
+    "write_safetensors_atomic",
+]
+
+MODEL_FORMAT: Final = "vptoolkit-viewpoint-model"
+"""``format`` entry of a checkpoint's JSON configuration."""
+
+DEFAULT_MODEL: Final = "default"
+"""Name that stands for the bundled pretrained checkpoint wherever a checkpoint path is taken."""
+
+PRETRAINED: Final = Path(__file__).parent / "pretrained"
+"""Folder of the bundled pretrained checkpoint (``model.safetensors``, float16, and
+``model.json`` with the command that trained it); see ``docs/results.md``."""
+
+
+def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """The weights and configuration files of a checkpoint.
+
+    Parameters
+    ----------
+    path : path-like
+        A folder (``model.safetensors`` and ``model.json`` inside it), a
+        ``*.safetensors`` file or its ``*.json`` configuration, or
+        ``"default"`` for the pretrained checkpoint bundled with the package
+        (:data:`PRETRAINED`; a file or folder named ``default`` in the
+        working directory takes precedence).
+
+    Returns
+    -------
+    weights, config : Path
+        ``<stem>.safetensors`` and ``<stem>.json`` side by side.
+    """
+    if str(path) == DEFAULT_MODEL and not Path(path).exists():
+        path = PRETRAINED
+    path = Path(path)
+    if path.suffix == ".safetensors":
+        return path, path.with_suffix(".json")
+    if path.suffix == ".json":
+        return path.with_suffix(".safetensors"), path
+    return path / "model.safetensors", path / "model.json"
+
+
+
+
+def write_json_atomic(path: Path, values: Mapping[str, Any]) -> None:
+    """Write JSON (sorted keys, indented) atomically."""
+    write_bytes_atomic(path, (json.dumps(values, indent=2, sort_keys=True) + "\n").encode("utf-8"))
+
+
+def write_safetensors_atomic(path: Path, tensors: Mapping[str, Tensor], metadata: Mapping[str, str] | None = None) -> None:
+    """Write tensors as one safetensors file, atomically."""
+    safetensors_torch = require("safetensors.torch", extra="learn")
+    contiguous = {name: tensor.detach().contiguous().cpu() for name, tensor in tensors.items()}
+    write_bytes_atomic(path, safetensors_torch.save(contiguous, metadata=dict(metadata or {})))
+
+
+def read_json(path: Path, what: str) -> dict[str, Any]:
+    """Read a JSON object, raising :class:`InputError` naming ``path``."""
+    if not path.is_file():
+        raise InputError(f"{path}: {what} not found")
+    try:
+        values = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise InputError(f"{path.name}: cannot read {what} ({err})") from err
+    if not isinstance(values, dict):
+        raise InputError(f"{path.name}: {what} is not a JSON object")
+    return values
+
+
+def read_safetensors(path: Path) -> dict[str, Tensor]:
+    """Read every tensor of a safetensors file (no pickle involved)."""
+    safetensors_torch = require("safetensors.torch", extra="learn")
+    if not path.is_file():
+        raise InputError(f"{path}: weights file not found")
+    try:
+        return dict(safetensors_torch.load_file(str(path), device="cpu"))
+    except Exception as err:  # safetensors raises its own SafetensorError and OSError
+        raise InputError(f"{path.name}: not a readable safetensors file ({err})") from err

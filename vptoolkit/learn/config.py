@@ -1,0 +1,211 @@
+"""The architecture of a viewpoint network: levels, widths, head and input frame, as data.
+
+:class:`ModelConfig` is stored in every checkpoint's JSON and rebuilt from it;
+:class:`LevelConfig` describes one level of the point hierarchy
+(:mod:`vptoolkit.learn.hierarchy`) and its convolution
+(:mod:`vptoolkit.learn.layers`). Needs no torch.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any, Final
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.errors import InputError
+from vptoolkit.learn.frame import INPUT_FRAMES
+
+__all__ = ["HEADS", "MAX_GRID_LEVEL", "DEFAULT_LEVELS", "LevelConfig", "ModelConfig", "ball_level",
+           "check_positive_int"]
+
+HEADS: Final = ("direction", "sr", "dldl")
+"""Network heads: unit directions, spherical regression, sphere maps."""
+
+MAX_GRID_LEVEL: Final = 16
+"""Finest grid level used: ``(batch << 3k) | cell`` fits 63 bits for batches up to 2^15."""
+
+@dataclass(frozen=True)
+class LevelConfig:
+    """One level of the point hierarchy and its convolution.
+
+    Attributes
+    ----------
+    grid_level : int
+        The level's points are the barycentres of the occupied cells of side
+        ``2^-grid_level`` (in bounding-box diagonals), ``1 .. 16``, no finer
+        than the previous level's.
+    radius : float
+        Radius of the convolution's ball around each of the level's points,
+        in bounding-box diagonals, ``2^-16 <= radius <= 1``; the kernel sees
+        offsets divided by it.
+    max_neighbours : int
+        At most this many points of the previous level per neighbourhood (an
+        evenly strided subset when more are inside).
+    channels : int
+        Output channels.
+    neighbourhood : {"ball", "cell"}
+        ``"ball"``: the previous level's points within ``radius``
+        (:func:`ball_query`); ``"cell"``: those in the point's own grid cell
+        (:func:`cell_neighbourhood`, much cheaper on the dense input level)
+        (default: "ball").
+    """
+
+    grid_level: int
+    radius: float
+    max_neighbours: int
+    channels: int
+    neighbourhood: str = "ball"
+
+    @property
+    def ball_level(self) -> int:
+        """Level ``k`` of the cells searched by the ball query: the finest with ``2^-k >= radius``."""
+        return ball_level(self.radius)
+
+    @property
+    def search_level(self) -> int:
+        """Grid level of the neighbourhood search: :attr:`ball_level` or, for cells, :attr:`grid_level`."""
+        return self.grid_level if self.neighbourhood == "cell" else self.ball_level
+
+
+def ball_level(radius: float) -> int:
+    """Level ``k`` of the grid cells a ball of ``radius`` is searched in: the finest with ``2^-k >= radius``."""
+    return max(0, min(MAX_GRID_LEVEL, math.floor(-math.log2(radius) + 1e-9)))
+
+
+DEFAULT_LEVELS: Final = (
+    LevelConfig(grid_level=4, radius=1 / 16, max_neighbours=32, channels=64, neighbourhood="cell"),
+    LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=32, channels=128),
+    LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=32, channels=256),
+)
+"""The default hierarchy (see the module docstring)."""
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    """Architecture of a :class:`ViewpointNet`; stored in every checkpoint.
+
+    Attributes
+    ----------
+    head : {"direction", "sr", "dldl"}
+        Output head (default: "direction").
+    n_measures : int
+        Heads, one per measure (default: 4, ``MEASURES``).
+    levels : tuple of LevelConfig
+        The hierarchy below the global level (default: :data:`DEFAULT_LEVELS`).
+    latent_channels : int
+        Channels of the global level, the latent vector (default: 512).
+    kernel_size : int
+        Outputs of each level's kernel MLP (default: 16).
+    global_kernel_size : int
+        Outputs of the global level's kernel MLP (default: 8).
+    kernel_hidden : int
+        Hidden units of every kernel MLP (default: 16).
+    head_channels : tuple of int
+        Hidden layers of each head MLP (default: (256, 64)).
+    dropout : float
+        Dropout rate in the head MLPs (default: 0.5).
+    decoder_channels : tuple of int
+        Channels of the DLDL decoder at 4 x 4 and 16 x 16 (default: (64, 16)).
+    input_frame : {"pca", "none"}
+        ``"pca"``: the network sees each input in its canonical principal-axis
+        frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
+        so a rotated input gets a rotated prediction; ``"none"``: the input's
+        own frame (:func:`load_model` gives it to checkpoints older than this
+        option). Default: "pca".
+    """
+
+    head: str = "direction"
+    n_measures: int = len(MEASURES)
+    levels: tuple[LevelConfig, ...] = DEFAULT_LEVELS
+    latent_channels: int = 512
+    kernel_size: int = 16
+    global_kernel_size: int = 8
+    kernel_hidden: int = 16
+    head_channels: tuple[int, ...] = (256, 64)
+    dropout: float = 0.5
+    decoder_channels: tuple[int, int] = field(default=(64, 16))
+    input_frame: str = "pca"
+
+    def __post_init__(self) -> None:
+        if self.input_frame not in INPUT_FRAMES:
+            raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, got {self.input_frame!r}")
+        if self.head not in HEADS:
+            raise InputError(f"head: unknown head {self.head!r}, expected one of {list(HEADS)}")
+        for name in ("n_measures", "latent_channels", "kernel_size", "global_kernel_size", "kernel_hidden"):
+            check_positive_int(getattr(self, name), name)
+        if not self.levels:
+            raise InputError("levels: expected at least one level")
+        source_level = MAX_GRID_LEVEL
+        for position, level in enumerate(self.levels):
+            if not isinstance(level, LevelConfig):
+                raise InputError(f"levels[{position}]: expected a LevelConfig, got {type(level).__name__}")
+            check_positive_int(level.max_neighbours, f"levels[{position}].max_neighbours")
+            check_positive_int(level.channels, f"levels[{position}].channels")
+            if not (isinstance(level.grid_level, int) and 1 <= level.grid_level <= source_level):
+                raise InputError(
+                    f"levels[{position}].grid_level: expected an integer in [1, {source_level}] "
+                    f"(no finer than the level before), got {level.grid_level!r}"
+                )
+            if not (isinstance(level.radius, (int, float)) and 2.0**-MAX_GRID_LEVEL <= level.radius <= 1.0):
+                raise InputError(f"levels[{position}].radius: expected a number in [2^-16, 1], got {level.radius!r}")
+            if level.neighbourhood not in ("ball", "cell"):
+                raise InputError(
+                    f"levels[{position}].neighbourhood: expected 'ball' or 'cell', got {level.neighbourhood!r}"
+                )
+            if level.neighbourhood == "ball" and level.ball_level > source_level:
+                raise InputError(
+                    f"levels[{position}].radius: {level.radius} needs cells of side 2^-{level.ball_level}, "
+                    f"finer than the previous level's 2^-{source_level}"
+                )
+            source_level = level.grid_level
+        for position, width in enumerate(self.head_channels):
+            check_positive_int(width, f"head_channels[{position}]")
+        if len(self.decoder_channels) != 2:
+            raise InputError(f"decoder_channels: expected two widths, got {self.decoder_channels!r}")
+        for position, width in enumerate(self.decoder_channels):
+            check_positive_int(width, f"decoder_channels[{position}]")
+        if not (isinstance(self.dropout, (int, float)) and 0.0 <= self.dropout < 1.0):
+            raise InputError(f"dropout: expected a rate in [0, 1), got {self.dropout!r}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The configuration as JSON types."""
+        result = asdict(self)
+        result["levels"] = [asdict(level) for level in self.levels]
+        result["head_channels"] = list(self.head_channels)
+        result["decoder_channels"] = list(self.decoder_channels)
+        return result
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> ModelConfig:
+        """Rebuild a configuration from :meth:`to_dict`'s output.
+
+        Raises
+        ------
+        InputError
+            On unknown keys or invalid values.
+        """
+        if not isinstance(values, Mapping):
+            raise InputError(f"architecture: expected a mapping, got {type(values).__name__}")
+        known = set(cls.__dataclass_fields__)
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise InputError(f"architecture: unknown keys {unknown}")
+        kwargs = dict(values)
+        if "levels" in kwargs:
+            try:
+                kwargs["levels"] = tuple(LevelConfig(**dict(level)) for level in kwargs["levels"])
+            except TypeError as err:
+                raise InputError(f"architecture: bad level description ({err})") from err
+        for key in ("head_channels", "decoder_channels"):
+            if key in kwargs:
+                kwargs[key] = tuple(kwargs[key])
+        return cls(**kwargs)
+
+
+def check_positive_int(value: Any, name: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise InputError(f"{name}: expected a positive integer, got {value!r}")
+
+
