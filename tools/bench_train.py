@@ -100,7 +100,7 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
     try:
         result = T.train_model(dataset, out, labels="ml", epochs=epochs, threads=1, fps_pool=fps_pool,
                                n_points=n_points, n_fps=n_fps, max_models=models, val_rotations=0,
-                               save_every=epochs, device="cpu", overwrite=True)
+                               save_every=epochs, device="cpu", overwrite=True, val_split="train")
     finally:
         T._train_epoch = real_epoch
     tail = seconds[-max(1, len(seconds) // 3):]
