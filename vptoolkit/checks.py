@@ -16,7 +16,7 @@ import numpy as np
 
 from vptoolkit.errors import InputError
 
-__all__ = ["as_path", "check_bool", "check_int", "check_npy_header", "one_line"]
+__all__ = ["as_path", "check_bool", "check_int", "check_npy_header", "check_suffix", "one_line"]
 
 _MAX_MESSAGE_CHARS = 200
 
@@ -108,3 +108,14 @@ def check_npy_header(stream: BinaryIO, label: str, n_bytes: int) -> None:
             f"{label}: .npy header claims shape {tuple(shape)} of {dtype} ({needed:,} bytes) "
             f"but the file holds {max(available, 0):,}"
         )
+
+
+def check_suffix(path: str | os.PathLike[str], suffix: str, *, what: str = "output") -> Path:
+    """Return ``path`` as a Path if it ends in ``suffix`` (any case), else raise.
+
+    The message names the file: ``out.txt: output must end in .npz``.
+    """
+    target = Path(path)
+    if target.suffix.lower() != suffix.lower():
+        raise InputError(f"{target.name}: {what} must end in {suffix}")
+    return target

@@ -26,7 +26,7 @@ from vptoolkit.errors import (
     VerificationError,
     VptoolkitError,
 )
-from vptoolkit.checks import check_npy_header, one_line
+from vptoolkit.checks import check_npy_header, check_suffix, one_line
 from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
 
 EXIT_FAILURE = 1
@@ -181,8 +181,8 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
     from vptoolkit.io import load_mesh
     from vptoolkit.measures import compute_view_quality
 
-    if output is not None and output.suffix != ".npz":
-        raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_suffix(output, ".npz")
     if output is not None:
         check_output_folder(output, "--output")  # before the work, not after
     loaded = load_mesh(mesh)
@@ -250,8 +250,8 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     from vptoolkit.io import load_mesh
     from vptoolkit.view_sets import measure_view_set
 
-    if output is not None and output.suffix != ".npz":
-        raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_suffix(output, ".npz")
     loaded = load_mesh(mesh)
     started = time.perf_counter()
     _, view_set = measure_view_set(
@@ -340,8 +340,7 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
 
-    if output.suffix != ".npy":
-        raise InputError(f"{output.name}: output must end in .npy")
+    check_suffix(output, ".npy")
     check_output_folder(output, "--output")
     surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
@@ -659,8 +658,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     """
     from vptoolkit.learn.predict import predict
 
-    if output is not None and output.suffix != ".npz":
-        raise InputError(f"{output.name}: output must end in .npz")
+    if output is not None:
+        check_suffix(output, ".npz")
     if output is not None:
         check_output_folder(output, "--output")
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
@@ -747,8 +746,7 @@ def render(mesh: Path, output: Path, view: str | None, best: str | None, model_p
 
     if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
         raise InputError("render: give exactly one of --view, --best, --model or --view-set")
-    if output.suffix.lower() != ".png":
-        raise InputError(f"{output.name}: output must end in .png")
+    check_suffix(output, ".png")
     check_output_folder(output, "--output")
     style = _style(up)
     loaded = load_mesh(mesh)

@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
+from vptoolkit.checks import check_suffix
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
@@ -128,9 +129,7 @@ class ViewQuality:
         (unicode), ``best_index``, ``resolution``, ``backend``, ``name`` and
         ``camera`` (a JSON string); nothing needs pickle to load.
         """
-        target = Path(path)
-        if target.suffix != ".npz":
-            raise InputError(f"{target.name}: output must end in .npz")
+        target = check_suffix(path, ".npz")
         with atomic_write(target) as handle:
             np.savez(
                 handle,

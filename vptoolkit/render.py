@@ -77,7 +77,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
-from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.checks import as_path, check_int, check_suffix, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
 from vptoolkit.files import write_bytes_atomic
@@ -1065,9 +1065,7 @@ def save_png(image: ArrayLike, path: str | os.PathLike[str]) -> Path:
     InputError
         On a wrong suffix, a missing folder, or a wrong shape or dtype.
     """
-    target = as_path(path, "path")
-    if target.suffix.lower() != ".png":
-        raise InputError(f"{target.name}: output must end in .png")
+    target = check_suffix(as_path(path, "path"), ".png")
     if not target.parent.is_dir():
         raise InputError(f"{target}: folder {target.parent} does not exist")
     return write_bytes_atomic(target, png_bytes(image))

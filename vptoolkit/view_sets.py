@@ -81,7 +81,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
-from vptoolkit.checks import check_int
+from vptoolkit.checks import check_int, check_suffix
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
@@ -332,9 +332,7 @@ class ViewSet:
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
         """Write the set to an ``.npz`` (``indices``, ``directions``, ``score``,
         ``coverage``, ``reachable``, ``objective``, ``summary`` as JSON), atomically."""
-        target = Path(path)
-        if target.suffix != ".npz":
-            raise InputError(f"{target.name}: output must end in .npz")
+        target = check_suffix(path, ".npz")
         with atomic_write(target) as handle:
             np.savez(
                 handle,
