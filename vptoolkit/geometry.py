@@ -7,10 +7,17 @@ from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
 
-__all__ = ["face_areas", "face_normals", "bounding_frame"]
+__all__ = ["face_cross_products", "face_areas", "face_normals", "bounding_frame"]
 
 
-def _edge_cross(mesh: Mesh) -> NDArray[np.float64]:
+def face_cross_products(mesh: Mesh) -> NDArray[np.float64]:
+    """``(b - a) x (c - a)`` of every triangle ``(a, b, c)``: twice its area times its unit normal.
+
+    Returns
+    -------
+    cross : (n_faces, 3) float64
+        By the right-hand rule on the winding; zero for degenerate faces.
+    """
     corners = mesh.vertices[mesh.faces]
     return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
 
@@ -23,7 +30,7 @@ def face_areas(mesh: Mesh) -> NDArray[np.float64]:
     areas : (n_faces,) float64
         ``|(b - a) x (c - a)| / 2`` in squared model units; 0 for degenerate faces.
     """
-    return 0.5 * np.linalg.norm(_edge_cross(mesh), axis=1)
+    return 0.5 * np.linalg.norm(face_cross_products(mesh), axis=1)
 
 
 def face_normals(mesh: Mesh) -> NDArray[np.float64]:
@@ -34,7 +41,7 @@ def face_normals(mesh: Mesh) -> NDArray[np.float64]:
     normals : (n_faces, 3) float64
         ``(b - a) x (c - a)`` normalised; the zero vector for degenerate faces.
     """
-    cross = _edge_cross(mesh)
+    cross = face_cross_products(mesh)
     length = np.linalg.norm(cross, axis=1, keepdims=True)
     return np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
 

@@ -79,6 +79,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_bool, check_int, one_line
+from vptoolkit.dataset.manifest import sha256_file
 from vptoolkit.dataset.store import ModelEntry, write_dataset
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
 from vptoolkit.files import atomic_write
@@ -125,7 +126,6 @@ _LOCK_FILE = "lock"
 _TEMP_SUFFIX = ".partial"  # temporary files of vptoolkit.files.atomic_write
 _MODEL_SUFFIX = ".npz"
 _FAILURE_SUFFIX = ".failed.json"
-_HASH_BLOCK = 1 << 20
 _CONNECT_TIMEOUT = "30s"  # to reach a Dask scheduler
 # Dask's comm protocols; http:// (a dashboard) and bare words are refused before connecting.
 _SCHEDULER_ADDRESS = re.compile(
@@ -1210,7 +1210,7 @@ def _measure_model(task: Mapping[str, Any]) -> dict[str, Any]:
     path = Path(task["path"])
     seconds: dict[str, float] = {}
     started = time.perf_counter()
-    source_sha256 = _file_sha256(path)
+    source_sha256 = sha256_file(path)
     mesh = load_mesh(path)
     seconds["load"] = time.perf_counter() - started
     cleaning = None
@@ -1290,14 +1290,6 @@ def _without_timings(report: Mapping[str, Any]) -> dict[str, Any]:
             for step in cleaned["steps"]
         ]
     return cleaned
-
-
-def _file_sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(_HASH_BLOCK), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 # --------------------------------------------------------------------------- small checks

@@ -27,7 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.conventions import RESOLUTION
 from vptoolkit.errors import InputError
-from vptoolkit.geometry import bounding_frame
+from vptoolkit.geometry import bounding_frame, face_cross_products
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import as_directions
 
@@ -153,7 +153,7 @@ def _setup(
         raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
     poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=int(resolution))
     corners = mesh.vertices[mesh.faces]
-    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normals = face_cross_products(mesh)
     offsets = np.einsum("ij,ij->i", normals, corners[:, 0])
     is_drawable = np.linalg.norm(normals, axis=1) > 0.0
     return camera, poses, normals, offsets, is_drawable, diagonal
