@@ -340,14 +340,17 @@ def clean_mesh(
     start = time.perf_counter()
     meshes = _to_meshset(ml, visible.vertices, visible.faces, visible.name)
     _simplify(ml, meshes, mesh.name, max_faces, remesh)
+    intersections_after = -1  # not known yet
     for _ in range(_AFTER_DECIMATION_ROUNDS):
         # Quadric collapses do not test for intersections and bring some back
         # (2.3 % of a raw ModelNet airplane's faces): remove them, without closing
         # holes, which would also fill the model's own openings and add faces.
-        if not _count_self_intersections(meshes):
+        # A round that finds none has tested the mesh as it stays: no recount.
+        if not _remove_intersections(ml, meshes, mesh.name, 0, step="simplify"):
+            intersections_after = 0
             break
-        _remove_intersections(ml, meshes, mesh.name, 0, step="simplify")
-    intersections_after = _count_self_intersections(meshes)
+    if intersections_after < 0:
+        intersections_after = _count_self_intersections(meshes)
     simplified = _to_mesh(meshes, mesh.name, "simplify")
     steps.append(_step("simplify", visible, simplified, start))
 
@@ -868,8 +871,7 @@ def _repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> _Repair
     if intersections_before and method == "auto":
         if _union_closed_parts(ml, meshes, name, is_intersecting):
             used.append("union")
-    if intersections_before and _count_self_intersections(meshes):
-        _remove_intersections(ml, meshes, name, max_rounds)
+    if intersections_before and _remove_intersections(ml, meshes, name, max_rounds):
         used.append("remove")
     try:
         # Consistent winding within each manifold part; step 2 picks the side.
@@ -1132,11 +1134,20 @@ def _union_closed_parts(
 def _remove_intersections(
     ml: ModuleType, meshes: pymeshlab.MeshSet, name: str, max_rounds: int, *,
     step: str = "repair",
-) -> None:
+) -> int:
+    """Remove intersecting faces in rounds; return how many the first round found.
+
+    The first round's test is the one :func:`_count_self_intersections` would
+    make on the same mesh, so callers need not count before.
+    """
+    found = 0
     for round_index in range(max_rounds + 1):
         _refresh(meshes, name)
         _apply(meshes, name, step, "compute_selection_by_self_intersections_per_face")
-        if meshes.current_mesh().selected_face_number() == 0:
+        selected = int(meshes.current_mesh().selected_face_number())
+        if round_index == 0:
+            found = selected
+        if selected == 0:
             break
         _apply(meshes, name, step, "meshing_remove_selected_faces")
         _repair_non_manifold(meshes, name, step)
@@ -1155,6 +1166,7 @@ def _remove_intersections(
             pass  # hole filling needs a manifold border; leave such holes open
         _repair_non_manifold(meshes, name, step)
     _apply(meshes, name, step, "set_selection_none")
+    return found
 
 
 # ---------------------------------------------------------------- step 3
