@@ -340,14 +340,17 @@ def clean_mesh(
     start = time.perf_counter()
     meshes = _to_meshset(ml, visible.vertices, visible.faces, visible.name)
     _simplify(ml, meshes, mesh.name, max_faces, remesh)
+    intersections_after = -1  # not known yet
     for _ in range(_AFTER_DECIMATION_ROUNDS):
         # Quadric collapses do not test for intersections and bring some back
         # (2.3 % of a raw ModelNet airplane's faces): remove them, without closing
         # holes, which would also fill the model's own openings and add faces.
-        if not _count_self_intersections(meshes):
+        # A round that finds none has tested the mesh as it stays: no recount.
+        if not _remove_intersections(ml, meshes, mesh.name, 0, step="simplify")[0]:
+            intersections_after = 0
             break
-        _remove_intersections(ml, meshes, mesh.name, 0, step="simplify")
-    intersections_after = _count_self_intersections(meshes)
+    if intersections_after < 0:
+        intersections_after = _count_self_intersections(meshes)
     simplified = _to_mesh(meshes, mesh.name, "simplify")
     steps.append(_step("simplify", visible, simplified, start))
 
@@ -865,12 +868,16 @@ def _repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> _Repair
     is_intersecting = _intersecting_faces(meshes)
     intersections_before = int(is_intersecting.sum())
     used = []
+    intersections_after = 0 if not intersections_before else -1  # -1: not known yet
     if intersections_before and method == "auto":
         if _union_closed_parts(ml, meshes, name, is_intersecting):
             used.append("union")
-    if intersections_before and _count_self_intersections(meshes):
-        _remove_intersections(ml, meshes, name, max_rounds)
-        used.append("remove")
+    if intersections_before:
+        found, last = _remove_intersections(ml, meshes, name, max_rounds)
+        if found:
+            used.append("remove")
+        if last == 0:
+            intersections_after = 0
     try:
         # Consistent winding within each manifold part; step 2 picks the side.
         meshes.apply_filter("meshing_re_orient_faces_coherently")
@@ -885,7 +892,11 @@ def _repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> _Repair
         origin=origin,
         method="+".join(used) if used else "none",
         intersections_before=intersections_before,
-        intersections_after=_count_self_intersections(meshes),
+        # Reorienting faces does not change which intersect: a test that found
+        # none on this mesh's geometry stands.
+        intersections_after=(
+            intersections_after if intersections_after >= 0 else _count_self_intersections(meshes)
+        ),
     )
 
 
@@ -1132,11 +1143,24 @@ def _union_closed_parts(
 def _remove_intersections(
     ml: ModuleType, meshes: pymeshlab.MeshSet, name: str, max_rounds: int, *,
     step: str = "repair",
-) -> None:
+) -> tuple[int, int]:
+    """Remove intersecting faces in rounds.
+
+    Returns the faces the first test found and those the last test found,
+    ``-1`` if faces were removed after the last test. Each test is the one
+    :func:`_count_self_intersections` makes on the mesh as it then is (rebuilt
+    first), so callers need not count before or after.
+    """
+    found = 0
+    last = -1
     for round_index in range(max_rounds + 1):
         _refresh(meshes, name)
         _apply(meshes, name, step, "compute_selection_by_self_intersections_per_face")
-        if meshes.current_mesh().selected_face_number() == 0:
+        selected = int(meshes.current_mesh().selected_face_number())
+        if round_index == 0:
+            found = selected
+        if selected == 0:
+            last = 0
             break
         _apply(meshes, name, step, "meshing_remove_selected_faces")
         _repair_non_manifold(meshes, name, step)
@@ -1155,6 +1179,7 @@ def _remove_intersections(
             pass  # hole filling needs a manifold border; leave such holes open
         _repair_non_manifold(meshes, name, step)
     _apply(meshes, name, step, "set_selection_none")
+    return found, last
 
 
 # ---------------------------------------------------------------- step 3
