@@ -6,10 +6,10 @@ which models reached a worker:
 * pymeshlab hands out face flags from one process-wide counter that some filters
   never give back; once it runs out, its self-intersection test selects more faces.
   So CesiumMilkTruck.glb cleaned in a fresh process differed from the same file
-  cleaned after another model (``vptoolkit.clean._settle_flag_state``).
+  cleaned after another model (``vptoolkit.clean._meshlab._settle_flag_state``).
 * The boolean union returns its triangles starting at a vertex that varies from run
   to run (rabbit.obj), which changes later filters and the sampled points
-  (``vptoolkit.clean._canonical_rotation``).
+  (``vptoolkit.clean._meshlab._canonical_rotation``).
 
 The meshes here are the ones that showed it; builds are tiny (100 views at 64 px,
 2048 points, at most 2000 faces).

@@ -1,0 +1,235 @@
+"""Step 2 of :mod:`vptoolkit.clean`: remove hidden faces and orient the rest.
+
+Owns :func:`remove_hidden_faces`, :func:`hidden_faces`,
+:func:`two_sided_pixel_totals` (each face drawn from both sides over the
+Fibonacci views), :data:`HIDDEN_RESOLUTION`, the rescue of sub-pixel faces next
+to seen ones, the per-patch orientation vote, and the test
+:func:`~vptoolkit.clean.clean_mesh` adds after a step 1 that removed faces
+(:func:`hidden_before_resolving`). Needs no pymeshlab.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.camera import Camera
+from vptoolkit.checks import check_bool, check_int
+from vptoolkit.clean.topology import check_mesh, coherent_patches, submesh, undirected_edges
+from vptoolkit.conventions import N_VIEWS
+from vptoolkit.geometry import bounding_frame, face_areas, face_normals
+from vptoolkit.mesh import Mesh
+from vptoolkit.sphere import fibonacci_sphere
+from vptoolkit.visibility import face_pixel_totals
+
+if TYPE_CHECKING:
+    from vptoolkit.clean.repair import Repaired
+
+HIDDEN_RESOLUTION = 256
+"""Default image side, in pixels, of the visibility pass that finds hidden faces."""
+
+_BACK_OFFSET = 1e-5
+"""Offset of the reversed copy of each face in :func:`hidden_faces`, in diagonals."""
+
+
+def two_sided_pixel_totals(
+    mesh: Mesh,
+    *,
+    n_views: int = N_VIEWS,
+    resolution: int = HIDDEN_RESOLUTION,
+) -> NDArray[np.int64]:
+    """Pixels of each face over all views, seen from its front and from its back.
+
+    Counts with :func:`~vptoolkit.visibility.face_pixel_totals` over
+    ``n_views`` directions of :func:`~vptoolkit.sphere.fibonacci_sphere`
+    (back faces culled, the model framed as for the measures). Each face is
+    drawn from both sides: a reversed copy sits ``1e-5`` bounding-box
+    diagonals behind it. The copy is offset rather than coincident, so depth
+    ties cannot hide either side.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The mesh to test.
+    n_views : int
+        Number of view directions (default: 1000, as in the paper).
+    resolution : int
+        Image side in pixels (default: 256). A face smaller than a pixel is
+        still hit in some of the many slightly shifted views; lower values are
+        faster but may miss small faces in deep concavities.
+
+    Returns
+    -------
+    pixels : (n_faces, 2) int64
+        Column 0: pixels where the face is seen from the side its normal
+        points to (the front); column 1: pixels where it is seen from behind.
+        Zero-area faces are never drawn and have ``(0, 0)``.
+
+    Raises
+    ------
+    InputError
+        On a bad argument.
+    """
+    check_mesh(mesh)
+    n_views = check_int(n_views, "n_views", minimum=1)
+    resolution = check_int(resolution, "resolution", minimum=8)
+    n_faces = mesh.n_faces
+    _, diagonal = bounding_frame(mesh)
+    offset = _BACK_OFFSET * diagonal
+    corners = mesh.vertices[mesh.faces] - offset * face_normals(mesh)[:, None, :]
+    back_faces = mesh.n_vertices + np.arange(3 * n_faces, dtype=np.int64).reshape(-1, 3)[:, ::-1]
+    two_sided = Mesh(
+        np.vstack([mesh.vertices, corners.reshape(-1, 3)]),
+        np.vstack([mesh.faces, back_faces]),
+        name=mesh.name,
+    )
+    totals = face_pixel_totals(two_sided, fibonacci_sphere(n_views), resolution=resolution)
+    return np.stack([totals[:n_faces], totals[n_faces:]], axis=1).astype(np.int64)
+
+
+def hidden_faces(
+    mesh: Mesh,
+    *,
+    n_views: int = N_VIEWS,
+    resolution: int = HIDDEN_RESOLUTION,
+) -> NDArray[np.bool_]:
+    """Find the faces seen in none of the views, from either side.
+
+    Raw models often have inverted or inconsistently oriented faces, which
+    back-face culling would hide in every view, so a face counts as seen if
+    its front or its back covers a pixel (:func:`two_sided_pixel_totals`).
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The mesh to test.
+    n_views : int
+        Number of view directions (default: 1000).
+    resolution : int
+        Image side in pixels (default: 256).
+
+    Returns
+    -------
+    is_hidden : (n_faces,) bool
+        True for each face that covers no pixel in any view.
+
+    Notes
+    -----
+    A face much smaller than a pixel can be missed by every pixel centre
+    although it is on the surface, e.g. the slivers that a boolean union
+    leaves along an intersection curve. So an unseen face smaller than one
+    pixel (at the camera's distance from the model centre) that shares an
+    edge with a seen face counts as seen, up to two such rings deep. Large
+    unseen faces are always hidden.
+    """
+    pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
+    return keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
+
+
+def remove_hidden_faces(
+    mesh: Mesh,
+    *,
+    n_views: int = N_VIEWS,
+    resolution: int = HIDDEN_RESOLUTION,
+    orient: bool = True,
+) -> Mesh:
+    """Step 2: drop the faces seen in none of the views and orient the rest.
+
+    A face is dropped if neither side covers a pixel in any view
+    (:func:`hidden_faces`). With ``orient``, the faces are turned towards the
+    side they are seen from, because raw models often mix inward and outward
+    faces and the measures cull back faces. The vote is per patch of
+    consistently wound faces joined by manifold edges: a patch whose faces
+    cover more pixels from behind than from the front is reversed as a whole.
+    A consistently outward-oriented mesh is left as it is; a triangle soup
+    is oriented face by face.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The repaired mesh.
+    n_views : int
+        Number of view directions (default: 1000).
+    resolution : int
+        Image side in pixels (default: 256).
+    orient : bool
+        Reverse the faces seen mostly from behind (default: True).
+
+    Returns
+    -------
+    visible : Mesh
+        The faces seen from some view, without unreferenced vertices.
+
+    Raises
+    ------
+    MeasurementError
+        If no face is seen; the message starts with the mesh name.
+    """
+    orient = check_bool(orient, "orient")
+    pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
+    is_hidden = keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
+    is_flipped = seen_from_behind(mesh.faces, pixels) if orient else None
+    return submesh(mesh, ~is_hidden, "remove_hidden", flip=is_flipped)
+
+
+def hidden_before_resolving(repair: Repaired, n_views: int, resolution: int) -> NDArray[np.bool_]:
+    """Repaired faces that were hidden before the self-intersections were resolved.
+
+    Resolving intersections by removal opens seams through which buried parts
+    can be seen. This renders the mesh as it was before (``connected``, whose
+    intersecting faces still close the seams) together with the faces step 1
+    created (hole fillings), and maps the result onto the repaired faces:
+    a kept face inherits the flag of the face it comes from, a new face gets
+    its own. New faces come last, so where one exactly covers a removed face
+    the rasteriser's depth tie goes to the new face.
+    """
+    connected, repaired, origin = repair.connected, repair.repaired, repair.origin
+    is_new = origin < 0
+    scene = Mesh(
+        np.vstack([connected.vertices, repaired.vertices]),
+        np.vstack([connected.faces, repaired.faces[is_new] + connected.n_vertices]),
+        name=connected.name,
+    )
+    pixels = two_sided_pixel_totals(scene, n_views=n_views, resolution=resolution)
+    was_hidden = pixels.sum(axis=1) == 0
+    is_hidden = np.zeros(repaired.n_faces, dtype=bool)
+    is_hidden[~is_new] = was_hidden[origin[~is_new]]
+    is_hidden[is_new] = was_hidden[connected.n_faces :]
+    return is_hidden
+
+
+def keep_small_faces_by_seen_ones(
+    mesh: Mesh, is_hidden: NDArray[np.bool_], resolution: int, *, rings: int = 2
+) -> NDArray[np.bool_]:
+    """Count sub-pixel unseen faces next to seen ones as seen (see :func:`hidden_faces`)."""
+    if not is_hidden.any() or is_hidden.all():
+        return is_hidden
+    camera = Camera()
+    _, diagonal = bounding_frame(mesh)
+    distance = camera.distance_factor * diagonal
+    pixel = 2.0 * distance * math.tan(math.radians(camera.fov_deg) / 2.0) / resolution
+    is_small = face_areas(mesh) < pixel * pixel
+    candidates = is_hidden & is_small
+    if not candidates.any():
+        return is_hidden
+    edge_id, counts = undirected_edges(mesh.faces)
+    is_hidden = is_hidden.copy()
+    for _ in range(rings):
+        edge_seen = np.zeros(len(counts), dtype=bool)
+        edge_seen[edge_id[~is_hidden].ravel()] = True
+        rescued = candidates & is_hidden & edge_seen[edge_id].any(axis=1)
+        if not rescued.any():
+            break
+        is_hidden[rescued] = False
+    return is_hidden
+
+
+def seen_from_behind(faces: NDArray[np.int64], pixels: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Faces of the coherent patches that cover more pixels from behind than from the front."""
+    patch = coherent_patches(faces)
+    front = np.bincount(patch, weights=pixels[:, 0])
+    back = np.bincount(patch, weights=pixels[:, 1])
+    return np.asarray((back > front)[patch], dtype=bool)
