@@ -24,15 +24,21 @@ JSON list) names those keys. :class:`StoreReader` decodes them, so
 
 ``zarr`` and ``h5py`` are imported inside the functions that need them, and
 only the one for the container in use.
+
+This module owns the public API: the container a path names
+(:func:`store_kind`, :func:`find_store`, :func:`zarr_is_usable`), writing
+(:func:`write_dataset`: checking entries, chunk layout, atomic replacement)
+and reading (:func:`open_store`, :class:`StoreReader`, root checks). The data
+contract lives in :mod:`vptoolkit.dataset.schema` and is re-exported here; each
+container's own reading and writing lives in :mod:`vptoolkit.dataset._zarr` and
+:mod:`vptoolkit.dataset._hdf5`, imported inside the functions that use them.
 """
 
 from __future__ import annotations
 
 import hashlib
 import importlib.metadata
-import itertools
 import json
-import math
 import os
 import re
 import shutil
@@ -40,7 +46,6 @@ import tempfile
 import zipfile
 import zlib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, NamedTuple, Protocol
 
@@ -48,7 +53,24 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.errors import InputError, MissingDependencyError, VerificationError, VptoolkitError
+from vptoolkit.dataset.schema import (
+    ARRAY_NAMES,
+    BUILD_ATTRS,
+    FAILURE_KEYS,
+    FORMAT_NAME,
+    HDF5_JSON_KEY,
+    SCHEMA_VERSION,
+    SPLIT_ALIASES,
+    SPLITS,
+    WRITER_ATTRS,
+    ModelEntry,
+    array_sha256,
+    from_json_bytes,
+    json_bytes,
+    le_bytes,
+    published_split,
+)
+from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 from vptoolkit.files import remove_stale_partials, temporary_prefix
 from vptoolkit.optional import is_available, require
 
@@ -74,274 +96,10 @@ __all__ = [
     "zarr_is_usable",
 ]
 
-FORMAT_NAME = "vptoolkit-viewpoint-dataset"
-"""Value of the root attribute ``format``."""
-
-SCHEMA_VERSION = 1
-"""Value of the root attribute ``schema_version`` written and read here."""
-
-ARRAY_NAMES = (
-    "views",
-    "points",
-    "normals",
-    "quality",
-    "quality_raw",
-    "best_index",
-    "best_value",
-    "worst_index",
-    "worst_value",
-    "mesh_vertices",
-    "mesh_vertex_offsets",
-    "mesh_faces",
-    "mesh_face_offsets",
-    "models_json",
-    "failures_json",
-)
-"""Every root array of a store, in the order of SCHEMA.md."""
-
-BUILD_ATTRS = (
-    "resolution",
-    "backend",
-    "camera",
-    "cleaning",
-    "split_seed",
-    "split_fractions",
-    "source",
-    "toolkit_version",
-    "created",
-)
-"""Root attributes the build must pass to :func:`write_dataset` in ``attrs``."""
-
-WRITER_ATTRS = (
-    "format",
-    "schema_version",
-    "measures",
-    "higher_is_better",
-    "n_models",
-    "n_views",
-    "n_points",
-    "n_failures",
-)
-"""Root attributes :func:`write_dataset` sets itself."""
-
-SPLITS = ("train", "validation", "test")
-"""The split names, one vocabulary everywhere a user sees one.
-
-The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
-shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
-hub does. Stores written before it (and builds, schema 1) may record
-``"val"``; :func:`published_split` maps it, and every API that takes a split
-accepts ``"val"`` as an alias.
-"""
-
-SPLIT_ALIASES = {"val": "validation"}
-"""Other names a model record or a caller may use for a split in :data:`SPLITS`."""
-
-
-def published_split(name: str) -> str:
-    """The name in :data:`SPLITS` of a split, resolving aliases.
-
-    Examples
-    --------
-    >>> published_split("val"), published_split("test")
-    ('validation', 'test')
-    """
-    return SPLIT_ALIASES.get(name, name)
-
-
-FAILURE_KEYS = ("source", "category", "reason")
-"""The keys of one record of ``failures_json``."""
-
-_HDF5_JSON_KEY = "json_attributes"
 _CHUNK_MODELS = 64  # models per chunk of the per-model arrays other than points/normals
 _CHUNK_ROWS = 1 << 16  # rows per chunk of the concatenated mesh arrays and the offsets
 _CHUNK_BYTES = 1 << 22  # bytes per chunk of the JSON arrays
-_HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
 _SHA256_HEX = re.compile(r"[0-9a-f]{64}")
-
-
-@dataclass(frozen=True, eq=False)
-class ModelEntry:
-    """One model as it goes into or comes out of a store.
-
-    :func:`write_dataset` checks shapes and casts the arrays to the stored
-    dtypes given below; :meth:`StoreReader.entry` returns them in those dtypes.
-
-    Attributes
-    ----------
-    name : str
-        Unique model name, e.g. ``"airplane_0001"``.
-    category : str
-        Category, e.g. ``"airplane"``.
-    split : str
-        ``"train"``, ``"validation"`` (or its alias ``"val"``) or ``"test"``.
-    source : str
-        Path of the source mesh relative to the source folder.
-    source_sha256 : str
-        SHA-256 hex digest (64 lower-case hex digits) of the source file.
-    points : (n_points, 3) float32
-        Points sampled uniformly by area on the cleaned mesh.
-    normals : (n_points, 3) float32
-        Unit face normal at each point.
-    quality : (n_views, 4) float32
-        Normalised quality in [0, 1], 1 = best, in ``MEASURES`` order.
-    quality_raw : (n_views, 4) float32
-        Raw measures; NaN where a view sees nothing.
-    best_index, worst_index : (4,) int64
-        Index into the views of the best and worst view per measure.
-    best_value, worst_value : (4,) float32
-        Raw value at the best and worst view per measure.
-    vertices : (n_vertices, 3) float32
-        Cleaned mesh vertices.
-    faces : (n_faces, 3) int32
-        Triangles, indices into ``vertices``.
-    cleaning : dict or None
-        JSON-safe cleaning report, or None when built without cleaning.
-    view_set : dict or None
-        The greedy coverage view set (SCHEMA.md, "Model record"): ``objective``,
-        ``min_pixels``, ``indices``, ``coverage`` and ``reachable``; None in
-        stores built before view sets (the record then has no ``view_set`` key).
-    """
-
-    name: str
-    category: str
-    split: str
-    source: str
-    source_sha256: str
-    points: NDArray[Any]
-    normals: NDArray[Any]
-    quality: NDArray[Any]
-    quality_raw: NDArray[Any]
-    best_index: NDArray[Any]
-    best_value: NDArray[Any]
-    worst_index: NDArray[Any]
-    worst_value: NDArray[Any]
-    vertices: NDArray[Any]
-    faces: NDArray[Any]
-    cleaning: dict[str, Any] | None = None
-    view_set: dict[str, Any] | None = None
-
-    def record(self) -> dict[str, Any]:
-        """The model's record in ``models_json`` (SCHEMA.md, "Model record").
-
-        Returns
-        -------
-        record : dict
-            ``name``, ``category``, ``split``, ``source``, ``source_sha256``,
-            ``n_vertices``, ``n_faces`` and ``cleaning``, in that order, then
-            ``view_set`` when the entry has one.
-        """
-        record = {
-            "name": self.name,
-            "category": self.category,
-            "split": self.split,
-            "source": self.source,
-            "source_sha256": self.source_sha256,
-            "n_vertices": int(np.shape(self.vertices)[0]),
-            "n_faces": int(np.shape(self.faces)[0]),
-            "cleaning": self.cleaning,
-        }
-        if self.view_set is not None:
-            record["view_set"] = self.view_set
-        return record
-
-
-# --------------------------------------------------------------------------- digests and JSON
-
-
-class _ArrayLike(Protocol):
-    shape: tuple[int, ...]
-    dtype: np.dtype[Any]
-
-    def __getitem__(self, key: Any) -> Any: ...
-
-
-def _le_bytes(array: NDArray[Any]) -> NDArray[np.uint8]:
-    """The C-order little-endian bytes of an array, as a flat uint8 view (copied only if needed)."""
-    return np.ascontiguousarray(array, array.dtype.newbyteorder("<")).reshape(-1).view(np.uint8)
-
-
-def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
-    """SHA-256 of an array's content, as stored in its ``sha256`` attribute.
-
-    The digest covers the C-order little-endian bytes,
-    ``np.ascontiguousarray(a, a.dtype.newbyteorder("<")).tobytes()``; shape
-    and dtype are not part of it.
-
-    Parameters
-    ----------
-    array : numpy.ndarray or lazy array
-        An in-memory array, or a ``zarr.Array`` / ``h5py.Dataset`` (anything
-        with ``shape``, ``dtype`` and slicing), which is read in blocks of
-        rows so that it never has to fit in memory at once.
-
-    Returns
-    -------
-    digest : str
-        64 lower-case hex digits.
-    """
-    hasher = hashlib.sha256()
-    if isinstance(array, np.ndarray) or not hasattr(array, "shape") or not array.shape:
-        hasher.update(_le_bytes(np.asarray(array)))
-        return hasher.hexdigest()
-    n_rows = int(array.shape[0])
-    row_bytes = max(1, math.prod(array.shape[1:]) * np.dtype(array.dtype).itemsize)
-    step = max(1, _HASH_BLOCK_BYTES // row_bytes)
-    for start in range(0, n_rows, step):
-        hasher.update(_le_bytes(np.asarray(array[start : start + step])))
-    return hasher.hexdigest()
-
-
-def json_bytes(obj: Any) -> NDArray[np.uint8]:
-    """Encode a JSON-safe object as UTF-8 JSON in a ``uint8`` array.
-
-    Parameters
-    ----------
-    obj : JSON-safe object
-        Dicts with string keys, lists, strings, finite numbers, booleans, None.
-
-    Returns
-    -------
-    encoded : (n_bytes,) uint8
-        Compact JSON (no spaces), non-ASCII characters kept as UTF-8.
-
-    Raises
-    ------
-    InputError
-        If ``obj`` holds something JSON cannot represent (NaN included).
-    """
-    try:
-        text = json.dumps(obj, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
-    except (TypeError, ValueError) as err:
-        raise InputError(f"obj: not JSON-serialisable ({err})") from err
-    return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()
-
-
-def from_json_bytes(array: ArrayLike) -> Any:
-    """Decode a ``uint8`` array written by :func:`json_bytes`.
-
-    Parameters
-    ----------
-    array : (n_bytes,) uint8 array_like
-        UTF-8 JSON text.
-
-    Returns
-    -------
-    obj : Any
-        The decoded JSON value.
-
-    Raises
-    ------
-    InputError
-        If the bytes are not valid UTF-8 JSON.
-    """
-    raw = np.asarray(array)
-    if raw.dtype != np.uint8 or raw.ndim != 1:
-        raise InputError(f"array: expected (n,) uint8 JSON bytes, got {raw.shape} {raw.dtype}")
-    try:
-        return json.loads(raw.tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise InputError(f"array: not UTF-8 JSON ({err})") from err
 
 
 # --------------------------------------------------------------------------- paths
@@ -544,7 +302,7 @@ def _entry_checksum(checked: _Checked, hashers: Mapping[str, Any] | None = None)
     """
     value = zlib.crc32(json.dumps(checked.record, sort_keys=True).encode("utf-8"))
     for name, array in checked.arrays.items():
-        data = _le_bytes(array)
+        data = le_bytes(array)
         if hashers is not None:
             hashers[name].update(data)
         value = zlib.crc32(data, value)
@@ -636,8 +394,8 @@ def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
     missing = [key for key in BUILD_ATTRS if key not in attrs]
     if missing:
         raise InputError(f"attrs: missing root attributes {missing}")
-    if _HDF5_JSON_KEY in attrs:
-        raise InputError(f"attrs: {_HDF5_JSON_KEY!r} is reserved for HDF5 files")
+    if HDF5_JSON_KEY in attrs:
+        raise InputError(f"attrs: {HDF5_JSON_KEY!r} is reserved for HDF5 files")
     own: dict[str, Any] = {
         "format": FORMAT_NAME,
         "schema_version": SCHEMA_VERSION,
@@ -676,101 +434,6 @@ class _Sink(Protocol):
                chunks: tuple[int, ...], sha256: str) -> Any: ...
 
     def close(self) -> None: ...
-
-
-class _ZarrSink:
-    """Writes a Zarr v3 hierarchy to a directory or a zip file."""
-
-    def __init__(self, path: Path, kind: str, root_attrs: dict[str, Any]) -> None:
-        zarr = _require_zarr()
-        self._codec = zarr.codecs.BloscCodec(
-            cname="zstd", clevel=5, shuffle=zarr.codecs.BloscShuffle.shuffle
-        )
-        self._zip_path = path if kind == "zarr-zip" else None
-        if kind == "zarr-zip":
-            self._store = zarr.storage.ZipStore(path, mode="w")
-        else:
-            self._store = zarr.storage.LocalStore(path)
-        # Attributes go in at creation: a later update appends a second zarr.json to a zip.
-        self._group = zarr.create_group(store=self._store, attributes=root_attrs, zarr_format=3)
-
-    def create(self, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
-               chunks: tuple[int, ...], sha256: str) -> Any:
-        return self._group.create_array(
-            name,
-            shape=shape,
-            dtype=dtype,
-            chunks=tuple(max(1, c) for c in chunks),
-            compressors=self._codec,
-            fill_value=0,
-            attributes={"sha256": sha256},
-            # Every chunk is stored, even all zeros: a reader can then tell a
-            # deleted chunk (an error) from an empty one (see _check_chunks).
-            config={"write_empty_chunks": True},
-        )
-
-    def close(self) -> None:
-        self._store.close()
-        if self._zip_path is not None:
-            _normalise_zip(self._zip_path)
-
-
-def _normalise_zip(path: Path) -> None:
-    """Rewrite a zip with sorted entries and fixed timestamps.
-
-    zarr stamps every entry with the time of writing, so two writes of the
-    same data would differ byte for byte and so would a release's SHA256SUMS.
-    Chunks are already compressed; entries stay stored uncompressed.
-    """
-    rewritten = path.with_name(path.name + ".normalised")
-    with zipfile.ZipFile(path) as source, zipfile.ZipFile(rewritten, "w") as target:
-        for name in sorted(source.namelist()):
-            info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
-            info.compress_type = zipfile.ZIP_STORED
-            info.external_attr = 0o644 << 16
-            target.writestr(info, source.read(name))
-    os.replace(rewritten, path)
-
-
-class _Hdf5Sink:
-    """Writes the layout to an HDF5 file."""
-
-    def __init__(self, path: Path, root_attrs: dict[str, Any]) -> None:
-        h5py = require("h5py")  # a core dependency
-        self._file = h5py.File(path, "w", track_order=True)
-        json_keys = []
-        int64 = np.iinfo(np.int64)
-        for key, value in root_attrs.items():
-            is_native = isinstance(value, (str, bool, float)) or (
-                isinstance(value, int) and int64.min <= value <= int64.max
-            )
-            if is_native:
-                self._file.attrs[key] = value
-            else:
-                self._file.attrs[key] = json.dumps(value, ensure_ascii=False)
-                json_keys.append(key)
-        self._file.attrs[_HDF5_JSON_KEY] = json.dumps(json_keys)
-
-    def create(self, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
-               chunks: tuple[int, ...], sha256: str) -> Any:
-        if 0 in shape:
-            # HDF5 cannot chunk an empty dimension; an empty dataset needs no compression.
-            dataset = self._file.create_dataset(name, shape=shape, dtype=dtype)
-        else:
-            dataset = self._file.create_dataset(
-                name,
-                shape=shape,
-                dtype=dtype,
-                chunks=tuple(min(max(1, c), s) for c, s in zip(chunks, shape)),
-                compression="gzip",
-                compression_opts=4,
-                shuffle=True,
-            )
-        dataset.attrs["sha256"] = sha256
-        return dataset
-
-    def close(self) -> None:
-        self._file.close()
 
 
 class _RowWriter:
@@ -979,11 +642,14 @@ def write_dataset(
     temporary = _temporary_sibling(target, kind)
     is_done = False
     try:
-        sink: _Sink = (
-            _Hdf5Sink(temporary, root_attrs)
-            if kind == "hdf5"
-            else _ZarrSink(temporary, kind, root_attrs)
-        )
+        if kind == "hdf5":
+            from vptoolkit.dataset._hdf5 import Hdf5Sink
+
+            sink: _Sink = Hdf5Sink(temporary, root_attrs)
+        else:
+            from vptoolkit.dataset._zarr import ZarrSink
+
+            sink = ZarrSink(_require_zarr(), temporary, kind, root_attrs)
         try:
             stored = {}
             for name in ARRAY_NAMES:
@@ -1215,53 +881,6 @@ def _require_zarr() -> Any:
     return zarr
 
 
-def _open_zarr(path: Path, kind: str) -> tuple[Any, Any, dict[str, Any], list[str]]:
-    zarr = _require_zarr()
-    if kind == "zarr-zip":
-        # Check the zip first: zarr 3.1's ZipStore.close() raises AttributeError
-        # after a failed open, which would hide the real error.
-        with zipfile.ZipFile(path):
-            pass
-        store = zarr.storage.ZipStore(path, mode="r")
-    else:
-        store = zarr.storage.LocalStore(path, read_only=True)
-    is_open = False
-    try:
-        group = zarr.open_group(store=store, mode="r", zarr_format=3)
-        attrs = dict(group.attrs)
-        names = sorted(group.array_keys())
-        is_open = True
-    finally:
-        if not is_open:
-            store.close()
-    return group, store, attrs, names
-
-
-def _open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
-    h5py = require("h5py")  # a core dependency
-    handle = h5py.File(path, "r")
-    is_open = False
-    try:
-        raw = dict(handle.attrs)
-        json_keys = set(json.loads(raw.pop(_HDF5_JSON_KEY, "[]")))
-        attrs = {}
-        for key, value in raw.items():
-            if key in json_keys:
-                attrs[key] = json.loads(value)
-            elif isinstance(value, bytes):
-                attrs[key] = value.decode("utf-8")
-            elif isinstance(value, (np.generic, np.ndarray)):
-                attrs[key] = value.tolist()
-            else:
-                attrs[key] = value
-        names = sorted(key for key, node in handle.items() if isinstance(node, h5py.Dataset))
-        is_open = True
-    finally:
-        if not is_open:
-            handle.close()
-    return handle, handle, attrs, names
-
-
 def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> StoreReader:
     """Open a dataset store for reading.
 
@@ -1300,9 +919,13 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> St
         raise InputError(f"{source}: expected a {'directory' if kind == 'zarr' else 'file'}")
     try:
         if kind == "hdf5":
-            root, store, attrs, names = _open_hdf5(source)
+            from vptoolkit.dataset._hdf5 import open_hdf5
+
+            root, store, attrs, names = open_hdf5(source)
         else:
-            root, store, attrs, names = _open_zarr(source, kind)
+            from vptoolkit.dataset._zarr import open_zarr
+
+            root, store, attrs, names = open_zarr(_require_zarr(), source, kind)
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
         raise InputError(f"{source}: not a readable dataset store ({err})") from err
     reader = StoreReader(source, kind, root, store, attrs, names)
@@ -1310,6 +933,8 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> St
     try:
         _check_root(reader)
         if check_chunks:
+            from vptoolkit.dataset._zarr import check_chunks as _check_chunks
+
             _check_chunks(reader)
         is_valid = True
     finally:
@@ -1345,82 +970,3 @@ def _check_root(reader: StoreReader) -> None:
     for key in ("n_models", "n_views", "n_points"):
         if not isinstance(attrs.get(key), int):
             raise InputError(f"{label}: root attribute {key!r} is missing or not an integer")
-
-
-_PER_MODEL_ARRAYS = (
-    "points", "normals", "quality", "quality_raw",
-    "best_index", "best_value", "worst_index", "worst_value",
-)
-_MESH_ARRAYS = {"mesh_vertices": "mesh_vertex_offsets", "mesh_faces": "mesh_face_offsets"}
-_MAX_NAMED_MODELS = 3
-
-
-def _stored_keys(reader: StoreReader) -> set[str]:
-    """Every key (``array/c/0/0``) of a Zarr directory or zip store."""
-    if reader.kind == "zarr-zip":
-        with zipfile.ZipFile(reader.path) as archive:
-            return set(archive.namelist())
-    keys = set()
-    for folder, _, files in os.walk(reader.path):
-        relative = Path(folder).relative_to(reader.path).as_posix()
-        keys.update(name if relative == "." else f"{relative}/{name}" for name in files)
-    return keys
-
-
-def _check_chunks(reader: StoreReader) -> None:
-    """Refuse a Zarr store with a missing chunk, which zarr would read as zeros.
-
-    The writer stores every chunk (``write_empty_chunks``), so a missing one
-    was deleted or lost. A store from an older writer, which skipped all-zero
-    chunks, passes when the array's content still matches its ``sha256``
-    attribute (hashed only then).
-
-    Raises
-    ------
-    VerificationError
-        Naming the array, the chunk and the models it holds.
-    """
-    if reader.kind == "hdf5":
-        return  # HDF5 chunks live inside one file; damage shows as a read error
-    keys = _stored_keys(reader)
-    for name in reader.array_names():
-        array = reader.array(name)
-        if not array.shape or 0 in array.shape:
-            continue
-        grid = [range(count) for count in array.cdata_shape]
-        missing = [
-            coords
-            for coords in itertools.product(*grid)
-            if f"{name}/{array.metadata.encode_chunk_key(coords)}" not in keys
-        ]
-        if not missing or array_sha256(array) == reader.stored_sha256(name):
-            continue
-        key = array.metadata.encode_chunk_key(missing[0])
-        more = f" (and {len(missing) - 1} more chunks)" if len(missing) > 1 else ""
-        raise VerificationError(
-            f"{reader.path.name}: array {name!r} chunk {key} is missing{more}, "
-            f"{_models_of_rows(reader, name, missing[0][0], array.chunks[0])}; "
-            "it would read as zeros (run vptool verify)"
-        )
-
-
-def _models_of_rows(reader: StoreReader, name: str, chunk_index: int, chunk_rows: int) -> str:
-    """Which models the rows of one chunk belong to, for an error message."""
-    first, stop = chunk_index * chunk_rows, (chunk_index + 1) * chunk_rows
-    try:
-        names = [str(record.get("name")) for record in reader.models()]
-        if name in _PER_MODEL_ARRAYS:
-            rows = list(range(first, min(stop, len(names))))
-        elif name in _MESH_ARRAYS:
-            offsets = np.asarray(reader.array(_MESH_ARRAYS[name])[...])
-            rows = [
-                row for row in range(len(names))
-                if offsets[row] < stop and offsets[row + 1] > first
-            ]
-        else:
-            return "which every model uses"
-    except (VptoolkitError, KeyError, ValueError, TypeError, AttributeError):
-        return "models unknown (models_json unreadable)"
-    shown = ", ".join(names[row] for row in rows[:_MAX_NAMED_MODELS])
-    extra = f" and {len(rows) - _MAX_NAMED_MODELS} more" if len(rows) > _MAX_NAMED_MODELS else ""
-    return f"models {shown}{extra}" if rows else "no model"

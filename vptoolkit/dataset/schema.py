@@ -1,0 +1,314 @@
+"""The data contract of a viewpoint-quality dataset store (schema version 1).
+
+What every container holds, independent of how it is stored: the ``format``
+name and ``schema_version``, the root array names (:data:`ARRAY_NAMES`), the
+root attributes the build and the writer set (:data:`BUILD_ATTRS`,
+:data:`WRITER_ATTRS`), the split vocabulary (:data:`SPLITS`,
+:data:`SPLIT_ALIASES`, :func:`published_split`), the keys of a failure record
+(:data:`FAILURE_KEYS`), one model's content (:class:`ModelEntry`), the JSON
+text encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array
+digest (:func:`array_sha256`). Described in ``dataset_card/SCHEMA.md``.
+
+Needs numpy only. :mod:`vptoolkit.dataset.store` re-exports every public name.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.errors import InputError
+
+__all__ = [
+    "FORMAT_NAME",
+    "SCHEMA_VERSION",
+    "ARRAY_NAMES",
+    "BUILD_ATTRS",
+    "WRITER_ATTRS",
+    "SPLITS",
+    "SPLIT_ALIASES",
+    "published_split",
+    "FAILURE_KEYS",
+    "HDF5_JSON_KEY",
+    "ModelEntry",
+    "array_sha256",
+    "le_bytes",
+    "json_bytes",
+    "from_json_bytes",
+]
+
+FORMAT_NAME = "vptoolkit-viewpoint-dataset"
+"""Value of the root attribute ``format``."""
+
+SCHEMA_VERSION = 1
+"""Value of the root attribute ``schema_version`` written and read here."""
+
+ARRAY_NAMES = (
+    "views",
+    "points",
+    "normals",
+    "quality",
+    "quality_raw",
+    "best_index",
+    "best_value",
+    "worst_index",
+    "worst_value",
+    "mesh_vertices",
+    "mesh_vertex_offsets",
+    "mesh_faces",
+    "mesh_face_offsets",
+    "models_json",
+    "failures_json",
+)
+"""Every root array of a store, in the order of SCHEMA.md."""
+
+BUILD_ATTRS = (
+    "resolution",
+    "backend",
+    "camera",
+    "cleaning",
+    "split_seed",
+    "split_fractions",
+    "source",
+    "toolkit_version",
+    "created",
+)
+"""Root attributes the build must pass to
+:func:`~vptoolkit.dataset.store.write_dataset` in ``attrs``."""
+
+WRITER_ATTRS = (
+    "format",
+    "schema_version",
+    "measures",
+    "higher_is_better",
+    "n_models",
+    "n_views",
+    "n_points",
+    "n_failures",
+)
+"""Root attributes :func:`~vptoolkit.dataset.store.write_dataset` sets itself."""
+
+SPLITS = ("train", "validation", "test")
+"""The split names, one vocabulary everywhere a user sees one.
+
+The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
+shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
+hub does. Stores written before it (and builds, schema 1) may record
+``"val"``; :func:`published_split` maps it, and every API that takes a split
+accepts ``"val"`` as an alias.
+"""
+
+SPLIT_ALIASES = {"val": "validation"}
+"""Other names a model record or a caller may use for a split in :data:`SPLITS`."""
+
+
+def published_split(name: str) -> str:
+    """The name in :data:`SPLITS` of a split, resolving aliases.
+
+    Examples
+    --------
+    >>> published_split("val"), published_split("test")
+    ('validation', 'test')
+    """
+    return SPLIT_ALIASES.get(name, name)
+
+
+FAILURE_KEYS = ("source", "category", "reason")
+"""The keys of one record of ``failures_json``."""
+
+HDF5_JSON_KEY = "json_attributes"
+"""Root attribute of an HDF5 store naming its JSON-encoded root attributes."""
+
+_HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
+
+
+@dataclass(frozen=True, eq=False)
+class ModelEntry:
+    """One model as it goes into or comes out of a store.
+
+    :func:`~vptoolkit.dataset.store.write_dataset` checks shapes and casts
+    the arrays to the stored dtypes given below;
+    :meth:`~vptoolkit.dataset.store.StoreReader.entry` returns them in those
+    dtypes.
+
+    Attributes
+    ----------
+    name : str
+        Unique model name, e.g. ``"airplane_0001"``.
+    category : str
+        Category, e.g. ``"airplane"``.
+    split : str
+        ``"train"``, ``"validation"`` (or its alias ``"val"``) or ``"test"``.
+    source : str
+        Path of the source mesh relative to the source folder.
+    source_sha256 : str
+        SHA-256 hex digest (64 lower-case hex digits) of the source file.
+    points : (n_points, 3) float32
+        Points sampled uniformly by area on the cleaned mesh.
+    normals : (n_points, 3) float32
+        Unit face normal at each point.
+    quality : (n_views, 4) float32
+        Normalised quality in [0, 1], 1 = best, in ``MEASURES`` order.
+    quality_raw : (n_views, 4) float32
+        Raw measures; NaN where a view sees nothing.
+    best_index, worst_index : (4,) int64
+        Index into the views of the best and worst view per measure.
+    best_value, worst_value : (4,) float32
+        Raw value at the best and worst view per measure.
+    vertices : (n_vertices, 3) float32
+        Cleaned mesh vertices.
+    faces : (n_faces, 3) int32
+        Triangles, indices into ``vertices``.
+    cleaning : dict or None
+        JSON-safe cleaning report, or None when built without cleaning.
+    view_set : dict or None
+        The greedy coverage view set (SCHEMA.md, "Model record"): ``objective``,
+        ``min_pixels``, ``indices``, ``coverage`` and ``reachable``; None in
+        stores built before view sets (the record then has no ``view_set`` key).
+    """
+
+    name: str
+    category: str
+    split: str
+    source: str
+    source_sha256: str
+    points: NDArray[Any]
+    normals: NDArray[Any]
+    quality: NDArray[Any]
+    quality_raw: NDArray[Any]
+    best_index: NDArray[Any]
+    best_value: NDArray[Any]
+    worst_index: NDArray[Any]
+    worst_value: NDArray[Any]
+    vertices: NDArray[Any]
+    faces: NDArray[Any]
+    cleaning: dict[str, Any] | None = None
+    view_set: dict[str, Any] | None = None
+
+    def record(self) -> dict[str, Any]:
+        """The model's record in ``models_json`` (SCHEMA.md, "Model record").
+
+        Returns
+        -------
+        record : dict
+            ``name``, ``category``, ``split``, ``source``, ``source_sha256``,
+            ``n_vertices``, ``n_faces`` and ``cleaning``, in that order, then
+            ``view_set`` when the entry has one.
+        """
+        record = {
+            "name": self.name,
+            "category": self.category,
+            "split": self.split,
+            "source": self.source,
+            "source_sha256": self.source_sha256,
+            "n_vertices": int(np.shape(self.vertices)[0]),
+            "n_faces": int(np.shape(self.faces)[0]),
+            "cleaning": self.cleaning,
+        }
+        if self.view_set is not None:
+            record["view_set"] = self.view_set
+        return record
+
+
+# --------------------------------------------------------------------------- digests and JSON
+
+
+class _ArrayLike(Protocol):
+    shape: tuple[int, ...]
+    dtype: np.dtype[Any]
+
+    def __getitem__(self, key: Any) -> Any: ...
+
+
+def le_bytes(array: NDArray[Any]) -> NDArray[np.uint8]:
+    """The C-order little-endian bytes of an array, as a flat uint8 view (copied only if needed)."""
+    return np.ascontiguousarray(array, array.dtype.newbyteorder("<")).reshape(-1).view(np.uint8)
+
+
+def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
+    """SHA-256 of an array's content, as stored in its ``sha256`` attribute.
+
+    The digest covers the C-order little-endian bytes,
+    ``np.ascontiguousarray(a, a.dtype.newbyteorder("<")).tobytes()``; shape
+    and dtype are not part of it.
+
+    Parameters
+    ----------
+    array : numpy.ndarray or lazy array
+        An in-memory array, or a ``zarr.Array`` / ``h5py.Dataset`` (anything
+        with ``shape``, ``dtype`` and slicing), which is read in blocks of
+        rows so that it never has to fit in memory at once.
+
+    Returns
+    -------
+    digest : str
+        64 lower-case hex digits.
+    """
+    hasher = hashlib.sha256()
+    if isinstance(array, np.ndarray) or not hasattr(array, "shape") or not array.shape:
+        hasher.update(le_bytes(np.asarray(array)))
+        return hasher.hexdigest()
+    n_rows = int(array.shape[0])
+    row_bytes = max(1, math.prod(array.shape[1:]) * np.dtype(array.dtype).itemsize)
+    step = max(1, _HASH_BLOCK_BYTES // row_bytes)
+    for start in range(0, n_rows, step):
+        hasher.update(le_bytes(np.asarray(array[start : start + step])))
+    return hasher.hexdigest()
+
+
+def json_bytes(obj: Any) -> NDArray[np.uint8]:
+    """Encode a JSON-safe object as UTF-8 JSON in a ``uint8`` array.
+
+    Parameters
+    ----------
+    obj : JSON-safe object
+        Dicts with string keys, lists, strings, finite numbers, booleans, None.
+
+    Returns
+    -------
+    encoded : (n_bytes,) uint8
+        Compact JSON (no spaces), non-ASCII characters kept as UTF-8.
+
+    Raises
+    ------
+    InputError
+        If ``obj`` holds something JSON cannot represent (NaN included).
+    """
+    try:
+        text = json.dumps(obj, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+    except (TypeError, ValueError) as err:
+        raise InputError(f"obj: not JSON-serialisable ({err})") from err
+    return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()
+
+
+def from_json_bytes(array: ArrayLike) -> Any:
+    """Decode a ``uint8`` array written by :func:`json_bytes`.
+
+    Parameters
+    ----------
+    array : (n_bytes,) uint8 array_like
+        UTF-8 JSON text.
+
+    Returns
+    -------
+    obj : Any
+        The decoded JSON value.
+
+    Raises
+    ------
+    InputError
+        If the bytes are not valid UTF-8 JSON.
+    """
+    raw = np.asarray(array)
+    if raw.dtype != np.uint8 or raw.ndim != 1:
+        raise InputError(f"array: expected (n,) uint8 JSON bytes, got {raw.shape} {raw.dtype}")
+    try:
+        return json.loads(raw.tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as err:
+        raise InputError(f"array: not UTF-8 JSON ({err})") from err
