@@ -436,28 +436,8 @@ def save_predictions(
 ) -> Path:
     """Write predictions in the ``.npz`` form :func:`load_predictions` reads.
 
-    Parameters
-    ----------
-    path : path-like
-        Target file; must end in ``.npz``.
-    names : sequence of str
-        Model names, unique.
-    directions : (n_models, n_measures, 3) array_like
-        One direction per model and measure, stored as float64.
-    measures : sequence of str
-        The predicted measures, ``MEASURES`` or a subset in that order
-        (default: all four).
-
-    Returns
-    -------
-    path : pathlib.Path
-        The written file.
-
-    Raises
-    ------
-    InputError
-        If the suffix is not ``.npz``, or the shapes, names or measures do not
-        fit together.
+    The format's owner is :func:`vptoolkit.predictions.write_predictions`;
+    this keeps its name here for the evaluation API (same parameters, same errors).
     """
     return write_predictions(path, names, directions, measures=measures)
 
