@@ -46,10 +46,11 @@ Usage::
     python tools/reproduce_paper.py --sections timings    # regenerate one section
     python tools/reproduce_paper.py --skip-labels         # reuse the trained checkpoint
 
-Library gaps filled here, privately: 1-to-4 midpoint subdivision
-(:func:`subdivide`, :func:`mesh_with_faces`), Spearman's rank correlation
-(:func:`spearman`) and Poisson-disk surface points
-(:func:`poisson_disk_points`).
+Libraries do the general work: trimesh's midpoint subdivision
+(:func:`subdivide`, :func:`mesh_with_faces`), scipy's Spearman correlation
+(:func:`spearman`, scipy comes with the ``dev`` extra) and
+:func:`vptoolkit.points.poisson_disk_points`. Tables and sections of
+``docs/results.md`` are written by the sibling module ``results_doc``.
 """
 
 from __future__ import annotations
@@ -69,21 +70,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import reproduce_labels
 from numpy.typing import NDArray
+from results_doc import format_seconds, machine, write_section
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import reproduce_labels  # noqa: E402  (the tools folder is not a package)
-from reproduce_labels import format_seconds, machine, write_section  # noqa: E402
-
-from vptoolkit.conventions import MEASURES, RESOLUTION  # noqa: E402
-from vptoolkit.geometry import face_areas, face_normals  # noqa: E402
-from vptoolkit.io import load_mesh  # noqa: E402
-from vptoolkit.measures import compute_view_quality  # noqa: E402
-from vptoolkit.mesh import Mesh  # noqa: E402
-from vptoolkit.points import sample_surface  # noqa: E402
-from vptoolkit.samples import sample_path  # noqa: E402
-from vptoolkit.sphere import angle_between_deg  # noqa: E402
+from vptoolkit.conventions import MEASURES, RESOLUTION
+from vptoolkit.geometry import face_areas, face_normals
+from vptoolkit.io import load_mesh
+from vptoolkit.measures import compute_view_quality
+from vptoolkit.mesh import Mesh
+from vptoolkit.points import poisson_disk_points, sample_surface
+from vptoolkit.samples import sample_path
+from vptoolkit.sphere import angle_between_deg
 
 SECTIONS = ("labels", "timings", "robustness", "subdivision", "resolution")
 """Section names, in document order; each owns ``<!-- NAME:start/end -->``."""
@@ -237,14 +235,14 @@ class RunOptions:
 
 
 def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Mesh, NDArray[np.bool_]]:
-    """Midpoint 1-to-4 subdivision of some (default: all) faces.
+    """Midpoint 1-to-4 subdivision of some (default: all) faces (``trimesh.remesh.subdivide``).
 
-    Face ``(a, b, c)`` becomes ``(a, m_ab, m_ca)``, ``(m_ab, b, m_bc)``,
-    ``(m_ca, m_bc, c)`` and ``(m_ab, m_bc, m_ca)`` with ``m_xy = (x + y) / 2``;
-    the winding (counter-clockwise front) and the surface are unchanged, so
-    only the discretisation changes. A midpoint is shared by the selected
-    faces on both sides of an edge; an unselected neighbour keeps its edge
-    whole (a T-junction on the same straight line, which leaves no gap).
+    Each selected face ``(a, b, c)`` becomes four with the edge midpoints
+    ``m_xy = (x + y) / 2``; the winding (counter-clockwise front) and the
+    surface are unchanged, so only the discretisation changes. A midpoint is
+    shared by the selected faces on both sides of an edge; an unselected
+    neighbour keeps its edge whole (a T-junction on the same straight line,
+    which leaves no gap).
 
     Parameters
     ----------
@@ -261,26 +259,13 @@ def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Me
     is_new : (n_faces_out,) bool
         True for the faces made by the subdivision.
     """
-    faces = mesh.faces
-    is_selected = np.ones(len(faces), dtype=bool) if selected is None else np.asarray(selected, dtype=bool)
-    chosen = faces[is_selected]  # (k, 3)
-    n_vertices = len(mesh.vertices)
-    edges = np.concatenate([chosen[:, [0, 1]], chosen[:, [1, 2]], chosen[:, [2, 0]]])  # (3k, 2)
-    low, high = edges.min(axis=1), edges.max(axis=1)
-    keys, inverse = np.unique(low * n_vertices + high, return_inverse=True)
-    midpoints = (mesh.vertices[keys // n_vertices] + mesh.vertices[keys % n_vertices]) / 2.0
-    mid = n_vertices + inverse.reshape(3, len(chosen)).T  # (k, 3): m_ab, m_bc, m_ca
-    a, b, c = chosen.T
-    ab, bc, ca = mid.T
-    new_faces = np.concatenate([
-        np.stack([a, ab, ca], axis=1), np.stack([ab, b, bc], axis=1),
-        np.stack([ca, bc, c], axis=1), np.stack([ab, bc, ca], axis=1),
-    ])
-    kept = faces[~is_selected]
-    subdivided = Mesh(np.vstack([mesh.vertices, midpoints]), np.vstack([kept, new_faces]), mesh.name)
-    is_new = np.zeros(subdivided.n_faces, dtype=bool)
-    is_new[len(kept):] = True
-    return subdivided, is_new
+    import trimesh
+
+    is_selected = np.ones(mesh.n_faces, dtype=bool) if selected is None else np.asarray(selected, dtype=bool)
+    vertices, faces = trimesh.remesh.subdivide(mesh.vertices, mesh.faces, face_index=np.flatnonzero(is_selected))
+    is_new = np.zeros(len(faces), dtype=bool)
+    is_new[mesh.n_faces - int(is_selected.sum()):] = True
+    return Mesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64), mesh.name), is_new
 
 
 def mesh_with_faces(mesh: Mesh, n_faces: int, *, name: str | None = None) -> Mesh:
@@ -328,29 +313,17 @@ def flat_part(mesh: Mesh) -> NDArray[np.bool_]:
 
 
 def spearman(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
-    """Spearman's rank correlation: Pearson's correlation of the (average) ranks.
+    """Spearman's rank correlation (``scipy.stats.spearmanr``) over the pairs where both are finite.
 
-    ``rho = cov(R(a), R(b)) / (std(R(a)) std(R(b)))``, where tied values share
-    the mean of their ranks. Pairs where either value is NaN are dropped.
     Returns NaN if fewer than two pairs remain or a side is constant.
     """
+    from scipy.stats import spearmanr
+
     is_kept = np.isfinite(a) & np.isfinite(b)
-    if is_kept.sum() < 2:
+    a, b = a[is_kept], b[is_kept]
+    if len(a) < 2 or np.ptp(a) == 0 or np.ptp(b) == 0:
         return math.nan
-    ranks_a, ranks_b = _average_ranks(a[is_kept]), _average_ranks(b[is_kept])
-    ranks_a -= ranks_a.mean()
-    ranks_b -= ranks_b.mean()
-    scale = math.sqrt(float(ranks_a @ ranks_a) * float(ranks_b @ ranks_b))
-    return float(ranks_a @ ranks_b) / scale if scale > 0 else math.nan
-
-
-def _average_ranks(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Ranks 0 .. n-1 of ``values``, ties replaced by the mean of their ranks."""
-    order = np.argsort(values, kind="stable")
-    ranks = np.zeros(len(values))
-    ranks[order] = np.arange(len(values), dtype=np.float64)
-    _, group, counts = np.unique(values, return_inverse=True, return_counts=True)
-    return np.asarray(np.bincount(group, weights=ranks) / counts)[group]
+    return float(spearmanr(a, b).statistic)
 
 
 # ============================================================================ network helpers
@@ -407,31 +380,6 @@ def checkpoint_path(options: RunOptions) -> Path:
     if options.network is not None:
         return options.network
     return options.labels_out / "models" / "ml_gl" / "model.safetensors"
-
-
-def poisson_disk_points(mesh: Mesh, n: int, *, seed: int) -> NDArray[np.float64]:
-    """``n`` blue-noise surface points by Yuksel's sample elimination (Open3D).
-
-    Starts from ``POISSON_INIT_FACTOR * n`` area-uniform points
-    (:func:`sample_surface`, ``seed``) and eliminates down to ``n`` points of
-    about equal spacing (``TriangleMesh.sample_points_poisson_disk`` with that
-    point cloud), so the result is deterministic.
-
-    Returns
-    -------
-    points : (n, 3) float64
-    """
-    from vptoolkit.optional import require
-
-    o3d = require("open3d", extra="measures")
-    triangles = o3d.geometry.TriangleMesh(
-        o3d.utility.Vector3dVector(np.array(mesh.vertices, dtype=np.float64)),
-        o3d.utility.Vector3iVector(np.array(mesh.faces, dtype=np.int32)),
-    )
-    candidates = sample_surface(mesh, POISSON_INIT_FACTOR * n, seed=seed)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(candidates.points))
-    cloud.normals = o3d.utility.Vector3dVector(candidates.normals)
-    return np.asarray(triangles.sample_points_poisson_disk(n, pcl=cloud).points, dtype=np.float64)
 
 
 # ============================================================================ markdown helpers
@@ -641,7 +589,7 @@ def section_robustness(options: RunOptions) -> Section:
             source = options.labels_out / "shapes" / test.record(position)["source"]
             raw[name] = sample_surface(load_mesh(source), n_surface, seed=0).points
             cleaned = Mesh(*test.mesh(position), name=name)
-            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0)
+            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0, oversampling=POISSON_INIT_FACTOR)
             vertices[name] = np.asarray(cleaned.vertices)
         inputs = {
             "(a) dataset points (cleaned meshes)": stored,
@@ -971,8 +919,7 @@ def run(options: RunOptions) -> dict[str, Section]:
         if name not in options.sections:
             continue
         section = SECTION_FUNCTIONS[name](options)
-        write_section(options.results, section.markdown,
-                      start=f"<!-- {name}:start -->", end=f"<!-- {name}:end -->")
+        write_section(options.results, name, section.markdown)
         numbers = json.loads(numbers_path.read_text()) if numbers_path.exists() else {}
         numbers[name] = section.numbers
         numbers_path.write_text(json.dumps(numbers, indent=2) + "\n")
