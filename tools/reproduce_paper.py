@@ -72,7 +72,7 @@ from typing import Any
 import numpy as np
 import reproduce_labels
 from numpy.typing import NDArray
-from results_doc import format_seconds, machine, write_section
+from results_doc import format_seconds, machine, markdown_table, score_cells, write_section
 
 from vptoolkit.conventions import MEASURES, RESOLUTION
 from vptoolkit.geometry import face_areas, face_normals
@@ -394,8 +394,8 @@ def _header(title: str, options: RunOptions, seconds: float, dataset: str) -> li
     ]
 
 
-def _row(label: str, values: Sequence[float], extra: Sequence[str] = ()) -> str:
-    return "| " + " | ".join([label, *(f"{v:.1f}" for v in values), *extra]) + " |"
+def _one_decimal(values: Sequence[float]) -> list[str]:
+    return [f"{v:.1f}" for v in values]
 
 
 def _figure_link(options: RunOptions, figure: Path, caption: str) -> str:
@@ -524,9 +524,8 @@ def section_timings(options: RunOptions) -> Section:
         "when it is above 0); paper: i7-8700K, OpenGL sampling, TensorFlow on a GTX 1080, "
         "in parentheses.",
         "",
-        "| faces | " + " | ".join(columns) + " | speed-up (most views / batch 1) |",
-        "|---:|" + "---:|" * (len(columns) + 1),
     ]
+    table = []
     for i, (mesh, target) in enumerate(zip(meshes, sizes.timing_faces)):
         paper = PAPER_TIMINGS.get(target)
         cells_text = []
@@ -540,7 +539,9 @@ def section_timings(options: RunOptions) -> Section:
                 text += f" ({'N/A' if reference is None else _seconds(reference)})"
             cells_text.append(text)
         speedup = brute[i][-1] / network[i][0]
-        lines.append(f"| {mesh.n_faces:,} | " + " | ".join(cells_text) + f" | {speedup:,.0f}x |")
+        table.append([f"{mesh.n_faces:,}", *cells_text, f"{speedup:,.0f}x"])
+    lines += markdown_table(["faces", *columns, "speed-up (most views / batch 1)"], table,
+                            align="r" * (len(columns) + 2))
     lines += ["", f"On {meshes[-1].n_faces:,} faces, sampling {sizes.timing_views[-1]} views took "
               f"{_seconds(brute[-1][-1])} and one network prediction (batch "
               f"{sizes.timing_batches[0]}) {_seconds(network[-1][0])}."]
@@ -649,12 +650,13 @@ def section_robustness(options: RunOptions) -> Section:
         "Scores: mean over categories of the normalised quality of the nearest sampled view, in %. "
         "The paper's rows (ModelNet40; its different sampling is Qi et al.'s points) in the last column.",
         "",
-        "| input | " + " | ".join(MEASURES) + " | paper (ModelNet40) |",
-        "|---|" + "---:|" * len(MEASURES) + "---|",
     ]
+    table = []
     for label, scores in rows.items():
         paper = PAPER_ROBUSTNESS.get(paper_rows.get(label, ""))
-        lines.append(_row(label, scores, [" / ".join(f"{v:.1f}" for v in paper) if paper else ""]))
+        table.append([label, *_one_decimal(scores), " / ".join(_one_decimal(paper)) if paper else ""])
+    lines += markdown_table(["input", *MEASURES, "paper (ModelNet40)"], table,
+                            align="l" + "r" * len(MEASURES) + "l")
     ours = rows["(a) dataset points (cleaned meshes)"] - np.vstack(
         [rows["(b) raw source meshes"], rows["(c) Poisson-disk sampling"]])
     paper = np.subtract(PAPER_ROBUSTNESS["preprocessed meshes"],
@@ -668,14 +670,11 @@ def section_robustness(options: RunOptions) -> Section:
         f"{labels_settings[0]} views at {labels_settings[1]} px; {n_failed} failed to build), each under "
         f"{HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.protocol`), mean over meshes ± standard error:",
         "",
-        "| method | " + " | ".join(MEASURES) + " |",
-        "|---|" + "---:|" * len(MEASURES),
+        *markdown_table(["method", *MEASURES], [[label, *score_cells(scores)] for label, scores in held_out.items()]),
+        "", "Network per mesh:", "",
+        *markdown_table(["mesh", "faces", *MEASURES],
+                        [[name, str(sample_faces[name]), *_one_decimal(scores)] for name, scores in per_model.items()]),
     ]
-    lines += [f"| {label} | " + " | ".join(f"{m:.1f} ± {e:.1f}" for m, e in zip(scores.mean, scores.sem)) + " |"
-              for label, scores in held_out.items()]
-    lines += ["", "Network per mesh:", "", "| mesh | faces | " + " | ".join(MEASURES) + " |",
-              "|---|---:|" + "---:|" * len(MEASURES)]
-    lines += [_row(f"{name} | {sample_faces[name]}", scores) for name, scores in per_model.items()]
     numbers = {
         "test": {label: scores.tolist() for label, scores in rows.items()},
         "held_out": {label: {"mean": scores.mean.tolist(), "sem": scores.sem.tolist()}
@@ -756,15 +755,12 @@ def section_subdivision(options: RunOptions) -> Section:
         "floor (largest angle between level-0 predictions from sampling seeds 0 and 1, 2, 3): "
         + ", ".join(f"{m} {v:.1f}" for m, v in zip(MEASURES, noise)) + ".",
         "",
-        "| level | faces | " + " | ".join(MEASURES) + " | VE elevation | "
-        + " | ".join(f"net {m}" for m in MEASURES) + " |",
-        "|---:|---:|" + "---:|" * (2 * len(MEASURES) + 1),
+        *markdown_table(
+            ["level", "faces", *MEASURES, "VE elevation", *(f"net {m}" for m in MEASURES)],
+            [[str(level), str(n_faces[level]), *_one_decimal(measure_angles[level]),
+              f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])] for level in levels],
+            align="r" * (2 * len(MEASURES) + 3)),
     ]
-    for level in levels:
-        lines.append(f"| {level} | {n_faces[level]} | "
-                     + " | ".join(f"{v:.1f}" for v in measure_angles[level])
-                     + f" | {ve_elevation[level]:.1f} | "
-                     + " | ".join(f"{v:.1f}" for v in network_angles[level]) + " |")
     drift = measure_angles.max(axis=0)
     lines += [
         "", "Largest drift over the levels: " + ", ".join(
@@ -872,13 +868,13 @@ def section_resolution(options: RunOptions) -> Section:
         "resolution's best view (%) / Spearman's rank correlation of the raw values over the views. "
         "Time: total seconds for all meshes.",
         "",
-        "| resolution | " + " | ".join(MEASURES) + " | time |",
-        "|---:|" + "---:|" * (len(MEASURES) + 1),
+        *markdown_table(
+            ["resolution", *MEASURES, "time"],
+            [[str(resolution), *(f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
+                                 for m in range(len(MEASURES))), f"{times[:, j].sum():.1f} s"]
+             for j, resolution in enumerate(resolutions)],
+            align="r" * (len(MEASURES) + 2)),
     ]
-    for j, resolution in enumerate(resolutions):
-        lines.append(f"| {resolution} | " + " | ".join(
-            f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
-            for m in range(len(MEASURES))) + f" | {times[:, j].sum():.1f} s |")
     lines += ["", recommendation, "",
               _figure_link(options, figure, "Best-view angle, quality lost and rank correlation against resolution")]
     numbers = {
