@@ -7,6 +7,7 @@ import pytest
 from scipy import stats
 from scipy.spatial import cKDTree
 
+from conftest import require_package
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import (
@@ -302,3 +303,33 @@ def test_network_input_rejects_bad_arguments(
 def test_network_input_requires_a_generator(sphere_points: np.ndarray) -> None:
     with pytest.raises(InputError, match="rng: expected a numpy.random.Generator"):
         network_input(sphere_points, rng=0)  # type: ignore[arg-type]
+
+
+def test_poisson_disk_points_are_on_the_surface_and_evenly_spaced() -> None:
+    require_package("open3d")
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import poisson_disk_points
+    from vptoolkit.samples import sample_path
+
+    mesh = load_mesh(sample_path("bunny.ply"))
+    points = poisson_disk_points(mesh, 2000, seed=3)
+    assert points.shape == (2000, 3)
+    np.testing.assert_array_equal(points, poisson_disk_points(mesh, 2000, seed=3))
+    # On the surface: every point is near a dense uniform sample of it.
+    dense = sample_surface(mesh, 200_000, seed=0).points
+    diagonal = float(np.linalg.norm(np.ptp(mesh.vertices, axis=0)))
+    assert cKDTree(dense).query(points)[0].max() < 0.01 * diagonal
+    # Blue noise: the closest pair is much farther apart than in a uniform sample of the same size.
+    uniform = sample_surface(mesh, 2000, seed=3).points
+    nearest_poisson = cKDTree(points).query(points, k=2)[0][:, 1]
+    nearest_uniform = cKDTree(uniform).query(uniform, k=2)[0][:, 1]
+    assert nearest_poisson.min() > 3 * nearest_uniform.min()
+    spread = nearest_poisson.std() / nearest_poisson.mean()
+    assert spread < nearest_uniform.std() / nearest_uniform.mean()
+
+
+def test_poisson_disk_points_rejects_bad_counts(two_triangles: Mesh) -> None:
+    from vptoolkit.points import poisson_disk_points
+
+    with pytest.raises(InputError, match="n"):
+        poisson_disk_points(two_triangles, 0)

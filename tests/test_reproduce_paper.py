@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import importlib.util
+import importlib
 import math
 import re
-import sys
 from dataclasses import replace
 from pathlib import Path
 from types import ModuleType
@@ -17,20 +16,14 @@ from conftest import require_package
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
 
-TOOLS = Path(__file__).resolve().parents[1] / "tools"
 
 
 @pytest.fixture(scope="module")
 def tool() -> ModuleType:
-    """``tools/reproduce_paper.py`` imported as a module (tools/ is not a package)."""
-    for module in ("torch", "safetensors", "matplotlib", "open3d", "pymeshlab", "zarr"):
+    """``tools/reproduce_paper.py`` (tools/ is on the tests' path, see pyproject.toml)."""
+    for module in ("torch", "safetensors", "matplotlib", "open3d", "pymeshlab", "zarr", "scipy", "trimesh"):
         require_package(module)
-    spec = importlib.util.spec_from_file_location("reproduce_paper", TOOLS / "reproduce_paper.py")
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["reproduce_paper"] = module
-    spec.loader.exec_module(module)
-    return module
+    return importlib.import_module("reproduce_paper")
 
 
 def _square() -> Mesh:

@@ -33,8 +33,6 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
-import os
-import platform
 import shlex
 import sys
 import time
@@ -62,6 +60,8 @@ from vptoolkit.protocol import (
 )
 from vptoolkit.synthetic import CATEGORIES, write_collection
 
+from results_doc import comparison_table, format_seconds, machine, markdown_table, score_cells, write_section
+
 METHODS = ("sl", "ml", "gl", "ml+gl", "sr", "dldl")
 LABELS = {"sl": "SL", "ml": "ML", "gl": "GL", "ml+gl": "ML+GL (ours)", "sr": "SR", "dldl": "DLDL"}
 PER_CATEGORY = "ML+GL, one network per category"
@@ -72,7 +72,6 @@ PAPER = {
     "ML": (70.1, 72.1, 82.6, 82.1), "GL": (74.2, 75.1, 89.3, 87.7),
 }
 BASELINES = ("random view (expectation)", "PCA axis", "best constant direction")
-START, END = "<!-- labels:start -->", "<!-- labels:end -->"
 
 
 def parse_args() -> argparse.Namespace:
@@ -147,7 +146,7 @@ def main() -> None:
                 category_networks=args.category_networks, command=command.strip())
     print(table)
     if not args.quick:
-        write_section(args.results, table, start=f"<!-- {args.section}:start -->", end=f"<!-- {args.section}:end -->")
+        write_section(args.results, args.section, table)
     if args.export_pretrained is not None:
         method, epochs = args.pretrained_method, args.pretrained_epochs or sizes.epochs
         head = [int(width) for width in args.pretrained_head.split(",")]
@@ -257,46 +256,14 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     return table
 
 
-def format_seconds(seconds: float) -> str:
-    """A wall time in the largest fitting unit: ``42 s``, ``12.5 min`` or ``3.1 h``."""
-    if seconds < 120:
-        return f"{seconds:.0f} s"
-    if seconds < 7200:
-        return f"{seconds / 60:.1f} min"
-    return f"{seconds / 3600:.1f} h"
-
-
-def machine() -> str:
-    """One line naming this machine: platform, processor and CPU count."""
-    return (f"{platform.platform(terse=True)}, {platform.processor() or platform.machine()}, "
-            f"{os.cpu_count()} CPUs, no GPU used")
-
-
-def _cell(scores: ProtocolScores, measure: int) -> str:
-    return f"{scores.mean[measure]:.1f} ± {scores.sem[measure]:.1f}"
-
-
 def _score_table(rows: dict[str, ProtocolScores], timings: dict[str, float]) -> list[str]:
-    lines = ["| method | " + " | ".join(MEASURES) + " | train time | paper (ModelNet40) |",
-             "|---|" + "---:|" * len(MEASURES) + "---:|---|"]
+    table = []
     for label, scores in rows.items():
         paper = " / ".join(f"{v:.1f}" for v in PAPER[label]) if label in PAPER else ""
         train = format_seconds(timings[label]) if label in timings else ""
-        lines.append(f"| {label} | " + " | ".join(_cell(scores, m) for m in range(len(MEASURES)))
-                     + f" | {train} | {paper} |")
-    return lines
-
-
-def _comparisons(rows: dict[str, ProtocolScores], reference: str) -> list[str]:
-    """``reference`` minus every other row, paired over models, with the verdict per measure."""
-    lines = [f"| {reference} minus | " + " | ".join(MEASURES) + " |", "|---|" + "---:|" * len(MEASURES)]
-    for label, scores in rows.items():
-        if label == reference:
-            continue
-        delta, sem = paired_difference(rows[reference], scores)
-        cells = [f"{d:+.1f} ± {e:.1f}{' *' if abs(d) > 2 * e else ''}" for d, e in zip(delta, sem)]
-        lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    return lines
+        table.append([label, *score_cells(scores), train, paper])
+    return markdown_table(["method", *MEASURES, "train time", "paper (ModelNet40)"], table,
+                          align="l" + "r" * (len(MEASURES) + 1) + "l")
 
 
 def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -> str:
@@ -362,7 +329,7 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         "",
         "Paired differences on rotated inputs (percentage points ± standard error; * beyond two):",
         "",
-        *(_comparisons(rotated, LABELS["ml+gl"]) if LABELS["ml+gl"] in rotated else []),
+        *(comparison_table(rotated, LABELS["ml+gl"]) if LABELS["ml+gl"] in rotated else []),
         "",
         "**Stored orientation (the paper's protocol, a second table):** the procedural shapes stand upright "
         "with their parts along fixed axes, so a constant direction is a strong rival here.",
@@ -372,22 +339,6 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         verdict(stored),
     ]
     return "\n".join(lines)
-
-
-def write_section(path: Path, table: str, *, start: str = START, end: str = END) -> None:
-    """Replace the text between the ``start`` and ``end`` markers of ``path`` by ``table``.
-
-    The file (and its folder) is created if missing; a section not yet in it
-    is appended, so several scripts can each own their sections of one file.
-    """
-    path.parent.mkdir(parents=True, exist_ok=True)
-    text = path.read_text() if path.exists() else "# Results\n\n"
-    block = f"{start}\n{table}\n{end}"
-    if start in text and end in text:
-        text = text[: text.index(start)] + block + text[text.index(end) + len(end):]
-    else:
-        text = text.rstrip() + "\n\n" + block + "\n"
-    path.write_text(text)
 
 
 if __name__ == "__main__":

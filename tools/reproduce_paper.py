@@ -46,10 +46,11 @@ Usage::
     python tools/reproduce_paper.py --sections timings    # regenerate one section
     python tools/reproduce_paper.py --skip-labels         # reuse the trained checkpoint
 
-Library gaps filled here, privately: 1-to-4 midpoint subdivision
-(:func:`subdivide`, :func:`mesh_with_faces`), Spearman's rank correlation
-(:func:`spearman`) and Poisson-disk surface points
-(:func:`poisson_disk_points`).
+Libraries do the general work: trimesh's midpoint subdivision
+(:func:`subdivide`, :func:`mesh_with_faces`), scipy's Spearman correlation
+(:func:`spearman`, scipy comes with the ``dev`` extra) and
+:func:`vptoolkit.points.poisson_disk_points`. Tables and sections of
+``docs/results.md`` are written by the sibling module ``results_doc``.
 """
 
 from __future__ import annotations
@@ -69,21 +70,18 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import reproduce_labels
 from numpy.typing import NDArray
+from results_doc import format_seconds, machine, markdown_table, score_cells, write_section
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-import reproduce_labels  # noqa: E402  (the tools folder is not a package)
-from reproduce_labels import format_seconds, machine, write_section  # noqa: E402
-
-from vptoolkit.conventions import MEASURES, RESOLUTION  # noqa: E402
-from vptoolkit.geometry import face_areas, face_normals  # noqa: E402
-from vptoolkit.io import load_mesh  # noqa: E402
-from vptoolkit.measures import compute_view_quality  # noqa: E402
-from vptoolkit.mesh import Mesh  # noqa: E402
-from vptoolkit.points import sample_surface  # noqa: E402
-from vptoolkit.samples import sample_path  # noqa: E402
-from vptoolkit.sphere import angle_between_deg  # noqa: E402
+from vptoolkit.conventions import MEASURES, RESOLUTION
+from vptoolkit.geometry import face_areas, face_normals
+from vptoolkit.io import load_mesh
+from vptoolkit.measures import compute_view_quality
+from vptoolkit.mesh import Mesh
+from vptoolkit.points import poisson_disk_points, sample_surface
+from vptoolkit.samples import sample_path
+from vptoolkit.sphere import angle_between_deg
 
 SECTIONS = ("labels", "timings", "robustness", "subdivision", "resolution")
 """Section names, in document order; each owns ``<!-- NAME:start/end -->``."""
@@ -237,14 +235,14 @@ class RunOptions:
 
 
 def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Mesh, NDArray[np.bool_]]:
-    """Midpoint 1-to-4 subdivision of some (default: all) faces.
+    """Midpoint 1-to-4 subdivision of some (default: all) faces (``trimesh.remesh.subdivide``).
 
-    Face ``(a, b, c)`` becomes ``(a, m_ab, m_ca)``, ``(m_ab, b, m_bc)``,
-    ``(m_ca, m_bc, c)`` and ``(m_ab, m_bc, m_ca)`` with ``m_xy = (x + y) / 2``;
-    the winding (counter-clockwise front) and the surface are unchanged, so
-    only the discretisation changes. A midpoint is shared by the selected
-    faces on both sides of an edge; an unselected neighbour keeps its edge
-    whole (a T-junction on the same straight line, which leaves no gap).
+    Each selected face ``(a, b, c)`` becomes four with the edge midpoints
+    ``m_xy = (x + y) / 2``; the winding (counter-clockwise front) and the
+    surface are unchanged, so only the discretisation changes. A midpoint is
+    shared by the selected faces on both sides of an edge; an unselected
+    neighbour keeps its edge whole (a T-junction on the same straight line,
+    which leaves no gap).
 
     Parameters
     ----------
@@ -261,26 +259,13 @@ def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Me
     is_new : (n_faces_out,) bool
         True for the faces made by the subdivision.
     """
-    faces = mesh.faces
-    is_selected = np.ones(len(faces), dtype=bool) if selected is None else np.asarray(selected, dtype=bool)
-    chosen = faces[is_selected]  # (k, 3)
-    n_vertices = len(mesh.vertices)
-    edges = np.concatenate([chosen[:, [0, 1]], chosen[:, [1, 2]], chosen[:, [2, 0]]])  # (3k, 2)
-    low, high = edges.min(axis=1), edges.max(axis=1)
-    keys, inverse = np.unique(low * n_vertices + high, return_inverse=True)
-    midpoints = (mesh.vertices[keys // n_vertices] + mesh.vertices[keys % n_vertices]) / 2.0
-    mid = n_vertices + inverse.reshape(3, len(chosen)).T  # (k, 3): m_ab, m_bc, m_ca
-    a, b, c = chosen.T
-    ab, bc, ca = mid.T
-    new_faces = np.concatenate([
-        np.stack([a, ab, ca], axis=1), np.stack([ab, b, bc], axis=1),
-        np.stack([ca, bc, c], axis=1), np.stack([ab, bc, ca], axis=1),
-    ])
-    kept = faces[~is_selected]
-    subdivided = Mesh(np.vstack([mesh.vertices, midpoints]), np.vstack([kept, new_faces]), mesh.name)
-    is_new = np.zeros(subdivided.n_faces, dtype=bool)
-    is_new[len(kept):] = True
-    return subdivided, is_new
+    import trimesh
+
+    is_selected = np.ones(mesh.n_faces, dtype=bool) if selected is None else np.asarray(selected, dtype=bool)
+    vertices, faces = trimesh.remesh.subdivide(mesh.vertices, mesh.faces, face_index=np.flatnonzero(is_selected))
+    is_new = np.zeros(len(faces), dtype=bool)
+    is_new[mesh.n_faces - int(is_selected.sum()):] = True
+    return Mesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64), mesh.name), is_new
 
 
 def mesh_with_faces(mesh: Mesh, n_faces: int, *, name: str | None = None) -> Mesh:
@@ -328,29 +313,17 @@ def flat_part(mesh: Mesh) -> NDArray[np.bool_]:
 
 
 def spearman(a: NDArray[np.float64], b: NDArray[np.float64]) -> float:
-    """Spearman's rank correlation: Pearson's correlation of the (average) ranks.
+    """Spearman's rank correlation (``scipy.stats.spearmanr``) over the pairs where both are finite.
 
-    ``rho = cov(R(a), R(b)) / (std(R(a)) std(R(b)))``, where tied values share
-    the mean of their ranks. Pairs where either value is NaN are dropped.
     Returns NaN if fewer than two pairs remain or a side is constant.
     """
+    from scipy.stats import spearmanr
+
     is_kept = np.isfinite(a) & np.isfinite(b)
-    if is_kept.sum() < 2:
+    a, b = a[is_kept], b[is_kept]
+    if len(a) < 2 or np.ptp(a) == 0 or np.ptp(b) == 0:
         return math.nan
-    ranks_a, ranks_b = _average_ranks(a[is_kept]), _average_ranks(b[is_kept])
-    ranks_a -= ranks_a.mean()
-    ranks_b -= ranks_b.mean()
-    scale = math.sqrt(float(ranks_a @ ranks_a) * float(ranks_b @ ranks_b))
-    return float(ranks_a @ ranks_b) / scale if scale > 0 else math.nan
-
-
-def _average_ranks(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Ranks 0 .. n-1 of ``values``, ties replaced by the mean of their ranks."""
-    order = np.argsort(values, kind="stable")
-    ranks = np.zeros(len(values))
-    ranks[order] = np.arange(len(values), dtype=np.float64)
-    _, group, counts = np.unique(values, return_inverse=True, return_counts=True)
-    return np.asarray(np.bincount(group, weights=ranks) / counts)[group]
+    return float(spearmanr(a, b).statistic)
 
 
 # ============================================================================ network helpers
@@ -409,31 +382,6 @@ def checkpoint_path(options: RunOptions) -> Path:
     return options.labels_out / "models" / "ml_gl" / "model.safetensors"
 
 
-def poisson_disk_points(mesh: Mesh, n: int, *, seed: int) -> NDArray[np.float64]:
-    """``n`` blue-noise surface points by Yuksel's sample elimination (Open3D).
-
-    Starts from ``POISSON_INIT_FACTOR * n`` area-uniform points
-    (:func:`sample_surface`, ``seed``) and eliminates down to ``n`` points of
-    about equal spacing (``TriangleMesh.sample_points_poisson_disk`` with that
-    point cloud), so the result is deterministic.
-
-    Returns
-    -------
-    points : (n, 3) float64
-    """
-    from vptoolkit.optional import require
-
-    o3d = require("open3d", extra="measures")
-    triangles = o3d.geometry.TriangleMesh(
-        o3d.utility.Vector3dVector(np.array(mesh.vertices, dtype=np.float64)),
-        o3d.utility.Vector3iVector(np.array(mesh.faces, dtype=np.int32)),
-    )
-    candidates = sample_surface(mesh, POISSON_INIT_FACTOR * n, seed=seed)
-    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(candidates.points))
-    cloud.normals = o3d.utility.Vector3dVector(candidates.normals)
-    return np.asarray(triangles.sample_points_poisson_disk(n, pcl=cloud).points, dtype=np.float64)
-
-
 # ============================================================================ markdown helpers
 
 
@@ -446,8 +394,8 @@ def _header(title: str, options: RunOptions, seconds: float, dataset: str) -> li
     ]
 
 
-def _row(label: str, values: Sequence[float], extra: Sequence[str] = ()) -> str:
-    return "| " + " | ".join([label, *(f"{v:.1f}" for v in values), *extra]) + " |"
+def _one_decimal(values: Sequence[float]) -> list[str]:
+    return [f"{v:.1f}" for v in values]
 
 
 def _figure_link(options: RunOptions, figure: Path, caption: str) -> str:
@@ -576,9 +524,8 @@ def section_timings(options: RunOptions) -> Section:
         "when it is above 0); paper: i7-8700K, OpenGL sampling, TensorFlow on a GTX 1080, "
         "in parentheses.",
         "",
-        "| faces | " + " | ".join(columns) + " | speed-up (most views / batch 1) |",
-        "|---:|" + "---:|" * (len(columns) + 1),
     ]
+    table = []
     for i, (mesh, target) in enumerate(zip(meshes, sizes.timing_faces)):
         paper = PAPER_TIMINGS.get(target)
         cells_text = []
@@ -592,7 +539,9 @@ def section_timings(options: RunOptions) -> Section:
                 text += f" ({'N/A' if reference is None else _seconds(reference)})"
             cells_text.append(text)
         speedup = brute[i][-1] / network[i][0]
-        lines.append(f"| {mesh.n_faces:,} | " + " | ".join(cells_text) + f" | {speedup:,.0f}x |")
+        table.append([f"{mesh.n_faces:,}", *cells_text, f"{speedup:,.0f}x"])
+    lines += markdown_table(["faces", *columns, "speed-up (most views / batch 1)"], table,
+                            align="r" * (len(columns) + 2))
     lines += ["", f"On {meshes[-1].n_faces:,} faces, sampling {sizes.timing_views[-1]} views took "
               f"{_seconds(brute[-1][-1])} and one network prediction (batch "
               f"{sizes.timing_batches[0]}) {_seconds(network[-1][0])}."]
@@ -641,7 +590,7 @@ def section_robustness(options: RunOptions) -> Section:
             source = options.labels_out / "shapes" / test.record(position)["source"]
             raw[name] = sample_surface(load_mesh(source), n_surface, seed=0).points
             cleaned = Mesh(*test.mesh(position), name=name)
-            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0)
+            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0, oversampling=POISSON_INIT_FACTOR)
             vertices[name] = np.asarray(cleaned.vertices)
         inputs = {
             "(a) dataset points (cleaned meshes)": stored,
@@ -701,12 +650,13 @@ def section_robustness(options: RunOptions) -> Section:
         "Scores: mean over categories of the normalised quality of the nearest sampled view, in %. "
         "The paper's rows (ModelNet40; its different sampling is Qi et al.'s points) in the last column.",
         "",
-        "| input | " + " | ".join(MEASURES) + " | paper (ModelNet40) |",
-        "|---|" + "---:|" * len(MEASURES) + "---|",
     ]
+    table = []
     for label, scores in rows.items():
         paper = PAPER_ROBUSTNESS.get(paper_rows.get(label, ""))
-        lines.append(_row(label, scores, [" / ".join(f"{v:.1f}" for v in paper) if paper else ""]))
+        table.append([label, *_one_decimal(scores), " / ".join(_one_decimal(paper)) if paper else ""])
+    lines += markdown_table(["input", *MEASURES, "paper (ModelNet40)"], table,
+                            align="l" + "r" * len(MEASURES) + "l")
     ours = rows["(a) dataset points (cleaned meshes)"] - np.vstack(
         [rows["(b) raw source meshes"], rows["(c) Poisson-disk sampling"]])
     paper = np.subtract(PAPER_ROBUSTNESS["preprocessed meshes"],
@@ -720,14 +670,11 @@ def section_robustness(options: RunOptions) -> Section:
         f"{labels_settings[0]} views at {labels_settings[1]} px; {n_failed} failed to build), each under "
         f"{HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.protocol`), mean over meshes ± standard error:",
         "",
-        "| method | " + " | ".join(MEASURES) + " |",
-        "|---|" + "---:|" * len(MEASURES),
+        *markdown_table(["method", *MEASURES], [[label, *score_cells(scores)] for label, scores in held_out.items()]),
+        "", "Network per mesh:", "",
+        *markdown_table(["mesh", "faces", *MEASURES],
+                        [[name, str(sample_faces[name]), *_one_decimal(scores)] for name, scores in per_model.items()]),
     ]
-    lines += [f"| {label} | " + " | ".join(f"{m:.1f} ± {e:.1f}" for m, e in zip(scores.mean, scores.sem)) + " |"
-              for label, scores in held_out.items()]
-    lines += ["", "Network per mesh:", "", "| mesh | faces | " + " | ".join(MEASURES) + " |",
-              "|---|---:|" + "---:|" * len(MEASURES)]
-    lines += [_row(f"{name} | {sample_faces[name]}", scores) for name, scores in per_model.items()]
     numbers = {
         "test": {label: scores.tolist() for label, scores in rows.items()},
         "held_out": {label: {"mean": scores.mean.tolist(), "sem": scores.sem.tolist()}
@@ -808,15 +755,12 @@ def section_subdivision(options: RunOptions) -> Section:
         "floor (largest angle between level-0 predictions from sampling seeds 0 and 1, 2, 3): "
         + ", ".join(f"{m} {v:.1f}" for m, v in zip(MEASURES, noise)) + ".",
         "",
-        "| level | faces | " + " | ".join(MEASURES) + " | VE elevation | "
-        + " | ".join(f"net {m}" for m in MEASURES) + " |",
-        "|---:|---:|" + "---:|" * (2 * len(MEASURES) + 1),
+        *markdown_table(
+            ["level", "faces", *MEASURES, "VE elevation", *(f"net {m}" for m in MEASURES)],
+            [[str(level), str(n_faces[level]), *_one_decimal(measure_angles[level]),
+              f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])] for level in levels],
+            align="r" * (2 * len(MEASURES) + 3)),
     ]
-    for level in levels:
-        lines.append(f"| {level} | {n_faces[level]} | "
-                     + " | ".join(f"{v:.1f}" for v in measure_angles[level])
-                     + f" | {ve_elevation[level]:.1f} | "
-                     + " | ".join(f"{v:.1f}" for v in network_angles[level]) + " |")
     drift = measure_angles.max(axis=0)
     lines += [
         "", "Largest drift over the levels: " + ", ".join(
@@ -924,13 +868,13 @@ def section_resolution(options: RunOptions) -> Section:
         "resolution's best view (%) / Spearman's rank correlation of the raw values over the views. "
         "Time: total seconds for all meshes.",
         "",
-        "| resolution | " + " | ".join(MEASURES) + " | time |",
-        "|---:|" + "---:|" * (len(MEASURES) + 1),
+        *markdown_table(
+            ["resolution", *MEASURES, "time"],
+            [[str(resolution), *(f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
+                                 for m in range(len(MEASURES))), f"{times[:, j].sum():.1f} s"]
+             for j, resolution in enumerate(resolutions)],
+            align="r" * (len(MEASURES) + 2)),
     ]
-    for j, resolution in enumerate(resolutions):
-        lines.append(f"| {resolution} | " + " | ".join(
-            f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
-            for m in range(len(MEASURES))) + f" | {times[:, j].sum():.1f} s |")
     lines += ["", recommendation, "",
               _figure_link(options, figure, "Best-view angle, quality lost and rank correlation against resolution")]
     numbers = {
@@ -971,8 +915,7 @@ def run(options: RunOptions) -> dict[str, Section]:
         if name not in options.sections:
             continue
         section = SECTION_FUNCTIONS[name](options)
-        write_section(options.results, section.markdown,
-                      start=f"<!-- {name}:start -->", end=f"<!-- {name}:end -->")
+        write_section(options.results, name, section.markdown)
         numbers = json.loads(numbers_path.read_text()) if numbers_path.exists() else {}
         numbers[name] = section.numbers
         numbers_path.write_text(json.dumps(numbers, indent=2) + "\n")

@@ -32,16 +32,16 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.predict import network_predictor
-from reproduce_labels import machine, write_section  # the tools folder is on sys.path when run as a script
 from vptoolkit.protocol import (
     ProtocolScores,
     best_constant_directions,
     constant_predictor,
-    paired_difference,
     pca_predictor,
     random_view_scores,
     score_protocol,
 )
+
+from results_doc import comparison_table, machine, markdown_table, score_cells, write_section
 
 
 def parse_args() -> argparse.Namespace:
@@ -77,18 +77,8 @@ def score(dataset_path: Path, model: str, *, rotations: int, train: Path | None 
 
 def table(rows: dict[str, ProtocolScores]) -> str:
     """Markdown: every row ± standard error, then the network minus each baseline (* beyond 2 s.e.)."""
-    lines = ["| method | " + " | ".join(MEASURES) + " |", "|---|" + "---:|" * len(MEASURES)]
-    for label, scores in rows.items():
-        lines.append(f"| {label} | " + " | ".join(f"{m:.1f} ± {e:.1f}" for m, e in zip(scores.mean, scores.sem))
-                     + " |")
-    lines += ["", "| network minus | " + " | ".join(MEASURES) + " |", "|---|" + "---:|" * len(MEASURES)]
-    for label, scores in rows.items():
-        if label == "network":
-            continue
-        delta, sem = paired_difference(rows["network"], scores)
-        lines.append(f"| {label} | " + " | ".join(f"{d:+.1f} ± {e:.1f}{' *' if abs(d) > 2 * e else ''}"
-                                                   for d, e in zip(delta, sem)) + " |")
-    return "\n".join(lines)
+    scores = markdown_table(["method", *MEASURES], [[label, *score_cells(row)] for label, row in rows.items()])
+    return "\n".join([*scores, "", *comparison_table(rows, "network")])
 
 
 def main() -> None:
@@ -105,9 +95,9 @@ def main() -> None:
     print(table(rows))
     if args.results is not None:
         command = "python tools/score_held_out.py " + shlex.join(sys.argv[1:])
-        write_section(args.results, f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
-                      f"{heading}\n\n{table(rows)}",
-                      start=f"<!-- {args.section}:start -->", end=f"<!-- {args.section}:end -->")
+        write_section(args.results, args.section,
+                      f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
+                      f"{heading}\n\n{table(rows)}")
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"names": list(s.names), "per_model": s.scores.tolist(),
                                                  "mean": s.mean.tolist(), "sem": s.sem.tolist()}

@@ -27,12 +27,12 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import platform
 import time
 from datetime import date
 from pathlib import Path
 
 import numpy as np
+from results_doc import format_seconds, machine, markdown_table, write_section
 
 from vptoolkit.contact_sheet import view_set_sheet
 from vptoolkit.io import load_mesh
@@ -46,7 +46,6 @@ from vptoolkit.view_sets import FaceVisibility, best_view_set, set_coverage
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results.md"
 FIGURES = ROOT / "docs" / "figures"
-START, END = "<!-- viewsets:start -->", "<!-- viewsets:end -->"
 K = 4
 STRATEGIES = ("best VE view alone", "best VR view alone", "top-k VE views", "top-k VR views",
               "greedy information", "greedy quality (VE)", "greedy coverage")
@@ -89,10 +88,9 @@ def evaluate_mesh(mesh: Mesh, n_views: int, resolution: int) -> dict[str, object
 
 
 def table(results: list[dict[str, object]]) -> list[str]:
-    lines = ["| strategy | " + " | ".join(f"{k} view{'s' if k > 1 else ''}" for k in
-                                           range(1, K + 1))
-             + " | mean angle between 4 picks | views to 95 % of reachable |",
-             "|---|" + "---:|" * (K + 2)]
+    header = ["strategy", *(f"{k} view{'s' if k > 1 else ''}" for k in range(1, K + 1)),
+              "mean angle between 4 picks", "views to 95 % of reachable"]
+    rows = []
     for strategy in STRATEGIES:
         values = np.array([r["rows"][strategy] for r in results])  # type: ignore[index]
         cells = ["–" if np.isnan(v).all() else f"{100 * np.nanmean(v):.1f}" for v in values.T]
@@ -100,19 +98,12 @@ def table(results: list[dict[str, object]]) -> list[str]:
         angle = "–" if spread[0] is None else f"{np.mean(spread):.0f}°"
         counts = [r["to_target"].get(strategy) for r in results]  # type: ignore[attr-defined]
         needed = "–" if counts[0] is None else f"{np.mean(counts):.1f} (max {max(counts)})"
-        lines.append(f"| {strategy} | " + " | ".join(cells) + f" | {angle} | {needed} |")
+        rows.append([strategy, *cells, angle, needed])
+    lines = markdown_table(header, rows)
     reachable = np.mean([r["reachable"] for r in results])
     lines.append("")
     lines.append(f"Reachable coverage (all sampled views together), mean: {100 * reachable:.1f} %.")
     return lines
-
-
-def replace_section(text: str, section: str) -> str:
-    if START in text and END in text:
-        head, rest = text.split(START, 1)
-        _, tail = rest.split(END, 1)
-        return head + section + tail
-    return text.rstrip("\n") + "\n\n" + section + "\n"
 
 
 def main() -> None:
@@ -127,12 +118,11 @@ def main() -> None:
     collections = {"bundled": bundled, "procedural": procedural}
     results = {name: [evaluate_mesh(mesh, n_views, resolution) for mesh in meshes]
                for name, meshes in collections.items()}
-    minutes = (time.perf_counter() - started) / 60.0
+    seconds = time.perf_counter() - started
 
-    lines = [START, "## Complementary view sets (the paper's future work)", "",
+    lines = ["## Complementary view sets (the paper's future work)", "",
              f"Command: `python tools/view_set_results.py`; {date.today().isoformat()}, "
-             f"{platform.platform()}, {platform.machine()}, {len_cpus()} CPUs, no GPU used; "
-             f"wall time {minutes:.1f} min.", "",
+             f"{machine()}; wall time {format_seconds(seconds)}.", "",
              f"Meshes: the {len(bundled)} bundled samples "
              f"({', '.join(sorted(m.name for m in bundled))}) and {len(procedural)} procedural "
              "shapes (`vptoolkit.synthetic`, seeds 0 and 1 of each of "
@@ -164,8 +154,7 @@ def main() -> None:
               + " to reach 95 % of the reachable coverage, where greedy coverage needed "
               + " and ".join(f"{max(r['to_target']['greedy coverage'] for r in rows)}"
                              for rows in results.values()) + ".", "",
-              "![Coverage view sets of the bunny and a procedural chair](figures/view_sets.png)",
-              END]
+              "![Coverage view sets of the bunny and a procedural chair](figures/view_sets.png)"]
     section = "\n".join(lines)
     print(section)
     if args.quick:
@@ -179,15 +168,8 @@ def main() -> None:
     stacked = np.concatenate([np.pad(s, ((0, 0), (0, width - s.shape[1]), (0, 0)),
                                      constant_values=255) for s in sheets])
     save_png(stacked, FIGURES / "view_sets.png")
-    RESULTS.write_text(replace_section(RESULTS.read_text(encoding="utf-8"), section),
-                       encoding="utf-8")
+    write_section(RESULTS, "viewsets", section)
     print(f"wrote {RESULTS} and {FIGURES / 'view_sets.png'}")
-
-
-def len_cpus() -> int:
-    import os
-
-    return os.cpu_count() or 1
 
 
 if __name__ == "__main__":

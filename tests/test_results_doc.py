@@ -1,0 +1,54 @@
+"""tools/results_doc.py: the tables and docs/results.md sections of every results script."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import results_doc
+
+from vptoolkit.protocol import ProtocolScores
+
+
+def _scores(rows: list[list[float]]) -> ProtocolScores:
+    scores = np.array(rows, dtype=np.float64)
+    names = tuple(f"m{i}" for i in range(len(rows)))
+    return ProtocolScores(names=names, categories=("c",) * len(rows), scores=scores, n_rotations=1)
+
+
+def test_write_section_replaces_only_its_own_markers(tmp_path: Path) -> None:
+    path = tmp_path / "docs" / "results.md"
+    results_doc.write_section(path, "alpha", "first")
+    results_doc.write_section(path, "beta", "second")
+    results_doc.write_section(path, "alpha", "third")
+    text = path.read_text(encoding="utf-8")
+    assert text.startswith("# Results\n")
+    assert "<!-- alpha:start -->\nthird\n<!-- alpha:end -->" in text
+    assert "<!-- beta:start -->\nsecond\n<!-- beta:end -->" in text
+    assert "first" not in text
+    assert text.index("alpha") < text.index("beta")
+
+
+def test_markdown_table_aligns_labels_left_and_numbers_right() -> None:
+    lines = results_doc.markdown_table(["method", "VE", "note"], [["a", "1.0", "x"]], align="lrl")
+    assert lines == ["| method | VE | note |", "|---|---:|---|", "| a | 1.0 | x |"]
+    assert results_doc.markdown_table(["k", "v"], [])[1] == "|---|---:|"
+
+
+def test_comparison_table_stars_differences_beyond_two_standard_errors() -> None:
+    base = [[50.0, 50, 50, 50], [60, 60, 60, 60], [70, 70, 70, 70], [80, 80, 80, 80]]
+    better = [[row[0] + 10 + (i % 2), *row[1:]] for i, row in enumerate(base)]
+    rows = {"net": _scores(better), "random": _scores(base)}
+    lines = results_doc.comparison_table(rows, "net")
+    assert lines[0] == "| net minus | VE | VR | VKL | VMI |"
+    label, ve, vr = [cell.strip() for cell in lines[2].strip("|").split("|")][:3]
+    assert label == "random"
+    assert ve.startswith("+10.5 ± 0.3") and ve.endswith("*")
+    assert vr == "+0.0 ± 0.0"
+    sem = np.std([50, 60, 70, 80], ddof=1) / 2
+    assert results_doc.score_cells(rows["random"])[0] == f"65.0 ± {sem:.1f}"
+
+
+def test_format_seconds_picks_the_unit() -> None:
+    formatted = [results_doc.format_seconds(s) for s in (42, 750, 11160)]
+    assert formatted == ["42 s", "12.5 min", "3.1 h"]
