@@ -73,6 +73,7 @@ from vptoolkit.dataset.schema import (
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 from vptoolkit.files import remove_stale_partials, temporary_prefix
 from vptoolkit.optional import is_available, require
+from vptoolkit.progress import Bar, progress_bar
 
 __all__ = [
     "FORMAT_NAME",
@@ -320,7 +321,7 @@ class _Plan(NamedTuple):
     digests: dict[str, str]
 
 
-def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Any) -> _Plan:
+def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar) -> _Plan:
     hashers = {name: hashlib.sha256() for name in _ENTRY_ARRAYS}
     records: list[dict[str, Any]] = []
     checksums: list[int] = []
@@ -513,21 +514,6 @@ def _move_into_place(temporary: Path, target: Path, kind: str) -> None:
     shutil.rmtree(previous, ignore_errors=True)
 
 
-class _NoProgress:
-    def update(self, n: int = 1) -> None:
-        """Ignore progress."""
-
-    def close(self) -> None:
-        """Nothing to close."""
-
-
-def _progress_bar(enabled: bool, total: int, description: str) -> Any:
-    if not enabled:
-        return _NoProgress()
-    tqdm = require("tqdm").tqdm
-    return tqdm(total=total, desc=description, unit="model")
-
-
 def write_dataset(
     path: str | os.PathLike[str],
     entries: Sequence[ModelEntry],
@@ -601,11 +587,9 @@ def write_dataset(
     _root_attrs(attrs, n_models=n_models, n_views=n_views, n_points=None,
                 n_failures=len(failure_records))  # fail before reading any entry
 
-    bar = _progress_bar(progress, n_models, f"{target.name}: check")
-    try:
+    with progress_bar(total=n_models, description=f"{target.name}: check", unit="model",
+                      enabled=progress) as bar:
         plan = _first_pass(entries, n_views, bar)
-    finally:
-        bar.close()
     root_attrs = _root_attrs(
         attrs, n_models=n_models, n_views=n_views, n_points=plan.n_points,
         n_failures=len(failure_records),
@@ -678,8 +662,8 @@ def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, A
                  label: str, progress: bool) -> None:
     writers = {name: _RowWriter(stored[name], layout[name][1][0]) for name in _ENTRY_ARRAYS}
     n_views = layout["views"][0][0]
-    bar = _progress_bar(progress, len(plan.records), f"{label}: write")
-    try:
+    with progress_bar(total=len(plan.records), description=f"{label}: write", unit="model",
+                      enabled=progress) as bar:
         for position, record in enumerate(plan.records):
             checked = _check_entry(entries[position], position, n_views, plan.n_points or None)
             if _entry_checksum(checked) != plan.checksums[position]:
@@ -691,8 +675,6 @@ def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, A
                 writers[name].append(array[None] if name not in ("mesh_vertices", "mesh_faces")
                                      else array)
             bar.update(1)
-    finally:
-        bar.close()
     for writer in writers.values():
         writer.finish()
 
