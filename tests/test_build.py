@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from vptoolkit.dataset import build
+from vptoolkit import parallel
+from vptoolkit.dataset import compute
 from vptoolkit.dataset.build import (
     STAGING_DIR,
     BuildResult,
@@ -350,14 +351,14 @@ def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_pa
 
 
 def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monkeypatch):
-    measure = build._measure_model
+    measure = compute._measure_model
 
     def broken_on_mug(task):
-        if task["name"] == "mug":
+        if task.name == "mug":
             raise ZeroDivisionError("something\nnobody expected")
         return measure(task)
 
-    monkeypatch.setattr(build, "_measure_model", broken_on_mug)
+    monkeypatch.setattr(compute, "_measure_model", broken_on_mug)
     result = build_dataset(src, tmp_path / "out", **{**SMALL, "clean": False})
     assert result.n_models == 5 and result.n_failures == 3
     reasons = {f["source"]: f["reason"] for f in result.failures}
@@ -368,20 +369,20 @@ def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monk
 
 
 def test_a_missing_package_in_a_worker_is_retried_on_the_next_run(src, tmp_path, monkeypatch):
-    measure = build._measure_model
+    measure = compute._measure_model
 
     def no_pymeshlab_for_teapot(task):
-        if task["name"] == "teapot":
+        if task.name == "teapot":
             raise MissingDependencyError("pymeshlab: not importable; install it with pip")
         return measure(task)
 
     out = tmp_path / "out"
     options = {**SMALL, "clean": False}
-    monkeypatch.setattr(build, "_measure_model", no_pymeshlab_for_teapot)
+    monkeypatch.setattr(compute, "_measure_model", no_pymeshlab_for_teapot)
     first = build_dataset(src, out, **options)
     assert "cup/test/teapot.stl" in {f["source"] for f in first.failures}
     assert not list((out / STAGING_DIR).glob("*teapot*"))
-    monkeypatch.setattr(build, "_measure_model", measure)
+    monkeypatch.setattr(compute, "_measure_model", measure)
     second = build_dataset(src, out, **options)
     assert (second.n_models, second.n_failures, second.n_resumed) == (6, 2, 7)
 
@@ -418,23 +419,25 @@ def test_duplicate_names_are_failures_not_overwrites(tmp_path):
 
 def _die_on_bottle(task):
     """A task that kills its worker process for one model (a segfault in a native library)."""
-    if task["name"] == "bottle":
+    if task.name == "bottle":
         os._exit(11)
-    return {"model_id": f"{task['category']}/{task['name']}", "status": "ok", "pid": os.getpid()}
+    return compute.MeasuredModel(task.model_id, task.signature, {"pid": os.getpid()}, {}, {})
 
 
 def test_a_dying_worker_process_fails_only_its_model(tmp_path):
-    tasks = [{"source": f"c/{name}.obj", "category": "c", "name": name, "signature": {}}
+    tasks = [compute.ModelTask(f"/c/{name}.obj", f"c/{name}.obj", "c", name, 1, 1, 1, 4,
+                               False, False, 0, {})
              for name in ("apple", "bottle", "cherry", "date", "elder", "fig")]
-    results = []
-    build._run_locally(tasks, 2, results.append, function=_die_on_bottle)
-    by_name = {r["model_id"]: r for r in results}
-    assert sorted(by_name) == [f"c/{t['name']}" for t in tasks]
-    assert by_name["c/bottle"]["status"] == "failed" and not by_name["c/bottle"]["staged"]
-    assert by_name["c/bottle"]["failure"]["reason"] == (
-        "c/bottle.obj: the worker process died while processing it"
-    )
-    assert all(r["status"] == "ok" for name, r in by_name.items() if name != "c/bottle")
+    results = list(parallel.run_tasks(_die_on_bottle, tasks, workers=2,
+                                      crashed=compute.worker_died))
+    by_name = {r.model_id: r for r in results}
+    assert len(results) == len(tasks)
+    assert sorted(by_name) == [f"c/{t.name}" for t in tasks]
+    bottle = by_name["c/bottle"]
+    assert isinstance(bottle, compute.FailedModel) and not bottle.is_staged
+    assert bottle.failure["reason"] == "c/bottle.obj: the worker process died while processing it"
+    assert all(isinstance(r, compute.MeasuredModel)
+               for name, r in by_name.items() if name != "c/bottle")
 
 
 # --------------------------------------------------------------------------- formats and parallelism
@@ -475,7 +478,7 @@ def test_dask_cluster_gives_the_same_dataset(src, reference, tmp_path):
 
 def test_unreachable_scheduler_is_bad_input(src, tmp_path, monkeypatch):
     require_package("distributed")
-    monkeypatch.setattr(build, "_CONNECT_TIMEOUT", "1s")
+    monkeypatch.setattr(parallel, "_CONNECT_TIMEOUT", "1s")
     with pytest.raises(InputError, match="scheduler: cannot connect to tcp://127.0.0.1:9"):
         build_dataset(src, tmp_path / "out", scheduler="tcp://127.0.0.1:9", **SMALL)
 

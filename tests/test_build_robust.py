@@ -56,8 +56,9 @@ def test_workers_die_with_a_killed_build(tmp_path: Path) -> None:
         import sys
         sys.path.insert(0, {str(tmp_path)!r})
         import napping
-        from vptoolkit.dataset.build import _run_locally
-        _run_locally([{{"source": "a"}}, {{"source": "b"}}], 2, print, function=napping.nap)
+        from vptoolkit.parallel import run_tasks
+        for result in run_tasks(napping.nap, ["a", "b"], workers=2, crashed=repr):
+            print(result)
     """)
     build = subprocess.Popen([sys.executable, "-c", script])
     try:
@@ -93,7 +94,7 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
     content[len(content) // 3] ^= 0x10  # inside a compressed member: a bad CRC
     staged.write_bytes(bytes(content))
 
-    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.build"):
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
         again = build_dataset(src, out, **SMALL)
     warnings = [record.getMessage() for record in caplog.records if record.levelno >= logging.WARNING]
     assert len(warnings) == 1 and staged.name in warnings[0] and "\n" not in warnings[0]

@@ -9,7 +9,8 @@ from pathlib import Path
 import vptoolkit
 
 LAYERS = {
-    "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0,
+    "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0, "progress": 0,
+    "parallel": 0,
     "mesh": 1, "io": 1, "samples": 1, "predictions": 1,
     "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2,
     "visibility": 3,

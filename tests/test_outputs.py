@@ -112,7 +112,7 @@ def test_a_rerun_with_fewer_categories_says_the_store_shrinks(tmp_path: Path, ca
         shutil.copyfile(sample_path(Path(relative).name), tmp_path / "src" / relative)
     options = {"n_views": 20, "resolution": 32, "n_points": 50, "clean": False}
     build_dataset(tmp_path / "src", tmp_path / "out", **options)
-    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.build"):
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
         result = build_dataset(tmp_path / "src", tmp_path / "out", categories=["cup"], **options)
     assert result.n_models == 1
     assert any("1 staged models are not part of this run" in r.getMessage()

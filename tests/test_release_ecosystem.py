@@ -325,13 +325,13 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
     from click.testing import CliRunner
 
     from vptoolkit.cli import main
-    from vptoolkit.dataset import store
+    from vptoolkit.dataset import reader
 
     def no_zarr() -> None:
         raise MissingDependencyError("zarr: not importable; install it with pip install "
                                      "'vptoolkit[dataset]'")
 
-    monkeypatch.setattr(store, "_require_zarr", no_zarr)
+    monkeypatch.setattr(reader, "require_zarr", no_zarr)
     from vptoolkit.dataset.manifest import verify
 
     report = verify(release_copy)
@@ -357,9 +357,9 @@ def test_verify_prints_its_summary_once(release_copy: Path) -> None:
 
 def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypatch) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset import store
+    from vptoolkit.dataset import containers
 
-    monkeypatch.setattr(store, "zarr_is_usable", lambda: False)
+    monkeypatch.setattr(containers, "zarr_is_usable", lambda: False)
     with open_dataset(release.path) as dataset:
         assert dataset.path.name == "mini-2.1.0.h5" and len(dataset) == N_MODELS
 
@@ -367,10 +367,10 @@ def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypat
 def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
     import types
 
-    from vptoolkit.dataset import store
+    from vptoolkit.dataset import containers, store
 
     old = types.SimpleNamespace(__version__="2.18.3")
-    monkeypatch.setattr(store, "require", lambda module, extra=None: old)
+    monkeypatch.setattr(containers, "require", lambda module, extra=None: old)
     with pytest.raises(MissingDependencyError, match=r"zarr 2.18.3: .*pip install 'zarr>=3'"):
         store.open_store(release.zarr_zip)
 

@@ -47,6 +47,7 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
+from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import as_directions, fibonacci_sphere
 from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
 
@@ -361,9 +362,7 @@ def progress_runs(
     runs: Iterable[ViewHistograms], n_views: int, name: str
 ) -> Iterable[ViewHistograms]:
     """Pass runs of views through while a progress bar on stderr counts the views."""
-    from tqdm import tqdm
-
-    with tqdm(total=n_views, desc=name, unit="view", leave=False) as bar:
+    with progress_bar(total=n_views, description=name, unit="view", leave=False) as bar:
         for run in runs:
             bar.update(run.n_views)
             yield run

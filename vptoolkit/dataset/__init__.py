@@ -3,12 +3,18 @@
 Modules, one concept each (import them directly, e.g.
 ``from vptoolkit.dataset.store import open_store``):
 
-- ``store``: the on-disk layout of ``dataset_card/SCHEMA.md`` in Zarr v3
-  (directory or zip) and HDF5; atomic writing and lazy reading.
-- ``build``: the resumable build from a folder of meshes, with a failure log.
+- ``schema``: the data contract of ``dataset_card/SCHEMA.md`` (numpy only).
+- ``store``: the public API of a store in Zarr v3 (directory or zip) or
+  HDF5, over ``containers`` (which container a path names), ``writer``
+  (atomic writing), ``reader`` (lazy reading), ``_zarr`` and ``_hdf5``.
+- ``build``: the resumable build from a folder of meshes, with a failure
+  log, over ``sources`` (mesh files, ids, splits, seeds), ``staging`` (the
+  resumable staging folder) and ``compute`` (one model's task).
 - ``manifest``: the SHA-256 manifest of a store and its verification.
-- ``card``: the dataset card filled in from a store.
-- ``release``: packing a build into release files.
+- ``info``, ``card``, ``croissant``: the summary of a store, the dataset
+  card and the Croissant metadata, all computed from the store.
+- ``release``: packing a build into release files, with ``parquet``,
+  ``licenses`` and ``descriptions``.
 
 Nothing is imported here, so ``import vptoolkit.dataset`` stays cheap.
 """

@@ -6,8 +6,8 @@ root attribute that is not a ``str``, ``bool``, ``int`` or ``float`` is
 stored as a JSON string and the root attribute ``json_attributes``
 (:data:`~vptoolkit.dataset.schema.HDF5_JSON_KEY`) names those keys; reading
 decodes them. ``h5py`` is imported inside the functions, and
-:mod:`vptoolkit.dataset.store` imports this module only to write or open an
-HDF5 store.
+:mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader` import
+this module only to write or open an HDF5 store.
 """
 
 from __future__ import annotations

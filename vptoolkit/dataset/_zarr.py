@@ -3,9 +3,10 @@
 Owns writing (:class:`ZarrSink`, Blosc/zstd chunks, every chunk stored, zip
 entries normalised), opening for reading (:func:`open_zarr`) and the check
 that no chunk is missing (:func:`check_chunks`). The ``zarr`` module is
-passed in by :mod:`vptoolkit.dataset.store` (its ``_require_zarr``), which
-imports this module lazily, inside the functions that use it; importing it
-imports no ``zarr``, so ``zarr`` stays optional.
+passed in by :mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader`
+(from :func:`vptoolkit.dataset.containers.require_zarr`), which import this
+module lazily, inside the functions that use it; importing it imports no
+``zarr``, so ``zarr`` stays optional.
 """
 
 from __future__ import annotations

@@ -23,16 +23,17 @@ and renames that into place at the end, so the release folder either does not
 exist, stays empty, or is complete. :func:`~vptoolkit.dataset.manifest.verify`
 checks a release; :func:`~vptoolkit.dataset.card.dataset_info` and
 :func:`~vptoolkit.dataset.card.format_info` describe one. They are re-exported
-here so the command line needs one import.
+here so the command line needs one import, and so are the names of
+:mod:`vptoolkit.dataset.licenses` (``LICENSES.csv``) and
+:mod:`vptoolkit.dataset.descriptions` (the card, ``croissant.json`` and
+:func:`update_card`), which packing uses.
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import errno
 import importlib.resources
-import json
 import os
 import re
 import shutil
@@ -44,16 +45,30 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
 from vptoolkit.dataset.card import (
-    croissant_jsonld,
     dataset_info,
     format_info,
     info_from_reader,
     render_card,
 )
+from vptoolkit.dataset.descriptions import (
+    CARD_NAME,
+    CROISSANT_NAME,
+    INFO_NAME,
+    ReleaseOptions,
+    update_card,
+    write_descriptions,
+    write_json,
+)
+from vptoolkit.dataset.licenses import (
+    LICENSE_COLUMNS,
+    LICENSES_NAME,
+    read_licenses,
+    write_licenses,
+)
 from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
 from vptoolkit.dataset.store import SPLITS, ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import remove_stale_partials, temporary_prefix, write_text_atomic
+from vptoolkit.files import remove_stale_partials, temporary_prefix
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -81,20 +96,13 @@ __all__ = [
 DEFAULT_NAME = "vptoolkit-viewpoints"
 """Base name of the archives when :func:`pack_release` is given no ``name``."""
 
-CARD_NAME = "README.md"
-CROISSANT_NAME = "croissant.json"
-INFO_NAME = "dataset_info.json"
 SCHEMA_NAME = "SCHEMA.md"
-LICENSES_NAME = "LICENSES.csv"
 
 FORMATS = ("parquet", "zarr", "hdf5")
 """Containers :func:`pack_release` can write; all three by default."""
 
 DEFAULT_VERSION = "1.0.0"
 """Dataset version when :func:`pack_release` is given none."""
-
-LICENSE_COLUMNS = ("name", "license", "author", "url")
-"""Header of a per-mesh licence table (``--licenses FILE.csv``)."""
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _VERSION = re.compile(r"(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)")
@@ -243,11 +251,6 @@ def _check_release_dir(release_dir: Path) -> None:
             )
 
 
-def _write_json(path: Path, value: Any) -> None:
-    text = json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False)
-    write_text_atomic(path, text + "\n")
-
-
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -284,11 +287,11 @@ def _check_formats(formats: Sequence[str]) -> tuple[str, ...]:
 
 def _require_formats(formats: Sequence[str]) -> None:
     """Fail before any work when a chosen format's library is missing."""
-    from vptoolkit.dataset.store import _require_zarr
+    from vptoolkit.dataset.containers import require_zarr
     from vptoolkit.optional import require
 
     if "zarr" in formats:
-        _require_zarr()
+        require_zarr()
     if "parquet" in formats:
         require("pyarrow", extra="dataset")
 
@@ -337,63 +340,6 @@ def release_created(created: str | None, default: str | None) -> str:
     if default:
         return default
     return datetime.now(timezone.utc).strftime(_CREATED)
-
-
-def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
-    """Read a per-mesh licence table.
-
-    Parameters
-    ----------
-    path : Path or str
-        A UTF-8 CSV file whose header holds ``name``, ``license``, ``author``
-        and ``url`` (other columns are ignored); one row per model name.
-
-    Returns
-    -------
-    dict
-        Model name -> ``{"license", "author", "url"}`` (empty cells dropped).
-
-    Raises
-    ------
-    InputError
-        On a missing column, an empty name or licence, or a repeated name;
-        the message names the file and the line.
-    """
-    source = Path(path)
-    try:
-        text = source.read_text(encoding="utf-8-sig")
-    except (OSError, UnicodeDecodeError) as err:
-        raise InputError(f"{source.name}: cannot read ({err})") from err
-    rows = csv.DictReader(text.splitlines())
-    missing = [c for c in LICENSE_COLUMNS if c not in (rows.fieldnames or [])]
-    if missing:
-        raise InputError(f"{source.name}: header lacks the column(s) {', '.join(missing)}")
-    table: dict[str, dict[str, str]] = {}
-    for line, row in enumerate(rows, start=2):
-        name = (row.get("name") or "").strip()
-        licence = (row.get("license") or "").strip()
-        if not name or not licence:
-            raise InputError(f"{source.name}: line {line} needs a name and a license")
-        if name in table:
-            raise InputError(f"{source.name}: line {line} repeats the model {name!r}")
-        table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
-                       if (row.get(key) or "").strip()}
-    return table
-
-
-def _write_licenses(path: Path, records: Sequence[Mapping[str, Any]]) -> None:
-    lines = [",".join(LICENSE_COLUMNS)]
-    for record in records:
-        provenance = record.get("provenance") or {}
-        cells = [record["name"], *(provenance.get(key, "") for key in LICENSE_COLUMNS[1:])]
-        lines.append(",".join(_csv_cell(str(cell)) for cell in cells))
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8", newline="\n")
-
-
-def _csv_cell(text: str) -> str:
-    if any(c in text for c in ',"\n'):
-        return '"' + text.replace('"', '""') + '"'
-    return text
 
 
 def _copy_schema(target: Path) -> None:
@@ -554,13 +500,13 @@ def pack_release(
                 digests.update({s.path: sha256_file(staging / s.path) for s in shards})
             found = _release_warnings(records, provenance is not None)
             if provenance is not None:
-                _write_licenses(staging / LICENSES_NAME, records)
+                write_licenses(staging / LICENSES_NAME, records)
             _copy_schema(staging / SCHEMA_NAME)
             for extra in (LICENSES_NAME, SCHEMA_NAME):
                 if (staging / extra).exists():
                     digests[extra] = sha256_file(staging / extra)
             sizes = {file: (staging / file).stat().st_size for file in digests}
-            options = _ReleaseOptions(
+            options = ReleaseOptions(
                 license=license, version=version, created=when, pretty_name=pretty_name,
                 source_url=source_url, url=url, creator=creator,
                 license_name=license_name or ("source-mesh-licenses" if license == "other"
@@ -572,11 +518,11 @@ def pack_release(
             card = render_card(packed, digests, file_sizes=sizes, shards=shards,
                                **options.card_arguments(), warnings=found)
             (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
-            _write_descriptions(staging, packed, digests, sizes, shards, options)
+            write_descriptions(staging, packed, digests, sizes, shards, options)
             info = info_from_reader(packed)
         if described_name not in written:
             (staging / described_name).unlink()
-        _write_json(staging / INFO_NAME, info)
+        write_json(staging / INFO_NAME, info)
         files = write_sha256sums(staging)
         _check_release_dir(target)
         _publish(staging, target)
@@ -602,106 +548,3 @@ def pack_release(
     )
 
 
-@dataclass(frozen=True)
-class _ReleaseOptions:
-    """What a publisher said about a release, kept in ``croissant.json`` for later rewrites."""
-
-    license: str
-    version: str
-    created: str
-    pretty_name: str | None = None
-    source_url: str | None = None
-    url: str | None = None
-    creator: str | None = None
-    license_name: str | None = None
-    license_link: str | None = None
-
-    def card_arguments(self) -> dict[str, Any]:
-        return {"license": self.license, "pretty_name": self.pretty_name,
-                "version": self.version, "created": self.created,
-                "source_url": self.source_url, "license_name": self.license_name,
-                "license_link": self.license_link}
-
-
-def _write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],
-                        sizes: Mapping[str, int], shards: Sequence[ParquetShard],
-                        options: _ReleaseOptions) -> None:
-    """Write croissant.json from the card in ``folder`` (which it lists with its digest)."""
-    card = (folder / CARD_NAME).read_text(encoding="utf-8")
-    described = dict(digests)
-    described[CARD_NAME] = sha256_file(folder / CARD_NAME)
-    all_sizes = dict(sizes)
-    all_sizes[CARD_NAME] = (folder / CARD_NAME).stat().st_size
-    croissant = croissant_jsonld(
-        reader, described, license=options.license, name=options.pretty_name, file_sizes=all_sizes, shards=shards, card=card,
-        version=options.version, date_published=options.created, url=options.url,
-        source_url=options.source_url, creator=options.creator,
-    )
-    _write_json(folder / CROISSANT_NAME, croissant)
-
-
-def update_card(release_dir: Path | str) -> list[str]:
-    """Bring ``croissant.json`` and ``SHA256SUMS`` in line with an edited card.
-
-    A person may edit a release's ``README.md`` (wording, a contact, a
-    correction). This rewrites what depends on it: in ``croissant.json`` the
-    card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
-    text, then ``SHA256SUMS``. Archives, shards and every other file are
-    checked against the manifest first and never written.
-
-    Parameters
-    ----------
-    release_dir : Path or str
-        A release folder written by :func:`pack_release`.
-
-    Returns
-    -------
-    list of str
-        The files rewritten: ``["croissant.json", "SHA256SUMS"]``.
-
-    Raises
-    ------
-    InputError
-        If the folder lacks ``README.md``, ``croissant.json`` or
-        ``SHA256SUMS``, or ``croissant.json`` is not JSON.
-    VerificationError
-        If a file other than the card and the files derived from it differs
-        from the manifest: only the card may be edited.
-    """
-    from vptoolkit.dataset.card import rai_fields
-    from vptoolkit.dataset.manifest import read_sha256sums
-    from vptoolkit.errors import VerificationError
-
-    folder = Path(release_dir)
-    for required in (CARD_NAME, CROISSANT_NAME, MANIFEST_NAME):
-        if not (folder / required).is_file():
-            raise InputError(f"{folder / required}: missing; --update-card needs a packed release")
-    derived = {CARD_NAME, CROISSANT_NAME}
-    for relative, digest in read_sha256sums(folder / MANIFEST_NAME).items():
-        if relative in derived:
-            continue
-        if not (folder / relative).is_file() or sha256_file(folder / relative) != digest:
-            raise VerificationError(
-                f"{relative}: differs from SHA256SUMS; only {CARD_NAME} may be edited "
-                "(run vptool verify to see what changed)"
-            )
-    try:
-        document = json.loads((folder / CROISSANT_NAME).read_text(encoding="utf-8"))
-    except ValueError as err:
-        raise InputError(f"{CROISSANT_NAME}: not JSON ({err})") from err
-    card = (folder / CARD_NAME).read_text(encoding="utf-8")
-    for key in [key for key in document if key.startswith("rai:")]:
-        del document[key]
-    rai = rai_fields(card)
-    distribution = document.pop("distribution", [])
-    record_sets = document.pop("recordSet", [])
-    document.update(rai)
-    for item in distribution:
-        if isinstance(item, dict) and item.get("contentUrl") == CARD_NAME:
-            item["sha256"] = sha256_file(folder / CARD_NAME)
-            item["contentSize"] = f"{(folder / CARD_NAME).stat().st_size} B"
-    document["distribution"] = distribution
-    document["recordSet"] = record_sets
-    _write_json(folder / CROISSANT_NAME, document)
-    write_sha256sums(folder)
-    return [CROISSANT_NAME, MANIFEST_NAME]

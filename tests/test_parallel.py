@@ -1,0 +1,91 @@
+"""The process pool and the Dask address check of vptoolkit.parallel."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from vptoolkit.errors import InputError
+from vptoolkit.parallel import check_scheduler_address, run_tasks
+
+
+def _square(number: int) -> int:
+    return number * number
+
+
+def _square_or_die(number: int) -> int:
+    """Kills its worker process on 3, like a crash in a native library."""
+    if number == 3:
+        os._exit(11)
+    return number * number
+
+
+def _pid_and_threads(number: int) -> tuple[int, int]:
+    import numba
+
+    return os.getpid(), numba.get_num_threads()
+
+
+def test_one_worker_runs_in_this_process_in_order():
+    assert list(run_tasks(_square, range(5), workers=1, crashed=repr)) == [0, 1, 4, 9, 16]
+    assert list(run_tasks(_pid_and_threads, [0], workers=4, crashed=repr)) == [
+        _pid_and_threads(0)
+    ]
+
+
+def test_workers_are_other_processes_with_one_numba_thread():
+    results = list(run_tasks(_pid_and_threads, range(4), workers=2, crashed=repr))
+    assert len(results) == 4
+    assert all(pid != os.getpid() and threads == 1 for pid, threads in results)
+
+
+def test_a_crashing_task_yields_what_the_caller_says_and_the_rest_go_on():
+    results = list(run_tasks(_square_or_die, range(8), workers=2, crashed=lambda n: f"died {n}"))
+    assert sorted(results, key=str) == sorted([0, 1, 4, "died 3", 16, 25, 36, 49], key=str)
+
+
+def test_tasks_are_read_only_as_places_free_up():
+    taken: list[int] = []
+
+    def tasks():
+        for number in range(100):
+            taken.append(number)
+            yield number
+
+    results = run_tasks(_square, tasks(), workers=2, crashed=repr)
+    first = next(results)
+    assert first in {n * n for n in taken}
+    assert len(taken) <= 2 * 2 + 1  # the window of 2 * workers, plus the one that ended it
+    results.close()
+
+
+def test_workers_must_be_positive():
+    with pytest.raises(InputError, match="workers: must be at least 1"):
+        list(run_tasks(_square, [1], workers=0, crashed=repr))
+
+
+@pytest.mark.parametrize(
+    ("address", "expected"),
+    [
+        pytest.param("tcp://127.0.0.1:8786", "tcp://127.0.0.1:8786", id="tcp"),
+        pytest.param(" scheduler:8786 ", "scheduler:8786", id="bare-host-port"),
+        pytest.param("tls://[::1]:8786", "tls://[::1]:8786", id="ipv6"),
+    ],
+)
+def test_scheduler_addresses_are_accepted(address, expected):
+    assert check_scheduler_address(address) == expected
+
+
+@pytest.mark.parametrize(
+    ("address", "message"),
+    [
+        pytest.param("", "scheduler: expected an address", id="empty"),
+        pytest.param(8786, "scheduler: expected an address", id="int"),
+        pytest.param("http://127.0.0.1:8787", "is not a Dask scheduler address", id="dashboard"),
+        pytest.param("localhost", "is not a Dask scheduler address", id="no-port"),
+    ],
+)
+def test_other_addresses_are_bad_input(address, message):
+    with pytest.raises(InputError, match=message):
+        check_scheduler_address(address)

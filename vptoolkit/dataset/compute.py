@@ -1,0 +1,294 @@
+"""What one model's build task does: load, clean, measure and sample, timing each stage.
+
+:func:`process_model` is the function a build runs for every model, in this
+process, in a worker process or on a Dask worker
+(:mod:`vptoolkit.parallel`). It gets a :class:`ModelTask` of plain values and
+returns a :class:`MeasuredModel` (the arrays of one
+:class:`~vptoolkit.dataset.schema.ModelEntry` in schema dtypes, its record
+and the seconds per stage) or a :class:`FailedModel` with a one-line reason;
+it never raises. The caller stages the result
+(:mod:`vptoolkit.dataset.staging`).
+
+Determinism
+    Everything comes from the task: the point sample is seeded with
+    ``task.seed`` (from the split seed and the model id), and the cleaning
+    report is kept without its timings, so the same task gives the same
+    arrays and record in any process.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.checks import one_line
+from vptoolkit.dataset.manifest import sha256_file
+from vptoolkit.errors import MissingDependencyError, VptoolkitError
+
+__all__ = [
+    "BACKEND",
+    "VIEW_SET_VIEWS",
+    "FailedModel",
+    "MeasuredModel",
+    "ModelResult",
+    "ModelTask",
+    "cluster_lost",
+    "process_model",
+    "worker_died",
+]
+
+BACKEND = "raster"
+"""Pixel-counting backend of every build (:mod:`vptoolkit.visibility`)."""
+
+VIEW_SET_VIEWS = 6
+"""Most views in each model's stored coverage view set (SCHEMA.md, "Model record")."""
+
+
+@dataclass(frozen=True)
+class ModelTask:
+    """The plain, picklable arguments of one model's work.
+
+    Attributes
+    ----------
+    path : str
+        Absolute path of the mesh file.
+    source : str
+        Path relative to the source folder, with ``/`` separators.
+    category, name : str
+        The model's category and name.
+    n_views, resolution, n_points, max_faces : int
+        Views, triangle-ID image side in pixels, surface points, face budget.
+    clean, remesh : bool
+        Clean the mesh first; with ``clean``, also remesh.
+    seed : int
+        Seed of the point sample.
+    signature : dict
+        What identifies the source file in the staging folder (model id,
+        source, size, modification time), passed through to the result.
+    """
+
+    path: str
+    source: str
+    category: str
+    name: str
+    n_views: int
+    resolution: int
+    n_points: int
+    max_faces: int
+    clean: bool
+    remesh: bool
+    seed: int
+    signature: dict[str, Any]
+
+    @property
+    def model_id(self) -> str:
+        """Stable id ``category/name``."""
+        return f"{self.category}/{self.name}"
+
+
+@dataclass(frozen=True)
+class MeasuredModel:
+    """A model measured in full.
+
+    Attributes
+    ----------
+    model_id : str
+        ``category/name``.
+    signature : dict
+        The task's source signature.
+    record : dict
+        ``name``, ``category``, ``source``, ``source_sha256``,
+        ``n_vertices``, ``n_faces``, ``cleaning`` (report without timings, or
+        None) and ``view_set``.
+    arrays : dict of str to ndarray
+        The :class:`~vptoolkit.dataset.schema.ModelEntry` arrays in schema
+        dtypes (``points``, ``normals``, ``quality``, ``quality_raw``,
+        ``best_index``, ``best_value``, ``worst_index``, ``worst_value``,
+        ``vertices``, ``faces``).
+    seconds : dict of str to float
+        Wall-clock seconds of ``load``, ``clean``, ``measure`` and
+        ``sample``: reported, never stored.
+    """
+
+    model_id: str
+    signature: dict[str, Any]
+    record: dict[str, Any]
+    arrays: dict[str, NDArray[Any]]
+    seconds: dict[str, float]
+
+
+@dataclass(frozen=True)
+class FailedModel:
+    """A model that could not be measured.
+
+    Attributes
+    ----------
+    model_id : str
+        ``category/name``.
+    signature : dict
+        The task's source signature.
+    failure : dict of str to str
+        ``{"source", "category", "reason"}``, the reason one line.
+    is_staged : bool
+        Whether the failure belongs to the model and is kept in the staging
+        folder; False for the environment's failures (a missing package, no
+        memory, a dead worker, a lost cluster task), which the next run
+        tries again (default: True).
+    """
+
+    model_id: str
+    signature: dict[str, Any]
+    failure: dict[str, str]
+    is_staged: bool = True
+
+
+ModelResult = MeasuredModel | FailedModel
+"""What :func:`process_model` returns."""
+
+
+def process_model(task: ModelTask) -> ModelResult:
+    """Load, clean, sample and measure one model; never raises.
+
+    A top-level function of plain arguments, so local process pools and Dask
+    workers can run it. The caller writes the staged file.
+
+    Parameters
+    ----------
+    task : ModelTask
+        The model and the options.
+
+    Returns
+    -------
+    MeasuredModel or FailedModel
+        The arrays, record and seconds, or the one-line reason.
+    """
+    try:
+        return _measure_model(task)
+    # The worker's environment or load, not the model: recorded but not staged, so
+    # the next run tries the model again.
+    except MissingDependencyError as err:
+        return failed_model(task, f"{task.source}: {one_line(err)}", is_staged=False)
+    except MemoryError:
+        return failed_model(task, f"{task.source}: out of memory", is_staged=False)
+    except VptoolkitError as err:
+        return failed_model(task, _with_source(task.source, one_line(err)))
+    # This is the one place a broad except is right: an unexpected bug on one
+    # model of thousands must not stop the batch; it is recorded with its type.
+    except Exception as err:  # noqa: BLE001
+        return failed_model(
+            task, f"{task.source}: unexpected {type(err).__name__}: {one_line(err)}"
+        )
+
+
+def _measure_model(task: ModelTask) -> MeasuredModel:
+    from vptoolkit.clean import clean_mesh
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+    from vptoolkit.view_sets import measure_view_set
+
+    path = Path(task.path)
+    seconds: dict[str, float] = {}
+    started = time.perf_counter()
+    source_sha256 = sha256_file(path)
+    mesh = load_mesh(path)
+    seconds["load"] = time.perf_counter() - started
+    cleaning = None
+    started = time.perf_counter()
+    if task.clean:
+        mesh, report = clean_mesh(mesh, max_faces=task.max_faces, remesh=task.remesh)
+        cleaning = _without_timings(report.to_dict())
+    seconds["clean"] = time.perf_counter() - started
+    started = time.perf_counter()
+    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, n_views=task.n_views,
+                                         resolution=task.resolution, backend=BACKEND)
+    seconds["measure"] = time.perf_counter() - started
+    started = time.perf_counter()
+    sample = sample_surface(mesh, task.n_points, seed=task.seed)
+    seconds["sample"] = time.perf_counter() - started
+    columns = np.arange(quality.raw.shape[1])
+    raw = quality.raw.astype(np.float32)
+    arrays = {
+        "points": sample.points.astype(np.float32),
+        "normals": sample.normals.astype(np.float32),
+        "quality": quality.normalized.astype(np.float32),
+        "quality_raw": raw,
+        "best_index": quality.best_index.astype(np.int64),
+        "best_value": raw[quality.best_index, columns],
+        "worst_index": quality.worst_index.astype(np.int64),
+        "worst_value": raw[quality.worst_index, columns],
+        "vertices": mesh.vertices.astype(np.float32),
+        "faces": mesh.faces.astype(np.int32),
+    }
+    record = {
+        "name": task.name,
+        "category": task.category,
+        "source": task.source,
+        "source_sha256": source_sha256,
+        "n_vertices": mesh.n_vertices,
+        "n_faces": mesh.n_faces,
+        "cleaning": cleaning,
+        "view_set": view_set.record(),
+    }
+    return MeasuredModel(
+        model_id=task.model_id,
+        signature=task.signature,
+        record=record,
+        arrays=arrays,
+        seconds=seconds,  # wall-clock per stage: reported, never stored
+    )
+
+
+def failed_model(task: ModelTask, reason: str, *, is_staged: bool = True) -> FailedModel:
+    """The :class:`FailedModel` of a task, with a one-line ``reason``."""
+    return FailedModel(
+        model_id=task.model_id,
+        signature=task.signature,
+        failure={"source": task.source, "category": task.category, "reason": reason},
+        is_staged=is_staged,
+    )
+
+
+def worker_died(task: ModelTask) -> FailedModel:
+    """Result of a task whose worker process died twice (``crashed`` of a local pool)."""
+    return failed_model(
+        task, f"{task.source}: the worker process died while processing it", is_staged=False
+    )
+
+
+def cluster_lost(task: ModelTask, error: Exception) -> FailedModel:
+    """Result of a task the cluster lost (``failed`` of :func:`~vptoolkit.parallel.run_on_cluster`).
+
+    A lost worker or a cancelled task is the cluster's failure, not the
+    model's: it is recorded for this run without staging it, so a rerun
+    retries.
+    """
+    return failed_model(
+        task,
+        f"{task.source}: cluster task failed ({type(error).__name__}: {one_line(error)})",
+        is_staged=False,
+    )
+
+
+def _with_source(source: str, reason: str) -> str:
+    """Keep a reason that starts with the file or model name; prefix the source path otherwise."""
+    path = Path(source)
+    if reason.startswith((f"{path.name}:", f"{path.stem}:", f"{source}:")):
+        return reason
+    return f"{source}: {reason}"
+
+
+def _without_timings(report: Mapping[str, Any]) -> dict[str, Any]:
+    """The cleaning report without its wall-clock ``seconds``, which differ from run to run."""
+    cleaned = {key: value for key, value in report.items() if key != "seconds"}
+    if isinstance(cleaned.get("steps"), list):
+        cleaned["steps"] = [
+            {key: value for key, value in step.items() if key != "seconds"}
+            for step in cleaned["steps"]
+        ]
+    return cleaned

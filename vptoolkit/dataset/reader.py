@@ -1,0 +1,278 @@
+"""Reading a dataset store: :func:`open_store` and :class:`StoreReader`.
+
+:func:`open_store` opens any container (the container's own code is in
+:mod:`vptoolkit.dataset._zarr` and :mod:`vptoolkit.dataset._hdf5`), checks
+the root (format, schema version, measure order, arrays, counts) and, for
+Zarr, that no chunk is missing; :class:`StoreReader` then reads arrays
+lazily and decodes the JSON records.
+"""
+
+from __future__ import annotations
+
+import os
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.dataset.containers import require_zarr, store_kind
+from vptoolkit.dataset.schema import (
+    ARRAY_NAMES,
+    FORMAT_NAME,
+    SCHEMA_VERSION,
+    ModelEntry,
+    from_json_bytes,
+)
+from vptoolkit.errors import InputError, VerificationError
+
+__all__ = ["StoreReader", "open_store"]
+
+
+class StoreReader:
+    """Read access to one dataset store; returned by :func:`open_store`.
+
+    Arrays are read lazily: :meth:`array` returns a ``zarr.Array`` or
+    ``h5py.Dataset`` whose slices are numpy arrays. Use the reader as a
+    context manager or call :meth:`close`.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The store.
+    kind : str
+        ``"zarr"``, ``"zarr-zip"`` or ``"hdf5"``.
+    attrs : dict
+        Root attributes as JSON types (HDF5's JSON-encoded ones decoded).
+    """
+
+    def __init__(self, path: Path, kind: str, root: Any, store: Any,
+                 attrs: dict[str, Any], array_names: list[str]) -> None:
+        self.path = path
+        self.kind = kind
+        self.attrs = attrs
+        self._root = root
+        self._store = store
+        self._array_names = array_names
+        self._arrays: dict[str, Any] = {}
+        self._models: list[dict[str, Any]] | None = None
+        self._is_closed = False
+
+    def __repr__(self) -> str:
+        return f"StoreReader({str(self.path)!r}, kind={self.kind!r})"
+
+    def __enter__(self) -> StoreReader:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    @property
+    def n_models(self) -> int:
+        """Number of models ``M``."""
+        return int(self.attrs["n_models"])
+
+    def array_names(self) -> list[str]:
+        """Names of the root arrays, sorted."""
+        return list(self._array_names)
+
+    def array(self, name: str) -> Any:
+        """One root array, lazily.
+
+        Returns
+        -------
+        array : zarr.Array or h5py.Dataset
+            Has ``shape`` and ``dtype``; slicing returns numpy arrays.
+
+        Raises
+        ------
+        InputError
+            If the reader is closed or the store has no such array.
+        """
+        if self._is_closed:
+            raise InputError(f"{self.path.name}: store is closed")
+        if name not in self._arrays:
+            if name not in self._array_names:
+                raise InputError(f"{self.path.name}: no array {name!r}")
+            self._arrays[name] = self._root[name]
+        return self._arrays[name]
+
+    def stored_sha256(self, name: str) -> str:
+        """The ``sha256`` attribute of an array (see :func:`array_sha256`).
+
+        Raises
+        ------
+        InputError
+            If the array or its attribute is missing.
+        """
+        attributes = self.array(name).attrs
+        if "sha256" not in attributes:
+            raise InputError(f"{self.path.name}: array {name!r} has no sha256 attribute")
+        value = attributes["sha256"]
+        return value.decode("ascii") if isinstance(value, bytes) else str(value)
+
+    def models(self) -> list[dict[str, Any]]:
+        """The decoded ``models_json``: one record per model, in row order."""
+        if self._models is None:
+            decoded = self._decode("models_json")
+            if not isinstance(decoded, list) or len(decoded) != self.n_models:
+                raise InputError(
+                    f"{self.path.name}: models_json does not hold {self.n_models} records"
+                )
+            self._models = decoded
+        return [dict(record) for record in self._models]
+
+    def failures(self) -> list[dict[str, Any]]:
+        """The decoded ``failures_json``: one record per failed input."""
+        decoded = self._decode("failures_json")
+        if not isinstance(decoded, list):
+            raise InputError(f"{self.path.name}: failures_json is not a list")
+        return decoded
+
+    def entry(self, index: int) -> ModelEntry:
+        """Read model ``index`` (negative counts from the end) in full.
+
+        Returns
+        -------
+        entry : ModelEntry
+            Arrays in the stored dtypes.
+
+        Raises
+        ------
+        IndexError
+            If ``index`` is out of range.
+        """
+        n_models = self.n_models
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise InputError(f"index: expected an integer, got {index!r}")
+        if not -n_models <= index < n_models:
+            raise IndexError(f"index {index} out of range for {n_models} models")
+        row = int(index) % n_models
+        record = self.models()[row]
+        vertex_offsets = self.array("mesh_vertex_offsets")[row : row + 2]
+        face_offsets = self.array("mesh_face_offsets")[row : row + 2]
+        return ModelEntry(
+            name=record["name"],
+            category=record["category"],
+            split=record["split"],
+            source=record["source"],
+            source_sha256=record["source_sha256"],
+            points=np.asarray(self.array("points")[row]),
+            normals=np.asarray(self.array("normals")[row]),
+            quality=np.asarray(self.array("quality")[row]),
+            quality_raw=np.asarray(self.array("quality_raw")[row]),
+            best_index=np.asarray(self.array("best_index")[row]),
+            best_value=np.asarray(self.array("best_value")[row]),
+            worst_index=np.asarray(self.array("worst_index")[row]),
+            worst_value=np.asarray(self.array("worst_value")[row]),
+            vertices=np.asarray(self.array("mesh_vertices")[vertex_offsets[0] : vertex_offsets[1]]),
+            faces=np.asarray(self.array("mesh_faces")[face_offsets[0] : face_offsets[1]]),
+            cleaning=record["cleaning"],
+            view_set=record.get("view_set"),
+        )
+
+    def close(self) -> None:
+        """Close the underlying file; safe to call twice."""
+        if self._is_closed:
+            return
+        self._is_closed = True
+        self._arrays.clear()
+        self._store.close()
+
+    def _decode(self, name: str) -> Any:
+        try:
+            return from_json_bytes(self.array(name)[...])
+        except InputError as err:
+            raise InputError(f"{self.path.name}: {name} is not UTF-8 JSON") from err
+
+
+def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> StoreReader:
+    """Open a dataset store for reading.
+
+    Parameters
+    ----------
+    path : path-like
+        A ``*.zarr`` directory, a ``*.zarr.zip`` file or an ``*.h5`` /
+        ``*.hdf5`` file (use :func:`find_store` for folders).
+    check_chunks : bool
+        Refuse a Zarr store with a missing chunk, which would read as zeros
+        (default: True; :func:`vptoolkit.dataset.manifest.verify` turns it
+        off to report every damaged array itself).
+
+    Returns
+    -------
+    reader : StoreReader
+
+    Raises
+    ------
+    InputError
+        If the file is missing, unreadable, not a vptoolkit viewpoint
+        dataset, lacks one of :data:`ARRAY_NAMES`, or has a
+        ``schema_version`` other than :data:`SCHEMA_VERSION`.
+    VerificationError
+        If its ``measures`` or ``higher_is_better`` attribute differs from
+        :data:`~vptoolkit.conventions.MEASURES` and
+        :data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, or (with
+        ``check_chunks``) a chunk is missing; the message names the array and
+        its models.
+    """
+    source = Path(path)
+    kind = store_kind(source)
+    if not source.exists():
+        raise InputError(f"{source}: no such file or directory")
+    if source.is_dir() != (kind == "zarr"):
+        raise InputError(f"{source}: expected a {'directory' if kind == 'zarr' else 'file'}")
+    try:
+        if kind == "hdf5":
+            from vptoolkit.dataset._hdf5 import open_hdf5
+
+            root, store, attrs, names = open_hdf5(source)
+        else:
+            from vptoolkit.dataset._zarr import open_zarr
+
+            root, store, attrs, names = open_zarr(require_zarr(), source, kind)
+    except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
+        raise InputError(f"{source}: not a readable dataset store ({err})") from err
+    reader = StoreReader(source, kind, root, store, attrs, names)
+    is_valid = False
+    try:
+        _check_root(reader)
+        if check_chunks:
+            from vptoolkit.dataset._zarr import check_chunks as _check_chunks
+
+            _check_chunks(reader)
+        is_valid = True
+    finally:
+        if not is_valid:
+            reader.close()
+    return reader
+
+
+def _check_root(reader: StoreReader) -> None:
+    attrs, label = reader.attrs, reader.path.name
+    if attrs.get("format") != FORMAT_NAME:
+        raise InputError(
+            f"{label}: not a vptoolkit viewpoint dataset (format {attrs.get('format')!r})"
+        )
+    version = attrs.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise InputError(
+            f"{label}: schema_version {version!r} is not supported (this vptoolkit reads "
+            f"{SCHEMA_VERSION})"
+        )
+    if attrs.get("measures") != list(MEASURES):
+        raise VerificationError(
+            f"{label}: measures {attrs.get('measures')!r} differ from {list(MEASURES)}"
+        )
+    if attrs.get("higher_is_better") != list(HIGHER_IS_BETTER):
+        raise VerificationError(
+            f"{label}: higher_is_better {attrs.get('higher_is_better')!r} differs from "
+            f"{list(HIGHER_IS_BETTER)}"
+        )
+    missing = [name for name in ARRAY_NAMES if name not in reader.array_names()]
+    if missing:
+        raise InputError(f"{label}: missing arrays {missing}")
+    for key in ("n_models", "n_views", "n_points"):
+        if not isinstance(attrs.get(key), int):
+            raise InputError(f"{label}: root attribute {key!r} is missing or not an integer")

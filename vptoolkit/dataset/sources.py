@@ -1,0 +1,286 @@
+"""Where a build's models come from: mesh files, their ids, categories and splits.
+
+Source layout (:func:`discover_models`)
+    A ModelNet40-style tree ``<category>/<train|test>/<name>.off`` or any
+    folder of meshes: a model's category is the name of its parent folder
+    (its grandparent when the parent is ``train`` or ``test``), and files
+    directly in the source folder get the source folder's name. Every suffix
+    :data:`vptoolkit.io.SUPPORTED_SUFFIXES` names is read; hidden files and
+    folders (``.name``) are skipped. A model's name is its file stem and
+    must be unique in the dataset: files with the same stem (``a.off`` and
+    ``a.obj``, ``a.off`` under ``train/`` and ``test/``, or ``chair/a.off``
+    and ``table/a.off``) are all recorded as failures
+    (:func:`split_duplicates`), as nothing tells which one is meant.
+
+Splits (:func:`assign_split`)
+    80/10/10 from the split seed and ``category/name`` alone, so adding a
+    model never moves another; a model under ``test/`` stays test.
+
+Seeds (:func:`model_seed`)
+    The point sample of a model is seeded from the split seed and its
+    ``category/name``, never from a worker or queue position.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from vptoolkit.checks import as_path, check_int
+from vptoolkit.errors import InputError
+from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
+
+__all__ = [
+    "SPLIT_FRACTIONS",
+    "SourceModel",
+    "assign_split",
+    "discover_models",
+    "model_seed",
+    "models_outside",
+    "split_duplicates",
+    "split_of",
+]
+
+SPLIT_FRACTIONS: dict[str, float] = {"train": 0.8, "val": 0.1, "test": 0.1}
+"""Fractions of the train/val/test split (SCHEMA.md)."""
+
+_FOLDER_SPLITS = ("train", "test")
+
+
+@dataclass(frozen=True)
+class SourceModel:
+    """One mesh file found in a source folder.
+
+    Attributes
+    ----------
+    path : Path
+        Absolute path of the file.
+    source : str
+        Path relative to the source folder, with ``/`` separators.
+    category : str
+        Category (parent folder name, see :func:`discover_models`).
+    name : str
+        File stem, the model's name.
+    folder_split : str or None
+        ``"train"`` or ``"test"`` when the file sits in a folder of that
+        name (ModelNet layout), else None.
+    """
+
+    path: Path
+    source: str
+    category: str
+    name: str
+    folder_split: str | None = None
+
+    @property
+    def model_id(self) -> str:
+        """Stable id ``category/name`` used for the split and the seed."""
+        return f"{self.category}/{self.name}"
+
+
+# --------------------------------------------------------------------------- discovery
+
+
+def discover_models(
+    src: str | os.PathLike[str], categories: Iterable[str] | None = None
+) -> list[SourceModel]:
+    """Find the mesh files under a source folder.
+
+    Parameters
+    ----------
+    src : str or os.PathLike
+        A ModelNet40-style tree (``<category>/<train|test>/<name>.off``) or
+        any folder of meshes. A file's category is its parent folder's name,
+        or its grandparent's when the parent is ``train`` or ``test``; files
+        directly in ``src`` get ``src``'s own name. Files whose suffix is not
+        in :data:`~vptoolkit.io.SUPPORTED_SUFFIXES` and hidden files and
+        folders (name starting with ``.``) are ignored.
+    categories : iterable of str, optional
+        Keep only these categories (default: all).
+
+    Returns
+    -------
+    list of SourceModel
+        Sorted by ``(category, name, source)``. Duplicate names are kept
+        here; :func:`~vptoolkit.dataset.build.build_dataset` records them as failures.
+
+    Raises
+    ------
+    InputError
+        If ``src`` does not exist or is not a folder, holds no mesh files,
+        or a requested category has no mesh files.
+    """
+    root = as_path(src, "src")
+    if not root.exists():
+        raise InputError(f"{root}: source folder does not exist")
+    if not root.is_dir():
+        raise InputError(f"{root}: source is not a folder")
+    root = root.resolve()
+    wanted = _check_categories(categories)
+    models = [_source_model(root, path) for path in find_mesh_files(root)]
+    if not models:
+        raise InputError(
+            f"{root}: no mesh files found (looked for {', '.join(SUPPORTED_SUFFIXES)})"
+        )
+    if wanted is not None:
+        found = {model.category for model in models}
+        missing = [category for category in wanted if category not in found]
+        if missing:
+            raise InputError(
+                f"categories: no mesh files in {', '.join(missing)} under {root}; "
+                f"found {', '.join(sorted(found))}"
+            )
+        models = [model for model in models if model.category in wanted]
+    return sorted(models, key=lambda model: (model.category, model.name, model.source))
+
+
+def _source_model(root: Path, path: Path) -> SourceModel:
+    parents = path.relative_to(root).parts[:-1]
+    folder_split = None
+    if parents and parents[-1] in _FOLDER_SPLITS:
+        folder_split = parents[-1]
+        parents = parents[:-1]
+    category = parents[-1] if parents else root.name
+    return SourceModel(
+        path=path,
+        source=path.relative_to(root).as_posix(),
+        category=category,
+        name=path.stem,
+        folder_split=folder_split,
+    )
+
+
+def _check_categories(categories: Iterable[str] | None) -> list[str] | None:
+    if categories is None:
+        return None
+    if isinstance(categories, (str, bytes)):
+        raise InputError(
+            f"categories: expected a list of names, got the string {categories!r} "
+            "(split it on commas first)"
+        )
+    try:
+        names = list(categories)
+    except TypeError as err:
+        raise InputError(
+            f"categories: expected a list of names, got {type(categories).__name__}"
+        ) from err
+    if not names or not all(isinstance(name, str) and name for name in names):
+        raise InputError(f"categories: expected non-empty category names, got {names!r}")
+    return names
+
+
+def split_duplicates(
+    models: Sequence[SourceModel],
+) -> tuple[list[SourceModel], list[dict[str, str]]]:
+    """Separate models with a unique name from duplicates, which all become failures.
+
+    A name must be unique within the dataset (SCHEMA.md), so ``chair/a.off``
+    and ``table/a.off`` clash as much as ``chair/a.off`` and ``chair/a.obj``.
+    """
+    by_name: dict[str, list[SourceModel]] = {}
+    for model in models:
+        by_name.setdefault(model.name, []).append(model)
+    unique: list[SourceModel] = []
+    failures: list[dict[str, str]] = []
+    for model in models:
+        group = by_name[model.name]
+        if len(group) == 1:
+            unique.append(model)
+            continue
+        sources = ", ".join(sorted(other.source for other in group))
+        failures.append(
+            _failure(
+                model,
+                f"{model.source}: duplicate model name {model.name!r} "
+                f"({len(group)} files: {sources}); names must be unique, rename all but one",
+            )
+        )
+    return unique, failures
+
+
+def _failure(model: SourceModel, reason: str) -> dict[str, str]:
+    """A failure record (SCHEMA.md): ``{"source", "category", "reason"}``."""
+    return {"source": model.source, "category": model.category, "reason": reason}
+
+
+def models_outside(models: list[SourceModel], out_dir: Path) -> list[SourceModel]:
+    """Drop files inside the build folder, in case it lies within the source folder."""
+    out_resolved = out_dir.resolve()
+    return [model for model in models if not model.path.is_relative_to(out_resolved)]
+
+
+# --------------------------------------------------------------------------- splits and seeds
+
+
+def assign_split(
+    category: str, name: str, *, seed: int, folder_split: str | None = None
+) -> str:
+    """Split of one model, from the seed and its ``category/name`` alone.
+
+    ``u`` is the first 8 bytes of ``SHA-256(f"{seed}:{category}/{name}")``
+    read as a big-endian unsigned integer, divided by ``2**64`` (so
+    ``u = int(hexdigest[:16], 16) / 2**64``). Without a folder split,
+    ``u < 0.8`` is train, ``u < 0.9`` val, else test. In a ModelNet-style
+    tree a model under ``test/`` is always test, and one under ``train/``
+    is val when ``u >= 0.8 / 0.9`` (one ninth of them), else train.
+
+    Parameters
+    ----------
+    category, name : str
+        The model's category and name.
+    seed : int
+        Split seed.
+    folder_split : {"train", "test"} or None
+        The ModelNet folder the file sits in (default: None).
+
+    Returns
+    -------
+    str
+        ``"train"``, ``"val"`` or ``"test"``.
+
+    Raises
+    ------
+    InputError
+        If an argument has the wrong type or ``folder_split`` is unknown.
+
+    Examples
+    --------
+    >>> assign_split("chair", "chair_0001", seed=0, folder_split="test")
+    'test'
+    """
+    for value, what in ((category, "category"), (name, "name")):
+        if not isinstance(value, str) or not value:
+            raise InputError(f"{what}: expected a non-empty string, got {value!r}")
+    seed = check_int(seed, "seed", minimum=None)
+    if folder_split not in (None, *_FOLDER_SPLITS):
+        raise InputError(f"folder_split: expected 'train', 'test' or None, got {folder_split!r}")
+    if folder_split == "test":
+        return "test"
+    u = _unit_hash(f"{seed}:{category}/{name}")
+    train = SPLIT_FRACTIONS["train"]
+    if folder_split == "train":
+        return "val" if u >= train / (train + SPLIT_FRACTIONS["val"]) else "train"
+    if u < train:
+        return "train"
+    return "val" if u < train + SPLIT_FRACTIONS["val"] else "test"
+
+
+def split_of(model: SourceModel, seed: int) -> str:
+    """Split of a found model (:func:`assign_split` of its category, name and folder)."""
+    return assign_split(model.category, model.name, seed=seed, folder_split=model.folder_split)
+
+
+def _unit_hash(text: str) -> float:
+    """First 8 bytes of SHA-256(text), big-endian, divided by 2**64: a float in [0, 1)."""
+    digest = hashlib.sha256(text.encode("utf-8")).digest()
+    return int.from_bytes(digest[:8], "big") / 2**64
+
+
+def model_seed(split_seed: int, model_id: str) -> int:
+    """Point-sampling seed of one model: from the base seed and its stable id only."""
+    digest = hashlib.sha256(f"{split_seed}:points:{model_id}".encode()).digest()
+    return int.from_bytes(digest[:8], "big")
+

@@ -1,0 +1,364 @@
+"""The resumable staging folder of a build: one file per finished or failed model.
+
+Each finished model is first written to ``OUT/.staging/`` as one ``.npz``
+file (arrays plus a JSON ``meta`` member as ``uint8``; nothing pickled),
+and each failed one as one ``.failed.json``, both atomically (temporary
+file in the same folder, fsync, :func:`os.replace`). ``build.json`` there
+holds the options and the time the build was first started, and ``lock``
+keeps a second build out. A build killed at any point (even ``kill -9``) is
+resumed by running the same command again (:func:`scan_staging`): staged
+models whose source file is unchanged (same size and modification time,
+:func:`source_signature`) are kept, left-over temporary files are deleted,
+and a staged file that cannot be read in full is computed again after one
+warning. The staging folder is kept after the store is written, so
+rerunning (e.g. after adding models to the source) computes only what is
+new; delete ``OUT/.staging`` to reclaim its space, after which OUT can no
+longer be resumed. :class:`StagedEntries` reads the staged models back as
+the entries of :func:`vptoolkit.dataset.store.write_dataset`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import logging
+import os
+import re
+import zipfile
+from collections.abc import Iterator, Mapping, Sequence
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, overload
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.checks import one_line
+from vptoolkit.dataset.compute import FailedModel, MeasuredModel
+from vptoolkit.dataset.sources import SourceModel
+from vptoolkit.dataset.store import ModelEntry
+from vptoolkit.errors import InputError
+from vptoolkit.files import atomic_write
+
+__all__ = [
+    "STAGING_DIR",
+    "StagedEntries",
+    "build_lock",
+    "prepare_out",
+    "resume_or_start",
+    "scan_staging",
+    "source_signature",
+    "stage_failure",
+    "stage_key",
+    "stage_model",
+    "warn_about_models_left_out",
+]
+
+_log = logging.getLogger(__name__)
+
+STAGING_DIR = ".staging"
+"""Folder inside OUT that holds the finished models of a build in progress."""
+
+_STAGING_VERSION = 1
+_BUILD_FILE = "build.json"
+_LOCK_FILE = "lock"
+_TEMP_SUFFIX = ".partial"  # temporary files of vptoolkit.files.atomic_write
+_MODEL_SUFFIX = ".npz"
+_FAILURE_SUFFIX = ".failed.json"
+_ARRAY_NAMES = (
+    "points",
+    "normals",
+    "quality",
+    "quality_raw",
+    "best_index",
+    "best_value",
+    "worst_index",
+    "worst_value",
+    "vertices",
+    "faces",
+)
+# Options a resumed build must share with the staged one; anything else would
+# mix models computed two ways in one store.
+_RESUME_OPTIONS = (
+    "format",
+    "n_views",
+    "resolution",
+    "n_points",
+    "max_faces",
+    "clean",
+    "remesh",
+    "split_seed",
+    "backend",
+    "camera",
+    "toolkit_version",
+)
+
+
+def prepare_out(out_dir: Path) -> Path:
+    """Create OUT and its staging folder, or check that an existing OUT is ours."""
+    if out_dir.exists() and not out_dir.is_dir():
+        raise InputError(f"{out_dir}: output exists and is not a folder")
+    staging = out_dir / STAGING_DIR
+    if out_dir.is_dir() and not staging.is_dir() and any(out_dir.iterdir()):
+        raise InputError(
+            f"{out_dir}: folder is not empty and is not a vptoolkit build folder "
+            f"(no {STAGING_DIR}/); choose a new or empty folder"
+        )
+    staging.mkdir(parents=True, exist_ok=True)
+    return staging
+
+
+@contextlib.contextmanager
+def build_lock(staging: Path) -> Iterator[None]:
+    """Hold an exclusive lock on the staging folder (released by the OS if we are killed)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: no protection against two builds
+        yield
+        return
+    with open(staging / _LOCK_FILE, "a+b") as handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise InputError(
+                f"{staging.parent}: another build is running in this folder"
+            ) from err
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
+
+
+def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> str:
+    """Check the staged options against ``options`` or record them; return the creation time."""
+    build_file = staging / _BUILD_FILE
+    if build_file.exists():
+        try:
+            recorded = json.loads(build_file.read_text(encoding="utf-8"))
+            # builds from before the option did not remesh
+            staged_options = {"remesh": False, **recorded["options"]}
+            created = str(recorded["created"])
+        except (ValueError, KeyError, TypeError) as err:
+            raise InputError(f"{build_file}: unreadable build record ({err})") from err
+        changed = [
+            f"{key}={staged_options.get(key)!r} (now {options[key]!r})"
+            for key in _RESUME_OPTIONS
+            if staged_options.get(key) != options[key]
+        ]
+        if changed:
+            raise InputError(
+                f"{staging.parent}: holds a build made with {'; '.join(changed)}; "
+                "use a new OUT folder or the same options"
+            )
+        return created
+    created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    record = {
+        "staging_version": _STAGING_VERSION,
+        "created": created,
+        "source": str(root),
+        "options": dict(options),
+    }
+    _write_atomic(build_file, json.dumps(record, indent=2, sort_keys=True).encode("utf-8"))
+    return created
+
+
+def stage_key(model_id: str) -> str:
+    """File stem of a model in the staging folder: readable, safe and unique."""
+    readable = re.sub(r"[^A-Za-z0-9_.-]+", "_", model_id.replace("/", "__"))[:80]
+    digest = hashlib.sha256(model_id.encode("utf-8")).hexdigest()[:16]
+    return f"m-{readable}-{digest}"
+
+
+def scan_staging(
+    staging: Path, models: Sequence[SourceModel]
+) -> tuple[dict[str, Path], dict[str, dict[str, str]], list[SourceModel]]:
+    """Sort models into staged results, staged failures and work still to do.
+
+    Temporary files of an interrupted write are deleted. A staged result is
+    kept only when its model id and source file (path, size, modification
+    time) still match; otherwise it is deleted and the model is redone.
+    """
+    names = sorted(os.listdir(staging))
+    for name in names:
+        if name.endswith(_TEMP_SUFFIX):
+            (staging / name).unlink(missing_ok=True)
+    present = set(names)
+    done: dict[str, Path] = {}
+    failed: dict[str, dict[str, str]] = {}
+    todo: list[SourceModel] = []
+    for model in models:
+        key = stage_key(model.model_id)
+        model_file = staging / f"{key}{_MODEL_SUFFIX}"
+        failure_file = staging / f"{key}{_FAILURE_SUFFIX}"
+        has_model = model_file.name in present
+        has_failure = failure_file.name in present
+        signature = source_signature(model)
+        if has_model and not has_failure and _staged_meta_matches(model_file, signature):
+            done[model.model_id] = model_file
+            continue
+        if has_failure and not has_model:
+            record = _read_failure(failure_file)
+            if record is not None and record.get("signature") == signature:
+                failed[model.model_id] = record["failure"]
+                continue
+        model_file.unlink(missing_ok=True)
+        failure_file.unlink(missing_ok=True)
+        todo.append(model)
+    return done, failed, todo
+
+
+def warn_about_models_left_out(
+    staging: Path, models: Sequence[SourceModel], out_dir: Path
+) -> None:
+    """Say so when this run's store will hold fewer models than the folder has staged.
+
+    A rerun with other ``categories`` (or with models removed from the source)
+    writes a store of this run's models only; the other staged models are
+    kept, and a later run that includes them again takes them from there.
+    """
+    wanted = {f"{stage_key(model.model_id)}{_MODEL_SUFFIX}" for model in models}
+    others = [
+        name for name in sorted(os.listdir(staging))
+        if name.startswith("m-") and name.endswith(_MODEL_SUFFIX) and name not in wanted
+    ]
+    if others:
+        _log.warning(
+            "%s: %d staged models are not part of this run (other --categories or removed "
+            "sources); the store will hold only this run's %d models (the staged ones are "
+            "kept for a later run)", out_dir, len(others), len(models),
+        )
+
+
+def source_signature(model: SourceModel) -> dict[str, Any]:
+    """What identifies the staged result of a source file: id, path, size and mtime."""
+    try:
+        info = model.path.stat()
+        size, mtime_ns = int(info.st_size), int(info.st_mtime_ns)
+    except OSError:
+        size, mtime_ns = -1, -1
+    return {"model_id": model.model_id, "source": model.source, "size": size, "mtime_ns": mtime_ns}
+
+
+def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
+    """Whether a staged model is whole and was made from the same source file.
+
+    Every member is read in full, so a bad CRC or a truncated member anywhere
+    in the file (not just in ``meta``) counts as unreadable: the model is
+    computed again after one warning, instead of failing the final write.
+    """
+    try:
+        # np.load leaks its file handle when the zip is broken, so open the file here.
+        with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
+            meta = _decode_json(staged["meta"])
+            missing = [name for name in _ARRAY_NAMES if name not in staged.files]
+            if missing:
+                raise KeyError(f"no member {missing[0]!r}")
+            for name in _ARRAY_NAMES:
+                staged[name]  # reads the member in full and checks its CRC
+    # unreadable: redo it
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, UnicodeDecodeError) as err:
+        _log.warning("%s: staged model unreadable (%s); computing it again", path.name,
+                     one_line(err))
+        return False
+    return bool(meta.get("signature") == signature)
+
+
+def _read_failure(path: Path) -> dict[str, Any] | None:
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) and "failure" in record else None
+
+
+def stage_model(staging: Path, result: MeasuredModel) -> Path:
+    """Write a finished model's arrays and meta to the staging folder atomically."""
+    key = stage_key(result.model_id)
+    path = staging / f"{key}{_MODEL_SUFFIX}"
+    meta = {"signature": result.signature, "record": result.record}
+    _write_atomic(path, {**result.arrays, "meta": _encode_json(meta)})
+    (staging / f"{key}{_FAILURE_SUFFIX}").unlink(missing_ok=True)
+    return path
+
+
+def stage_failure(staging: Path, result: FailedModel) -> None:
+    """Write a failed model's reason and source signature to the staging folder atomically."""
+    key = stage_key(result.model_id)
+    record = {"signature": result.signature, "failure": result.failure}
+    _write_atomic(
+        staging / f"{key}{_FAILURE_SUFFIX}", json.dumps(record, sort_keys=True).encode("utf-8")
+    )
+    (staging / f"{key}{_MODEL_SUFFIX}").unlink(missing_ok=True)
+
+
+def _write_atomic(path: Path, payload: bytes | Mapping[str, NDArray[Any]]) -> None:
+    """Write bytes, or arrays as a compressed ``.npz``, to ``path`` atomically.
+
+    :func:`vptoolkit.files.atomic_write`: a reader (or a resumed build) sees
+    the old file or the whole new one, never a part.
+    """
+    with atomic_write(path) as stream:
+        if isinstance(payload, bytes):
+            stream.write(payload)
+        else:
+            np.savez_compressed(stream, **payload)
+    _fsync_folder(path.parent)
+
+
+def _fsync_folder(folder: Path) -> None:
+    """Make a rename durable; a no-op where folders cannot be opened (Windows)."""
+    try:
+        handle = os.open(folder, os.O_RDONLY)
+    except OSError:  # pragma: no cover - Windows
+        return
+    try:
+        os.fsync(handle)
+    except OSError:  # pragma: no cover - some file systems refuse fsync on folders
+        pass
+    finally:
+        os.close(handle)
+
+
+def _encode_json(value: Any) -> NDArray[np.uint8]:
+    text = json.dumps(value, sort_keys=True, separators=(",", ":"))
+    return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()
+
+
+def _decode_json(array: NDArray[np.uint8]) -> Any:
+    return json.loads(np.asarray(array, dtype=np.uint8).tobytes().decode("utf-8"))
+
+
+class StagedEntries(Sequence[ModelEntry]):
+    """The staged models as a lazy sequence of :class:`ModelEntry`, one file read per item."""
+
+    def __init__(self, items: Sequence[tuple[Path, str]]) -> None:
+        self._items = list(items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    @overload
+    def __getitem__(self, index: int) -> ModelEntry: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> StagedEntries: ...
+
+    def __getitem__(self, index: int | slice) -> ModelEntry | StagedEntries:
+        if isinstance(index, slice):
+            return StagedEntries(self._items[index])
+        path, split = self._items[index]
+        with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
+            arrays = {name: staged[name] for name in _ARRAY_NAMES}
+            meta = _decode_json(staged["meta"])
+        record = meta["record"]
+        return ModelEntry(
+            name=record["name"],
+            category=record["category"],
+            split=split,
+            source=record["source"],
+            source_sha256=record["source_sha256"],
+            cleaning=record["cleaning"],
+            view_set=record.get("view_set"),
+            **arrays,
+        )

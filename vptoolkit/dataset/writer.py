@@ -1,0 +1,543 @@
+"""Writing a dataset store: :func:`write_dataset`.
+
+Two passes over the entries, so a store of any size is written with one
+model in memory at a time: the first checks every entry (dtypes, shapes,
+sorted unique names, finite values), learns the layout and computes each
+array's SHA-256; the second writes the rows in chunks and checks that every
+entry reads the same as on the first pass. The store is written next to its
+target under a temporary name and moved into place at the end, so a reader
+never sees a part. The containers' own code lives in
+:mod:`vptoolkit.dataset._zarr` and :mod:`vptoolkit.dataset._hdf5`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import tempfile
+import zlib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any, NamedTuple, Protocol
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.dataset.containers import require_zarr, store_kind
+from vptoolkit.dataset.schema import (
+    ARRAY_NAMES,
+    BUILD_ATTRS,
+    FAILURE_KEYS,
+    FORMAT_NAME,
+    HDF5_JSON_KEY,
+    SCHEMA_VERSION,
+    SPLITS,
+    ModelEntry,
+    array_sha256,
+    json_bytes,
+    le_bytes,
+    published_split,
+)
+from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.files import remove_stale_partials, temporary_prefix
+from vptoolkit.progress import Bar, progress_bar
+
+__all__ = ["write_dataset"]
+
+_CHUNK_MODELS = 64  # models per chunk of the per-model arrays other than points/normals
+_CHUNK_ROWS = 1 << 16  # rows per chunk of the concatenated mesh arrays and the offsets
+_CHUNK_BYTES = 1 << 22  # bytes per chunk of the JSON arrays
+_SHA256_HEX = re.compile(r"[0-9a-f]{64}")
+
+
+class _Checked(NamedTuple):
+    """One entry's arrays cast to the stored dtypes, in the order they are written."""
+
+    record: dict[str, Any]
+    arrays: dict[str, NDArray[Any]]
+
+
+_ENTRY_ARRAYS = {
+    # stored array name: (ModelEntry field, dtype)
+    "points": ("points", np.dtype("<f4")),
+    "normals": ("normals", np.dtype("<f4")),
+    "quality": ("quality", np.dtype("<f4")),
+    "quality_raw": ("quality_raw", np.dtype("<f4")),
+    "best_index": ("best_index", np.dtype("<i8")),
+    "best_value": ("best_value", np.dtype("<f4")),
+    "worst_index": ("worst_index", np.dtype("<i8")),
+    "worst_value": ("worst_value", np.dtype("<f4")),
+    "mesh_vertices": ("vertices", np.dtype("<f4")),
+    "mesh_faces": ("faces", np.dtype("<i4")),
+}
+
+
+def _cast(entry_name: str, field: str, value: Any, dtype: np.dtype[Any],
+          shape: tuple[int | None, ...]) -> NDArray[Any]:
+    where = f"entries: model {entry_name!r}, {field}"
+    try:
+        source = np.asarray(value)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"{where}: not an array ({err})") from err
+    if source.dtype.kind not in "iuf":
+        raise InputError(f"{where}: expected a numeric array, got dtype {source.dtype}")
+    if dtype.kind in "iu" and source.dtype.kind == "f":
+        raise InputError(f"{where}: expected integers, got dtype {source.dtype}")
+    if source.ndim != len(shape) or any(
+        want is not None and got != want for got, want in zip(source.shape, shape)
+    ):
+        expected = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+        raise InputError(f"{where}: expected shape {expected}, got {source.shape}")
+    if dtype.kind in "iu" and source.size and dtype.itemsize < source.dtype.itemsize:
+        info = np.iinfo(dtype)
+        if source.min() < info.min or source.max() > info.max:
+            raise InputError(f"{where}: values do not fit in {dtype.name}")
+    return np.ascontiguousarray(source, dtype=dtype)
+
+
+def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None) -> _Checked:
+    """Validate one entry and cast its arrays; ``n_points`` None accepts any count."""
+    if not isinstance(entry, ModelEntry):
+        raise InputError(f"entries[{position}]: expected a ModelEntry, got {type(entry).__name__}")
+    for field in ("name", "category", "split", "source", "source_sha256"):
+        value = getattr(entry, field)
+        if not isinstance(value, str) or not value:
+            raise InputError(
+                f"entries[{position}]: {field} must be a non-empty string, got {value!r}"
+            )
+    name = entry.name
+    if published_split(entry.split) not in SPLITS:
+        raise InputError(f"entries: model {name!r}, split {entry.split!r} is not one of {SPLITS}")
+    if not _SHA256_HEX.fullmatch(entry.source_sha256):
+        raise InputError(f"entries: model {name!r}, source_sha256 is not 64 lower-case hex digits")
+    arrays = {
+        "points": _cast(name, "points", entry.points, _ENTRY_ARRAYS["points"][1], (n_points, 3)),
+    }
+    n_points = arrays["points"].shape[0]
+    if n_points < 1:
+        raise InputError(f"entries: model {name!r}, points is empty")
+    shapes: dict[str, tuple[int | None, ...]] = {
+        "normals": (n_points, 3),
+        "quality": (n_views, len(MEASURES)),
+        "quality_raw": (n_views, len(MEASURES)),
+        "best_index": (len(MEASURES),),
+        "best_value": (len(MEASURES),),
+        "worst_index": (len(MEASURES),),
+        "worst_value": (len(MEASURES),),
+        "mesh_vertices": (None, 3),
+        "mesh_faces": (None, 3),
+    }
+    for stored, shape in shapes.items():
+        field, dtype = _ENTRY_ARRAYS[stored]
+        arrays[stored] = _cast(name, field, getattr(entry, field), dtype, shape)
+    for field in ("points", "normals", "mesh_vertices"):
+        if not np.isfinite(arrays[field]).all():
+            raise InputError(f"entries: model {name!r}, {field} has NaN or infinite values")
+    quality = arrays["quality"]
+    if not (np.isfinite(quality).all() and (quality >= 0).all() and (quality <= 1).all()):
+        raise InputError(f"entries: model {name!r}, quality must be finite and in [0, 1]")
+    for field in ("best_index", "worst_index"):
+        index = arrays[field]
+        if ((index < 0) | (index >= n_views)).any():
+            raise InputError(f"entries: model {name!r}, {field} out of range [0, {n_views})")
+    faces = arrays["mesh_faces"]
+    n_vertices = arrays["mesh_vertices"].shape[0]
+    if faces.size and (faces.min() < 0 or faces.max() >= n_vertices):
+        raise InputError(
+            f"entries: model {name!r}, faces refer to vertices outside [0, {n_vertices})"
+        )
+    if entry.cleaning is not None and not isinstance(entry.cleaning, dict):
+        raise InputError(f"entries: model {name!r}, cleaning must be a dict or None")
+    record = entry.record()
+    try:
+        json.dumps(record, allow_nan=False)
+    except (TypeError, ValueError) as err:
+        raise InputError(f"entries: model {name!r}, record is not JSON-safe ({err})") from err
+    return _Checked(record, arrays)
+
+
+def _entry_checksum(checked: _Checked, hashers: Mapping[str, Any] | None = None) -> int:
+    """A cheap checksum (CRC-32) of one entry, to notice an entry that reads differently twice.
+
+    With ``hashers`` (one SHA-256 per stored array), also feed each array's bytes to its hasher.
+    """
+    value = zlib.crc32(json.dumps(checked.record, sort_keys=True).encode("utf-8"))
+    for name, array in checked.arrays.items():
+        data = le_bytes(array)
+        if hashers is not None:
+            hashers[name].update(data)
+        value = zlib.crc32(data, value)
+    return value
+
+
+class _Plan(NamedTuple):
+    """What the first pass over the entries learns."""
+
+    n_points: int
+    records: list[dict[str, Any]]
+    checksums: list[int]
+    vertex_offsets: NDArray[np.int64]
+    face_offsets: NDArray[np.int64]
+    digests: dict[str, str]
+
+
+def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar) -> _Plan:
+    hashers = {name: hashlib.sha256() for name in _ENTRY_ARRAYS}
+    records: list[dict[str, Any]] = []
+    checksums: list[int] = []
+    n_vertices = [0]
+    n_faces = [0]
+    seen: set[str] = set()
+    previous: tuple[str, str] | None = None
+    n_points: int | None = None
+    for position in range(len(entries)):
+        checked = _check_entry(entries[position], position, n_views, n_points)
+        record = checked.record
+        key = (record["category"], record["name"])
+        if record["name"] in seen:
+            raise InputError(f"entries: duplicate model name {record['name']!r}")
+        if previous is not None and key < previous:
+            raise InputError(
+                f"entries: model {record['name']!r} ({key[0]}/{key[1]}) comes after "
+                f"{previous[0]}/{previous[1]}; entries must be sorted by (category, name)"
+            )
+        seen.add(record["name"])
+        previous = key
+        n_points = checked.arrays["points"].shape[0]
+        records.append(record)
+        checksums.append(_entry_checksum(checked, hashers))
+        n_vertices.append(record["n_vertices"])
+        n_faces.append(record["n_faces"])
+        progress.update(1)
+    return _Plan(
+        n_points=0 if n_points is None else n_points,
+        records=records,
+        checksums=checksums,
+        vertex_offsets=np.cumsum(n_vertices, dtype=np.int64),
+        face_offsets=np.cumsum(n_faces, dtype=np.int64),
+        digests={name: hasher.hexdigest() for name, hasher in hashers.items()},
+    )
+
+
+def _check_views(views: ArrayLike) -> NDArray[np.float64]:
+    try:
+        array = np.array(views, dtype=np.dtype("<f8"))
+    except (TypeError, ValueError) as err:
+        raise InputError(f"views: not a numeric array ({err})") from err
+    if array.ndim != 2 or array.shape[1] != 3 or array.shape[0] < 1:
+        raise InputError(f"views: expected shape (n_views, 3) with n_views >= 1, got {array.shape}")
+    if not np.isfinite(array).all():
+        raise InputError("views: contains NaN or infinite values")
+    if not np.allclose(np.linalg.norm(array, axis=1), 1.0, atol=1e-6):
+        raise InputError("views: expected unit vectors")
+    return array
+
+
+def _check_failures(failures: Sequence[Mapping[str, str]]) -> list[dict[str, str]]:
+    checked = []
+    for position, failure in enumerate(failures):
+        if not isinstance(failure, Mapping) or set(failure) != set(FAILURE_KEYS):
+            keys = sorted(failure) if isinstance(failure, Mapping) else type(failure).__name__
+            raise InputError(
+                f"failures[{position}]: expected exactly the keys {list(FAILURE_KEYS)}, got {keys}"
+            )
+        if not all(isinstance(failure[key], str) for key in FAILURE_KEYS):
+            raise InputError(f"failures[{position}]: values must be strings")
+        checked.append({key: failure[key] for key in FAILURE_KEYS})
+    return checked
+
+
+def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
+                n_points: int | None, n_failures: int) -> dict[str, Any]:
+    """The complete root attributes; ``n_points`` None checks ``attrs`` before it is known."""
+    if not isinstance(attrs, Mapping):
+        raise InputError(f"attrs: expected a mapping, got {type(attrs).__name__}")
+    missing = [key for key in BUILD_ATTRS if key not in attrs]
+    if missing:
+        raise InputError(f"attrs: missing root attributes {missing}")
+    if HDF5_JSON_KEY in attrs:
+        raise InputError(f"attrs: {HDF5_JSON_KEY!r} is reserved for HDF5 files")
+    own: dict[str, Any] = {
+        "format": FORMAT_NAME,
+        "schema_version": SCHEMA_VERSION,
+        "measures": list(MEASURES),
+        "higher_is_better": list(HIGHER_IS_BETTER),
+        "n_models": n_models,
+        "n_views": n_views,
+        "n_points": 0 if n_points is None else n_points,
+    }
+    tail = {"n_failures": n_failures}
+    for key, value in {**own, **tail}.items():
+        # Attributes read back from a store may be passed through unchanged.
+        if key == "n_points" and n_points is None:
+            continue
+        if key in attrs and attrs[key] != value:
+            raise InputError(
+                f"attrs: {key!r} is set by the writer to {value!r}, got {attrs[key]!r}"
+            )
+    root = dict(own)
+    for key in BUILD_ATTRS:
+        root[key] = attrs[key]
+    for key in sorted(set(attrs) - set(root) - set(tail)):
+        if not isinstance(key, str):
+            raise InputError(f"attrs: keys must be strings, got {key!r}")
+        root[key] = attrs[key]
+    root.update(tail)
+    try:
+        # A JSON round trip turns tuples into lists and rejects NaN and non-JSON types.
+        return dict(json.loads(json.dumps(root, allow_nan=False)))
+    except (TypeError, ValueError) as err:
+        raise InputError(f"attrs: not JSON-safe ({err})") from err
+
+
+class _Sink(Protocol):
+    def create(self, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
+               chunks: tuple[int, ...], sha256: str) -> Any: ...
+
+    def close(self) -> None: ...
+
+
+class _RowWriter:
+    """Appends rows to a stored array, writing whole chunks once each."""
+
+    def __init__(self, array: Any, chunk_rows: int) -> None:
+        self._array = array
+        self._chunk_rows = max(1, chunk_rows)
+        self._pending: list[NDArray[Any]] = []
+        self._n_pending = 0
+        self._start = 0
+
+    def append(self, rows: NDArray[Any]) -> None:
+        if len(rows) == 0:
+            return
+        self._pending.append(rows)
+        self._n_pending += len(rows)
+        if self._n_pending >= self._chunk_rows:
+            self._flush(whole_chunks_only=True)
+
+    def finish(self) -> None:
+        self._flush(whole_chunks_only=False)
+
+    def _flush(self, *, whole_chunks_only: bool) -> None:
+        if not self._n_pending:
+            return
+        block = self._pending[0] if len(self._pending) == 1 else np.concatenate(self._pending)
+        n_rows = len(block)
+        if whole_chunks_only:
+            n_rows -= n_rows % self._chunk_rows
+        self._array[self._start : self._start + n_rows] = block[:n_rows]
+        self._start += n_rows
+        rest = block[n_rows:]
+        self._pending = [rest] if len(rest) else []
+        self._n_pending = len(rest)
+
+
+def _temporary_sibling(target: Path, kind: str) -> Path:
+    prefix, suffix = temporary_prefix(target.name), ".partial"
+    if kind == "zarr":
+        return Path(tempfile.mkdtemp(prefix=prefix, suffix=suffix, dir=target.parent))
+    handle, name = tempfile.mkstemp(prefix=prefix, suffix=suffix, dir=target.parent)
+    os.close(handle)
+    return Path(name)
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path, ignore_errors=True)
+    elif path.exists() or path.is_symlink():
+        path.unlink()
+
+
+def _move_into_place(temporary: Path, target: Path, kind: str) -> None:
+    if kind != "zarr":
+        with open(temporary, "rb+") as handle:
+            os.fsync(handle.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)  # mkstemp made it private (0600)
+        os.replace(temporary, target)
+        return
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o777 & ~umask)  # mkdtemp made it private (0700)
+    if not target.exists():
+        os.rename(temporary, target)
+        return
+    # A directory cannot be renamed over a non-empty one: move the old store aside first.
+    previous = temporary.with_name(temporary.name[: -len(".partial")] + ".old")
+    os.rename(target, previous)
+    try:
+        os.rename(temporary, target)
+    except OSError:
+        os.rename(previous, target)
+        raise
+    shutil.rmtree(previous, ignore_errors=True)
+
+
+def write_dataset(
+    path: str | os.PathLike[str],
+    entries: Sequence[ModelEntry],
+    *,
+    attrs: Mapping[str, Any],
+    views: ArrayLike,
+    failures: Sequence[Mapping[str, str]],
+    progress: bool = False,
+) -> Path:
+    """Write a dataset store atomically.
+
+    The container follows the suffix of ``path`` (see :func:`store_kind`).
+    The entries are read twice, one at a time, and never all held: a first
+    pass checks them and computes sizes and SHA-256 digests, a second writes
+    them. Every array is created with its ``sha256`` attribute already set.
+
+    The store is written to a hidden temporary sibling
+    (``.<name>.<random>.partial``) and renamed over ``path`` at the end, so an
+    error or a crash never leaves a half-written store under ``path``, and an
+    existing store there stays intact until the new one is complete. (For a
+    ``*.zarr`` directory the old one is moved aside just before the rename.)
+
+    Parameters
+    ----------
+    path : path-like
+        Target ``*.zarr``, ``*.zarr.zip``, ``*.h5`` or ``*.hdf5``; its folder
+        must exist. An existing store there is replaced.
+    entries : sequence of ModelEntry
+        Supports ``len`` and ``[i]`` and may load lazily; each entry is read
+        exactly twice. Sorted by ``(category, name)``, names unique, the same
+        number of points in every entry and ``len(views)`` rows of quality.
+        May be empty: the store then has zero models (and ``n_points`` 0).
+    attrs : mapping
+        The build's root attributes, all of :data:`BUILD_ATTRS` (other
+        JSON-safe keys are kept too). Keys of :data:`WRITER_ATTRS` are set by
+        the writer; they may be passed only with the value the writer would
+        set (e.g. attributes read back from another store).
+    views : (n_views, 3) array_like
+        Unit view directions, stored as float64.
+    failures : sequence of mapping
+        One ``{"source", "category", "reason"}`` dict of strings per input
+        that could not be processed.
+    progress : bool
+        Show a tqdm progress bar on stderr for each pass (default: False).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written store.
+
+    Raises
+    ------
+    InputError
+        On an unknown suffix, a missing folder, a target of the wrong kind
+        (a file where a directory goes or vice versa), or a bad entry,
+        attribute, view array or failure record; the message names it.
+    VerificationError
+        If an entry reads differently the second time.
+    """
+    target = Path(path)
+    kind = store_kind(target)
+    if not target.parent.is_dir():
+        raise InputError(f"{target}: output folder {target.parent} does not exist")
+    if target.exists() and target.is_dir() != (kind == "zarr"):
+        expected = "a directory" if kind == "zarr" else "a file"
+        raise InputError(f"{target}: exists and is not {expected}")
+    view_directions = _check_views(views)
+    failure_records = _check_failures(failures)
+    n_views = len(view_directions)
+    n_models = len(entries)
+    _root_attrs(attrs, n_models=n_models, n_views=n_views, n_points=None,
+                n_failures=len(failure_records))  # fail before reading any entry
+
+    with progress_bar(total=n_models, description=f"{target.name}: check", unit="model",
+                      enabled=progress) as bar:
+        plan = _first_pass(entries, n_views, bar)
+    root_attrs = _root_attrs(
+        attrs, n_models=n_models, n_views=n_views, n_points=plan.n_points,
+        n_failures=len(failure_records),
+    )
+    whole = {
+        "views": view_directions,
+        "mesh_vertex_offsets": plan.vertex_offsets,
+        "mesh_face_offsets": plan.face_offsets,
+        "models_json": json_bytes(plan.records),
+        "failures_json": json_bytes(failure_records),
+    }
+    n_points = plan.n_points
+    layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
+        # name: (shape, chunks)
+        "views": ((n_views, 3), (n_views, 3)),
+        "points": ((n_models, n_points, 3), (1, n_points, 3)),
+        "normals": ((n_models, n_points, 3), (1, n_points, 3)),
+        "quality": ((n_models, n_views, 4), (_CHUNK_MODELS, n_views, 4)),
+        "quality_raw": ((n_models, n_views, 4), (_CHUNK_MODELS, n_views, 4)),
+        "best_index": ((n_models, 4), (_CHUNK_MODELS, 4)),
+        "best_value": ((n_models, 4), (_CHUNK_MODELS, 4)),
+        "worst_index": ((n_models, 4), (_CHUNK_MODELS, 4)),
+        "worst_value": ((n_models, 4), (_CHUNK_MODELS, 4)),
+        "mesh_vertices": ((int(plan.vertex_offsets[-1]), 3), (_CHUNK_ROWS, 3)),
+        "mesh_vertex_offsets": ((n_models + 1,), (_CHUNK_ROWS,)),
+        "mesh_faces": ((int(plan.face_offsets[-1]), 3), (_CHUNK_ROWS, 3)),
+        "mesh_face_offsets": ((n_models + 1,), (_CHUNK_ROWS,)),
+        "models_json": ((len(whole["models_json"]),), (_CHUNK_BYTES,)),
+        "failures_json": ((len(whole["failures_json"]),), (_CHUNK_BYTES,)),
+    }
+    digests = {name: array_sha256(array) for name, array in whole.items()}
+    digests.update(plan.digests)
+
+    temporary = _temporary_sibling(target, kind)
+    is_done = False
+    try:
+        if kind == "hdf5":
+            from vptoolkit.dataset._hdf5 import Hdf5Sink
+
+            sink: _Sink = Hdf5Sink(temporary, root_attrs)
+        else:
+            from vptoolkit.dataset._zarr import ZarrSink
+
+            sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
+        try:
+            stored = {}
+            for name in ARRAY_NAMES:
+                shape, chunks = layout[name]
+                dtype = (
+                    whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
+                )
+                stored[name] = sink.create(name, shape, np.dtype(dtype), chunks, digests[name])
+            for name, array in whole.items():
+                if array.size:
+                    stored[name][...] = array
+            _second_pass(entries, plan, stored, layout, target.name, progress)
+        finally:
+            sink.close()
+        _move_into_place(temporary, target, kind)
+        remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
+        is_done = True
+    finally:
+        if not is_done:
+            _remove(temporary)
+    return target
+
+
+def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, Any],
+                 layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]],
+                 label: str, progress: bool) -> None:
+    writers = {name: _RowWriter(stored[name], layout[name][1][0]) for name in _ENTRY_ARRAYS}
+    n_views = layout["views"][0][0]
+    with progress_bar(total=len(plan.records), description=f"{label}: write", unit="model",
+                      enabled=progress) as bar:
+        for position, record in enumerate(plan.records):
+            checked = _check_entry(entries[position], position, n_views, plan.n_points or None)
+            if _entry_checksum(checked) != plan.checksums[position]:
+                raise VerificationError(
+                    f"entries: model {record['name']!r} read differently on the second pass; "
+                    "entries must be deterministic"
+                )
+            for name, array in checked.arrays.items():
+                writers[name].append(array[None] if name not in ("mesh_vertices", "mesh_faces")
+                                     else array)
+            bar.update(1)
+    for writer in writers.values():
+        writer.finish()
