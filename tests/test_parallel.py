@@ -22,7 +22,7 @@ def _square_or_die(number: int) -> int:
 
 
 def _pid_and_threads(number: int) -> tuple[int, int]:
-    import numba
+    from vptoolkit._numba import numba
 
     return os.getpid(), numba.get_num_threads()
 

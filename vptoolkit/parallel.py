@@ -181,10 +181,11 @@ def _start_worker(parent_pid: int) -> None:
     import signal
     import threading
 
-    numba = sys.modules.get("numba")
-    if numba is None:
+    if "numba" not in sys.modules:
         os.environ["NUMBA_NUM_THREADS"] = "1"  # read when numba is first imported
     else:
+        from vptoolkit._numba import numba
+
         numba.set_num_threads(1)
 
     if sys.platform.startswith("linux"):
@@ -306,7 +307,7 @@ def run_on_cluster(
 def _with_one_numba_thread(function: Callable[[Task], Result], task: Task) -> Result:
     """Run a task on a Dask worker thread with one numba thread (the setting is per thread)."""
     if is_available("numba"):
-        import numba
+        from vptoolkit._numba import numba
 
         numba.set_num_threads(1)
     return function(task)

@@ -20,18 +20,13 @@ there are no atomics.
 
 from __future__ import annotations
 
-import os
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numba import get_num_threads, njit, prange
 from numpy.typing import NDArray
 
-if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
-    # Prefer OpenMP: pymeshlab ships an old TBB that numba would try first,
-    # warn about and reject.
-    numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptoolkit._numba)
 
 SUBPIXEL_BITS = 12
 _DEPTH_LEVELS = float(1 << 30)
