@@ -95,7 +95,7 @@ def started_renderer(size: int, **options: Any) -> Iterator[Any]:
     """Body of a renderer fixture: a started Renderer, skipped (or failed in CI) without one."""
     require_package("open3d")
     from vptoolkit.errors import MissingDependencyError
-    from vptoolkit.render import Renderer
+    from vptoolkit.pictures.open3d_engine import Renderer
 
     shared = Renderer(size=size, **options)
     try:

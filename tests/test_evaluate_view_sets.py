@@ -92,7 +92,7 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
     from conftest import read_png
     from vptoolkit.data import open_dataset
     from vptoolkit.evaluate import model_visibility
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
 
     index = write_report(tiny_dataset, tmp_path / "report", thumbnails=False, view_set=3)
     page = index.read_text(encoding="utf-8")

@@ -18,9 +18,10 @@ LAYERS = {
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9, "protocol": 9,
-    "shading": 10, "render": 10, "sphere_map": 10, "report": 10, "thumbnails": 10,
-    "software_render": 10,
-    "contact_sheet": 10,
+    "pictures": 10,
+    # shims left for one release at the old paths of vptoolkit.pictures' modules
+    "shading": 11, "render": 11, "software_render": 11, "sphere_map": 11, "report": 11,
+    "thumbnails": 11, "contact_sheet": 11,
     "cli": 99,
 }
 PACKAGE = Path(vptoolkit.__file__).parent

@@ -1,4 +1,4 @@
-"""The loader and the CLI must not drag in the heavy packages."""
+"""The loader, the CLI and the picture modules must not drag in the heavy packages."""
 
 import subprocess
 import sys
@@ -10,7 +10,11 @@ HEAVY = ("torch", "open3d", "pymeshlab", "numba")
 
 @pytest.mark.parametrize("module", ["vptoolkit", "vptoolkit.cli", "vptoolkit.measures",
                                     "vptoolkit.io", "vptoolkit.data",
-                                    "vptoolkit.dataset.release"])
+                                    "vptoolkit.dataset.release",
+                                    "vptoolkit.pictures._open3d_child",
+                                    "vptoolkit.pictures.views",
+                                    "vptoolkit.pictures.software_engine",
+                                    "vptoolkit.pictures.report"])
 def test_import_loads_no_heavy_package(module):
     code = f"import sys, {module}; print(','.join(m for m in {HEAVY!r} if m in sys.modules))"
     loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

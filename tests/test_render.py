@@ -22,19 +22,17 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import (
+from vptoolkit.pictures.open3d_engine import Renderer
+from vptoolkit.pictures.png import png_bytes, save_png
+from vptoolkit.pictures.shading import RenderStyle, crease_normals
+from vptoolkit.pictures.views import (
     RenderedView,
-    Renderer,
-    RenderStyle,
-    png_bytes,
     render_best,
     render_predicted,
     render_view,
     render_views,
     resolve_direction,
-    save_png,
 )
-from vptoolkit.shading import crease_normals
 
 SIZE = 128
 def pair_mesh() -> Mesh:

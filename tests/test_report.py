@@ -94,7 +94,7 @@ def figure_pixels(figure: Any) -> np.ndarray:
 
 def display_to_pixel(figure: Any, axes: Any, lon: float, lat: float) -> np.ndarray:
     """Array (column, row) of a map point given in degrees."""
-    from vptoolkit.sphere_map import mercator_y
+    from vptoolkit.pictures.sphere_map import mercator_y
 
     x, y = axes.transData.transform((lon, float(mercator_y([lat])[0])))
     return np.array([x, figure.bbox.height - y])
@@ -119,7 +119,7 @@ def matplotlib_available():
 
 
 def test_view_coordinates_frame():
-    from vptoolkit.sphere_map import view_coordinates
+    from vptoolkit.pictures.sphere_map import view_coordinates
 
     directions = [[1, 0, 0], [0, 0, 1], [0, 0, -1], [-1, 0, 1e-12], [0, 1, 0], [0, -2, 0]]
     np.testing.assert_allclose(
@@ -129,7 +129,7 @@ def test_view_coordinates_frame():
 
 
 def test_sphere_grid_holds_the_nearest_view_of_each_pixel():
-    from vptoolkit.sphere_map import mercator_y, sphere_grid
+    from vptoolkit.pictures.sphere_map import mercator_y, sphere_grid
 
     views = fibonacci_sphere(300)
     grid = sphere_grid(views, width=120, max_latitude_deg=80.0)
@@ -146,7 +146,7 @@ def test_sphere_grid_holds_the_nearest_view_of_each_pixel():
 
 @pytest.mark.parametrize("measure", MEASURES)
 def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_available, measure):
-    from vptoolkit.sphere_map import sphere_map, view_coordinates
+    from vptoolkit.pictures.sphere_map import sphere_map, view_coordinates
 
     views = fibonacci_sphere(1000)
     quality = smooth_quality(views, preferred_directions(f"map-{measure}"))
@@ -170,7 +170,7 @@ def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_availab
 
 
 def test_the_predicted_view_is_crossed_with_its_score(matplotlib_available):
-    from vptoolkit.sphere_map import sphere_map, view_coordinates
+    from vptoolkit.pictures.sphere_map import sphere_map, view_coordinates
 
     views = fibonacci_sphere(1000)
     quality = smooth_quality(views, preferred_directions("predicted"))
@@ -190,7 +190,7 @@ def test_the_predicted_view_is_crossed_with_its_score(matplotlib_available):
 
 
 def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
-    from vptoolkit.sphere_map import save_figure, sphere_maps
+    from vptoolkit.pictures.sphere_map import save_figure, sphere_maps
 
     views = fibonacci_sphere(N_VIEWS)
     quality = smooth_quality(views, preferred_directions("four"))
@@ -207,7 +207,7 @@ def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
 
 def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: Path, cube):
     from vptoolkit.measures import compute_view_quality
-    from vptoolkit.sphere_map import sphere_map_file
+    from vptoolkit.pictures.sphere_map import sphere_map_file
 
     quality_path = compute_view_quality(cube, n_views=100, resolution=32).save_npz(
         tmp_path / "cube.npz")
@@ -230,7 +230,7 @@ def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: 
     ids=["measure", "quality-shape", "predicted-shape", "predicted-zero", "latitude"],
 )
 def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message):
-    from vptoolkit.sphere_map import sphere_map
+    from vptoolkit.pictures.sphere_map import sphere_map
 
     views = fibonacci_sphere(N_VIEWS)
     arguments = {"quality": np.ones((N_VIEWS, 4)), **kwargs}
@@ -278,7 +278,7 @@ def report_renderer():
 
 @pytest.fixture(scope="module")
 def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) -> Path:
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
 
     return write_report(store, tmp_path_factory.mktemp("report") / "all",
                         renderer=report_renderer)
@@ -302,7 +302,7 @@ def predictions(store, tmp_path_factory) -> tuple[Path, np.ndarray]:
 @pytest.fixture(scope="module")
 def test_report(store, predictions, report_renderer, matplotlib_available,
                 tmp_path_factory) -> Path:
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
 
     return write_report(store, tmp_path_factory.mktemp("report") / "test", split="test",
                         predictions=predictions[0], renderer=report_renderer)
@@ -387,7 +387,7 @@ def test_report_with_predictions_shows_their_scores(test_report: Path, store, pr
 
 def test_report_without_pictures_needs_no_renderer(store, matplotlib_available, tmp_path: Path,
                                                    monkeypatch):
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
 
     for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
@@ -400,7 +400,7 @@ def test_report_without_pictures_needs_no_renderer(store, matplotlib_available, 
 
 
 def test_report_rejects_an_unknown_split_and_unfit_predictions(store, predictions, tmp_path):
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
 
     with pytest.raises(InputError, match="unknown split 'tset'"):
         write_report(store, tmp_path / "r", split="tset", thumbnails=False)

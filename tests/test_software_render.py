@@ -9,8 +9,10 @@ from conftest import box_mesh, model_mask, started_renderer
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import RenderStyle, open_renderer, render_view
-from vptoolkit.software_render import SoftwareRenderer
+from vptoolkit.pictures.engine import open_renderer
+from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.software_engine import SoftwareRenderer
+from vptoolkit.pictures.views import render_view
 from vptoolkit.visibility import face_id_images, face_pixel_counts
 
 SIZE = 96

@@ -39,7 +39,7 @@ def mesh_folder(tmp_path: Path) -> Path:
 @pytest.mark.renderer
 def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp_path: Path,
                                                           renderer):
-    from vptoolkit.thumbnails import ThumbnailResult, render_thumbnails
+    from vptoolkit.pictures.thumbnails import ThumbnailResult, render_thumbnails
 
     out = tmp_path / "thumbs"
     result = render_thumbnails(mesh_folder, out, measure="VR", workers=2, n_views=40,
@@ -62,7 +62,7 @@ def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp
 
 @pytest.mark.renderer
 def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, renderer):
-    from vptoolkit.thumbnails import render_thumbnails
+    from vptoolkit.pictures.thumbnails import render_thumbnails
 
     seen = []
 
@@ -81,7 +81,7 @@ def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, re
 def test_thumbnails_without_a_renderer_stop_before_any_work(mesh_folder: Path, tmp_path: Path,
                                                             monkeypatch):
     require_package("open3d")
-    from vptoolkit.thumbnails import render_thumbnails
+    from vptoolkit.pictures.thumbnails import render_thumbnails
 
     for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
@@ -92,7 +92,7 @@ def test_thumbnails_without_a_renderer_stop_before_any_work(mesh_folder: Path, t
 
 
 def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
-    from vptoolkit.thumbnails import render_thumbnails
+    from vptoolkit.pictures.thumbnails import render_thumbnails
 
     with pytest.raises(InputError, match="unknown measure"):
         render_thumbnails(mesh_folder, tmp_path / "out", measure="best")
@@ -103,7 +103,7 @@ def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
 
 
 def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):
-    from vptoolkit.thumbnails import _mesh_files
+    from vptoolkit.pictures.thumbnails import _mesh_files
 
     (mesh_folder / ".git").mkdir()
     (mesh_folder / ".git" / "old.off").write_bytes(b"")

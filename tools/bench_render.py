@@ -5,7 +5,7 @@ measures' rasteriser and numpy shading; ``open3d``: Filament in a child
 process):
 
 * the start-up of a render child (importing Open3D, creating the renderer and
-  drawing a warm-up frame), paid once per :class:`vptoolkit.render.Renderer`;
+  drawing a warm-up frame), paid once per :class:`vptoolkit.pictures.open3d_engine.Renderer`;
 * seconds per frame at 256, 512 and 1024 px: median and maximum over several
   directions (the mesh already prepared); Open3D frames that hang past 60 s
   count as failures;
@@ -33,8 +33,8 @@ import numpy as np
 from vptoolkit.errors import MeasurementError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
-from vptoolkit.render import Renderer
-from vptoolkit.software_render import SoftwareRenderer
+from vptoolkit.pictures.open3d_engine import Renderer
+from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 

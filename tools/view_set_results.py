@@ -34,10 +34,11 @@ from pathlib import Path
 import numpy as np
 from results_doc import format_seconds, machine, markdown_table, write_section
 
-from vptoolkit.contact_sheet import view_set_sheet
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
-from vptoolkit.render import RenderStyle, save_png
+from vptoolkit.pictures.contact_sheet import view_set_sheet
+from vptoolkit.pictures.png import save_png
+from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.samples import sample_names, sample_path
 from vptoolkit.sphere import angle_between_deg
 from vptoolkit.synthetic import CATEGORIES, make_shape

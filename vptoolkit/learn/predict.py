@@ -388,7 +388,7 @@ class MeshPredictor:
     """A checkpoint loaded once, called on meshes: ``predictor(mesh) -> (n_measures, 3)``.
 
     The hook behind ``vptool render --model`` and ``vptool thumbnails
-    --model`` (a :data:`vptoolkit.render.DirectionSource`). A mesh becomes
+    --model`` (a :data:`vptoolkit.pictures.views.DirectionSource`). A mesh becomes
     a network input as in :func:`predict`: 20000 surface points (seed
     ``seed``), then the checkpoint's input size chosen with a generator
     seeded from ``seed`` and the mesh's name.

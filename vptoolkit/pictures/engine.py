@@ -1,0 +1,148 @@
+"""What a picture engine is, and how to get one by name.
+
+An engine draws a :class:`~vptoolkit.mesh.Mesh` from view directions
+through the measures' camera (:func:`vptoolkit.pictures.shading.picture_camera`)
+in a :class:`~vptoolkit.pictures.shading.RenderStyle`. Two satisfy
+:class:`Engine`:
+
+* ``"software"``: :class:`vptoolkit.pictures.software_engine.SoftwareRenderer`,
+  the measures' rasteriser and numpy shading, in this process (the default);
+* ``"open3d"``: :class:`vptoolkit.pictures.open3d_engine.Renderer`, Open3D's
+  Filament in a child process. On Mesa's software Vulkan driver its frame
+  time depends on the view, from 0.1 s to minutes, which is why it is not
+  the default.
+
+:func:`open_renderer` makes either. ``tests/test_engine_contract.py`` checks
+what every engine must do.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+from vptoolkit.errors import InputError
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike, NDArray
+
+    from vptoolkit.camera import Camera
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.pictures.shading import RenderStyle
+
+__all__ = ["ENGINES", "Engine", "open_renderer"]
+
+ENGINES = ("software", "open3d")
+"""Picture engines, the default first: ``"software"``
+(:class:`~vptoolkit.pictures.software_engine.SoftwareRenderer`) and ``"open3d"``
+(:class:`~vptoolkit.pictures.open3d_engine.Renderer`)."""
+
+
+@runtime_checkable
+class Engine(Protocol):
+    """A picture engine: draws meshes from view directions, one size for all pictures.
+
+    Attributes
+    ----------
+    size : int
+        Side of the square pictures in pixels (16 to 4096).
+    camera : Camera
+        Camera conventions (those of the measures by default); the picture
+        for direction ``v`` frames the model as the measures' view ``v`` does.
+    style : RenderStyle
+        Colours, light, crease angle and image up.
+
+    Notes
+    -----
+    An engine is a context manager: :meth:`close` runs on exit and frees
+    what :meth:`start` (or the first :meth:`render`) took; a closed engine
+    may be started again. The same mesh and direction give the same picture,
+    byte for byte.
+    """
+
+    size: int
+    camera: Camera
+    style: RenderStyle
+
+    def start(self) -> Engine:
+        """Make the engine ready now (else the first frame does); returns itself.
+
+        Raises
+        ------
+        MissingDependencyError
+            If the engine cannot run here (e.g. no Vulkan driver).
+        """
+        ...
+
+    def close(self) -> None:
+        """Free the engine's resources (it may be started again)."""
+        ...
+
+    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+        """Draw a mesh from each of several view directions.
+
+        Parameters
+        ----------
+        mesh : Mesh
+            The model.
+        directions : (n, 3) or (3,) array_like
+            View directions from the model centre towards the camera (any
+            non-zero length).
+
+        Returns
+        -------
+        images : (n, size, size, 3) uint8
+            sRGB pictures, row 0 at the top, background where no face is seen.
+
+        Raises
+        ------
+        InputError
+            On a non-mesh, bad directions or a mesh of zero extent.
+        """
+        ...
+
+    def __enter__(self) -> Engine:
+        ...
+
+    def __exit__(self, *exc_info: object) -> None:
+        ...
+
+
+def open_renderer(engine: str = "software", *, size: int = 512, camera: Camera | None = None,
+                  style: RenderStyle | None = None) -> Engine:
+    """A renderer of the given engine (not started), for use as a context manager.
+
+    Parameters
+    ----------
+    engine : {"software", "open3d"}
+        ``"software"`` (default) draws in this process in a fraction of a
+        second for any view; ``"open3d"`` uses Filament's physically based
+        shading through Vulkan, whose frame time on Mesa's software driver
+        ranges from 0.1 s to minutes depending on the view.
+    size : int
+        Side of the square pictures in pixels, 16 to 4096 (default: 512).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``, those of the measures).
+    style : RenderStyle, optional
+        Shading (default: ``RenderStyle()``).
+
+    Returns
+    -------
+    Engine
+        A :class:`~vptoolkit.pictures.software_engine.SoftwareRenderer` or a
+        :class:`~vptoolkit.pictures.open3d_engine.Renderer`.
+
+    Raises
+    ------
+    InputError
+        On an unknown engine.
+    """
+    if engine == "open3d":
+        from vptoolkit.pictures.open3d_engine import Renderer
+
+        return Renderer(size=size, camera=camera, style=style)
+    if engine == "software":
+        from vptoolkit.pictures.software_engine import SoftwareRenderer
+
+        return SoftwareRenderer(size=size, camera=camera, style=style)
+    raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")

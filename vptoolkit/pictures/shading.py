@@ -1,0 +1,214 @@
+"""What both picture engines share: the style, the camera, the light and the colours.
+
+:class:`vptoolkit.pictures.open3d_engine.Renderer` (Open3D, in a child process) and
+:class:`vptoolkit.pictures.software_engine.SoftwareRenderer` (numpy over the
+measures' rasteriser) draw the same pictures because they take these from one place:
+
+* :class:`RenderStyle`: colours, crease angle, sun and image up;
+* :func:`crease_normals`: unshared face corners with crease-aware normals
+  (:class:`CreaseNormals`);
+* :func:`picture_camera`: the measures' camera rolled to the style's up;
+* :func:`light_direction`: where the sun shines from, relative to the camera;
+* :func:`srgb_to_linear` and :func:`linear_to_srgb`: the sRGB transfer curve.
+
+Numpy only; neither engine is imported here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, replace
+from typing import Any, NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.camera import Camera
+from vptoolkit.errors import InputError
+from vptoolkit.mesh import Mesh
+
+__all__ = [
+    "RenderStyle",
+    "CreaseNormals",
+    "crease_normals",
+    "picture_camera",
+    "light_direction",
+    "srgb_to_linear",
+    "linear_to_srgb",
+]
+
+
+@dataclass(frozen=True)
+class RenderStyle:
+    """How a picture is shaded (the camera itself is :class:`~vptoolkit.camera.Camera`).
+
+    Parameters
+    ----------
+    color : tuple of 3 floats
+        Surface colour, sRGB in [0, 1] (default: a light blue-grey).
+    background : tuple of 3 floats
+        Background colour, sRGB in [0, 1] (default: white).
+    crease_angle_deg : float
+        Normals are averaged over faces meeting at less than this angle and
+        kept apart across sharper edges, in degrees (default: 40; 0 gives
+        flat shading).
+    light_elevation_deg, light_azimuth_deg : float
+        Where the sun stands, seen from the camera: degrees above the view
+        axis towards the image up, then around it towards the image left
+        (defaults: 35 and 30).
+    light_intensity : float
+        Sun intensity in Filament's lux (default: 150000).
+    ambient_intensity : float
+        Intensity of Open3D's image-based ambient light (default: 20000).
+    up : tuple of 3 floats
+        Model direction shown as up in the picture (default: ``(0, 1, 0)``;
+        where the view looks along it, the camera's fallback up, or the
+        measures' ``-y``, serves instead).
+    """
+
+    color: tuple[float, float, float] = (0.72, 0.76, 0.82)
+    background: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    crease_angle_deg: float = 40.0
+    light_elevation_deg: float = 35.0
+    light_azimuth_deg: float = 30.0
+    light_intensity: float = 150000.0
+    ambient_intensity: float = 20000.0
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("color", "background"):
+            value = np.asarray(getattr(self, name), dtype=np.float64)
+            if value.shape != (3,) or not np.isfinite(value).all() or (value < 0).any() or (
+                value > 1
+            ).any():
+                raise InputError(
+                    f"{name}: expected three values in [0, 1], got {getattr(self, name)}"
+                )
+            object.__setattr__(self, name, tuple(float(c) for c in value))
+        if not 0.0 <= self.crease_angle_deg <= 180.0:
+            raise InputError(f"crease_angle_deg: must lie in [0, 180], got {self.crease_angle_deg}")
+        up = np.asarray(self.up, dtype=np.float64)
+        if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
+            raise InputError(f"up: expected a non-zero direction x, y, z, got {self.up}")
+        object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
+        for name in ("light_intensity", "ambient_intensity"):
+            if not getattr(self, name) >= 0.0:
+                raise InputError(f"{name}: must be >= 0, got {getattr(self, name)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe record of the style."""
+        return asdict(self)
+
+
+class CreaseNormals(NamedTuple):
+    """Unshared face corners with crease-aware normals (see :func:`crease_normals`).
+
+    Attributes
+    ----------
+    positions : (3 * n_kept, 3) float32
+        The corners of every kept face (degenerate faces are dropped), face by face.
+    normals : (3 * n_kept, 3) float32
+        Unit normal per corner: the area-weighted mean of the normals of the
+        faces at that vertex whose normal is within the crease angle of the
+        corner's own face.
+    face_points : (n_kept, 3) float64
+        The first corner of each kept face (for back-face tests).
+    face_normals : (n_kept, 3) float64
+        Unit normal of each kept face.
+    kept : (n_kept,) int64
+        Index of each kept face in ``mesh.faces``.
+    """
+
+    positions: NDArray[np.float32]
+    normals: NDArray[np.float32]
+    face_points: NDArray[np.float64]
+    face_normals: NDArray[np.float64]
+    kept: NDArray[np.int64]
+
+
+def crease_normals(mesh: Mesh, crease_angle_deg: float) -> CreaseNormals:
+    """Unshared corner positions and normals, smoothed within ``crease_angle_deg``.
+
+    Normals are averaged over faces meeting at less than the crease angle (in
+    degrees; 0 gives flat shading) and kept apart across sharper edges. Returns
+    a :class:`CreaseNormals`.
+    """
+    corners = mesh.vertices[mesh.faces]  # (n_faces, 3, 3)
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    double_area = np.linalg.norm(cross, axis=1)
+    scale = max(float(np.abs(corners).max()), 1e-300)
+    kept = double_area > 1e-14 * scale * scale
+    faces = mesh.faces[kept]
+    cross = cross[kept]
+    unit = cross / double_area[kept][:, None]
+    n_kept = len(faces)
+    corner_vertex = faces.reshape(-1)  # (3 n_kept,)
+    corner_face = np.repeat(np.arange(n_kept), 3)
+    normals = np.repeat(unit, 3, axis=0)
+    if crease_angle_deg > 0.0 and n_kept:
+        order = np.argsort(corner_vertex, kind="stable")
+        sorted_vertex = corner_vertex[order]
+        starts = np.flatnonzero(np.r_[True, sorted_vertex[1:] != sorted_vertex[:-1]])
+        sizes = np.diff(np.r_[starts, len(order)])
+        size_of_corner = np.repeat(sizes, sizes)  # group size, per sorted corner
+        start_of_corner = np.repeat(starts, sizes)
+        if int((sizes.astype(np.int64) ** 2).sum()) <= 50_000_000:
+            total = int(size_of_corner.sum())
+            first = np.repeat(np.arange(len(order)), size_of_corner)  # sorted position of a
+            offset = np.arange(total) - np.repeat(np.cumsum(size_of_corner) - size_of_corner,
+                                                  size_of_corner)
+            second = np.repeat(start_of_corner, size_of_corner) + offset  # sorted position of b
+            face_a = corner_face[order[first]]
+            face_b = corner_face[order[second]]
+            cosine = np.einsum("ij,ij->i", unit[face_a], unit[face_b])
+            keep = cosine >= math.cos(math.radians(crease_angle_deg)) - 1e-9
+            target = order[first[keep]]
+            weights = cross[face_b[keep]]  # area-weighted
+            summed = np.zeros((3 * n_kept, 3))
+            for axis in range(3):
+                summed[:, axis] = np.bincount(target, weights=weights[:, axis],
+                                              minlength=3 * n_kept)
+            length = np.linalg.norm(summed, axis=1, keepdims=True)
+            normals = np.where(length > 0, summed / np.where(length > 0, length, 1.0), normals)
+    positions = mesh.vertices[faces].reshape(-1, 3)
+    return CreaseNormals(
+        positions.astype(np.float32),
+        normals.astype(np.float32),
+        mesh.vertices[faces[:, 0]],
+        unit,
+        np.flatnonzero(kept),
+    )
+
+
+def picture_camera(camera: Camera, up: tuple[float, float, float]) -> Camera:
+    """The measures' camera rolled so that ``up`` is the image up."""
+    fallback = camera.fallback_up
+    if abs(float(np.dot(up, fallback / np.linalg.norm(fallback)))) > 0.99:
+        fallback = camera.up  # e.g. up = +z: fall back to the measures' own up
+    return replace(camera, up=up, fallback_up=fallback)
+
+
+def light_direction(style: RenderStyle, forward: NDArray[np.float64], up: NDArray[np.float64],
+                    right: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit direction the sunlight travels in: from ``light_elevation_deg`` above the
+    view axis towards the image up, turned ``light_azimuth_deg`` towards the image left."""
+    elevation = math.radians(style.light_elevation_deg)
+    azimuth = math.radians(style.light_azimuth_deg)
+    towards_light = (
+        -forward * math.cos(elevation) * math.cos(azimuth)
+        + up * math.sin(elevation)
+        - right * math.cos(elevation) * math.sin(azimuth)
+    )
+    return -towards_light / np.linalg.norm(towards_light)
+
+
+def srgb_to_linear(value: float) -> float:
+    """One sRGB channel value in [0, 1] to linear RGB."""
+    return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
+
+
+def linear_to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:
+    """Linear RGB in [0, 1] (clipped) to 8-bit sRGB."""
+    value = np.clip(linear, 0.0, 1.0)
+    srgb = np.where(value <= 0.0031308, 12.92 * value, 1.055 * np.power(value, 1.0 / 2.4) - 0.055)
+    return np.clip(np.round(srgb * 255.0), 0, 255).astype(np.uint8)

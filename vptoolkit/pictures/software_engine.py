@@ -1,0 +1,197 @@
+"""Shaded pictures from the measures' own triangle-ID rasteriser (no GPU, no Vulkan).
+
+:class:`SoftwareRenderer` draws the same pictures as
+:class:`vptoolkit.pictures.open3d_engine.Renderer` (same camera, roll and :class:`RenderStyle`)
+without Open3D: :func:`vptoolkit.visibility.face_id_images` finds the face
+seen through every pixel at ``supersampling`` times the picture's size, and
+each pixel is shaded in numpy:
+
+* its normal is the crease-aware corner normals of that face
+  (:func:`vptoolkit.pictures.shading.crease_normals`) interpolated with the
+  barycentric coordinates of the pixel ray's hit (Moller-Trumbore), turned
+  towards the camera;
+* linear colour = ``color * (ambient + sun * max(0, n . l))`` with the sun
+  where ``RenderStyle`` puts it (above and to the left of the camera);
+  ``ambient`` and ``sun`` come from the style's intensities relative to
+  Open3D's defaults, so both engines brighten and darken together;
+* the supersampled linear image is averaged down (anti-aliasing over the
+  background) and encoded as sRGB.
+
+Why a second engine: Open3D 0.20 renders through Vulkan, and on Mesa's
+software driver (llvmpipe, the only one on a machine without a GPU) its
+frame time depends on the view in ways we cannot control: 0.06 s for one
+view of a mesh, minutes for another (measured with Open3D alone, see
+``tools/bench_render.py``). This engine takes a fraction of a second for any
+view and is the default of ``vptool render``, ``thumbnails`` and
+``report``; ``--engine open3d`` keeps Filament's physically based shading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera, ViewPoses
+from vptoolkit.checks import check_int
+from vptoolkit.errors import InputError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.mesh import Mesh
+from vptoolkit.pictures.shading import (
+    RenderStyle,
+    crease_normals,
+    light_direction,
+    linear_to_srgb,
+    picture_camera,
+    srgb_to_linear,
+)
+from vptoolkit.sphere import as_directions
+from vptoolkit.visibility import face_id_images
+
+__all__ = ["SoftwareRenderer"]
+
+_DEFAULT_SUN = RenderStyle().light_intensity
+_DEFAULT_AMBIENT = RenderStyle().ambient_intensity
+_SUN = 0.78  # diffuse weight of the default sun
+_AMBIENT = 0.30  # weight of the default ambient light
+_MAX_FINE = 4096  # largest supersampled side; bigger pictures get fewer samples per pixel
+_CHUNK = 1 << 20  # pixels shaded at once
+
+
+class SoftwareRenderer:
+    """Draws meshes from view directions on the CPU, in this process.
+
+    The ``"software"`` :class:`~vptoolkit.pictures.engine.Engine` (``size``,
+    ``camera``, ``style``, :meth:`start`, :meth:`close`, :meth:`render`, use
+    as a context manager), so every function taking a ``renderer`` takes
+    it or the Open3D one.
+
+    Parameters
+    ----------
+    size : int
+        Side of the square pictures in pixels, 16 to 4096 (default: 512).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``, those of the measures).
+    style : RenderStyle, optional
+        Shading and image up (default: ``RenderStyle()``).
+    supersampling : int
+        Samples per pixel along each axis, 1 to 4 (default: 2); pictures
+        wider than 2048 px get fewer, so the rasterised side stays <= 4096.
+
+    Examples
+    --------
+    >>> with SoftwareRenderer(size=256) as renderer:           # doctest: +SKIP
+    ...     images = renderer.render(mesh, [[0, 0, 1], [1, 1, 1]])
+    """
+
+    def __init__(self, *, size: int = 512, camera: Camera | None = None,
+                 style: RenderStyle | None = None, supersampling: int = 2) -> None:
+        self.size = check_int(size, "size", minimum=16, maximum=4096)
+        self.camera = camera or Camera()
+        self.style = style or RenderStyle()
+        self.supersampling = check_int(supersampling, "supersampling", minimum=1, maximum=4)
+        self._mesh: Mesh | None = None
+        self._corners: NDArray[np.float64] | None = None
+        self._corner_normals: NDArray[np.float64] | None = None
+
+    def start(self) -> SoftwareRenderer:
+        """Nothing to start; returns self (as :class:`~vptoolkit.pictures.engine.Engine` asks)."""
+        return self
+
+    def close(self) -> None:
+        """Forget the cached mesh."""
+        self._mesh = self._corners = self._corner_normals = None
+
+    def __enter__(self) -> SoftwareRenderer:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def _prepare(self, mesh: Mesh) -> None:
+        """Corner positions and crease-aware corner normals per face (-1 rows: not drawn)."""
+        if self._mesh is mesh:
+            return
+        positions, normals, _, _, kept = crease_normals(mesh, self.style.crease_angle_deg)
+        self._corners = np.zeros((mesh.n_faces, 3, 3))
+        self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
+        self._corners[kept] = positions.reshape(-1, 3, 3)
+        self._corner_normals[kept] = normals.reshape(-1, 3, 3)
+        self._mesh = mesh
+
+    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+        """Draw a mesh from each of several view directions.
+
+        Parameters
+        ----------
+        mesh : Mesh
+            The model.
+        directions : (n, 3) or (3,) array_like
+            View directions from the model centre towards the camera.
+
+        Returns
+        -------
+        images : (n, size, size, 3) uint8
+            sRGB pictures, row 0 at the top.
+        """
+        if not isinstance(mesh, Mesh):
+            raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+        unit = as_directions(directions, name="directions")
+        self._prepare(mesh)
+        camera = picture_camera(self.camera, self.style.up)
+        factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
+        fine = self.size * factor
+        centre, diagonal = bounding_frame(mesh)
+        poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
+        images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
+        for view in range(len(unit)):
+            ids = face_id_images(mesh, unit[view], resolution=fine, camera=camera)[0].reshape(-1)
+            linear = self._background_image(len(ids))
+            hit = np.flatnonzero(ids >= 0)
+            for start in range(0, len(hit), _CHUNK):  # bounded memory at any size
+                chunk = hit[start:start + _CHUNK]
+                linear[chunk] = self._shade(chunk, ids[chunk], poses, view)
+            linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
+            images[view] = linear_to_srgb(linear)
+        return images
+
+    def _background_image(self, n_pixels: int) -> NDArray[np.float64]:
+        """``(n_pixels, 3)`` linear RGB of the background."""
+        background = np.array([srgb_to_linear(c) for c in self.style.background])
+        return np.broadcast_to(background, (n_pixels, 3)).copy()
+
+    def _shade(self, hit: NDArray[np.int64], faces: NDArray[np.int32], poses: ViewPoses,
+               view: int) -> NDArray[np.float64]:
+        """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
+        see ``faces``."""
+        assert self._corners is not None and self._corner_normals is not None  # noqa: S101
+        style = self.style
+        colour = np.array([srgb_to_linear(c) for c in style.color])
+        # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
+        row, column = np.divmod(hit, poses.resolution)
+        half = poses.resolution / 2.0
+        across = (column + 0.5 - half) / poses.focal_px
+        down = (row + 0.5 - half) / poses.focal_px
+        ray = (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
+               - down[:, None] * poses.up[view][None, :])
+        a, b, c = (self._corners[faces, k] for k in range(3))
+        edge1, edge2 = b - a, c - a
+        p = np.cross(ray, edge2)
+        determinant = np.einsum("ij,ij->i", edge1, p)
+        determinant = np.where(np.abs(determinant) > 1e-300, determinant, 1e-300)
+        t = poses.eyes[view][None, :] - a
+        u = np.einsum("ij,ij->i", t, p) / determinant
+        v = np.einsum("ij,ij->i", ray, np.cross(t, edge1)) / determinant
+        u, v = np.clip(u, 0.0, 1.0), np.clip(v, 0.0, 1.0)
+        normals = self._corner_normals[faces]
+        normal = ((1.0 - u - v)[:, None] * normals[:, 0] + u[:, None] * normals[:, 1]
+                  + v[:, None] * normals[:, 2])
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        towards_camera = -ray / np.linalg.norm(ray, axis=1, keepdims=True)
+        facing = np.einsum("ij,ij->i", normal, towards_camera)
+        normal[facing < 0] *= -1.0  # a back face seen with culling off
+        towards_light = -light_direction(style, poses.forward[view], poses.up[view],
+                                         poses.right[view])
+        diffuse = np.clip(normal @ towards_light, 0.0, None)
+        sun = _SUN * style.light_intensity / _DEFAULT_SUN
+        ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
+        return colour[None, :] * (ambient + sun * diffuse)[:, None]

@@ -1,0 +1,379 @@
+"""Thumbnails for a folder of meshes, from each mesh's best (or a predicted) view.
+
+:func:`render_thumbnails` draws one picture per mesh file below a folder:
+the measures (:func:`vptoolkit.measures.compute_view_quality`) run in
+parallel worker processes while one renderer (an
+:class:`~vptoolkit.pictures.engine.Engine`) draws, so a start-up such as
+that of Open3D's render child is paid once. The picture of ``SRC/a/b.off``
+is ``OUT/a/b.png``; ``OUT/thumbnails.json`` records the measure, camera,
+size, every picture's direction and the files that were skipped with their
+one-line reasons (unreadable, unmeasurable or undrawable files never stop
+the batch). The crash-retrying process pool sits apart at the end of the
+module.
+"""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import os
+from collections import deque
+from collections.abc import Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from vptoolkit.camera import Camera
+from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
+from vptoolkit.errors import InputError, VptoolkitError
+from vptoolkit.files import write_text_atomic
+from vptoolkit.mesh import Mesh
+from vptoolkit.pictures.engine import Engine, open_renderer
+from vptoolkit.pictures.png import save_png
+from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.views import DirectionSource, resolve_direction
+
+__all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
+
+_THUMBNAIL_SIZE = 512
+_INDEX_NAME = "thumbnails.json"
+
+
+@dataclass(frozen=True)
+class ThumbnailFailure:
+    """A mesh file that got no thumbnail.
+
+    Attributes
+    ----------
+    source : str
+        Path of the file relative to the source folder.
+    reason : str
+        One line: what went wrong.
+    """
+
+    source: str
+    reason: str
+
+
+@dataclass(frozen=True)
+class ThumbnailResult:
+    """What :func:`render_thumbnails` did.
+
+    Attributes
+    ----------
+    done : list of Path
+        The written PNG files, sorted.
+    failures : list of ThumbnailFailure
+        The skipped files with their reasons, sorted by source.
+    index : Path
+        ``thumbnails.json`` in the output folder: measure, size, camera and
+        one ``{"source", "image", "direction", "label"}`` record per picture,
+        plus the failures.
+    """
+
+    done: list[Path] = field(default_factory=list)
+    failures: list[ThumbnailFailure] = field(default_factory=list)
+    index: Path | None = None
+
+
+def _mesh_files(source: Path) -> list[Path]:
+    """``source`` itself if a file, else its mesh files (hidden ones skipped), sorted."""
+    from vptoolkit.io import find_mesh_files
+
+    if source.is_file():
+        return [source]
+    if not source.is_dir():
+        raise InputError(f"{source}: no such file or folder")
+    return find_mesh_files(source)
+
+
+def _best_direction_task(task: dict[str, Any]) -> dict[str, Any]:
+    """Worker: load a mesh and find its best view (top level, so a pool can run it)."""
+    if task.get("numba_threads"):
+        try:
+            import numba
+
+            numba.set_num_threads(int(task["numba_threads"]))
+        except ImportError:
+            pass
+    from vptoolkit.io import load_mesh
+    from vptoolkit.measures import compute_view_quality
+
+    try:
+        mesh = load_mesh(task["path"])
+        if task.get("view_set"):
+            from vptoolkit.view_sets import measure_view_set
+
+            _, view_set = measure_view_set(
+                mesh, int(task["view_set"]), n_views=int(task["n_views"]),
+                resolution=int(task["resolution"]), camera=Camera(**task["camera"]))
+            return {"source": task["source"], "name": mesh.name, "vertices": mesh.vertices,
+                    "faces": mesh.faces, "direction": view_set.directions, "view_set": view_set,
+                    "label": f"view set of {len(view_set)} "
+                             f"({100 * view_set.coverage[-1]:.1f} % seen)"}
+        quality = compute_view_quality(
+            mesh, int(task["n_views"]), int(task["resolution"]), camera=Camera(**task["camera"])
+        )
+    except (VptoolkitError, OSError, MemoryError) as err:
+        return {"source": task["source"], "error": one_line(err)}
+    column = MEASURES.index(task["measure"])
+    index = int(quality.best_index[column])
+    return {
+        "source": task["source"],
+        "name": mesh.name,
+        "vertices": mesh.vertices,
+        "faces": mesh.faces,
+        "direction": quality.views[index],
+        "label": f"best {task['measure']} (view {index} of {len(quality.views)})",
+    }
+
+
+def _rounded(direction: Any) -> list[Any]:
+    """A direction (or, for a view set, each direction) as a list of 6-decimal floats."""
+    array = np.asarray(direction, dtype=np.float64)
+    if array.ndim == 2:
+        return [_rounded(row) for row in array]
+    return [round(float(c), 6) for c in array]
+
+
+def _camera_arguments(camera: Camera) -> dict[str, Any]:
+    return {
+        "fov_deg": camera.fov_deg,
+        "distance_factor": camera.distance_factor,
+        "up": tuple(camera.up),
+        "fallback_up": tuple(camera.fallback_up),
+        "cull_back_faces": camera.cull_back_faces,
+    }
+
+
+def _predicted_results(tasks: list[dict[str, Any]], predictor: DirectionSource,
+                       measure: str) -> Iterator[dict[str, Any]]:
+    from vptoolkit.io import load_mesh
+
+    for task in tasks:
+        try:
+            mesh = load_mesh(task["path"])
+            direction = resolve_direction(mesh, predictor, measure=measure)
+        except (VptoolkitError, OSError, MemoryError) as err:
+            yield {"source": task["source"], "error": one_line(err)}
+            continue
+        yield {"source": task["source"], "name": mesh.name, "vertices": mesh.vertices,
+               "faces": mesh.faces, "direction": direction, "label": f"predicted {measure}"}
+
+
+def render_thumbnails(
+    src: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    *,
+    measure: str = "VE",
+    predictor: DirectionSource | None = None,
+    size: int = _THUMBNAIL_SIZE,
+    workers: int | None = None,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    style: RenderStyle | None = None,
+    renderer: Engine | None = None,
+    engine: str = "software",
+    progress: bool = False,
+    view_set: int | None = None,
+) -> ThumbnailResult:
+    """Draw a thumbnail of every mesh in a folder from its best (or predicted) view.
+
+    Every file below ``src`` with a suffix :func:`vptoolkit.io.load_mesh`
+    reads (:func:`vptoolkit.io.find_mesh_files`: hidden files and folders are
+    skipped) is loaded, measured (:func:`vptoolkit.measures.compute_view_quality`)
+    and drawn from its best view for ``measure``; with ``predictor`` the
+    direction comes from it instead and nothing is measured. The picture of
+    ``src/a/b.off`` is ``out/a/b.png``. Measuring runs in ``workers``
+    processes (numba limited to one thread each); drawing runs in one
+    render child that is started once.
+
+    Parameters
+    ----------
+    src : path-like
+        A folder (searched recursively, in sorted order) or one mesh file.
+    out : path-like
+        Output folder, created if needed.
+    measure : str
+        ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
+    predictor : (3,) or (4, 3) array_like, or callable, optional
+        Direction source (see :func:`vptoolkit.pictures.views.resolve_direction`);
+        a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
+        network's prediction.
+    size : int
+        Thumbnail side in pixels (default: 512).
+    workers : int, optional
+        Measuring processes (default: the number of CPUs; 1 measures in this
+        process with every numba thread).
+    n_views, resolution : int
+        Views and triangle-ID resolution of the measures (defaults: 1000, 1024).
+    camera : Camera, optional
+        Camera of measures and pictures (default: ``Camera()``).
+    style : RenderStyle, optional
+        Shading.
+    renderer : Engine, optional
+        An open renderer to use (its size, camera and style apply).
+    engine : {"software", "open3d"}
+        Engine of the renderer made when ``renderer`` is not given (default:
+        "software"; see :func:`vptoolkit.pictures.engine.open_renderer`).
+    progress : bool
+        Show a progress bar on stderr (default: False).
+    view_set : int, optional
+        Draw each mesh's ``view_set``-view coverage set
+        (:func:`vptoolkit.view_sets.best_view_set`) as a captioned contact
+        sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`), ``size``
+        pixels per tile, instead of one view; its record lists every direction.
+
+    Returns
+    -------
+    ThumbnailResult
+        Written pictures, skipped files with reasons, and the index file.
+
+    Raises
+    ------
+    InputError
+        If ``src`` does not exist, an argument is invalid, or two sources
+        would write the same picture (``a.off`` and ``a.obj``: the second is
+        reported as a failure instead).
+    MissingDependencyError
+        If no renderer can start here (checked before any work).
+    """
+    source = as_path(src, "src")
+    target = as_path(out, "out")
+    column = measure_index(measure)
+    measure = MEASURES[column]
+    size = check_int(size, "size", minimum=16, maximum=4096)
+    workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
+    n_views = check_int(n_views, "n_views", minimum=1)
+    resolution = check_int(resolution, "resolution", minimum=1)
+    if view_set is not None:
+        view_set = check_int(view_set, "view_set", minimum=1)
+        if predictor is not None:
+            raise InputError("view_set: a predictor gives one view per mesh; drop one of them")
+    camera = camera or (renderer.camera if renderer is not None else Camera())
+    files = _mesh_files(source)
+    root = source if source.is_dir() else source.parent
+    target.mkdir(parents=True, exist_ok=True)
+
+    tasks: list[dict[str, Any]] = []
+    failures: list[ThumbnailFailure] = []
+    output_of: dict[str, Path] = {}
+    claimed: dict[Path, str] = {}
+    for path in files:
+        relative = path.relative_to(root).as_posix()
+        image_path = target / Path(relative).with_suffix(".png")
+        if image_path in claimed:
+            failures.append(ThumbnailFailure(
+                relative, f"same thumbnail name as {claimed[image_path]} ({image_path.name})"))
+            continue
+        claimed[image_path] = relative
+        output_of[relative] = image_path
+        tasks.append({"path": str(path), "source": relative, "measure": measure,
+                      "n_views": n_views, "resolution": resolution,
+                      "camera": _camera_arguments(camera), "view_set": view_set})
+
+    own_renderer = renderer is None
+    active = renderer or open_renderer(engine, size=size, camera=camera, style=style)
+    records: list[dict[str, Any]] = []
+    done: list[Path] = []
+    bar = tqdm(total=len(tasks), desc="thumbnails", unit="model", disable=not progress)
+    try:
+        active.start()  # fail fast, in one line, when no renderer can run here
+        results = (_iter_best_directions(tasks, workers) if predictor is None
+                   else _predicted_results(tasks, predictor, measure))
+        for result in results:
+            relative = result["source"]
+            bar.update(1)
+            if "error" in result:
+                failures.append(ThumbnailFailure(relative, result["error"]))
+                continue
+            try:
+                mesh = Mesh(result["vertices"], result["faces"], result["name"])
+                if "view_set" in result:
+                    from vptoolkit.pictures.contact_sheet import view_set_sheet
+
+                    image, _ = view_set_sheet(mesh, view_set=result["view_set"], renderer=active)
+                else:
+                    image = active.render(mesh, result["direction"])[0]
+                image_path = output_of[relative]
+                image_path.parent.mkdir(parents=True, exist_ok=True)
+                done.append(save_png(image, image_path))
+            except (VptoolkitError, OSError) as err:
+                failures.append(ThumbnailFailure(relative, one_line(err)))
+                continue
+            records.append({
+                "source": relative,
+                "image": image_path.relative_to(target).as_posix(),
+                "direction": _rounded(result["direction"]),
+                "label": result["label"],
+            })
+    finally:
+        bar.close()
+        if own_renderer:
+            active.close()
+    failures.sort(key=lambda failure: failure.source)
+    records.sort(key=lambda record: record["source"])
+    index = target / _INDEX_NAME
+    write_text_atomic(index, json.dumps({
+        "source": str(source),
+        "measure": measure,
+        "direction_from": "measures" if predictor is None else "predictor",
+        "n_views": n_views,
+        "resolution": resolution,
+        "size": active.size,
+        "camera": camera.to_dict(),
+        "thumbnails": records,
+        "failures": [{"source": f.source, "reason": f.reason} for f in failures],
+    }, indent=2) + "\n")
+    return ThumbnailResult(sorted(done), failures, index)
+
+
+# --------------------------------------------------------------------------- process pool
+# A bounded pool that retries the tasks of a crashed worker one by one. The same pool lives in
+# vptoolkit/dataset/build.py; both are to be replaced by the one in vptoolkit.parallel.
+
+
+def _iter_best_directions(tasks: list[dict[str, Any]], workers: int) -> Iterator[dict[str, Any]]:
+    """Results of :func:`_best_direction_task`, in this process or a pool.
+
+    A worker that dies (e.g. out of memory) breaks the pool; the tasks in
+    flight are then retried one by one in a fresh process each, and a task
+    that kills that one too is reported as a failure.
+    """
+    if workers == 1 or len(tasks) <= 1:
+        for task in tasks:
+            yield _best_direction_task(task)
+        return
+    methods = multiprocessing.get_all_start_methods()
+    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
+    pending = deque({**task, "numba_threads": 1} for task in tasks)
+    while pending:
+        crashed: list[dict[str, Any]] = []
+        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+            running: dict[Future[dict[str, Any]], dict[str, Any]] = {}
+            while (pending or running) and not crashed:
+                while pending and len(running) < 2 * workers:
+                    task = pending.popleft()
+                    running[pool.submit(_best_direction_task, task)] = task
+                completed, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in completed:
+                    task = running.pop(future)
+                    try:
+                        yield future.result()
+                    except BrokenProcessPool:
+                        crashed.append(task)
+            crashed.extend(running.values())
+        for task in sorted(crashed, key=lambda task: task["source"]):
+            with ProcessPoolExecutor(max_workers=1, mp_context=context) as alone:
+                try:
+                    yield alone.submit(_best_direction_task, task).result()
+                except BrokenProcessPool:
+                    yield {"source": task["source"],
+                           "error": "the worker process died while measuring it"}
