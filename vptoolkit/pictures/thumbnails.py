@@ -8,25 +8,20 @@ that of Open3D's render child is paid once. The picture of ``SRC/a/b.off``
 is ``OUT/a/b.png``; ``OUT/thumbnails.json`` records the measure, camera,
 size, every picture's direction and the files that were skipped with their
 one-line reasons (unreadable, unmeasurable or undrawable files never stop
-the batch). The crash-retrying process pool sits apart at the end of the
-module.
+the batch). The measuring runs in :func:`vptoolkit.parallel.run_tasks`, one
+frozen :class:`_MeasureTask` per file, each giving a :class:`_Measured`.
 """
 
 from __future__ import annotations
 
 import json
-import multiprocessing
 import os
-from collections import deque
 from collections.abc import Iterator
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from tqdm import tqdm
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_int, one_line
@@ -34,10 +29,17 @@ from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
+from vptoolkit.parallel import run_tasks
 from vptoolkit.pictures.engine import Engine, open_renderer
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
+from vptoolkit.progress import progress_bar
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from vptoolkit.view_sets import ViewSet
 
 __all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
 
@@ -93,45 +95,57 @@ def _mesh_files(source: Path) -> list[Path]:
     return find_mesh_files(source)
 
 
-def _best_direction_task(task: dict[str, Any]) -> dict[str, Any]:
-    """Worker: load a mesh and find its best view (top level, so a pool can run it)."""
-    if task.get("numba_threads"):
-        try:
-            import numba
+@dataclass(frozen=True)
+class _MeasureTask:
+    """One mesh file to measure: where it is, how it is named in the index, and the settings."""
 
-            numba.set_num_threads(int(task["numba_threads"]))
-        except ImportError:
-            pass
+    path: str
+    source: str
+    measure: str
+    n_views: int
+    resolution: int
+    camera: Camera
+    view_set: int | None
+
+
+@dataclass(frozen=True)
+class _Measured:
+    """The mesh of one task and the direction(s) to draw it from, or why there are none."""
+
+    source: str
+    error: str | None = None
+    mesh: Mesh | None = None
+    direction: NDArray[np.float64] | None = None
+    label: str = ""
+    view_set: ViewSet | None = None
+
+
+def _best_direction_task(task: _MeasureTask) -> _Measured:
+    """Worker: load a mesh and find its best view or view set (top level, so a pool can run it)."""
     from vptoolkit.io import load_mesh
     from vptoolkit.measures import compute_view_quality
 
     try:
-        mesh = load_mesh(task["path"])
-        if task.get("view_set"):
+        mesh = load_mesh(task.path)
+        if task.view_set:
             from vptoolkit.view_sets import measure_view_set
 
-            _, view_set = measure_view_set(
-                mesh, int(task["view_set"]), n_views=int(task["n_views"]),
-                resolution=int(task["resolution"]), camera=Camera(**task["camera"]))
-            return {"source": task["source"], "name": mesh.name, "vertices": mesh.vertices,
-                    "faces": mesh.faces, "direction": view_set.directions, "view_set": view_set,
-                    "label": f"view set of {len(view_set)} "
-                             f"({100 * view_set.coverage[-1]:.1f} % seen)"}
-        quality = compute_view_quality(
-            mesh, int(task["n_views"]), int(task["resolution"]), camera=Camera(**task["camera"])
-        )
+            _, view_set = measure_view_set(mesh, task.view_set, n_views=task.n_views,
+                                           resolution=task.resolution, camera=task.camera)
+            label = f"view set of {len(view_set)} ({100 * view_set.coverage[-1]:.1f} % seen)"
+            return _Measured(task.source, mesh=mesh, direction=view_set.directions,
+                             view_set=view_set, label=label)
+        quality = compute_view_quality(mesh, task.n_views, task.resolution, camera=task.camera)
     except (VptoolkitError, OSError, MemoryError) as err:
-        return {"source": task["source"], "error": one_line(err)}
-    column = MEASURES.index(task["measure"])
-    index = int(quality.best_index[column])
-    return {
-        "source": task["source"],
-        "name": mesh.name,
-        "vertices": mesh.vertices,
-        "faces": mesh.faces,
-        "direction": quality.views[index],
-        "label": f"best {task['measure']} (view {index} of {len(quality.views)})",
-    }
+        return _Measured(task.source, error=one_line(err))
+    index = int(quality.best_index[MEASURES.index(task.measure)])
+    return _Measured(task.source, mesh=mesh, direction=quality.views[index],
+                     label=f"best {task.measure} (view {index} of {len(quality.views)})")
+
+
+def _worker_died(task: _MeasureTask) -> _Measured:
+    """What a task yields whose worker process died twice (``run_tasks``'s ``crashed``)."""
+    return _Measured(task.source, error="the worker process died while measuring it")
 
 
 def _rounded(direction: Any) -> list[Any]:
@@ -142,29 +156,41 @@ def _rounded(direction: Any) -> list[Any]:
     return [round(float(c), 6) for c in array]
 
 
-def _camera_arguments(camera: Camera) -> dict[str, Any]:
-    return {
-        "fov_deg": camera.fov_deg,
-        "distance_factor": camera.distance_factor,
-        "up": tuple(camera.up),
-        "fallback_up": tuple(camera.fallback_up),
-        "cull_back_faces": camera.cull_back_faces,
-    }
-
-
-def _predicted_results(tasks: list[dict[str, Any]], predictor: DirectionSource,
-                       measure: str) -> Iterator[dict[str, Any]]:
+def _predicted_results(tasks: list[_MeasureTask], predictor: DirectionSource,
+                       measure: str) -> Iterator[_Measured]:
     from vptoolkit.io import load_mesh
 
     for task in tasks:
         try:
-            mesh = load_mesh(task["path"])
+            mesh = load_mesh(task.path)
             direction = resolve_direction(mesh, predictor, measure=measure)
         except (VptoolkitError, OSError, MemoryError) as err:
-            yield {"source": task["source"], "error": one_line(err)}
+            yield _Measured(task.source, error=one_line(err))
             continue
-        yield {"source": task["source"], "name": mesh.name, "vertices": mesh.vertices,
-               "faces": mesh.faces, "direction": direction, "label": f"predicted {measure}"}
+        yield _Measured(task.source, mesh=mesh, direction=direction, label=f"predicted {measure}")
+
+
+def _draw(result: _Measured, renderer: Engine, output_of: dict[str, Path], target: Path,
+          done: list[Path], failures: list[ThumbnailFailure]) -> dict[str, Any] | None:
+    """Draw and save one measured mesh; its index record, or None after recording a failure."""
+    if result.error is not None or result.mesh is None or result.direction is None:
+        failures.append(ThumbnailFailure(result.source, result.error or "nothing to draw"))
+        return None
+    image_path = output_of[result.source]
+    try:
+        if result.view_set is not None:
+            from vptoolkit.pictures.contact_sheet import view_set_sheet
+
+            image, _ = view_set_sheet(result.mesh, view_set=result.view_set, renderer=renderer)
+        else:
+            image = renderer.render(result.mesh, result.direction)[0]
+        image_path.parent.mkdir(parents=True, exist_ok=True)
+        done.append(save_png(image, image_path))
+    except (VptoolkitError, OSError) as err:
+        failures.append(ThumbnailFailure(result.source, one_line(err)))
+        return None
+    return {"source": result.source, "image": image_path.relative_to(target).as_posix(),
+            "direction": _rounded(result.direction), "label": result.label}
 
 
 def render_thumbnails(
@@ -262,7 +288,7 @@ def render_thumbnails(
     root = source if source.is_dir() else source.parent
     target.mkdir(parents=True, exist_ok=True)
 
-    tasks: list[dict[str, Any]] = []
+    tasks: list[_MeasureTask] = []
     failures: list[ThumbnailFailure] = []
     output_of: dict[str, Path] = {}
     claimed: dict[Path, str] = {}
@@ -275,47 +301,25 @@ def render_thumbnails(
             continue
         claimed[image_path] = relative
         output_of[relative] = image_path
-        tasks.append({"path": str(path), "source": relative, "measure": measure,
-                      "n_views": n_views, "resolution": resolution,
-                      "camera": _camera_arguments(camera), "view_set": view_set})
+        tasks.append(_MeasureTask(str(path), relative, measure, n_views, resolution, camera,
+                                  view_set))
 
     own_renderer = renderer is None
     active = renderer or open_renderer(engine, size=size, camera=camera, style=style)
     records: list[dict[str, Any]] = []
     done: list[Path] = []
-    bar = tqdm(total=len(tasks), desc="thumbnails", unit="model", disable=not progress)
     try:
         active.start()  # fail fast, in one line, when no renderer can run here
-        results = (_iter_best_directions(tasks, workers) if predictor is None
-                   else _predicted_results(tasks, predictor, measure))
-        for result in results:
-            relative = result["source"]
-            bar.update(1)
-            if "error" in result:
-                failures.append(ThumbnailFailure(relative, result["error"]))
-                continue
-            try:
-                mesh = Mesh(result["vertices"], result["faces"], result["name"])
-                if "view_set" in result:
-                    from vptoolkit.pictures.contact_sheet import view_set_sheet
-
-                    image, _ = view_set_sheet(mesh, view_set=result["view_set"], renderer=active)
-                else:
-                    image = active.render(mesh, result["direction"])[0]
-                image_path = output_of[relative]
-                image_path.parent.mkdir(parents=True, exist_ok=True)
-                done.append(save_png(image, image_path))
-            except (VptoolkitError, OSError) as err:
-                failures.append(ThumbnailFailure(relative, one_line(err)))
-                continue
-            records.append({
-                "source": relative,
-                "image": image_path.relative_to(target).as_posix(),
-                "direction": _rounded(result["direction"]),
-                "label": result["label"],
-            })
+        results = (run_tasks(_best_direction_task, tasks, workers=workers, crashed=_worker_died)
+                   if predictor is None else _predicted_results(tasks, predictor, measure))
+        with progress_bar(total=len(tasks), description="thumbnails", unit="model",
+                          enabled=progress) as bar:
+            for result in results:
+                bar.update(1)
+                record = _draw(result, active, output_of, target, done, failures)
+                if record is not None:
+                    records.append(record)
     finally:
-        bar.close()
         if own_renderer:
             active.close()
     failures.sort(key=lambda failure: failure.source)
@@ -333,47 +337,3 @@ def render_thumbnails(
         "failures": [{"source": f.source, "reason": f.reason} for f in failures],
     }, indent=2) + "\n")
     return ThumbnailResult(sorted(done), failures, index)
-
-
-# --------------------------------------------------------------------------- process pool
-# A bounded pool that retries the tasks of a crashed worker one by one. The same pool lives in
-# vptoolkit/dataset/build.py; both are to be replaced by the one in vptoolkit.parallel.
-
-
-def _iter_best_directions(tasks: list[dict[str, Any]], workers: int) -> Iterator[dict[str, Any]]:
-    """Results of :func:`_best_direction_task`, in this process or a pool.
-
-    A worker that dies (e.g. out of memory) breaks the pool; the tasks in
-    flight are then retried one by one in a fresh process each, and a task
-    that kills that one too is reported as a failure.
-    """
-    if workers == 1 or len(tasks) <= 1:
-        for task in tasks:
-            yield _best_direction_task(task)
-        return
-    methods = multiprocessing.get_all_start_methods()
-    context = multiprocessing.get_context("forkserver" if "forkserver" in methods else "spawn")
-    pending = deque({**task, "numba_threads": 1} for task in tasks)
-    while pending:
-        crashed: list[dict[str, Any]] = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-            running: dict[Future[dict[str, Any]], dict[str, Any]] = {}
-            while (pending or running) and not crashed:
-                while pending and len(running) < 2 * workers:
-                    task = pending.popleft()
-                    running[pool.submit(_best_direction_task, task)] = task
-                completed, _ = wait(running, return_when=FIRST_COMPLETED)
-                for future in completed:
-                    task = running.pop(future)
-                    try:
-                        yield future.result()
-                    except BrokenProcessPool:
-                        crashed.append(task)
-            crashed.extend(running.values())
-        for task in sorted(crashed, key=lambda task: task["source"]):
-            with ProcessPoolExecutor(max_workers=1, mp_context=context) as alone:
-                try:
-                    yield alone.submit(_best_direction_task, task).result()
-                except BrokenProcessPool:
-                    yield {"source": task["source"],
-                           "error": "the worker process died while measuring it"}
