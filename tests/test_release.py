@@ -261,7 +261,7 @@ def test_verify_passes_on_a_single_store(build: Path, release, path: str) -> Non
 
 @pytest.mark.parametrize("suffix", [".h5", ".zarr.zip"])
 def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str) -> None:
-    from vptoolkit.cli import _exit_code
+    from vptoolkit.cli.group import exit_code as _exit_code
     from vptoolkit.dataset.manifest import verify
 
     archive = release_copy / f"{STEM}{suffix}"
