@@ -237,7 +237,7 @@ class SphereMapDecoder(nn.Module):
     stride-4 deconvolution (-> 16), two residual blocks and a 2 x 2 stride-2
     deconvolution (-> 32) to one channel, with batch norm and ReLU between
     the layers. Cells follow the octahedral map of
-    :func:`vptoolkit.learn.labels.sphere_map_directions`.
+    :func:`vptoolkit.learn.octahedral.sphere_map_directions`.
 
     Args:
         in_channels (int): Latent size.
