@@ -166,7 +166,6 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
 
     if output is not None:
         check_suffix(output, ".npz")
-    if output is not None:
         check_output_folder(output, "--output")
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:

@@ -19,6 +19,7 @@ import click
 
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
 from vptoolkit.errors import InputError
+from vptoolkit.sphere import as_directions
 
 __all__ = [
     "Direction",
@@ -34,6 +35,7 @@ __all__ = [
     "up_option",
     "engine_option",
     "device_option",
+    "size_option",
 ]
 
 Decorated = TypeVar("Decorated", bound=Callable[..., Any])
@@ -70,15 +72,12 @@ class Direction(click.ParamType):
 
     def convert(self, value: Any, param: click.Parameter | None,
                 ctx: click.Context | None) -> tuple[float, float, float]:
-        """Parse ``value`` (or pass an already parsed triple through) and check it."""
-        from vptoolkit.sphere import as_directions
-
+        """Parse ``value`` (text, or an already parsed triple) and check it."""
         option = param.opts[0] if param is not None and param.opts else "direction"
-        if isinstance(value, tuple):
-            return value
+        parts = value if isinstance(value, tuple) else str(value).split(",")
         try:
-            x, y, z = (float(part) for part in str(value).split(","))
-        except ValueError:
+            x, y, z = (float(part) for part in parts)
+        except (TypeError, ValueError):
             raise InputError(f"{option}: expected three numbers x,y,z, got {value!r}") from None
         as_directions((x, y, z), name=option)
         return x, y, z
@@ -151,3 +150,9 @@ def device_option() -> Callable[[Decorated], Decorated]:
     return click.option("--device", default="auto", show_default=True,
                         type=click.Choice(["auto", "cpu", "cuda"]),
                         help="auto: CUDA when torch sees it, else the CPU.")
+
+
+def size_option(default: int) -> Callable[[Decorated], Decorated]:
+    """``--size PX``: the side of a picture, 16 to 4096 pixels."""
+    return click.option("--size", default=default, show_default=True,
+                        type=click.IntRange(16, 4096), help="Picture side in pixels.")

@@ -23,6 +23,7 @@ from vptoolkit.cli.options import (
     ExistingPath,
     engine_option,
     resolution_option,
+    size_option,
     up_option,
     views_option,
     workers_option,
@@ -45,8 +46,7 @@ Vector = tuple[float, float, float]
               help="Draw the K-view coverage set as one contact sheet, --size per tile.")
 @click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
               help="Measure whose prediction --model draws.")
-@click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
-              help="Picture side in pixels.")
+@size_option(512)
 @views_option("Views sampled for --best.")
 @resolution_option("Triangle-ID resolution of the measures for --best.")
 @up_option()
@@ -144,8 +144,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: Vector | No
               help="Report one split only (default: every model).")
 @click.option("--predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")
-@click.option("--size", default=256, show_default=True, type=click.IntRange(16, 4096),
-              help="Picture side in pixels.")
+@size_option(256)
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
 @click.option("--view-set", "view_set_k", default=4, show_default=True, type=click.IntRange(0),
               help="Views in each model's coverage view set (0 leaves it out).")
@@ -181,8 +180,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--model", "model_path", help=MODEL_HELP + " Uses its predictions, measures nothing.")
 @click.option("--view-set", "view_set_k", type=click.IntRange(1),
               help="Draw each mesh's K-view coverage set as a contact sheet instead.")
-@click.option("--size", default=512, show_default=True, type=click.IntRange(16, 4096),
-              help="Picture side in pixels.")
+@size_option(512)
 @workers_option("Measuring processes (default: CPUs).")
 @views_option(None)
 @resolution_option(None)
