@@ -1,4 +1,4 @@
-"""Score predicted viewpoints against a dataset's sampled viewpoint quality.
+"""Score one predicted direction per model and measure against the sampled views.
 
 The authors' protocol (Schelling et al. 2021, section 5.2): a predicted
 direction scores the *normalised* quality (1 = best view of that model) of the
