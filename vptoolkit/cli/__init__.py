@@ -34,6 +34,6 @@ def main() -> None:
     """
 
 
-for _module in (measure, dataset, learn, pictures):
-    for _command in _module.COMMANDS:
-        main.add_command(_command)
+for _command in (*measure.COMMANDS, *dataset.COMMANDS, *learn.COMMANDS, *pictures.COMMANDS):
+    main.add_command(_command)
+del _command
