@@ -114,9 +114,7 @@ def release_copy(release, tmp_path: Path) -> Path:
 
 
 def _source_records(build: Path) -> list[dict]:
-    from vptoolkit.dataset.store import open_store
-
-    from vptoolkit.dataset.store import published_split
+    from vptoolkit.dataset.store import open_store, published_split
 
     with open_store(build / "dataset.zarr") as reader:
         return [{**r, "split": published_split(r["split"])} for r in reader.models()]
@@ -143,7 +141,8 @@ def test_release_holds_every_file(release) -> None:
 def test_archive_holds_the_source_content(build: Path, release, archive: str) -> None:
     from vptoolkit.dataset.store import open_store
 
-    with open_store(build / "dataset.zarr") as source, open_store(getattr(release, archive)) as packed:
+    with open_store(build / "dataset.zarr") as source, \
+            open_store(getattr(release, archive)) as packed:
         assert packed.kind == ("zarr-zip" if archive == "zarr_zip" else "hdf5")
         assert packed.array_names() == source.array_names()
         for name in source.array_names():
@@ -261,7 +260,7 @@ def test_verify_passes_on_a_single_store(build: Path, release, path: str) -> Non
 
 @pytest.mark.parametrize("suffix", [".h5", ".zarr.zip"])
 def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str) -> None:
-    from vptoolkit.cli import _exit_code
+    from vptoolkit.cli.group import exit_code as _exit_code
     from vptoolkit.dataset.manifest import verify
 
     archive = release_copy / f"{STEM}{suffix}"
@@ -398,7 +397,8 @@ def test_card_yaml_header(build: Path, release) -> None:
                     r'^size_categories:\n- "n<1K"$',
                     r'^license_name: "source-mesh-licenses"$', r'^license_link: "README.md"$',
                     r"^task_categories:\n- \S+$", r"^tags:\n(- \S+\n)+",
-                    r"^configs:\n- config_name: default\n", r"^dataset_info:\n- config_name: default$"]:
+                    r"^configs:\n- config_name: default\n",
+                    r"^dataset_info:\n- config_name: default$"]:
         assert re.search(pattern, header, re.MULTILINE), pattern
     assert "source_datasets" not in header  # a local folder name is no hub dataset id
     default_info = header.split("dataset_info:")[1].split("- config_name: views")[0]

@@ -33,6 +33,7 @@ __all__ = [
     "HIGHER_IS_BETTER",
     "N_VIEWS",
     "RESOLUTION",
+    "SEED",
     "FOV_DEG",
     "DISTANCE_FACTOR",
     "UP",
@@ -51,6 +52,9 @@ N_VIEWS: Final = 1000
 
 RESOLUTION: Final = 1024
 """Side of the square triangle-ID image in pixels (the paper's choice)."""
+
+SEED: Final = 0
+"""Default seed of every seeded choice the command line offers (sampling, splits, training)."""
 
 FOV_DEG: Final = 45.0
 """Vertical (and, the image being square, horizontal) field of view in degrees."""

@@ -13,7 +13,8 @@ method     loss
 =========  =====================================================================
 ``sl``     single label: ``1 - <v_hat, v+>``, ``v+`` the stored best view
 ``ml``     multiple labels: ``min over {v : q(v) >= 0.99} of 1 - <v_hat, v>``
-``gl``     Gaussian labels: ``1 - <v_hat, v_g>``, ``v_g = argmax_v q(v) (exp(-|v - v_hat| / (2 sigma^2)) + s)``
+``gl``     Gaussian labels: ``1 - <v_hat, v_g>``,
+           ``v_g = argmax_v q(v) (exp(-|v - v_hat| / (2 sigma^2)) + s)``
 ``ml+gl``  ``ml`` for the first half of the epochs, then ``gl`` (the paper's method)
 ``sr``     spherical regression (Liao et al. 2019): ``1 - <|v_hat|, |v+|>`` plus the
            cross entropy of the sign category of ``v+``
@@ -30,13 +31,8 @@ Euclidean distance ``|v - v_hat|`` itself, not of its square, with
 ``sigma = 2`` and ``s = 1``; it is recomputed from the current (detached)
 prediction at every step, so no gradient flows through the choice of target.
 
-Sphere maps (DLDL) use the octahedral parametrisation of the unit sphere
-(Meyer et al. 2010; Cigolle et al. 2014): a direction ``d`` is projected onto
-the octahedron ``|x| + |y| + |z| = 1`` and the lower half (``z < 0``) is
-folded over the diagonals, so the whole sphere maps one-to-one onto the square
-``[-1, 1]^2`` without seams inside it. Cell ``(row, col)`` of a ``R x R`` map
-covers ``u`` in ``[-1 + 2 col / R, -1 + 2 (col + 1) / R]`` and ``w`` likewise
-for ``row``; cells differ in solid angle by at most a factor of about 3.
+Sphere maps (DLDL) use the octahedral parametrisation of the unit sphere of
+:mod:`vptoolkit.learn.octahedral`, whose names are re-exported here.
 """
 
 from __future__ import annotations
@@ -45,6 +41,13 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Final
 
 from vptoolkit.errors import InputError
+from vptoolkit.learn.octahedral import (
+    MAP_RESOLUTION,
+    octahedral_decode,
+    octahedral_encode,
+    sphere_map_cell,
+    sphere_map_directions,
+)
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -100,10 +103,6 @@ GL_SIGMA: Final = 2.0
 GL_SHIFT: Final = 1.0
 """Shift ``s`` of the Gaussian labels' locality weight (the paper's 1)."""
 
-MAP_RESOLUTION: Final = 32
-"""Side of the DLDL sphere map in cells (the paper's 32 x 32)."""
-
-
 def _sign_patterns() -> Tensor:
     rows = [[-1.0 if c & bit else 1.0 for bit in (4, 2, 1)] for c in range(8)]
     return torch.tensor(rows, dtype=torch.float32)
@@ -129,7 +128,8 @@ def check_label_method(method: str) -> str:
         If ``method`` is not one of :data:`LABEL_METHODS` (any case).
     """
     if not isinstance(method, str) or method.lower() not in LABEL_METHODS:
-        raise InputError(f"labels: unknown label method {method!r}, expected one of {list(LABEL_METHODS)}")
+        raise InputError(f"labels: unknown label method {method!r}, expected one of "
+                         f"{list(LABEL_METHODS)}")
     return method.lower()
 
 
@@ -169,7 +169,8 @@ def _as_batch_views(views: Tensor, batch: int) -> Tensor:
     if views.ndim == 2:
         views = views.unsqueeze(0).expand(batch, -1, -1)
     if views.ndim != 3 or views.shape[-1] != 3 or views.shape[0] != batch:
-        raise InputError(f"views: expected shape (B, V, 3) or (V, 3) with B={batch}, got {tuple(views.shape)}")
+        raise InputError(f"views: expected shape (B, V, 3) or (V, 3) with B={batch}, "
+                         f"got {tuple(views.shape)}")
     return views
 
 
@@ -233,7 +234,8 @@ def single_label_loss(directions: Tensor, best_views: Tensor) -> Tensor:
     """
     _check_directions(directions)
     if best_views.shape != directions.shape:
-        raise InputError(f"best_views: expected shape {tuple(directions.shape)}, got {tuple(best_views.shape)}")
+        raise InputError(f"best_views: expected shape {tuple(directions.shape)}, "
+                         f"got {tuple(best_views.shape)}")
     return cosine_loss(directions, best_views.to(directions.dtype))
 
 
@@ -277,7 +279,8 @@ def multiple_labels_loss(
 
 
 def gaussian_label_index(
-    directions: Tensor, views: Tensor, quality: Tensor, *, sigma: float = GL_SIGMA, shift: float = GL_SHIFT
+    directions: Tensor, views: Tensor, quality: Tensor, *, sigma: float = GL_SIGMA,
+    shift: float = GL_SHIFT
 ) -> Tensor:
     """Gaussian labels (GL): the index of the view that maximises the weighted quality.
 
@@ -318,7 +321,8 @@ def gaussian_label_index(
 
 
 def gaussian_label_loss(
-    directions: Tensor, views: Tensor, quality: Tensor, *, sigma: float = GL_SIGMA, shift: float = GL_SHIFT
+    directions: Tensor, views: Tensor, quality: Tensor, *, sigma: float = GL_SIGMA,
+    shift: float = GL_SHIFT
 ) -> Tensor:
     """Gaussian labels (GL): cosine distance to :func:`gaussian_label_index`'s view.
 
@@ -398,11 +402,13 @@ def decode_spherical_regression(abs_directions: Tensor, sign_logits: Tensor) -> 
     directions : (..., 3) float
         ``abs_directions`` with the signs of the best category; unit length.
     """
-    signs = SIGN_PATTERNS.to(abs_directions.device, abs_directions.dtype)[sign_logits.argmax(dim=-1)]
+    patterns = SIGN_PATTERNS.to(abs_directions.device, abs_directions.dtype)
+    signs = patterns[sign_logits.argmax(dim=-1)]
     return abs_directions * signs
 
 
-def spherical_regression_loss(abs_directions: Tensor, sign_logits: Tensor, targets: Tensor) -> Tensor:
+def spherical_regression_loss(abs_directions: Tensor, sign_logits: Tensor,
+                              targets: Tensor) -> Tensor:
     """Spherical regression (SR) loss: cosine distance of absolute values plus sign cross entropy.
 
     .. math::
@@ -426,9 +432,11 @@ def spherical_regression_loss(abs_directions: Tensor, sign_logits: Tensor, targe
     """
     _check_directions(abs_directions, "abs_directions")
     if targets.shape != abs_directions.shape:
-        raise InputError(f"targets: expected shape {tuple(abs_directions.shape)}, got {tuple(targets.shape)}")
+        raise InputError(f"targets: expected shape {tuple(abs_directions.shape)}, "
+                         f"got {tuple(targets.shape)}")
     if sign_logits.shape != (*abs_directions.shape[:2], 8):
-        raise InputError(f"sign_logits: expected shape {(*abs_directions.shape[:2], 8)}, got {tuple(sign_logits.shape)}")
+        raise InputError(f"sign_logits: expected shape {(*abs_directions.shape[:2], 8)}, "
+                         f"got {tuple(sign_logits.shape)}")
     targets = targets.to(abs_directions.dtype)
     regression = cosine_loss(abs_directions, targets.abs())
     classification = torch.nn.functional.cross_entropy(
@@ -438,95 +446,6 @@ def spherical_regression_loss(abs_directions: Tensor, sign_logits: Tensor, targe
 
 
 # ---------------------------------------------------------------- DLDL sphere maps
-
-
-def octahedral_encode(directions: Tensor) -> Tensor:
-    """Octahedral coordinates of directions.
-
-    Parameters
-    ----------
-    directions : (..., 3) float
-        Non-zero vectors.
-
-    Returns
-    -------
-    uv : (..., 2) float
-        In ``[-1, 1]^2``; the upper hemisphere (``z >= 0``) fills the diamond
-        ``|u| + |w| <= 1``, the lower one the four corners.
-    """
-    p = directions / directions.abs().sum(dim=-1, keepdim=True).clamp_min(1e-12)
-    x, y, z = p.unbind(dim=-1)
-    sign_x = torch.where(x >= 0, 1.0, -1.0).to(p.dtype)
-    sign_y = torch.where(y >= 0, 1.0, -1.0).to(p.dtype)
-    folded_u = (1.0 - y.abs()) * sign_x
-    folded_w = (1.0 - x.abs()) * sign_y
-    is_lower = z < 0
-    return torch.stack([torch.where(is_lower, folded_u, x), torch.where(is_lower, folded_w, y)], dim=-1)
-
-
-def octahedral_decode(uv: Tensor) -> Tensor:
-    """Unit directions from octahedral coordinates (inverse of :func:`octahedral_encode`).
-
-    Parameters
-    ----------
-    uv : (..., 2) float
-        In ``[-1, 1]^2``.
-
-    Returns
-    -------
-    directions : (..., 3) float
-        Unit vectors.
-    """
-    u, w = uv.unbind(dim=-1)
-    z = 1.0 - u.abs() - w.abs()
-    sign_u = torch.where(u >= 0, 1.0, -1.0).to(uv.dtype)
-    sign_w = torch.where(w >= 0, 1.0, -1.0).to(uv.dtype)
-    is_lower = z < 0
-    x = torch.where(is_lower, (1.0 - w.abs()) * sign_u, u)
-    y = torch.where(is_lower, (1.0 - u.abs()) * sign_w, w)
-    return _unit(torch.stack([x, y, z], dim=-1))
-
-
-def sphere_map_directions(resolution: int = MAP_RESOLUTION, *, dtype: torch.dtype = torch.float32) -> Tensor:
-    """The direction at the centre of every cell of an octahedral sphere map.
-
-    Parameters
-    ----------
-    resolution : int
-        Side ``R`` of the map (default: 32).
-    dtype : torch.dtype
-        Floating type of the result (default: float32).
-
-    Returns
-    -------
-    directions : (R, R, 3) float
-        Unit vector at the centre of cell ``(row, col)``; rows follow the
-        second octahedral coordinate ``w``, columns the first, ``u``.
-    """
-    if isinstance(resolution, bool) or not isinstance(resolution, int) or resolution < 1:
-        raise InputError(f"resolution: expected a positive integer, got {resolution!r}")
-    centres = -1.0 + (torch.arange(resolution, dtype=torch.float64) + 0.5) * (2.0 / resolution)
-    w, u = torch.meshgrid(centres, centres, indexing="ij")
-    return octahedral_decode(torch.stack([u, w], dim=-1)).to(dtype)
-
-
-def sphere_map_cell(directions: Tensor, resolution: int = MAP_RESOLUTION) -> Tensor:
-    """The flat index ``row * R + col`` of the map cell holding each direction.
-
-    Parameters
-    ----------
-    directions : (..., 3) float
-    resolution : int
-        Side ``R`` of the map (default: 32).
-
-    Returns
-    -------
-    cell : (...) int64
-        In ``0 .. R*R - 1``.
-    """
-    uv = octahedral_encode(directions)
-    index = ((uv + 1.0) * (resolution / 2.0)).floor().long().clamp(0, resolution - 1)
-    return index[..., 1] * resolution + index[..., 0]
 
 
 def quality_maps(views: Tensor, quality: Tensor, *, resolution: int = MAP_RESOLUTION) -> Tensor:
@@ -554,7 +473,8 @@ def quality_maps(views: Tensor, quality: Tensor, *, resolution: int = MAP_RESOLU
     cells = sphere_map_directions(resolution, dtype=views.dtype).to(views.device).reshape(-1, 3)
     with torch.no_grad():
         nearest = torch.einsum("cd,bvd->bcv", cells, views).argmax(dim=-1)  # (B, R*R)
-    values = torch.gather(quality, 1, nearest.unsqueeze(-1).expand(-1, -1, n_measures))  # (B, R*R, M)
+    # (B, R*R, M)
+    values = torch.gather(quality, 1, nearest.unsqueeze(-1).expand(-1, -1, n_measures))
     return values.transpose(1, 2).reshape(batch, n_measures, resolution, resolution)
 
 
@@ -589,7 +509,8 @@ def distribution_loss(maps: Tensor, target_maps: Tensor) -> Tensor:
     loss : (B, M) float
     """
     if maps.shape != target_maps.shape:
-        raise InputError(f"target_maps: expected shape {tuple(maps.shape)}, got {tuple(target_maps.shape)}")
+        raise InputError(f"target_maps: expected shape {tuple(maps.shape)}, "
+                         f"got {tuple(target_maps.shape)}")
     return (maps - target_maps.to(maps.dtype)).square().mean(dim=(-2, -1))
 
 
@@ -663,7 +584,9 @@ def label_loss(phase: str, outputs: Mapping[str, Tensor], batch: Mapping[str, Te
     if phase == "gl":
         return gaussian_label_loss(directions, batch["views"], batch["quality"])
     if phase == "sr":
-        return spherical_regression_loss(outputs["abs_directions"], outputs["sign_logits"], batch["best_views"])
+        return spherical_regression_loss(outputs["abs_directions"], outputs["sign_logits"],
+                                         batch["best_views"])
     maps = outputs["maps"]
-    targets = quality_maps(batch["views"].to(maps.dtype), batch["quality"].to(maps.dtype), resolution=maps.shape[-1])
+    targets = quality_maps(batch["views"].to(maps.dtype), batch["quality"].to(maps.dtype),
+                           resolution=maps.shape[-1])
     return distribution_loss(maps, targets)

@@ -30,7 +30,8 @@ else:
     nn = torch.nn
     Tensor = torch.Tensor
 
-__all__ = ["GeneratorDropout", "MonteCarloConv", "PointEncoder", "DirectionHead", "SphereMapDecoder"]
+__all__ = ["GeneratorDropout", "MonteCarloConv", "PointEncoder", "DirectionHead",
+           "SphereMapDecoder"]
 
 
 class GeneratorDropout(nn.Module):
@@ -59,7 +60,8 @@ class GeneratorDropout(nn.Module):
             return x
         if self.generator is None:
             self.generator = torch.Generator(device=x.device).manual_seed(0)
-        keep = torch.rand(x.shape, generator=self.generator, dtype=x.dtype, device=x.device) >= self.p
+        draws = torch.rand(x.shape, generator=self.generator, dtype=x.dtype, device=x.device)
+        keep = draws >= self.p
         return x * keep / (1.0 - self.p)
 
     def extra_repr(self) -> str:
@@ -116,13 +118,15 @@ class MonteCarloConv(nn.Module):
         self.out_channels = out_channels
         self.radius = float(radius)
         self.kernel_size = kernel_size
-        self.kernel = nn.Sequential(nn.Linear(3, kernel_hidden), nn.ReLU(), nn.Linear(kernel_hidden, kernel_size))
+        self.kernel = nn.Sequential(nn.Linear(3, kernel_hidden), nn.ReLU(),
+                                    nn.Linear(kernel_hidden, kernel_size))
         self.linear = nn.Linear(kernel_size * in_channels, out_channels)
 
     def forward(self, source_points: Tensor, source_features: Tensor, density: Tensor,
                 centre_points: Tensor, neighbourhood: Neighbourhood) -> Tensor:
         index, mask, count = neighbourhood
-        offsets = (gather_rows(source_points, index) - centre_points.unsqueeze(1)) / self.radius  # (M, S, 3)
+        # (M, S, 3)
+        offsets = (gather_rows(source_points, index) - centre_points.unsqueeze(1)) / self.radius
         inverse_density = mask.to(offsets.dtype) / gather_rows(density, index)
         weights = inverse_density / inverse_density.sum(dim=1, keepdim=True).clamp_min(1e-12)
         kernel = self.kernel(offsets) * weights.unsqueeze(-1)  # (M, S, K)
@@ -130,7 +134,8 @@ class MonteCarloConv(nn.Module):
         return self.linear(aggregated.flatten(start_dim=1))
 
     def extra_repr(self) -> str:
-        return f"{self.in_channels}, {self.out_channels}, radius={self.radius:g}, kernel_size={self.kernel_size}"
+        return (f"{self.in_channels}, {self.out_channels}, radius={self.radius:g}, "
+                f"kernel_size={self.kernel_size}")
 
 
 class PointEncoder(nn.Module):
@@ -158,11 +163,13 @@ class PointEncoder(nn.Module):
         in_channels = 3
         for spec in config.levels:
             convs.append(MonteCarloConv(in_channels, spec.channels, radius=spec.radius,
-                                        kernel_size=config.kernel_size, kernel_hidden=config.kernel_hidden))
+                                        kernel_size=config.kernel_size,
+                                        kernel_hidden=config.kernel_hidden))
             norms.append(nn.BatchNorm1d(spec.channels))
             in_channels = spec.channels
         convs.append(MonteCarloConv(in_channels, config.latent_channels, radius=GLOBAL_RADIUS,
-                                    kernel_size=config.global_kernel_size, kernel_hidden=config.kernel_hidden))
+                                    kernel_size=config.global_kernel_size,
+                                    kernel_hidden=config.kernel_hidden))
         norms.append(nn.BatchNorm1d(config.latent_channels))
         self.convs = nn.ModuleList(convs)
         self.norms = nn.ModuleList(norms)
@@ -200,12 +207,14 @@ class DirectionHead(nn.Module):
         - **output:** :math:`(B, C_{out})`
     """
 
-    def __init__(self, in_channels: int, hidden: Sequence[int], out_channels: int, dropout: float = 0.5) -> None:
+    def __init__(self, in_channels: int, hidden: Sequence[int], out_channels: int,
+                 dropout: float = 0.5) -> None:
         super().__init__()
         layers: list[nn.Module] = []
         width = in_channels
         for size in hidden:
-            layers += [nn.Linear(width, size), nn.BatchNorm1d(size), nn.ReLU(), GeneratorDropout(dropout)]
+            layers += [nn.Linear(width, size), nn.BatchNorm1d(size), nn.ReLU(),
+                       GeneratorDropout(dropout)]
             width = size
         layers.append(nn.Linear(width, out_channels))
         self.mlp = nn.Sequential(*layers)
@@ -237,7 +246,7 @@ class SphereMapDecoder(nn.Module):
     stride-4 deconvolution (-> 16), two residual blocks and a 2 x 2 stride-2
     deconvolution (-> 32) to one channel, with batch norm and ReLU between
     the layers. Cells follow the octahedral map of
-    :func:`vptoolkit.learn.labels.sphere_map_directions`.
+    :func:`vptoolkit.learn.octahedral.sphere_map_directions`.
 
     Args:
         in_channels (int): Latent size.

@@ -55,6 +55,17 @@ Determinism
     epoch. So the same command gives the same weights (on the same machine,
     device and thread count), and ``resume=True`` continues a stopped run
     from its last saved epoch exactly as an uninterrupted run would.
+
+Size
+    About 700 lines (some 210 of them docstrings) for one concept: the
+    training loop and the checks and records that belong to one run
+    (options, splits, validation under the rotated protocol, the
+    ``model.json`` training record). What stands alone already lives apart:
+    the network (:mod:`vptoolkit.learn.model`), its files
+    (:mod:`vptoolkit.learn.checkpoint`), the resumable state
+    (:mod:`vptoolkit.learn.state`), the labels and losses
+    (:mod:`vptoolkit.learn.labels`) and the input pipeline
+    (:mod:`vptoolkit.data.torch`).
 """
 
 from __future__ import annotations
@@ -72,6 +83,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
+from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store import published_split
@@ -219,47 +231,47 @@ def scaled_lr_step(epochs: int) -> int:
 
 
 def _seed(*keys: int) -> int:
-    return int(np.random.SeedSequence([int(key) for key in keys]).generate_state(1, np.uint64)[0] >> 1)
+    sequence = np.random.SeedSequence([int(key) for key in keys])
+    return int(sequence.generate_state(1, np.uint64)[0] >> 1)
 
 
 def _generator(*keys: int, device: torch.device | str = "cpu") -> torch.Generator:
     return torch.Generator(device=device).manual_seed(_seed(*keys))
 
 
-def _check_int(value: Any, name: str, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _check_float(value: Any, name: str, *, positive: bool = True) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or (
-        positive and value <= 0
-    ):
+def _check_positive(value: Any, name: str) -> float:
+    """Return ``value`` as a float after checking it is a finite number above 0."""
+    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not is_number or not math.isfinite(value) or value <= 0:
         raise InputError(f"{name}: expected a positive finite number, got {value!r}")
     return float(value)
 
 
-def _architecture(architecture: ModelConfig | Mapping[str, Any] | None, labels: str) -> ModelConfig:
+def _architecture(architecture: ModelConfig | Mapping[str, Any] | None,
+                  labels: str) -> ModelConfig:
     head = head_for_method(labels)
     if architecture is None:
         return ModelConfig(head=head)
     values = architecture.to_dict() if isinstance(architecture, ModelConfig) else dict(architecture)
     if values.setdefault("head", head) != head:
-        raise InputError(f"architecture: head {values['head']!r} does not fit labels {labels!r} (needs {head!r})")
+        raise InputError(f"architecture: head {values['head']!r} does not fit labels "
+                         f"{labels!r} (needs {head!r})")
     return ModelConfig.from_dict(values)
 
 
-def _split(dataset: ViewpointDataset, split: str, max_models: int | None, what: str) -> tuple[ViewpointDataset, int]:
+def _split(dataset: ViewpointDataset, split: str, max_models: int | None,
+           what: str) -> tuple[ViewpointDataset, int]:
     """A split and how many of its models (the first, in store order) to use."""
     subset = dataset.split(split)
     if len(subset) == 0:
-        hint = "; choose another with val_split (\"train\" for a tiny dataset)" if what == "val_split" else ""
+        hint = ("; choose another with val_split (\"train\" for a tiny dataset)"
+                if what == "val_split" else "")
         raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models{hint}")
     return subset, len(subset) if max_models is None else min(len(subset), max_models)
 
 
-def _categories(dataset: ViewpointDataset, categories: Sequence[str] | str | None) -> list[str] | None:
+def _categories(dataset: ViewpointDataset,
+                categories: Sequence[str] | str | None) -> list[str] | None:
     if categories is None:
         return None
     if isinstance(categories, str):
@@ -287,14 +299,16 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
     return batches
 
 
-def _validation_set(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int, seed: int,
-                    rotations: int, device: torch.device) -> dict[str, Tensor]:
+def _validation_set(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int,
+                    seed: int, rotations: int, device: torch.device) -> dict[str, Tensor]:
     """The validation inputs under the rotated protocol (as stored for ``rotations=0``)."""
     points, views, quality = [], [], []
     for index in range(n_models):
         item = subset[index]
-        base = network_points(item["points"], n_points=n_points, n_fps=n_fps, seed=seed, name=item["name"])
-        turns = fixed_rotations(item["name"], rotations, seed=seed) if rotations else np.eye(3)[None]
+        base = network_points(item["points"], n_points=n_points, n_fps=n_fps, seed=seed,
+                              name=item["name"])
+        turns = (fixed_rotations(item["name"], rotations, seed=seed) if rotations
+                 else np.eye(3)[None])
         for rotation in turns:
             points.append(base @ rotation.T)
             views.append(item["views"] @ rotation.T)
@@ -310,7 +324,8 @@ def _validate(model: ViewpointNet, validation: Mapping[str, Tensor]) -> Tensor:
         for start in range(0, len(validation["points"]), _VALIDATION_BATCH):
             part = slice(start, start + _VALIDATION_BATCH)
             directions = model(validation["points"][part])["directions"]
-            scores.append(nearest_view_quality(directions, validation["views"][part], validation["quality"][part]))
+            scores.append(nearest_view_quality(directions, validation["views"][part],
+                                               validation["quality"][part]))
     return torch.cat(scores).mean(dim=0).cpu()
 
 
@@ -426,49 +441,54 @@ def train_model(
     """
     with torch_threads(threads):
         return _train(
-            dataset_path, output, labels=labels, epochs=epochs, batch_size=batch_size, lr=lr, lr_decay=lr_decay,
-            lr_step=lr_step, seed=seed, resume=resume, overwrite=overwrite, progress=progress,
-            val_split=val_split, max_models=max_models, categories=categories, n_points=n_points, n_fps=n_fps,
-            rotate=rotate, fps_pool=fps_pool, val_rotations=val_rotations, save_every=save_every,
-            architecture=architecture, workers=workers, device=device, command=command,
+            dataset_path, output, labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
+            lr_decay=lr_decay, lr_step=lr_step, seed=seed, resume=resume, overwrite=overwrite,
+            progress=progress, val_split=val_split, max_models=max_models, categories=categories,
+            n_points=n_points, n_fps=n_fps, rotate=rotate, fps_pool=fps_pool,
+            val_rotations=val_rotations, save_every=save_every, architecture=architecture,
+            workers=workers, device=device, command=command,
         )
 
 
-def _subset(dataset: ViewpointDataset, split: str, categories: list[str] | None, max_models: int | None,
-            what: str) -> tuple[ViewpointDataset, int]:
+def _subset(dataset: ViewpointDataset, split: str, categories: list[str] | None,
+            max_models: int | None, what: str) -> tuple[ViewpointDataset, int]:
     """A split (restricted to ``categories``) and how many of its models to use."""
     subset, count = _split(dataset, split, max_models, what)
     if categories is None:
         return subset, count
-    keep = [name for name, category in zip(subset.names, subset.categories) if category in categories]
+    keep = [name for name, category in zip(subset.names, subset.categories)
+            if category in categories]
     if not keep:
-        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models of {categories}")
+        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models of "
+                         f"{categories}")
     chosen = subset.subset(keep)
     return chosen, len(chosen) if max_models is None else min(len(chosen), max_models)
 
 
-def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str, epochs: int,
-           batch_size: int, lr: float, lr_decay: float, lr_step: int | None, seed: int, resume: bool,
-           overwrite: bool, progress: bool, val_split: str, max_models: int | None,
-           categories: Sequence[str] | str | None, n_points: int, n_fps: int, rotate: bool, fps_pool: int,
-           val_rotations: int, save_every: int, architecture: ModelConfig | Mapping[str, Any] | None,
-           workers: int, device: str, command: str | None) -> TrainResult:
+def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str,
+           epochs: int, batch_size: int, lr: float, lr_decay: float, lr_step: int | None,
+           seed: int, resume: bool, overwrite: bool, progress: bool, val_split: str,
+           max_models: int | None, categories: Sequence[str] | str | None, n_points: int,
+           n_fps: int, rotate: bool, fps_pool: int, val_rotations: int, save_every: int,
+           architecture: ModelConfig | Mapping[str, Any] | None, workers: int, device: str,
+           command: str | None) -> TrainResult:
     started = time.perf_counter()
     labels = check_label_method(labels)
-    epochs = _check_int(epochs, "epochs", 1)
-    batch_size = _check_int(batch_size, "batch_size", 2)
-    lr = _check_float(lr, "lr")
-    lr_decay = _check_float(lr_decay, "lr_decay")
-    lr_step = scaled_lr_step(epochs) if lr_step is None else _check_int(lr_step, "lr_step", 1)
-    seed = _check_int(seed, "seed", 0)
-    n_points = _check_int(n_points, "n_points", 1)
-    n_fps = _check_int(n_fps, "n_fps", 0)
-    fps_pool = _check_int(fps_pool, "fps_pool", 0)
-    val_rotations = _check_int(val_rotations, "val_rotations", 0)
-    save_every = _check_int(save_every, "save_every", 1)
-    workers = _check_int(workers, "workers", 0)
+    epochs = check_int(epochs, "epochs", minimum=1)
+    batch_size = check_int(batch_size, "batch_size", minimum=2)
+    lr = _check_positive(lr, "lr")
+    lr_decay = _check_positive(lr_decay, "lr_decay")
+    lr_step = (scaled_lr_step(epochs) if lr_step is None
+               else check_int(lr_step, "lr_step", minimum=1))
+    seed = check_int(seed, "seed", minimum=0)
+    n_points = check_int(n_points, "n_points", minimum=1)
+    n_fps = check_int(n_fps, "n_fps", minimum=0)
+    fps_pool = check_int(fps_pool, "fps_pool", minimum=0)
+    val_rotations = check_int(val_rotations, "val_rotations", minimum=0)
+    save_every = check_int(save_every, "save_every", minimum=1)
+    workers = check_int(workers, "workers", minimum=0)
     if max_models is not None:
-        max_models = _check_int(max_models, "max_models", 1)
+        max_models = check_int(max_models, "max_models", minimum=1)
     if n_fps > n_points:
         raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
     where = resolve_device(device)
@@ -481,27 +501,31 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
     try:
         chosen = _categories(dataset, categories)
         arguments = {
-            "dataset_path": str(dataset_path), "output": str(output), "labels": labels, "epochs": epochs,
-            "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay, "lr_step": lr_step, "seed": seed,
-            "val_split": published_split(val_split), "max_models": max_models, "categories": chosen,
-            "n_points": n_points,
-            "n_fps": n_fps, "rotate": bool(rotate), "fps_pool": fps_pool, "val_rotations": val_rotations,
-            "save_every": save_every, "architecture": config.to_dict(), "workers": workers,
-            "device": str(where),
+            "dataset_path": str(dataset_path), "output": str(output), "labels": labels,
+            "epochs": epochs, "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay,
+            "lr_step": lr_step, "seed": seed, "val_split": published_split(val_split),
+            "max_models": max_models, "categories": chosen, "n_points": n_points,
+            "n_fps": n_fps, "rotate": bool(rotate), "fps_pool": fps_pool,
+            "val_rotations": val_rotations, "save_every": save_every,
+            "architecture": config.to_dict(), "workers": workers, "device": str(where),
         }
         if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
-            raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ from {MEASURES}")
+            raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ "
+                                    f"from {MEASURES}")
         train_set, n_train = _subset(dataset, "train", chosen, max_models, "dataset_path")
         val_set, n_val = _subset(dataset, val_split, chosen, max_models, "val_split")
         if n_train < 2:
-            raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; need at least 2")
+            raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; "
+                             "need at least 2")
         is_resuming = bool(resume) and last_json.exists()
         if not is_resuming and not overwrite and (weights_path.exists() or last_json.exists()):
-            hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to start afresh"
-                    if resume else "pass resume=True to continue it or overwrite=True to replace it")
-            raise InputError(f"{weights_path.parent}: already holds a training run ({weights_path.name}); {hint}")
-        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps, rotate=rotate, seed=seed,
-                                           fps_pool=fps_pool)
+            hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to "
+                    "start afresh" if resume
+                    else "pass resume=True to continue it or overwrite=True to replace it")
+            raise InputError(f"{weights_path.parent}: already holds a training run "
+                             f"({weights_path.name}); {hint}")
+        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps,
+                                           rotate=rotate, seed=seed, fps_pool=fps_pool)
         validation = _validation_set(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
                                      rotations=val_rotations, device=where)
 
@@ -511,7 +535,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         best: dict[str, Any] = {"epoch": 0, "score": -math.inf, "scores": {}}
         start_epoch = 0
         if is_resuming:
-            start_epoch, history, best = load_state(model, optimizer, last_weights, last_json, arguments, _RESUME_KEYS)
+            start_epoch, history, best = load_state(model, optimizer, last_weights, last_json,
+                                                    arguments, _RESUME_KEYS)
         metadata_base = {
             "labels": labels,
             "input": {"n_points": n_points, "n_fps": n_fps},
@@ -522,8 +547,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         }
         weights_path.parent.mkdir(parents=True, exist_ok=True)
         tqdm = require("tqdm").tqdm
-        bar = tqdm(total=epochs, initial=start_epoch, disable=not progress, desc=f"train {labels}", unit="epoch",
-                   dynamic_ncols=True)
+        bar = tqdm(total=epochs, initial=start_epoch, disable=not progress,
+                   desc=f"train {labels}", unit="epoch", dynamic_ncols=True)
         try:
             for epoch in range(start_epoch, epochs):
                 epoch_started = time.perf_counter()
@@ -531,13 +556,15 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 rate = learning_rate(epoch, lr=lr, lr_decay=lr_decay, lr_step=lr_step)
                 for group in optimizer.param_groups:
                     group["lr"] = rate
-                loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase, epoch=epoch, seed=seed,
-                                    batch_size=batch_size, workers=workers, device=where)
+                loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase,
+                                    epoch=epoch, seed=seed, batch_size=batch_size,
+                                    workers=workers, device=where)
                 scores = _validate(model, validation)
                 score = float(scores.mean())
                 entry = {
                     "epoch": epoch + 1, "phase": phase, "lr": rate, "loss": loss,
-                    "val_scores": {name: float(value) for name, value in zip(MEASURES, scores.tolist())},
+                    "val_scores": {name: float(value)
+                                   for name, value in zip(MEASURES, scores.tolist())},
                     "val_score": score, "seconds": time.perf_counter() - epoch_started,
                 }
                 history.append(entry)
@@ -545,18 +572,22 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                     best = {"epoch": epoch + 1, "score": score, "scores": entry["val_scores"]}
                     training = _training_record(arguments, command, dataset, n_train, n_val, epochs,
                                                 epoch + 1, best)
-                    save_model(model, weights_path, metadata={**metadata_base, "training": training})
+                    save_model(model, weights_path,
+                               metadata={**metadata_base, "training": training})
                 if (epoch + 1) % save_every == 0 or epoch + 1 == epochs:
-                    save_state(model, optimizer, last_weights, last_json, arguments=arguments, epoch=epoch + 1,
-                                history=history, best=best)
-                _log.info("epoch %d/%d %s loss %.4f val %.4f", epoch + 1, epochs, phase, loss, score)
+                    save_state(model, optimizer, last_weights, last_json, arguments=arguments,
+                               epoch=epoch + 1, history=history, best=best)
+                _log.info("epoch %d/%d %s loss %.4f val %.4f", epoch + 1, epochs, phase, loss,
+                          score)
                 bar.set_postfix(loss=f"{loss:.4f}", val=f"{score:.3f}", best=f"{best['score']:.3f}")
                 bar.update(1)
         finally:
             bar.close()
-        _update_best_record(config_path, arguments, command, dataset, n_train, n_val, epochs, history, best)
+        _update_best_record(config_path, arguments, command, dataset, n_train, n_val, epochs,
+                            history, best)
         return TrainResult(
-            checkpoint=weights_path, config_path=config_path, state_path=last_weights, labels=labels,
+            checkpoint=weights_path, config_path=config_path, state_path=last_weights,
+            labels=labels,
             epochs=len(history), best_epoch=int(best["epoch"]), best_score=float(best["score"]),
             best_scores=dict(best["scores"]), history=tuple(history), n_train=n_train,
             n_val=n_val, n_parameters=count_parameters(model),
@@ -600,13 +631,15 @@ def train_per_category(
     """
     folder = Path(output)
     if folder.suffix == ".safetensors":
-        raise InputError(f"{folder}: per-category training writes a folder, not one .safetensors file")
+        raise InputError(f"{folder}: per-category training writes a folder, not one "
+                         ".safetensors file")
     with open_dataset(dataset_path) as dataset:
         names = _categories(dataset, categories) if categories is not None else sorted(
             set(dataset.split("train").categories))
     results = {}
     for name in names:
-        results[name] = train_model(dataset_path, folder / name, categories=[name], progress=progress, **options)
+        results[name] = train_model(dataset_path, folder / name, categories=[name],
+                                    progress=progress, **options)
         write_json_atomic(folder / "categories.json", {
             "format": CATEGORY_MODELS_FORMAT,
             "categories": {done: done for done in results},
@@ -614,8 +647,9 @@ def train_per_category(
     return results
 
 
-def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_data: Any, n_train: int, *,
-                 phase: str, epoch: int, seed: int, batch_size: int, workers: int, device: torch.device) -> float:
+def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_data: Any,
+                 n_train: int, *, phase: str, epoch: int, seed: int, batch_size: int,
+                 workers: int, device: torch.device) -> float:
     train_data.set_epoch(epoch)
     batches = _batches(n_train, batch_size, _generator(seed, epoch, _SEED_SHUFFLE))
     model.train()
@@ -625,7 +659,8 @@ def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_da
     total = 0.0
     count = 0
     for batch in loader:
-        batch = {key: value.to(device) if isinstance(value, torch.Tensor) else value for key, value in batch.items()}
+        batch = {key: value.to(device) if isinstance(value, torch.Tensor) else value
+                 for key, value in batch.items()}
         outputs = model(batch["points"])
         loss = label_loss(phase, outputs, batch).mean()
         optimizer.zero_grad(set_to_none=True)
@@ -640,12 +675,14 @@ def _training_record(arguments: Mapping[str, Any], command: str | None, dataset:
                      n_train: int, n_val: int, epochs: int,
                      epochs_completed: int, best: Mapping[str, Any]) -> dict[str, Any]:
     if command is None:
-        shown = ", ".join(f"{key}={value!r}" for key, value in arguments.items() if key != "architecture")
+        shown = ", ".join(f"{key}={value!r}" for key, value in arguments.items()
+                          if key != "architecture")
         command = f"vptoolkit.learn.train.train_model({shown})"
     return {
         "dataset": str(dataset.path),
-        "dataset_attrs": {key: dataset.attrs.get(key) for key in ("format", "schema_version", "n_models",
-                                                                 "n_views", "toolkit_version", "created")},
+        "dataset_attrs": {key: dataset.attrs.get(key)
+                          for key in ("format", "schema_version", "n_models", "n_views",
+                                      "toolkit_version", "created")},
         "n_train": n_train,
         "n_val": n_val,
         "arguments": json_value(arguments),
@@ -661,7 +698,8 @@ def _training_record(arguments: Mapping[str, Any], command: str | None, dataset:
 
 def _update_best_record(config_path: Path, arguments: Mapping[str, Any], command: str | None,
                         dataset: ViewpointDataset, n_train: int, n_val: int,
-                        epochs: int, history: list[dict[str, Any]], best: Mapping[str, Any]) -> None:
+                        epochs: int, history: list[dict[str, Any]],
+                        best: Mapping[str, Any]) -> None:
     """Record the finished run's length and history in the best checkpoint's configuration."""
     config = read_json(config_path, "model configuration")
     config["training"] = _training_record(arguments, command, dataset, n_train, n_val, epochs,

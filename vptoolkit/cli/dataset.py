@@ -1,0 +1,188 @@
+"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify`` and ``info``."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE
+from vptoolkit.cli.options import (
+    EXISTING,
+    ExistingPath,
+    resolution_option,
+    views_option,
+    workers_option,
+)
+from vptoolkit.conventions import SEED
+from vptoolkit.errors import InputError
+
+
+@click.command("build-dataset")
+@click.argument("src", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--format", "store_format", type=click.Choice(["zarr", "hdf5"]), default="zarr",
+              show_default=True, help="Container of OUT/dataset.*.")
+@click.option("--categories", help="Comma-separated categories to include (default: all).")
+@views_option("Fibonacci view directions per model.")
+@resolution_option("Triangle-ID image side in pixels.")
+@click.option("--points", "n_points", default=20000, show_default=True, type=click.IntRange(1),
+              help="Surface points per model.")
+@click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
+              help="Face budget of the cleaned meshes.")
+@click.option("--no-clean", is_flag=True, help="Measure the meshes as they are.")
+@click.option("--remesh", is_flag=True,
+              help="Also remesh isotropically when cleaning (a tessellation-independent VE).")
+@workers_option("Local worker processes.", default=1)
+@click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
+@click.option("--split-seed", default=SEED, show_default=True, type=int,
+              help="Seed of the train/val/test assignment.")
+def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
+                  n_views: int, resolution: int, n_points: int, max_faces: int,
+                  no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
+                  split_seed: int) -> None:
+    """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
+
+    SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
+    folder of meshes (category = parent folder). Each model is loaded, cleaned,
+    sampled and measured; bad inputs are recorded as failures and the build
+    goes on. Rerunning the same command resumes an interrupted build. Exit code
+    1 when some inputs failed.
+
+    \b
+    Example:
+      vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
+    """
+    from vptoolkit.dataset.build import build_dataset as build
+
+    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
+                   resolution=resolution, n_points=n_points, max_faces=max_faces,
+                   clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
+                   split_seed=split_seed, progress=True)
+    click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
+               f"({result.seconds:.1f} s)")
+    for failure in result.failures:
+        click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
+    if result.n_failures:
+        sys.exit(EXIT_FAILURE)
+
+
+@click.command()
+@click.argument("dataset", type=EXISTING)
+@click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path), required=False)
+@click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
+@click.option("--license", "license_id", default="other", show_default=True,
+              help="Licence identifier for the card (that of the source meshes).")
+@click.option("--formats", default="parquet,zarr,hdf5", show_default=True,
+              help="Containers to write, comma-separated: parquet, zarr, hdf5.")
+@click.option("--version", "dataset_version", default="1.0.0", show_default=True,
+              help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant, file names).")
+@click.option("--created", help="Release time, ISO 8601 (default: $SOURCE_DATE_EPOCH, else the "
+              "build's). The same build and --created give byte-identical files.")
+@click.option("--pretty-name", help="Title of the card and the Croissant name.")
+@click.option("--source-url", help="Where the source meshes come from.")
+@click.option("--url", help="Where the release is published (Croissant url).")
+@click.option("--creator", help="Who made the release (Croissant creator).")
+@click.option("--licenses", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="CSV with the columns name, license, author, url: one row per model.")
+@click.option("--license-name", help="The hub's license_name when --license is other.")
+@click.option("--license-link", help="The hub's license_link when --license is other.")
+@click.option("--update-card", is_flag=True,
+              help="DATASET is a release whose README.md was edited: rewrite croissant.json "
+              "and SHA256SUMS to match it, leaving the archives as they are.")
+def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: str,
+         formats: str, dataset_version: str, created: str | None, pretty_name: str | None,
+         source_url: str | None, url: str | None, creator: str | None,
+         licenses: Path | None, license_name: str | None, license_link: str | None,
+         update_card: bool) -> None:
+    """Pack a built DATASET into RELEASE_DIR for publishing.
+
+    Writes Parquet shards per split, a Zarr v3 zip and an HDF5 file with the
+    same content, the dataset card README.md (with the hub's configs),
+    croissant.json, SCHEMA.md and a SHA256SUMS manifest. RELEASE_DIR must be
+    new or empty. With --update-card, DATASET is an existing release whose
+    card a person edited; only croissant.json and SHA256SUMS are rewritten.
+
+    \b
+    Example:
+      vptool pack out/ release/ --version 1.0.0 --created 2026-01-01T00:00:00Z \\
+          --licenses licenses.csv --pretty-name "Viewpoints of my meshes"
+      vptool pack --update-card release/
+    """
+    if update_card:
+        from vptoolkit.dataset.release import update_card as rewrite
+
+        if release_dir is not None:
+            raise InputError("--update-card: takes the release folder only, no RELEASE_DIR")
+        changed = rewrite(dataset)
+        click.echo(f"updated {dataset}: {', '.join(changed)}")
+        return
+    if release_dir is None:
+        raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
+    from vptoolkit.dataset.release import pack_release
+
+    chosen = [part.strip() for part in formats.split(",") if part.strip()]
+    result = pack_release(
+        dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
+        version=dataset_version, created=created, pretty_name=pretty_name,
+        source_url=source_url, url=url, creator=creator, licenses=licenses,
+        license_name=license_name, license_link=license_link,
+    )
+    for line in result.warnings:
+        click.echo(f"vptool: warning: {line}", err=True)
+    top = sorted({name.split("/")[0] + ("/" if "/" in name else "") for name in result.files})
+    click.echo(f"packed {result.n_models} models ({result.n_failures} failures), version "
+               f"{result.version}, created {result.created}, into {result.path}: "
+               f"{', '.join(top)}")
+
+
+@click.command()
+@click.argument("path", type=EXISTING)
+@click.option("--json", "as_json", is_flag=True, help="Print the full report as JSON.")
+def verify(path: Path, as_json: bool) -> None:
+    """Re-hash a release folder or dataset store against its checksums.
+
+    Every file is checked against SHA256SUMS and every array against the
+    SHA-256 stored with it; each mismatch and each unlisted file is named.
+    Exit code 1 on any mismatch; 2 if an archive could not be checked because
+    a package is missing (the line says which to install).
+
+    \b
+    Example:
+      vptool verify release/
+    """
+    from vptoolkit.dataset.manifest import verify as verify_path
+
+    report = verify_path(path)
+    # The summary is printed once: on stdout when all is well, else as the error line.
+    if as_json:
+        click.echo(json.dumps(report.to_dict(), indent=2))
+        if not report.ok:
+            sys.exit(EXIT_FAILURE if report.problems else EXIT_BAD_INPUT)
+        return
+    if report.ok:
+        click.echo(report.summary())
+    report.raise_if_failed()
+
+
+@click.command()
+@click.argument("path", type=EXISTING)
+@click.option("--json", "as_json", is_flag=True, help="Print the information as JSON.")
+def info(path: Path, as_json: bool) -> None:
+    """Show counts per category and split, conventions and failures of a dataset.
+
+    \b
+    Example:
+      vptool info release/
+    """
+    from vptoolkit.dataset.card import dataset_info, format_info
+
+    details = dataset_info(path)
+    click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
+
+
+COMMANDS = (build_dataset, pack, verify, info)
+"""The commands this module adds to ``vptool``."""

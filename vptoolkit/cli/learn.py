@@ -1,0 +1,209 @@
+"""Commands of the learned predictor: ``train``, ``predict`` and ``evaluate``."""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from vptoolkit.checks import check_npy_header, check_suffix, one_line
+from vptoolkit.cli.options import (
+    EXISTING,
+    MEASURE_CHOICE,
+    MODEL_HELP,
+    ExistingPath,
+    device_option,
+    seed_option,
+)
+from vptoolkit.errors import InputError
+from vptoolkit.files import check_output_folder
+
+
+@click.command()
+@click.argument("predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path))
+@click.option("--dataset", "dataset_path", required=True, type=EXISTING,
+              help="Dataset built by build-dataset (store, build folder or release folder).")
+@click.option("--split", default="test", show_default=True,
+              type=click.Choice(["train", "validation", "val", "test", "all"]),
+              help="Models to score.")
+@click.option("--measure", type=MEASURE_CHOICE,
+              help="The measure of an (N, 3) predictions.npy, or the only one to score.")
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("--view-sets", is_flag=True,
+              help="PREDICTIONS holds k directions per model, (N, k, 3): report the coverage "
+                   "they reach against the greedy k-view set's.")
+def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | None,
+             as_json: bool, view_sets: bool) -> None:
+    """Score predicted view directions against a dataset.
+
+    PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
+    matched by name) or a .npy of shape (N, 4, 3), or (N, 3) with --measure, in
+    the split's order. The score of a direction is the normalised quality of
+    the nearest sampled view (100 % = the best view), per category and measure.
+
+    \b
+    Example:
+      vptool evaluate predictions.npz --dataset release/ --split test
+      vptool evaluate sets.npz --dataset release/ --view-sets
+    """
+    from vptoolkit.evaluate import evaluate_predictions, evaluate_view_sets
+
+    if view_sets:
+        sets = evaluate_view_sets(dataset_path, predictions, split=split)
+        click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+        return
+    report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
+    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
+
+
+@click.command()
+@click.argument("dataset", type=EXISTING)
+@click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
+              help="Checkpoint: a folder, or a path ending in .safetensors.")
+@click.option("--labels", type=click.Choice(["sl", "ml", "gl", "ml+gl", "sr", "dldl"]),
+              default="ml+gl", show_default=True, help="Label method.")
+@click.option("--epochs", default=3000, show_default=True, type=click.IntRange(1),
+              help="Total epochs (the paper's 3000; far fewer already help).")
+@click.option("--batch-size", default=8, show_default=True, type=click.IntRange(2))
+@click.option("--lr", default=1e-3, show_default=True, type=click.FloatRange(min=0, min_open=True),
+              help="Initial learning rate (x0.75 fifteen times over the run, as the paper's "
+                   "schedule).")
+@seed_option(None)
+@click.option("--val-split", default="validation", show_default=True,
+              type=click.Choice(["train", "validation", "val", "test"]),
+              help="Split that picks the best epoch.")
+@click.option("--per-category", is_flag=True,
+              help="One network per category (the paper's set-up) in OUTPUT/<category>/.")
+@click.option("--categories", help="Comma-separated categories to train on (default: all).")
+@click.option("--fps-pool", default=8, show_default=True, type=click.IntRange(0),
+              help="Farthest-point subsets kept per model (0: sample anew for every input, "
+                   "slower).")
+@device_option()
+@click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
+@click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
+def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int, lr: float,
+          seed: int, val_split: str, per_category: bool, categories: str | None, fps_pool: int,
+          device: str, threads: int | None, resume: bool) -> None:
+    """Train a viewpoint network on the train split of DATASET.
+
+    Inputs are put in their canonical principal-axis frame, so the network's
+    answer turns with the model. Keeps the checkpoint with the best mean
+    validation score (normalised quality of the nearest sampled view, under
+    fixed rotations); the checkpoint is safetensors plus a JSON config, never
+    a pickle.
+
+    \b
+    Example:
+      vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
+      vptool train release/ -o per_category/ --per-category --epochs 300
+    """
+    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.learn.train import train_model, train_per_category
+    from vptoolkit.points import N_FPS_POINTS
+
+    most_threads = 8 * (os.cpu_count() or 1)
+    if threads is not None and threads > most_threads:
+        raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
+                         f"got {threads}")
+    with open_store(find_store(dataset)) as store:
+        n_points = int(store.attrs["n_points"])
+    if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
+        raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
+                         f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
+                         "or more; the paper uses 20000)")
+    options = {"labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
+               "resume": resume, "progress": True, "threads": threads, "val_split": val_split,
+               "fps_pool": fps_pool, "device": device,
+               "command": " ".join(["vptool", *sys.argv[1:]])}
+    chosen = [name.strip() for name in categories.split(",")] if categories else None
+    try:
+        if per_category:
+            results = train_per_category(dataset, output, categories=chosen, **options)
+        else:
+            results = {"": train_model(dataset, output, categories=chosen, **options)}
+    except InputError as error:
+        if "already holds a training run" not in str(error):
+            raise
+        raise InputError(f"{output}: already holds a training run; add --resume to continue it, "
+                         "or give another -o (or delete it) to start afresh") from error
+    for category, result in results.items():
+        scores = ", ".join(f"{m} {100 * v:.1f}%" for m, v in result.best_scores.items())
+        click.echo(f"{category + ': ' if category else ''}best epoch {result.best_epoch} of "
+                   f"{result.epochs}: {scores}; wrote {result.checkpoint}")
+
+
+@click.command("predict")
+@click.argument("inputs", nargs=-1, type=EXISTING)
+@click.option("-m", "--model", default="default", show_default=True, help=MODEL_HELP)
+@click.option("--dataset", "dataset_path", type=EXISTING, help="Predict the models of a dataset.")
+@click.option("--split", default="test", show_default=True,
+              type=click.Choice(["train", "validation", "val", "test", "all"]),
+              help="Split of --dataset.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write names, directions (N, 4, 3) and measures to this .npz.")
+@seed_option("Seed of the surface sampling and input point choice.")
+@click.option("--category",
+              help="Category of mesh and point-file inputs, for a per-category model folder.")
+@device_option()
+def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | None, split: str,
+                    output: Path | None, seed: int, category: str | None, device: str) -> None:
+    """Predict the best view per measure of meshes, point files or a dataset.
+
+    INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
+    vptool sample). Directions come back in each input's own frame, from the
+    model centre towards the camera. Without --model the network bundled with
+    vptoolkit predicts (trained on procedural shapes; see docs/results.md).
+
+    \b
+    Example:
+      vptool predict chair.off table.ply
+      vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
+    """
+    from vptoolkit.learn.predict import predict
+
+    if output is not None:
+        check_suffix(output, ".npz")
+        check_output_folder(output, "--output")
+    sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
+    if not sources:
+        raise InputError("inputs: give mesh or point files, or --dataset")
+    for source in sources:
+        if source.suffix.lower() == ".npy" and source.is_file():
+            _check_point_file(source)
+    predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
+                          progress=True, category=category, device=device)
+    if output is not None:
+        predictions.save_npz(output)
+    for name, directions in zip(predictions.names[:10], predictions.directions[:10]):
+        cells = "  ".join(f"{m} ({x:+.2f}, {y:+.2f}, {z:+.2f})"
+                          for m, (x, y, z) in zip(predictions.measures, directions))
+        click.echo(f"{name}: {cells}")
+    if len(predictions) > 10:
+        click.echo(f"... and {len(predictions) - 10} more")
+    if output is not None:
+        click.echo(f"wrote {output} ({len(predictions)} models)")
+
+
+def _check_point_file(path: Path) -> None:
+    """Refuse a point file whose header lies or whose points have no extent, before predicting."""
+    import numpy as np
+
+    with open(path, "rb") as stream:
+        check_npy_header(stream, path.name, path.stat().st_size)
+    try:
+        table = np.load(path, allow_pickle=False)
+    except (OSError, ValueError) as err:
+        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
+    if table.ndim == 2 and table.shape[1] in (3, 6) and np.issubdtype(table.dtype, np.number):
+        points = table[:, :3]
+        if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
+            raise InputError(f"{path.name}: its {len(points)} point(s) do not span any "
+                             "extent; a view can only be predicted for a shape (at least 2 "
+                             "distinct points)")
+
+
+COMMANDS = (train, predict_command, evaluate)
+"""The commands this module adds to ``vptool``."""

@@ -1,0 +1,210 @@
+"""Commands that measure one mesh: ``measures``, ``views``, ``clean`` and ``sample``."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import click
+
+from vptoolkit.checks import check_suffix
+from vptoolkit.cli.options import (
+    MEASURE_CHOICE,
+    MESH,
+    resolution_option,
+    seed_option,
+    views_option,
+)
+from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
+
+
+@click.command()
+@click.argument("mesh", type=MESH)
+@views_option()
+@resolution_option()
+@click.option("--backend", type=click.Choice(["raster", "raycast"]), default="raster",
+              show_default=True, help="raster: fast numba z-buffer; raycast: Open3D reference.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write views, raw and normalised measures and the camera to this .npz.")
+@click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+def measures(mesh: Path, n_views: int, resolution: int, backend: str,
+             output: Path | None, as_json: bool) -> None:
+    """Compute VE, VR, VKL and VMI of MESH for every view; print the best views.
+
+    VE and VR: higher is better; VKL and VMI: lower is better. Directions point
+    from the model centre to the camera, in the mesh's own coordinates.
+
+    \b
+    Example:
+      vptool measures bunny.ply --views 1000 --resolution 512 -o bunny.npz
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.measures import compute_view_quality
+
+    if output is not None:
+        check_suffix(output, ".npz")
+        check_output_folder(output, "--output")  # before the work, not after
+    loaded = load_mesh(mesh)
+    started = time.perf_counter()
+    quality = compute_view_quality(
+        loaded, n_views=n_views, resolution=resolution, backend=backend,  # type: ignore[arg-type]
+        progress=True,
+    )
+    seconds = time.perf_counter() - started
+    if output is not None:
+        quality.save_npz(output)
+    summary = quality.summary()
+    summary["seconds"] = round(seconds, 3)
+    if as_json:
+        click.echo(json.dumps(summary, indent=2))
+        return
+    click.echo(
+        f"{quality.name}: {quality.n_faces} faces, {len(quality.views)} views at "
+        f"{quality.resolution} px ({quality.backend}, {seconds:.2f} s)"
+    )
+    click.echo(f"{'measure':<8} {'view':>5}  {'direction (x, y, z)':<26} {'raw':>9}")
+    for name, best in summary["best"].items():
+        x, y, z = best["direction"]
+        click.echo(f"{name:<8} {best['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})     "
+                   f"{best['raw']:>9.4f}")
+    if output is not None:
+        click.echo(f"wrote {output}")
+
+
+@click.command()
+@click.argument("mesh", type=MESH)
+@click.option("--k", "k", type=click.IntRange(1),
+              help="Number of views [default: 4, or no limit with --coverage].")
+@click.option("--objective", type=click.Choice(["coverage", "information", "quality"]),
+              default="coverage", show_default=True,
+              help="coverage: area seen; information: entropy of the views' joint face "
+                   "distribution; quality: coverage, preferring good --measure views.")
+@click.option("--coverage", "target", type=click.FloatRange(0, 1, min_open=True),
+              help="Add views until the set sees this fraction of what all views see.")
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+              help="Measure of the quality objective (its best view is the first pick).")
+@views_option()
+@resolution_option()
+@click.option("--min-pixels", default=1, show_default=True, type=click.IntRange(1),
+              help="Pixels a face needs in a view to count as seen.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write indices, directions and cumulative coverage to this .npz.")
+@click.option("--json", "as_json", is_flag=True, help="Print the set as JSON.")
+def views(mesh: Path, k: int | None, objective: str, target: float | None, measure: str,
+          n_views: int, resolution: int, min_pixels: int, output: Path | None,
+          as_json: bool) -> None:
+    """Choose views of MESH that together show the whole model.
+
+    A greedy search over the sampled views: each pick adds the view that best
+    complements the ones before. Prints, per pick, the view, its direction and
+    the area-weighted fraction of the surface seen so far.
+
+    \b
+    Example:
+      vptool views bunny.ply --k 4 -o bunny_views.npz
+      vptool views chair.off --coverage 0.95 --objective quality
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.view_sets import measure_view_set
+
+    if output is not None:
+        check_suffix(output, ".npz")
+    loaded = load_mesh(mesh)
+    started = time.perf_counter()
+    _, view_set = measure_view_set(
+        loaded, 4 if k is None and target is None else k, n_views=n_views,
+        resolution=resolution, progress=True, objective=objective, until_coverage=target,
+        measure=measure, min_pixels=min_pixels)
+    seconds = time.perf_counter() - started
+    if output is not None:
+        view_set.save_npz(output)
+    if as_json:
+        click.echo(json.dumps({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
+        return
+    click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
+               f"{objective} objective ({seconds:.2f} s)")
+    bits = objective == "information"
+    click.echo(f"{'pick':<5} {'view':>5}  {'direction (x, y, z)':<26} {'coverage':>9}"
+               + (f" {'H bits':>8}" if bits else ""))
+    for pick in view_set.summary()["picks"]:
+        x, y, z = pick["direction"]
+        entropy = f" {pick['score']:>8.3f}" if bits else ""
+        click.echo(f"{pick['pick']:<5} {pick['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})   "
+                   f"{100 * pick['coverage']:>7.1f} %{entropy}")
+    click.echo(f"reachable: {100 * view_set.reachable:.1f} % of the surface "
+               f"(all {n_views} views together)")
+    if output is not None:
+        click.echo(f"wrote {output}")
+
+
+@click.command()
+@click.argument("source", type=MESH)
+@click.argument("target", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
+              help="Face budget after decimation.")
+@click.option("--remesh", is_flag=True, help="Also remesh isotropically after decimation.")
+@click.option("--report", "report_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the cleaning report as JSON to this file.")
+def clean(source: Path, target: Path, max_faces: int, remesh: bool,
+          report_path: Path | None) -> None:
+    """Clean SOURCE in the paper's three steps and write it to TARGET.
+
+    Repair (duplicates, non-manifold parts, self-intersections), remove faces
+    no view sees, then decimate to at most --max-faces faces. TARGET's suffix
+    picks the format (.off, .ply, .obj, .stl).
+
+    \b
+    Example:
+      vptool clean airplane_0001.off airplane_0001_clean.ply --report report.json
+    """
+    from vptoolkit.clean import clean_mesh
+    from vptoolkit.io import load_mesh, save_mesh
+
+    check_output_folder(target, "TARGET")
+    if report_path is not None:
+        check_output_folder(report_path, "--report")  # before writing the mesh
+    cleaned, report = clean_mesh(load_mesh(source), max_faces=max_faces, remesh=remesh)
+    save_mesh(cleaned, target)
+    record = report.to_dict()
+    if report_path is not None:
+        write_text_atomic(report_path, json.dumps(record, indent=2) + "\n")
+    for step in record["steps"]:
+        click.echo(f"{step['name']:<14} faces {step['faces_before']:>8} -> {step['faces_after']:<8}"
+                   f" {step['seconds']:7.2f} s")
+    click.echo(f"wrote {target} ({cleaned.n_faces} faces)")
+
+
+@click.command()
+@click.argument("mesh", type=MESH)
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="Write the points to this .npy file.")
+@click.option("--points", "n_points", default=20000, show_default=True,
+              type=click.IntRange(1, 100_000_000), help="Number of points.")
+@seed_option(minimum=0)
+def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
+    """Sample points uniformly by area on MESH, with face normals.
+
+    OUTPUT is a float32 .npy array of shape (N, 6): x, y, z, nx, ny, nz in the
+    mesh's own coordinates. The same seed always gives the same points.
+
+    \b
+    Example:
+      vptool sample bunny.ply -o bunny_points.npy --points 20000 --seed 0
+    """
+    import numpy as np
+
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    check_suffix(output, ".npy")
+    check_output_folder(output, "--output")
+    surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
+    table = np.hstack([surface.points, surface.normals]).astype(np.float32)
+    with atomic_write(output) as handle:
+        np.save(handle, table, allow_pickle=False)
+    click.echo(f"wrote {output} ({n_points} points with normals)")
+
+
+COMMANDS = (measures, views, clean, sample)
+"""The commands this module adds to ``vptool``."""

@@ -1,0 +1,158 @@
+"""Options and parameter types that several ``vptool`` commands share.
+
+One definition per option, in the manner of rasterio's ``rio/options.py``: a
+command takes ``@views_option()`` instead of repeating the type, range and
+default. Defaults come from :mod:`vptoolkit.conventions`, so the command line
+and the library agree on ``N_VIEWS``, ``RESOLUTION``, ``SEED`` and the measure
+order. An option whose help depends on the command takes it as an argument.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, TypeVar
+
+import click
+
+from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
+from vptoolkit.errors import InputError
+from vptoolkit.sphere import as_directions
+
+__all__ = [
+    "Direction",
+    "ExistingPath",
+    "MESH",
+    "EXISTING",
+    "MEASURE_CHOICE",
+    "MODEL_HELP",
+    "views_option",
+    "resolution_option",
+    "seed_option",
+    "workers_option",
+    "up_option",
+    "engine_option",
+    "device_option",
+    "size_option",
+]
+
+Decorated = TypeVar("Decorated", bound=Callable[..., Any])
+
+MAX_RESOLUTION = 16384
+"""Largest triangle-ID image side the command line accepts, in pixels."""
+
+
+class ExistingPath(click.Path):
+    """click.Path that names a symlink loop instead of saying the path does not exist."""
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        """Check ``value`` as click.Path does, after naming a symbolic link loop."""
+        try:
+            os.stat(os.fspath(value))
+        except OSError as err:
+            if err.errno == errno.ELOOP:
+                self.fail(f"{os.fsdecode(value)}: symbolic link loop ({err.strerror})", param, ctx)
+        return super().convert(value, param, ctx)
+
+
+class Direction(click.ParamType):
+    """A direction typed as ``x,y,z``: three finite numbers, not all zero.
+
+    Converts to a ``tuple[float, float, float]`` as typed (not normalised).
+    Bad text raises an :class:`~vptoolkit.errors.InputError` naming the option,
+    so the command line prints it as the one line of every other bad input and
+    exits with status 2; NaN, infinite and zero vectors are refused with the
+    messages of :func:`vptoolkit.sphere.as_directions`.
+    """
+
+    name = "x,y,z"
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> tuple[float, float, float]:
+        """Parse ``value`` (text, or an already parsed triple) and check it."""
+        option = param.opts[0] if param is not None and param.opts else "direction"
+        parts = value if isinstance(value, tuple) else str(value).split(",")
+        try:
+            x, y, z = (float(part) for part in parts)
+        except (TypeError, ValueError):
+            raise InputError(f"{option}: expected three numbers x,y,z, got {value!r}") from None
+        as_directions((x, y, z), name=option)
+        return x, y, z
+
+
+MESH = ExistingPath(exists=True, dir_okay=False, path_type=Path)
+"""An existing file (a mesh, or another single input file)."""
+
+EXISTING = ExistingPath(exists=True, path_type=Path)
+"""An existing file or folder."""
+
+MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
+"""One of :data:`vptoolkit.conventions.MEASURES`, in any case."""
+
+MODEL_HELP = "Checkpoint (folder or .safetensors), or 'default' for the bundled network."
+
+_ENGINE_HELP = ("software: the measures' rasteriser, fast on any CPU; open3d: Filament's "
+                "shading via Vulkan (erratic frame times on software Vulkan).")
+
+
+def views_option(help: str | None = "Number of Fibonacci-sphere view directions.",
+                 ) -> Callable[[Decorated], Decorated]:
+    """``--views N``: sampled view directions, at least 1 (default ``N_VIEWS``)."""
+    return click.option("--views", "n_views", default=N_VIEWS, show_default=True,
+                        type=click.IntRange(1), help=help)
+
+
+def resolution_option(help: str | None = "Side of the triangle-ID image in pixels.",
+                      ) -> Callable[[Decorated], Decorated]:
+    """``--resolution PX``: triangle-ID image side, 1 to ``MAX_RESOLUTION`` pixels.
+
+    The default is ``RESOLUTION``.
+    """
+    return click.option("--resolution", default=RESOLUTION, show_default=True,
+                        type=click.IntRange(1, MAX_RESOLUTION), help=help)
+
+
+def seed_option(help: str | None = "Random seed.", *,
+                minimum: int | None = None) -> Callable[[Decorated], Decorated]:
+    """``--seed N``: the seed of the command's random choices (default ``SEED``).
+
+    ``minimum`` bounds it from below where the library refuses smaller seeds.
+    """
+    return click.option("--seed", default=SEED, show_default=True,
+                        type=int if minimum is None else click.IntRange(minimum), help=help)
+
+
+def workers_option(help: str, *, default: int | None = None,
+                   ) -> Callable[[Decorated], Decorated]:
+    """``--workers N``: worker processes, at least 1."""
+    return click.option("--workers", default=default, show_default=default is not None,
+                        type=click.IntRange(1), help=help)
+
+
+def up_option() -> Callable[[Decorated], Decorated]:
+    """``--up x,y,z``: the model direction drawn upwards in pictures (a :class:`Direction`)."""
+    return click.option("--up", default="0,1,0", show_default=True, type=Direction(),
+                        help="Model direction shown upwards in pictures, x,y,z "
+                             "(0,0,1 for z-up models).")
+
+
+def engine_option() -> Callable[[Decorated], Decorated]:
+    """``--engine``: the picture engine, ``software`` (default) or ``open3d``."""
+    return click.option("--engine", default="software", show_default=True,
+                        type=click.Choice(["software", "open3d"]), help=_ENGINE_HELP)
+
+
+def device_option() -> Callable[[Decorated], Decorated]:
+    """``--device``: where torch runs, ``auto`` (default), ``cpu`` or ``cuda``."""
+    return click.option("--device", default="auto", show_default=True,
+                        type=click.Choice(["auto", "cpu", "cuda"]),
+                        help="auto: CUDA when torch sees it, else the CPU.")
+
+
+def size_option(default: int) -> Callable[[Decorated], Decorated]:
+    """``--size PX``: the side of a picture, 16 to 4096 pixels."""
+    return click.option("--size", default=default, show_default=True,
+                        type=click.IntRange(16, 4096), help="Picture side in pixels.")

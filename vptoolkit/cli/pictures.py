@@ -1,0 +1,223 @@
+"""Commands that draw pictures: ``render``, ``sphere-map``, ``report`` and ``thumbnails``.
+
+Picture functions are imported from their public paths (``vptoolkit.render``,
+``vptoolkit.sphere_map``, ``vptoolkit.report``, ``vptoolkit.thumbnails``),
+inside each command, so ``--help`` does not load a renderer.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+from vptoolkit.checks import check_suffix
+from vptoolkit.cli.group import EXIT_FAILURE
+from vptoolkit.cli.options import (
+    EXISTING,
+    MEASURE_CHOICE,
+    MESH,
+    MODEL_HELP,
+    Direction,
+    ExistingPath,
+    engine_option,
+    resolution_option,
+    size_option,
+    up_option,
+    views_option,
+    workers_option,
+)
+from vptoolkit.errors import InputError
+from vptoolkit.files import check_output_folder
+
+Vector = tuple[float, float, float]
+
+
+@click.command()
+@click.argument("mesh", type=MESH)
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="PNG file to write.")
+@click.option("--view", type=Direction(),
+              help="Direction x,y,z from the model centre towards the camera.")
+@click.option("--best", type=MEASURE_CHOICE, help="Draw the best sampled view of this measure.")
+@click.option("--model", "model_path", help=MODEL_HELP + " Draws its predicted view.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw the K-view coverage set as one contact sheet, --size per tile.")
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+              help="Measure whose prediction --model draws.")
+@size_option(512)
+@views_option("Views sampled for --best.")
+@resolution_option("Triangle-ID resolution of the measures for --best.")
+@up_option()
+@engine_option()
+def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
+           view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
+           up: Vector, engine: str) -> None:
+    """Draw MESH through the measures' camera into a PNG picture.
+
+    Give exactly one of --view, --best, --model or --view-set. The picture shows
+    what the measures score for that direction (same eye, target, up and field
+    of view); --view-set K draws the K views that together see the most of the
+    surface as one captioned contact sheet.
+
+    \b
+    Example:
+      vptool render bunny.ply --best VE -o bunny_ve.png
+      vptool render chair.off --model default -o chair.png
+      vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
+      vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
+    """
+    from vptoolkit.io import load_mesh
+    from vptoolkit.render import (
+        RenderedView,
+        RenderStyle,
+        render_best,
+        render_predicted,
+        render_view,
+        save_png,
+    )
+    from vptoolkit.sphere import as_directions
+
+    if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
+        raise InputError("render: give exactly one of --view, --best, --model or --view-set")
+    check_suffix(output, ".png")
+    check_output_folder(output, "--output")
+    style = RenderStyle(up=up)
+    loaded = load_mesh(mesh)
+    if view_set_k is not None:
+        from vptoolkit.contact_sheet import view_set_sheet
+
+        sheet, chosen = view_set_sheet(loaded, view_set_k, size=size, n_views=n_views,
+                                       resolution=resolution, style=style, engine=engine)
+        save_png(sheet, output)
+        click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
+                   f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+        return
+    if best is not None:
+        picture = render_best(loaded, measure=best, size=size, n_views=n_views,
+                              resolution=resolution, style=style, engine=engine)
+    elif model_path is not None:
+        from vptoolkit.learn.predict import MeshPredictor
+
+        picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size,
+                                   style=style, engine=engine)
+    else:
+        direction = as_directions(view, name="--view")[0]
+        picture = RenderedView(render_view(loaded, direction, size=size, style=style,
+                                           engine=engine), direction, "--view")
+    save_png(picture.image, output)
+    x, y, z = picture.direction
+    click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
+
+
+@click.command("sphere-map")
+@click.argument("quality", type=ExistingPath(exists=True, dir_okay=False, path_type=Path))
+@click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
+              help="PNG file to write.")
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE)
+@click.option("--predicted", type=Direction(),
+              help="A predicted direction x,y,z to mark with a cross.")
+def sphere_map(quality: Path, output: Path, measure: str, predicted: Vector | None) -> None:
+    """Draw a measure over the view sphere as a Mercator map.
+
+    QUALITY is the .npz of vptool measures -o. Colours: normalised quality
+    (1 = best); the star marks the best sampled view, the cross --predicted.
+
+    \b
+    Example:
+      vptool measures bunny.ply -o bunny.npz
+      vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
+    """
+    from vptoolkit.sphere_map import sphere_map_file
+
+    check_output_folder(output, "--output")
+    sphere_map_file(quality, output, measure=measure, predicted=predicted)
+    click.echo(f"wrote {output}")
+
+
+@click.command()
+@click.argument("dataset", type=EXISTING)
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for index.html and its pictures.")
+@click.option("--split", type=click.Choice(["train", "validation", "val", "test"]),
+              help="Report one split only (default: every model).")
+@click.option("--predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
+              help="Predictions (.npz of vptool predict) to score and draw.")
+@size_option(256)
+@click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
+@click.option("--view-set", "view_set_k", default=4, show_default=True, type=click.IntRange(0),
+              help="Views in each model's coverage view set (0 leaves it out).")
+@up_option()
+@engine_option()
+def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
+           no_pictures: bool, view_set_k: int, up: Vector, engine: str) -> None:
+    """Write a static HTML page with one card per model of DATASET.
+
+    Pictures from each measure's best view, the four quality maps, the scores
+    of --predictions, filters by category and split, and a summary table.
+    Open OUTPUT/index.html in any browser; no server is needed.
+
+    \b
+    Example:
+      vptool predict --model default --dataset release/ -o test.npz
+      vptool report release/ --split test --predictions test.npz -o report/
+    """
+    from vptoolkit.render import RenderStyle
+    from vptoolkit.report import write_report
+
+    index = write_report(dataset, output, split=split, predictions=predictions, size=size,
+                         thumbnails=not no_pictures, style=RenderStyle(up=up), engine=engine,
+                         progress=True, view_set=view_set_k or None)
+    click.echo(f"wrote {index}")
+
+
+@click.command()
+@click.argument("src", type=EXISTING)
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+              help="Measure whose best (or predicted) view is drawn.")
+@click.option("--model", "model_path", help=MODEL_HELP + " Uses its predictions, measures nothing.")
+@click.option("--view-set", "view_set_k", type=click.IntRange(1),
+              help="Draw each mesh's K-view coverage set as a contact sheet instead.")
+@size_option(512)
+@workers_option("Measuring processes (default: CPUs).")
+@views_option(None)
+@resolution_option(None)
+@up_option()
+@engine_option()
+def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
+               view_set_k: int | None, size: int, workers: int | None, n_views: int,
+               resolution: int, up: Vector, engine: str) -> None:
+    """Draw a thumbnail of every mesh under SRC from its best view into OUT.
+
+    SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
+    and the files skipped with their reasons (exit status 1 if any).
+
+    \b
+    Example:
+      vptool thumbnails models/ thumbs/ --measure VKL --size 256
+      vptool thumbnails models/ thumbs/ --model default
+      vptool thumbnails models/ sheets/ --view-set 4 --size 192
+    """
+    from vptoolkit.render import RenderStyle
+    from vptoolkit.thumbnails import render_thumbnails
+
+    predictor = None
+    if model_path is not None:
+        from vptoolkit.learn.predict import MeshPredictor
+
+        predictor = MeshPredictor(model_path)
+    result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
+                               workers=workers, n_views=n_views, resolution=resolution,
+                               style=RenderStyle(up=up), engine=engine, progress=True,
+                               view_set=view_set_k)
+    click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
+    for failure in result.failures:
+        click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)
+    if result.failures:
+        sys.exit(EXIT_FAILURE)
+
+
+COMMANDS = (render, sphere_map, report, thumbnails)
+"""The commands this module adds to ``vptool``."""

@@ -1,0 +1,54 @@
+"""Score predicted viewpoints against a dataset's sampled viewpoint quality.
+
+One module per question asked of a prediction:
+
+``scores``
+    One direction per model and measure: the normalised quality of the
+    nearest sampled view (the authors' protocol), per category and measure;
+    the predictions files it reads.
+``baselines``
+    Random, PCA and oracle directions to compare a network with.
+``coverage``
+    ``k`` directions per model: the surface they show, against the greedy
+    coverage set.
+
+Every public name is re-exported here, so ``from vptoolkit.evaluate import
+score_directions`` keeps working. Numpy only (plus the store's zarr or h5py);
+never torch, open3d or pymeshlab at import.
+"""
+
+from vptoolkit.evaluate.baselines import oracle_directions, pca_directions, random_directions
+from vptoolkit.evaluate.coverage import (
+    ViewSetReport,
+    evaluate_view_sets,
+    model_view_set,
+    model_visibility,
+    score_view_sets,
+    stored_view_set,
+)
+from vptoolkit.evaluate.scores import (
+    EVALUATION_SPLITS,
+    EvaluationReport,
+    evaluate_predictions,
+    load_predictions,
+    save_predictions,
+    score_directions,
+)
+
+__all__ = [
+    "EVALUATION_SPLITS",
+    "EvaluationReport",
+    "load_predictions",
+    "save_predictions",
+    "score_directions",
+    "evaluate_predictions",
+    "random_directions",
+    "pca_directions",
+    "oracle_directions",
+    "ViewSetReport",
+    "score_view_sets",
+    "evaluate_view_sets",
+    "model_visibility",
+    "model_view_set",
+    "stored_view_set",
+]
