@@ -1,8 +1,7 @@
 """Commands that draw pictures: ``render``, ``sphere-map``, ``report`` and ``thumbnails``.
 
-Picture functions are imported from their public paths (``vptoolkit.render``,
-``vptoolkit.sphere_map``, ``vptoolkit.report``, ``vptoolkit.thumbnails``),
-inside each command, so ``--help`` does not load a renderer.
+Picture functions are imported from :mod:`vptoolkit.pictures` inside each
+command, so ``--help`` does not load a renderer.
 """
 
 from __future__ import annotations
@@ -69,14 +68,9 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
     from vptoolkit.io import load_mesh
-    from vptoolkit.render import (
-        RenderedView,
-        RenderStyle,
-        render_best,
-        render_predicted,
-        render_view,
-        save_png,
-    )
+    from vptoolkit.pictures.png import save_png
+    from vptoolkit.pictures.shading import RenderStyle
+    from vptoolkit.pictures.views import RenderedView, render_best, render_predicted, render_view
     from vptoolkit.sphere import as_directions
 
     if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
@@ -86,7 +80,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     style = RenderStyle(up=up)
     loaded = load_mesh(mesh)
     if view_set_k is not None:
-        from vptoolkit.contact_sheet import view_set_sheet
+        from vptoolkit.pictures.contact_sheet import view_set_sheet
 
         sheet, chosen = view_set_sheet(loaded, view_set_k, size=size, n_views=n_views,
                                        resolution=resolution, style=style, engine=engine)
@@ -129,7 +123,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: Vector | No
       vptool measures bunny.ply -o bunny.npz
       vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
     """
-    from vptoolkit.sphere_map import sphere_map_file
+    from vptoolkit.pictures.sphere_map import sphere_map_file
 
     check_output_folder(output, "--output")
     sphere_map_file(quality, output, measure=measure, predicted=predicted)
@@ -163,8 +157,8 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
       vptool predict --model default --dataset release/ -o test.npz
       vptool report release/ --split test --predictions test.npz -o report/
     """
-    from vptoolkit.render import RenderStyle
-    from vptoolkit.report import write_report
+    from vptoolkit.pictures.report import write_report
+    from vptoolkit.pictures.shading import RenderStyle
 
     index = write_report(dataset, output, split=split, predictions=predictions, size=size,
                          thumbnails=not no_pictures, style=RenderStyle(up=up), engine=engine,
@@ -200,8 +194,8 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ thumbs/ --model default
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
     """
-    from vptoolkit.render import RenderStyle
-    from vptoolkit.thumbnails import render_thumbnails
+    from vptoolkit.pictures.shading import RenderStyle
+    from vptoolkit.pictures.thumbnails import render_thumbnails
 
     predictor = None
     if model_path is not None:
