@@ -10,6 +10,7 @@ order. An option whose help depends on the command takes it as an argument.
 from __future__ import annotations
 
 import errno
+import math
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -19,7 +20,6 @@ import click
 
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
 from vptoolkit.errors import InputError
-from vptoolkit.sphere import as_directions
 
 __all__ = [
     "Direction",
@@ -64,8 +64,7 @@ class Direction(click.ParamType):
     Converts to a ``tuple[float, float, float]`` as typed (not normalised).
     Bad text raises an :class:`~vptoolkit.errors.InputError` naming the option,
     so the command line prints it as the one line of every other bad input and
-    exits with status 2; NaN, infinite and zero vectors are refused with the
-    messages of :func:`vptoolkit.sphere.as_directions`.
+    exits with status 2.
     """
 
     name = "x,y,z"
@@ -79,7 +78,9 @@ class Direction(click.ParamType):
             x, y, z = (float(part) for part in parts)
         except (TypeError, ValueError):
             raise InputError(f"{option}: expected three numbers x,y,z, got {value!r}") from None
-        as_directions((x, y, z), name=option)
+        if not all(math.isfinite(c) for c in (x, y, z)) or x == y == z == 0:
+            raise InputError(f"{option}: expected a finite, non-zero direction x,y,z, "
+                             f"got {value!r}")
         return x, y, z
 
 
