@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
-from vptoolkit.evaluate.scores import _check_directions, _count, _quoted, _select_split
+from vptoolkit.evaluate._inputs import check_directions, counted, quoted, select_split
 from vptoolkit.predictions import read_arrays, unicode_vector
 
 __all__ = [
@@ -137,13 +137,13 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
     position = {name: i for i, name in enumerate(expected)}
     unknown = [name for name in names if name not in position]
     if unknown:
-        raise InputError(f"{path.name}: {_count(len(unknown), 'name', 'names')} not in "
-                         f"{where}: {_quoted(unknown)}")
+        raise InputError(f"{path.name}: {counted(len(unknown), 'name', 'names')} not in "
+                         f"{where}: {quoted(unknown)}")
     if len(set(names)) != len(names) or len(names) != len(expected):
         raise InputError(f"{path.name}: holds {len(names)} view sets, {where} has "
                          f"{len(expected)} models (each exactly once)")
     columns = [f"view {i + 1}" for i in range(raw.shape[1])]
-    values = _check_directions(path.name, raw, names, columns)
+    values = check_directions(path.name, raw, names, columns)
     ordered = np.zeros_like(values)
     ordered[[position[name] for name in names]] = values
     return ordered
@@ -310,7 +310,7 @@ def evaluate_view_sets(
     if not isinstance(dataset, ViewpointDataset):
         with open_dataset(dataset) as opened:
             return evaluate_view_sets(opened, predictions_path, split=split)
-    selected = _select_split(dataset, split)
+    selected = select_split(dataset, split)
     directions = _load_view_sets(predictions_path, selected,
                                  f"split {split!r} of {dataset.path.name}")
     return score_view_sets(selected, directions, split=split,

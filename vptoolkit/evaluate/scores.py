@@ -45,8 +45,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.store import SPLITS, published_split
 from vptoolkit.errors import InputError
+from vptoolkit.evaluate._inputs import (
+    EVALUATION_SPLITS,
+    check_directions,
+    counted,
+    quoted,
+    select_split,
+)
 from vptoolkit.predictions import (
     parse_predictions,
     read_arrays,
@@ -62,10 +68,6 @@ __all__ = [
     "evaluate_predictions",
 ]
 
-EVALUATION_SPLITS = (*SPLITS, "all")
-"""Values of ``split`` accepted by :func:`evaluate_predictions`."""
-
-_MAX_LISTED = 3  # names quoted in an error message before "..."
 
 
 # --------------------------------------------------------------------------- report
@@ -285,35 +287,6 @@ def _check_measure(measure: str | None) -> int | None:
     return None if measure is None else measure_index(measure)
 
 
-def _quoted(names: Sequence[str]) -> str:
-    listed = ", ".join(repr(name) for name in names[:_MAX_LISTED])
-    return listed + (", ..." if len(names) > _MAX_LISTED else "")
-
-
-def _count(n: int, singular: str, plural: str) -> str:
-    return f"{n} {singular if n == 1 else plural}"
-
-
-def _check_directions(file_name: str, directions: NDArray[Any], names: Sequence[str],
-                      measures: Sequence[str]) -> NDArray[np.float64]:
-    """Cast to float64 and reject non-finite or zero vectors, naming the model."""
-    if directions.dtype.kind not in "fiu":
-        raise InputError(f"{file_name}: directions must be numeric, got dtype {directions.dtype}")
-    values = directions.astype(np.float64)
-    is_bad = ~np.isfinite(values).all(axis=-1)
-    problem = "NaN or infinite"
-    if not is_bad.any():
-        is_bad = np.linalg.norm(values, axis=-1) < 1e-12
-        problem = "a zero vector"
-    if is_bad.any():
-        model, column = np.argwhere(is_bad)[0]
-        raise InputError(
-            f"{file_name}: direction of {names[model]!r} for {measures[column]} is {problem} "
-            f"({int(is_bad.sum())} of {is_bad.size} directions)"
-        )
-    return values
-
-
 def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str | None,
           where: str) -> tuple[list[str], NDArray[np.float64]]:
     path = Path(path)
@@ -339,27 +312,27 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
         if loaded.shape[0] != n_models:
             raise InputError(f"{file_name}: holds {loaded.shape[0]} predictions, "
                              f"{where} has {n_models} models")
-        values = _check_directions(file_name, loaded, expected_names,
+        values = check_directions(file_name, loaded, expected_names,
                                    [MEASURES[c] for c in columns])
         rows = np.arange(n_models)
     else:
         names_tuple, raw, measures_tuple = parse_predictions(file_name, loaded)
         names, file_measures = list(names_tuple), list(measures_tuple)
         columns = [MEASURES.index(m) for m in file_measures]
-        values = _check_directions(file_name, raw, names, file_measures)
+        values = check_directions(file_name, raw, names, file_measures)
         duplicates = sorted(name for name, count in Counter(names).items() if count > 1)
         if duplicates:
-            raise InputError(f"{file_name}: duplicate names {_quoted(duplicates)}")
+            raise InputError(f"{file_name}: duplicate names {quoted(duplicates)}")
         position = {name: i for i, name in enumerate(expected_names)}
         unknown = [name for name in names if name not in position]
         if unknown:
-            raise InputError(f"{file_name}: {_count(len(unknown), 'name', 'names')} not in "
-                             f"{where}: {_quoted(unknown)}")
+            raise InputError(f"{file_name}: {counted(len(unknown), 'name', 'names')} not in "
+                             f"{where}: {quoted(unknown)}")
         if len(names) != n_models:
             have = set(names)
             missing = [name for name in expected_names if name not in have]
             raise InputError(f"{file_name}: holds {len(names)} predictions, {where} has "
-                             f"{n_models} models; missing {_quoted(missing)}")
+                             f"{n_models} models; missing {quoted(missing)}")
         rows = np.array([position[name] for name in names], dtype=np.int64)
 
     if column is not None:
@@ -508,17 +481,6 @@ def score_directions(
     )
 
 
-def _select_split(dataset: ViewpointDataset, split: str) -> ViewpointDataset:
-    split = published_split(split)
-    if split not in EVALUATION_SPLITS:
-        raise InputError(f"split: unknown split {split!r}, expected one of "
-                         f"{', '.join(EVALUATION_SPLITS)}")
-    selected = dataset if split == "all" else dataset.split(split)
-    if len(selected) == 0:
-        raise InputError(f"{dataset.path.name}: split {split!r} has no models")
-    return selected
-
-
 def evaluate_predictions(
     dataset: ViewpointDataset | str | os.PathLike[str],
     predictions_path: str | os.PathLike[str],
@@ -558,7 +520,7 @@ def evaluate_predictions(
     if not isinstance(dataset, ViewpointDataset):
         with open_dataset(dataset) as opened:
             return evaluate_predictions(opened, predictions_path, split=split, measure=measure)
-    selected = _select_split(dataset, split)
+    selected = select_split(dataset, split)
     _check_measure(measure)
     _, directions = _load(predictions_path, selected, measure,
                           f"split {split!r} of {dataset.path.name}")
