@@ -4,6 +4,7 @@ The layers are those of the Layout section of README.md.
 """
 
 import ast
+import re
 from pathlib import Path
 
 import vptoolkit
@@ -131,3 +132,20 @@ def test_no_import_cycle_at_module_level():
 def test_no_import_cycle_through_imports_inside_functions():
     found = cycles(import_graph(module_level_only=False))
     assert not found, [" -> ".join(cycle) for cycle in found]
+
+
+MODULE_LINES = 600
+"""A module over this many lines must say in its docstring why it stays whole."""
+
+
+def test_long_modules_say_why_they_are_not_split():
+    unexplained = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        source = path.read_text(encoding="utf-8")
+        if source.count("\n") <= MODULE_LINES:
+            continue
+        docstring = ast.get_docstring(ast.parse(source)) or ""
+        if not re.search(r"^Size\b", docstring, flags=re.MULTILINE):
+            unexplained.append(f"{path.relative_to(PACKAGE)} ({source.count(chr(10))} lines)")
+    assert not unexplained, (f"over {MODULE_LINES} lines without a 'Size' paragraph in the "
+                             f"docstring: {', '.join(unexplained)}")

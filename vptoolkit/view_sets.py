@@ -66,13 +66,14 @@ lowest view index, so the same inputs give the same set.
 Memory: the histograms of all views are kept (about 8 bytes per visible
 face per view: 40 MB for 1000 views of a 10k-face mesh at 1024 px).
 
-Size: about 730 lines, a third of them docstrings (the objectives' maths
-above), for one concept: the greedy search, its input
-(:class:`FaceVisibility`) and its result (:class:`ViewSet`). The three
-objectives share the search's bookkeeping (``_Entries``, the stopping rule),
-and the input and result types have no use apart from it, so they stay in
-one module; what they build on (histograms, measures) lives in
-:mod:`vptoolkit.visibility` and :mod:`vptoolkit.measures`.
+Size
+    About 730 lines, a third of them docstrings (the objectives' maths
+    above), for one concept: the greedy search, its input
+    (:class:`FaceVisibility`) and its result (:class:`ViewSet`). The three
+    objectives share the search's bookkeeping (``_Entries``, the stopping rule),
+    and the input and result types have no use apart from it, so they stay in
+    one module; what they build on (histograms, measures) lives in
+    :mod:`vptoolkit.visibility` and :mod:`vptoolkit.measures`.
 """
 
 from __future__ import annotations
