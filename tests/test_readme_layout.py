@@ -1,0 +1,37 @@
+"""README's Layout section names every module of the package, so the map cannot fall behind."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import vptoolkit
+
+PACKAGE = Path(vptoolkit.__file__).parent
+README = PACKAGE.parent / "README.md"
+
+
+def _layout_paragraphs() -> list[str]:
+    text = README.read_text(encoding="utf-8")
+    section = text.split("\n## Layout\n", 1)[1].split("\n## ", 1)[0]
+    return section.split("\n\n")
+
+
+def _named(module: Path, paragraphs: list[str]) -> bool:
+    """Whether the Layout names ``module``: by its path, or by its name under its package."""
+    parts = module.relative_to(PACKAGE).with_suffix("").parts
+    if len(parts) == 1:
+        return any(f"`{parts[0]}`" in paragraph for paragraph in paragraphs)
+    package, name = "/".join(parts[:-1]), parts[-1]
+    if any(f"`{package}/{name}`" in paragraph for paragraph in paragraphs):
+        return True
+    in_package = [p for p in paragraphs if f"`{package}/" in p or f"(`{package}/`)" in p]
+    if name == "__init__":
+        return bool(in_package)
+    return any(f"`{name}`" in paragraph for paragraph in in_package)
+
+
+def test_layout_names_every_module():
+    paragraphs = _layout_paragraphs()
+    missing = [str(path.relative_to(PACKAGE)) for path in sorted(PACKAGE.rglob("*.py"))
+               if not _named(path, paragraphs)]
+    assert not missing, f"README's Layout section does not name: {', '.join(missing)}"
