@@ -133,3 +133,53 @@ def submesh(
     remap = np.zeros(mesh.n_vertices, dtype=np.int64)
     remap[used] = np.arange(len(used), dtype=np.int64)
     return Mesh(mesh.vertices[used], remap[faces], name=mesh.name)
+
+
+def faces_near(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    is_target: NDArray[np.bool_],
+    margin: float,
+    *,
+    max_pairs: int = 5_000_000,
+) -> NDArray[np.bool_] | None:
+    """Faces whose bounding box, grown by ``margin``, may overlap that of a target face.
+
+    Two triangles can intersect or touch only if their bounding boxes
+    overlap, so the result holds every face that can meet a target (the
+    targets included). Boxes are paired by sorting along the axis that gives
+    the fewest pairs; the 5 % of faces widest along it are kept without
+    comparing. Returns None when more than ``max_pairs`` pairs would be
+    compared (a caller then tests everything).
+    """
+    corners = vertices[faces]
+    low = corners.min(axis=1) - margin
+    high = corners.max(axis=1) + margin
+    near = is_target.copy()
+    targets = np.flatnonzero(is_target)
+    if len(targets) == 0:
+        return near
+    best = None
+    for axis in range(3):
+        width = high[:, axis] - low[:, axis]
+        limit = float(np.quantile(width, 0.95))
+        order = np.argsort(low[:, axis], kind="stable")
+        sorted_low = low[order, axis]
+        # A face no wider than ``limit`` overlaps target t along this axis only
+        # if its low end lies in [low_t - limit, high_t].
+        start = np.searchsorted(sorted_low, low[targets, axis] - limit, side="left")
+        stop = np.searchsorted(sorted_low, high[targets, axis], side="right")
+        total = int((stop - start).sum())
+        if best is None or total < best[0]:
+            best = (total, width > limit, order, start, stop)
+    total, is_wide, order, start, stop = best
+    if total > max_pairs:
+        return None
+    near |= is_wide
+    counts = stop - start
+    first = np.repeat(start - (np.cumsum(counts) - counts), counts)
+    other = order[first + np.arange(total)]
+    target = np.repeat(targets, counts)
+    overlap = np.all((low[other] <= high[target]) & (high[other] >= low[target]), axis=1)
+    near[other[overlap]] = True
+    return near
