@@ -78,7 +78,9 @@ started = time.perf_counter()
 result = build_dataset(sys.argv[1], sys.argv[2], **options)
 seconds = time.perf_counter() - started
 print(json.dumps({"seconds": seconds, "n_models": result.n_models,
-                  "n_failures": result.n_failures, "code": vptoolkit.__file__}))
+                  "n_failures": result.n_failures, "code": vptoolkit.__file__,
+                  "stage_seconds": dict(getattr(result, "stage_seconds", {})),
+                  "n_computed": getattr(result, "n_computed", result.n_models)}))
 """
 
 
@@ -86,7 +88,9 @@ def baseline_build(code: Path, src: Path, out: Path, options: dict[str, Any]) ->
     """Build ``src`` into ``out`` with the vptoolkit checked out at ``code``, in a child process.
 
     Returns the child's record: ``seconds`` (around ``build_dataset`` only),
-    ``n_models``, ``n_failures`` and ``code``, the imported package's path.
+    ``n_models``, ``n_failures``, ``code`` (the imported package's path), and
+    ``stage_seconds`` and ``n_computed`` (empty and ``n_models`` for code
+    older than the per-stage timings).
     """
     env = {**os.environ, "PYTHONPATH": str(code)}
     done = subprocess.run(
@@ -146,6 +150,18 @@ def hdf5_bytes(zarr_store: Path, target: Path) -> int:
             failures=reader.failures(),
         )
     return target.stat().st_size
+
+
+def _print_stages(stage_seconds: dict[str, float], n_computed: int) -> None:
+    """One line: seconds per model of each stage and its share (nothing if not recorded)."""
+    if not stage_seconds:
+        return
+    total = sum(stage_seconds.values()) or 1.0
+    per_model = max(1, n_computed)
+    print("        per model: " + ", ".join(
+        f"{stage} {spent / per_model:.2f} s ({100 * spent / total:.0f} %)"
+        for stage, spent in stage_seconds.items()
+    ))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -209,6 +225,7 @@ def main(argv: list[str] | None = None) -> int:
                           f"{baseline['n_failures']:>6} {baseline['seconds']:>8.1f} "
                           f"{baseline['models_per_hour']:>12.0f} {'':>9}  "
                           f"load {baseline['load_average']:.1f}", flush=True)
+                    _print_stages(baseline["stage_seconds"], baseline["n_computed"])
                 out = root / f"out_{suffix}"
                 started = time.perf_counter()
                 result = build_dataset(root / "samples", out, **options)
@@ -227,12 +244,7 @@ def main(argv: list[str] | None = None) -> int:
                       f"{seconds:>8.1f} {per_hour:>12.0f} {speed_up:>8.2f}x  load {load:.1f}",
                       flush=True)
                 runs[-1]["stage_seconds"] = dict(result.stage_seconds)
-                total = sum(result.stage_seconds.values()) or 1.0
-                per_model = max(1, result.n_computed)
-                print("        per model: " + ", ".join(
-                    f"{stage} {spent / per_model:.2f} s ({100 * spent / total:.0f} %)"
-                    for stage, spent in result.stage_seconds.items()
-                ))
+                _print_stages(result.stage_seconds, result.n_computed)
                 for failure in result.failures:
                     print(f"        failed: {failure['reason']}")
         if args.rounds > 1 or baselines:
