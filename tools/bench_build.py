@@ -3,8 +3,10 @@
 Makes a ModelNet-style tree from the bundled sample meshes (every sample,
 ``--copies`` times under new names, spread over three categories and
 ``train/`` and ``test/``) and builds it from scratch once per worker count.
-For each build it prints the wall-clock seconds, the models per hour and the
-speed-up over the first worker count of the same run (the baseline), then
+For each build it prints the wall-clock seconds, the CPU seconds (user and
+system, of all threads; one worker only, since pool workers are children of
+multiprocessing's fork server, not of this process), the models per hour and
+the speed-up over the first worker count of the same run (the baseline), then
 the bytes per model of the Zarr store, of the same data written as HDF5 and
 of the staging folder the build keeps for resuming. Under each build it prints
 the seconds per model of each stage (load, clean, sample, measure, write;
@@ -23,6 +25,8 @@ speed-up column is this code's models per hour over the baseline's with the
 same workers. Both codes first build one small model untimed, so that numba's
 kernels are compiled and cached. ``--rounds N`` repeats the alternation and
 keeps each code's fastest build, which damps the noise of a shared machine.
+On a busy machine CPU seconds per model (``--workers 1``) vary far less than
+wall-clock time: they are the fairer comparison there.
 
 Usage::
 
@@ -37,6 +41,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -69,15 +74,26 @@ def make_tree(root: Path, copies: int) -> int:
     return n_files
 
 
+def cpu_seconds() -> float:
+    """User and system seconds of this process (all its threads) and of its waited-for children."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
+
+
 _CHILD_BUILD = """
-import json, sys, time
+import json, resource, sys, time
 import vptoolkit
 from vptoolkit.dataset.build import build_dataset
+def cpu_seconds():
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 options = json.loads(sys.argv[3])
-started = time.perf_counter()
+started, cpu_started = time.perf_counter(), cpu_seconds()
 result = build_dataset(sys.argv[1], sys.argv[2], **options)
-seconds = time.perf_counter() - started
-print(json.dumps({"seconds": seconds, "n_models": result.n_models,
+seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
+print(json.dumps({"seconds": seconds, "cpu_seconds": cpu, "n_models": result.n_models,
                   "n_failures": result.n_failures, "code": vptoolkit.__file__,
                   "stage_seconds": dict(getattr(result, "stage_seconds", {})),
                   "n_computed": getattr(result, "n_computed", result.n_models)}))
@@ -88,7 +104,7 @@ def baseline_build(code: Path, src: Path, out: Path, options: dict[str, Any]) ->
     """Build ``src`` into ``out`` with the vptoolkit checked out at ``code``, in a child process.
 
     Returns the child's record: ``seconds`` (around ``build_dataset`` only),
-    ``n_models``, ``n_failures``, ``code`` (the imported package's path), and
+    ``cpu_seconds`` (the same span, see :func:`cpu_seconds`), ``n_models``, ``n_failures``, ``code`` (the imported package's path), and
     ``stage_seconds`` and ``n_computed`` (empty and ``n_models`` for code
     older than the per-stage timings).
     """
@@ -152,6 +168,11 @@ def hdf5_bytes(zarr_store: Path, target: Path) -> int:
     return target.stat().st_size
 
 
+def _cpu_cell(cpu: float, workers: int) -> str:
+    """CPU seconds, shown for one worker only: pool workers are not this process's children."""
+    return f"{cpu:>7.1f}" if workers == 1 else f"{'-':>7}"
+
+
 def _print_stages(stage_seconds: dict[str, float], n_computed: int) -> None:
     """One line: seconds per model of each stage and its share (nothing if not recorded)."""
     if not stage_seconds:
@@ -203,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
             warm_up(root, args.baseline, sizes, clean)
             warm_up(root, None, sizes, clean)
         header = (f"{'code':>8} {'workers':>7} {'models':>6} {'failed':>6} {'seconds':>8} "
-                  f"{'models/hour':>12} {'speed-up':>9}")
+                  f"{'cpu s':>7} {'models/hour':>12} {'speed-up':>9}")
         print(header)
         print("-" * len(header))
         runs: list[dict[str, Any]] = []
@@ -223,13 +244,14 @@ def main(argv: list[str] | None = None) -> int:
                     baselines.append(baseline)
                     print(f"{'baseline':>8} {workers:>7} {baseline['n_models']:>6} "
                           f"{baseline['n_failures']:>6} {baseline['seconds']:>8.1f} "
+                          f"{_cpu_cell(baseline['cpu_seconds'], workers)} "
                           f"{baseline['models_per_hour']:>12.0f} {'':>9}  "
                           f"load {baseline['load_average']:.1f}", flush=True)
                     _print_stages(baseline["stage_seconds"], baseline["n_computed"])
                 out = root / f"out_{suffix}"
-                started = time.perf_counter()
+                started, cpu_started = time.perf_counter(), cpu_seconds()
                 result = build_dataset(root / "samples", out, **options)
-                seconds = time.perf_counter() - started
+                seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
                 per_hour = 3600.0 * result.n_models / seconds
                 if baseline is not None:
                     speed_up = baseline["seconds"] / seconds
@@ -238,11 +260,12 @@ def main(argv: list[str] | None = None) -> int:
                 load = os.getloadavg()[0]
                 runs.append({"workers": workers, "round": round_index, "n_models": result.n_models,
                              "n_failures": result.n_failures, "seconds": seconds,
+                             "cpu_seconds": cpu,
                              "models_per_hour": per_hour, "speed_up": speed_up,
                              "load_average": load})
                 print(f"{'this':>8} {workers:>7} {result.n_models:>6} {result.n_failures:>6} "
-                      f"{seconds:>8.1f} {per_hour:>12.0f} {speed_up:>8.2f}x  load {load:.1f}",
-                      flush=True)
+                      f"{seconds:>8.1f} {_cpu_cell(cpu, workers)} {per_hour:>12.0f} "
+                      f"{speed_up:>8.2f}x  load {load:.1f}", flush=True)
                 runs[-1]["stage_seconds"] = dict(result.stage_seconds)
                 _print_stages(result.stage_seconds, result.n_computed)
                 for failure in result.failures:
@@ -258,6 +281,12 @@ def main(argv: list[str] | None = None) -> int:
                                key=lambda run: run["seconds"])
                     line += (f", baseline {base['models_per_hour']:.0f}: "
                              f"{base['seconds'] / best['seconds']:.2f}x")
+                    if workers == 1:
+                        this_cpu = min(run["cpu_seconds"] for run in runs if run["workers"] == 1)
+                        base_cpu = min(run["cpu_seconds"] for run in baselines
+                                       if run["workers"] == 1)
+                        line += (f"; CPU seconds per model {base_cpu / best['n_models']:.2f} -> "
+                                 f"{this_cpu / best['n_models']:.2f}: {base_cpu / this_cpu:.2f}x")
                 print(line)
 
         out = root / f"out_{args.workers[0]}_0"

@@ -301,8 +301,7 @@ def remove_intersections(
     After the first round only faces that can meet a face the round changed
     are tested again (:func:`_retest`), which gives the same flags.
     """
-    found = 0
-    last = -1
+    found = last = 0
     cleared: set[bytes] | None = None  # faces the last test found meeting nothing
     for round_index in range(max_rounds + 2):
         vertices, faces = refresh(meshes, name)
@@ -324,7 +323,7 @@ def remove_intersections(
         run_filter(meshes, name, step, "meshing_remove_selected_faces")
         repair_non_manifold(meshes, name, step)
         if round_index == max_rounds or not close_holes:
-            continue  # the last round only removes
+            continue  # the last round (or every round without close_holes) only removes
         try:
             meshes.apply_filter(
                 "meshing_close_holes",
