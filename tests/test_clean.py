@@ -231,17 +231,19 @@ def test_faces_near_holds_every_face_whose_box_meets_a_target() -> None:
     from vptoolkit.clean.topology import faces_near
 
     rng = np.random.default_rng(0)
-    corners = rng.random((3000, 1, 3)) + 0.05 * rng.random((3000, 3, 3))
+    # Mostly small triangles, some long ones (they span many grid cells).
+    size = rng.choice([0.02, 0.5], size=(3000, 1, 1), p=[0.97, 0.03])
+    corners = rng.random((3000, 1, 3)) + size * rng.random((3000, 3, 3))
     vertices = corners.reshape(-1, 3)
     faces = np.arange(len(vertices)).reshape(-1, 3)
-    is_target = rng.random(len(faces)) < 0.01
-    near = faces_near(vertices, faces, is_target, 0.0)
-    low, high = corners.min(axis=1), corners.max(axis=1)
+    is_target = rng.random(len(faces)) < 0.02
+    low, high = corners.min(axis=1) - 0.001, corners.max(axis=1) + 0.001
     expected = is_target.copy()
     for target in np.flatnonzero(is_target):
         expected |= np.all((low <= high[target]) & (high >= low[target]), axis=1)
-    assert near is not None and np.all(near[expected]) and near.sum() < len(faces) // 4
-    assert faces_near(vertices, faces, is_target, 0.0, max_pairs=10) is None
+    near = faces_near(vertices, faces, is_target, 0.001)
+    assert near is not None and np.array_equal(near, expected)
+    assert 0 < expected.sum() - is_target.sum() < len(faces) // 4
 
 
 def test_retesting_near_changed_faces_gives_the_whole_test() -> None:
