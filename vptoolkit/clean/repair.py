@@ -344,6 +344,10 @@ _RETEST_MARGIN = 1e-6
 """Growth of the bounding boxes compared by :func:`_retest`, in units of the largest coordinate."""
 
 
+_RETEST_CHANGED = 0.02
+"""Above this fraction of changed faces :func:`_retest` tests everything: it is as fast then."""
+
+
 def _face_keys(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> set[bytes] | None:
     """Each face as the bytes of its three corners in order; None if two vertices coincide."""
     if len(np.unique(vertices, axis=0)) != len(vertices):
@@ -368,8 +372,8 @@ def _retest(
     faces of such a pair have overlapping bounding boxes; the test runs on
     the changed faces and every face near them
     (:func:`~vptoolkit.clean.topology.faces_near`) and its flags are the whole
-    mesh's. Returns None (test everything) if two vertices coincide or the
-    neighbourhood is large.
+    mesh's. Returns None (test everything) if two vertices coincide, or many
+    faces changed, or the neighbourhood is large.
     """
     if len(faces) == 0:
         return np.zeros(0, dtype=bool)
@@ -381,6 +385,8 @@ def _retest(
                              count=len(faces))
     if not is_changed.any():
         return np.zeros(len(faces), dtype=bool)
+    if is_changed.sum() > _RETEST_CHANGED * len(faces):
+        return None
     margin = _RETEST_MARGIN * max(float(np.abs(vertices).max()), 1e-300)
     near = faces_near(vertices, faces, is_changed, margin)
     if near is None or near.sum() > len(faces) // 2:

@@ -141,7 +141,7 @@ def faces_near(
     is_target: NDArray[np.bool_],
     margin: float,
     *,
-    max_cells: int = 4,
+    max_cells: int = 16,
 ) -> NDArray[np.bool_] | None:
     """Faces whose bounding box, grown by ``margin``, may overlap that of a target face.
 
