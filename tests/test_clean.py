@@ -227,6 +227,61 @@ def test_count_self_intersections(planted: Planted) -> None:
 # ---------------------------------------------------------------- step 2
 
 
+def test_faces_near_holds_every_face_whose_box_meets_a_target() -> None:
+    from vptoolkit.clean.topology import faces_near
+
+    rng = np.random.default_rng(0)
+    # Mostly small triangles, some long ones (they span many grid cells).
+    size = rng.choice([0.02, 0.5], size=(3000, 1, 1), p=[0.97, 0.03])
+    corners = rng.random((3000, 1, 3)) + size * rng.random((3000, 3, 3))
+    vertices = corners.reshape(-1, 3)
+    faces = np.arange(len(vertices)).reshape(-1, 3)
+    is_target = rng.random(len(faces)) < 0.02
+    low, high = corners.min(axis=1) - 0.001, corners.max(axis=1) + 0.001
+    expected = is_target.copy()
+    for target in np.flatnonzero(is_target):
+        expected |= np.all((low <= high[target]) & (high >= low[target]), axis=1)
+    near = faces_near(vertices, faces, is_target, 0.001)
+    assert near is not None and np.array_equal(near, expected)
+    assert 0 < expected.sum() - is_target.sum() < len(faces) // 4
+
+
+def test_retesting_near_changed_faces_gives_the_whole_test() -> None:
+    """Moving a few vertices of two crossing spheres: the local retest equals a full test."""
+    from vptoolkit.clean._meshlab import intersecting_faces_of
+    from vptoolkit.clean.repair import _face_keys, _retest
+
+    big = trimesh.creation.icosphere(subdivisions=3, radius=1.0)
+    small = trimesh.creation.icosphere(subdivisions=3, radius=0.7)
+    small.apply_translation([1.2, 0.0, 0.0])
+    mesh = _mesh([big, small], "two")
+    before = intersecting_faces_of(mesh.vertices, mesh.faces)
+    assert 0 < before.sum() < mesh.n_faces
+    cleared = _face_keys(mesh.vertices, mesh.faces[~before])
+    assert cleared is not None
+    top = int(np.argmax(big.vertices[:, 2]))  # pulled through the bottom: its fan crosses it
+    rng = np.random.default_rng(1)
+    for moved, shift, crossing in (([5, 17, 300], 0.2, False), ([top], -2.3, True), ([], 0, False)):
+        vertices = mesh.vertices.copy()
+        if shift < 0:
+            vertices[moved, 2] += shift
+        else:
+            vertices[moved] += shift * rng.standard_normal((len(moved), 3))
+        kept = ~before  # the faces the first test flagged are gone
+        faces = mesh.faces[kept]
+        used = np.unique(faces)
+        remap = np.zeros(len(vertices), dtype=np.int64)
+        remap[used] = np.arange(len(used))
+        vertices, faces = vertices[used], remap[faces]
+        retested = _retest(vertices, faces, cleared)
+        assert retested is not None
+        assert np.array_equal(retested, intersecting_faces_of(vertices, faces))
+        if crossing:
+            assert retested.any()
+        if not moved:
+            assert not retested.any()
+
+
 def test_hidden_inner_shell_is_removed_exactly(shell_in_box: tuple[Mesh, int]) -> None:
     mesh, n_box_faces = shell_in_box
     is_hidden = hidden_faces(mesh, n_views=200, resolution=128)

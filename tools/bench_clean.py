@@ -11,10 +11,18 @@ a baseline measured in the same run: one plain visibility pass over the same
 mesh (1000 views at the same resolution, one-sided), the unit of work that
 step 2 repeats on a doubled mesh.
 
+``--baseline DIR`` also cleans every mesh with the vptoolkit checked out in
+DIR (``git worktree add DIR REV``), in a child process run there, just before
+this code cleans it, and prints that row (``base``) above this code's with
+the ratio of the totals. ``--repeat N`` keeps the fastest of N cleanings per
+mesh and code (after one untimed warm-up in the child), which damps the noise
+of a shared machine; the baseline pass and the ratio to it are timed once.
+
 Usage::
 
     python tools/bench_clean.py
     python tools/bench_clean.py --sizes 10000 --mesh path/to/airplane_0001.off
+    python tools/bench_clean.py --sizes --mesh airplane_0001.off --baseline /tmp/base --repeat 3
     python tools/bench_clean.py --json results.json
 """
 
@@ -23,7 +31,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -95,24 +106,69 @@ def baseline_seconds(mesh: Mesh, resolution: int) -> float:
     return time.perf_counter() - start
 
 
-def bench_one(mesh: Mesh, *, max_faces: int, resolution: int) -> dict[str, object]:
-    """Clean ``mesh`` once and return the report plus the baseline."""
+def bench_one(
+    mesh: Mesh, *, max_faces: int, resolution: int, repeat: int = 1
+) -> dict[str, object]:
+    """Clean ``mesh`` ``repeat`` times and return the fastest report plus the baseline."""
     baseline = baseline_seconds(mesh, resolution)
-    _, report = clean_mesh(mesh, max_faces=max_faces, hidden_resolution=resolution)
+    reports = [
+        clean_mesh(mesh, max_faces=max_faces, hidden_resolution=resolution)[1]
+        for _ in range(repeat)
+    ]
+    report = min(reports, key=lambda report: report.seconds)
     record = report.to_dict()
     record["baseline_seconds"] = baseline
     record["ratio_to_baseline"] = report.seconds / baseline if baseline > 0 else float("nan")
     return record
 
 
-def _format(record: dict[str, object]) -> str:
+_CHILD_CLEAN = """
+import json, sys
+import numpy as np
+import vptoolkit
+from vptoolkit.clean import clean_mesh
+from vptoolkit.mesh import Mesh
+data = np.load(sys.argv[1])
+mesh = Mesh(data["vertices"], data["faces"], name=str(data["name"]))
+options, repeat = json.loads(sys.argv[2]), int(sys.argv[3])
+clean_mesh(mesh, **options)  # warm-up: numba's kernels, pymeshlab's first use
+reports = [clean_mesh(mesh, **options)[1] for _ in range(repeat)]
+record = min(reports, key=lambda report: report.seconds).to_dict()
+record["code"] = vptoolkit.__file__
+print(json.dumps(record))
+"""
+
+
+def bench_baseline(
+    code: Path, mesh: Mesh, *, max_faces: int, resolution: int, repeat: int
+) -> dict[str, object]:
+    """Clean ``mesh`` with the vptoolkit checked out at ``code``, in a child process run there."""
+    with tempfile.TemporaryDirectory(prefix="bench_clean_") as scratch:
+        path = Path(scratch) / "mesh.npz"
+        np.savez(path, vertices=mesh.vertices, faces=mesh.faces, name=mesh.name)
+        options = {"max_faces": max_faces, "hidden_resolution": resolution}
+        done = subprocess.run(
+            [sys.executable, "-c", _CHILD_CLEAN, str(path), json.dumps(options), str(repeat)],
+            env={**os.environ, "PYTHONPATH": str(code)}, cwd=code,
+            capture_output=True, text=True, check=False,
+        )
+    if done.returncode != 0:
+        raise SystemExit(f"bench_clean: the baseline cleaning failed:\n{done.stderr.strip()}")
+    record: dict[str, object] = json.loads(done.stdout.strip().splitlines()[-1])
+    if not Path(str(record["code"])).resolve().is_relative_to(code.resolve()):
+        raise SystemExit(f"bench_clean: the baseline child imported {record['code']}, not {code}")
+    return record
+
+
+def _format(record: dict[str, object], label: str = "") -> str:
     steps = record["steps"]
     assert isinstance(steps, list)
-    cells = [f"{record['name']:<22} {record['faces_before']:>7}"]
+    cells = [f"{label + str(record['name']):<22} {record['faces_before']:>7}"]
     for step in steps:
         cells.append(f"{step['faces_after']:>7} {step['seconds']:>6.2f}s")
+    ratio = record.get("ratio_to_baseline", float("nan"))
     cells.append(
-        f"{record['seconds']:>7.2f}s {record['ratio_to_baseline']:>6.1f}x "
+        f"{record['seconds']:>7.2f}s {ratio:>6.1f}x "
         f"{record['self_intersections_before']:>6} -> {record['self_intersections_after_repair']}"
         f" / {record['self_intersections_after']:<5} {record['self_intersection_method']}"
     )
@@ -136,7 +192,16 @@ def main(argv: list[str] | None = None) -> int:
         "--resolution", type=int, default=256, help="hidden-face image side (default: 256)"
     )
     parser.add_argument("--json", type=Path, help="also write the records to this JSON file")
+    parser.add_argument(
+        "--baseline", type=Path,
+        help="a checkout of older vptoolkit code to clean each mesh with first (see above)",
+    )
+    parser.add_argument(
+        "--repeat", type=int, default=1, help="cleanings per mesh and code; the fastest counts"
+    )
     args = parser.parse_args(argv)
+    if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
+        parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
     meshes = [toy_airplane(size) for size in args.sizes]
     if args.mesh:
@@ -152,9 +217,21 @@ def main(argv: list[str] | None = None) -> int:
     print("-" * len(header))
     records = []
     for mesh in meshes:
-        record = bench_one(mesh, max_faces=args.max_faces, resolution=args.resolution)
+        if args.baseline is not None:
+            base = bench_baseline(args.baseline, mesh, max_faces=args.max_faces,
+                                  resolution=args.resolution, repeat=args.repeat)
+            print(_format(base, "base "), flush=True)
+        record = bench_one(
+            mesh, max_faces=args.max_faces, resolution=args.resolution, repeat=args.repeat
+        )
+        if args.baseline is not None:
+            record["baseline_code"] = base
+            record["speed_up_over_baseline_code"] = float(base["seconds"]) / record["seconds"]
         records.append(record)
         print(_format(record), flush=True)
+        if args.baseline is not None:
+            print(f"{'':<22} this code is {record['speed_up_over_baseline_code']:.2f}x "
+                  "as fast as the baseline code", flush=True)
     print(
         "\ncolumns: faces after each step and its seconds; total seconds and ratio to one plain\n"
         "visibility pass; self-intersections before -> after repair / after simplify."

@@ -166,8 +166,10 @@ def face_count(meshes: pymeshlab.MeshSet) -> int:
     return int(meshes.current_mesh().face_number())
 
 
-def refresh(meshes: pymeshlab.MeshSet, name: str) -> None:
-    """Rebuild the current mesh from its arrays, keeping face origins.
+def refresh(
+    meshes: pymeshlab.MeshSet, name: str
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Rebuild the current mesh from its arrays, keeping face origins; return vertices and faces.
 
     pymeshlab's self-intersection test can disagree with itself on a mesh
     edited by earlier filters (stale adjacency); a rebuilt mesh gives the same
@@ -177,6 +179,38 @@ def refresh(meshes: pymeshlab.MeshSet, name: str) -> None:
     vertices, faces, origin = to_arrays(meshes)
     meshes.clear()
     meshes.add_mesh(pymeshlab_mesh(ml, vertices, faces, origin), name)
+    return vertices, faces
+
+
+def select_faces(meshes: pymeshlab.MeshSet, is_selected: NDArray[np.bool_]) -> None:
+    """Make exactly the flagged faces of the current mesh selected (vertex selection untouched)."""
+    current = meshes.current_mesh()
+    current.add_face_custom_scalar_attribute(is_selected.astype(np.float64), _SELECTION_ATTRIBUTE)
+    meshes.apply_filter(
+        "compute_selection_by_condition_per_face", condselect=f"{_SELECTION_ATTRIBUTE} > 0"
+    )
+
+
+_SELECTION_ATTRIBUTE = "vptoolkit_selected"
+
+
+def intersecting_faces_of(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64]
+) -> NDArray[np.bool_]:
+    """Per-face flag of pymeshlab's self-intersection test on a mesh built from the arrays."""
+    ml = load_pymeshlab()
+    meshes = ml.MeshSet(verbose=False)
+    if len(faces) == 0:
+        return np.zeros(0, dtype=bool)
+    meshes.add_mesh(
+        ml.Mesh(
+            vertex_matrix=np.ascontiguousarray(vertices, dtype=np.float64),
+            face_matrix=np.ascontiguousarray(faces, dtype=np.int32),
+        ),
+        "part",
+    )
+    meshes.apply_filter("compute_selection_by_self_intersections_per_face")
+    return np.array(meshes.current_mesh().face_selection_array(), dtype=bool)
 
 
 def intersecting_faces(meshes: pymeshlab.MeshSet) -> NDArray[np.bool_]:

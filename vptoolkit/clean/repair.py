@@ -22,18 +22,21 @@ from vptoolkit.clean._meshlab import (
     HOLE_EDGES,
     count_intersecting_faces,
     intersecting_faces,
+    intersecting_faces_of,
     load_pymeshlab,
     pymeshlab_mesh,
     refresh,
     remove_null_and_duplicates,
     repair_non_manifold,
     run_filter,
+    select_faces,
     to_arrays,
     to_meshset,
 )
 from vptoolkit.clean.topology import (
     check_mesh,
     closed_components,
+    faces_near,
     keep_major_faces_on_non_manifold_edges,
 )
 from vptoolkit.errors import InputError, MeasurementError
@@ -195,16 +198,18 @@ def run_repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> Repa
     is_intersecting = intersecting_faces(meshes)
     intersections_before = int(is_intersecting.sum())
     used = []
-    intersections_after = 0 if not intersections_before else -1  # -1: not known yet
+    intersections_after = 0
+    first_test: NDArray[np.bool_] | None = is_intersecting  # the mesh as it is now
     if intersections_before and method == "auto":
         if _union_closed_parts(ml, meshes, name, is_intersecting):
             used.append("union")
+            first_test = None
     if intersections_before:
-        found, last = remove_intersections(ml, meshes, name, max_rounds)
+        found, intersections_after = remove_intersections(
+            ml, meshes, name, max_rounds, first_test=first_test
+        )
         if found:
             used.append("remove")
-        if last == 0:
-            intersections_after = 0
     try:
         # Consistent winding within each manifold part; step 2 picks the side.
         meshes.apply_filter("meshing_re_orient_faces_coherently")
@@ -219,11 +224,9 @@ def run_repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> Repa
         origin=origin,
         method="+".join(used) if used else "none",
         intersections_before=intersections_before,
-        # Reorienting faces does not change which intersect: a test that found
-        # none on this mesh's geometry stands.
-        intersections_after=(
-            intersections_after if intersections_after >= 0 else count_intersecting_faces(meshes)
-        ),
+        # Reorienting faces does not change which intersect: the last test,
+        # on this mesh's geometry, stands.
+        intersections_after=intersections_after,
     )
 
 
@@ -280,30 +283,47 @@ def _union_closed_parts(
 
 def remove_intersections(
     ml: ModuleType, meshes: pymeshlab.MeshSet, name: str, max_rounds: int, *,
-    step: str = "repair",
+    step: str = "repair", close_holes: bool = True,
+    first_test: NDArray[np.bool_] | None = None,
 ) -> tuple[int, int]:
-    """Remove intersecting faces in rounds.
+    """Remove intersecting faces in up to ``max_rounds + 1`` rounds.
 
-    Returns the faces the first test found and those the last test found,
-    ``-1`` if faces were removed after the last test. Each test is the one
-    :func:`count_intersecting_faces` makes on the mesh as it then is (rebuilt
-    first), so callers need not count before or after.
+    Each round tests, removes the faces found, repairs what that makes
+    non-manifold and, except in the last round or without ``close_holes``,
+    closes the holes left. Returns the faces the first test found and those
+    the last test found: when the last round removed faces, the mesh is
+    tested once more, so the second number is always the count on the
+    mesh as it is left. Each test gives what :func:`count_intersecting_faces`
+    gives on the mesh as it then is (rebuilt first), so callers need not
+    count before or after. ``first_test``, the flags of that test on the mesh
+    as it is now, saves the first one.
+
+    After the first round only faces that can meet a face the round changed
+    are tested again (:func:`_retest`), which gives the same flags.
     """
-    found = 0
-    last = -1
-    for round_index in range(max_rounds + 1):
-        refresh(meshes, name)
-        run_filter(meshes, name, step, "compute_selection_by_self_intersections_per_face")
-        selected = int(meshes.current_mesh().selected_face_number())
+    found = last = 0
+    cleared: set[bytes] | None = None  # faces the last test found meeting nothing
+    for round_index in range(max_rounds + 2):
+        vertices, faces = refresh(meshes, name)
+        is_selected = first_test if round_index == 0 else None
+        if is_selected is None and cleared is not None:
+            is_selected = _retest(vertices, faces, cleared)
+        if is_selected is None:
+            run_filter(meshes, name, step, "compute_selection_by_self_intersections_per_face")
+            is_selected = np.array(meshes.current_mesh().face_selection_array(), dtype=bool)
+        else:
+            select_faces(meshes, is_selected)
+        selected = int(is_selected.sum())
         if round_index == 0:
             found = selected
-        if selected == 0:
-            last = 0
+        if selected == 0 or round_index > max_rounds:
+            last = selected  # the count after the last round
             break
+        cleared = _face_keys(vertices, faces[~is_selected])
         run_filter(meshes, name, step, "meshing_remove_selected_faces")
         repair_non_manifold(meshes, name, step)
-        if round_index == max_rounds:
-            break  # the last round only removes
+        if round_index == max_rounds or not close_holes:
+            continue  # the last round (or every round without close_holes) only removes
         try:
             meshes.apply_filter(
                 "meshing_close_holes",
@@ -318,3 +338,63 @@ def remove_intersections(
         repair_non_manifold(meshes, name, step)
     run_filter(meshes, name, step, "set_selection_none")
     return found, last
+
+
+_RETEST_MARGIN = 1e-6
+"""Growth of the bounding boxes compared by :func:`_retest`, in units of the largest coordinate."""
+
+
+_RETEST_CHANGED = 0.02
+"""Above this fraction of changed faces :func:`_retest` tests everything: it is as fast then."""
+
+
+def _face_keys(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> set[bytes] | None:
+    """Each face as the bytes of its three corners in order; None if two vertices coincide."""
+    if len(np.unique(vertices, axis=0)) != len(vertices):
+        return None
+    corners = np.ascontiguousarray(vertices[faces], dtype=np.float64).reshape(len(faces), 9)
+    return set(corners.view(np.dtype((np.void, 72))).ravel().tolist())
+
+
+def _retest(
+    vertices: NDArray[np.float64], faces: NDArray[np.int64], cleared: set[bytes]
+) -> NDArray[np.bool_] | None:
+    """The self-intersection flags of the whole mesh, testing only near the faces that changed.
+
+    pymeshlab's test flags a face if it meets another face with which it
+    shares no vertex (or meets it improperly where they share some); it
+    depends only on the two faces' corners and on which vertices they share.
+    ``cleared`` holds the faces the previous test found meeting nothing
+    (:func:`_face_keys`). Two such faces with the same corners, in the same
+    order, still meet each other nowhere: where vertices are all at distinct
+    positions (in both meshes), equal corners are the same vertices. So only
+    pairs with a changed face (one not in ``cleared``) can meet, and both
+    faces of such a pair have overlapping bounding boxes; the test runs on
+    the changed faces and every face near them
+    (:func:`~vptoolkit.clean.topology.faces_near`) and its flags are the whole
+    mesh's. Returns None (test everything) if two vertices coincide, or many
+    faces changed, or the neighbourhood is large.
+    """
+    if len(faces) == 0:
+        return np.zeros(0, dtype=bool)
+    if len(np.unique(vertices, axis=0)) != len(vertices):
+        return None
+    keys = np.ascontiguousarray(vertices[faces], dtype=np.float64).reshape(len(faces), 9)
+    keys = keys.view(np.dtype((np.void, 72))).ravel()
+    is_changed = np.fromiter((key not in cleared for key in keys.tolist()), dtype=bool,
+                             count=len(faces))
+    if not is_changed.any():
+        return np.zeros(len(faces), dtype=bool)
+    if is_changed.sum() > _RETEST_CHANGED * len(faces):
+        return None
+    margin = _RETEST_MARGIN * max(float(np.abs(vertices).max()), 1e-300)
+    near = faces_near(vertices, faces, is_changed, margin)
+    if near is None or near.sum() > len(faces) // 2:
+        return None
+    part = faces[near]
+    used = np.unique(part)
+    remap = np.zeros(len(vertices), dtype=np.int64)
+    remap[used] = np.arange(len(used), dtype=np.int64)
+    is_selected = np.zeros(len(faces), dtype=bool)
+    is_selected[near] = intersecting_faces_of(vertices[used], remap[part])
+    return is_selected

@@ -133,3 +133,89 @@ def submesh(
     remap = np.zeros(mesh.n_vertices, dtype=np.int64)
     remap[used] = np.arange(len(used), dtype=np.int64)
     return Mesh(mesh.vertices[used], remap[faces], name=mesh.name)
+
+
+def faces_near(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int64],
+    is_target: NDArray[np.bool_],
+    margin: float,
+    *,
+    max_cells: int = 16,
+) -> NDArray[np.bool_] | None:
+    """Faces whose bounding box, grown by ``margin``, may overlap that of a target face.
+
+    Two triangles can intersect or touch only if their bounding boxes
+    overlap, so the result holds every face that can meet a target (the
+    targets included), and some more. Boxes are put in the cells of a
+    uniform grid sized to the targets (the 90th percentile of their widest
+    side); the boxes of a face and a target that share a cell are compared.
+    A box spanning
+    more than ``max_cells`` cells along an axis is compared with the other
+    side's boxes directly. Returns None when that would compare more than
+    about ten million pairs (a caller then tests everything).
+    """
+    corners = vertices[faces]
+    low = corners.min(axis=1) - margin
+    high = corners.max(axis=1) + margin
+    targets = np.flatnonzero(is_target)
+    near = is_target.copy()
+    if len(targets) == 0:
+        return near
+    size = float(np.quantile((high[targets] - low[targets]).max(axis=1), 0.9))
+    if not size > 0.0:
+        return None
+    origin = low.min(axis=0)
+    first = np.floor((low - origin) / size).astype(np.int64)
+    last = np.floor((high - origin) / size).astype(np.int64)
+    is_big = ((last - first) >= max_cells).any(axis=1)
+    big_targets = targets[is_big[targets]]
+    small_targets = targets[~is_big[targets]]
+    big_faces = np.flatnonzero(is_big & ~is_target)
+    if len(faces) * len(big_targets) + len(big_faces) * len(targets) > 10_000_000:
+        return None
+    for group, against in ((big_targets, np.arange(len(faces))), (big_faces, targets)):
+        # Direct comparison: which boxes of ``against`` overlap a box of ``group``.
+        for index in group:
+            hit = np.all((low[against] <= high[index]) & (high[against] >= low[index]), axis=1)
+            if against is targets:
+                near[index] |= bool(hit.any())
+            else:
+                near[against[hit]] = True
+    width = last.max(axis=0) + 1
+    if float(np.prod(width.astype(np.float64))) > 2.0**62:
+        return None  # cell keys would overflow
+    small_faces = np.flatnonzero(~is_big)
+    target_owner, target_cells = _cell_keys(first[small_targets], last[small_targets], width)
+    order = np.argsort(target_cells, kind="stable")
+    target_cells, target_owner = target_cells[order], small_targets[target_owner[order]]
+    face_owner, face_cells = _cell_keys(first[small_faces], last[small_faces], width)
+    start = np.searchsorted(target_cells, face_cells, side="left")
+    counts = np.searchsorted(target_cells, face_cells, side="right") - start
+    total = int(counts.sum())
+    if total > 10_000_000:
+        return None
+    # Every (face, target) pair sharing a cell, then the exact box test.
+    face = small_faces[np.repeat(face_owner, counts)]
+    target = target_owner[np.repeat(start - (np.cumsum(counts) - counts), counts)
+                          + np.arange(total)]
+    overlap = np.all((low[face] <= high[target]) & (high[face] >= low[target]), axis=1)
+    near[face[overlap]] = True
+    return near
+
+
+def _cell_keys(
+    first: NDArray[np.int64], last: NDArray[np.int64], width: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Every grid cell of each box ``first..last`` (inclusive): the box's row and the cell's key."""
+    counts = last - first + 1
+    n_cells = counts.prod(axis=1)
+    owner = np.repeat(np.arange(len(first), dtype=np.int64), n_cells)
+    # Position of each cell within its box, unravelled over the box's own counts.
+    local = np.arange(int(n_cells.sum()), dtype=np.int64) - np.repeat(
+        np.cumsum(n_cells) - n_cells, n_cells)
+    count = counts[owner]
+    x = first[owner, 0] + local % count[:, 0]
+    y = first[owner, 1] + (local // count[:, 0]) % count[:, 1]
+    z = first[owner, 2] + local // (count[:, 0] * count[:, 1])
+    return owner, (z * width[1] + y) * width[0] + x
