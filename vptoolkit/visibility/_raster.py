@@ -12,10 +12,24 @@ Coverage is exact: vertices are snapped to a fixed-point grid of
 centres with a top-left tie rule, so a pixel centre on an edge shared by two
 triangles is counted exactly once.
 
+The covered pixels of a row form one run, the offsets ``k`` from the bounding
+box's left edge where all three edge functions ``e + k * sx`` are >= 0: each
+edge bounds ``k`` by ``floor(e / |sx|)``, whose quotient and remainder are
+stepped from row to row (no division per row). The inverse depth of pixel
+``k`` is, by definition, the row's start value plus ``k`` float additions of
+the x step (the walk of :func:`_walk_row`); :func:`_draw_row` gets the same
+doubles without the chain of additions wherever they form an exact integer
+progression (:func:`_exact_steps`), which is almost everywhere.
+
 The per-face histogram of each view is taken while clearing the frame, only
 over the span of each row that was written, so the full frame is never
 scanned. Views are split over the threads; each thread owns its buffers, so
 there are no atomics.
+
+The previous kernel (one division per edge and row, the float walk, the
+histogram counted run by run) stays selectable with ``reference=True``:
+``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
+checks that they give the same pixels bit for bit.
 """
 
 from __future__ import annotations
@@ -280,6 +294,7 @@ def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
 
 _UNIT_LOW = np.int64(1 << 52)
 _UNIT_HIGH = np.int64((1 << 53) - 1)
+_UNIT_STEP_LIMIT = np.int64(1 << 48)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -300,8 +315,9 @@ def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
     -------
     exact, scale, shift, unit_step
         ``scale = 1 / u = 2**shift``, and ``r / u``. ``exact`` is False when
-        ``q`` is outside ``[1, 2**52)``, ``dq`` is a tie or the sum leaves the
-        binade; then the sums must be taken one by one.
+        ``q`` is outside ``[1, 2**52)``, ``dq`` is a tie, the sum leaves the
+        binade or ``|r / u| >= 2**48`` (then ``dq`` changes ``q`` by over 3 %
+        per pixel); then the sums must be taken one by one.
     """
     if not (1.0 <= q < 4503599627370496.0):
         return False, 1.0, np.int64(0), np.int64(0)
@@ -311,7 +327,9 @@ def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
     next_units = q_next * scale
     if not (_UNIT_LOW + 1 <= next_units <= _UNIT_HIGH) or abs(dq - (q_next - q)) * scale == 0.5:
         return False, scale, shift, np.int64(0)
-    return True, scale, shift, np.int64(next_units) - np.int64(q * scale)
+    unit_step = np.int64(next_units) - np.int64(q * scale)
+    # k * unit_step must not overflow for any pixel offset k < 2**14.
+    return abs(unit_step) < _UNIT_STEP_LIMIT, scale, shift, unit_step
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
