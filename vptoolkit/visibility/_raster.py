@@ -223,7 +223,7 @@ def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
 _LOWER, _UPPER, _ROW = 0, 1, 2  # how an edge bounds the covered run of a row
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _edge_stepper(edge: np.int64, step_x: np.int64, step_y: np.int64
                   ) -> tuple[int, np.int64, np.int64, np.int64, np.int64, np.int64]:
     """Set up the exact row-by-row bound of ``edge + k * step_x >= 0`` on ``k``.
@@ -252,7 +252,7 @@ def _edge_stepper(edge: np.int64, step_x: np.int64, step_y: np.int64
     return kind, quotient, remainder, quotient_step, remainder_step, divisor
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _floor_divmod(a: np.int64, d: np.int64) -> tuple[np.int64, np.int64]:
     """``(a // d, a % d)`` for ``d > 0``: a float quotient corrected to the exact one.
 
@@ -270,7 +270,7 @@ def _floor_divmod(a: np.int64, d: np.int64) -> tuple[np.int64, np.int64]:
     return quotient, remainder
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _next_row(quotient: np.int64, remainder: np.int64, quotient_step: np.int64,
               remainder_step: np.int64, divisor: np.int64) -> tuple[np.int64, np.int64]:
     """``floor(e / d)`` and ``e mod d`` of the next row from those of this one."""
@@ -279,7 +279,7 @@ def _next_row(quotient: np.int64, remainder: np.int64, quotient_step: np.int64,
     return quotient + quotient_step + carry, remainder - carry * divisor
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
                   k_high: np.int64) -> tuple[np.int64, np.int64]:
     """Narrow ``[k_low, k_high]`` by one edge, from its row quotient (:func:`_edge_stepper`)."""
@@ -297,7 +297,7 @@ _UNIT_HIGH = np.int64((1 << 53) - 1)
 _UNIT_STEP_LIMIT = np.int64(1 << 48)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
     """Whether the float sums ``q + dq + dq + ...`` in ``q``'s binade form an exact progression.
 
@@ -332,7 +332,7 @@ def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
     return abs(unit_step) < _UNIT_STEP_LIMIT, scale, shift, unit_step
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
               frame: NDArray[np.int64], start: np.int64) -> None:
     """Depth-test pixels ``start + k_low .. start + k_high`` of a row, walking from ``start``.
@@ -349,7 +349,7 @@ def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: n
         q += dq
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
               unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
               frame: NDArray[np.int64], start: np.int64) -> None:
@@ -542,7 +542,7 @@ def _collect_histogram(
     return n_touched
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _count_row_runs(frame: NDArray[np.int64], first: np.int64, last: np.int64,
                     id_counts: NDArray[np.int64], touched: NDArray[np.int32],
                     n_touched: int) -> int:
