@@ -148,10 +148,11 @@ def _raster_view_histograms(
 ) -> Iterator[ViewHistograms]:
     """The ``"raster"`` backend of :func:`iter_view_histograms`.
 
-    ``reference=True`` selects the kernel's previous row solver, which divides
-    each edge function by its x step on every row, instead of stepping the
-    quotients from row to row; the counts are the same bit for bit. Kept so
-    that ``tools/bench_measures.py`` times both in one run and
+    ``reference=True`` selects the kernel's previous paths: one division per
+    edge and row for the covered run, the inverse depth walked by one float
+    addition per pixel from the bounding box's left edge, and the histogram
+    counted run by run. The counts are the same bit for bit. Kept so that
+    ``tools/bench_measures.py`` times both in one run and
     ``tests/test_raster_kernel.py`` checks they agree.
     """
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(

@@ -605,7 +605,8 @@ def rasterize_batch(
     ``n . x = offset``; a face is front-facing from ``eye`` when
     ``n . eye > offset``. ``is_drawable`` is False for faces never drawn
     (zero area). Results of view ``i`` go to ``out_ids[i, :out_lengths[i]]``
-    and ``out_counts[i, :out_lengths[i]]``.
+    and ``out_counts[i, :out_lengths[i]]``. ``reference`` selects the previous
+    kernel's row solver, depth walk and run counting (the same counts).
     """
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
