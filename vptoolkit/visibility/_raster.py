@@ -449,6 +449,16 @@ def _rasterize_view(
         q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
         face_id = np.int64(f + 1)
         width = x1 - x0
+        if not reference and width == 0 and y0 == y1:
+            # One pixel centre in the box (most faces of a fine mesh): the edge
+            # functions there decide, and its depth is the row's start value.
+            if row_ab >= 0 and row_bc >= 0 and row_ca >= 0:
+                key = (np.int64(q_row) << 32) | face_id
+                if key > frame[y0 * resolution + x0]:
+                    frame[y0 * resolution + x0] = key
+                row_low[y0] = min(row_low[y0], x0)
+                row_high[y0] = max(row_high[y0], x0)
+            continue
         kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
         kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
         kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
