@@ -295,6 +295,7 @@ def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
 _UNIT_LOW = np.int64(1 << 52)
 _UNIT_HIGH = np.int64((1 << 53) - 1)
 _UNIT_STEP_LIMIT = np.int64(1 << 48)
+_SMALL_BOX = 8  # boxes of at most this many pixel columns and rows are tested pixel by pixel
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -449,15 +450,28 @@ def _rasterize_view(
         q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
         face_id = np.int64(f + 1)
         width = x1 - x0
-        if not reference and width == 0 and y0 == y1:
-            # One pixel centre in the box (most faces of a fine mesh): the edge
-            # functions there decide, and its depth is the row's start value.
-            if row_ab >= 0 and row_bc >= 0 and row_ca >= 0:
-                key = (np.int64(q_row) << 32) | face_id
-                if key > frame[y0 * resolution + x0]:
-                    frame[y0 * resolution + x0] = key
-                row_low[y0] = min(row_low[y0], x0)
-                row_high[y0] = max(row_high[y0], x0)
+        if not reference and width < _SMALL_BOX and y1 - y0 < _SMALL_BOX:
+            # A small box (most faces of a fine mesh): test its pixel centres one
+            # by one, cheaper than setting up the row runs. The same edge values
+            # and depth additions as the runs, so the same pixels.
+            for y in range(y0, y1 + 1):
+                e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
+                base = y * resolution
+                for x in range(x0, x1 + 1):
+                    if (e_ab | e_bc | e_ca) >= 0:
+                        key = (np.int64(q) << 32) | face_id
+                        if key > frame[base + x]:
+                            frame[base + x] = key
+                        row_low[y] = min(row_low[y], x)
+                        row_high[y] = max(row_high[y], x)
+                    e_ab += sx_ab
+                    e_bc += sx_bc
+                    e_ca += sx_ca
+                    q += dq_dx
+                row_ab += sy_ab
+                row_bc += sy_bc
+                row_ca += sy_ca
+                q_row += dq_dy
             continue
         kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
         kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
