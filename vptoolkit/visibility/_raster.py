@@ -19,7 +19,10 @@ stepped from row to row (no division per row). The inverse depth of pixel
 ``k`` is, by definition, the row's start value plus ``k`` float additions of
 the x step (the walk of :func:`_walk_row`); :func:`_draw_row` gets the same
 doubles without the chain of additions wherever they form an exact integer
-progression (:func:`_exact_steps`), which is almost everywhere.
+progression (:func:`_exact_steps`), which is almost everywhere. A face whose
+bounding box is at most ``_SMALL_BOX`` pixels wide and high skips that setup:
+its pixel centres are tested one by one with the same edge values and depth
+additions.
 
 The per-face histogram of each view is taken while clearing the frame, only
 over the span of each row that was written, so the full frame is never
