@@ -224,6 +224,7 @@ def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
 
 
 _LOWER, _UPPER, _ROW = 0, 1, 2  # how an edge bounds the covered run of a row
+_NO_STEPPER = (np.int64(_ROW),) + (np.int64(0),) * 5  # no edge set up (the previous kernel)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -476,10 +477,17 @@ def _rasterize_view(
                 row_ca += sy_ca
                 q_row += dq_dy
             continue
-        kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
-        kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
-        kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
-        exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
+        if reference:  # the previous kernel had none of this setup
+            stepper_ab = stepper_bc = stepper_ca = _NO_STEPPER
+            exact, scale, shift, unit_step = False, 1.0, np.int64(0), np.int64(0)
+        else:
+            stepper_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
+            stepper_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
+            stepper_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
+            exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
+        kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = stepper_ab
+        kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = stepper_bc
+        kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = stepper_ca
         for y in range(y0, y1 + 1):
             # The covered pixels of a row form one run: solve each edge function
             # e + k * sx >= 0 for the pixel offset k instead of testing every
