@@ -4,7 +4,13 @@ coarse resolution costs in best-view accuracy.
 Prints, for meshes of about 10k, 100k and 1M faces (sample meshes,
 midpoint-subdivided to size):
 
-* seconds of the rasteriser for all views at 256, 512 and 1024 pixels;
+* seconds of the rasteriser for all views at 256, 512 and 1024 pixels, beside
+  its previous kernel (the per-row division and float walk of the inverse
+  depth, with the run-by-run histogram) and the speed-up, timed in the same
+  run, alternately, best of ``--repeat``: the previous kernel stays selectable
+  by the private ``reference=True`` of ``vptoolkit.visibility._raster_view_histograms``,
+  which ``tests/test_raster_kernel.py`` also runs to check that the counts are
+  the same bit for bit;
 * seconds of Open3D's ray caster, timed on ``--raycast-views`` views and
   scaled to all views, and the ratio raycast / raster from the same run;
 * how far the best view per measure at 256 and 512 lies from the one at
@@ -16,6 +22,7 @@ Usage::
 
     python tools/bench_measures.py            # full run, a few minutes
     python tools/bench_measures.py --quick    # small sizes, seconds
+    python tools/bench_measures.py --max-faces 200000   # without the 1M-face mesh
 """
 
 from __future__ import annotations
@@ -37,7 +44,7 @@ from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
-from vptoolkit.visibility import iter_view_histograms
+from vptoolkit.visibility import _raster_view_histograms, iter_view_histograms
 
 
 def subdivide(mesh: Mesh, times: int) -> Mesh:
@@ -53,6 +60,13 @@ def subdivide(mesh: Mesh, times: int) -> Mesh:
 def time_views(mesh: Mesh, views: np.ndarray, resolution: int, backend: str) -> float:
     started = time.perf_counter()
     for _ in iter_view_histograms(mesh, views, resolution=resolution, backend=backend):  # type: ignore[arg-type]
+        pass
+    return time.perf_counter() - started
+
+
+def time_raster(mesh: Mesh, views: np.ndarray, resolution: int, reference: bool) -> float:
+    started = time.perf_counter()
+    for _ in _raster_view_histograms(mesh, views, resolution=resolution, reference=reference):
         pass
     return time.perf_counter() - started
 
@@ -80,6 +94,9 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="small meshes and few views")
     parser.add_argument("--views", type=int, default=1000)
     parser.add_argument("--raycast-views", type=int, default=40)
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="best of this many runs of each raster kernel (default: 3)")
+    parser.add_argument("--max-faces", type=int, help="skip meshes with more faces")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args()
 
@@ -91,15 +108,20 @@ def main() -> None:
         n_views, raycast_views = 100, 8
     else:
         meshes = [torus, bunny, subdivide(torus, 2), subdivide(bunny, 3)]
+    if args.max_faces is not None:
+        meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
         resolutions = [256, 512, 1024]
         n_views, raycast_views = args.views, args.raycast_views
     views = fibonacci_sphere(n_views)
     cold, warm = jit_seconds()
     for backend in ("raster", "raycast"):  # imports and JIT load happen here, not in the timings
         time_views(torus, views[:2], 16, backend)
+    time_raster(torus, views[:2], 16, reference=True)
     print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
     print(f"{n_views} views; raycast timed on {raycast_views} views and scaled\n")
-    header = f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{'raycast s':>11}{'ratio':>8}"
+    print(f"raster: best of {args.repeat}; before: the previous kernel, same run\n")
+    header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{'before s':>10}{'speed-up':>10}"
+              f"{'raycast s':>11}{'ratio':>8}")
     print(header)
     print("-" * len(header))
     results = []
@@ -107,15 +129,20 @@ def main() -> None:
     for mesh in meshes:
         qualities = {}
         for resolution in resolutions:
-            raster = time_views(mesh, views, resolution, "raster")
+            runs: dict[bool, list[float]] = {False: [], True: []}
+            for _ in range(args.repeat):  # alternately, so both see the same machine load
+                for reference in (False, True):
+                    runs[reference].append(time_raster(mesh, views, resolution, reference))
+            raster, before = min(runs[False]), min(runs[True])
             raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
             raycast *= n_views / raycast_views
-            print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}"
-                  f"{raycast:>11.1f}{raycast / raster:>8.1f}")
+            print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{before:>10.2f}"
+                  f"{before / raster:>10.2f}{raycast:>11.1f}{raycast / raster:>8.1f}")
             qualities[resolution] = compute_view_quality(mesh, view_directions=views,
                                                          resolution=resolution)
             results.append({"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution,
-                             "raster_s": raster, "raycast_s": raycast})
+                             "raster_s": raster, "raster_before_s": before,
+                             "raycast_s": raycast})
         reference = qualities[finest]
         for resolution in resolutions[:-1]:
             coarse = qualities[resolution]

@@ -129,12 +129,36 @@ def iter_view_histograms(
         centre, diagonal = bounding_frame(mesh)
         if diagonal > 0.0:
             mesh = Mesh((mesh.vertices - centre) / diagonal, mesh.faces, name=mesh.name)
+    if backend == "raster":
+        yield from _raster_view_histograms(mesh, view_directions, resolution=resolution,
+                                           camera=camera)
+        return
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, view_directions, resolution, camera)
-    if backend == "raster":
-        yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
-    else:
-        yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+    yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+
+
+def _raster_view_histograms(
+    mesh: Mesh,
+    view_directions: ArrayLike,
+    *,
+    resolution: int = RESOLUTION,
+    camera: Camera | None = None,
+    reference: bool = False,
+) -> Iterator[ViewHistograms]:
+    """The ``"raster"`` backend of :func:`iter_view_histograms`.
+
+    ``reference=True`` selects the kernel's previous paths: one division per
+    edge and row for the covered run, the inverse depth walked by one float
+    addition per pixel from the bounding box's left edge, and the histogram
+    counted run by run. The counts are the same bit for bit. Kept so that
+    ``tools/bench_measures.py`` times both in one run and
+    ``tests/test_raster_kernel.py`` checks they agree.
+    """
+    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
+        mesh, view_directions, resolution, camera)
+    yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal,
+                               reference=reference)
 
 
 def _setup(
@@ -208,7 +232,7 @@ def face_id_images(
                           screen_x, screen_y, inverse_depth)
         _rasterize_view(faces, normals, offsets, is_drawable, camera.cull_back_faces,
                         poses.eyes[view], screen_x, screen_y, inverse_depth, resolution, frame,
-                        row_low, row_high)
+                        row_low, row_high, False)
         images[view] = ((frame & 0xFFFFFFFF) - 1).reshape(resolution, resolution)
     return images
 
@@ -221,6 +245,8 @@ def _raster_batches(
     is_drawable: NDArray[np.bool_],
     camera: Camera,
     diagonal: float,
+    *,
+    reference: bool,
 ) -> Iterator[ViewHistograms]:
     from vptoolkit.visibility._raster import (
         RasterWorkspace,
@@ -255,9 +281,9 @@ def _raster_batches(
             vertices, local_faces, normals, offsets, is_drawable, camera.cull_back_faces,
             poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
             poses.forward[start:stop], poses.focal_px, resolution, near, far,
-            workspace.frames, workspace.row_low, workspace.row_high, workspace.face_counts,
+            workspace.frames, workspace.row_low, workspace.row_high, workspace.id_counts,
             workspace.touched, workspace.screen_x, workspace.screen_y, workspace.inverse_depth,
-            out_ids, out_counts, out_lengths,
+            out_ids, out_counts, out_lengths, reference,
         )
         lengths = out_lengths[:count]
         local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])

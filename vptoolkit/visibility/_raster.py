@@ -12,14 +12,38 @@ Coverage is exact: vertices are snapped to a fixed-point grid of
 centres with a top-left tie rule, so a pixel centre on an edge shared by two
 triangles is counted exactly once.
 
+The covered pixels of a row form one run, the offsets ``k`` from the bounding
+box's left edge where all three edge functions ``e + k * sx`` are >= 0: each
+edge bounds ``k`` by ``floor(e / |sx|)``, whose quotient and remainder are
+stepped from row to row (no division per row). The inverse depth of pixel
+``k`` is, by definition, the row's start value plus ``k`` float additions of
+the x step (the walk of :func:`_walk_row`); :func:`_draw_row` gets the same
+doubles without the chain of additions wherever they form an exact integer
+progression (:func:`_exact_steps`), which is almost everywhere. A face whose
+bounding box is at most ``_SMALL_BOX`` pixels wide and high skips that setup:
+its pixel centres are tested one by one with the same edge values and depth
+additions.
+
 The per-face histogram of each view is taken while clearing the frame, only
 over the span of each row that was written, so the full frame is never
 scanned. Views are split over the threads; each thread owns its buffers, so
 there are no atomics.
+
+The previous kernel (one division per edge and row, the float walk, the
+histogram counted run by run) stays selectable with ``reference=True``:
+``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
+checks that they give the same pixels bit for bit.
+
+Size
+    About 660 lines for one concept, the scan conversion of one view: the
+    current kernel and the previous one it is checked and timed against
+    share the projection, the edge set-up and the histogram, and numba
+    inlines helpers only within a module.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,10 +67,12 @@ class RasterWorkspace:
         Depth-and-ID keys; zero means background. Cleared by the kernel.
     row_low, row_high : (n_threads, resolution) int64
         Written span of each row (``low > high`` when the row is untouched).
-    face_counts : (n_threads, n_faces) int64
-        Pixel count per face of the view in progress; cleared by the kernel.
-    touched : (n_threads, capacity) int32
-        Faces with a non-zero count in the view in progress.
+    id_counts : (n_threads, n_faces + 1) int64
+        Pixel count per key ID (``face + 1``; 0 is the background) of the
+        view in progress; cleared by the kernel.
+    touched : (n_threads, capacity + 1) int32
+        IDs with a non-zero count in the view in progress, and one slot for
+        the branch-free append.
     screen_x, screen_y : (n_threads, n_vertices) int64
         Fixed-point vertex positions of the view in progress.
     inverse_depth : (n_threads, n_vertices) float64
@@ -56,7 +82,7 @@ class RasterWorkspace:
     frames: NDArray[np.int64]
     row_low: NDArray[np.int64]
     row_high: NDArray[np.int64]
-    face_counts: NDArray[np.int64]
+    id_counts: NDArray[np.int64]
     touched: NDArray[np.int32]
     screen_x: NDArray[np.int64]
     screen_y: NDArray[np.int64]
@@ -71,8 +97,8 @@ class RasterWorkspace:
             frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
             row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
             row_high=np.full((n_threads, resolution), -1, dtype=np.int64),
-            face_counts=np.zeros((n_threads, n_faces), dtype=np.int64),
-            touched=np.zeros((n_threads, capacity), dtype=np.int32),
+            id_counts=np.zeros((n_threads, n_faces + 1), dtype=np.int64),
+            touched=np.zeros((n_threads, capacity + 1), dtype=np.int32),
             screen_x=np.zeros((n_threads, n_vertices), dtype=np.int64),
             screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
             inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
@@ -95,8 +121,8 @@ def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
     views, and every view is drawn the same way on any thread, so the counts
     are identical whatever it returns.
     """
-    per_thread = (8 * resolution * resolution + 16 * resolution + 8 * n_faces + 4 * capacity
-                  + 24 * n_vertices)
+    per_thread = (8 * resolution * resolution + 16 * resolution + 8 * (n_faces + 1)
+                  + 4 * (capacity + 1) + 24 * n_vertices)
     return int(max(1, min(get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
 
 
@@ -198,6 +224,164 @@ def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
     return k_low, k_high
 
 
+_LOWER, _UPPER, _ROW = 0, 1, 2  # how an edge bounds the covered run of a row
+_NO_STEPPER = (np.int64(_ROW),) + (np.int64(0),) * 5  # no edge set up (the previous kernel)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _edge_stepper(edge: np.int64, step_x: np.int64, step_y: np.int64
+                  ) -> tuple[int, np.int64, np.int64, np.int64, np.int64, np.int64]:
+    """Set up the exact row-by-row bound of ``edge + k * step_x >= 0`` on ``k``.
+
+    With ``d = |step_x|``, row ``j`` of the edge function ``e_j = edge + j * step_y``
+    bounds the offset by ``k >= -floor(e_j / d)`` when ``step_x > 0`` (a lower
+    bound) and by ``k <= floor(e_j / d)`` when ``step_x < 0`` (an upper bound);
+    when ``step_x == 0`` the row is empty exactly where ``e_j < 0``. The
+    quotient ``floor(e_j / d)`` and its remainder are stepped from row to row
+    (:func:`_next_row`), so a row costs additions instead of divisions.
+
+    Returns
+    -------
+    kind, quotient, remainder, quotient_step, remainder_step, divisor
+        ``_LOWER``, ``_UPPER`` or ``_ROW``; ``floor(edge / d)`` and
+        ``edge mod d``; ``floor(step_y / d)`` and ``step_y mod d``; ``d``.
+    """
+    if step_x > 0:
+        kind, divisor = _LOWER, step_x
+    elif step_x < 0:
+        kind, divisor = _UPPER, -step_x
+    else:
+        kind, divisor = _ROW, np.int64(1)
+    quotient, remainder = _floor_divmod(edge, divisor)
+    quotient_step, remainder_step = _floor_divmod(step_y, divisor)
+    return kind, quotient, remainder, quotient_step, remainder_step, divisor
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _floor_divmod(a: np.int64, d: np.int64) -> tuple[np.int64, np.int64]:
+    """``(a // d, a % d)`` for ``d > 0``: a float quotient corrected to the exact one.
+
+    Cheaper than integer division here; the float estimate is off by at most
+    one for the quotients of edge functions (below ``2**50`` in magnitude).
+    """
+    quotient = np.int64(math.floor(a / d))
+    remainder = a - quotient * d
+    while remainder < 0:
+        quotient -= 1
+        remainder += d
+    while remainder >= d:
+        quotient += 1
+        remainder -= d
+    return quotient, remainder
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _next_row(quotient: np.int64, remainder: np.int64, quotient_step: np.int64,
+              remainder_step: np.int64, divisor: np.int64) -> tuple[np.int64, np.int64]:
+    """``floor(e / d)`` and ``e mod d`` of the next row from those of this one."""
+    remainder += remainder_step
+    carry = np.int64(remainder >= divisor)  # data-dependent: no branch
+    return quotient + quotient_step + carry, remainder - carry * divisor
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
+                  k_high: np.int64) -> tuple[np.int64, np.int64]:
+    """Narrow ``[k_low, k_high]`` by one edge, from its row quotient (:func:`_edge_stepper`)."""
+    if kind == _LOWER:
+        return max(k_low, -quotient), k_high
+    if kind == _UPPER:
+        return k_low, min(k_high, quotient)
+    if quotient < 0:
+        return np.int64(1), np.int64(0)
+    return k_low, k_high
+
+
+_UNIT_LOW = np.int64(1 << 52)
+_UNIT_HIGH = np.int64((1 << 53) - 1)
+_UNIT_STEP_LIMIT = np.int64(1 << 48)
+_SMALL_BOX = 8  # boxes of at most this many pixel columns and rows are tested pixel by pixel
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
+    """Whether the float sums ``q + dq + dq + ...`` in ``q``'s binade form an exact progression.
+
+    Let ``q`` lie in the binade ``[2**(e-1), 2**e)``, where the doubles are the
+    multiples of ``u = 2**(e-53)``. Adding ``dq`` to any of them rounds to
+    adding ``r``, the multiple of ``u`` nearest to ``dq``, as long as the exact
+    sum stays inside the binade and ``dq`` is not exactly halfway between two
+    multiples (a tie goes to the even result, which depends on the addend).
+    ``r`` is read off one rounded sum; ``dq - r`` is then exact (Sterbenz) and
+    tells a tie. A sum ``v`` in units of ``u`` (``v = x / u``) is safe when the
+    rounded result lies in ``[2**52 + 1, 2**53 - 1]``: the exact sum is then
+    within ``u / 2`` of it, inside the binade.
+
+    Returns
+    -------
+    exact, scale, shift, unit_step
+        ``scale = 1 / u = 2**shift``, and ``r / u``. ``exact`` is False when
+        ``q`` is outside ``[1, 2**52)``, ``dq`` is a tie, the sum leaves the
+        binade or ``|r / u| >= 2**48`` (then ``dq`` changes ``q`` by over 3 %
+        per pixel); then the sums must be taken one by one.
+    """
+    if not (1.0 <= q < 4503599627370496.0):
+        return False, 1.0, np.int64(0), np.int64(0)
+    shift = np.int64(53 - math.frexp(q)[1])  # 1 <= shift <= 52
+    scale = float(np.int64(1) << shift)
+    q_next = q + dq
+    next_units = q_next * scale
+    if not (_UNIT_LOW + 1 <= next_units <= _UNIT_HIGH) or abs(dq - (q_next - q)) * scale == 0.5:
+        return False, scale, shift, np.int64(0)
+    unit_step = np.int64(next_units) - np.int64(q * scale)
+    # k * unit_step must not overflow for any pixel offset k < 2**14.
+    return abs(unit_step) < _UNIT_STEP_LIMIT, scale, shift, unit_step
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
+              frame: NDArray[np.int64], start: np.int64) -> None:
+    """Depth-test pixels ``start + k_low .. start + k_high`` of a row, walking from ``start``.
+
+    The inverse depth of pixel ``start + k`` is ``q`` plus ``k`` float additions
+    of ``dq``: this walk defines it, :func:`_draw_row` reproduces it.
+    """
+    for _ in range(k_low):
+        q += dq
+    for k in range(k_low, k_high + 1):
+        key = (np.int64(q) << 32) | face_id
+        if key > frame[start + k]:
+            frame[start + k] = key
+        q += dq
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
+              unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
+              frame: NDArray[np.int64], start: np.int64) -> None:
+    """:func:`_walk_row` with integer arithmetic where :func:`_exact_steps` allows it.
+
+    When ``q`` lies in the binade of ``scale`` and every sum up to pixel
+    ``k_high`` stays safely inside it, the ``k``-th sum is exactly
+    ``(units + k * unit_step) / scale`` with ``units = q * scale``: its integer
+    part is a shift, and there is no chain of dependent float additions,
+    neither to reach ``k_low`` nor along the run.
+    """
+    if exact:
+        q_units = q * scale
+        if _UNIT_LOW <= q_units <= _UNIT_HIGH:
+            units = np.int64(q_units)
+            near = units + unit_step
+            far = units + k_high * unit_step
+            if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
+                for k in range(k_low, k_high + 1):
+                    key = (((units + k * unit_step) >> shift) << 32) | face_id
+                    if key > frame[start + k]:
+                        frame[start + k] = key
+                return
+    _walk_row(q, dq, k_low, k_high, face_id, frame, start)
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _rasterize_view(
     faces: NDArray[np.int32],
@@ -213,6 +397,7 @@ def _rasterize_view(
     frame: NDArray[np.int64],
     row_low: NDArray[np.int64],
     row_high: NDArray[np.int64],
+    reference: bool,
 ) -> None:
     step = np.int64(1 << SUBPIXEL_BITS)
     half_step = step // 2
@@ -270,29 +455,68 @@ def _rasterize_view(
         q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
         face_id = np.int64(f + 1)
         width = x1 - x0
+        if not reference and width < _SMALL_BOX and y1 - y0 < _SMALL_BOX:
+            # A small box (most faces of a fine mesh): test its pixel centres one
+            # by one, cheaper than setting up the row runs. The same edge values
+            # and depth additions as the runs, so the same pixels.
+            for y in range(y0, y1 + 1):
+                e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
+                base = y * resolution
+                for x in range(x0, x1 + 1):
+                    if (e_ab | e_bc | e_ca) >= 0:
+                        key = (np.int64(q) << 32) | face_id
+                        if key > frame[base + x]:
+                            frame[base + x] = key
+                        row_low[y] = min(row_low[y], x)
+                        row_high[y] = max(row_high[y], x)
+                    e_ab += sx_ab
+                    e_bc += sx_bc
+                    e_ca += sx_ca
+                    q += dq_dx
+                row_ab += sy_ab
+                row_bc += sy_bc
+                row_ca += sy_ca
+                q_row += dq_dy
+            continue
+        if reference:  # the previous kernel had none of this setup
+            stepper_ab = stepper_bc = stepper_ca = _NO_STEPPER
+            exact, scale, shift, unit_step = False, 1.0, np.int64(0), np.int64(0)
+        else:
+            stepper_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
+            stepper_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
+            stepper_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
+            exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
+        kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = stepper_ab
+        kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = stepper_bc
+        kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = stepper_ca
         for y in range(y0, y1 + 1):
             # The covered pixels of a row form one run: solve each edge function
             # e + k * sx >= 0 for the pixel offset k instead of testing every
             # pixel of the bounding box (wide triangles spend most time outside).
             k_low = np.int64(0)
             k_high = width
-            k_low, k_high = _edge_span(row_ab, sx_ab, k_low, k_high)
-            k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
-            k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
+            if reference:
+                k_low, k_high = _edge_span(row_ab, sx_ab, k_low, k_high)
+                k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
+                k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
+            else:
+                k_low, k_high = _stepped_span(kind_ab, quot_ab, k_low, k_high)
+                k_low, k_high = _stepped_span(kind_bc, quot_bc, k_low, k_high)
+                k_low, k_high = _stepped_span(kind_ca, quot_ca, k_low, k_high)
+                quot_ab, rem_ab = _next_row(quot_ab, rem_ab, dquot_ab, drem_ab, div_ab)
+                quot_bc, rem_bc = _next_row(quot_bc, rem_bc, dquot_bc, drem_bc, div_bc)
+                quot_ca, rem_ca = _next_row(quot_ca, rem_ca, dquot_ca, drem_ca, div_ca)
             base = y * resolution
             first = -1
             last = -1
             if k_low <= k_high:
                 first = x0 + k_low
                 last = x0 + k_high
-                q = q_row
-                for _ in range(k_low):  # the same additions as a pixel-by-pixel walk
-                    q += dq_dx
-                for x in range(first, last + 1):
-                    key = (np.int64(q) << 32) | face_id
-                    if key > frame[base + x]:
-                        frame[base + x] = key
-                    q += dq_dx
+                if reference:
+                    _walk_row(q_row, dq_dx, k_low, k_high, face_id, frame, base + x0)
+                else:
+                    _draw_row(q_row, dq_dx, exact, scale, shift, unit_step, k_low, k_high,
+                              face_id, frame, base + x0)
             if first >= 0:
                 if first < row_low[y]:
                     row_low[y] = first
@@ -310,11 +534,21 @@ def _collect_histogram(
     frame: NDArray[np.int64],
     row_low: NDArray[np.int64],
     row_high: NDArray[np.int64],
-    face_counts: NDArray[np.int64],
+    id_counts: NDArray[np.int64],
     touched: NDArray[np.int32],
     out_ids: NDArray[np.int32],
     out_counts: NDArray[np.int32],
+    count_runs: bool,
 ) -> int:
+    """Pixel count of each face over the written span of each row, clearing the frame.
+
+    Faces come out in the order of their first pixel (row by row, left to
+    right). ``id_counts`` is indexed by the key's ID ``face + 1``; slot 0 counts
+    the background and is reset here. With ``count_runs`` the runs of equal IDs
+    are counted first and added per run (the previous kernel); otherwise every
+    pixel adds one to its ID and is appended to ``touched`` with no branch,
+    the append kept only when the count was zero.
+    """
     n_touched = 0
     for y in range(resolution):
         low = row_low[y]
@@ -322,35 +556,53 @@ def _collect_histogram(
         if low > high:
             continue
         base = y * resolution
-        run_id = np.int64(0)
-        run_length = 0
-        for x in range(low, high + 1):
-            key_id = frame[base + x] & _ID_MASK
-            frame[base + x] = 0
-            if key_id == run_id:
-                run_length += 1
-                continue
-            if run_id != 0:
-                face = run_id - 1
-                if face_counts[face] == 0:
-                    touched[n_touched] = face
-                    n_touched += 1
-                face_counts[face] += run_length
-            run_id = key_id
-            run_length = 1
-        if run_id != 0:
-            face = run_id - 1
-            if face_counts[face] == 0:
-                touched[n_touched] = face
-                n_touched += 1
-            face_counts[face] += run_length
+        if count_runs:
+            n_touched = _count_row_runs(frame, base + low, base + high, id_counts, touched,
+                                        n_touched)
+        else:
+            for x in range(base + low, base + high + 1):
+                key_id = frame[x] & _ID_MASK
+                frame[x] = 0
+                count = id_counts[key_id]
+                id_counts[key_id] = count + 1
+                touched[n_touched] = key_id
+                n_touched += (count == 0) & (key_id != 0)
         row_low[y] = resolution
         row_high[y] = -1
+    id_counts[0] = 0
     for j in range(n_touched):
-        face = touched[j]
-        out_ids[j] = face
-        out_counts[j] = face_counts[face]
-        face_counts[face] = 0
+        key_id = touched[j]
+        out_ids[j] = key_id - 1
+        out_counts[j] = id_counts[key_id]
+        id_counts[key_id] = 0
+    return n_touched
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _count_row_runs(frame: NDArray[np.int64], first: np.int64, last: np.int64,
+                    id_counts: NDArray[np.int64], touched: NDArray[np.int32],
+                    n_touched: int) -> int:
+    """Count and clear ``frame[first:last + 1]`` run by run of equal IDs; the new ``n_touched``."""
+    run_id = np.int64(0)
+    run_length = 0
+    for x in range(first, last + 1):
+        key_id = frame[x] & _ID_MASK
+        frame[x] = 0
+        if key_id == run_id:
+            run_length += 1
+            continue
+        if run_id != 0:
+            if id_counts[run_id] == 0:
+                touched[n_touched] = run_id
+                n_touched += 1
+            id_counts[run_id] += run_length
+        run_id = key_id
+        run_length = 1
+    if run_id != 0:
+        if id_counts[run_id] == 0:
+            touched[n_touched] = run_id
+            n_touched += 1
+        id_counts[run_id] += run_length
     return n_touched
 
 
@@ -373,7 +625,7 @@ def rasterize_batch(
     frames: NDArray[np.int64],
     row_low: NDArray[np.int64],
     row_high: NDArray[np.int64],
-    face_counts: NDArray[np.int64],
+    id_counts: NDArray[np.int64],
     touched: NDArray[np.int32],
     screen_x: NDArray[np.int64],
     screen_y: NDArray[np.int64],
@@ -381,6 +633,7 @@ def rasterize_batch(
     out_ids: NDArray[np.int32],
     out_counts: NDArray[np.int32],
     out_lengths: NDArray[np.int64],
+    reference: bool,
 ) -> None:
     """Per-face pixel histograms of a batch of views.
 
@@ -388,7 +641,8 @@ def rasterize_batch(
     ``n . x = offset``; a face is front-facing from ``eye`` when
     ``n . eye > offset``. ``is_drawable`` is False for faces never drawn
     (zero area). Results of view ``i`` go to ``out_ids[i, :out_lengths[i]]``
-    and ``out_counts[i, :out_lengths[i]]``.
+    and ``out_counts[i, :out_lengths[i]]``. ``reference`` selects the previous
+    kernel's row solver, depth walk and run counting (the same counts).
     """
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
@@ -402,9 +656,10 @@ def rasterize_batch(
             _rasterize_view(
                 faces, face_normals, face_offsets, is_drawable, cull_back_faces, eyes[view],
                 screen_x[thread], screen_y[thread], inverse_depth[thread],
-                resolution, frames[thread], row_low[thread], row_high[thread],
+                resolution, frames[thread], row_low[thread], row_high[thread], reference,
             )
             out_lengths[view] = _collect_histogram(
                 resolution, frames[thread], row_low[thread], row_high[thread],
-                face_counts[thread], touched[thread], out_ids[view], out_counts[view],
+                id_counts[thread], touched[thread], out_ids[view], out_counts[view],
+                reference,
             )

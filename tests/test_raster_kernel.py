@@ -1,0 +1,195 @@
+"""The rasteriser's fast paths give exactly the pixels of the straightforward ones.
+
+Three levels: whole views of the sample meshes through the driver (the kernel
+against its previous row walk, ``reference=True``); screen-space triangles put
+on the fixed-point grid by hand (shared edges through pixel centres, slivers,
+frame borders) against a per-pixel test of the three edge functions; and the
+inverse-depth runs against one float addition per pixel, at binade edges and
+ties.
+"""
+
+import numpy as np
+import pytest
+
+from vptoolkit.camera import Camera
+from vptoolkit.io import load_mesh
+from vptoolkit.samples import sample_path
+from vptoolkit.sphere import fibonacci_sphere
+from vptoolkit.visibility import _raster_view_histograms, face_id_images
+from vptoolkit.visibility._raster import (
+    SUBPIXEL_BITS,
+    _draw_row,
+    _exact_steps,
+    _rasterize_view,
+    _walk_row,
+)
+
+STEP = 1 << SUBPIXEL_BITS
+
+
+def _histograms(mesh, views, resolution, camera, reference):
+    runs = list(_raster_view_histograms(mesh, views, resolution=resolution, camera=camera,
+                                        reference=reference))
+    return [np.concatenate([getattr(run, name) for run in runs])
+            for name in ("face_ids", "pixel_counts")], [run.offsets for run in runs]
+
+
+@pytest.mark.parametrize("name", ["bunny.ply", "torus.STL", "suzanne.ply", "Duck.glb",
+                                  "featuretype.STL"])
+@pytest.mark.parametrize("resolution", [1, 7, 64, 257, 1024])
+def test_kernel_counts_equal_the_previous_row_walk_bit_for_bit(name, resolution):
+    mesh = load_mesh(sample_path(name))
+    views = fibonacci_sphere(6 if resolution == 1024 else 24)
+    for camera in (Camera(), Camera(cull_back_faces=False)):
+        fast = _histograms(mesh, views, resolution, camera, reference=False)
+        walked = _histograms(mesh, views, resolution, camera, reference=True)
+        for got, want in zip(fast[0] + fast[1], walked[0] + walked[1]):
+            np.testing.assert_array_equal(got, want)
+
+
+def test_histograms_count_the_pixels_of_the_id_images(bunny):
+    views = fibonacci_sphere(5)
+    images = face_id_images(bunny, views, resolution=200)
+    (face_ids, pixel_counts), offsets = _histograms(bunny, views, 200, Camera(), False)
+    for view, (start, stop) in enumerate(zip(offsets[0][:-1], offsets[0][1:])):
+        ids = images[view][images[view] >= 0]
+        # in the order of each face's first pixel, row by row
+        _, first = np.unique(ids, return_index=True)
+        np.testing.assert_array_equal(face_ids[start:stop], ids[np.sort(first)])
+        np.testing.assert_array_equal(pixel_counts[start:stop],
+                                      np.bincount(ids)[face_ids[start:stop]])
+
+
+def _covered(xs, ys, resolution):
+    """Pixel centres inside the fixed-point triangle, one edge-function test per pixel."""
+    (ax, bx, cx), (ay, by, cy) = [int(v) for v in xs], [int(v) for v in ys]
+    area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+    if area2 < 0:
+        bx, cx, by, cy = cx, bx, cy, by
+    centres = np.arange(resolution, dtype=np.int64) * STEP + STEP // 2
+    px, py = centres[None, :], centres[:, None]
+    inside = np.full((resolution, resolution), area2 != 0)
+    for (x0, y0), (x1, y1) in (((ax, ay), (bx, by)), ((bx, by), (cx, cy)), ((cx, cy), (ax, ay))):
+        owned = y1 - y0 < 0 or (y1 == y0 and x1 - x0 > 0)  # top-left rule
+        inside &= (x1 - x0) * (py - y0) - (y1 - y0) * (px - x0) + (0 if owned else -1) >= 0
+    return inside
+
+
+def _draw(xs, ys, faces, resolution, reference, depth=None):
+    n = len(xs)
+    frame = np.zeros(resolution * resolution, dtype=np.int64)
+    row_low = np.full(resolution, resolution, dtype=np.int64)
+    row_high = np.full(resolution, -1, dtype=np.int64)
+    _rasterize_view(
+        np.asarray(faces, dtype=np.int32), np.zeros((len(faces), 3)), np.zeros(len(faces)),
+        np.ones(len(faces), dtype=bool), False, np.zeros(3), np.asarray(xs, dtype=np.int64),
+        np.asarray(ys, dtype=np.int64),
+        np.full(n, 0.5) if depth is None else np.asarray(depth, dtype=np.float64),
+        resolution, frame, row_low, row_high, reference,
+    )
+    return frame.reshape(resolution, resolution), row_low, row_high
+
+
+def _fan(resolution, rng, *, n_spokes, centre, radius, on_centres):
+    """A polygon split into triangles around ``centre``: shared edges, many slivers.
+
+    Drawn again until snapping to the grid flips no triangle, so that the
+    triangles tile the polygon.
+    """
+    faces = np.array([[0, 1 + i, 1 + (i + 1) % n_spokes] for i in range(n_spokes)])
+    while True:
+        angles = np.sort(rng.uniform(0, 2 * np.pi, n_spokes))
+        points = centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
+        points = np.vstack([centre, points])
+        if on_centres:  # every vertex on a pixel centre: edges run through pixel centres
+            fixed = (np.round(points - 0.5) * STEP + STEP // 2).astype(np.int64)
+        else:
+            fixed = np.round(points * STEP).astype(np.int64)
+        ab, ac = fixed[faces[:, 1]] - fixed[faces[:, 0]], fixed[faces[:, 2]] - fixed[faces[:, 0]]
+        if (ab[:, 0] * ac[:, 1] - ab[:, 1] * ac[:, 0] >= 0).all():
+            return fixed[:, 0], fixed[:, 1], faces
+
+
+@pytest.mark.parametrize("resolution", [1, 2, 9, 64, 130])
+@pytest.mark.parametrize("on_centres", [False, True])
+def test_shared_edges_slivers_and_frame_borders_cover_each_pixel_centre_once(resolution,
+                                                                             on_centres):
+    rng = np.random.default_rng(resolution)
+    fans = [
+        # inside the frame, many thin spokes
+        dict(n_spokes=97, centre=np.array([0.4, 0.55]) * resolution, radius=0.3 * resolution),
+        # reaching past all four borders, the centre on the frame's corner
+        dict(n_spokes=23, centre=np.array([0.0, 0.0]), radius=1.6 * resolution),
+        dict(n_spokes=31, centre=np.array([0.5, 0.5]) * resolution, radius=0.9 * resolution),
+    ]
+    for fan in fans:
+        xs, ys, faces = _fan(resolution, rng, on_centres=on_centres, **fan)
+        frame, row_low, row_high = _draw(xs, ys, faces, resolution, reference=False)
+        ids = (frame & 0xFFFFFFFF) - 1
+        want = np.full((resolution, resolution), -1)
+        hits = np.zeros((resolution, resolution), dtype=int)
+        for face, corners in enumerate(faces):
+            inside = _covered(xs[corners], ys[corners], resolution)
+            want[inside] = face
+            hits += inside
+        assert hits.max() <= 1  # the top-left rule gives a shared edge's pixels to one face
+        np.testing.assert_array_equal(ids, want)
+        hit_rows = hits.any(axis=1)
+        np.testing.assert_array_equal(
+            row_low, np.where(hit_rows, hits.argmax(axis=1), resolution))
+        np.testing.assert_array_equal(
+            row_high, np.where(hit_rows, resolution - 1 - hits[:, ::-1].argmax(axis=1), -1))
+        walked = _draw(xs, ys, faces, resolution, reference=True)
+        for got, want_walked in zip((frame, row_low, row_high), walked):
+            np.testing.assert_array_equal(got, want_walked)
+
+
+@pytest.mark.parametrize("resolution", [16, 333])
+def test_overlapping_random_triangles_keep_the_walked_depths(resolution):
+    # Depth ties, binade edges of the inverse depth (2**29 = depth 0.5) and tiny,
+    # huge or degenerate triangles, all drawn over each other.
+    rng = np.random.default_rng(7)
+    n = 600
+    xs = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
+    ys = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
+    depth = rng.choice([0.5, 0.25, 1.0, 0.0, 0.5 - 2.0**-40, 0.5 + 2.0**-40], n)
+    depth[::3] = rng.uniform(0, 1, len(depth[::3]))
+    faces = rng.integers(0, n, (3000, 3))
+    slivers = np.column_stack([faces[:, 0], faces[:, 0] + 1, faces[:, 0] + 2]) % n
+    xs[1::3] = xs[::3][: len(xs[1::3])] + rng.integers(-2, 3, len(xs[1::3]))
+    faces = np.vstack([faces, slivers])
+    fast = _draw(xs, ys, faces, resolution, reference=False, depth=depth)
+    walked = _draw(xs, ys, faces, resolution, reference=True, depth=depth)
+    for got, want in zip(fast, walked):
+        np.testing.assert_array_equal(got, want)
+
+
+def _row(q, dq, k_low, k_high, fast):
+    frame = np.zeros(k_high + 1, dtype=np.int64)
+    if fast:
+        _draw_row(q, dq, *_exact_steps(q, dq), k_low, k_high, np.int64(5), frame, 0)
+    else:
+        _walk_row(q, dq, k_low, k_high, np.int64(5), frame, 0)
+    return frame
+
+
+def test_depth_runs_equal_one_float_addition_per_pixel():
+    ulp = np.spacing
+    cases = []
+    for q in [1.0, 1.5, 2.0**29, 2.0**29 - ulp(2.0**29), 2.0**30, 2.0**30 - 3e-7, 3.7e8,
+              0.999, 0.0, 2.0**52 - 1.0, 123456.789]:
+        for dq in [0.0, 1e-300, ulp(q) / 2, -ulp(q) / 2, 3 * ulp(q) / 2, ulp(q), -ulp(q),
+                   ulp(q) / 3, 1e-3, -1e-3, 0.1, -7.25, 1e6, -1e6, ulp(q) * 2.0**20]:
+            cases.append((q, dq))
+    for binade in (1, 10, 29):
+        # Just below an integer with an odd last bit: adding a tie (half a unit, or
+        # one and a half) rounds to even and stalls where exact steps would cross it.
+        unit = ulp(2.0**binade)
+        for q in (2.0**binade + 1 - 3 * unit, 2.0**binade + 1 - 1001 * unit):
+            cases += [(q, unit / 2), (q, 3 * unit / 2)]
+    rng = np.random.default_rng(3)
+    cases += list(zip(rng.uniform(0, 2.0**30, 300), rng.normal(0, 1e4, 300)))
+    for q, dq in cases:
+        for k_low, k_high in [(0, 0), (0, 40), (13, 700)]:
+            fast, walked = _row(q, dq, k_low, k_high, True), _row(q, dq, k_low, k_high, False)
+            np.testing.assert_array_equal(fast, walked, err_msg=f"q={q!r} dq={dq!r}")
