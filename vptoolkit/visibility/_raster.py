@@ -35,10 +35,11 @@ histogram counted run by run) stays selectable with ``reference=True``:
 checks that they give the same pixels bit for bit.
 
 Size
-    About 660 lines for one concept, the scan conversion of one view: the
-    current kernel and the previous one it is checked and timed against
-    share the projection, the edge set-up and the histogram, and numba
-    inlines helpers only within a module.
+    About 660 lines for one concept, the scan conversion of a view. The
+    previous kernel stays beside the current one, which is checked and
+    timed against it: both share the projection, the edge set-up, the
+    workspace and the histogram, private helpers that a split would have
+    to expose.
 """
 
 from __future__ import annotations
