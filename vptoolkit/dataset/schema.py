@@ -262,13 +262,15 @@ def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
     return hasher.hexdigest()
 
 
-def json_bytes(obj: Any) -> NDArray[np.uint8]:
+def json_bytes(obj: Any, *, sort_keys: bool = False) -> NDArray[np.uint8]:
     """Encode a JSON-safe object as UTF-8 JSON in a ``uint8`` array.
 
     Parameters
     ----------
     obj : JSON-safe object
         Dicts with string keys, lists, strings, finite numbers, booleans, None.
+    sort_keys : bool
+        Write the keys of every dict sorted (default: in their order).
 
     Returns
     -------
@@ -281,7 +283,8 @@ def json_bytes(obj: Any) -> NDArray[np.uint8]:
         If ``obj`` holds something JSON cannot represent (NaN included).
     """
     try:
-        text = json.dumps(obj, ensure_ascii=False, allow_nan=False, separators=(",", ":"))
+        text = json.dumps(obj, ensure_ascii=False, allow_nan=False, separators=(",", ":"),
+                          sort_keys=sort_keys)
     except (TypeError, ValueError) as err:
         raise InputError(f"obj: not JSON-serialisable ({err})") from err
     return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()

@@ -36,8 +36,8 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.compute import FailedModel, MeasuredModel
+from vptoolkit.dataset.schema import ModelEntry, from_json_bytes, json_bytes
 from vptoolkit.dataset.sources import SourceModel
-from vptoolkit.dataset.store import ModelEntry
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
 
@@ -250,7 +250,7 @@ def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
     try:
         # np.load leaks its file handle when the zip is broken, so open the file here.
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
-            meta = _decode_json(staged["meta"])
+            meta = from_json_bytes(staged["meta"])
             missing = [name for name in _ARRAY_NAMES if name not in staged.files]
             if missing:
                 raise KeyError(f"no member {missing[0]!r}")
@@ -277,7 +277,7 @@ def stage_model(staging: Path, result: MeasuredModel) -> Path:
     key = stage_key(result.model_id)
     path = staging / f"{key}{_MODEL_SUFFIX}"
     meta = {"signature": result.signature, "record": result.record}
-    _write_atomic(path, {**result.arrays, "meta": _encode_json(meta)})
+    _write_atomic(path, {**result.arrays, "meta": json_bytes(meta, sort_keys=True)})
     (staging / f"{key}{_FAILURE_SUFFIX}").unlink(missing_ok=True)
     return path
 
@@ -320,15 +320,6 @@ def _fsync_folder(folder: Path) -> None:
         os.close(handle)
 
 
-def _encode_json(value: Any) -> NDArray[np.uint8]:
-    text = json.dumps(value, sort_keys=True, separators=(",", ":"))
-    return np.frombuffer(text.encode("utf-8"), dtype=np.uint8).copy()
-
-
-def _decode_json(array: NDArray[np.uint8]) -> Any:
-    return json.loads(np.asarray(array, dtype=np.uint8).tobytes().decode("utf-8"))
-
-
 class StagedEntries(Sequence[ModelEntry]):
     """The staged models as a lazy sequence of :class:`ModelEntry`, one file read per item."""
 
@@ -350,7 +341,7 @@ class StagedEntries(Sequence[ModelEntry]):
         path, split = self._items[index]
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
             arrays = {name: staged[name] for name in _ARRAY_NAMES}
-            meta = _decode_json(staged["meta"])
+            meta = from_json_bytes(staged["meta"])
         record = meta["record"]
         return ModelEntry(
             name=record["name"],
