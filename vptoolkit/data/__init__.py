@@ -40,7 +40,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
 if TYPE_CHECKING:
-    from vptoolkit.view_sets import ViewSet
+    from vptoolkit.view_sets.result import ViewSet
 
 __all__ = ["ViewpointDataset", "open_dataset"]
 
@@ -329,7 +329,7 @@ class ViewpointDataset:
             pick (:mod:`vptoolkit.view_sets`); None for a store built before
             view sets were stored.
         """
-        from vptoolkit.view_sets import ViewSet
+        from vptoolkit.view_sets.result import ViewSet
 
         record = self._shared.records[self.row(key)]
         stored = record.get("view_set")

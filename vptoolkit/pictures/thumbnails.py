@@ -39,7 +39,7 @@ from vptoolkit.progress import progress_bar
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-    from vptoolkit.view_sets import ViewSet
+    from vptoolkit.view_sets.result import ViewSet
 
 __all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
 

@@ -1,363 +1,38 @@
-"""Complementary view sets: k views that together show the whole model.
+"""The greedy searches for view sets (objectives in :mod:`vptoolkit.view_sets`).
 
-The paper predicts one view per measure and names complementary views as
-future work ("a second view that best covers the unseen parts of the
-model"). From the per-view, per-face pixel counts ``a_z(v)`` of
-:mod:`vptoolkit.visibility` the brute-force answer is cheap: a greedy
-search over the sampled views. Notation as in :mod:`vptoolkit.measures`:
-``A_z`` the true area of face ``z``, ``A_t = sum_z A_z``, ``a_t(v) = sum_z
-a_z(v)``, logarithms base 2.
-
-Objectives (``objective=``)
-    ``"coverage"``
-        The area-weighted fraction of the surface seen by at least one view
-        of the set ``S``:
-
-        ``C(S) = sum_z A_z [max_{v in S} a_z(v) >= m] / A_t``
-
-        with ``m = min_pixels`` (default 1). ``C`` is monotone and
-        submodular (a weighted set cover), so the greedy choice, which adds
-        the view of largest gain ``C(S + v) - C(S)``, reaches at least
-        ``1 - (1 - 1/k)^k > 1 - 1/e ~ 0.632`` of the best k-set's coverage
-        (Nemhauser, Wolsey and Fisher 1978); the tests compare it with
-        exhaustive search. With ``m = 1`` a face counts as seen exactly when
-        the paper's visibility ``vis_z(v) = [a_z(v) > 0]`` (eq. 2) holds, so
-        ``C({v}) = VR(v)`` and the first pick is the best VR view. Why one
-        pixel: the rasteriser counts a pixel only where the pixel *centre*
-        lies inside the face (:mod:`vptoolkit.visibility`), so one pixel is
-        a real sample of the face, never an anti-aliasing fringe; a larger
-        threshold would drop every face smaller than it at the chosen
-        resolution, making the coverage depend on the tessellation, and
-        would break ``C({v}) = VR(v)``. Pass ``min_pixels`` to demand more
-        (e.g. to ignore faces seen edge-on in a few pixels).
-    ``"information"``
-        The viewpoint entropy of the set, the entropy of the views' joint
-        face distribution (Vazquez et al. 2003's entropy of a set of views;
-        the channel of :mod:`vptoolkit.measures` restricted to ``S``):
-
-        ``p_S(z) = sum_{v in S} a_z(v) / sum_{v in S} a_t(v)``,
-        ``H(S) = -sum_z p_S(z) log2 p_S(z)``
-
-        With ``p(v|S) = a_t(v) / sum_{u in S} a_t(u)`` it splits as
-        ``H(S) = I(S; Z) + sum_{v in S} p(v|S) VE(v)``: the mutual
-        information between the chosen views and the faces (high when the
-        views see *different* faces) plus their mean entropy. ``H({v}) =
-        VE(v)``, so the first pick is the best VE view. ``H`` is neither
-        monotone nor submodular; greedy carries no guarantee here.
-    ``"quality"``
-        Coverage, preferring good single views among near-ties: the first
-        pick is the best view of ``measure`` (default VE; with ``"VR"`` it is
-        also the coverage objective's first pick), and every later pick is
-        the view of highest normalised ``measure`` quality among those whose
-        coverage gain is at least ``(1 - tolerance)`` times the largest gain.
-        Each later gain is thus within ``alpha = 1 - tolerance`` of the
-        greedy one, which gives ``C(S_k) >= (1 - (1 - alpha/k)^(k-1)) C*``
-        for the best k-set's coverage ``C*``, whatever the first pick.
-
-Sets are built in selection order; ``score[i]`` is the objective after pick
-``i`` (a fraction for coverage and quality, bits for information) and
-``coverage[i]`` the coverage ``C`` after pick ``i`` for every objective.
-``k`` may be a number, or the set may grow until ``C(S) >= target *
-C(V)``, where ``C(V)``, the *reachable* coverage, is that of all sampled
-views together (faces inside the model are never seen): this answers the
-paper's "the number of good views may vary per model". Ties go to the
-lowest view index, so the same inputs give the same set.
-
-Memory: the histograms of all views are kept (about 8 bytes per visible
-face per view: 40 MB for 1000 views of a 10k-face mesh at 1024 px).
-
-Size
-    About 730 lines, a third of them docstrings (the objectives' maths
-    above), for one concept: the greedy search, its input
-    (:class:`FaceVisibility`) and its result (:class:`ViewSet`). The three
-    objectives share the search's bookkeeping (``_Entries``, the stopping rule),
-    and the input and result types have no use apart from it, so they stay in
-    one module; what they build on (histograms, measures) lives in
-    :mod:`vptoolkit.visibility` and :mod:`vptoolkit.measures`.
+:func:`best_view_set` runs one objective over a
+:class:`~vptoolkit.view_sets.visibility.FaceVisibility`; :func:`set_coverage`
+scores any set; :func:`measure_view_set` draws a mesh once and returns both
+its measures and its coverage set.
 """
 
 from __future__ import annotations
 
 import heapq
-import json
-import os
-from collections.abc import Iterable
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
-from vptoolkit.checks import check_int, check_suffix
+from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write
-from vptoolkit.geometry import face_areas
 from vptoolkit.measures import (
     ViewQuality,
     compute_view_quality,
-    normalize_quality,
-    progress_runs,
-    quality_from_histograms,
 )
 from vptoolkit.mesh import Mesh
-from vptoolkit.sphere import as_directions, fibonacci_sphere
-from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
+from vptoolkit.view_sets.result import ViewSet
+from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
+from vptoolkit.visibility import Backend
 
-__all__ = [
-    "OBJECTIVES",
-    "MIN_PIXELS",
-    "FaceVisibility",
-    "ViewSet",
-    "best_view_set",
-    "measure_view_set",
-    "set_coverage",
-]
+__all__ = ["OBJECTIVES", "best_view_set", "measure_view_set", "set_coverage"]
 
 OBJECTIVES = ("coverage", "information", "quality")
-"""Objectives of :func:`best_view_set` (see the module docstring)."""
-
-MIN_PIXELS = 1
-"""Pixels a face needs in a view to count as seen by it (the paper's ``a_z(v) > 0``)."""
+"""Objectives of :func:`best_view_set` (see :mod:`vptoolkit.view_sets`)."""
 
 _TOLERANCE = 0.05  # near-tie band of the "quality" objective
-
-
-# --------------------------------------------------------------------------- input
-
-
-@dataclass(frozen=True, eq=False)
-class FaceVisibility:
-    """Per-view, per-face pixel counts of every sampled view of one model.
-
-    Attributes
-    ----------
-    views : (n_views, 3) float64
-        Unit view directions (model centre towards the camera).
-    face_areas : (n_faces,) float64
-        True face areas ``A_z``.
-    runs : tuple of ViewHistograms
-        Sparse counts ``a_z(v)`` covering views ``0 .. n_views - 1`` in order
-        (as :func:`vptoolkit.visibility.iter_view_histograms` yields them).
-    name : str
-        Name of the model, for messages.
-    """
-
-    views: NDArray[np.float64]
-    face_areas: NDArray[np.float64]
-    runs: tuple[ViewHistograms, ...]
-    name: str = "mesh"
-
-    def __post_init__(self) -> None:
-        views = as_directions(self.views, name="views")
-        areas = np.asarray(self.face_areas, dtype=np.float64)
-        if areas.ndim != 1 or not np.isfinite(areas).all() or (areas < 0).any():
-            raise InputError(f"{self.name}: face_areas must be finite, non-negative and 1-D")
-        if not areas.sum() > 0:
-            raise InputError(f"{self.name}: the mesh has zero surface area")
-        runs = tuple(self.runs)
-        expected = 0
-        for run in runs:
-            if run.first_view != expected or run.n_faces != len(areas):
-                raise InputError(f"{self.name}: histograms must cover views 0..{len(views) - 1} "
-                                 f"in order, for {len(areas)} faces")
-            expected += run.n_views
-        if expected != len(views):
-            raise InputError(f"{self.name}: histograms cover {expected} views, "
-                             f"views has {len(views)}")
-        object.__setattr__(self, "views", views)
-        object.__setattr__(self, "face_areas", areas)
-        object.__setattr__(self, "runs", runs)
-
-    @classmethod
-    def from_mesh(
-        cls,
-        mesh: Mesh,
-        n_views: int = N_VIEWS,
-        resolution: int = RESOLUTION,
-        *,
-        view_directions: ArrayLike | None = None,
-        camera: Camera | None = None,
-        backend: Backend = "raster",
-        progress: bool = False,
-    ) -> FaceVisibility:
-        """Draw every view of a mesh once and keep its pixel counts.
-
-        Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
-        """
-        directions = (fibonacci_sphere(check_int(n_views, "n_views", minimum=1))
-                      if view_directions is None
-                      else as_directions(view_directions, name="view_directions"))
-        runs: Iterable[ViewHistograms] = iter_view_histograms(
-            mesh, directions, resolution=resolution, camera=camera, backend=backend)
-        if progress:
-            runs = progress_runs(runs, len(directions), mesh.name)
-        return cls(directions, face_areas(mesh), tuple(runs), mesh.name)
-
-    @property
-    def n_views(self) -> int:
-        """Number of sampled views."""
-        return int(len(self.views))
-
-    @property
-    def n_faces(self) -> int:
-        """Number of faces."""
-        return int(len(self.face_areas))
-
-    def quality(self) -> NDArray[np.float64]:
-        """Normalised VE, VR, VKL, VMI of every view, ``(n_views, 4) float64`` (1 = best)."""
-        raw = quality_from_histograms(self.runs, self.face_areas, n_views=self.n_views)
-        return normalize_quality(raw)
-
-    def seen_matrix(self, min_pixels: int = MIN_PIXELS) -> NDArray[np.bool_]:
-        """Dense ``(n_views, n_faces) bool``: face ``z`` has ``>= min_pixels`` pixels in view ``v``.
-
-        Dense, so only for few views or small meshes (tests, exhaustive search).
-        """
-        min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
-        return np.concatenate([run.to_dense() >= min_pixels for run in self.runs], axis=0)
-
-
-# --------------------------------------------------------------------------- result
-
-
-@dataclass(frozen=True, eq=False)
-class ViewSet:
-    """Views chosen together, in selection order.
-
-    Attributes
-    ----------
-    name : str
-        Name of the model.
-    objective : str
-        ``"coverage"``, ``"information"`` or ``"quality"``.
-    indices : (k,) int64
-        Chosen rows of ``views``, in selection order.
-    directions : (k, 3) float64
-        Their unit directions (model centre towards the camera).
-    score : (k,) float64
-        The objective after each pick: coverage fraction (``"coverage"``,
-        ``"quality"``) or entropy in bits (``"information"``).
-    coverage : (k,) float64
-        Area-weighted fraction of the surface seen after each pick.
-    reachable : float
-        Coverage of all sampled views together (the most any set reaches).
-    n_views : int
-        Number of sampled views searched.
-    min_pixels : int
-        Pixels a face needs in a view to count as seen.
-    measure : str or None
-        Measure of the ``"quality"`` objective, else None.
-    """
-
-    name: str
-    objective: str
-    indices: NDArray[np.int64]
-    directions: NDArray[np.float64]
-    score: NDArray[np.float64]
-    coverage: NDArray[np.float64]
-    reachable: float
-    n_views: int
-    min_pixels: int = MIN_PIXELS
-    measure: str | None = None
-
-    def __len__(self) -> int:
-        return int(len(self.indices))
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-safe record: one entry per pick with view, direction and cumulative values."""
-        return {
-            "name": self.name,
-            "objective": self.objective,
-            "measure": self.measure,
-            "n_views": self.n_views,
-            "min_pixels": self.min_pixels,
-            "reachable": round(float(self.reachable), 6),
-            "picks": [
-                {
-                    "pick": position + 1,
-                    "view_index": int(index),
-                    "direction": [round(float(c), 6) for c in direction],
-                    "score": round(float(score), 6),
-                    "coverage": round(float(coverage), 6),
-                }
-                for position, (index, direction, score, coverage) in enumerate(
-                    zip(self.indices, self.directions, self.score, self.coverage))
-            ],
-        }
-
-    def record(self) -> dict[str, Any]:
-        """The set as a dataset's model record stores it (JSON types, 6 decimals).
-
-        ``{"objective", "min_pixels", "indices", "coverage", "reachable"}``;
-        :meth:`from_record` reads it back.
-        """
-        return {
-            "objective": self.objective,
-            "min_pixels": self.min_pixels,
-            "indices": [int(i) for i in self.indices],
-            "coverage": [round(float(c), 6) for c in self.coverage],
-            "reachable": round(float(self.reachable), 6),
-        }
-
-    @classmethod
-    def from_record(cls, record: dict[str, Any], views: ArrayLike, *, name: str,
-                    k: int | None = None) -> ViewSet:
-        """A set from :meth:`record`'s form and the views its indices refer to.
-
-        Parameters
-        ----------
-        record : dict
-            As :meth:`record` writes it.
-        views : (n_views, 3) array_like
-            The sampled views of the dataset.
-        name : str
-            Name of the model.
-        k : int, optional
-            Keep the first ``k`` picks only (a greedy set's prefix is the
-            greedy set for fewer views).
-        """
-        directions = np.asarray(views, dtype=np.float64)  # as stored, not renormalised
-        if directions.ndim != 2 or directions.shape[1] != 3:
-            raise InputError(f"views: expected shape (n_views, 3), got {directions.shape}")
-        try:
-            indices = np.asarray(record["indices"], dtype=np.int64)
-            coverage = np.asarray(record["coverage"], dtype=np.float64)
-            objective, reachable = str(record["objective"]), float(record["reachable"])
-            min_pixels = int(record["min_pixels"])
-        except (KeyError, TypeError, ValueError) as err:
-            raise InputError(f"{name}: view_set record is malformed ({err})") from err
-        if indices.ndim != 1 or indices.shape != coverage.shape or (
-                len(indices) and not 0 <= indices.min() <= indices.max() < len(directions)):
-            raise InputError(f"{name}: view_set record does not fit {len(directions)} views")
-        keep = len(indices) if k is None else check_int(k, "k", minimum=1)
-        return cls(name=name, objective=objective, indices=indices[:keep],
-                   directions=directions[indices[:keep]], score=coverage[:keep],
-                   coverage=coverage[:keep], reachable=reachable, n_views=len(directions),
-                   min_pixels=min_pixels)
-
-    def save_npz(self, path: str | os.PathLike[str]) -> Path:
-        """Write the set to an ``.npz`` (``indices``, ``directions``, ``score``,
-        ``coverage``, ``reachable``, ``objective``, ``summary`` as JSON), atomically."""
-        target = check_suffix(path, ".npz")
-        with atomic_write(target) as handle:
-            np.savez(
-                handle,
-                indices=self.indices,
-                directions=self.directions,
-                score=self.score,
-                coverage=self.coverage,
-                reachable=np.float64(self.reachable),
-                objective=np.str_(self.objective),
-                name=np.str_(self.name),
-                summary=np.str_(json.dumps(self.summary(), sort_keys=True)),
-            )
-        return target
-
-
-# --------------------------------------------------------------------------- search
 
 
 class _Entries:
@@ -735,4 +410,3 @@ def measure_view_set(
                                    histograms=list(visibility.runs))
     view_set = best_view_set(visibility, k, quality=quality.normalized, **options)
     return quality, view_set
-
