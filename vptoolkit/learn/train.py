@@ -56,16 +56,10 @@ Determinism
     device and thread count), and ``resume=True`` continues a stopped run
     from its last saved epoch exactly as an uninterrupted run would.
 
-Size
-    About 700 lines (some 210 of them docstrings) for one concept: the
-    training loop and the checks and records that belong to one run
-    (options, splits, validation under the rotated protocol, the
-    ``model.json`` training record). What stands alone already lives apart:
-    the network (:mod:`vptoolkit.learn.model`), its files
-    (:mod:`vptoolkit.learn.checkpoint`), the resumable state
-    (:mod:`vptoolkit.learn.state`), the labels and losses
-    (:mod:`vptoolkit.learn.labels`) and the input pipeline
-    (:mod:`vptoolkit.data.torch`).
+The paper's settings and the learning-rate schedule are in
+:mod:`vptoolkit.learn.schedule`, the choice of models in
+:mod:`vptoolkit.learn.splits` and the validation in
+:mod:`vptoolkit.learn.validation`; the schedule's names are re-exported here.
 """
 
 from __future__ import annotations
@@ -77,15 +71,14 @@ import platform
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Final
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
-from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.data import open_dataset
 from vptoolkit.dataset.store import published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.learn.labels import (
@@ -93,30 +86,38 @@ from vptoolkit.learn.labels import (
     head_for_method,
     label_loss,
     label_phase,
-    nearest_view_quality,
 )
 from vptoolkit.learn.model import (
     ModelConfig,
     ViewpointNet,
     checkpoint_paths,
     count_parameters,
-    read_json,
     resolve_device,
     save_model,
     torch_threads,
     write_json_atomic,
 )
-from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT, network_points
+from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
+from vptoolkit.learn.record import training_record, update_best_record
+from vptoolkit.learn.schedule import (
+    PAPER_BATCH_SIZE,
+    PAPER_EPOCHS,
+    PAPER_LR,
+    PAPER_LR_DECAY,
+    PAPER_LR_STEP,
+    learning_rate,
+    scaled_lr_step,
+)
+from vptoolkit.learn.splits import select_categories, select_models
 from vptoolkit.learn.state import (
     TRAINING_STATE_FORMAT,
-    json_value,
     load_state,
     save_state,
     state_paths,
     toolkit_version,
 )
+from vptoolkit.learn.validation import validation_inputs, validation_scores
 from vptoolkit.optional import require
-from vptoolkit.rotations import fixed_rotations
 
 if TYPE_CHECKING:
     import torch
@@ -144,22 +145,6 @@ __all__ = [
 
 _log = logging.getLogger(__name__)
 
-PAPER_EPOCHS: Final = 3000
-"""Epochs of the paper's runs (ML+GL switches at 1500)."""
-
-PAPER_BATCH_SIZE: Final = 8
-"""The paper's batch size."""
-
-PAPER_LR: Final = 1e-3
-"""The paper's initial learning rate (Adam)."""
-
-PAPER_LR_DECAY: Final = 0.75
-"""The paper's learning-rate factor per step."""
-
-PAPER_LR_STEP: Final = 200
-"""The paper's step: the learning rate decays every 200 epochs."""
-
-_VALIDATION_BATCH = 32
 _SEED_SHUFFLE = 1
 _SEED_DROPOUT = 2
 # Options a resumed run must share with the stopped one (``epochs`` may grow).
@@ -219,17 +204,6 @@ class TrainResult:
     seconds: float
 
 
-def learning_rate(epoch: int, *, lr: float = PAPER_LR, lr_decay: float = PAPER_LR_DECAY,
-                  lr_step: int = PAPER_LR_STEP) -> float:
-    """Step decay: ``lr * lr_decay ** (epoch // lr_step)`` for a zero-based epoch."""
-    return lr * lr_decay ** (epoch // lr_step)
-
-
-def scaled_lr_step(epochs: int) -> int:
-    """The paper's decay step (200 of 3000 epochs) scaled to a run of ``epochs``: at least 1."""
-    return max(1, round(epochs * PAPER_LR_STEP / PAPER_EPOCHS))
-
-
 def _seed(*keys: int) -> int:
     sequence = np.random.SeedSequence([int(key) for key in keys])
     return int(sequence.generate_state(1, np.uint64)[0] >> 1)
@@ -259,31 +233,6 @@ def _architecture(architecture: ModelConfig | Mapping[str, Any] | None,
     return ModelConfig.from_dict(values)
 
 
-def _split(dataset: ViewpointDataset, split: str, max_models: int | None,
-           what: str) -> tuple[ViewpointDataset, int]:
-    """A split and how many of its models (the first, in store order) to use."""
-    subset = dataset.split(split)
-    if len(subset) == 0:
-        hint = ("; choose another with val_split (\"train\" for a tiny dataset)"
-                if what == "val_split" else "")
-        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models{hint}")
-    return subset, len(subset) if max_models is None else min(len(subset), max_models)
-
-
-def _categories(dataset: ViewpointDataset,
-                categories: Sequence[str] | str | None) -> list[str] | None:
-    if categories is None:
-        return None
-    if isinstance(categories, str):
-        categories = [categories]
-    chosen = sorted({str(name) for name in categories})
-    unknown = sorted(set(chosen) - set(dataset.categories))
-    if not chosen or unknown:
-        raise InputError(f"categories: {unknown or 'none given'} not in {dataset.path.name} "
-                         f"(it has {sorted(set(dataset.categories))})")
-    return chosen
-
-
 def _collate(items: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     batch: dict[str, Any] = {"name": [item["name"] for item in items]}
     for key in ("points", "views", "quality", "best_views"):
@@ -297,36 +246,6 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
     if len(batches[-1]) == 1 and n_models > 1:
         batches.pop()  # batch norm needs two samples; this model comes back in other epochs
     return batches
-
-
-def _validation_set(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int,
-                    seed: int, rotations: int, device: torch.device) -> dict[str, Tensor]:
-    """The validation inputs under the rotated protocol (as stored for ``rotations=0``)."""
-    points, views, quality = [], [], []
-    for index in range(n_models):
-        item = subset[index]
-        base = network_points(item["points"], n_points=n_points, n_fps=n_fps, seed=seed,
-                              name=item["name"])
-        turns = (fixed_rotations(item["name"], rotations, seed=seed) if rotations
-                 else np.eye(3)[None])
-        for rotation in turns:
-            points.append(base @ rotation.T)
-            views.append(item["views"] @ rotation.T)
-            quality.append(item["quality"])
-    return {key: torch.from_numpy(np.stack(values).astype(np.float32)).to(device)
-            for key, values in (("points", points), ("views", views), ("quality", quality))}
-
-
-def _validate(model: ViewpointNet, validation: Mapping[str, Tensor]) -> Tensor:
-    model.eval()
-    scores = []
-    with torch.inference_mode():
-        for start in range(0, len(validation["points"]), _VALIDATION_BATCH):
-            part = slice(start, start + _VALIDATION_BATCH)
-            directions = model(validation["points"][part])["directions"]
-            scores.append(nearest_view_quality(directions, validation["views"][part],
-                                               validation["quality"][part]))
-    return torch.cat(scores).mean(dim=0).cpu()
 
 
 def train_model(
@@ -450,21 +369,6 @@ def train_model(
         )
 
 
-def _subset(dataset: ViewpointDataset, split: str, categories: list[str] | None,
-            max_models: int | None, what: str) -> tuple[ViewpointDataset, int]:
-    """A split (restricted to ``categories``) and how many of its models to use."""
-    subset, count = _split(dataset, split, max_models, what)
-    if categories is None:
-        return subset, count
-    keep = [name for name, category in zip(subset.names, subset.categories)
-            if category in categories]
-    if not keep:
-        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models of "
-                         f"{categories}")
-    chosen = subset.subset(keep)
-    return chosen, len(chosen) if max_models is None else min(len(chosen), max_models)
-
-
 def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str,
            epochs: int, batch_size: int, lr: float, lr_decay: float, lr_step: int | None,
            seed: int, resume: bool, overwrite: bool, progress: bool, val_split: str,
@@ -499,7 +403,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
 
     dataset = open_dataset(dataset_path)
     try:
-        chosen = _categories(dataset, categories)
+        chosen = select_categories(dataset, categories)
         arguments = {
             "dataset_path": str(dataset_path), "output": str(output), "labels": labels,
             "epochs": epochs, "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay,
@@ -512,8 +416,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
             raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ "
                                     f"from {MEASURES}")
-        train_set, n_train = _subset(dataset, "train", chosen, max_models, "dataset_path")
-        val_set, n_val = _subset(dataset, val_split, chosen, max_models, "val_split")
+        train_set, n_train = select_models(dataset, "train", chosen, max_models, "dataset_path")
+        val_set, n_val = select_models(dataset, val_split, chosen, max_models, "val_split")
         if n_train < 2:
             raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; "
                              "need at least 2")
@@ -526,7 +430,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                              f"({weights_path.name}); {hint}")
         train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps,
                                            rotate=rotate, seed=seed, fps_pool=fps_pool)
-        validation = _validation_set(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
+        validation = validation_inputs(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
                                      rotations=val_rotations, device=where)
 
         model = ViewpointNet(config, seed=_seed(seed, 0)).to(where)
@@ -559,7 +463,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase,
                                     epoch=epoch, seed=seed, batch_size=batch_size,
                                     workers=workers, device=where)
-                scores = _validate(model, validation)
+                scores = validation_scores(model, validation)
                 score = float(scores.mean())
                 entry = {
                     "epoch": epoch + 1, "phase": phase, "lr": rate, "loss": loss,
@@ -570,7 +474,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 history.append(entry)
                 if score > best["score"]:
                     best = {"epoch": epoch + 1, "score": score, "scores": entry["val_scores"]}
-                    training = _training_record(arguments, command, dataset, n_train, n_val, epochs,
+                    training = training_record(arguments, command, dataset, n_train, n_val, epochs,
                                                 epoch + 1, best)
                     save_model(model, weights_path,
                                metadata={**metadata_base, "training": training})
@@ -583,7 +487,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 bar.update(1)
         finally:
             bar.close()
-        _update_best_record(config_path, arguments, command, dataset, n_train, n_val, epochs,
+        update_best_record(config_path, arguments, command, dataset, n_train, n_val, epochs,
                             history, best)
         return TrainResult(
             checkpoint=weights_path, config_path=config_path, state_path=last_weights,
@@ -634,7 +538,7 @@ def train_per_category(
         raise InputError(f"{folder}: per-category training writes a folder, not one "
                          ".safetensors file")
     with open_dataset(dataset_path) as dataset:
-        names = _categories(dataset, categories) if categories is not None else sorted(
+        names = select_categories(dataset, categories) if categories is not None else sorted(
             set(dataset.split("train").categories))
     results = {}
     for name in names:
@@ -669,40 +573,3 @@ def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_da
         total += float(loss.detach()) * len(batch["name"])
         count += len(batch["name"])
     return total / max(count, 1)
-
-
-def _training_record(arguments: Mapping[str, Any], command: str | None, dataset: ViewpointDataset,
-                     n_train: int, n_val: int, epochs: int,
-                     epochs_completed: int, best: Mapping[str, Any]) -> dict[str, Any]:
-    if command is None:
-        shown = ", ".join(f"{key}={value!r}" for key, value in arguments.items()
-                          if key != "architecture")
-        command = f"vptoolkit.learn.train.train_model({shown})"
-    return {
-        "dataset": str(dataset.path),
-        "dataset_attrs": {key: dataset.attrs.get(key)
-                          for key in ("format", "schema_version", "n_models", "n_views",
-                                      "toolkit_version", "created")},
-        "n_train": n_train,
-        "n_val": n_val,
-        "arguments": json_value(arguments),
-        "command": command,
-        "epochs": epochs,
-        "epochs_completed": epochs_completed,
-        "best_epoch": int(best["epoch"]),
-        "best_score": float(best["score"]),
-        "best_scores": dict(best["scores"]),
-        "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-    }
-
-
-def _update_best_record(config_path: Path, arguments: Mapping[str, Any], command: str | None,
-                        dataset: ViewpointDataset, n_train: int, n_val: int,
-                        epochs: int, history: list[dict[str, Any]],
-                        best: Mapping[str, Any]) -> None:
-    """Record the finished run's length and history in the best checkpoint's configuration."""
-    config = read_json(config_path, "model configuration")
-    config["training"] = _training_record(arguments, command, dataset, n_train, n_val, epochs,
-                                          len(history), best)
-    config["training"]["history"] = history
-    write_json_atomic(config_path, config)

@@ -1,0 +1,63 @@
+"""The training record a checkpoint's ``model.json`` carries.
+
+What a trained network was made from and how: the dataset and its
+attributes, the models trained and validated on, the arguments and the
+command, the epochs run, and the best epoch with its validation scores
+(:func:`training_record`); when a run ends, its whole per-epoch history is
+added to the best checkpoint's configuration (:func:`update_best_record`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from vptoolkit.data import ViewpointDataset
+from vptoolkit.learn.checkpoint import read_json, write_json_atomic
+from vptoolkit.learn.state import json_value
+
+__all__ = ["training_record", "update_best_record"]
+
+
+def training_record(arguments: Mapping[str, Any], command: str | None, dataset: ViewpointDataset,
+                     n_train: int, n_val: int, epochs: int,
+                     epochs_completed: int, best: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``training`` entry of ``model.json``: data, arguments, command, epochs, best score.
+
+    ``command`` is the command line that started the run; without one, the
+    equivalent :func:`~vptoolkit.learn.train.train_model` call is written.
+    """
+    if command is None:
+        shown = ", ".join(f"{key}={value!r}" for key, value in arguments.items()
+                          if key != "architecture")
+        command = f"vptoolkit.learn.train.train_model({shown})"
+    return {
+        "dataset": str(dataset.path),
+        "dataset_attrs": {key: dataset.attrs.get(key)
+                          for key in ("format", "schema_version", "n_models", "n_views",
+                                      "toolkit_version", "created")},
+        "n_train": n_train,
+        "n_val": n_val,
+        "arguments": json_value(arguments),
+        "command": command,
+        "epochs": epochs,
+        "epochs_completed": epochs_completed,
+        "best_epoch": int(best["epoch"]),
+        "best_score": float(best["score"]),
+        "best_scores": dict(best["scores"]),
+        "updated": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def update_best_record(config_path: Path, arguments: Mapping[str, Any], command: str | None,
+                        dataset: ViewpointDataset, n_train: int, n_val: int,
+                        epochs: int, history: list[dict[str, Any]],
+                        best: Mapping[str, Any]) -> None:
+    """Record the finished run's length and history in the best checkpoint's configuration."""
+    config = read_json(config_path, "model configuration")
+    config["training"] = training_record(arguments, command, dataset, n_train, n_val, epochs,
+                                          len(history), best)
+    config["training"]["history"] = history
+    write_json_atomic(config_path, config)
