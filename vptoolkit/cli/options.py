@@ -10,7 +10,6 @@ order. An option whose help depends on the command takes it as an argument.
 from __future__ import annotations
 
 import errno
-import math
 import os
 from collections.abc import Callable
 from pathlib import Path
@@ -20,6 +19,7 @@ import click
 
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
 from vptoolkit.errors import InputError
+from vptoolkit.sphere import as_directions
 
 __all__ = [
     "Direction",
@@ -78,9 +78,11 @@ class Direction(click.ParamType):
             x, y, z = (float(part) for part in parts)
         except (TypeError, ValueError):
             raise InputError(f"{option}: expected three numbers x,y,z, got {value!r}") from None
-        if not all(math.isfinite(c) for c in (x, y, z)) or x == y == z == 0:
+        try:
+            as_directions((x, y, z), name=option)
+        except InputError:
             raise InputError(f"{option}: expected a finite, non-zero direction x,y,z, "
-                             f"got {value!r}")
+                             f"got {value!r}") from None
         return x, y, z
 
 
