@@ -1,11 +1,11 @@
 """The rasteriser's fast paths give exactly the pixels of the straightforward ones.
 
 Three levels: whole views of the sample meshes through the driver (the kernel
-against its previous row walk, ``reference=True``); screen-space triangles put
-on the fixed-point grid by hand (shared edges through pixel centres, slivers,
-frame borders) against a per-pixel test of the three edge functions; and the
-inverse-depth runs against one float addition per pixel, at binade edges and
-ties.
+against the one before issue 15, ``reference=True``); screen-space triangles
+put on the fixed-point grid by hand (shared edges through pixel centres,
+slivers, frame borders, boxes of every path's size) against a per-pixel test
+of the three edge functions; and the inverse-depth runs and branch-free rows
+against one float addition per pixel, at binade edges and ties.
 """
 
 import numpy as np
@@ -16,8 +16,11 @@ from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import _raster_view_histograms, face_id_images
-from vptoolkit.visibility._raster import (
+from vptoolkit.visibility._raster import _collect_histogram
+from vptoolkit.visibility._raster_reference import rasterize_view_reference
+from vptoolkit.visibility._scan import (
     SUBPIXEL_BITS,
+    _box_row,
     _draw_row,
     _exact_steps,
     _rasterize_view,
@@ -80,12 +83,13 @@ def _draw(xs, ys, faces, resolution, reference, depth=None):
     frame = np.zeros(resolution * resolution, dtype=np.int64)
     row_low = np.full(resolution, resolution, dtype=np.int64)
     row_high = np.full(resolution, -1, dtype=np.int64)
-    _rasterize_view(
+    draw = rasterize_view_reference if reference else _rasterize_view
+    draw(
         np.asarray(faces, dtype=np.int32), np.zeros((len(faces), 3)), np.zeros(len(faces)),
         np.ones(len(faces), dtype=bool), False, np.zeros(3), np.asarray(xs, dtype=np.int64),
         np.asarray(ys, dtype=np.int64),
         np.full(n, 0.5) if depth is None else np.asarray(depth, dtype=np.float64),
-        resolution, frame, row_low, row_high, reference,
+        resolution, frame, row_low, row_high,
     )
     return frame.reshape(resolution, resolution), row_low, row_high
 
@@ -193,3 +197,71 @@ def test_depth_runs_equal_one_float_addition_per_pixel():
         for k_low, k_high in [(0, 0), (0, 40), (13, 700)]:
             fast, walked = _row(q, dq, k_low, k_high, True), _row(q, dq, k_low, k_high, False)
             np.testing.assert_array_equal(fast, walked, err_msg=f"q={q!r} dq={dq!r}")
+
+
+def _box(q, dq, edges, steps, width):
+    frame = np.zeros(width + 1, dtype=np.int64)
+    low, high = _box_row(*edges, *steps, q, dq, *_exact_steps(q, dq), np.int64(width),
+                         np.int64(5), frame, 0)
+    return frame, low, high
+
+
+def _walked_box(q, dq, edges, steps, width):
+    """The box row one pixel at a time: each edge value and depth by repeated addition."""
+    frame = np.zeros(width + 1, dtype=np.int64)
+    covered = []
+    edges = list(edges)
+    for k in range(width + 1):
+        if min(edges) >= 0:
+            frame[k] = (np.int64(q) << 32) | 5
+            covered.append(k)
+        edges = [e + s for e, s in zip(edges, steps)]
+        q += dq
+    return frame, (covered[0], covered[-1]) if covered else None
+
+
+def test_branch_free_box_rows_equal_the_pixel_by_pixel_walk():
+    ulp = np.spacing
+    rng = np.random.default_rng(11)
+    depths = [(1.0, 0.1), (2.0**29 - ulp(2.0**29), ulp(2.0**29)), (2.0**30 - 3e-7, 1e-3),
+              (2.0**29 + 1 - 3 * ulp(2.0**29), ulp(2.0**29) / 2), (0.999, 1e-3), (0.0, 0.0)]
+    depths += list(zip(rng.uniform(0, 2.0**30, 200), rng.normal(0, 1e4, 200)))
+    for q, dq in depths:
+        for width in (1, 7, 8, 15):
+            # edges crossing zero inside the row from either side, one always
+            # negative (nothing covered), one on the pixel centres exactly
+            for edges, steps in [((-3 * STEP, 40 * STEP, 9 * STEP), (STEP, -STEP, -1)),
+                                 ((5, 2, 0), (-1, 0, 3)),
+                                 ((-1, 10, 10), (0, 1, 1)),
+                                 (tuple(rng.integers(-8 * STEP, 8 * STEP, 3)),
+                                  tuple(rng.integers(-2 * STEP, 2 * STEP, 3)))]:
+                frame, low, high = _box(q, dq, edges, steps, width)
+                want, span = _walked_box(q, dq, edges, steps, width)
+                np.testing.assert_array_equal(frame, want, err_msg=f"q={q!r} dq={dq!r}")
+                assert (low, high) == span if span else low > high
+
+
+@pytest.mark.parametrize("resolution", [16, 333])
+def test_histograms_counted_by_runs_or_by_pixels_are_the_same(resolution):
+    rng = np.random.default_rng(5)
+    n = 300
+    xs = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
+    ys = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
+    faces = rng.integers(0, n, (400, 3))
+    frame, row_low, row_high = _draw(xs, ys, faces, resolution, reference=False,
+                                     depth=rng.uniform(0, 1, n))
+    results = []
+    for count_runs in (False, True):
+        cleared = frame.ravel().copy(), row_low.copy(), row_high.copy()
+        out_ids = np.zeros(len(faces), dtype=np.int32)
+        out_counts = np.zeros(len(faces), dtype=np.int32)
+        n_seen, n_pixels = _collect_histogram(
+            resolution, *cleared, np.zeros(len(faces) + 1, dtype=np.int64),
+            np.zeros(len(faces) + 1, dtype=np.int32), out_ids, out_counts, count_runs)
+        assert not cleared[0].any() and (cleared[1] == resolution).all()
+        results.append((out_ids[:n_seen], out_counts[:n_seen], n_pixels))
+    ids = (frame & 0xFFFFFFFF) - 1
+    assert results[0][2] == results[1][2] == (row_high - row_low + 1).clip(0).sum()
+    np.testing.assert_array_equal(results[0][1], np.bincount(ids[ids >= 0])[results[0][0]])
+    for got, want in zip(results[1], results[0]):
+        np.testing.assert_array_equal(got, want)

@@ -148,10 +148,11 @@ def _raster_view_histograms(
 ) -> Iterator[ViewHistograms]:
     """The ``"raster"`` backend of :func:`iter_view_histograms`.
 
-    ``reference=True`` selects the kernel's previous paths: one division per
-    edge and row for the covered run, the inverse depth walked by one float
-    addition per pixel from the bounding box's left edge, and the histogram
-    counted run by run. The counts are the same bit for bit. Kept so that
+    ``reference=True`` selects the kernel as it was before issue 15
+    (:mod:`._raster_reference`): one division per edge and row for the
+    covered run, the inverse depth walked by one float addition per pixel
+    from the bounding box's left edge, and the histogram counted run by run.
+    The counts are the same bit for bit. Kept so that
     ``tools/bench_measures.py`` times both in one run and
     ``tests/test_raster_kernel.py`` checks they agree.
     """
@@ -209,7 +210,7 @@ def face_id_images(
         Index of the face seen through each pixel centre, ``-1`` where no
         face is; row 0 at the top, column 0 at the left.
     """
-    from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
+    from vptoolkit.visibility._scan import _project_vertices, _rasterize_view
 
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, view_directions, resolution, camera)
@@ -232,7 +233,7 @@ def face_id_images(
                           screen_x, screen_y, inverse_depth)
         _rasterize_view(faces, normals, offsets, is_drawable, camera.cull_back_faces,
                         poses.eyes[view], screen_x, screen_y, inverse_depth, resolution, frame,
-                        row_low, row_high, False)
+                        row_low, row_high)
         images[view] = ((frame & 0xFFFFFFFF) - 1).reshape(resolution, resolution)
     return images
 
@@ -254,6 +255,11 @@ def _raster_batches(
         locality_order,
         rasterize_batch,
     )
+
+    if reference:
+        from vptoolkit.visibility._raster_reference import (
+            rasterize_batch_reference as rasterize_batch,
+        )
 
     resolution = poses.resolution
     face_order, vertex_order, local_faces = locality_order(mesh.vertices, mesh.faces)
@@ -283,7 +289,7 @@ def _raster_batches(
             poses.forward[start:stop], poses.focal_px, resolution, near, far,
             workspace.frames, workspace.row_low, workspace.row_high, workspace.id_counts,
             workspace.touched, workspace.screen_x, workspace.screen_y, workspace.inverse_depth,
-            out_ids, out_counts, out_lengths, reference,
+            out_ids, out_counts, out_lengths,
         )
         lengths = out_lengths[:count]
         local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])

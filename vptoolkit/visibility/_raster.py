@@ -1,60 +1,31 @@
-"""Triangle-ID z-buffer rasteriser on the CPU (numba), the default backend.
+"""Per-face pixel histograms of many views on the CPU (numba), the default backend.
 
-For each view the front-facing triangles are scan-converted into one 64-bit
-key per pixel: the high bits hold the quantised inverse depth ``1/z`` (affine
-in screen space, so interpolating it is perspective-correct; larger is
-nearer), the low 32 bits hold ``face + 1``. A depth test and an ID write are
-then a single integer compare and store, and the visible face of a pixel is
-the one with the largest key (ties in depth go to the higher face index).
+Each view is scan-converted by :mod:`._scan` into one 64-bit key per pixel
+(quantised inverse depth above, ``face + 1`` below; the largest key is the
+visible face) and counted here. The per-face histogram of each view is
+taken while clearing the frame, only over the span of each row that was
+written, so the full frame is never scanned; it is counted pixel by pixel or
+run by run of equal IDs, whichever the thread's previous view suggests (the
+same counts). Views are split over the threads; each thread owns its
+buffers (:class:`RasterWorkspace`), so there are no atomics, and faces are
+put in an order that keeps those buffers in cache (:func:`locality_order`).
 
-Coverage is exact: vertices are snapped to a fixed-point grid of
-``2**-SUBPIXEL_BITS`` pixels and integer edge functions are evaluated at pixel
-centres with a top-left tie rule, so a pixel centre on an edge shared by two
-triangles is counted exactly once.
-
-The covered pixels of a row form one run, the offsets ``k`` from the bounding
-box's left edge where all three edge functions ``e + k * sx`` are >= 0: each
-edge bounds ``k`` by ``floor(e / |sx|)``, whose quotient and remainder are
-stepped from row to row (no division per row). The inverse depth of pixel
-``k`` is, by definition, the row's start value plus ``k`` float additions of
-the x step (the walk of :func:`_walk_row`); :func:`_draw_row` gets the same
-doubles without the chain of additions wherever they form an exact integer
-progression (:func:`_exact_steps`), which is almost everywhere. A face whose
-bounding box is at most ``_SMALL_BOX`` pixels wide and high skips that setup:
-its pixel centres are tested one by one with the same edge values and depth
-additions.
-
-The per-face histogram of each view is taken while clearing the frame, only
-over the span of each row that was written, so the full frame is never
-scanned. Views are split over the threads; each thread owns its buffers, so
-there are no atomics.
-
-The previous kernel (one division per edge and row, the float walk, the
-histogram counted run by run) stays selectable with ``reference=True``:
+The kernel before issue 15 is :mod:`._raster_reference`:
 ``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
 checks that they give the same pixels bit for bit.
-
-Size
-    About 660 lines for one concept, the scan conversion of a view. The
-    previous kernel stays beside the current one, which is checked and
-    timed against it: both share the projection, the edge set-up, the
-    workspace and the histogram, private helpers that a split would have
-    to expose.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import get_num_threads, njit, prange, uint64
 from numpy.typing import NDArray
 
 from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptoolkit._numba)
+from vptoolkit.visibility._scan import _project_vertices, _rasterize_view
 
-SUBPIXEL_BITS = 12
-_DEPTH_LEVELS = float(1 << 30)
 _ID_MASK = np.int64(0xFFFFFFFF)
 
 
@@ -168,365 +139,21 @@ def histogram_capacity(resolution: int, n_faces: int) -> int:
     return int(min(resolution * resolution, n_faces))
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _project_vertices(
-    vertices: NDArray[np.float64],
-    eye: NDArray[np.float64],
-    right: NDArray[np.float64],
-    up: NDArray[np.float64],
-    forward: NDArray[np.float64],
-    focal: float,
-    half: float,
-    near: float,
-    far: float,
-    screen_x: NDArray[np.int64],
-    screen_y: NDArray[np.int64],
-    inverse_depth: NDArray[np.float64],
-) -> None:
-    scale = float(1 << SUBPIXEL_BITS)
-    inv_near = 1.0 / near
-    inv_far = 1.0 / far
-    depth_span = inv_near - inv_far
-    for i in range(vertices.shape[0]):
-        dx = vertices[i, 0] - eye[0]
-        dy = vertices[i, 1] - eye[1]
-        dz = vertices[i, 2] - eye[2]
-        p_r = dx * right[0] + dy * right[1] + dz * right[2]
-        p_u = dx * up[0] + dy * up[1] + dz * up[2]
-        p_f = dx * forward[0] + dy * forward[1] + dz * forward[2]
-        inv_f = 1.0 / p_f
-        screen_x[i] = np.int64(np.round((half + focal * p_r * inv_f) * scale))
-        screen_y[i] = np.int64(np.round((half - focal * p_u * inv_f) * scale))
-        q = (inv_f - inv_far) / depth_span
-        inverse_depth[i] = min(max(q, 0.0), 1.0)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
-    # Top-left rule for the orientation used below (positive doubled area):
-    # the two triangles sharing an edge traverse it in opposite directions,
-    # so exactly one of them owns the pixel centres lying on it.
-    return dy < 0 or (dy == 0 and dx > 0)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
-               k_high: np.int64) -> tuple[np.int64, np.int64]:
-    """Narrow ``[k_low, k_high]`` to the offsets ``k`` with ``edge + k * step >= 0``."""
-    if step > 0:
-        if edge < 0:
-            k_low = max(k_low, -((edge) // step))  # ceil(-edge / step)
-    elif step < 0:
-        if edge < 0:
-            return np.int64(1), np.int64(0)
-        k_high = min(k_high, edge // (-step))
-    elif edge < 0:
-        return np.int64(1), np.int64(0)
-    return k_low, k_high
-
-
-_LOWER, _UPPER, _ROW = 0, 1, 2  # how an edge bounds the covered run of a row
-_NO_STEPPER = (np.int64(_ROW),) + (np.int64(0),) * 5  # no edge set up (the previous kernel)
-
-
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _edge_stepper(edge: np.int64, step_x: np.int64, step_y: np.int64
-                  ) -> tuple[int, np.int64, np.int64, np.int64, np.int64, np.int64]:
-    """Set up the exact row-by-row bound of ``edge + k * step_x >= 0`` on ``k``.
-
-    With ``d = |step_x|``, row ``j`` of the edge function ``e_j = edge + j * step_y``
-    bounds the offset by ``k >= -floor(e_j / d)`` when ``step_x > 0`` (a lower
-    bound) and by ``k <= floor(e_j / d)`` when ``step_x < 0`` (an upper bound);
-    when ``step_x == 0`` the row is empty exactly where ``e_j < 0``. The
-    quotient ``floor(e_j / d)`` and its remainder are stepped from row to row
-    (:func:`_next_row`), so a row costs additions instead of divisions.
-
-    Returns
-    -------
-    kind, quotient, remainder, quotient_step, remainder_step, divisor
-        ``_LOWER``, ``_UPPER`` or ``_ROW``; ``floor(edge / d)`` and
-        ``edge mod d``; ``floor(step_y / d)`` and ``step_y mod d``; ``d``.
-    """
-    if step_x > 0:
-        kind, divisor = _LOWER, step_x
-    elif step_x < 0:
-        kind, divisor = _UPPER, -step_x
-    else:
-        kind, divisor = _ROW, np.int64(1)
-    quotient, remainder = _floor_divmod(edge, divisor)
-    quotient_step, remainder_step = _floor_divmod(step_y, divisor)
-    return kind, quotient, remainder, quotient_step, remainder_step, divisor
+def _emit_histogram(n_touched: int, id_counts: NDArray[np.int64], touched: NDArray[np.int32],
+                    out_ids: NDArray[np.int32], out_counts: NDArray[np.int32]) -> int:
+    """Copy the counts of the ``touched`` IDs out as ``(face, pixels)`` and zero them."""
+    id_counts[0] = 0
+    for j in range(n_touched):
+        key_id = touched[j]
+        out_ids[j] = key_id - 1
+        out_counts[j] = id_counts[key_id]
+        id_counts[key_id] = 0
+    return n_touched
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _floor_divmod(a: np.int64, d: np.int64) -> tuple[np.int64, np.int64]:
-    """``(a // d, a % d)`` for ``d > 0``: a float quotient corrected to the exact one.
-
-    Cheaper than integer division here; the float estimate is off by at most
-    one for the quotients of edge functions (below ``2**50`` in magnitude).
-    """
-    quotient = np.int64(math.floor(a / d))
-    remainder = a - quotient * d
-    while remainder < 0:
-        quotient -= 1
-        remainder += d
-    while remainder >= d:
-        quotient += 1
-        remainder -= d
-    return quotient, remainder
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _next_row(quotient: np.int64, remainder: np.int64, quotient_step: np.int64,
-              remainder_step: np.int64, divisor: np.int64) -> tuple[np.int64, np.int64]:
-    """``floor(e / d)`` and ``e mod d`` of the next row from those of this one."""
-    remainder += remainder_step
-    carry = np.int64(remainder >= divisor)  # data-dependent: no branch
-    return quotient + quotient_step + carry, remainder - carry * divisor
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
-                  k_high: np.int64) -> tuple[np.int64, np.int64]:
-    """Narrow ``[k_low, k_high]`` by one edge, from its row quotient (:func:`_edge_stepper`)."""
-    if kind == _LOWER:
-        return max(k_low, -quotient), k_high
-    if kind == _UPPER:
-        return k_low, min(k_high, quotient)
-    if quotient < 0:
-        return np.int64(1), np.int64(0)
-    return k_low, k_high
-
-
-_UNIT_LOW = np.int64(1 << 52)
-_UNIT_HIGH = np.int64((1 << 53) - 1)
-_UNIT_STEP_LIMIT = np.int64(1 << 48)
-_SMALL_BOX = 8  # boxes of at most this many pixel columns and rows are tested pixel by pixel
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
-    """Whether the float sums ``q + dq + dq + ...`` in ``q``'s binade form an exact progression.
-
-    Let ``q`` lie in the binade ``[2**(e-1), 2**e)``, where the doubles are the
-    multiples of ``u = 2**(e-53)``. Adding ``dq`` to any of them rounds to
-    adding ``r``, the multiple of ``u`` nearest to ``dq``, as long as the exact
-    sum stays inside the binade and ``dq`` is not exactly halfway between two
-    multiples (a tie goes to the even result, which depends on the addend).
-    ``r`` is read off one rounded sum; ``dq - r`` is then exact (Sterbenz) and
-    tells a tie. A sum ``v`` in units of ``u`` (``v = x / u``) is safe when the
-    rounded result lies in ``[2**52 + 1, 2**53 - 1]``: the exact sum is then
-    within ``u / 2`` of it, inside the binade.
-
-    Returns
-    -------
-    exact, scale, shift, unit_step
-        ``scale = 1 / u = 2**shift``, and ``r / u``. ``exact`` is False when
-        ``q`` is outside ``[1, 2**52)``, ``dq`` is a tie, the sum leaves the
-        binade or ``|r / u| >= 2**48`` (then ``dq`` changes ``q`` by over 3 %
-        per pixel); then the sums must be taken one by one.
-    """
-    if not (1.0 <= q < 4503599627370496.0):
-        return False, 1.0, np.int64(0), np.int64(0)
-    shift = np.int64(53 - math.frexp(q)[1])  # 1 <= shift <= 52
-    scale = float(np.int64(1) << shift)
-    q_next = q + dq
-    next_units = q_next * scale
-    if not (_UNIT_LOW + 1 <= next_units <= _UNIT_HIGH) or abs(dq - (q_next - q)) * scale == 0.5:
-        return False, scale, shift, np.int64(0)
-    unit_step = np.int64(next_units) - np.int64(q * scale)
-    # k * unit_step must not overflow for any pixel offset k < 2**14.
-    return abs(unit_step) < _UNIT_STEP_LIMIT, scale, shift, unit_step
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
-              frame: NDArray[np.int64], start: np.int64) -> None:
-    """Depth-test pixels ``start + k_low .. start + k_high`` of a row, walking from ``start``.
-
-    The inverse depth of pixel ``start + k`` is ``q`` plus ``k`` float additions
-    of ``dq``: this walk defines it, :func:`_draw_row` reproduces it.
-    """
-    for _ in range(k_low):
-        q += dq
-    for k in range(k_low, k_high + 1):
-        key = (np.int64(q) << 32) | face_id
-        if key > frame[start + k]:
-            frame[start + k] = key
-        q += dq
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
-              unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
-              frame: NDArray[np.int64], start: np.int64) -> None:
-    """:func:`_walk_row` with integer arithmetic where :func:`_exact_steps` allows it.
-
-    When ``q`` lies in the binade of ``scale`` and every sum up to pixel
-    ``k_high`` stays safely inside it, the ``k``-th sum is exactly
-    ``(units + k * unit_step) / scale`` with ``units = q * scale``: its integer
-    part is a shift, and there is no chain of dependent float additions,
-    neither to reach ``k_low`` nor along the run.
-    """
-    if exact:
-        q_units = q * scale
-        if _UNIT_LOW <= q_units <= _UNIT_HIGH:
-            units = np.int64(q_units)
-            near = units + unit_step
-            far = units + k_high * unit_step
-            if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
-                for k in range(k_low, k_high + 1):
-                    key = (((units + k * unit_step) >> shift) << 32) | face_id
-                    if key > frame[start + k]:
-                        frame[start + k] = key
-                return
-    _walk_row(q, dq, k_low, k_high, face_id, frame, start)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _rasterize_view(
-    faces: NDArray[np.int32],
-    face_normals: NDArray[np.float64],
-    face_offsets: NDArray[np.float64],
-    is_drawable: NDArray[np.bool_],
-    cull_back_faces: bool,
-    eye: NDArray[np.float64],
-    screen_x: NDArray[np.int64],
-    screen_y: NDArray[np.int64],
-    inverse_depth: NDArray[np.float64],
-    resolution: int,
-    frame: NDArray[np.int64],
-    row_low: NDArray[np.int64],
-    row_high: NDArray[np.int64],
-    reference: bool,
-) -> None:
-    step = np.int64(1 << SUBPIXEL_BITS)
-    half_step = step // 2
-    for f in range(faces.shape[0]):
-        if not is_drawable[f]:
-            continue
-        if cull_back_faces:
-            side = (face_normals[f, 0] * eye[0] + face_normals[f, 1] * eye[1]
-                    + face_normals[f, 2] * eye[2])
-            if side <= face_offsets[f]:
-                continue
-        a = faces[f, 0]
-        b = faces[f, 1]
-        c = faces[f, 2]
-        ax, ay = screen_x[a], screen_y[a]
-        bx, by = screen_x[b], screen_y[b]
-        cx, cy = screen_x[c], screen_y[c]
-        # Pixel columns/rows whose centre lies inside the triangle's bounding
-        # box: most faces of a big mesh cover no pixel centre and stop here.
-        x0 = max((min(ax, bx, cx) - half_step + step - 1) // step, 0)
-        x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
-        if x0 > x1:
-            continue
-        y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
-        y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
-        if y0 > y1:
-            continue
-        area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
-        if area2 == 0:
-            continue
-        qa, qb, qc = inverse_depth[a], inverse_depth[b], inverse_depth[c]
-        if area2 < 0:  # make the orientation positive: swap b and c
-            bx, cx = cx, bx
-            by, cy = cy, by
-            qb, qc = qc, qb
-            area2 = -area2
-        # Edge functions E_ab(p) = (b - a) x (p - a), positive inside.
-        # w_c := E_ab, w_a := E_bc, w_b := E_ca (barycentric weights * area2).
-        bias_ab = 0 if _owns_edge(bx - ax, by - ay) else -1
-        bias_bc = 0 if _owns_edge(cx - bx, cy - by) else -1
-        bias_ca = 0 if _owns_edge(ax - cx, ay - cy) else -1
-        px = x0 * step + half_step
-        py = y0 * step + half_step
-        row_ab = (bx - ax) * (py - ay) - (by - ay) * (px - ax) + bias_ab
-        row_bc = (cx - bx) * (py - by) - (cy - by) * (px - bx) + bias_bc
-        row_ca = (ax - cx) * (py - cy) - (ay - cy) * (px - cx) + bias_ca
-        # Steps of the edge functions per pixel along x and y.
-        sx_ab, sy_ab = -(by - ay) * step, (bx - ax) * step
-        sx_bc, sy_bc = -(cy - by) * step, (cx - bx) * step
-        sx_ca, sy_ca = -(ay - cy) * step, (ax - cx) * step
-        # Inverse depth as an affine function of the pixel position.
-        inv_area = _DEPTH_LEVELS / area2
-        dq_dx = (sx_bc * qa + sx_ca * qb + sx_ab * qc) * inv_area
-        dq_dy = (sy_bc * qa + sy_ca * qb + sy_ab * qc) * inv_area
-        q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
-        face_id = np.int64(f + 1)
-        width = x1 - x0
-        if not reference and width < _SMALL_BOX and y1 - y0 < _SMALL_BOX:
-            # A small box (most faces of a fine mesh): test its pixel centres one
-            # by one, cheaper than setting up the row runs. The same edge values
-            # and depth additions as the runs, so the same pixels.
-            for y in range(y0, y1 + 1):
-                e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
-                base = y * resolution
-                for x in range(x0, x1 + 1):
-                    if (e_ab | e_bc | e_ca) >= 0:
-                        key = (np.int64(q) << 32) | face_id
-                        if key > frame[base + x]:
-                            frame[base + x] = key
-                        row_low[y] = min(row_low[y], x)
-                        row_high[y] = max(row_high[y], x)
-                    e_ab += sx_ab
-                    e_bc += sx_bc
-                    e_ca += sx_ca
-                    q += dq_dx
-                row_ab += sy_ab
-                row_bc += sy_bc
-                row_ca += sy_ca
-                q_row += dq_dy
-            continue
-        if reference:  # the previous kernel had none of this setup
-            stepper_ab = stepper_bc = stepper_ca = _NO_STEPPER
-            exact, scale, shift, unit_step = False, 1.0, np.int64(0), np.int64(0)
-        else:
-            stepper_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
-            stepper_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
-            stepper_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
-            exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
-        kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = stepper_ab
-        kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = stepper_bc
-        kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = stepper_ca
-        for y in range(y0, y1 + 1):
-            # The covered pixels of a row form one run: solve each edge function
-            # e + k * sx >= 0 for the pixel offset k instead of testing every
-            # pixel of the bounding box (wide triangles spend most time outside).
-            k_low = np.int64(0)
-            k_high = width
-            if reference:
-                k_low, k_high = _edge_span(row_ab, sx_ab, k_low, k_high)
-                k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
-                k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
-            else:
-                k_low, k_high = _stepped_span(kind_ab, quot_ab, k_low, k_high)
-                k_low, k_high = _stepped_span(kind_bc, quot_bc, k_low, k_high)
-                k_low, k_high = _stepped_span(kind_ca, quot_ca, k_low, k_high)
-                quot_ab, rem_ab = _next_row(quot_ab, rem_ab, dquot_ab, drem_ab, div_ab)
-                quot_bc, rem_bc = _next_row(quot_bc, rem_bc, dquot_bc, drem_bc, div_bc)
-                quot_ca, rem_ca = _next_row(quot_ca, rem_ca, dquot_ca, drem_ca, div_ca)
-            base = y * resolution
-            first = -1
-            last = -1
-            if k_low <= k_high:
-                first = x0 + k_low
-                last = x0 + k_high
-                if reference:
-                    _walk_row(q_row, dq_dx, k_low, k_high, face_id, frame, base + x0)
-                else:
-                    _draw_row(q_row, dq_dx, exact, scale, shift, unit_step, k_low, k_high,
-                              face_id, frame, base + x0)
-            if first >= 0:
-                if first < row_low[y]:
-                    row_low[y] = first
-                if last > row_high[y]:
-                    row_high[y] = last
-            row_ab += sy_ab
-            row_bc += sy_bc
-            row_ca += sy_ca
-            q_row += dq_dy
+_RUN_PIXELS = 128
+"""Mean pixels per seen face above which a thread counts its next view run by run."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -540,43 +167,48 @@ def _collect_histogram(
     out_ids: NDArray[np.int32],
     out_counts: NDArray[np.int32],
     count_runs: bool,
-) -> int:
+) -> tuple[int, int]:
     """Pixel count of each face over the written span of each row, clearing the frame.
 
     Faces come out in the order of their first pixel (row by row, left to
     right). ``id_counts`` is indexed by the key's ID ``face + 1``; slot 0 counts
-    the background and is reset here. With ``count_runs`` the runs of equal IDs
-    are counted first and added per run (the previous kernel); otherwise every
-    pixel adds one to its ID and is appended to ``touched`` with no branch,
-    the append kept only when the count was zero.
+    the background and is reset here. Two ways give the same counts in the
+    same order: with ``count_runs``, each run of equal IDs is counted first
+    and added at once (fast when faces cover many pixels: a row of a big
+    face is one run); otherwise every pixel adds one to its ID and is
+    appended to ``touched`` with no branch, the append kept only when the
+    count was zero (fast for many small faces, whose runs are short).
+
+    Returns
+    -------
+    n_seen, n_pixels
+        Faces seen (written to ``out_ids[:n_seen]`` and ``out_counts[:n_seen]``)
+        and pixels scanned.
     """
     n_touched = 0
+    n_pixels = 0
     for y in range(resolution):
         low = row_low[y]
         high = row_high[y]
         if low > high:
             continue
         base = y * resolution
+        n_pixels += high - low + 1
         if count_runs:
             n_touched = _count_row_runs(frame, base + low, base + high, id_counts, touched,
                                         n_touched)
         else:
             for x in range(base + low, base + high + 1):
-                key_id = frame[x] & _ID_MASK
-                frame[x] = 0
+                i = uint64(x)
+                key_id = uint64(frame[i] & _ID_MASK)
+                frame[i] = 0
                 count = id_counts[key_id]
                 id_counts[key_id] = count + 1
                 touched[n_touched] = key_id
                 n_touched += (count == 0) & (key_id != 0)
         row_low[y] = resolution
         row_high[y] = -1
-    id_counts[0] = 0
-    for j in range(n_touched):
-        key_id = touched[j]
-        out_ids[j] = key_id - 1
-        out_counts[j] = id_counts[key_id]
-        id_counts[key_id] = 0
-    return n_touched
+    return _emit_histogram(n_touched, id_counts, touched, out_ids, out_counts), n_pixels
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -584,11 +216,12 @@ def _count_row_runs(frame: NDArray[np.int64], first: np.int64, last: np.int64,
                     id_counts: NDArray[np.int64], touched: NDArray[np.int32],
                     n_touched: int) -> int:
     """Count and clear ``frame[first:last + 1]`` run by run of equal IDs; the new ``n_touched``."""
-    run_id = np.int64(0)
+    run_id = uint64(0)
     run_length = 0
     for x in range(first, last + 1):
-        key_id = frame[x] & _ID_MASK
-        frame[x] = 0
+        i = uint64(x)
+        key_id = uint64(frame[i] & _ID_MASK)
+        frame[i] = 0
         if key_id == run_id:
             run_length += 1
             continue
@@ -634,7 +267,6 @@ def rasterize_batch(
     out_ids: NDArray[np.int32],
     out_counts: NDArray[np.int32],
     out_lengths: NDArray[np.int64],
-    reference: bool,
 ) -> None:
     """Per-face pixel histograms of a batch of views.
 
@@ -642,13 +274,13 @@ def rasterize_batch(
     ``n . x = offset``; a face is front-facing from ``eye`` when
     ``n . eye > offset``. ``is_drawable`` is False for faces never drawn
     (zero area). Results of view ``i`` go to ``out_ids[i, :out_lengths[i]]``
-    and ``out_counts[i, :out_lengths[i]]``. ``reference`` selects the previous
-    kernel's row solver, depth walk and run counting (the same counts).
+    and ``out_counts[i, :out_lengths[i]]``.
     """
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
     half = resolution / 2.0
     for thread in prange(n_threads):
+        count_runs = False  # decided from the thread's previous view: the same counts either way
         for view in range(thread, n_views, n_threads):
             _project_vertices(
                 vertices, eyes[view], rights[view], ups[view], forwards[view], focal, half, near,
@@ -657,10 +289,11 @@ def rasterize_batch(
             _rasterize_view(
                 faces, face_normals, face_offsets, is_drawable, cull_back_faces, eyes[view],
                 screen_x[thread], screen_y[thread], inverse_depth[thread],
-                resolution, frames[thread], row_low[thread], row_high[thread], reference,
-            )
-            out_lengths[view] = _collect_histogram(
                 resolution, frames[thread], row_low[thread], row_high[thread],
-                id_counts[thread], touched[thread], out_ids[view], out_counts[view],
-                reference,
             )
+            n_seen, n_pixels = _collect_histogram(
+                resolution, frames[thread], row_low[thread], row_high[thread],
+                id_counts[thread], touched[thread], out_ids[view], out_counts[view], count_runs,
+            )
+            out_lengths[view] = n_seen
+            count_runs = n_pixels > _RUN_PIXELS * n_seen

@@ -1,0 +1,144 @@
+"""The rasteriser's kernel as it was before issue 15, kept to check and time the current one.
+
+The same projection, edge set-up and keys as :mod:`._scan`, but the
+straightforward loops: each row's covered run solved with one integer
+division per edge (:func:`_edge_span`), the inverse depth walked by one float
+addition per pixel from the bounding box's left edge, every face drawn that
+way whatever its size, and the histogram always counted run by run of equal
+IDs.
+``tests/test_raster_kernel.py`` checks that the current kernel gives the same
+counts bit for bit; ``tools/bench_measures.py`` times both in one run.
+Selected by ``reference=True`` of :func:`vptoolkit.visibility._raster_view_histograms`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+from numpy.typing import NDArray
+
+from vptoolkit.visibility._raster import _collect_histogram
+from vptoolkit.visibility._scan import (
+    _edge_setup,
+    _faces_viewer,
+    _pixel_box,
+    _project_vertices,
+    _walk_row,
+)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
+               k_high: np.int64) -> tuple[np.int64, np.int64]:
+    """Narrow ``[k_low, k_high]`` to the offsets ``k`` with ``edge + k * step >= 0``."""
+    if step > 0:
+        if edge < 0:
+            k_low = max(k_low, -((edge) // step))  # ceil(-edge / step)
+    elif step < 0:
+        if edge < 0:
+            return np.int64(1), np.int64(0)
+        k_high = min(k_high, edge // (-step))
+    elif edge < 0:
+        return np.int64(1), np.int64(0)
+    return k_low, k_high
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def rasterize_view_reference(
+    faces: NDArray[np.int32],
+    face_normals: NDArray[np.float64],
+    face_offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    cull_back_faces: bool,
+    eye: NDArray[np.float64],
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+    resolution: int,
+    frame: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+) -> None:
+    """:func:`._scan._rasterize_view` the straightforward way: the same frame and spans."""
+    for f in range(faces.shape[0]):
+        if not is_drawable[f]:
+            continue
+        if cull_back_faces and not _faces_viewer(face_normals, face_offsets, f, eye):
+            continue
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        ax, ay = screen_x[a], screen_y[a]
+        bx, by = screen_x[b], screen_y[b]
+        cx, cy = screen_x[c], screen_y[c]
+        x0, x1, y0, y1 = _pixel_box(ax, ay, bx, by, cx, cy, resolution)
+        if x0 > x1 or y0 > y1:
+            continue
+        area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if area2 == 0:
+            continue
+        (row_ab, row_bc, row_ca, sx_ab, sy_ab, sx_bc, sy_bc, sx_ca, sy_ca, q_row, dq_dx,
+         dq_dy) = _edge_setup(ax, ay, bx, by, cx, cy, inverse_depth[a], inverse_depth[b],
+                              inverse_depth[c], area2, x0, y0)
+        face_id = np.int64(f + 1)
+        for y in range(y0, y1 + 1):
+            k_low, k_high = _edge_span(row_ab, sx_ab, np.int64(0), x1 - x0)
+            k_low, k_high = _edge_span(row_bc, sx_bc, k_low, k_high)
+            k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
+            if k_low <= k_high:
+                _walk_row(q_row, dq_dx, k_low, k_high, face_id, frame, y * resolution + x0)
+                row_low[y] = min(row_low[y], x0 + k_low)
+                row_high[y] = max(row_high[y], x0 + k_high)
+            row_ab += sy_ab
+            row_bc += sy_bc
+            row_ca += sy_ca
+            q_row += dq_dy
+
+
+@njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+def rasterize_batch_reference(
+    vertices: NDArray[np.float64],
+    faces: NDArray[np.int32],
+    face_normals: NDArray[np.float64],
+    face_offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    cull_back_faces: bool,
+    eyes: NDArray[np.float64],
+    rights: NDArray[np.float64],
+    ups: NDArray[np.float64],
+    forwards: NDArray[np.float64],
+    focal: float,
+    resolution: int,
+    near: float,
+    far: float,
+    frames: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+    id_counts: NDArray[np.int64],
+    touched: NDArray[np.int32],
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+    out_ids: NDArray[np.int32],
+    out_counts: NDArray[np.int32],
+    out_lengths: NDArray[np.int64],
+) -> None:
+    """:func:`._raster.rasterize_batch` with this module's view, always counting runs."""
+    n_views = eyes.shape[0]
+    n_threads = frames.shape[0]
+    half = resolution / 2.0
+    for thread in prange(n_threads):
+        for view in range(thread, n_views, n_threads):
+            _project_vertices(
+                vertices, eyes[view], rights[view], ups[view], forwards[view], focal, half, near,
+                far, screen_x[thread], screen_y[thread], inverse_depth[thread],
+            )
+            rasterize_view_reference(
+                faces, face_normals, face_offsets, is_drawable, cull_back_faces, eyes[view],
+                screen_x[thread], screen_y[thread], inverse_depth[thread],
+                resolution, frames[thread], row_low[thread], row_high[thread],
+            )
+            out_lengths[view] = _collect_histogram(
+                resolution, frames[thread], row_low[thread], row_high[thread],
+                id_counts[thread], touched[thread], out_ids[view], out_counts[view], True,
+            )[0]
