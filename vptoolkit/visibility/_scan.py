@@ -419,16 +419,22 @@ def _rasterize_view(
             for y in range(y0, y1 + 1):
                 e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
                 base = y * resolution
+                low = x1 + 1
+                high = x0 - 1
                 for x in range(x0, x1 + 1):
-                    if (e_ab | e_bc | e_ca) >= 0:
-                        i = uint64(base + x)
-                        frame[i] = max(frame[i], (np.int64(q) << 32) | face_id)
-                        row_low[y] = min(row_low[y], x)
-                        row_high[y] = max(row_high[y], x)
+                    inside = (e_ab | e_bc | e_ca) >= 0
+                    i = uint64(base + x)
+                    key = (np.int64(q) << 32) | face_id
+                    frame[i] = max(frame[i], key if inside else np.int64(0))
+                    low = min(low, x if inside else x1 + 1)
+                    high = max(high, x if inside else x0 - 1)
                     e_ab += sx_ab
                     e_bc += sx_bc
                     e_ca += sx_ca
                     q += dq_dx
+                if low <= high:
+                    row_low[y] = min(row_low[y], low)
+                    row_high[y] = max(row_high[y], high)
                 row_ab += sy_ab
                 row_bc += sy_bc
                 row_ca += sy_ca
