@@ -4,8 +4,10 @@ The same projection, edge set-up and keys as :mod:`._scan`, but the
 straightforward loops: each row's covered run solved with one integer
 division per edge (:func:`_edge_span`), the inverse depth walked by one float
 addition per pixel from the bounding box's left edge, every face drawn that
-way whatever its size, and the histogram always counted run by run of equal
-IDs.
+way whatever its size, and the histogram counted run by run of equal IDs;
+signed frame indices and a compare before each store, as then. Only the
+projection, the edge set-up and the copy-out of the counts are shared with
+the current kernel (they have not changed).
 ``tests/test_raster_kernel.py`` checks that the current kernel gives the same
 counts bit for bit; ``tools/bench_measures.py`` times both in one run.
 Selected by ``reference=True`` of :func:`vptoolkit.visibility._raster_view_histograms`.
@@ -17,13 +19,12 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from vptoolkit.visibility._raster import _collect_histogram
+from vptoolkit.visibility._raster import _ID_MASK, _emit_histogram
 from vptoolkit.visibility._scan import (
     _edge_setup,
     _faces_viewer,
     _pixel_box,
     _project_vertices,
-    _walk_row,
 )
 
 
@@ -41,6 +42,19 @@ def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
     elif edge < 0:
         return np.int64(1), np.int64(0)
     return k_low, k_high
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
+              frame: NDArray[np.int64], start: np.int64) -> None:
+    """Depth-test pixels ``start + k_low .. start + k_high``, walking the depth from ``start``."""
+    for _ in range(k_low):
+        q += dq
+    for k in range(k_low, k_high + 1):
+        key = (np.int64(q) << 32) | face_id
+        if key > frame[start + k]:
+            frame[start + k] = key
+        q += dq
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -87,12 +101,55 @@ def rasterize_view_reference(
             k_low, k_high = _edge_span(row_ca, sx_ca, k_low, k_high)
             if k_low <= k_high:
                 _walk_row(q_row, dq_dx, k_low, k_high, face_id, frame, y * resolution + x0)
-                row_low[y] = min(row_low[y], x0 + k_low)
-                row_high[y] = max(row_high[y], x0 + k_high)
+                if x0 + k_low < row_low[y]:
+                    row_low[y] = x0 + k_low
+                if x0 + k_high > row_high[y]:
+                    row_high[y] = x0 + k_high
             row_ab += sy_ab
             row_bc += sy_bc
             row_ca += sy_ca
             q_row += dq_dy
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _collect_histogram_reference(
+    resolution: int,
+    frame: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+    id_counts: NDArray[np.int64],
+    touched: NDArray[np.int32],
+    out_ids: NDArray[np.int32],
+    out_counts: NDArray[np.int32],
+) -> int:
+    """Per-face pixel counts of the written spans, run by run of equal IDs; clears the frame."""
+    n_touched = 0
+    for y in range(resolution):
+        if row_low[y] > row_high[y]:
+            continue
+        run_id = np.int64(0)
+        run_length = 0
+        for x in range(y * resolution + row_low[y], y * resolution + row_high[y] + 1):
+            key_id = frame[x] & _ID_MASK
+            frame[x] = 0
+            if key_id == run_id:
+                run_length += 1
+                continue
+            if run_id != 0:
+                if id_counts[run_id] == 0:
+                    touched[n_touched] = run_id
+                    n_touched += 1
+                id_counts[run_id] += run_length
+            run_id = key_id
+            run_length = 1
+        if run_id != 0:
+            if id_counts[run_id] == 0:
+                touched[n_touched] = run_id
+                n_touched += 1
+            id_counts[run_id] += run_length
+        row_low[y] = resolution
+        row_high[y] = -1
+    return _emit_histogram(n_touched, id_counts, touched, out_ids, out_counts)
 
 
 @njit(parallel=True, cache=True, nogil=True, error_model="numpy")
@@ -123,7 +180,7 @@ def rasterize_batch_reference(
     out_counts: NDArray[np.int32],
     out_lengths: NDArray[np.int64],
 ) -> None:
-    """:func:`._raster.rasterize_batch` with this module's view, always counting runs."""
+    """:func:`._raster.rasterize_batch` with this module's view and histogram."""
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
     half = resolution / 2.0
@@ -138,7 +195,7 @@ def rasterize_batch_reference(
                 screen_x[thread], screen_y[thread], inverse_depth[thread],
                 resolution, frames[thread], row_low[thread], row_high[thread],
             )
-            out_lengths[view] = _collect_histogram(
+            out_lengths[view] = _collect_histogram_reference(
                 resolution, frames[thread], row_low[thread], row_high[thread],
-                id_counts[thread], touched[thread], out_ids[view], out_counts[view], True,
-            )[0]
+                id_counts[thread], touched[thread], out_ids[view], out_counts[view],
+            )
