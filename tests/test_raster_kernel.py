@@ -16,16 +16,16 @@ from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import _raster_view_histograms, face_id_images
-from vptoolkit.visibility._raster import _collect_histogram
-from vptoolkit.visibility._raster_reference import rasterize_view_reference
-from vptoolkit.visibility._scan import (
+from vptoolkit.visibility._raster import (
     SUBPIXEL_BITS,
     _box_row,
+    _collect_histogram,
     _draw_row,
     _exact_steps,
     _rasterize_view,
     _walk_row,
 )
+from vptoolkit.visibility._raster_reference import rasterize_view_reference
 
 STEP = 1 << SUBPIXEL_BITS
 
@@ -265,3 +265,23 @@ def test_histograms_counted_by_runs_or_by_pixels_are_the_same(resolution):
     np.testing.assert_array_equal(results[0][1], np.bincount(ids[ids >= 0])[results[0][0]])
     for got, want in zip(results[1], results[0]):
         np.testing.assert_array_equal(got, want)
+
+
+def test_cached_kernels_inline_no_other_modules_code():
+    # numba's on-disk cache checks only the source file of the cached function:
+    # one that inlines another module's njit code would be reloaded stale after
+    # that module changed. Modules that cache must not import njit code.
+    import ast
+    import pathlib
+
+    import vptoolkit
+
+    root = pathlib.Path(vptoolkit.__file__).parent
+    cached = {path for path in root.rglob("*.py") if "cache=True" in path.read_text()}
+    assert cached, "no module caches compiled code"
+    for path in cached:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("vptoolkit"):
+                module = root.parent / (node.module.replace(".", "/") + ".py")
+                assert not module.exists() or "@njit" not in module.read_text(), (
+                    f"{path.relative_to(root)} caches numba code and imports {node.module}")

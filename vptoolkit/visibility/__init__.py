@@ -210,7 +210,7 @@ def face_id_images(
         Index of the face seen through each pixel centre, ``-1`` where no
         face is; row 0 at the top, column 0 at the left.
     """
-    from vptoolkit.visibility._scan import _project_vertices, _rasterize_view
+    from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
 
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, view_directions, resolution, camera)

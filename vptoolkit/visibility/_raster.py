@@ -1,22 +1,60 @@
-"""Per-face pixel histograms of many views on the CPU (numba), the default backend.
+"""Triangle-ID z-buffer rasteriser on the CPU (numba), the default backend.
 
-Each view is scan-converted by :mod:`._scan` into one 64-bit key per pixel
-(quantised inverse depth above, ``face + 1`` below; the largest key is the
-visible face) and counted here. The per-face histogram of each view is
-taken while clearing the frame, only over the span of each row that was
-written, so the full frame is never scanned; it is counted pixel by pixel or
-run by run of equal IDs, whichever the thread's previous view suggests (the
-same counts). Views are split over the threads; each thread owns its
-buffers (:class:`RasterWorkspace`), so there are no atomics, and faces are
-put in an order that keeps those buffers in cache (:func:`locality_order`).
+The front-facing triangles of each view are drawn into one 64-bit key per
+pixel: the high bits hold the quantised inverse depth ``1/z`` (affine in
+screen space, so interpolating it is perspective-correct; larger is
+nearer), the low 32 bits hold ``face + 1``. A depth test and an ID write are
+then a single integer maximum, and the visible face of a pixel is the one
+with the largest key (ties in depth go to the higher face index). The
+maximum does not depend on the order the faces are drawn in.
+
+Coverage is exact: vertices are snapped to a fixed-point grid of
+``2**-SUBPIXEL_BITS`` pixels (:func:`_project_vertices`) and integer edge
+functions are evaluated at pixel centres with a top-left tie rule, so a
+pixel centre on an edge shared by two triangles is counted exactly once.
+
+The inverse depth of pixel ``k`` of a row is, by definition, the row's start
+value (at the bounding box's left edge) plus ``k`` float additions of the x
+step (the walk of :func:`_walk_row`). The kernel gets the same doubles
+without the chain of additions wherever they form an exact integer
+progression (:func:`_exact_steps`), which is almost everywhere. Each face
+takes one of four paths in :func:`_rasterize_view`, all giving the pixels of
+that definition:
+
+* one pixel centre in its bounding box: that pixel's test, no steps;
+* a box at most ``_SMALL_BOX`` pixels wide and high: every pixel centre
+  tested, walking the depth;
+* a box narrower than ``_BOX_WIDTH``: every pixel centre of each row tested
+  with no branch (:func:`_box_row`), the depth an integer progression;
+* wider: the covered run of each row, the offsets ``k`` where all three edge
+  functions ``e + k * sx`` are >= 0, from quotients and remainders stepped
+  from row to row (no division per row), drawn by :func:`_draw_row`.
+
+Frame indices are unsigned, so numba emits no negative-index wrap-around
+in the pixel loops. The per-face histogram of each view is taken while
+clearing the frame, only over the span of each row that was written, so the
+full frame is never scanned; it is counted pixel by pixel or run by run of
+equal IDs, whichever the thread's previous view suggests (the same counts).
+Views are split over the threads; each thread owns its buffers
+(:class:`RasterWorkspace`), so there are no atomics, and faces are put in an
+order that keeps those buffers in cache (:func:`locality_order`).
 
 The kernel before issue 15 is :mod:`._raster_reference`:
 ``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
 checks that they give the same pixels bit for bit.
+
+Size
+    About 750 lines for one concept, the scan conversion and counting of a
+    view. They stay in one file because numba's on-disk cache checks only
+    the source file of the function it caches: a kernel compiled with code
+    inlined from another module would be reloaded stale after that module
+    changed (``tests/test_raster_kernel.py`` checks that no cached kernel
+    imports another module's).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,8 +62,9 @@ from numba import get_num_threads, njit, prange, uint64
 from numpy.typing import NDArray
 
 from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptoolkit._numba)
-from vptoolkit.visibility._scan import _project_vertices, _rasterize_view
 
+SUBPIXEL_BITS = 12
+_DEPTH_LEVELS = float(1 << 30)
 _ID_MASK = np.int64(0xFFFFFFFF)
 
 
@@ -137,6 +176,434 @@ def locality_order(
 def histogram_capacity(resolution: int, n_faces: int) -> int:
     """Most distinct faces one view can show: one per pixel, at most all faces."""
     return int(min(resolution * resolution, n_faces))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _project_vertices(
+    vertices: NDArray[np.float64],
+    eye: NDArray[np.float64],
+    right: NDArray[np.float64],
+    up: NDArray[np.float64],
+    forward: NDArray[np.float64],
+    focal: float,
+    half: float,
+    near: float,
+    far: float,
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+) -> None:
+    scale = float(1 << SUBPIXEL_BITS)
+    inv_near = 1.0 / near
+    inv_far = 1.0 / far
+    depth_span = inv_near - inv_far
+    for i in range(vertices.shape[0]):
+        dx = vertices[i, 0] - eye[0]
+        dy = vertices[i, 1] - eye[1]
+        dz = vertices[i, 2] - eye[2]
+        p_r = dx * right[0] + dy * right[1] + dz * right[2]
+        p_u = dx * up[0] + dy * up[1] + dz * up[2]
+        p_f = dx * forward[0] + dy * forward[1] + dz * forward[2]
+        inv_f = 1.0 / p_f
+        screen_x[i] = np.int64(np.round((half + focal * p_r * inv_f) * scale))
+        screen_y[i] = np.int64(np.round((half - focal * p_u * inv_f) * scale))
+        q = (inv_f - inv_far) / depth_span
+        inverse_depth[i] = min(max(q, 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
+    # Top-left rule for the orientation used below (positive doubled area):
+    # the two triangles sharing an edge traverse it in opposite directions,
+    # so exactly one of them owns the pixel centres lying on it.
+    return dy < 0 or (dy == 0 and dx > 0)
+
+
+_LOWER, _UPPER, _ROW = 0, 1, 2  # how an edge bounds the covered run of a row
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _edge_stepper(edge: np.int64, step_x: np.int64, step_y: np.int64
+                  ) -> tuple[int, np.int64, np.int64, np.int64, np.int64, np.int64]:
+    """Set up the exact row-by-row bound of ``edge + k * step_x >= 0`` on ``k``.
+
+    With ``d = |step_x|``, row ``j`` of the edge function ``e_j = edge + j * step_y``
+    bounds the offset by ``k >= -floor(e_j / d)`` when ``step_x > 0`` (a lower
+    bound) and by ``k <= floor(e_j / d)`` when ``step_x < 0`` (an upper bound);
+    when ``step_x == 0`` the row is empty exactly where ``e_j < 0``. The
+    quotient ``floor(e_j / d)`` and its remainder are stepped from row to row
+    (:func:`_next_row`), so a row costs additions instead of divisions.
+
+    Returns
+    -------
+    kind, quotient, remainder, quotient_step, remainder_step, divisor
+        ``_LOWER``, ``_UPPER`` or ``_ROW``; ``floor(edge / d)`` and
+        ``edge mod d``; ``floor(step_y / d)`` and ``step_y mod d``; ``d``.
+    """
+    if step_x > 0:
+        kind, divisor = _LOWER, step_x
+    elif step_x < 0:
+        kind, divisor = _UPPER, -step_x
+    else:
+        kind, divisor = _ROW, np.int64(1)
+    quotient, remainder = _floor_divmod(edge, divisor)
+    quotient_step, remainder_step = _floor_divmod(step_y, divisor)
+    return kind, quotient, remainder, quotient_step, remainder_step, divisor
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _floor_divmod(a: np.int64, d: np.int64) -> tuple[np.int64, np.int64]:
+    """``(a // d, a % d)`` for ``d > 0``: a float quotient corrected to the exact one.
+
+    Cheaper than integer division here; the float estimate is off by at most
+    one for the quotients of edge functions (below ``2**50`` in magnitude).
+    """
+    quotient = np.int64(math.floor(a / d))
+    remainder = a - quotient * d
+    while remainder < 0:
+        quotient -= 1
+        remainder += d
+    while remainder >= d:
+        quotient += 1
+        remainder -= d
+    return quotient, remainder
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _next_row(quotient: np.int64, remainder: np.int64, quotient_step: np.int64,
+              remainder_step: np.int64, divisor: np.int64) -> tuple[np.int64, np.int64]:
+    """``floor(e / d)`` and ``e mod d`` of the next row from those of this one."""
+    remainder += remainder_step
+    carry = np.int64(remainder >= divisor)  # data-dependent: no branch
+    return quotient + quotient_step + carry, remainder - carry * divisor
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _stepped_span(kind: int, quotient: np.int64, k_low: np.int64,
+                  k_high: np.int64) -> tuple[np.int64, np.int64]:
+    """Narrow ``[k_low, k_high]`` by one edge, from its row quotient (:func:`_edge_stepper`)."""
+    if kind == _LOWER:
+        return max(k_low, -quotient), k_high
+    if kind == _UPPER:
+        return k_low, min(k_high, quotient)
+    if quotient < 0:
+        return np.int64(1), np.int64(0)
+    return k_low, k_high
+
+
+_UNIT_LOW = np.int64(1 << 52)
+_UNIT_HIGH = np.int64((1 << 53) - 1)
+_UNIT_STEP_LIMIT = np.int64(1 << 48)
+_SMALL_BOX = 8  # boxes of at most this many pixel columns and rows are tested pixel by pixel
+_BOX_WIDTH = 16  # narrower boxes test every pixel centre of a row with no branch
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
+    """Whether the float sums ``q + dq + dq + ...`` in ``q``'s binade form an exact progression.
+
+    Let ``q`` lie in the binade ``[2**(e-1), 2**e)``, where the doubles are the
+    multiples of ``u = 2**(e-53)``. Adding ``dq`` to any of them rounds to
+    adding ``r``, the multiple of ``u`` nearest to ``dq``, as long as the exact
+    sum stays inside the binade and ``dq`` is not exactly halfway between two
+    multiples (a tie goes to the even result, which depends on the addend).
+    ``r`` is read off one rounded sum; ``dq - r`` is then exact (Sterbenz) and
+    tells a tie. A sum ``v`` in units of ``u`` (``v = x / u``) is safe when the
+    rounded result lies in ``[2**52 + 1, 2**53 - 1]``: the exact sum is then
+    within ``u / 2`` of it, inside the binade.
+
+    Returns
+    -------
+    exact, scale, shift, unit_step
+        ``scale = 1 / u = 2**shift``, and ``r / u``. ``exact`` is False when
+        ``q`` is outside ``[1, 2**52)``, ``dq`` is a tie, the sum leaves the
+        binade or ``|r / u| >= 2**48`` (then ``dq`` changes ``q`` by over 3 %
+        per pixel); then the sums must be taken one by one.
+    """
+    if not (1.0 <= q < 4503599627370496.0):
+        return False, 1.0, np.int64(0), np.int64(0)
+    shift = np.int64(53 - math.frexp(q)[1])  # 1 <= shift <= 52
+    scale = float(np.int64(1) << shift)
+    q_next = q + dq
+    next_units = q_next * scale
+    if not (_UNIT_LOW + 1 <= next_units <= _UNIT_HIGH) or abs(dq - (q_next - q)) * scale == 0.5:
+        return False, scale, shift, np.int64(0)
+    unit_step = np.int64(next_units) - np.int64(q * scale)
+    # k * unit_step must not overflow for any pixel offset k < 2**14.
+    return abs(unit_step) < _UNIT_STEP_LIMIT, scale, shift, unit_step
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
+              frame: NDArray[np.int64], start: np.int64) -> None:
+    """Depth-test pixels ``start + k_low .. start + k_high`` of a row, walking from ``start``.
+
+    The inverse depth of pixel ``start + k`` is ``q`` plus ``k`` float additions
+    of ``dq``: this walk defines it, :func:`_draw_row` reproduces it.
+    """
+    for _ in range(k_low):
+        q += dq
+    for k in range(k_low, k_high + 1):
+        i = uint64(start + k)
+        frame[i] = max(frame[i], (np.int64(q) << 32) | face_id)
+        q += dq
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
+              unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
+              frame: NDArray[np.int64], start: np.int64) -> None:
+    """:func:`_walk_row` with integer arithmetic where :func:`_exact_steps` allows it.
+
+    When ``q`` lies in the binade of ``scale`` and every sum up to pixel
+    ``k_high`` stays safely inside it, the ``k``-th sum is exactly
+    ``(units + k * unit_step) / scale`` with ``units = q * scale``: its integer
+    part is a shift, and there is no chain of dependent float additions,
+    neither to reach ``k_low`` nor along the run.
+    """
+    if exact:
+        q_units = q * scale
+        if _UNIT_LOW <= q_units <= _UNIT_HIGH:
+            units = np.int64(q_units)
+            near = units + unit_step
+            far = units + k_high * unit_step
+            if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
+                for k in range(k_low, k_high + 1):
+                    i = uint64(start + k)
+                    frame[i] = max(frame[i], (((units + k * unit_step) >> shift) << 32) | face_id)
+                return
+    _walk_row(q, dq, k_low, k_high, face_id, frame, start)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _box_row(e_ab: np.int64, e_bc: np.int64, e_ca: np.int64, sx_ab: np.int64, sx_bc: np.int64,
+             sx_ca: np.int64, q: float, dq: float, exact: bool, scale: float, shift: np.int64,
+             unit_step: np.int64, width: np.int64, face_id: np.int64, frame: NDArray[np.int64],
+             start: np.int64) -> tuple[np.int64, np.int64]:
+    """Test and draw every pixel centre ``start .. start + width`` of a row.
+
+    Pixel ``k`` is covered when the three edge functions ``e + k * sx`` are
+    >= 0. Where :func:`_exact_steps` allows it, all ``width + 1`` pixels are
+    tested and drawn with no branch (a covered pixel takes the maximum of its
+    key and the frame's, the others the maximum with 0), the depth an integer
+    progression as in :func:`_draw_row`; otherwise pixel by pixel with the
+    walk of :func:`_walk_row`. The same pixels and keys either way.
+
+    Returns
+    -------
+    low, high
+        The first and last covered offsets; ``low > high`` when none is.
+    """
+    low = width + 1
+    high = np.int64(-1)
+    if exact:
+        q_units = q * scale
+        if _UNIT_LOW <= q_units <= _UNIT_HIGH:
+            units = np.int64(q_units)
+            near = units + unit_step
+            far = units + width * unit_step
+            if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
+                for k in range(width + 1):
+                    inside = ((e_ab + k * sx_ab) | (e_bc + k * sx_bc) | (e_ca + k * sx_ca)) >= 0
+                    key = (((units + k * unit_step) >> shift) << 32) | face_id
+                    i = uint64(start + k)
+                    frame[i] = max(frame[i], key if inside else np.int64(0))
+                    low = min(low, k if inside else width + 1)
+                    high = max(high, k if inside else np.int64(-1))
+                return low, high
+    for k in range(width + 1):
+        if (e_ab | e_bc | e_ca) >= 0:
+            i = uint64(start + k)
+            frame[i] = max(frame[i], (np.int64(q) << 32) | face_id)
+            low = min(low, k)
+            high = max(high, k)
+        e_ab += sx_ab
+        e_bc += sx_bc
+        e_ca += sx_ca
+        q += dq
+    return low, high
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _faces_viewer(face_normals: NDArray[np.float64], face_offsets: NDArray[np.float64], f: int,
+                  eye: NDArray[np.float64]) -> bool:
+    """Whether face ``f``'s plane ``n . x = offset`` has ``eye`` on its front side."""
+    side = face_normals[f, 0] * eye[0] + face_normals[f, 1] * eye[1] + face_normals[f, 2] * eye[2]
+    return side > face_offsets[f]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _pixel_box(ax: np.int64, ay: np.int64, bx: np.int64, by: np.int64, cx: np.int64,
+               cy: np.int64, resolution: int) -> tuple[np.int64, np.int64, np.int64, np.int64]:
+    """``x0, x1, y0, y1``: the pixel columns and rows whose centres lie in the
+    triangle's bounding box, clipped to the frame; empty when ``x0 > x1`` or
+    ``y0 > y1`` (most faces of a fine mesh at a low resolution)."""
+    step = np.int64(1 << SUBPIXEL_BITS)
+    half_step = step // 2
+    x0 = max((min(ax, bx, cx) - half_step + step - 1) // step, 0)
+    x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
+    y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
+    y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
+    return x0, x1, y0, y1
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _edge_setup(ax: np.int64, ay: np.int64, bx: np.int64, by: np.int64, cx: np.int64,
+                cy: np.int64, qa: float, qb: float, qc: float, area2: np.int64, x0: np.int64,
+                y0: np.int64) -> tuple:
+    """Edge functions and inverse depth of a triangle at the pixel centre ``(x0, y0)``.
+
+    ``area2`` is the signed doubled area (non-zero); the orientation is made
+    positive by swapping ``b`` and ``c``. With ``E_ab(p) = (b - a) x (p - a)``,
+    positive inside, the weights are ``w_c = E_ab``, ``w_a = E_bc`` and
+    ``w_b = E_ca`` (barycentric weights times the area). Each edge value
+    carries the top-left rule's bias: ``-1`` on edges the triangle does not
+    own, so a pixel centre exactly on them fails ``>= 0``.
+
+    Returns
+    -------
+    row_ab, row_bc, row_ca, sx_ab, sy_ab, sx_bc, sy_bc, sx_ca, sy_ca, q_row, dq_dx, dq_dy
+        Biased edge values at ``(x0, y0)``, their steps per pixel along x and
+        y, and the inverse depth (in units of ``1 / _DEPTH_LEVELS``) there with
+        its steps.
+    """
+    step = np.int64(1 << SUBPIXEL_BITS)
+    half_step = step // 2
+    if area2 < 0:
+        bx, cx = cx, bx
+        by, cy = cy, by
+        qb, qc = qc, qb
+        area2 = -area2
+    bias_ab = 0 if _owns_edge(bx - ax, by - ay) else -1
+    bias_bc = 0 if _owns_edge(cx - bx, cy - by) else -1
+    bias_ca = 0 if _owns_edge(ax - cx, ay - cy) else -1
+    px = x0 * step + half_step
+    py = y0 * step + half_step
+    row_ab = (bx - ax) * (py - ay) - (by - ay) * (px - ax) + bias_ab
+    row_bc = (cx - bx) * (py - by) - (cy - by) * (px - bx) + bias_bc
+    row_ca = (ax - cx) * (py - cy) - (ay - cy) * (px - cx) + bias_ca
+    sx_ab, sy_ab = -(by - ay) * step, (bx - ax) * step
+    sx_bc, sy_bc = -(cy - by) * step, (cx - bx) * step
+    sx_ca, sy_ca = -(ay - cy) * step, (ax - cx) * step
+    inv_area = _DEPTH_LEVELS / area2
+    dq_dx = (sx_bc * qa + sx_ca * qb + sx_ab * qc) * inv_area
+    dq_dy = (sy_bc * qa + sy_ca * qb + sy_ab * qc) * inv_area
+    q_row = ((row_bc - bias_bc) * qa + (row_ca - bias_ca) * qb + (row_ab - bias_ab) * qc) * inv_area
+    return (row_ab, row_bc, row_ca, sx_ab, sy_ab, sx_bc, sy_bc, sx_ca, sy_ca, q_row, dq_dx,
+            dq_dy)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _rasterize_view(
+    faces: NDArray[np.int32],
+    face_normals: NDArray[np.float64],
+    face_offsets: NDArray[np.float64],
+    is_drawable: NDArray[np.bool_],
+    cull_back_faces: bool,
+    eye: NDArray[np.float64],
+    screen_x: NDArray[np.int64],
+    screen_y: NDArray[np.int64],
+    inverse_depth: NDArray[np.float64],
+    resolution: int,
+    frame: NDArray[np.int64],
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+) -> None:
+    """Draw one view's faces into ``frame`` (row-major keys, ``resolution`` squared).
+
+    ``row_low[y]`` and ``row_high[y]`` are widened to the written span of
+    each row; the caller clears the frame and resets them.
+    """
+    for f in range(faces.shape[0]):
+        if not is_drawable[f]:
+            continue
+        if cull_back_faces and not _faces_viewer(face_normals, face_offsets, f, eye):
+            continue
+        a = faces[f, 0]
+        b = faces[f, 1]
+        c = faces[f, 2]
+        ax, ay = screen_x[a], screen_y[a]
+        bx, by = screen_x[b], screen_y[b]
+        cx, cy = screen_x[c], screen_y[c]
+        x0, x1, y0, y1 = _pixel_box(ax, ay, bx, by, cx, cy, resolution)
+        if x0 > x1 or y0 > y1:
+            continue
+        area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if area2 == 0:
+            continue
+        (row_ab, row_bc, row_ca, sx_ab, sy_ab, sx_bc, sy_bc, sx_ca, sy_ca, q_row, dq_dx,
+         dq_dy) = _edge_setup(ax, ay, bx, by, cx, cy, inverse_depth[a], inverse_depth[b],
+                              inverse_depth[c], area2, x0, y0)
+        face_id = np.int64(f + 1)
+        width = x1 - x0
+        if width == 0 and y1 == y0:
+            # One pixel centre: its test alone.
+            if (row_ab | row_bc | row_ca) >= 0:
+                i = uint64(y0 * resolution + x0)
+                frame[i] = max(frame[i], (np.int64(q_row) << 32) | face_id)
+                row_low[y0] = min(row_low[y0], x0)
+                row_high[y0] = max(row_high[y0], x0)
+            continue
+        if width < _SMALL_BOX and y1 - y0 < _SMALL_BOX:
+            # A small box: every pixel centre tested, cheaper than any set-up.
+            for y in range(y0, y1 + 1):
+                e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
+                base = y * resolution
+                low = x1 + 1
+                high = x0 - 1
+                for x in range(x0, x1 + 1):
+                    inside = (e_ab | e_bc | e_ca) >= 0
+                    i = uint64(base + x)
+                    key = (np.int64(q) << 32) | face_id
+                    frame[i] = max(frame[i], key if inside else np.int64(0))
+                    low = min(low, x if inside else x1 + 1)
+                    high = max(high, x if inside else x0 - 1)
+                    e_ab += sx_ab
+                    e_bc += sx_bc
+                    e_ca += sx_ca
+                    q += dq_dx
+                if low <= high:
+                    row_low[y] = min(row_low[y], low)
+                    row_high[y] = max(row_high[y], high)
+                row_ab += sy_ab
+                row_bc += sy_bc
+                row_ca += sy_ca
+                q_row += dq_dy
+            continue
+        exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
+        if width < _BOX_WIDTH:
+            # A narrow box: whole rows tested with no branch.
+            for y in range(y0, y1 + 1):
+                low, high = _box_row(row_ab, row_bc, row_ca, sx_ab, sx_bc, sx_ca, q_row, dq_dx,
+                                     exact, scale, shift, unit_step, width, face_id, frame,
+                                     y * resolution + x0)
+                if low <= high:
+                    row_low[y] = min(row_low[y], x0 + low)
+                    row_high[y] = max(row_high[y], x0 + high)
+                row_ab += sy_ab
+                row_bc += sy_bc
+                row_ca += sy_ca
+                q_row += dq_dy
+            continue
+        # A wide box: the covered run of each row, solved for from the edges.
+        kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
+        kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
+        kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
+        for y in range(y0, y1 + 1):
+            k_low = np.int64(0)
+            k_high = width
+            k_low, k_high = _stepped_span(kind_ab, quot_ab, k_low, k_high)
+            k_low, k_high = _stepped_span(kind_bc, quot_bc, k_low, k_high)
+            k_low, k_high = _stepped_span(kind_ca, quot_ca, k_low, k_high)
+            quot_ab, rem_ab = _next_row(quot_ab, rem_ab, dquot_ab, drem_ab, div_ab)
+            quot_bc, rem_bc = _next_row(quot_bc, rem_bc, dquot_bc, drem_bc, div_bc)
+            quot_ca, rem_ca = _next_row(quot_ca, rem_ca, dquot_ca, drem_ca, div_ca)
+            if k_low <= k_high:
+                _draw_row(q_row, dq_dx, exact, scale, shift, unit_step, k_low, k_high, face_id,
+                          frame, y * resolution + x0)
+                row_low[y] = min(row_low[y], x0 + k_low)
+                row_high[y] = max(row_high[y], x0 + k_high)
+            q_row += dq_dy
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")

@@ -1,6 +1,6 @@
 """The rasteriser's kernel as it was before issue 15, kept to check and time the current one.
 
-The same projection, edge set-up and keys as :mod:`._scan`, but the
+The same projection, edge set-up and keys as :mod:`._raster`, but the
 straightforward loops: each row's covered run solved with one integer
 division per edge (:func:`_edge_span`), the inverse depth walked by one float
 addition per pixel from the bounding box's left edge, every face drawn that
@@ -11,6 +11,8 @@ the current kernel (they have not changed).
 ``tests/test_raster_kernel.py`` checks that the current kernel gives the same
 counts bit for bit; ``tools/bench_measures.py`` times both in one run.
 Selected by ``reference=True`` of :func:`vptoolkit.visibility._raster_view_histograms`.
+Compiled in each process that uses it, never cached on disk: numba's cache
+checks only this file, not the helpers it inlines from :mod:`._raster`.
 """
 
 from __future__ import annotations
@@ -19,16 +21,17 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from vptoolkit.visibility._raster import _ID_MASK, _emit_histogram
-from vptoolkit.visibility._scan import (
+from vptoolkit.visibility._raster import (
+    _ID_MASK,
     _edge_setup,
+    _emit_histogram,
     _faces_viewer,
     _pixel_box,
     _project_vertices,
 )
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=False, nogil=True, error_model="numpy")
 def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
                k_high: np.int64) -> tuple[np.int64, np.int64]:
     """Narrow ``[k_low, k_high]`` to the offsets ``k`` with ``edge + k * step >= 0``."""
@@ -44,7 +47,7 @@ def _edge_span(edge: np.int64, step: np.int64, k_low: np.int64,
     return k_low, k_high
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=False, nogil=True, error_model="numpy", inline="always")
 def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: np.int64,
               frame: NDArray[np.int64], start: np.int64) -> None:
     """Depth-test pixels ``start + k_low .. start + k_high``, walking the depth from ``start``."""
@@ -57,7 +60,7 @@ def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: n
         q += dq
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=False, nogil=True, error_model="numpy")
 def rasterize_view_reference(
     faces: NDArray[np.int32],
     face_normals: NDArray[np.float64],
@@ -73,7 +76,7 @@ def rasterize_view_reference(
     row_low: NDArray[np.int64],
     row_high: NDArray[np.int64],
 ) -> None:
-    """:func:`._scan._rasterize_view` the straightforward way: the same frame and spans."""
+    """:func:`._raster._rasterize_view` the straightforward way: the same frame and spans."""
     for f in range(faces.shape[0]):
         if not is_drawable[f]:
             continue
@@ -111,7 +114,7 @@ def rasterize_view_reference(
             q_row += dq_dy
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
+@njit(cache=False, nogil=True, error_model="numpy")
 def _collect_histogram_reference(
     resolution: int,
     frame: NDArray[np.int64],
@@ -152,7 +155,7 @@ def _collect_histogram_reference(
     return _emit_histogram(n_touched, id_counts, touched, out_ids, out_counts)
 
 
-@njit(parallel=True, cache=True, nogil=True, error_model="numpy")
+@njit(parallel=True, cache=False, nogil=True, error_model="numpy")
 def rasterize_batch_reference(
     vertices: NDArray[np.float64],
     faces: NDArray[np.int32],
