@@ -4,8 +4,8 @@ Three levels: whole views of the sample meshes through the driver (the kernel
 against the one before issue 15, ``reference=True``); screen-space triangles
 put on the fixed-point grid by hand (shared edges through pixel centres,
 slivers, frame borders, boxes of every path's size) against a per-pixel test
-of the three edge functions; and the inverse-depth runs and branch-free rows
-against one float addition per pixel, at binade edges and ties.
+of the three edge functions; and the inverse-depth runs, also over whole
+narrow rows, against one float addition per pixel, at binade edges and ties.
 """
 
 import numpy as np
@@ -18,7 +18,6 @@ from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import _raster_view_histograms, face_id_images
 from vptoolkit.visibility._raster import (
     SUBPIXEL_BITS,
-    _box_row,
     _collect_histogram,
     _draw_row,
     _exact_steps,
@@ -168,10 +167,10 @@ def test_overlapping_random_triangles_keep_the_walked_depths(resolution):
         np.testing.assert_array_equal(got, want)
 
 
-def _row(q, dq, k_low, k_high, fast):
-    frame = np.zeros(k_high + 1, dtype=np.int64)
+def _row(q, dq, k_low, k_high, fast, width):
+    frame = np.zeros(width + 1, dtype=np.int64)
     if fast:
-        _draw_row(q, dq, *_exact_steps(q, dq), k_low, k_high, np.int64(5), frame, 0)
+        _draw_row(q, dq, *_exact_steps(q, dq), k_low, k_high, np.int64(5), frame, 0, width)
     else:
         _walk_row(q, dq, k_low, k_high, np.int64(5), frame, 0)
     return frame
@@ -194,51 +193,12 @@ def test_depth_runs_equal_one_float_addition_per_pixel():
     rng = np.random.default_rng(3)
     cases += list(zip(rng.uniform(0, 2.0**30, 300), rng.normal(0, 1e4, 300)))
     for q, dq in cases:
-        for k_low, k_high in [(0, 0), (0, 40), (13, 700)]:
-            fast, walked = _row(q, dq, k_low, k_high, True), _row(q, dq, k_low, k_high, False)
+        # runs in wide boxes, and in narrow ones, whose whole row is visited
+        for k_low, k_high, width in [(0, 0, 0), (0, 40, 40), (13, 700, 700), (0, 0, 15),
+                                     (2, 9, 12), (0, 15, 15), (15, 15, 15), (5, 4, 9)]:
+            fast = _row(q, dq, k_low, k_high, True, width)
+            walked = _row(q, dq, k_low, k_high, False, width)
             np.testing.assert_array_equal(fast, walked, err_msg=f"q={q!r} dq={dq!r}")
-
-
-def _box(q, dq, edges, steps, width):
-    frame = np.zeros(width + 1, dtype=np.int64)
-    low, high = _box_row(*edges, *steps, q, dq, *_exact_steps(q, dq), np.int64(width),
-                         np.int64(5), frame, 0)
-    return frame, low, high
-
-
-def _walked_box(q, dq, edges, steps, width):
-    """The box row one pixel at a time: each edge value and depth by repeated addition."""
-    frame = np.zeros(width + 1, dtype=np.int64)
-    covered = []
-    edges = list(edges)
-    for k in range(width + 1):
-        if min(edges) >= 0:
-            frame[k] = (np.int64(q) << 32) | 5
-            covered.append(k)
-        edges = [e + s for e, s in zip(edges, steps)]
-        q += dq
-    return frame, (covered[0], covered[-1]) if covered else None
-
-
-def test_branch_free_box_rows_equal_the_pixel_by_pixel_walk():
-    ulp = np.spacing
-    rng = np.random.default_rng(11)
-    depths = [(1.0, 0.1), (2.0**29 - ulp(2.0**29), ulp(2.0**29)), (2.0**30 - 3e-7, 1e-3),
-              (2.0**29 + 1 - 3 * ulp(2.0**29), ulp(2.0**29) / 2), (0.999, 1e-3), (0.0, 0.0)]
-    depths += list(zip(rng.uniform(0, 2.0**30, 200), rng.normal(0, 1e4, 200)))
-    for q, dq in depths:
-        for width in (1, 7, 8, 15):
-            # edges crossing zero inside the row from either side, one always
-            # negative (nothing covered), one on the pixel centres exactly
-            for edges, steps in [((-3 * STEP, 40 * STEP, 9 * STEP), (STEP, -STEP, -1)),
-                                 ((5, 2, 0), (-1, 0, 3)),
-                                 ((-1, 10, 10), (0, 1, 1)),
-                                 (tuple(rng.integers(-8 * STEP, 8 * STEP, 3)),
-                                  tuple(rng.integers(-2 * STEP, 2 * STEP, 3)))]:
-                frame, low, high = _box(q, dq, edges, steps, width)
-                want, span = _walked_box(q, dq, edges, steps, width)
-                np.testing.assert_array_equal(frame, want, err_msg=f"q={q!r} dq={dq!r}")
-                assert (low, high) == span if span else low > high
 
 
 @pytest.mark.parametrize("resolution", [16, 333])

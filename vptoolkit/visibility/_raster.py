@@ -18,17 +18,16 @@ value (at the bounding box's left edge) plus ``k`` float additions of the x
 step (the walk of :func:`_walk_row`). The kernel gets the same doubles
 without the chain of additions wherever they form an exact integer
 progression (:func:`_exact_steps`), which is almost everywhere. Each face
-takes one of four paths in :func:`_rasterize_view`, all giving the pixels of
+takes one of three paths in :func:`_rasterize_view`, all giving the pixels of
 that definition:
 
 * one pixel centre in its bounding box: that pixel's test, no steps;
 * a box at most ``_SMALL_BOX`` pixels wide and high: every pixel centre
-  tested, walking the depth;
-* a box narrower than ``_BOX_WIDTH``: every pixel centre of each row tested
-  with no branch (:func:`_box_row`), the depth an integer progression;
-* wider: the covered run of each row, the offsets ``k`` where all three edge
+  tested with no branch, walking the depth;
+* bigger: the covered run of each row, the offsets ``k`` where all three edge
   functions ``e + k * sx`` are >= 0, from quotients and remainders stepped
-  from row to row (no division per row), drawn by :func:`_draw_row`.
+  from row to row (no division per row), drawn by :func:`_draw_row` (in a
+  box narrower than ``_BOX_WIDTH``, over the whole row with no branch).
 
 Frame indices are unsigned, so numba emits no negative-index wrap-around
 in the pixel loops. The per-face histogram of each view is taken while
@@ -295,7 +294,7 @@ _UNIT_LOW = np.int64(1 << 52)
 _UNIT_HIGH = np.int64((1 << 53) - 1)
 _UNIT_STEP_LIMIT = np.int64(1 << 48)
 _SMALL_BOX = 8  # boxes of at most this many pixel columns and rows are tested pixel by pixel
-_BOX_WIDTH = 16  # narrower boxes test every pixel centre of a row with no branch
+_BOX_WIDTH = 16  # in narrower boxes a row's run is drawn by a loop over the whole row
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -352,14 +351,18 @@ def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: n
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
               unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
-              frame: NDArray[np.int64], start: np.int64) -> None:
+              frame: NDArray[np.int64], start: np.int64, width: np.int64) -> None:
     """:func:`_walk_row` with integer arithmetic where :func:`_exact_steps` allows it.
 
     When ``q`` lies in the binade of ``scale`` and every sum up to pixel
     ``k_high`` stays safely inside it, the ``k``-th sum is exactly
     ``(units + k * unit_step) / scale`` with ``units = q * scale``: its integer
     part is a shift, and there is no chain of dependent float additions,
-    neither to reach ``k_low`` nor along the run.
+    neither to reach ``k_low`` nor along the run. For a box narrower than
+    ``_BOX_WIDTH``, all pixels ``0 .. width`` of the row are then visited with
+    no branch, those outside the run taking the maximum with 0 (no change):
+    the loop has the same length on every row of the face, so its end is
+    predicted, where a run's length changes from row to row.
     """
     if exact:
         q_units = q * scale
@@ -368,60 +371,18 @@ def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
             near = units + unit_step
             far = units + k_high * unit_step
             if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
+                if width < _BOX_WIDTH:
+                    for k in range(width + 1):
+                        key = (((units + k * unit_step) >> shift) << 32) | face_id
+                        inside = (k >= k_low) & (k <= k_high)
+                        i = uint64(start + k)
+                        frame[i] = max(frame[i], key if inside else np.int64(0))
+                    return
                 for k in range(k_low, k_high + 1):
                     i = uint64(start + k)
                     frame[i] = max(frame[i], (((units + k * unit_step) >> shift) << 32) | face_id)
                 return
     _walk_row(q, dq, k_low, k_high, face_id, frame, start)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _box_row(e_ab: np.int64, e_bc: np.int64, e_ca: np.int64, sx_ab: np.int64, sx_bc: np.int64,
-             sx_ca: np.int64, q: float, dq: float, exact: bool, scale: float, shift: np.int64,
-             unit_step: np.int64, width: np.int64, face_id: np.int64, frame: NDArray[np.int64],
-             start: np.int64) -> tuple[np.int64, np.int64]:
-    """Test and draw every pixel centre ``start .. start + width`` of a row.
-
-    Pixel ``k`` is covered when the three edge functions ``e + k * sx`` are
-    >= 0. Where :func:`_exact_steps` allows it, all ``width + 1`` pixels are
-    tested and drawn with no branch (a covered pixel takes the maximum of its
-    key and the frame's, the others the maximum with 0), the depth an integer
-    progression as in :func:`_draw_row`; otherwise pixel by pixel with the
-    walk of :func:`_walk_row`. The same pixels and keys either way.
-
-    Returns
-    -------
-    low, high
-        The first and last covered offsets; ``low > high`` when none is.
-    """
-    low = width + 1
-    high = np.int64(-1)
-    if exact:
-        q_units = q * scale
-        if _UNIT_LOW <= q_units <= _UNIT_HIGH:
-            units = np.int64(q_units)
-            near = units + unit_step
-            far = units + width * unit_step
-            if (_UNIT_LOW + 1 <= near <= _UNIT_HIGH and _UNIT_LOW + 1 <= far <= _UNIT_HIGH):
-                for k in range(width + 1):
-                    inside = ((e_ab + k * sx_ab) | (e_bc + k * sx_bc) | (e_ca + k * sx_ca)) >= 0
-                    key = (((units + k * unit_step) >> shift) << 32) | face_id
-                    i = uint64(start + k)
-                    frame[i] = max(frame[i], key if inside else np.int64(0))
-                    low = min(low, k if inside else width + 1)
-                    high = max(high, k if inside else np.int64(-1))
-                return low, high
-    for k in range(width + 1):
-        if (e_ab | e_bc | e_ca) >= 0:
-            i = uint64(start + k)
-            frame[i] = max(frame[i], (np.int64(q) << 32) | face_id)
-            low = min(low, k)
-            high = max(high, k)
-        e_ab += sx_ab
-        e_bc += sx_bc
-        e_ca += sx_ca
-        q += dq
-    return low, high
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -571,21 +532,7 @@ def _rasterize_view(
                 q_row += dq_dy
             continue
         exact, scale, shift, unit_step = _exact_steps(q_row, dq_dx)
-        if width < _BOX_WIDTH:
-            # A narrow box: whole rows tested with no branch.
-            for y in range(y0, y1 + 1):
-                low, high = _box_row(row_ab, row_bc, row_ca, sx_ab, sx_bc, sx_ca, q_row, dq_dx,
-                                     exact, scale, shift, unit_step, width, face_id, frame,
-                                     y * resolution + x0)
-                if low <= high:
-                    row_low[y] = min(row_low[y], x0 + low)
-                    row_high[y] = max(row_high[y], x0 + high)
-                row_ab += sy_ab
-                row_bc += sy_bc
-                row_ca += sy_ca
-                q_row += dq_dy
-            continue
-        # A wide box: the covered run of each row, solved for from the edges.
+        # A bigger box: the covered run of each row, solved for from the edges.
         kind_ab, quot_ab, rem_ab, dquot_ab, drem_ab, div_ab = _edge_stepper(row_ab, sx_ab, sy_ab)
         kind_bc, quot_bc, rem_bc, dquot_bc, drem_bc, div_bc = _edge_stepper(row_bc, sx_bc, sy_bc)
         kind_ca, quot_ca, rem_ca, dquot_ca, drem_ca, div_ca = _edge_stepper(row_ca, sx_ca, sy_ca)
@@ -600,7 +547,7 @@ def _rasterize_view(
             quot_ca, rem_ca = _next_row(quot_ca, rem_ca, dquot_ca, drem_ca, div_ca)
             if k_low <= k_high:
                 _draw_row(q_row, dq_dx, exact, scale, shift, unit_step, k_low, k_high, face_id,
-                          frame, y * resolution + x0)
+                          frame, y * resolution + x0, width)
                 row_low[y] = min(row_low[y], x0 + k_low)
                 row_high[y] = max(row_high[y], x0 + k_high)
             q_row += dq_dy
