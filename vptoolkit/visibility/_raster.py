@@ -43,7 +43,7 @@ The kernel before issue 15 is :mod:`._raster_reference`:
 checks that they give the same pixels bit for bit.
 
 Size
-    About 750 lines for one concept, the scan conversion and counting of a
+    About 710 lines for one concept, the scan conversion and counting of a
     view. They stay in one file because numba's on-disk cache checks only
     the source file of the function it caches: a kernel compiled with code
     inlined from another module would be reloaded stale after that module
