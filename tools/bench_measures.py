@@ -5,10 +5,11 @@ Prints, for meshes of about 10k, 100k and 1M faces (sample meshes,
 midpoint-subdivided to size):
 
 * seconds of the rasteriser for all views at 256, 512 and 1024 pixels, beside
-  its previous kernel (the per-row division and float walk of the inverse
-  depth, with the run-by-run histogram) and the speed-up, timed in the same
-  run, alternately, best of ``--repeat``: the previous kernel stays selectable
-  by the private ``reference=True`` of ``vptoolkit.visibility._raster_view_histograms``,
+  its kernel before issue 15 (the per-row division and float walk of the
+  inverse depth, with the run-by-run histogram: ``visibility._raster_reference``,
+  compiled apart) and the speed-up, timed in the same run, alternately, best
+  of ``--repeat``: that kernel stays selectable by the private
+  ``reference=True`` of ``vptoolkit.visibility._raster_view_histograms``,
   which ``tests/test_raster_kernel.py`` also runs to check that the counts are
   the same bit for bit;
 * seconds of Open3D's ray caster, timed on ``--raycast-views`` views and
@@ -119,7 +120,7 @@ def main() -> None:
     time_raster(torus, views[:2], 16, reference=True)
     print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
     print(f"{n_views} views; raycast timed on {raycast_views} views and scaled\n")
-    print(f"raster: best of {args.repeat}; before: the previous kernel, same run\n")
+    print(f"raster: best of {args.repeat}; before: the kernel before issue 15, same run\n")
     header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{'before s':>10}{'speed-up':>10}"
               f"{'raycast s':>11}{'ratio':>8}")
     print(header)
