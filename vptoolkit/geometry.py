@@ -59,6 +59,8 @@ def bounding_frame(mesh: Mesh) -> tuple[NDArray[np.float64], float]:
     diagonal : float
         Length of the bounding-box diagonal in model units.
     """
-    used = mesh.vertices[np.unique(mesh.faces)]
+    is_used = np.zeros(len(mesh.vertices), dtype=bool)
+    is_used[mesh.faces.ravel()] = True
+    used = mesh.vertices[is_used]
     low, high = used.min(axis=0), used.max(axis=0)
     return (low + high) / 2.0, float(np.linalg.norm(high - low))

@@ -164,8 +164,10 @@ def locality_order(
             code |= ((grid[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
     face_order = np.argsort(code, kind="stable")
     flat = faces[face_order].ravel()
-    used, first_use = np.unique(flat, return_index=True)
-    vertex_order = used[np.argsort(first_use, kind="stable")]
+    first_use = np.full(len(vertices), len(flat))
+    np.minimum.at(first_use, flat, np.arange(len(flat)))
+    used = np.flatnonzero(first_use < len(flat))
+    vertex_order = used[np.argsort(first_use[used], kind="stable")]
     renumber = np.zeros(len(vertices), dtype=np.int64)
     renumber[vertex_order] = np.arange(len(vertex_order))
     local_faces = renumber[flat].reshape(-1, 3).astype(np.int32)
