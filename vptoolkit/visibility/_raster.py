@@ -482,9 +482,9 @@ def _rasterize_view(
             continue
         if cull_back_faces and not _faces_viewer(face_normals, face_offsets, f, eye):
             continue
-        a = faces[f, 0]
-        b = faces[f, 1]
-        c = faces[f, 2]
+        a = uint64(faces[f, 0])
+        b = uint64(faces[f, 1])
+        c = uint64(faces[f, 2])
         ax, ay = screen_x[a], screen_y[a]
         bx, by = screen_x[b], screen_y[b]
         cx, cy = screen_x[c], screen_y[c]
@@ -504,8 +504,9 @@ def _rasterize_view(
             if (row_ab | row_bc | row_ca) >= 0:
                 i = uint64(y0 * resolution + x0)
                 frame[i] = max(frame[i], (np.int64(q_row) << 32) | face_id)
-                row_low[y0] = min(row_low[y0], x0)
-                row_high[y0] = max(row_high[y0], x0)
+                row = uint64(y0)
+                row_low[row] = min(row_low[row], x0)
+                row_high[row] = max(row_high[row], x0)
             continue
         if width < _SMALL_BOX and y1 - y0 < _SMALL_BOX:
             # A small box: every pixel centre tested, cheaper than any set-up.
@@ -526,8 +527,9 @@ def _rasterize_view(
                     e_ca += sx_ca
                     q += dq_dx
                 if low <= high:
-                    row_low[y] = min(row_low[y], low)
-                    row_high[y] = max(row_high[y], high)
+                    row = uint64(y)
+                    row_low[row] = min(row_low[row], low)
+                    row_high[row] = max(row_high[row], high)
                 row_ab += sy_ab
                 row_bc += sy_bc
                 row_ca += sy_ca
@@ -550,8 +552,9 @@ def _rasterize_view(
             if k_low <= k_high:
                 _draw_row(q_row, dq_dx, exact, scale, shift, unit_step, k_low, k_high, face_id,
                           frame, y * resolution + x0, width)
-                row_low[y] = min(row_low[y], x0 + k_low)
-                row_high[y] = max(row_high[y], x0 + k_high)
+                row = uint64(y)
+                row_low[row] = min(row_low[row], x0 + k_low)
+                row_high[row] = max(row_high[row], x0 + k_high)
             q_row += dq_dy
 
 
