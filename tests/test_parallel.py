@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import time
 
 import pytest
 
@@ -43,6 +44,26 @@ def test_workers_are_other_processes_with_one_numba_thread():
 def test_a_crashing_task_yields_what_the_caller_says_and_the_rest_go_on():
     results = list(run_tasks(_square_or_die, range(8), workers=2, crashed=lambda n: f"died {n}"))
     assert sorted(results, key=str) == sorted([0, 1, 4, "died 3", 16, 25, 36, 49], key=str)
+
+
+def _square_or_die_late(number: int) -> int:
+    """Kills its worker on 0 after a moment, while the caller is busy with another result."""
+    if number == 0:
+        time.sleep(0.3)
+        os._exit(11)
+    return number * number
+
+
+def test_a_worker_dying_between_submissions_is_retried_not_raised():
+    # The pool breaks while the caller holds a result; the next submission
+    # then finds it broken, and that task is run again like the others.
+    results = []
+    for result in run_tasks(_square_or_die_late, range(8), workers=2,
+                            crashed=lambda n: f"died {n}"):
+        if not results:
+            time.sleep(1.0)
+        results.append(result)
+    assert sorted(results, key=str) == sorted(["died 0", 1, 4, 9, 16, 25, 36, 49], key=str)
 
 
 def test_tasks_are_read_only_as_places_free_up():

@@ -125,8 +125,14 @@ def run_tasks(
                     item = next(numbered, None)
                     if item is None:
                         is_exhausted = True
-                    else:
+                        break
+                    try:
                         running[pool.submit(function, item[1])] = item
+                    except BrokenProcessPool:  # a worker died since the last wait
+                        broken.append(item)
+                        break
+                if broken:
+                    break
                 if not running:
                     return
                 completed, _ = wait(running, return_when=FIRST_COMPLETED)
