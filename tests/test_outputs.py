@@ -97,7 +97,7 @@ def test_huge_direction_vectors_score_like_unit_ones(build: Path) -> None:  # no
 
 
 def test_frame_buffers_are_capped_by_a_memory_budget() -> None:
-    from vptoolkit.visibility._raster import FRAME_BUDGET_BYTES, threads_within_budget
+    from vptoolkit.visibility._workspace import FRAME_BUDGET_BYTES, threads_within_budget
 
     assert threads_within_budget(resolution=16384, n_faces=10, n_vertices=10, capacity=10) == 1
     small = threads_within_budget(resolution=64, n_faces=10, n_vertices=10, capacity=10)

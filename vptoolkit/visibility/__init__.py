@@ -249,11 +249,11 @@ def _raster_batches(
     *,
     reference: bool,
 ) -> Iterator[ViewHistograms]:
-    from vptoolkit.visibility._raster import (
+    from vptoolkit.visibility._raster import rasterize_batch
+    from vptoolkit.visibility._workspace import (
         RasterWorkspace,
         histogram_capacity,
         locality_order,
-        rasterize_batch,
     )
 
     if reference:

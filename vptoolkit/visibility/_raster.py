@@ -35,16 +35,18 @@ clearing the frame, only over the span of each row that was written, so the
 full frame is never scanned; it is counted pixel by pixel or run by run of
 equal IDs, whichever the thread's previous view suggests (the same counts).
 Views are split over the threads; each thread owns its buffers
-(:class:`RasterWorkspace`), so there are no atomics, and faces are put in an
-order that keeps those buffers in cache (:func:`locality_order`).
+(:class:`._workspace.RasterWorkspace`), so there are no atomics, and faces are
+put in an order that keeps those buffers in cache
+(:func:`._workspace.locality_order`).
 
 The kernel before issue 15 is :mod:`._raster_reference`:
 ``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
 checks that they give the same pixels bit for bit.
 
 Size
-    About 710 lines for one concept, the scan conversion and counting of a
-    view. They stay in one file because numba's on-disk cache checks only
+    About 610 lines for one concept, the scan conversion and counting of a
+    view (the buffers and face order are :mod:`._workspace`). They stay in
+    one file because numba's on-disk cache checks only
     the source file of the function it caches: a kernel compiled with code
     inlined from another module would be reloaded stale after that module
     changed (``tests/test_raster_kernel.py`` checks that no cached kernel
@@ -54,10 +56,9 @@ Size
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
-from numba import get_num_threads, njit, prange, uint64
+from numba import njit, prange, uint64
 from numpy.typing import NDArray
 
 from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptoolkit._numba)
@@ -65,118 +66,6 @@ from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptool
 SUBPIXEL_BITS = 12
 _DEPTH_LEVELS = float(1 << 30)
 _ID_MASK = np.int64(0xFFFFFFFF)
-
-
-@dataclass
-class RasterWorkspace:
-    """Per-thread buffers reused across batches of views.
-
-    Attributes
-    ----------
-    frames : (n_threads, resolution * resolution) int64
-        Depth-and-ID keys; zero means background. Cleared by the kernel.
-    row_low, row_high : (n_threads, resolution) int64
-        Written span of each row (``low > high`` when the row is untouched).
-    id_counts : (n_threads, n_faces + 1) int64
-        Pixel count per key ID (``face + 1``; 0 is the background) of the
-        view in progress; cleared by the kernel.
-    touched : (n_threads, capacity + 1) int32
-        IDs with a non-zero count in the view in progress, and one slot for
-        the branch-free append.
-    screen_x, screen_y : (n_threads, n_vertices) int64
-        Fixed-point vertex positions of the view in progress.
-    inverse_depth : (n_threads, n_vertices) float64
-        Normalised inverse depth of each vertex in [0, 1] (1 = nearest).
-    """
-
-    frames: NDArray[np.int64]
-    row_low: NDArray[np.int64]
-    row_high: NDArray[np.int64]
-    id_counts: NDArray[np.int64]
-    touched: NDArray[np.int32]
-    screen_x: NDArray[np.int64]
-    screen_y: NDArray[np.int64]
-    inverse_depth: NDArray[np.float64]
-
-    @classmethod
-    def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int) -> RasterWorkspace:
-        capacity = histogram_capacity(resolution, n_faces)
-        n_threads = threads_within_budget(resolution=resolution, n_faces=n_faces,
-                                          n_vertices=n_vertices, capacity=capacity)
-        return cls(
-            frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
-            row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
-            row_high=np.full((n_threads, resolution), -1, dtype=np.int64),
-            id_counts=np.zeros((n_threads, n_faces + 1), dtype=np.int64),
-            touched=np.zeros((n_threads, capacity + 1), dtype=np.int32),
-            screen_x=np.zeros((n_threads, n_vertices), dtype=np.int64),
-            screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
-            inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
-        )
-
-
-FRAME_BUDGET_BYTES = 1 << 30
-"""Most bytes the per-thread buffers may take together; more threads than fit share views.
-
-At 16384 px one frame is 2 GiB of int64 keys, so each thread's own frame
-would multiply that by the thread count (3.2 GB on 2 threads).
-"""
-
-
-def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
-                          capacity: int) -> int:
-    """Threads whose buffers fit :data:`FRAME_BUDGET_BYTES`: at least 1, at most numba's.
-
-    The result depends only on the sizes and the thread count, never on the
-    views, and every view is drawn the same way on any thread, so the counts
-    are identical whatever it returns.
-    """
-    per_thread = (8 * resolution * resolution + 16 * resolution + 8 * (n_faces + 1)
-                  + 4 * (capacity + 1) + 24 * n_vertices)
-    return int(max(1, min(get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
-
-
-def locality_order(
-    vertices: NDArray[np.float64], faces: NDArray[np.int64]
-) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int32]]:
-    """Reorder faces along a Morton curve and vertices by first use.
-
-    Neighbouring faces then touch neighbouring pixels and vertices, which
-    keeps the frame and vertex buffers in cache; vertices no face uses are
-    dropped.
-
-    Returns
-    -------
-    face_order : (n_faces,) int64
-        Original index of each reordered face.
-    vertex_order : (n_used,) int64
-        Original index of each kept vertex.
-    local_faces : (n_faces, 3) int32
-        The reordered faces, indexing the kept vertices.
-    """
-    centroids = vertices[faces].mean(axis=1)
-    low = centroids.min(axis=0)
-    extent = np.maximum(centroids.max(axis=0) - low, 1e-300)
-    grid = ((centroids - low) / extent * 1023.0).astype(np.uint64)
-    code = np.zeros(len(faces), dtype=np.uint64)
-    for bit in range(10):
-        for axis in range(3):
-            code |= ((grid[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
-    face_order = np.argsort(code, kind="stable")
-    flat = faces[face_order].ravel()
-    first_use = np.full(len(vertices), len(flat))
-    np.minimum.at(first_use, flat, np.arange(len(flat)))
-    used = np.flatnonzero(first_use < len(flat))
-    vertex_order = used[np.argsort(first_use[used], kind="stable")]
-    renumber = np.zeros(len(vertices), dtype=np.int64)
-    renumber[vertex_order] = np.arange(len(vertex_order))
-    local_faces = renumber[flat].reshape(-1, 3).astype(np.int32)
-    return face_order, vertex_order, local_faces
-
-
-def histogram_capacity(resolution: int, n_faces: int) -> int:
-    """Most distinct faces one view can show: one per pixel, at most all faces."""
-    return int(min(resolution * resolution, n_faces))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
