@@ -12,6 +12,10 @@ of the staging folder the build keeps for resuming. Under each build it prints
 the seconds per model of each stage (load, clean, sample, measure, write;
 ``BuildResult.stage_seconds``) and its share of the time.
 
+``--meshes DIR`` builds the mesh files under DIR instead of the samples, e.g.
+raw ModelNet models, whose cleaning costs far more than the samples' (the
+build of issue 15's figures).
+
 Default sizes are the paper's: 1000 views at 1024 px, 20000 points, cleaning
 on with at most 10000 faces. ``--quick`` uses 100 views at 128 px, 2000
 points and at most 2000 faces. The times include starting the worker
@@ -34,6 +38,7 @@ Usage::
     python tools/bench_build.py                     # full sizes, a few minutes
     python tools/bench_build.py --copies 4 --workers 1 2 --json results.json
     python tools/bench_build.py --workers 2 --baseline /tmp/base --rounds 2
+    python tools/bench_build.py --meshes ~/modelnet/airplane --baseline /tmp/base
 """
 
 from __future__ import annotations
@@ -53,6 +58,7 @@ from typing import Any
 
 from vptoolkit.dataset.build import STAGING_DIR, build_dataset
 from vptoolkit.dataset.store import ModelEntry, StoreReader, open_store, write_dataset
+from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
 
 FULL = {"n_views": 1000, "resolution": 1024, "n_points": 20000, "max_faces": 10000}
@@ -60,11 +66,17 @@ QUICK = {"n_views": 100, "resolution": 128, "n_points": 2000, "max_faces": 2000}
 CATEGORIES = ("alpha", "beta", "gamma")
 
 
-def make_tree(root: Path, copies: int) -> int:
-    """Copy every sample mesh ``copies`` times into a ModelNet-style tree; return the file count."""
+def mesh_sources(folder: Path | None) -> list[Path]:
+    """The meshes to build: every sample, or every mesh file under ``folder`` (sorted)."""
+    if folder is None:
+        return [sample_path(name) for name in sample_names()]
+    return find_mesh_files(folder)
+
+
+def make_tree(root: Path, copies: int, sources: Sequence[Path]) -> int:
+    """Copy every mesh ``copies`` times into a ModelNet-style tree; return the file count."""
     n_files = 0
-    for index, name in enumerate(sample_names()):
-        source = sample_path(name)
+    for index, source in enumerate(sources):
         for copy in range(copies):
             number = index * copies + copy
             folder = root / CATEGORIES[number % len(CATEGORIES)] / ("test" if number % 5 == 4 else "train")
@@ -193,6 +205,10 @@ def main(argv: list[str] | None = None) -> int:
         "--workers", type=int, nargs="+", default=[1, 2],
         help="worker counts to time; the first is the baseline (default: 1 2)",
     )
+    parser.add_argument(
+        "--meshes", type=Path,
+        help="build the mesh files under this folder instead of the bundled samples",
+    )
     parser.add_argument("--no-clean", action="store_true", help="skip mesh cleaning")
     parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
     parser.add_argument(
@@ -206,14 +222,20 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     sizes = dict(QUICK if args.quick else FULL)
     clean = not args.no_clean
+    if args.meshes is not None and not args.meshes.is_dir():
+        parser.error(f"--meshes: {args.meshes} is not a folder")
+    if args.meshes is not None and not mesh_sources(args.meshes):
+        parser.error(f"--meshes: no mesh file under {args.meshes}")
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
     with tempfile.TemporaryDirectory(prefix="bench_build_") as scratch:
         root = Path(scratch)
-        n_files = make_tree(root / "samples", args.copies)
+        sources = mesh_sources(args.meshes)
+        n_files = make_tree(root / "samples", args.copies, sources)
+        what = "sample meshes" if args.meshes is None else f"meshes under {args.meshes}"
         print(
-            f"{n_files} files from {len(sample_names())} sample meshes; {sizes['n_views']} views at "
+            f"{n_files} files from {len(sources)} {what}; {sizes['n_views']} views at "
             f"{sizes['resolution']} px, {sizes['n_points']} points, "
             + ("no cleaning" if args.no_clean else f"cleaning to <= {sizes['max_faces']} faces")
         )
