@@ -81,7 +81,8 @@ def make_tree(root: Path, copies: int, sources: Sequence[Path]) -> int:
             number = index * copies + copy
             folder = root / CATEGORIES[number % len(CATEGORIES)] / ("test" if number % 5 == 4 else "train")
             folder.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(source, folder / f"{source.stem.lower()}_{copy:03d}{source.suffix}")
+            # ``number`` is unique, so meshes of the same name in different folders stay apart.
+            shutil.copyfile(source, folder / f"{source.stem.lower()}_{number:03d}{source.suffix}")
             n_files += 1
     return n_files
 
@@ -224,14 +225,14 @@ def main(argv: list[str] | None = None) -> int:
     clean = not args.no_clean
     if args.meshes is not None and not args.meshes.is_dir():
         parser.error(f"--meshes: {args.meshes} is not a folder")
-    if args.meshes is not None and not mesh_sources(args.meshes):
+    sources = mesh_sources(args.meshes)
+    if not sources:
         parser.error(f"--meshes: no mesh file under {args.meshes}")
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
     with tempfile.TemporaryDirectory(prefix="bench_build_") as scratch:
         root = Path(scratch)
-        sources = mesh_sources(args.meshes)
         n_files = make_tree(root / "samples", args.copies, sources)
         what = "sample meshes" if args.meshes is None else f"meshes under {args.meshes}"
         print(
