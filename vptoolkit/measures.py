@@ -189,13 +189,16 @@ def quality_from_histograms(
     n_views: int,
     recompute: Iterable[ViewHistograms] | None = None,
     store_bytes: int = _STORE_BYTES,
+    face_probability: NDArray[np.float64] | None = None,
 ) -> NDArray[np.float64]:
     """Raw measures from per-view histograms, in one streaming pass (or two).
 
     Everything but VMI follows from per-view sums. VMI's ``p(z)`` needs all
     views first, so the histograms are kept while they fit in
     ``store_bytes``; otherwise they are dropped and ``recompute`` (a second
-    iterable over the same views) is consumed for the VMI term.
+    iterable over the same views) is consumed for the VMI term. With
+    ``face_probability`` given, VMI uses that ``p(z)`` instead and one pass
+    suffices.
 
     Parameters
     ----------
@@ -209,6 +212,10 @@ def quality_from_histograms(
         The same histograms again, used only when they did not fit in memory.
     store_bytes : int
         Memory allowed for kept histograms (default: 512 MiB).
+    face_probability : (n_faces,) float64, optional
+        ``p(z)`` estimated elsewhere (e.g. from a sphere of other views, as
+        :mod:`vptoolkit.best_view` does); every face these views see must have
+        ``p(z) > 0``.
 
     Returns
     -------
@@ -224,8 +231,14 @@ def quality_from_histograms(
     visible_area = np.zeros(n_views)  # sum_z vis_z A_z
     sum_a_log_area = np.zeros(n_views)  # sum_z a_z log2 A_z
     face_totals = np.zeros(len(areas))  # sum_v a_z(v)
-    kept: list[ViewHistograms] | None = []
+    kept: list[ViewHistograms] | None = [] if face_probability is None else None
     kept_bytes = 0
+    sum_a_log_p_face = np.zeros(n_views)  # sum_z a_z log2 p(z)
+    if face_probability is not None:
+        given = np.asarray(face_probability, dtype=np.float64)
+        if given.shape != areas.shape:
+            raise InputError(f"face_probability: expected shape {areas.shape}, got {given.shape}")
+        log_given = np.log2(given, out=np.full_like(given, -np.inf), where=given > 0)
     for run in histograms:
         views = run.view_index() + run.first_view
         counts = run.pixel_counts.astype(np.float64)
@@ -235,7 +248,10 @@ def quality_from_histograms(
         visible_area += np.bincount(views, weights=areas[ids], minlength=n_views)
         sum_a_log_area += np.bincount(views, weights=counts * log_areas[ids], minlength=n_views)
         face_totals += np.bincount(ids, weights=counts, minlength=len(areas))
-        if kept is not None:
+        if face_probability is not None:
+            sum_a_log_p_face += np.bincount(views, weights=counts * log_given[ids],
+                                            minlength=n_views)
+        elif kept is not None:
             kept_bytes += run.nbytes
             if kept_bytes <= store_bytes:
                 kept.append(run)
@@ -243,21 +259,23 @@ def quality_from_histograms(
                 kept = None
     if not projected.any():
         raise MeasurementError("no face is visible from any of the views")
-    log_p_face = np.log2(
-        face_totals / face_totals.sum(), out=np.zeros_like(face_totals), where=face_totals > 0
-    )
-    if kept is None:
-        if recompute is None:
-            raise InputError("recompute: histograms exceed store_bytes and no second pass was given")
-        second_pass: Iterable[ViewHistograms] = recompute
-    else:
-        second_pass = kept
-    sum_a_log_p_face = np.zeros(n_views)  # sum_z a_z log2 p(z)
-    for run in second_pass:
-        views = run.view_index() + run.first_view
-        sum_a_log_p_face += np.bincount(
-            views, weights=run.pixel_counts * log_p_face[run.face_ids], minlength=n_views
+    if face_probability is None:
+        log_p_face = np.log2(
+            face_totals / face_totals.sum(), out=np.zeros_like(face_totals), where=face_totals > 0
         )
+        if kept is None:
+            if recompute is None:
+                raise InputError("recompute: histograms exceed store_bytes and no second pass was given")
+            second_pass: Iterable[ViewHistograms] = recompute
+        else:
+            second_pass = kept
+        for run in second_pass:
+            views = run.view_index() + run.first_view
+            sum_a_log_p_face += np.bincount(
+                views, weights=run.pixel_counts * log_p_face[run.face_ids], minlength=n_views
+            )
+    elif not np.isfinite(sum_a_log_p_face).all():
+        raise InputError("face_probability: a face these views see has p(z) = 0")
     raw = np.full((n_views, len(MEASURES)), np.nan)
     seen = projected > 0
     a_t = projected[seen]

@@ -10,14 +10,14 @@ Modules: ``group`` (the click group: one-line errors, exit codes), ``options``
 (options and types several commands share, defaults from
 :mod:`vptoolkit.conventions`), ``measure`` (measures, views, clean, sample),
 ``dataset`` (build-dataset, pack, verify, info), ``learn`` (train, predict,
-evaluate) and ``pictures`` (render, sphere-map, report, thumbnails).
+evaluate), ``search`` (best-view) and ``pictures`` (render, sphere-map, report, thumbnails).
 """
 
 from __future__ import annotations
 
 import click
 
-from vptoolkit.cli import dataset, learn, measure, pictures
+from vptoolkit.cli import dataset, learn, measure, pictures, search
 from vptoolkit.cli.group import VptoolGroup
 
 __all__ = ["main"]
@@ -34,6 +34,7 @@ def main() -> None:
     """
 
 
-for _command in (*measure.COMMANDS, *dataset.COMMANDS, *learn.COMMANDS, *pictures.COMMANDS):
+for _command in (*measure.COMMANDS, *search.COMMANDS, *dataset.COMMANDS, *learn.COMMANDS,
+                 *pictures.COMMANDS):
     main.add_command(_command)
 del _command

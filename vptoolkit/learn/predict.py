@@ -423,13 +423,17 @@ class MeshPredictor:
         self.seed = seed
         self.threads = threads
 
-    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
-        """Unit directions, one per measure, from the mesh centre towards the camera."""
+    def inputs(self, mesh: Mesh) -> NDArray[np.float32]:
+        """The network input of a mesh, ``(n_points, 3) float32`` (the class docstring)."""
         from vptoolkit.points import sample_surface
 
         surface = sample_surface(mesh, _SURFACE_POINTS, seed=self.seed).points
-        points = network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
-                                seed=self.seed, name=mesh.name)
+        return network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
+                              seed=self.seed, name=mesh.name)
+
+    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+        """Unit directions, one per measure, from the mesh centre towards the camera."""
+        points = self.inputs(mesh)
         with torch_threads(self.threads):
             return predict_directions(self.model, points[None])[0]
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -34,6 +34,7 @@ from vptoolkit.sphere import as_directions
 __all__ = [
     "BACKENDS",
     "Backend",
+    "RasterScene",
     "ViewHistograms",
     "iter_view_histograms",
     "face_pixel_counts",
@@ -156,10 +157,24 @@ def _raster_view_histograms(
     ``tools/bench_measures.py`` times both in one run and
     ``tests/test_raster_kernel.py`` checks they agree.
     """
-    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
-        mesh, view_directions, resolution, camera)
-    yield from _raster_batches(mesh, poses, normals, offsets, is_drawable, camera, diagonal,
-                               reference=reference)
+    yield from RasterScene(mesh, camera).histograms(view_directions, resolution,
+                                                    reference=reference)
+
+
+def _check_resolution(resolution: int) -> int:
+    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
+        raise InputError(f"resolution: must be an integer number of pixels, got {resolution!r}")
+    if not 1 <= resolution <= 16384:
+        raise InputError(f"resolution: must be between 1 and 16384 pixels, got {resolution}")
+    return int(resolution)
+
+
+def _face_planes(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Face planes ``n . x = offset`` (``n`` the unnormalised cross product) and which faces
+    can be drawn (non-zero area)."""
+    normals = face_cross_products(mesh)
+    offsets = np.einsum("ij,ij->i", normals, mesh.vertices[mesh.faces[:, 0]])
+    return normals, offsets, np.linalg.norm(normals, axis=1) > 0.0
 
 
 def _setup(
@@ -168,20 +183,98 @@ def _setup(
     """Check the arguments; return the camera, poses, face planes ``n . x = offset``,
     which faces can be drawn (non-zero area) and the bounding-box diagonal."""
     camera = camera or Camera()
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-        raise InputError(f"resolution: must be an integer number of pixels, got {resolution!r}")
-    if not 1 <= resolution <= 16384:
-        raise InputError(f"resolution: must be between 1 and 16384 pixels, got {resolution}")
+    resolution = _check_resolution(resolution)
     directions = as_directions(view_directions, name="view_directions")
     centre, diagonal = bounding_frame(mesh)
     if diagonal <= 0.0:
         raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
-    poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=int(resolution))
-    corners = mesh.vertices[mesh.faces]
-    normals = face_cross_products(mesh)
-    offsets = np.einsum("ij,ij->i", normals, corners[:, 0])
-    is_drawable = np.linalg.norm(normals, axis=1) > 0.0
+    poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=resolution)
+    normals, offsets, is_drawable = _face_planes(mesh)
     return camera, poses, normals, offsets, is_drawable, diagonal
+
+
+class RasterScene:
+    """A mesh prepared once for the ``"raster"`` backend, drawn in any number of calls.
+
+    :func:`iter_view_histograms` prepares the mesh (face planes, the
+    cache-friendly face order, the buffers) on every call; a search that
+    draws a few views at a time (:mod:`vptoolkit.best_view`) keeps one scene
+    instead. The counts are the same as :func:`iter_view_histograms` gives.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model; faces of zero area are never drawn.
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``).
+    """
+
+    def __init__(self, mesh: Mesh, camera: Camera | None = None) -> None:
+        from vptoolkit.visibility._workspace import locality_order
+
+        self.mesh = mesh
+        self.camera = camera or Camera()
+        self.centre, self.diagonal = bounding_frame(mesh)
+        if self.diagonal <= 0.0:
+            raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
+        normals, offsets, is_drawable = _face_planes(mesh)
+        self.face_order, vertex_order, self.local_faces = locality_order(mesh.vertices, mesh.faces)
+        self.vertices = np.ascontiguousarray(mesh.vertices[vertex_order])
+        self.normals = np.ascontiguousarray(normals[self.face_order])
+        self.offsets = offsets[self.face_order]
+        self.is_drawable = is_drawable[self.face_order]
+        self._workspaces: dict[int, Any] = {}
+
+    def histograms(self, view_directions: ArrayLike, resolution: int = RESOLUTION, *,
+                   reference: bool = False) -> Iterator[ViewHistograms]:
+        """Yield the per-face pixel histograms of the views, as :func:`iter_view_histograms`."""
+        from vptoolkit.visibility._raster import rasterize_batch
+        from vptoolkit.visibility._workspace import RasterWorkspace, histogram_capacity
+
+        if reference:
+            from vptoolkit.visibility._raster_reference import (
+                rasterize_batch_reference as rasterize_batch,
+            )
+        resolution = _check_resolution(resolution)
+        directions = as_directions(view_directions, name="view_directions")
+        camera, mesh = self.camera, self.mesh
+        poses = camera.poses(directions, centre=self.centre, diagonal=self.diagonal,
+                             resolution=resolution)
+        if resolution not in self._workspaces:
+            self._workspaces[resolution] = RasterWorkspace.allocate(
+                resolution=resolution, n_faces=mesh.n_faces, n_vertices=len(self.vertices))
+        workspace = self._workspaces[resolution]
+        n_threads = workspace.frames.shape[0]
+        capacity = histogram_capacity(resolution, mesh.n_faces)
+        batch = int(np.clip(_BATCH_BYTES // (8 * capacity), n_threads, 64))
+        batch -= batch % n_threads
+        distance = camera.distance_factor * self.diagonal
+        near, far = distance - self.diagonal / 2.0, distance + self.diagonal / 2.0
+        n_views = len(poses.eyes)
+        batch = min(batch, max(n_threads, n_views))
+        out_ids = np.zeros((batch, capacity), dtype=np.int32)
+        out_counts = np.zeros((batch, capacity), dtype=np.int32)
+        out_lengths = np.zeros(batch, dtype=np.int64)
+        for start in range(0, n_views, batch):
+            stop = min(start + batch, n_views)
+            count = stop - start
+            rasterize_batch(
+                self.vertices, self.local_faces, self.normals, self.offsets, self.is_drawable,
+                camera.cull_back_faces, poses.eyes[start:stop], poses.right[start:stop],
+                poses.up[start:stop], poses.forward[start:stop], poses.focal_px, resolution,
+                near, far, workspace.frames, workspace.row_low, workspace.row_high,
+                workspace.id_counts, workspace.touched, workspace.screen_x, workspace.screen_y,
+                workspace.inverse_depth, out_ids, out_counts, out_lengths,
+            )
+            lengths = out_lengths[:count]
+            local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
+            yield ViewHistograms(
+                offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
+                face_ids=self.face_order[local_ids].astype(np.int32),
+                pixel_counts=np.concatenate([out_counts[i, : lengths[i]] for i in range(count)]),
+                n_faces=mesh.n_faces,
+                first_view=start,
+            )
 
 
 def face_id_images(
@@ -236,70 +329,6 @@ def face_id_images(
                         row_low, row_high)
         images[view] = ((frame & 0xFFFFFFFF) - 1).reshape(resolution, resolution)
     return images
-
-
-def _raster_batches(
-    mesh: Mesh,
-    poses: ViewPoses,
-    normals: NDArray[np.float64],
-    offsets: NDArray[np.float64],
-    is_drawable: NDArray[np.bool_],
-    camera: Camera,
-    diagonal: float,
-    *,
-    reference: bool,
-) -> Iterator[ViewHistograms]:
-    from vptoolkit.visibility._raster import rasterize_batch
-    from vptoolkit.visibility._workspace import (
-        RasterWorkspace,
-        histogram_capacity,
-        locality_order,
-    )
-
-    if reference:
-        from vptoolkit.visibility._raster_reference import (
-            rasterize_batch_reference as rasterize_batch,
-        )
-
-    resolution = poses.resolution
-    face_order, vertex_order, local_faces = locality_order(mesh.vertices, mesh.faces)
-    vertices = np.ascontiguousarray(mesh.vertices[vertex_order])
-    normals = np.ascontiguousarray(normals[face_order])
-    offsets = offsets[face_order]
-    is_drawable = is_drawable[face_order]
-    workspace = RasterWorkspace.allocate(
-        resolution=resolution, n_faces=mesh.n_faces, n_vertices=len(vertices)
-    )
-    n_threads = workspace.frames.shape[0]
-    capacity = histogram_capacity(resolution, mesh.n_faces)
-    batch = int(np.clip(_BATCH_BYTES // (8 * capacity), n_threads, 64))
-    batch -= batch % n_threads
-    distance = camera.distance_factor * diagonal
-    near, far = distance - diagonal / 2.0, distance + diagonal / 2.0
-    out_ids = np.zeros((batch, capacity), dtype=np.int32)
-    out_counts = np.zeros((batch, capacity), dtype=np.int32)
-    out_lengths = np.zeros(batch, dtype=np.int64)
-    n_views = len(poses.eyes)
-    for start in range(0, n_views, batch):
-        stop = min(start + batch, n_views)
-        count = stop - start
-        rasterize_batch(
-            vertices, local_faces, normals, offsets, is_drawable, camera.cull_back_faces,
-            poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
-            poses.forward[start:stop], poses.focal_px, resolution, near, far,
-            workspace.frames, workspace.row_low, workspace.row_high, workspace.id_counts,
-            workspace.touched, workspace.screen_x, workspace.screen_y, workspace.inverse_depth,
-            out_ids, out_counts, out_lengths,
-        )
-        lengths = out_lengths[:count]
-        local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
-        yield ViewHistograms(
-            offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-            face_ids=face_order[local_ids].astype(np.int32),
-            pixel_counts=np.concatenate([out_counts[i, : lengths[i]] for i in range(count)]),
-            n_faces=mesh.n_faces,
-            first_view=start,
-        )
 
 
 def _raycast_views(

@@ -1,0 +1,190 @@
+"""The anytime best-view search: exhaustive agreement, its own coarse pass, orientation, errors."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from vptoolkit.best_view import (
+    _Renderer,
+    coarse_directions,
+    principal_frame,
+    search_best_views,
+    search_inputs,
+)
+from vptoolkit.camera import Camera
+from vptoolkit.cli import main
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.errors import InputError
+from vptoolkit.io import load_mesh
+from vptoolkit.measures import compute_view_quality
+from vptoolkit.mesh import Mesh
+from vptoolkit.predictions import read_predictions
+from vptoolkit.rotations import fixed_rotations
+from vptoolkit.samples import sample_path
+
+
+@pytest.fixture(scope="module")
+def mug() -> Mesh:
+    return load_mesh(sample_path("mug.obj"))
+
+
+@pytest.fixture(scope="module")
+def teapot() -> Mesh:
+    return load_mesh(sample_path("teapot.stl"))
+
+
+def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug):
+    directions = coarse_directions(mug, 120)
+    exhaustive = compute_view_quality(mug, view_directions=directions, resolution=64)
+    found = search_best_views(mug, 120, 64, coarse_views=120, coarse_resolution=64)
+    assert found.n_views == 120 and [s.name for s in found.stages] == ["coarse"]
+    np.testing.assert_allclose(found.directions, exhaustive.best_views, rtol=0, atol=1e-12)
+    best = exhaustive.raw[exhaustive.best_index, np.arange(4)]
+    np.testing.assert_allclose(found.raw, best, rtol=1e-12)
+
+
+def _better_or_equal(first, second):
+    return [a >= b if higher else a <= b for a, b, higher in zip(first, second, HIGHER_IS_BETTER)]
+
+
+@pytest.mark.parametrize("budget", [8, 16, 64])
+def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
+    found = search_best_views(teapot, budget, 96)
+    coarse = next(stage for stage in found.stages if stage.name == "coarse")
+    sphere = coarse_directions(teapot, coarse.n_views)
+    renderer = _Renderer(teapot, Camera())
+    coarse_raw = renderer.measure(sphere, coarse.resolution, estimate_face_probability=True)
+    coarse_best = compute_view_quality(teapot, view_directions=sphere,
+                                       resolution=coarse.resolution).best_views
+    again = renderer.measure(coarse_best, 96)  # the coarse pass's best, drawn at 96 px
+    assert np.isfinite(coarse_raw).any()
+    assert all(_better_or_equal(found.raw, np.diagonal(again)))
+    assert found.n_views <= budget
+
+
+def test_stages_spend_the_budget_and_decide_at_the_resolution(teapot):
+    found = search_best_views(teapot, 64, 96)
+    assert [s.name for s in found.stages] == ["coarse", "confirm", "refine"]
+    assert found.n_views == 64
+    assert [s.resolution for s in found.stages] == [32, 96, 96]
+    np.testing.assert_allclose(np.linalg.norm(found.directions, axis=1), 1.0)
+    summary = json.loads(json.dumps(found.summary()))
+    assert list(summary["best"]) == list(MEASURES) and summary["views"] == 64
+
+
+def test_the_coarse_sphere_turns_with_the_mesh(teapot):
+    turn = fixed_rotations("teapot", 1)[0]
+    turned = Mesh(teapot.vertices @ turn.T, teapot.faces, name="teapot")
+    axes, turned_axes = principal_frame(teapot), principal_frame(turned)
+    # each axis turns with the mesh, up to its sign
+    np.testing.assert_allclose(np.abs(np.sum((axes @ turn.T) * turned_axes, axis=1)), 1.0, atol=1e-9)
+
+
+def test_any_orientation_finds_views_as_good(teapot):
+    """Under four rotations the answer, turned back, is nearly as good as the upright one's."""
+    labels = compute_view_quality(teapot, 500, 96)
+    from vptoolkit.sphere import nearest_view
+
+    def score(directions):
+        index = nearest_view(directions, labels.views)
+        return labels.normalized[index, np.arange(4)]
+
+    upright = score(search_best_views(teapot, 64, 96).directions)
+    turned = []
+    for turn in fixed_rotations("teapot", 4):
+        mesh = Mesh(teapot.vertices @ turn.T, teapot.faces, name="teapot")
+        turned.append(score(search_best_views(mesh, 64, 96).directions @ turn))
+    assert np.mean(turned, axis=0).min() > 0.85 and upright.min() > 0.85
+
+
+def test_same_inputs_give_the_same_answer(mug):
+    first = search_best_views(mug, 32, 64)
+    second = search_best_views(mug, 32, 64)
+    assert first.directions.tobytes() == second.directions.tobytes()
+    assert first.raw.tobytes() == second.raw.tobytes()
+
+
+def test_a_prior_is_drawn_first_at_full_resolution(mug):
+    found = search_best_views(mug, 16, 64, prior=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    assert [(s.name, s.n_views, s.resolution) for s in found.stages][:2] == [
+        ("coarse", 4, 32), ("prior", 2, 64)]
+    assert found.n_views == 16
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"budget": 0}, "budget: expected an integer from 1"),
+    ({"budget": 2.5}, "budget: expected an integer"),
+    ({"resolution": 0}, "resolution: expected an integer from 1"),
+    ({"coarse_views": 99}, "coarse_views: expected an integer from 0 to 16"),
+    ({"coarse_resolution": 1000}, "coarse_resolution: expected an integer from 1 to 64"),
+    ({"prior": [[np.nan, 0, 1]]}, "prior: contains NaN"),
+    ({"prior": [[0, 0, 0]]}, "prior: contains 1 zero-length"),
+])
+def test_bad_options_are_one_line_input_errors(mug, options, message):
+    arguments = {"budget": 16, "resolution": 64, **options}
+    with pytest.raises(InputError, match=message):
+        search_best_views(mug, **arguments)
+
+
+def test_a_batch_records_failures_and_carries_on(tmp_path):
+    broken = tmp_path / "broken.off"
+    broken.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    run = search_inputs([sample_path("mug.obj"), broken], budget=8, resolution=32)
+    assert [result.name for result in run.results] == ["mug"]
+    assert len(run.failures) == 1 and run.failures[0][0] == str(broken)
+    assert "broken.off" in run.failures[0][1] and "\n" not in run.failures[0][1]
+
+
+def test_command_writes_predictions_evaluate_reads(tmp_path):
+    out = tmp_path / "best.npz"
+    runner = CliRunner()
+    arguments = ["best-view", str(sample_path("mug.obj")), str(sample_path("teapot.stl")),
+                 "--views", "16", "--resolution", "64", "-o", str(out)]
+    result = runner.invoke(main, arguments)
+    assert result.exit_code == 0, result.output
+    assert "mug: 16 views (" in result.stdout and f"wrote {out} (2 meshes)" in result.stdout
+    names, directions, measures = read_predictions(out)
+    assert list(names) == ["mug", "teapot"] and directions.shape == (2, 4, 3)
+    assert tuple(measures) == MEASURES
+    first = out.read_bytes()
+    assert runner.invoke(main, arguments).exit_code == 0 and out.read_bytes() == first
+
+
+def test_command_json_lists_directions_views_resolutions_and_seconds():
+    result = CliRunner().invoke(main, ["best-view", str(sample_path("mug.obj")), "--views", "8",
+                                       "--resolution", "48", "--json"])
+    assert result.exit_code == 0, result.output
+    entry = json.loads(result.stdout)["results"][0]
+    assert entry["views"] == 8 and entry["resolution"] == 48 and entry["seconds"] > 0
+    assert sum(stage["views"] for stage in entry["stages"]) == 8
+    assert set(entry["best"]) == set(MEASURES)
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--views", "0"], "--views"),
+    (["--resolution", "0"], "--resolution"),
+    (["--prior", "no/such/model"], "no/such/model"),
+    (["-o", "out.txt"], "out.txt"),
+])
+def test_command_bad_budgets_resolutions_and_priors_exit_2(arguments, message):
+    result = CliRunner().invoke(main, ["best-view", str(sample_path("mug.obj")), *arguments])
+    assert result.exit_code == 2, result.output
+    assert result.stderr.count("\n") == 1 and message in result.stderr
+    assert "Traceback" not in result.output
+
+
+def test_command_without_inputs_exits_2():
+    result = CliRunner().invoke(main, ["best-view"])
+    assert result.exit_code == 2 and "give mesh files or --dataset" in result.stderr
+
+
+def test_command_reports_a_failed_mesh_and_exits_1(tmp_path):
+    broken = tmp_path / "broken.off"
+    broken.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    result = CliRunner().invoke(main, ["best-view", str(sample_path("mug.obj")), str(broken),
+                                       "--views", "8", "--resolution", "32"])
+    assert result.exit_code == 1
+    assert "mug: 8 views" in result.stdout
+    assert "broken.off" in result.stderr and "1 of 2 inputs failed" in result.stderr

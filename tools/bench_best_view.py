@@ -1,0 +1,238 @@
+"""Benchmark of best-view answers: quality against cost, under rotation, in one run.
+
+For every mesh file under MESH_DIR (the bundled samples by default) the labels
+are built once with :func:`vptoolkit.dataset.build.build_dataset` (cleaned, 1000
+views at 256 px, the paper's scoring grid) and cached under ``--cache``. Then
+every answer below sees the user's raw file under ``--rotations`` fixed
+rotations per mesh (:func:`vptoolkit.rotations.fixed_rotations`), its answer is
+rotated back and scored the authors' way: the normalised quality of the
+nearest of the 1000 views, in %, mean over rotations, then mean ± standard
+error over meshes.
+
+Answers:
+
+* random view (an expectation: the mean quality over the 1000 views);
+* PCA axis (:func:`vptoolkit.evaluate.pca_directions` of 20000 surface points);
+* the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
+* plain search N @ R: :func:`vptoolkit.measures.compute_view_quality` on N
+  Fibonacci views at R px, each measure's best view;
+* coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search_best_views`;
+* prior-guided search N @ R: the same with :class:`vptoolkit.learn.prior.NetworkPrior`
+  (per ``--model``);
+
+at every budget of ``--budgets``. Cost: views drawn, and the median wall time
+per mesh and rotation in ms (the mesh already loaded; the prior's network time
+included). The Pareto front (no other row at most as slow and at least as good
+in the mean over the four measures) is starred. With ``--results FILE`` the
+table replaces the ``best_view`` section of FILE (``docs/results.md``).
+
+Usage::
+
+    python tools/bench_best_view.py                          # the bundled samples
+    python tools/bench_best_view.py ~/meshes --budgets 8,64   # any folder of meshes
+    python tools/bench_best_view.py --quick                   # a smoke test, seconds
+    python tools/bench_best_view.py --results docs/results.md --section best_view
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import sys
+import time
+from collections.abc import Callable
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vptoolkit.best_view import SEARCH_RESOLUTION, search_best_views
+from vptoolkit.data import open_dataset
+from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.sources import discover_models
+from vptoolkit.errors import VptoolkitError
+from vptoolkit.evaluate import pca_directions
+from vptoolkit.io import load_mesh
+from vptoolkit.measures import compute_view_quality
+from vptoolkit.mesh import Mesh
+from vptoolkit.points import sample_surface
+from vptoolkit.protocol import ProtocolScores, random_view_scores
+from vptoolkit.rotations import fixed_rotations
+
+from results_doc import machine, markdown_table, score_cells, write_section
+
+SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
+Answer = Callable[[Mesh], np.ndarray]
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("mesh_dir", nargs="?", type=Path, default=SAMPLES,
+                        help="folder of mesh files (default: the bundled samples)")
+    parser.add_argument("--cache", type=Path, default=Path("reproduction/bench_best_view"),
+                        help="where the labels are built once")
+    parser.add_argument("--budgets", default="4,8,16,32,64,256", help="views per mesh")
+    parser.add_argument("--resolution", type=int, default=SEARCH_RESOLUTION,
+                        help="px of the searches")
+    parser.add_argument("--rotations", type=int, default=4, help="fixed rotations per mesh")
+    parser.add_argument("--model", action="append", default=None,
+                        help="network checkpoint, repeatable (default: the bundled one)")
+    parser.add_argument("--results", type=Path, help="write the table into this markdown file")
+    parser.add_argument("--section", default="best_view", help="its section name")
+    parser.add_argument("--json", type=Path, help="write every row's numbers here")
+    parser.add_argument("--quick", action="store_true",
+                        help="3 meshes, 1 rotation, budgets 4 and 16, labels at 64 px")
+    args = parser.parse_args(argv)
+    try:
+        args.budget_list = [int(b) for b in args.budgets.split(",")]
+    except ValueError:
+        parser.error(f"--budgets: expected integers separated by commas, got {args.budgets!r}")
+    if not args.budget_list or min(args.budget_list) < 1:
+        parser.error("--budgets: every budget must be at least 1")
+    if args.rotations < 1 or args.resolution < 1:
+        parser.error("--rotations and --resolution must be at least 1")
+    if not args.mesh_dir.is_dir():
+        parser.error(f"{args.mesh_dir}: not a folder")
+    if args.results is not None and args.results.exists() and not args.results.is_file():
+        parser.error(f"--results: {args.results} is not a file")
+    if args.quick:
+        args.budget_list, args.rotations = [4, 16], 1
+    args.models = args.model or ["default"]
+    return args
+
+
+def labels(mesh_dir: Path, cache: Path, *, quick: bool) -> Path:
+    """Build (or resume) the labels of every mesh under ``mesh_dir``; the store's folder."""
+    sources = discover_models(mesh_dir)
+    if quick:
+        sources = sources[:3]
+    key = hashlib.sha256()
+    for source in sources:
+        key.update(f"{source.name}\0{source.path.stat().st_size}\0".encode())
+        key.update(hashlib.sha256(source.path.read_bytes()).digest())
+    key.update(b"quick" if quick else b"full")
+    out = cache / key.hexdigest()[:16]
+    src = out / "meshes"
+    if not src.exists():
+        src.mkdir(parents=True)
+        for source in sources:
+            (src / source.path.name).symlink_to(source.path.resolve())
+    build_dataset(src, out / "build", n_views=100 if quick else 1000,
+                  resolution=64 if quick else 256, n_points=2000 if quick else 20000,
+                  workers=2, progress=True)
+    return out
+
+
+def answers(budgets: list[int], resolution: int, models: list[str]) -> dict[str, tuple[str, Answer]]:
+    """Row label -> (views drawn, answer), in table order."""
+    from vptoolkit.learn.predict import MeshPredictor
+    from vptoolkit.learn.prior import NetworkPrior
+
+    def pca(mesh: Mesh) -> np.ndarray:
+        return pca_directions(sample_surface(mesh, 20000, seed=0).points[None])[0]
+
+    rows: dict[str, tuple[str, Answer]] = {"PCA axis": ("–", pca)}
+    priors = {}
+    for model in models:
+        label = "network" if model == "default" else f"network {Path(model).name}"
+        rows[f"{label} alone"] = ("–", MeshPredictor(model))
+        priors[label] = NetworkPrior(model)
+    for budget in budgets:
+        rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
+            lambda mesh, b=budget: compute_view_quality(mesh, b, resolution).best_views))
+        rows[f"coarse-to-fine {budget} @ {resolution}"] = (str(budget), (
+            lambda mesh, b=budget: search_best_views(mesh, b, resolution).directions))
+        for label, prior in priors.items():
+            rows[f"{label} prior + search {budget} @ {resolution}"] = (str(budget), (
+                lambda mesh, b=budget, p=prior: search_best_views(mesh, b, resolution,
+                                                                  prior=p(mesh)).directions))
+    return rows
+
+
+def score(dataset: Any, meshes: dict[str, Mesh], rotations: int,
+          answer: Answer) -> tuple[ProtocolScores, float]:
+    """An answer's protocol scores and its median ms per mesh and rotation."""
+    names = list(dataset.names)
+    totals = np.zeros((len(names), 4))
+    seconds = []
+    for row, name in enumerate(names):
+        mesh = meshes[name]
+        for turn in fixed_rotations(name, rotations):
+            rotated = Mesh(mesh.vertices @ turn.T, mesh.faces, name=name)
+            started = time.perf_counter()
+            directions = np.asarray(answer(rotated), dtype=np.float64)
+            seconds.append(time.perf_counter() - started)
+            totals[row] += 100.0 * np.diagonal(dataset.quality_of(row, directions @ turn))
+    scores = ProtocolScores(tuple(names), tuple(dataset.categories), totals / rotations, rotations)
+    return scores, 1000.0 * float(np.median(seconds))
+
+
+def pareto(rows: dict[str, dict[str, Any]]) -> set[str]:
+    """Rows that no other row beats: at most as slow and at least as good in the mean."""
+    timed = {label: row for label, row in rows.items() if row["ms"] is not None}
+    front = set()
+    for label, row in timed.items():
+        if not any(other["ms"] <= row["ms"] and other["mean"] >= row["mean"]
+                   and (other["ms"] < row["ms"] or other["mean"] > row["mean"])
+                   for other_label, other in timed.items() if other_label != label):
+            front.add(label)
+    return front
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    started = time.perf_counter()
+    try:
+        folder = labels(args.mesh_dir, args.cache, quick=args.quick)
+        dataset = open_dataset(folder / "build")
+        sources = {source.name: source.path for source in discover_models(folder / "meshes")}
+        meshes = {name: load_mesh(sources[name]) for name in dataset.names}
+        table_rows = {"random view (expectation)": ("–", None)}
+        table_rows.update(answers(args.budget_list, args.resolution, args.models))
+        results: dict[str, dict[str, Any]] = {}
+        random_scores = random_view_scores(dataset)
+        for label, (views, answer) in table_rows.items():
+            if answer is None:
+                scores, ms = random_scores, None
+            else:
+                scores, ms = score(dataset, meshes, args.rotations, answer)
+            results[label] = {"views": views, "scores": scores, "ms": ms,
+                              "mean": float(scores.mean.mean())}
+            print(f"{label:<44} {' '.join(score_cells(scores))}  "
+                  f"{'' if ms is None else f'{ms:.0f} ms'}", file=sys.stderr)
+    except VptoolkitError as error:
+        print(f"bench_best_view: error: {error}", file=sys.stderr)
+        return 2
+    front = pareto(results)
+    lines = [
+        f"Command: `python tools/bench_best_view.py{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
+        f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}`; "
+        f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; wall time {time.perf_counter() - started:.0f} s.",
+        "",
+        f"{len(dataset)} meshes, {args.rotations} fixed rotations each; labels: cleaned mesh, "
+        f"{len(dataset.views)} views at {dataset.attrs.get('resolution', '?')} px. Scores in %, "
+        "mean ± standard error over meshes; ms: median per mesh and rotation on this machine, "
+        "the mesh loaded; * marks the Pareto front of mean quality against time.",
+        "",
+    ]
+    lines += markdown_table(
+        ["answer", "VE", "VR", "VKL", "VMI", "views", "ms per mesh", "front"],
+        ([label, *score_cells(row["scores"]), row["views"],
+          "–" if row["ms"] is None else f"{row['ms']:.0f}", "*" if label in front else ""]
+         for label, row in results.items()))
+    text = "\n".join(lines)
+    print(text)
+    if args.results is not None:
+        write_section(args.results, args.section, text)
+    if args.json is not None:
+        args.json.write_text(json.dumps({label: {"views": row["views"], "ms": row["ms"],
+                                                 "mean": row["scores"].mean.tolist(),
+                                                 "sem": row["scores"].sem.tolist()}
+                                         for label, row in results.items()}, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,521 @@
+"""An anytime best-view search: the best direction per measure within a budget of rendered views.
+
+The cost of a view search is the number of triangle-ID images drawn, whatever
+the machine; :func:`search_best_views` spends a budget of ``budget`` views in
+stages, coarse to fine, and returns the best direction it measured for each
+of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
+
+1. **prior** (optional): candidate directions proposed by someone else, e.g.
+   a network (:mod:`vptoolkit.learn.prior`), drawn at ``resolution``.
+2. **coarse**: a Fibonacci sphere of ``coarse_views`` directions at
+   ``coarse_resolution`` pixels, laid out in the model's principal-axis frame
+   (the sphere's poles on the axis of least spread), so the pattern turns with
+   the model and any input orientation is searched alike.
+3. **confirm**: the best coarse directions of each measure drawn again at
+   ``resolution`` (skipped when the coarse pass already is at ``resolution``).
+4. **refine**: rounds of pattern search: around each measure's best direction
+   so far, a ring of four directions at an angle that starts at half the
+   coarse spacing and halves every round (the ring turned by 45 degrees each
+   time), until the budget is spent or the angle falls below
+   :data:`MIN_STEP_DEG`.
+
+Only views drawn at ``resolution`` compete for the answer, so every answer's
+measured value is at that resolution, and the answer is never worse there than
+the coarse pass's own best, drawn again. VMI needs the face distribution
+``p(z)`` over the whole sphere; it is estimated from the coarse sphere's views
+(``p(z) = sum_v a_z(v) / sum_v a_t(v)``, as for a full measurement), and a face
+no coarse view saw gets the share one more view would give it if that view saw
+every face in proportion to its area (``mean_v a_t(v) A_z / A_t``, divided by
+``sum_v a_t(v) + mean_v a_t(v)``). With no coarse view, ``p(z) = A_z / A_t``,
+which makes VMI equal VKL.
+
+Directions are unit vectors from the bounding-box centre towards the camera,
+in the mesh's own coordinates; raw values are in bits (VR a fraction);
+higher is better for VE and VR, lower for VKL and VMI.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.camera import Camera
+from vptoolkit.checks import one_line
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.geometry import face_areas
+from vptoolkit.measures import quality_from_histograms
+from vptoolkit.mesh import Mesh
+from vptoolkit.progress import progress_bar
+from vptoolkit.sphere import as_directions, fibonacci_sphere
+from vptoolkit.visibility import RasterScene
+
+__all__ = [
+    "BUDGET",
+    "SEARCH_RESOLUTION",
+    "COARSE_RESOLUTION",
+    "MIN_STEP_DEG",
+    "BestViews",
+    "SearchRun",
+    "SearchStage",
+    "search_best_views",
+    "search_inputs",
+]
+
+BUDGET: Final = 64
+"""Default budget: views drawn per mesh, over all stages."""
+
+SEARCH_RESOLUTION: Final = 128
+"""Default side in pixels of the images that decide the answer."""
+
+COARSE_RESOLUTION: Final = 32
+"""Default side in pixels of the coarse sphere's images (at most ``resolution``)."""
+
+MIN_STEP_DEG: Final = 0.25
+"""The refinement stops once its ring is narrower than this, in degrees."""
+
+MAX_BUDGET: Final = 100_000
+"""Largest budget accepted (views per mesh)."""
+
+_RING = 4  # directions per ring of the refinement
+_CONFIRM_PER_MEASURE = 2  # coarse directions per measure drawn again at full resolution
+
+
+@dataclass(frozen=True)
+class SearchStage:
+    """One stage of a search: its name, the views it drew and their resolution in pixels."""
+
+    name: str
+    n_views: int
+    resolution: int
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe form."""
+        return {"stage": self.name, "views": self.n_views, "resolution": self.resolution}
+
+
+@dataclass(frozen=True)
+class BestViews:
+    """The answer of a best-view search for one mesh.
+
+    Attributes
+    ----------
+    name : str
+        Name of the mesh.
+    directions : (4, 3) float64
+        Best unit direction per measure, bounding-box centre towards the camera.
+    raw : (4,) float64
+        Raw value of each measure in its best direction, drawn at ``resolution``
+        (VMI with the estimated ``p(z)`` of the module docstring).
+    resolution : int
+        Image side of the views that decided the answer.
+    stages : tuple of SearchStage
+        What was drawn, in order.
+    seconds : float
+        Wall time of the search (not part of the answer's bytes anywhere).
+    measures : tuple of str
+        ``MEASURES``.
+    """
+
+    name: str
+    directions: NDArray[np.float64]
+    raw: NDArray[np.float64]
+    resolution: int
+    stages: tuple[SearchStage, ...]
+    seconds: float
+    measures: tuple[str, ...] = MEASURES
+
+    @property
+    def n_views(self) -> int:
+        """Views drawn over all stages: the machine-independent cost."""
+        return sum(stage.n_views for stage in self.stages)
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-safe summary: directions and raw values per measure, stages, seconds."""
+        return {
+            "name": self.name,
+            "views": self.n_views,
+            "resolution": self.resolution,
+            "stages": [stage.to_dict() for stage in self.stages],
+            "seconds": round(self.seconds, 4),
+            "best": {
+                measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
+                          "raw": float(self.raw[column])}
+                for column, measure in enumerate(self.measures)
+            },
+        }
+
+
+@dataclass
+class _Incumbents:
+    """The best direction and raw value per measure among the views drawn at full resolution."""
+
+    directions: NDArray[np.float64]
+    raw: NDArray[np.float64]
+
+    @classmethod
+    def empty(cls) -> _Incumbents:
+        return cls(np.zeros((len(MEASURES), 3)), np.full(len(MEASURES), np.nan))
+
+    def offer(self, directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
+        """Keep, per measure, the better of the incumbent and the best new view (first on ties)."""
+        for column, higher in enumerate(HIGHER_IS_BETTER):
+            values = raw[:, column]
+            if not np.isfinite(values).any():
+                continue
+            best = int(np.nanargmax(values) if higher else np.nanargmin(values))
+            current = self.raw[column]
+            if not np.isfinite(current) or (values[best] > current if higher else values[best] < current):
+                self.directions[column] = directions[best]
+                self.raw[column] = values[best]
+
+    def centres(self) -> NDArray[np.float64]:
+        """Distinct incumbent directions, in measure order."""
+        distinct: list[NDArray[np.float64]] = []
+        for column in np.flatnonzero(np.isfinite(self.raw)):
+            direction = self.directions[column]
+            if all(float(direction @ other) < 1.0 - 1e-12 for other in distinct):
+                distinct.append(direction)
+        return np.array(distinct).reshape(-1, 3)
+
+
+def _check_count(value: Any, name: str, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+        raise InputError(f"{name}: expected an integer from {low} to {high}, got {value!r}")
+    return int(value)
+
+
+def principal_frame(mesh: Mesh) -> NDArray[np.float64]:
+    """Rows: the surface's principal axes, largest spread first (area-weighted face centroids).
+
+    Returns
+    -------
+    axes : (3, 3) float64
+        Orthonormal rows; a right-handed frame.
+    """
+    areas = face_areas(mesh)
+    centroids = mesh.vertices[mesh.faces].mean(axis=1)
+    weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
+    centred = centroids - weights @ centroids
+    covariance = (centred * weights[:, None]).T @ centred
+    _, vectors = np.linalg.eigh(covariance)
+    axes = vectors[:, ::-1].T.copy()
+    if np.linalg.det(axes) < 0:
+        axes[2] = -axes[2]
+    return axes
+
+
+def coarse_directions(mesh: Mesh, n: int) -> NDArray[np.float64]:
+    """``n`` Fibonacci directions in the mesh's principal frame, the poles on its least-spread axis.
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors in the mesh's coordinates.
+    """
+    largest, middle, smallest = principal_frame(mesh)
+    sphere = fibonacci_sphere(n)  # poles along y
+    return sphere[:, :1] * largest + sphere[:, 1:2] * smallest + sphere[:, 2:] * middle
+
+
+def ring(centre: NDArray[np.float64], angle: float, n: int, turn: float) -> NDArray[np.float64]:
+    """``n`` unit directions at ``angle`` radians from ``centre``, evenly around it from ``turn``."""
+    helper = np.eye(3)[int(np.argmin(np.abs(centre)))]
+    first = np.cross(centre, helper)
+    first /= np.linalg.norm(first)
+    second = np.cross(centre, first)
+    phases = turn + 2.0 * math.pi * np.arange(n) / n
+    around = np.cos(phases)[:, None] * first + np.sin(phases)[:, None] * second
+    points = math.cos(angle) * centre + math.sin(angle) * around
+    return np.asarray(points / np.linalg.norm(points, axis=1, keepdims=True))
+
+
+def _face_probability(counts: NDArray[np.float64], n_views: int,
+                      areas: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Estimated ``p(z)`` from summed pixel counts of a sphere of views (module docstring)."""
+    area_share = areas / areas.sum()
+    total = float(counts.sum())
+    if n_views == 0 or total <= 0.0:
+        return area_share
+    pseudo = total / n_views
+    return np.where(counts > 0, counts / total, pseudo * area_share / (total + pseudo))
+
+
+class _Renderer:
+    """Draws views of one mesh and measures them with one ``p(z)`` estimate."""
+
+    def __init__(self, mesh: Mesh, camera: Camera) -> None:
+        self.mesh = mesh
+        self.scene = RasterScene(mesh, camera)
+        self.areas = face_areas(mesh)
+        self.face_probability = self.areas / self.areas.sum()
+
+    def measure(self, directions: NDArray[np.float64], resolution: int, *,
+                estimate_face_probability: bool = False) -> NDArray[np.float64]:
+        """Raw measures ``(n, 4)`` of the directions at ``resolution``; NaN where nothing is seen."""
+        runs = list(self.scene.histograms(directions, resolution))
+        if estimate_face_probability:
+            counts = np.zeros(self.mesh.n_faces)
+            for run in runs:
+                counts += np.bincount(run.face_ids, weights=run.pixel_counts,
+                                      minlength=self.mesh.n_faces)
+            self.face_probability = _face_probability(counts, len(directions), self.areas)
+        try:
+            return quality_from_histograms(runs, self.areas, n_views=len(directions),
+                                           face_probability=self.face_probability)
+        except MeasurementError:
+            return np.full((len(directions), len(MEASURES)), np.nan)
+
+
+def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
+                        per_measure: int) -> NDArray[np.float64]:
+    """The best ``per_measure`` coarse directions of each measure, distinct, by rank then measure."""
+    orders = []
+    for column, higher in enumerate(HIGHER_IS_BETTER):
+        values = np.where(np.isfinite(raw[:, column]), raw[:, column], -np.inf if higher else np.inf)
+        orders.append(np.argsort(-values if higher else values, kind="stable"))
+    chosen: list[int] = []
+    for rank in range(min(per_measure, len(directions))):
+        for order in orders:
+            if order[rank] not in chosen:
+                chosen.append(int(order[rank]))
+    return directions[chosen]
+
+
+def search_best_views(
+    mesh: Mesh,
+    budget: int = BUDGET,
+    resolution: int = SEARCH_RESOLUTION,
+    *,
+    prior: ArrayLike | None = None,
+    coarse_views: int | None = None,
+    coarse_resolution: int | None = None,
+    camera: Camera | None = None,
+) -> BestViews:
+    """Find the best view direction per measure within a budget of drawn views.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The model, in any orientation.
+    budget : int
+        Views drawn over all stages, at least 1 (default: 64). A view at
+        ``resolution`` px costs about what one of the 1000 views of
+        :func:`~vptoolkit.measures.compute_view_quality` costs there; the
+        coarse views cost less.
+    resolution : int
+        Image side in pixels of the views that decide the answer (default: 128).
+    prior : (k, 3) array_like, optional
+        Candidate directions, most promising first, drawn first at
+        ``resolution`` (at most half the budget; e.g. from
+        :class:`vptoolkit.learn.prior.NetworkPrior`).
+    coarse_views : int, optional
+        Directions of the coarse sphere (default: half the budget, a quarter
+        with a prior; the whole budget below 8 views).
+    coarse_resolution : int, optional
+        Image side of the coarse sphere (default: ``min(resolution, 32)``,
+        and ``resolution`` below 8 views).
+    camera : Camera, optional
+        Camera conventions (default: ``Camera()``).
+
+    Returns
+    -------
+    BestViews
+        Directions, measured raw values at ``resolution``, stages, seconds.
+
+    Raises
+    ------
+    InputError
+        On a budget, resolution or view count out of range, or a bad prior.
+
+    Examples
+    --------
+    >>> import trimesh
+    >>> box = trimesh.creation.box(extents=(1, 2, 4))
+    >>> found = search_best_views(Mesh(box.vertices, box.faces), budget=16, resolution=64)
+    >>> found.n_views, found.directions.shape
+    (16, (4, 3))
+    """
+    started = time.perf_counter()
+    budget = _check_count(budget, "budget", 1, MAX_BUDGET)
+    resolution = _check_count(resolution, "resolution", 1, 16384)
+    candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
+    small = budget < 8
+    n_prior = min(len(candidates), max(1, budget // 2)) if len(candidates) else 0
+    if coarse_views is None:
+        coarse_views = budget - n_prior if small else max(1, (budget - n_prior) // (3 if n_prior else 2))
+    coarse_views = _check_count(coarse_views, "coarse_views", 0, budget - n_prior)
+    if coarse_resolution is None:
+        coarse_resolution = resolution if small else min(resolution, COARSE_RESOLUTION)
+    coarse_resolution = _check_count(coarse_resolution, "coarse_resolution", 1, resolution)
+    renderer = _Renderer(mesh, camera or Camera())
+    incumbents = _Incumbents.empty()
+    stages: list[SearchStage] = []
+
+    def draw(stage: str, directions: NDArray[np.float64], size: int, *,
+             sphere: bool = False) -> NDArray[np.float64]:
+        raw = renderer.measure(directions, size, estimate_face_probability=sphere)
+        stages.append(SearchStage(stage, len(directions), size))
+        return raw
+
+    sphere = coarse_directions(mesh, coarse_views) if coarse_views else np.zeros((0, 3))
+    if coarse_views:  # first: its views give p(z) for every later measurement
+        coarse_raw = draw("coarse", sphere, coarse_resolution, sphere=True)
+    if n_prior:
+        incumbents.offer(candidates[:n_prior], draw("prior", candidates[:n_prior], resolution))
+    if coarse_views:
+        if coarse_resolution == resolution:
+            incumbents.offer(sphere, coarse_raw)
+        else:
+            left = budget - n_prior - coarse_views
+            again = _confirm_candidates(sphere, coarse_raw, _CONFIRM_PER_MEASURE)[:left]
+            if len(again):
+                incumbents.offer(again, draw("confirm", again, resolution))
+    if not np.isfinite(incumbents.raw).any():
+        raise MeasurementError(f"{mesh.name}: no face is visible from any view of the search")
+    angle = 0.5 * math.sqrt(4.0 * math.pi / max(coarse_views, n_prior, 1))
+    turn = 0.0
+    while (left := budget - sum(stage.n_views for stage in stages)) > 0 \
+            and math.degrees(angle) >= MIN_STEP_DEG:
+        centres = incumbents.centres()
+        rings = np.stack([ring(centre, angle, _RING, turn) for centre in centres], axis=1)
+        proposals = rings.reshape(-1, 3)[:left]  # ring point by ring point, every centre in turn
+        incumbents.offer(proposals, draw("refine", proposals, resolution))
+        angle *= 0.5
+        turn += math.pi / _RING
+    return BestViews(
+        name=mesh.name,
+        directions=incumbents.directions.copy(),
+        raw=incumbents.raw.copy(),
+        resolution=resolution,
+        stages=tuple(_merge(stages)),
+        seconds=time.perf_counter() - started,
+    )
+
+
+def _merge(stages: Sequence[SearchStage]) -> list[SearchStage]:
+    """Consecutive stages of one name and resolution as one (the refinement's rounds)."""
+    merged: list[SearchStage] = []
+    for stage in stages:
+        if merged and merged[-1].name == stage.name and merged[-1].resolution == stage.resolution:
+            merged[-1] = SearchStage(stage.name, merged[-1].n_views + stage.n_views, stage.resolution)
+        else:
+            merged.append(stage)
+    return merged
+
+
+@dataclass(frozen=True)
+class SearchRun:
+    """Best views of several meshes, and the meshes that failed.
+
+    Attributes
+    ----------
+    results : tuple of BestViews
+        In input order.
+    failures : tuple of (str, str)
+        ``(input, one-line reason)`` for every input that could not be searched.
+    """
+
+    results: tuple[BestViews, ...]
+    failures: tuple[tuple[str, str], ...]
+
+    def save_predictions(self, path: str | os.PathLike[str]) -> Path:
+        """Write the directions in the predictions format (:func:`vptoolkit.predictions.write_predictions`)
+        that ``vptool evaluate`` scores; ``(n_meshes, 4, 3)``."""
+        from vptoolkit.predictions import write_predictions
+
+        return write_predictions(path, [result.name for result in self.results],
+                                 np.stack([result.directions for result in self.results])
+                                 if self.results else np.zeros((0, len(MEASURES), 3)))
+
+
+def _meshes(inputs: Sequence[str | os.PathLike[str]], dataset: str | os.PathLike[str] | None,
+            split: str | None) -> Iterator[tuple[str, Callable[[], Mesh]]]:
+    """(label, loader) of every mesh file, then of every model of the dataset split."""
+    from vptoolkit.io import load_mesh
+
+    for source in inputs:
+        yield str(source), (lambda source=source: load_mesh(source))
+    if dataset is None:
+        return
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(dataset) as opened:
+        subset = opened.split(split) if split is not None else opened
+        for name in subset.names:
+            yield name, (lambda name=name: Mesh(*subset.mesh(name), name=name))
+
+
+def search_inputs(
+    inputs: Sequence[str | os.PathLike[str]] = (),
+    *,
+    dataset: str | os.PathLike[str] | None = None,
+    split: str | None = "test",
+    budget: int = BUDGET,
+    resolution: int = SEARCH_RESOLUTION,
+    prior: str | os.PathLike[str] | None = None,
+    progress: bool = False,
+) -> SearchRun:
+    """:func:`search_best_views` over mesh files and a dataset split; failures recorded, not raised.
+
+    Parameters
+    ----------
+    inputs : sequence of path-like
+        Mesh files (names: the file stems).
+    dataset : path-like, optional
+        A dataset (store, build or release folder) whose stored, cleaned meshes
+        of ``split`` are searched (names: the dataset's).
+    split : str, optional
+        ``"train"``, ``"validation"``, ``"test"`` or None for all (default: "test").
+    budget, resolution : int
+        As for :func:`search_best_views`.
+    prior : path-like, optional
+        A checkpoint, or ``"default"`` for the bundled network, whose
+        :class:`~vptoolkit.learn.prior.NetworkPrior` proposes the first
+        candidates (default: None, no prior; needs torch).
+    progress : bool
+        Show a progress bar over the meshes on stderr (default: False).
+
+    Raises
+    ------
+    InputError
+        On an invalid option, a prior that cannot be loaded, a dataset that
+        cannot be opened, or two inputs of the same name. A mesh that cannot be
+        read or measured is recorded in ``failures`` instead.
+    """
+    budget = _check_count(budget, "budget", 1, MAX_BUDGET)
+    resolution = _check_count(resolution, "resolution", 1, 16384)
+    propose = None
+    if prior is not None:
+        from vptoolkit.learn.prior import NetworkPrior
+
+        propose = NetworkPrior(prior)
+    sources = list(_meshes(inputs, dataset, split))
+    results: list[BestViews] = []
+    failures: list[tuple[str, str]] = []
+    names: set[str] = set()
+    with progress_bar(total=len(sources), description="best views", unit="mesh",
+                      enabled=progress) as bar:
+        for label, load in sources:
+            try:
+                mesh = load()
+                if mesh.name in names:
+                    raise InputError(f"{label}: a second mesh named {mesh.name!r}; names must be unique")
+                started = time.perf_counter()
+                candidates = propose(mesh) if propose is not None else None
+                proposing = time.perf_counter() - started  # part of the answer's cost
+                found = search_best_views(mesh, budget, resolution, prior=candidates)
+                results.append(replace(found, seconds=found.seconds + proposing))
+                names.add(mesh.name)
+            except (InputError, MeasurementError) as error:
+                failures.append((label, one_line(error)))
+            bar.update(1)
+    return SearchRun(tuple(results), tuple(failures))

@@ -1,0 +1,91 @@
+"""The ``best-view`` command: an anytime search for the best view of meshes or a dataset split."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from vptoolkit.best_view import BUDGET, MAX_BUDGET, SEARCH_RESOLUTION
+from vptoolkit.checks import check_suffix
+from vptoolkit.cli.options import EXISTING, MAX_RESOLUTION, MESH
+from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.files import check_output_folder
+
+
+@click.command("best-view")
+@click.argument("meshes", nargs=-1, type=MESH)
+@click.option("--views", "budget", default=BUDGET, show_default=True,
+              type=click.IntRange(1, MAX_BUDGET),
+              help="Budget: views drawn per mesh over all stages.")
+@click.option("--resolution", default=SEARCH_RESOLUTION, show_default=True,
+              type=click.IntRange(1, MAX_RESOLUTION),
+              help="Side in pixels of the views that decide the answer.")
+@click.option("--prior", default="none", show_default=True,
+              help="none, default (the bundled network) or a checkpoint: the network "
+                   "proposes the first candidates.")
+@click.option("--dataset", "dataset_path", type=EXISTING,
+              help="Search the stored meshes of a dataset split.")
+@click.option("--split", default="test", show_default=True,
+              type=click.Choice(["train", "validation", "val", "test", "all"]),
+              help="Split of --dataset.")
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
+              help="Write names, directions (N, 4, 3) and measures to this .npz "
+                   "(scored by vptool evaluate).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print per mesh the directions, views drawn, resolutions and seconds.")
+def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str,
+              dataset_path: Path | None, split: str, output: Path | None, as_json: bool) -> None:
+    """Find the best view per measure of MESHES within a budget of drawn views.
+
+    A coarse Fibonacci sphere at low resolution, the best candidates drawn
+    again at --resolution, then rings around each measure's best that narrow
+    every round. Any orientation of the input works. Cost: about 1 ms per
+    mesh for every 5-10 views at 128 px on a laptop core (a 10k-face mesh),
+    plus loading; the default budget, 64 views, takes tens of milliseconds.
+    Directions point from the model centre to the camera, in each mesh's own
+    coordinates; VE and VR: higher is better, VKL and VMI: lower is better.
+
+    \b
+    Example:
+      vptool best-view bunny.ply
+      vptool best-view *.off --views 256 --resolution 256 -o best.npz
+      vptool best-view --dataset release/ --split test --prior default -o test.npz
+    """
+    from vptoolkit.best_view import search_inputs
+
+    if output is not None:
+        check_suffix(output, ".npz")
+        check_output_folder(output, "--output")
+    if not meshes and dataset_path is None:
+        raise InputError("inputs: give mesh files or --dataset")
+    run = search_inputs(meshes, dataset=dataset_path, split=None if split == "all" else split,
+                        budget=budget, resolution=resolution,
+                        prior=None if prior == "none" else prior, progress=True)
+    if output is not None and run.results:
+        run.save_predictions(output)
+    if as_json:
+        click.echo(json.dumps({"results": [result.summary() for result in run.results],
+                               "failures": [{"input": where, "error": why}
+                                            for where, why in run.failures]}, indent=2))
+    else:
+        for result in run.results:
+            stages = ", ".join(f"{s.n_views} {s.name} @ {s.resolution}" for s in result.stages)
+            click.echo(f"{result.name}: {result.n_views} views ({stages}), "
+                       f"{1000 * result.seconds:.0f} ms")
+            for measure, direction, raw in zip(result.measures, result.directions, result.raw):
+                x, y, z = direction
+                click.echo(f"  {measure:<4} ({x:+.3f}, {y:+.3f}, {z:+.3f})  raw {raw:.4f}")
+        if output is not None and run.results:
+            click.echo(f"wrote {output} ({len(run.results)} meshes)")
+    for where, why in run.failures:
+        click.echo(f"vptool: error: {why}" if why.startswith(Path(where).name) else
+                   f"vptool: error: {where}: {why}", err=True)
+    if run.failures:
+        raise MeasurementError(f"{len(run.failures)} of {len(run.failures) + len(run.results)} "
+                               "inputs failed")
+
+
+COMMANDS = (best_view,)
+"""The commands this module adds to ``vptool``."""

@@ -1,0 +1,131 @@
+"""A network as the prior of the best-view search: where to look first.
+
+:func:`vptoolkit.best_view.search_best_views` draws a prior's candidate
+directions first and keeps what the drawing says is best, so a prior only
+has to put a good direction among a few candidates, not to be right.
+:class:`NetworkPrior` asks a checkpoint for them:
+
+1. the network's answer per measure in the input's canonical frame
+   (:mod:`vptoolkit.learn.frame`), as :func:`vptoolkit.learn.predict.predict`
+   gives it;
+2. the answers in the frames that differ from it by the sign of an
+   ambiguous axis (``|mu_3| < SIGN_AMBIGUITY sigma^3``: a mirror-symmetric
+   model, whose frame sign is decided by sampling noise), one frame after
+   the other.
+
+Directions closer than ``min_angle_deg`` to an earlier candidate are
+dropped; the order is by frame, then by measure (``MEASURES`` order).
+Directions point from the bounding-box centre towards the camera, in the
+mesh's own coordinates.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import os
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.errors import InputError
+from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
+from vptoolkit.learn.model import DEFAULT_MODEL, torch_threads
+from vptoolkit.learn.predict import MeshPredictor
+from vptoolkit.mesh import Mesh
+from vptoolkit.optional import require
+
+if TYPE_CHECKING:
+    import torch
+else:
+    torch = require("torch", extra="learn")
+
+__all__ = ["NetworkPrior", "distinct_directions"]
+
+
+def distinct_directions(directions: NDArray[np.float64], min_angle_deg: float) -> NDArray[np.float64]:
+    """The directions in order, without any closer than ``min_angle_deg`` to an earlier one.
+
+    Parameters
+    ----------
+    directions : (n, 3) float64
+        Unit vectors.
+    min_angle_deg : float
+        Smallest angle between two kept directions, in degrees.
+
+    Returns
+    -------
+    kept : (k, 3) float64
+    """
+    limit = math.cos(math.radians(min_angle_deg))
+    kept: list[NDArray[np.float64]] = []
+    for direction in directions:
+        if all(float(direction @ other) < limit for other in kept):
+            kept.append(direction)
+    return np.array(kept).reshape(-1, 3)
+
+
+class NetworkPrior:
+    """A checkpoint that proposes candidate view directions of a mesh (module docstring).
+
+    Parameters
+    ----------
+    model_path : path-like
+        A checkpoint, or ``"default"`` for the bundled network.
+    seed : int
+        Seed of the surface sampling (default: 0).
+    min_angle_deg : float
+        Candidates closer than this to an earlier one are dropped (default: 5).
+    threads : int, optional
+        Torch threads during each call (default: torch's setting).
+
+    Examples
+    --------
+    >>> prior = NetworkPrior("default")                       # doctest: +SKIP
+    >>> search_best_views(mesh, 8, prior=prior(mesh))          # doctest: +SKIP
+    """
+
+    def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
+                 min_angle_deg: float = 5.0, threads: int | None = None) -> None:
+        if not 0.0 <= float(min_angle_deg) < 180.0:
+            raise InputError(f"min_angle_deg: expected an angle in [0, 180), got {min_angle_deg!r}")
+        self.predictor = MeshPredictor(model_path, seed=seed, threads=threads)
+        self.min_angle_deg = float(min_angle_deg)
+
+    def frames(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """The canonical frame first, then those with ambiguous axis signs flipped.
+
+        Returns
+        -------
+        frames : (F, 3, 3) float, centre : (1, 1, 3) float
+        """
+        frame, centre = canonical_frame(points[None])
+        centred = (points[None] - centre).to(torch.float64)
+        axes = frame[0].to(torch.float64)
+        projected = centred[0] @ axes.T
+        variance = projected.pow(2).mean(dim=0)
+        third = projected.pow(3).mean(dim=0)
+        ambiguous = [int(i) for i in torch.nonzero(
+            third.abs() < SIGN_AMBIGUITY * variance.pow(1.5).clamp_min(1e-300)).flatten()]
+        choices = []
+        for flips in itertools.product((1.0, -1.0), repeat=len(ambiguous)):
+            signs = torch.ones(3, dtype=torch.float64)
+            signs[ambiguous] = torch.tensor(flips, dtype=torch.float64)
+            choices.append(axes * signs[:, None])
+        return torch.stack(choices).to(points.dtype), centre
+
+    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+        """Candidate unit directions ``(k, 3)``, most promising first."""
+        model = self.predictor.model
+        points = torch.as_tensor(self.predictor.inputs(mesh))
+        with torch_threads(self.predictor.threads), torch.inference_mode():
+            model.eval()
+            if model.config.input_frame != "pca":
+                directions = model(points[None])["directions"]
+            else:
+                frames, centre = self.frames(points)
+                directions = model.forward_in_frames(points, frames, centre)
+        candidates = directions.reshape(-1, 3).to(torch.float64).numpy()
+        candidates = candidates / np.linalg.norm(candidates, axis=1, keepdims=True)
+        return distinct_directions(candidates, self.min_angle_deg)
