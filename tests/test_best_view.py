@@ -51,24 +51,28 @@ def _better_or_equal(first, second):
 
 @pytest.mark.parametrize("budget", [8, 16, 64])
 def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
-    found = search_best_views(teapot, budget, 96)
+    found = search_best_views(teapot, budget, 256)
     coarse = next(stage for stage in found.stages if stage.name == "coarse")
     sphere = coarse_directions(teapot, coarse.n_views)
     renderer = _Renderer(teapot, Camera())
     coarse_raw = renderer.measure(sphere, coarse.resolution, estimate_face_probability=True)
     coarse_best = compute_view_quality(teapot, view_directions=sphere,
                                        resolution=coarse.resolution).best_views
-    again = renderer.measure(coarse_best, 96)  # the coarse pass's best, drawn at 96 px
+    again = renderer.measure(coarse_best, 256)  # the coarse pass's best, drawn at 256 px
     assert np.isfinite(coarse_raw).any()
     assert all(_better_or_equal(found.raw, np.diagonal(again)))
     assert found.n_views <= budget
 
 
 def test_stages_spend_the_budget_and_decide_at_the_resolution(teapot):
-    found = search_best_views(teapot, 64, 96)
+    found = search_best_views(teapot, 64, 256)
     assert [s.name for s in found.stages] == ["coarse", "confirm", "refine"]
-    assert found.n_views == 64
-    assert [s.resolution for s in found.stages] == [32, 96, 96]
+    assert found.n_views == 64 and found.stages[0].n_views == 32
+    assert [s.resolution for s in found.stages] == [128, 256, 256]
+    small = search_best_views(teapot, 64, 96)
+    assert [(s.name, s.resolution) for s in small.stages] == [("coarse", 96), ("refine", 96)]
+    flat = search_best_views(teapot, 8, 96)
+    assert [(s.name, s.n_views, s.resolution) for s in flat.stages] == [("coarse", 8, 96)]
     np.testing.assert_allclose(np.linalg.norm(found.directions, axis=1), 1.0)
     summary = json.loads(json.dumps(found.summary()))
     assert list(summary["best"]) == list(MEASURES) and summary["views"] == 64
@@ -109,7 +113,7 @@ def test_same_inputs_give_the_same_answer(mug):
 def test_a_prior_is_drawn_first_at_full_resolution(mug):
     found = search_best_views(mug, 16, 64, prior=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
     assert [(s.name, s.n_views, s.resolution) for s in found.stages][:2] == [
-        ("coarse", 4, 32), ("prior", 2, 64)]
+        ("coarse", 7, 64), ("prior", 2, 64)]
     assert found.n_views == 16
 
 

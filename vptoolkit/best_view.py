@@ -5,19 +5,26 @@ the machine; :func:`search_best_views` spends a budget of ``budget`` views in
 stages, coarse to fine, and returns the best direction it measured for each
 of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
 
-1. **prior** (optional): candidate directions proposed by someone else, e.g.
-   a network (:mod:`vptoolkit.learn.prior`), drawn at ``resolution``.
-2. **coarse**: a Fibonacci sphere of ``coarse_views`` directions at
-   ``coarse_resolution`` pixels, laid out in the model's principal-axis frame
-   (the sphere's poles on the axis of least spread), so the pattern turns with
-   the model and any input orientation is searched alike.
-3. **confirm**: the best coarse directions of each measure drawn again at
-   ``resolution`` (skipped when the coarse pass already is at ``resolution``).
+1. **coarse**: a Fibonacci sphere of ``coarse_views`` directions (half the
+   budget) at ``coarse_resolution`` pixels (``resolution`` up to 128 px, then
+   128), laid out in the model's principal-axis frame (the sphere's poles on
+   the axis of least spread), so the pattern turns with the model and any
+   input orientation is searched alike;
+2. **prior** (optional): candidate directions proposed by someone else, e.g.
+   a network (:mod:`vptoolkit.learn.prior`), drawn at ``resolution``;
+3. **confirm**: the two best coarse directions of each measure drawn again at
+   ``resolution`` (only when the coarse sphere was drawn smaller);
 4. **refine**: rounds of pattern search: around each measure's best direction
    so far, a ring of four directions at an angle that starts at half the
    coarse spacing and halves every round (the ring turned by 45 degrees each
    time), until the budget is spent or the angle falls below
    :data:`MIN_STEP_DEG`.
+
+Budgets below :data:`FLAT_BELOW` views are one coarse sphere at
+``resolution``: there, more directions beat refining a few. On 29 real meshes
+under rotation (``docs/results.md``) the refinement finds at 64 views what a
+flat sphere finds at 256, and a coarse sphere at 32 px loses more quality than
+it saves time, since a small image's cost is mostly the per-face work.
 
 Only views drawn at ``resolution`` compete for the answer, so every answer's
 measured value is at that resolution, and the answer is never worse there than
@@ -62,6 +69,7 @@ __all__ = [
     "BUDGET",
     "SEARCH_RESOLUTION",
     "COARSE_RESOLUTION",
+    "FLAT_BELOW",
     "MIN_STEP_DEG",
     "BestViews",
     "SearchRun",
@@ -76,8 +84,11 @@ BUDGET: Final = 64
 SEARCH_RESOLUTION: Final = 128
 """Default side in pixels of the images that decide the answer."""
 
-COARSE_RESOLUTION: Final = 32
-"""Default side in pixels of the coarse sphere's images (at most ``resolution``)."""
+COARSE_RESOLUTION: Final = 128
+"""Largest default side in pixels of the coarse sphere's images (at most ``resolution``)."""
+
+FLAT_BELOW: Final = 16
+"""Budgets below this are one coarse sphere at ``resolution``, no refinement."""
 
 MIN_STEP_DEG: Final = 0.25
 """The refinement stops once its ring is narrower than this, in degrees."""
@@ -245,7 +256,7 @@ def _face_probability(counts: NDArray[np.float64], n_views: int,
     total = float(counts.sum())
     if n_views == 0 or total <= 0.0:
         return area_share
-    pseudo = total / n_views
+    pseudo = total / n_views  # one more view's pixels, spread over the faces by area
     return np.where(counts > 0, counts / total, pseudo * area_share / (total + pseudo))
 
 
@@ -318,11 +329,11 @@ def search_best_views(
         ``resolution`` (at most half the budget; e.g. from
         :class:`vptoolkit.learn.prior.NetworkPrior`).
     coarse_views : int, optional
-        Directions of the coarse sphere (default: half the budget, a quarter
-        with a prior; the whole budget below 8 views).
+        Directions of the coarse sphere (default: half of what the prior
+        leaves; all of it below :data:`FLAT_BELOW` views).
     coarse_resolution : int, optional
-        Image side of the coarse sphere (default: ``min(resolution, 32)``,
-        and ``resolution`` below 8 views).
+        Image side of the coarse sphere (default: ``min(resolution, 128)``,
+        and ``resolution`` below :data:`FLAT_BELOW` views).
     camera : Camera, optional
         Camera conventions (default: ``Camera()``).
 
@@ -348,13 +359,13 @@ def search_best_views(
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
-    small = budget < 8
     n_prior = min(len(candidates), max(1, budget // 2)) if len(candidates) else 0
+    flat = budget < FLAT_BELOW
     if coarse_views is None:
-        coarse_views = budget - n_prior if small else max(1, (budget - n_prior) // (3 if n_prior else 2))
+        coarse_views = budget - n_prior if flat else max(1, (budget - n_prior) // 2)
     coarse_views = _check_count(coarse_views, "coarse_views", 0, budget - n_prior)
     if coarse_resolution is None:
-        coarse_resolution = resolution if small else min(resolution, COARSE_RESOLUTION)
+        coarse_resolution = resolution if flat else min(resolution, COARSE_RESOLUTION)
     coarse_resolution = _check_count(coarse_resolution, "coarse_resolution", 1, resolution)
     renderer = _Renderer(mesh, camera or Camera())
     incumbents = _Incumbents.empty()
