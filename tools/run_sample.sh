@@ -2,7 +2,8 @@
 # The main job on the bundled sample meshes: build a viewpoint-quality dataset
 # (cleaning, 20000 points, 1000 views at 1024 px), pack it into a release with
 # checksums and a dataset card, verify the release and show what it holds,
-# let the bundled network predict the best views, score them, and write an HTML
+# search every model's best views within 64 drawn views and score them, let the
+# bundled network predict them and score that beside, and write an HTML
 # report with pictures from the best and the predicted views.
 # Usage: bash tools/run_sample.sh [OUT]   (default OUT: sample_run/)
 set -euo pipefail
@@ -19,6 +20,8 @@ if [ -f "$out/release/SHA256SUMS" ]; then rm -r "$out/release"; fi
     --licenses vptoolkit/samples/LICENSES.csv
 "$vptool" verify "$out/release"
 "$vptool" info "$out/release"
+"$vptool" best-view --dataset "$out/release" --split all -o "$out/best_views.npz"
+"$vptool" evaluate "$out/best_views.npz" --dataset "$out/release" --split all
 "$vptool" predict --dataset "$out/release" --split all -o "$out/predictions.npz"
 "$vptool" evaluate "$out/predictions.npz" --dataset "$out/release" --split all
 "$vptool" report "$out/release" --predictions "$out/predictions.npz" -o "$out/report"

@@ -11,6 +11,7 @@ Subpackages and modules, one concept each:
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting).
 - ``measures``: VE, VR, VKL and VMI per view, normalised per model.
+- ``best_view``: the anytime best-view search within a budget of drawn views.
 - ``clean``, ``points``: pymeshlab cleaning pipeline; surface sampling and
   farthest point sampling.
 - ``cli``: the ``vptool`` command line.
@@ -20,6 +21,7 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
+from vptoolkit.best_view import BestViews, search_best_views
 from vptoolkit.conventions import MEASURES, N_VIEWS
 from vptoolkit.errors import (
     InputError,
@@ -40,6 +42,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
     __version__ = "0.0.0"
 
 __all__ = [
+    "BestViews",
     "MEASURES",
     "N_VIEWS",
     "InputError",
@@ -56,4 +59,5 @@ __all__ = [
     "load_mesh",
     "nearest_view",
     "save_mesh",
+    "search_best_views",
 ]

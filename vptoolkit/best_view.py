@@ -204,27 +204,33 @@ def _check_count(value: Any, name: str, low: int, high: int) -> int:
     return int(value)
 
 
-def principal_frame(mesh: Mesh) -> NDArray[np.float64]:
-    """Rows: the surface's principal axes, largest spread first (area-weighted face centroids).
+def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Rows: the surface's principal axes, largest spread first.
+
+    The axes are the eigenvectors of the covariance of the face centroids,
+    each weighted by its face's area (``areas``, computed when not given).
 
     Returns
     -------
     axes : (3, 3) float64
         Orthonormal rows; a right-handed frame.
     """
-    areas = face_areas(mesh)
-    centroids = mesh.vertices[mesh.faces].mean(axis=1)
-    weights = areas / areas.sum() if areas.sum() > 0 else np.full(len(areas), 1.0 / len(areas))
+    areas = face_areas(mesh) if areas is None else areas
+    vertices, faces = mesh.vertices, mesh.faces
+    centroids = (vertices[faces[:, 0]] + vertices[faces[:, 1]] + vertices[faces[:, 2]]) / 3.0
+    total = float(areas.sum())
+    weights = areas / total if total > 0 else np.full(len(areas), 1.0 / len(areas))
     centred = centroids - weights @ centroids
     covariance = (centred * weights[:, None]).T @ centred
     _, vectors = np.linalg.eigh(covariance)
     axes = vectors[:, ::-1].T.copy()
     if np.linalg.det(axes) < 0:
         axes[2] = -axes[2]
-    return axes
+    return np.asarray(axes)
 
 
-def coarse_directions(mesh: Mesh, n: int) -> NDArray[np.float64]:
+def coarse_directions(mesh: Mesh, n: int, areas: NDArray[np.float64] | None = None,
+                      ) -> NDArray[np.float64]:
     """``n`` Fibonacci directions in the mesh's principal frame, the poles on its least-spread axis.
 
     Returns
@@ -232,7 +238,7 @@ def coarse_directions(mesh: Mesh, n: int) -> NDArray[np.float64]:
     directions : (n, 3) float64
         Unit vectors in the mesh's coordinates.
     """
-    largest, middle, smallest = principal_frame(mesh)
+    largest, middle, smallest = principal_frame(mesh, areas)
     sphere = fibonacci_sphere(n)  # poles along y
     return sphere[:, :1] * largest + sphere[:, 1:2] * smallest + sphere[:, 2:] * middle
 
@@ -377,7 +383,8 @@ def search_best_views(
         stages.append(SearchStage(stage, len(directions), size))
         return raw
 
-    sphere = coarse_directions(mesh, coarse_views) if coarse_views else np.zeros((0, 3))
+    sphere = (coarse_directions(mesh, coarse_views, renderer.areas) if coarse_views
+              else np.zeros((0, 3)))
     if coarse_views:  # first: its views give p(z) for every later measurement
         coarse_raw = draw("coarse", sphere, coarse_resolution, sphere=True)
     if n_prior:
@@ -472,7 +479,7 @@ def search_inputs(
     split: str | None = "test",
     budget: int = BUDGET,
     resolution: int = SEARCH_RESOLUTION,
-    prior: str | os.PathLike[str] | None = None,
+    prior: Callable[[Mesh], ArrayLike] | None = None,
     progress: bool = False,
 ) -> SearchRun:
     """:func:`search_best_views` over mesh files and a dataset split; failures recorded, not raised.
@@ -488,27 +495,21 @@ def search_inputs(
         ``"train"``, ``"validation"``, ``"test"`` or None for all (default: "test").
     budget, resolution : int
         As for :func:`search_best_views`.
-    prior : path-like, optional
-        A checkpoint, or ``"default"`` for the bundled network, whose
-        :class:`~vptoolkit.learn.prior.NetworkPrior` proposes the first
-        candidates (default: None, no prior; needs torch).
+    prior : callable, optional
+        ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
+        e.g. :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
 
     Raises
     ------
     InputError
-        On an invalid option, a prior that cannot be loaded, a dataset that
-        cannot be opened, or two inputs of the same name. A mesh that cannot be
-        read or measured is recorded in ``failures`` instead.
+        On an invalid option or a dataset that cannot be opened. A mesh that
+        cannot be read or measured, or a second mesh of the same name, is
+        recorded in ``failures`` instead.
     """
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
-    propose = None
-    if prior is not None:
-        from vptoolkit.learn.prior import NetworkPrior
-
-        propose = NetworkPrior(prior)
     sources = list(_meshes(inputs, dataset, split))
     results: list[BestViews] = []
     failures: list[tuple[str, str]] = []
@@ -521,7 +522,7 @@ def search_inputs(
                 if mesh.name in names:
                     raise InputError(f"{label}: a second mesh named {mesh.name!r}; names must be unique")
                 started = time.perf_counter()
-                candidates = propose(mesh) if propose is not None else None
+                candidates = prior(mesh) if prior is not None else None
                 proposing = time.perf_counter() - started  # part of the answer's cost
                 found = search_best_views(mesh, budget, resolution, prior=candidates)
                 results.append(replace(found, seconds=found.seconds + proposing))

@@ -60,9 +60,13 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         check_output_folder(output, "--output")
     if not meshes and dataset_path is None:
         raise InputError("inputs: give mesh files or --dataset")
+    propose = None
+    if prior != "none":
+        from vptoolkit.learn.prior import NetworkPrior
+
+        propose = NetworkPrior(prior)
     run = search_inputs(meshes, dataset=dataset_path, split=None if split == "all" else split,
-                        budget=budget, resolution=resolution,
-                        prior=None if prior == "none" else prior, progress=True)
+                        budget=budget, resolution=resolution, prior=propose, progress=True)
     if output is not None and run.results:
         run.save_predictions(output)
     if as_json:

@@ -1,0 +1,72 @@
+"""The network as the best-view search's prior: its candidates and the frames it tries."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from conftest import box_mesh, one_torch_thread, require_package
+from vptoolkit.io import load_mesh
+from vptoolkit.samples import sample_path
+
+require_package("torch")
+
+import torch  # noqa: E402
+
+from vptoolkit.cli import main  # noqa: E402
+from vptoolkit.learn.frame import canonical_frame  # noqa: E402
+from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
+from vptoolkit.learn.prior import NetworkPrior, distinct_directions  # noqa: E402
+
+
+one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+
+
+@pytest.fixture(scope="module")
+def prior() -> NetworkPrior:
+    return NetworkPrior("default")
+
+
+def test_candidates_hold_the_networks_own_answer(prior):
+    mesh = load_mesh(sample_path("mug.obj"))
+    candidates = prior(mesh)
+    np.testing.assert_allclose(np.linalg.norm(candidates, axis=1), 1.0)
+    answer = MeshPredictor("default")(mesh)
+    nearest = np.degrees(np.arccos(np.clip(answer @ candidates.T, -1, 1))).min(axis=1)
+    assert nearest.max() <= 5.0 + 1e-9  # each answer, or one within min_angle_deg of it
+
+
+def test_a_symmetric_box_is_tried_in_every_frame_of_its_ambiguous_signs(prior):
+    box = box_mesh((1.0, 2.0, 4.0))
+    points = torch.as_tensor(prior.predictor.inputs(box))
+    frames, centre = prior.frames(points)
+    assert len(frames) == 8  # three axes with a third moment of about 0
+    canonical, _ = canonical_frame(points[None])
+    torch.testing.assert_close(frames[0], canonical[0])
+    for frame in frames:
+        torch.testing.assert_close(frame @ frame.T, torch.eye(3), atol=1e-5, rtol=0)
+    assert len(prior(box)) > 4
+
+
+def test_forward_in_the_canonical_frame_is_forward(prior):
+    model = prior.predictor.model.eval()
+    points = torch.as_tensor(prior.predictor.inputs(load_mesh(sample_path("teapot.stl"))))
+    frame, centre = canonical_frame(points[None])
+    with torch.inference_mode():
+        torch.testing.assert_close(model.forward_in_frames(points, frame, centre),
+                                   model(points[None])["directions"])
+
+
+def test_distinct_directions_keeps_the_first_of_close_ones():
+    directions = np.array([[0, 0, 1.0], [0, np.sin(0.01), np.cos(0.01)], [1.0, 0, 0]])
+    np.testing.assert_array_equal(distinct_directions(directions, 5.0), directions[[0, 2]])
+
+
+def test_best_view_with_the_default_prior_draws_its_candidates_first():
+    result = CliRunner().invoke(main, ["best-view", str(sample_path("mug.obj")), "--views", "16",
+                                       "--resolution", "48", "--prior", "default", "--json"])
+    assert result.exit_code == 0, result.output
+    stages = json.loads(result.stdout)["results"][0]["stages"]
+    assert [stage["stage"] for stage in stages][:2] == ["coarse", "prior"]
+    assert sum(stage["views"] for stage in stages) == 16
