@@ -192,3 +192,31 @@ def test_command_reports_a_failed_mesh_and_exits_1(tmp_path):
     assert result.exit_code == 1
     assert "mug: 8 views" in result.stdout
     assert "broken.off" in result.stderr and "1 of 2 inputs failed" in result.stderr
+
+
+def test_command_on_a_dataset_split_is_scored_by_evaluate(tmp_path):
+    import shutil
+
+    from vptoolkit.data import open_dataset
+
+    src = tmp_path / "src" / "things"
+    src.mkdir(parents=True)
+    for name in ("teapot.stl", "mug.obj", "suzanne.ply"):
+        shutil.copy(sample_path(name), src / name)
+    runner = CliRunner()
+    built = runner.invoke(main, ["build-dataset", str(src.parent), str(tmp_path / "out"),
+                                 "--views", "100", "--resolution", "48", "--points", "200",
+                                 "--no-clean"])
+    assert built.exit_code == 0, built.output
+    out = tmp_path / "best.npz"
+    searched = runner.invoke(main, ["best-view", "--dataset", str(tmp_path / "out"), "--split",
+                                    "all", "--views", "32", "--resolution", "48", "-o", str(out)])
+    assert searched.exit_code == 0, searched.output
+    scored = runner.invoke(main, ["evaluate", str(out), "--dataset", str(tmp_path / "out"),
+                                  "--split", "all", "--json"])
+    assert scored.exit_code == 0, scored.output
+    mean = json.loads(scored.stdout)["mean"]
+    with open_dataset(tmp_path / "out") as dataset:
+        random_view = np.mean([dataset[i]["quality"].mean(axis=0) for i in range(len(dataset))],
+                              axis=0)
+    assert all(mean[m] > 100 * random_view[i] + 10 for i, m in enumerate(MEASURES))

@@ -43,6 +43,7 @@ higher is better for VE and VR, lower for VKL and VMI.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import time
@@ -97,6 +98,7 @@ MAX_BUDGET: Final = 100_000
 """Largest budget accepted (views per mesh)."""
 
 _RING = 4  # directions per ring of the refinement
+_FIRST_STEP = 0.5  # the first ring's angle, in coarse spacings
 _CONFIRM_PER_MEASURE = 2  # coarse directions per measure drawn again at full resolution
 
 
@@ -399,7 +401,7 @@ def search_best_views(
                 incumbents.offer(again, draw("confirm", again, resolution))
     if not np.isfinite(incumbents.raw).any():
         raise MeasurementError(f"{mesh.name}: no face is visible from any view of the search")
-    angle = 0.5 * math.sqrt(4.0 * math.pi / max(coarse_views, n_prior, 1))
+    angle = _FIRST_STEP * math.sqrt(4.0 * math.pi / max(coarse_views, n_prior, 1))
     turn = 0.0
     while (left := budget - sum(stage.n_views for stage in stages)) > 0 \
             and math.degrees(angle) >= MIN_STEP_DEG:
@@ -455,21 +457,16 @@ class SearchRun:
                                  if self.results else np.zeros((0, len(MEASURES), 3)))
 
 
-def _meshes(inputs: Sequence[str | os.PathLike[str]], dataset: str | os.PathLike[str] | None,
-            split: str | None) -> Iterator[tuple[str, Callable[[], Mesh]]]:
-    """(label, loader) of every mesh file, then of every model of the dataset split."""
+def _meshes(inputs: Sequence[str | os.PathLike[str]], subset: Any,
+            ) -> list[tuple[str, Callable[[], Mesh]]]:
+    """(label, loader) of every mesh file, then of every model of the dataset subset."""
     from vptoolkit.io import load_mesh
 
-    for source in inputs:
-        yield str(source), (lambda source=source: load_mesh(source))
-    if dataset is None:
-        return
-    from vptoolkit.data import open_dataset
-
-    with open_dataset(dataset) as opened:
-        subset = opened.split(split) if split is not None else opened
-        for name in subset.names:
-            yield name, (lambda name=name: Mesh(*subset.mesh(name), name=name))
+    files = [(str(source), (lambda source=source: load_mesh(source))) for source in inputs]
+    if subset is None:
+        return files
+    return files + [(name, (lambda name=name: Mesh(*subset.mesh(name), name=name)))
+                    for name in subset.names]
 
 
 def search_inputs(
@@ -510,7 +507,18 @@ def search_inputs(
     """
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
-    sources = list(_meshes(inputs, dataset, split))
+    with contextlib.ExitStack() as stack:
+        subset = None
+        if dataset is not None:
+            from vptoolkit.data import open_dataset
+
+            opened = stack.enter_context(open_dataset(dataset))
+            subset = opened.split(split) if split is not None else opened
+        return _search_all(_meshes(inputs, subset), budget, resolution, prior, progress)
+
+
+def _search_all(sources: list[tuple[str, Callable[[], Mesh]]], budget: int, resolution: int,
+                prior: Callable[[Mesh], ArrayLike] | None, progress: bool) -> SearchRun:
     results: list[BestViews] = []
     failures: list[tuple[str, str]] = []
     names: set[str] = set()
