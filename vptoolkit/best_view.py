@@ -274,7 +274,7 @@ class _Renderer:
     def __init__(self, mesh: Mesh, camera: Camera) -> None:
         self.mesh = mesh
         self.scene = RasterScene(mesh, camera)
-        self.areas = face_areas(mesh)
+        self.areas = self.scene.areas
         self.face_probability = self.areas / self.areas.sum()
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,

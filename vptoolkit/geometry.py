@@ -18,8 +18,14 @@ def face_cross_products(mesh: Mesh) -> NDArray[np.float64]:
     cross : (n_faces, 3) float64
         By the right-hand rule on the winding; zero for degenerate faces.
     """
-    corners = mesh.vertices[mesh.faces]
-    return np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    vertices, faces = mesh.vertices, mesh.faces
+    first = vertices[faces[:, 0]]
+    u = vertices[faces[:, 1]] - first
+    v = vertices[faces[:, 2]] - first
+    # np.cross's own products and differences, without its axis handling
+    return np.stack([u[:, 1] * v[:, 2] - u[:, 2] * v[:, 1],
+                     u[:, 2] * v[:, 0] - u[:, 0] * v[:, 2],
+                     u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
 def face_areas(mesh: Mesh) -> NDArray[np.float64]:

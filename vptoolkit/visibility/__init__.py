@@ -207,6 +207,11 @@ class RasterScene:
         The model; faces of zero area are never drawn.
     camera : Camera, optional
         Camera conventions (default: ``Camera()``).
+
+    Attributes
+    ----------
+    areas : (n_faces,) float64
+        True face areas, as :func:`vptoolkit.geometry.face_areas` gives them.
     """
 
     def __init__(self, mesh: Mesh, camera: Camera | None = None) -> None:
@@ -218,6 +223,7 @@ class RasterScene:
         if self.diagonal <= 0.0:
             raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
         normals, offsets, is_drawable = _face_planes(mesh)
+        self.areas = 0.5 * np.linalg.norm(normals, axis=1)  # as geometry.face_areas
         self.face_order, vertex_order, self.local_faces = locality_order(mesh.vertices, mesh.faces)
         self.vertices = np.ascontiguousarray(mesh.vertices[vertex_order])
         self.normals = np.ascontiguousarray(normals[self.face_order])
