@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 import pytest
 
+from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION
 from vptoolkit.cli import main
 from vptoolkit.cli.options import Direction
 from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED
@@ -22,8 +23,10 @@ def options_named(name: str) -> dict[str, click.Option]:
 def test_shared_options_take_their_defaults_from_conventions(name, default):
     found = options_named(name)
     assert len(found) >= 2, found
-    assert {command: option.default for command, option in found.items()} \
-        == dict.fromkeys(found, default)
+    searches = {"--views": BUDGET, "--resolution": SEARCH_RESOLUTION}  # a search's budget
+    expected = {command: searches[name] if command == "best-view" else default
+                for command in found}
+    assert {command: option.default for command, option in found.items()} == expected
 
 
 def test_every_direction_option_is_a_direction():

@@ -30,6 +30,8 @@ __all__ = [
     "MODEL_HELP",
     "views_option",
     "resolution_option",
+    "budget_option",
+    "search_resolution_option",
     "seed_option",
     "workers_option",
     "up_option",
@@ -116,6 +118,24 @@ def resolution_option(help: str | None = "Side of the triangle-ID image in pixel
     """
     return click.option("--resolution", default=RESOLUTION, show_default=True,
                         type=click.IntRange(1, MAX_RESOLUTION), help=help)
+
+
+def budget_option() -> Callable[[Decorated], Decorated]:
+    """``--views N``: a best-view search's budget of drawn views (default ``BUDGET``)."""
+    from vptoolkit.best_view import BUDGET, MAX_BUDGET
+
+    return click.option("--views", "budget", default=BUDGET, show_default=True,
+                        type=click.IntRange(1, MAX_BUDGET),
+                        help="Budget: views drawn per mesh over all stages.")
+
+
+def search_resolution_option() -> Callable[[Decorated], Decorated]:
+    """``--resolution PX``: the side of the images that decide a search (default ``SEARCH_RESOLUTION``)."""
+    from vptoolkit.best_view import SEARCH_RESOLUTION
+
+    return click.option("--resolution", default=SEARCH_RESOLUTION, show_default=True,
+                        type=click.IntRange(1, MAX_RESOLUTION),
+                        help="Side in pixels of the views that decide the answer.")
 
 
 def seed_option(help: str | None = "Random seed.", *,

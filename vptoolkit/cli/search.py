@@ -7,21 +7,16 @@ from pathlib import Path
 
 import click
 
-from vptoolkit.best_view import BUDGET, MAX_BUDGET, SEARCH_RESOLUTION
 from vptoolkit.checks import check_suffix
-from vptoolkit.cli.options import EXISTING, MAX_RESOLUTION, MESH
+from vptoolkit.cli.options import EXISTING, MESH, budget_option, search_resolution_option
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import check_output_folder
 
 
 @click.command("best-view")
 @click.argument("meshes", nargs=-1, type=MESH)
-@click.option("--views", "budget", default=BUDGET, show_default=True,
-              type=click.IntRange(1, MAX_BUDGET),
-              help="Budget: views drawn per mesh over all stages.")
-@click.option("--resolution", default=SEARCH_RESOLUTION, show_default=True,
-              type=click.IntRange(1, MAX_RESOLUTION),
-              help="Side in pixels of the views that decide the answer.")
+@budget_option()
+@search_resolution_option()
 @click.option("--prior", default="none", show_default=True,
               help="none, default (the bundled network) or a checkpoint: the network "
                    "proposes the first candidates.")
