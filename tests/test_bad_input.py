@@ -53,11 +53,45 @@ def test_overflowing_coordinates_are_bad_input(huge_tetrahedron: Path, tmp_path:
     assert not list(tmp_path.glob("p.*"))
 
 
-def test_a_mesh_at_1e30_is_still_fine() -> None:
+@pytest.mark.parametrize("command", ["sample", "measures"])
+def test_underflowing_coordinates_are_bad_input(tmp_path: Path, command: str) -> None:
+    tiny = tmp_path / "tiny.off"
+    tiny.write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
+    output = {"sample": ["-o", tmp_path / "p.npy"], "measures": ["--views", "10"]}[command]
+    code, text = _run(command, tiny, *output)
+    _assert_one_line_bad_input(code, text, "tiny.off", "1e-46", "underflow", "rescale")
+    assert not list(tmp_path.glob("p.*"))
+
+
+def test_a_build_records_an_underflowing_mesh_as_a_failure(tmp_path: Path) -> None:
+    from vptoolkit.dataset.build import build_dataset
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tiny.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
+    (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
+    result = build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100,
+                           clean=False)
+    assert result.n_models == 1
+    (failure,) = result.failures
+    assert failure["source"] == "tiny.off" and "underflow" in failure["reason"]
+
+
+@pytest.mark.parametrize("scale", [1e30, 1e-30])
+def test_a_mesh_at_1e30_or_1e_minus_30_is_still_fine(scale: float) -> None:
     from vptoolkit.mesh import Mesh
 
-    mesh = Mesh(np.eye(3) * 1e30, np.array([[0, 1, 2]]))
-    assert mesh.vertices.max() == 1e30
+    mesh = Mesh(np.eye(3) * scale, np.array([[0, 1, 2]]))
+    assert mesh.vertices.max() == scale
+
+
+@pytest.mark.parametrize("scale", ["1e-46", "1e300"])
+def test_predict_refuses_a_point_file_beyond_float32(tmp_path: Path, scale: str) -> None:
+    path = tmp_path / "cloud.npy"
+    np.save(path, np.vstack([np.zeros(3), np.eye(3)]) * float(scale))
+    code, text = _run("predict", path)
+    _assert_one_line_bad_input(code, text, "cloud.npy: ", scale.replace("1e300", "1e+300"),
+                               "rescale the point cloud")
 
 
 def test_meshlab_ascii_ply_with_texture_lists_reads_its_indices_and_warns_once(

@@ -51,6 +51,7 @@ from vptoolkit.learn.model import (
 )
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
+from vptoolkit.points import read_point_file
 
 if TYPE_CHECKING:
     import torch
@@ -220,21 +221,6 @@ def _is_dataset(path: Path) -> bool:
     return True
 
 
-def _point_file(path: Path) -> NDArray[np.float64]:
-    try:
-        table = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise InputError(f"{path.name}: cannot read a numpy array ({err})") from err
-    if table.ndim != 2 or table.shape[1] not in (3, 6) or table.shape[0] < 1:
-        raise InputError(f"{path.name}: expected an (N, 3) or (N, 6) point array, got shape {table.shape}")
-    if not np.issubdtype(table.dtype, np.floating):
-        raise InputError(f"{path.name}: expected float columns, got {table.dtype}")
-    points = np.asarray(table[:, :3], dtype=np.float64)
-    if not np.isfinite(points).all():
-        raise InputError(f"{path.name}: contains NaN or infinite coordinates")
-    return points
-
-
 def _mesh_points(path: Path, seed: int) -> NDArray[np.float64]:
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
@@ -263,7 +249,7 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
         if suffix == ".npy":
             if not path.is_file():
                 raise InputError(f"{path}: no such point file")
-            yield path.stem, None, (lambda path=path: _point_file(path))
+            yield path.stem, None, (lambda path=path: read_point_file(path))
         elif suffix in SUPPORTED_SUFFIXES:
             if not path.is_file():
                 raise InputError(f"{path}: no such mesh file")
