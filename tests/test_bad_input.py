@@ -7,7 +7,13 @@ a 74 GiB allocation or an output full of inf; see issue 15.
 from __future__ import annotations
 
 import io
+import json
 import logging
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
 import zipfile
 from pathlib import Path
 
@@ -180,6 +186,59 @@ def test_a_checkpoint_whose_json_disagrees_with_its_weights(tmp_path: Path) -> N
     (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
     code, text = _run("predict", "-m", tmp_path / "small.safetensors", sample_path("teapot"))
     _assert_one_line_bad_input(code, text, "small.safetensors: weights do not match")
+
+
+# Runs each checkpoint of a test in a child process limited to 3 GiB of address space, so a
+# configuration that asks for terabytes fails there instead of exhausting the machine.
+_LIMITED_PREDICT = textwrap.dedent("""
+    import json, resource, sys
+    resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+    from click.testing import CliRunner
+    from vptoolkit.cli import main
+    cloud, *models = sys.argv[1:]
+    for model in models:
+        outcome = CliRunner().invoke(main, ["predict", cloud, "--model", model])
+        print(json.dumps([outcome.exit_code, outcome.output]))
+""")
+
+_HUGE_CONFIGS = {
+    "n-points": lambda config: config.update(input={"n_points": 10**9, "n_fps": 10**9}),
+    "latent-channels": lambda config: config["architecture"].update(latent_channels=200_000_000),
+    "levels-a-string": lambda config: config["architecture"].update(levels="abc"),
+    "many-parameters": lambda config: config["architecture"].update(
+        head_channels=[4096] * 16, kernel_size=256, global_kernel_size=256, kernel_hidden=256),
+    "input-a-list": lambda config: config.update(input=[1, 2]),
+    "format-version": lambda config: config.update(format_version=99),
+}
+_HUGE_NEEDLES = {
+    "n-points": "input.n_points", "latent-channels": "latent_channels",
+    "levels-a-string": "levels", "many-parameters": "parameters", "input-a-list": "input",
+    "format-version": "format_version",
+}
+
+
+def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    models = []
+    for case, change in _HUGE_CONFIGS.items():
+        model = tmp_path / case
+        shutil.copytree(PRETRAINED, model)
+        config = json.loads((model / "model.json").read_text())
+        change(config)
+        (model / "model.json").write_text(json.dumps(config))
+        models.append(model)
+    done = subprocess.run([sys.executable, "-c", _LIMITED_PREDICT, cloud, *models],
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    outcomes = [json.loads(line) for line in done.stdout.splitlines()]
+    for case, (code, text) in zip(_HUGE_CONFIGS, outcomes):
+        _assert_one_line_bad_input(code, text, "model.json: ", _HUGE_NEEDLES[case])
+    assert len(outcomes) == len(_HUGE_CONFIGS)
 
 
 def test_option_errors_are_one_line_like_every_other_error() -> None:

@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import (
     DEFAULT_MODEL,
     ViewpointNet,
@@ -309,15 +310,9 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
 def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
     """Input size and farthest-point part: the given values, else the checkpoint's training values."""
     trained = config.get("input", {})
-    n_points = int(trained.get("n_points", 4096)) if n_points is None else n_points
-    n_fps = int(trained.get("n_fps", 1024)) if n_fps is None else n_fps
-    for value, what in ((n_points, "n_points"), (n_fps, "n_fps")):
-        if isinstance(value, bool) or not isinstance(value, int) or value < (1 if what == "n_points" else 0):
-            raise InputError(f"{what}: expected a {'positive' if what == 'n_points' else 'non-negative'} integer, "
-                             f"got {value!r}")
-    if n_fps > n_points:
-        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
-    return n_points, n_fps
+    n_points = trained.get("n_points", 4096) if n_points is None else n_points
+    n_fps = trained.get("n_fps", 1024) if n_fps is None else n_fps
+    return check_input_sizes(n_points, n_fps)
 
 
 def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
