@@ -241,6 +241,31 @@ def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -
     assert len(outcomes) == len(_HUGE_CONFIGS)
 
 
+@pytest.mark.parametrize("weight", [float("nan"), float("inf"), 0.0], ids=["nan", "inf", "zero"])
+def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weight: float) -> None:
+    require_package("torch")
+    import torch
+
+    from vptoolkit.learn import model as M
+
+    small = M.ModelConfig(latent_channels=16, head_channels=(8,), levels=(
+        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                      neighbourhood="cell"),
+    ))
+    network = M.ViewpointNet(small)
+    with torch.no_grad():
+        for parameter in network.parameters():
+            parameter.fill_(weight)
+    M.save_model(network, tmp_path / "broken")
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    code, text = _run("predict", "-m", tmp_path / "broken", cloud, "-o", tmp_path / "p.npz")
+    needle = "model.safetensors: weight " if weight != 0.0 else "broken: the network answers"
+    assert "Traceback" not in text
+    _assert_one_line_bad_input(code, text.split("\r")[-1].splitlines()[-1] + "\n", needle)
+    assert not (tmp_path / "p.npz").exists()
+
+
 def test_option_errors_are_one_line_like_every_other_error() -> None:
     code, text = _run("measures", sample_path("teapot"), "--views", "0")
     _assert_one_line_bad_input(code, text, "measures: ", "--views")

@@ -414,8 +414,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     Raises
     ------
     InputError
-        If a file is missing or unreadable, or the configuration is not a
-        vptoolkit model.
+        If a file is missing or unreadable, the configuration is not a
+        vptoolkit model or asks for sizes beyond the bounds of
+        :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
     VerificationError
         If the weights do not match the architecture.
     """
@@ -445,6 +446,10 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     except InputError as err:
         raise InputError(f"{config_path.name}: {err}") from err
     state = read_safetensors(weights_path)  # float16 weights are cast on loading
+    broken = next((name for name, tensor in state.items()
+                   if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all())), None)
+    if broken is not None:
+        raise InputError(f"{weights_path.name}: weight {broken} holds NaN or infinite values")
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:

@@ -171,7 +171,8 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
 
 
 def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | torch.Tensor, *,
-                       batch_size: int = 64, device: str = "cpu") -> NDArray[np.float64]:
+                       batch_size: int = 64, device: str = "cpu",
+                       checkpoint: str = "network") -> NDArray[np.float64]:
     """Run a network in evaluation mode on prepared inputs.
 
     Parameters
@@ -184,11 +185,19 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
         Models per forward pass (default: 64).
     device : {"cpu", "cuda", "auto"}
         Where the network runs (default: "cpu"; the model is moved there).
+    checkpoint : str
+        The network's checkpoint, named in errors (default: "network").
 
     Returns
     -------
     directions : (n_models, n_measures, 3) float64
         Unit directions.
+
+    Raises
+    ------
+    InputError
+        If the network answers a zero or non-finite vector for some input:
+        its weights are broken (all zero, NaN, overflowing), never a direction.
     """
 
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
@@ -207,7 +216,14 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     if not parts:
         return np.zeros((0, model.config.n_measures, 3))
     directions = torch.cat(parts).numpy()
-    return directions / np.linalg.norm(directions, axis=-1, keepdims=True)
+    lengths = np.linalg.norm(directions, axis=-1, keepdims=True)
+    is_bad = ~(np.isfinite(lengths) & (lengths > 0.0)).all(axis=(1, 2))
+    if is_bad.any():
+        raise InputError(
+            f"{checkpoint}: the network answers a zero or non-finite vector for {int(is_bad.sum())} "
+            f"of {len(directions)} inputs, not a direction; its weights are broken"
+        )
+    return directions / lengths
 
 
 def _is_dataset(path: Path) -> bool:
@@ -346,14 +362,20 @@ def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping
         for cloud, name, route in zip(points, names, routes):
             n_points, n_fps = _input_sizes(networks[route][1], None, None)
             prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed, name=name))
-        return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
+        return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
+                               model_path=model_path)
 
     return predictor
 
 
+def _checkpoint_name(model_path: str | os.PathLike[str], route: str | None) -> str:
+    """The checkpoint of one network, for messages: the path, with the category's folder if any."""
+    return str(model_path) if route is None else f"{model_path} (category {route})"
+
+
 def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]],
                     prepared: Sequence[NDArray[np.float32]], routes: Sequence[str | None], *,
-                    batch_size: int, device: str) -> NDArray[np.float64]:
+                    batch_size: int, device: str, model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
     """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
     first_model = next(iter(networks.values()))[0]
     directions = np.zeros((len(prepared), first_model.config.n_measures, 3))
@@ -361,7 +383,8 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
         rows = [i for i, chosen in enumerate(routes) if chosen == route]
         if rows:
             directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
-                                                  batch_size=batch_size, device=device)
+                                                  batch_size=batch_size, device=device,
+                                                  checkpoint=_checkpoint_name(model_path, route))
     return directions
 
 
@@ -398,7 +421,9 @@ class MeshPredictor:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
         networks = load_networks(model_path)
-        self.model, self.config = networks[_route(networks, Path(model_path).name, category)]
+        route = _route(networks, Path(model_path).name, category)
+        self.model, self.config = networks[route]
+        self.checkpoint = _checkpoint_name(model_path, route)
         self.n_points, self.n_fps = _input_sizes(self.config, None, None)
         self.measures = tuple(self.config.get("measures", MEASURES[: self.model.config.n_measures]))
         self.seed = seed
@@ -416,7 +441,7 @@ class MeshPredictor:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
         points = self.inputs(mesh)
         with torch_threads(self.threads):
-            return predict_directions(self.model, points[None])[0]
+            return predict_directions(self.model, points[None], checkpoint=self.checkpoint)[0]
 
 
 def predict(
@@ -477,7 +502,8 @@ def predict(
     InputError
         On a missing or unreadable input, an unknown file type, an unknown
         split, duplicate model names, a model whose category has no network,
-        or an invalid option.
+        an invalid option, or a network that answers no direction (broken
+        weights, :func:`predict_directions`).
     VerificationError
         If the checkpoint's weights do not match its architecture.
     """
@@ -500,5 +526,6 @@ def predict(
     first_model, first_config = next(iter(networks.values()))
     measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
     with torch_threads(threads):
-        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
+        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
+                                     model_path=model_path)
     return Predictions(tuple(names), directions.reshape(len(names), len(measures), 3), measures)
