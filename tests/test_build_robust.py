@@ -179,6 +179,28 @@ def test_a_staged_file_that_decodes_wrong_is_computed_again(
     assert len(warnings) <= 1 and all("\n" not in warning for warning in warnings)
 
 
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_a_named_pipe_in_the_source_is_a_failure_not_a_hang(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tet.off").write_text(TET)
+    os.mkfifo(src / "pipe.off")
+
+    def give_up(signum: int, frame: object) -> None:
+        raise TimeoutError("the build waited on the named pipe")
+
+    previous = signal.signal(signal.SIGALRM, give_up)
+    signal.alarm(60)
+    try:
+        result = build_dataset(src, tmp_path / "out", **SMALL)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert result.n_models == 1
+    (failure,) = result.failures
+    assert failure["source"] == "pipe.off" and "not a regular file" in failure["reason"]
+
+
 def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> None:
     from vptoolkit.dataset.build import STAGES
 

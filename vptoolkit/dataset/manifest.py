@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
@@ -193,6 +194,13 @@ def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
     str
         64 lower-case hex digits.
 
+    Raises
+    ------
+    InputError
+        If ``path`` is not a regular file (a named pipe is never waited on).
+    OSError
+        If it cannot be opened or read.
+
     Examples
     --------
     >>> import tempfile, pathlib
@@ -202,7 +210,12 @@ def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
     'ba7816bf8f01cfea'
     """
     digest = hashlib.sha256()
-    with open(path, "rb") as stream:
+    # Opened without blocking, so a named pipe (or a device) is refused instead of
+    # waiting forever for a writer.
+    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(handle, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(handle).st_mode):
+            raise InputError(f"{Path(path).name}: not a regular file")
         while block := stream.read(block_size):
             digest.update(block)
     return digest.hexdigest()
