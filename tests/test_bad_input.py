@@ -266,6 +266,53 @@ def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weigh
     assert not (tmp_path / "p.npz").exists()
 
 
+@pytest.mark.parametrize("reader", ["model.json", "categories.json"])
+def test_deeply_nested_checkpoint_json_is_one_line(tmp_path: Path, reader: str) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    model = tmp_path / "m"
+    if reader == "model.json":
+        shutil.copytree(PRETRAINED, model)
+    else:
+        model.mkdir()
+    (model / reader).write_text("[" * 200_000)
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(100, 3)))
+    code, text = _run("predict", "-m", model, cloud)
+    _assert_one_line_bad_input(code, text, f"{reader}: ", "nested too deeply")
+
+
+def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Path) -> None:
+    from vptoolkit.errors import InputError
+    from vptoolkit.files import parse_json, read_json_file
+
+    for bad in ("[" * 200_000, b"\xff{}", "{", "1" * 5000, ""):
+        with pytest.raises(InputError, match=r"^x\.json: not UTF-8 JSON \(") as caught:
+            parse_json(bad, "x.json")
+        assert "\n" not in str(caught.value)
+    state = tmp_path / "model.last.json"
+    state.write_text('{"a": ' * 200_000)
+    with pytest.raises(InputError, match=r"^model\.last\.json: not UTF-8 JSON \(nested too deeply\)$"):
+        read_json_file(state)
+    with pytest.raises(InputError, match=r"^folder: not a regular file$"):
+        read_json_file(tmp_path, "folder")
+
+
+def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
+    from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+    from vptoolkit.errors import InputError
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
+    staging = tmp_path / "out" / STAGING_DIR
+    staging.mkdir(parents=True)
+    (staging / "build.json").write_text("[" * 200_000)
+    with pytest.raises(InputError, match="build.json: unreadable build record .*nested too deeply"):
+        build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100, clean=False)
+
+
 def test_option_errors_are_one_line_like_every_other_error() -> None:
     code, text = _run("measures", sample_path("teapot"), "--views", "0")
     _assert_one_line_bad_input(code, text, "measures: ", "--views")

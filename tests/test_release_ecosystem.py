@@ -410,6 +410,20 @@ def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None
         update_card(release_copy)
 
 
+@pytest.mark.parametrize("croissant", ["[" * 200_000, "[1, 2]"], ids=["nested", "a-list"])
+def test_cli_update_card_refuses_a_croissant_it_cannot_read(release_copy: Path,
+                                                            croissant: str) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    (release_copy / "croissant.json").write_text(croissant)
+    result = CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith("vptool: error: croissant.json: ")
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+
+
 def test_cli_update_card(release_copy: Path) -> None:
     from click.testing import CliRunner
 

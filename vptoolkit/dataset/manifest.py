@@ -24,6 +24,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
+from vptoolkit.files import read_json_file
 
 __all__ = [
     "MANIFEST_NAME",
@@ -409,14 +410,12 @@ def _compare_archives(found: dict[str, dict[str, str | None]], report: VerifyRep
 
 def _croissant_sums(folder: Path) -> dict[str, str]:
     """File -> SHA-256 as ``croissant.json`` lists them: a second witness beside the manifest."""
-    import json
-
     try:
-        document = json.loads((folder / "croissant.json").read_text(encoding="utf-8"))
+        document = read_json_file(folder / "croissant.json")
         return {str(item["contentUrl"]): str(item["sha256"]).lower()
                 for item in document.get("distribution", [])
                 if isinstance(item, dict) and "contentUrl" in item and "sha256" in item}
-    except (OSError, ValueError, AttributeError, TypeError):
+    except (InputError, AttributeError, TypeError):
         return {}
 
 

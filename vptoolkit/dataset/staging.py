@@ -38,7 +38,7 @@ from vptoolkit.dataset.compute import FailedModel, MeasuredModel
 from vptoolkit.dataset.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
 from vptoolkit.dataset.sources import SourceModel
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write
+from vptoolkit.files import atomic_write, read_json_file
 
 __all__ = [
     "STAGING_DIR",
@@ -136,12 +136,12 @@ def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> st
     build_file = staging / _BUILD_FILE
     if build_file.exists():
         try:
-            recorded = json.loads(build_file.read_text(encoding="utf-8"))
+            recorded = read_json_file(build_file, str(build_file))
             # builds from before the option did not remesh
             staged_options = {"remesh": False, **recorded["options"]}
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:
-            raise InputError(f"{build_file}: unreadable build record ({err})") from err
+            raise InputError(f"{build_file}: unreadable build record ({one_line(err)})") from err
         changed = [
             f"{key}={staged_options.get(key)!r} (now {options[key]!r})"
             for key in _RESUME_OPTIONS
@@ -282,8 +282,8 @@ def _check_meta(meta: Any) -> dict[str, Any]:
 def _read_failure(path: Path) -> dict[str, Any] | None:
     """A staged failure record, or None (the model is redone) if it is unreadable or malformed."""
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except Exception:  # any decoding failure (RecursionError too): redo it
+        record = read_json_file(path)
+    except InputError:
         return None
     if not isinstance(record, dict):
         return None
