@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Final
 
-from vptoolkit.checks import check_int
+from vptoolkit.checks import check_int, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
@@ -229,7 +229,7 @@ class ModelConfig:
         if "levels" in kwargs:
             levels = kwargs["levels"]
             if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping) for level in levels):
-                raise InputError(f"levels: expected a list of level objects, got {_short(levels)}")
+                raise InputError(f"levels: expected a list of level objects, got {short_repr(levels)}")
             if len(levels) > MAX_LAYERS:
                 raise InputError(f"levels: expected at most {MAX_LAYERS} levels, got {len(levels)}")
             try:
@@ -239,7 +239,7 @@ class ModelConfig:
         for key in ("head_channels", "decoder_channels"):
             if key in kwargs:
                 if not isinstance(kwargs[key], (list, tuple)):
-                    raise InputError(f"{key}: expected a list of widths, got {_short(kwargs[key])}")
+                    raise InputError(f"{key}: expected a list of widths, got {short_repr(kwargs[key])}")
                 kwargs[key] = tuple(kwargs[key])
         return cls(**kwargs)
 
@@ -247,7 +247,7 @@ class ModelConfig:
 def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> None:
     """Raise an :class:`InputError` naming ``name`` unless ``value`` is an int in ``[1, maximum]``."""
     if not _is_int(value) or value < 1:
-        raise InputError(f"{name}: expected a positive integer, got {_short(value)}")
+        raise InputError(f"{name}: expected a positive integer, got {short_repr(value)}")
     if maximum is not None and value > maximum:
         raise InputError(f"{name}: expected at most {maximum}, got {value}")
 
@@ -271,9 +271,3 @@ def _is_int(value: Any) -> bool:
 
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _short(value: Any) -> str:
-    """``repr(value)``, cut to 40 characters (a configuration value may be huge)."""
-    text = repr(value)
-    return text if len(text) <= 40 else text[:37] + "..."
