@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import socket
 import struct
 import zlib
 from collections.abc import Iterator
@@ -15,6 +16,22 @@ import pytest
 from vptoolkit.mesh import Mesh
 
 REQUIRE_ALL = os.environ.get("VPTOOLKIT_REQUIRE_ALL") == "1"
+
+DASK_DASHBOARD = "127.0.0.1:0"
+"""``dashboard_address`` of every test's LocalCluster: any free port, since ``None`` still
+binds distributed's HTTP server to 8787 and fails when another cluster holds it."""
+
+
+@pytest.fixture()
+def taken_dashboard_port() -> Iterator[None]:
+    """Hold port 8787, Dask's default dashboard port, during the test, as another cluster would."""
+    with socket.socket() as holder:
+        try:
+            holder.bind(("127.0.0.1", 8787))
+            holder.listen()
+        except OSError:  # someone else holds it already, which serves as well
+            pass
+        yield
 
 
 def require_package(module: str) -> None:

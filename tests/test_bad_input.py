@@ -7,7 +7,13 @@ a 74 GiB allocation or an output full of inf; see issue 15.
 from __future__ import annotations
 
 import io
+import json
 import logging
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
 import zipfile
 from pathlib import Path
 
@@ -53,11 +59,45 @@ def test_overflowing_coordinates_are_bad_input(huge_tetrahedron: Path, tmp_path:
     assert not list(tmp_path.glob("p.*"))
 
 
-def test_a_mesh_at_1e30_is_still_fine() -> None:
+@pytest.mark.parametrize("command", ["sample", "measures"])
+def test_underflowing_coordinates_are_bad_input(tmp_path: Path, command: str) -> None:
+    tiny = tmp_path / "tiny.off"
+    tiny.write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
+    output = {"sample": ["-o", tmp_path / "p.npy"], "measures": ["--views", "10"]}[command]
+    code, text = _run(command, tiny, *output)
+    _assert_one_line_bad_input(code, text, "tiny.off", "1e-46", "underflow", "rescale")
+    assert not list(tmp_path.glob("p.*"))
+
+
+def test_a_build_records_an_underflowing_mesh_as_a_failure(tmp_path: Path) -> None:
+    from vptoolkit.dataset.build import build_dataset
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tiny.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
+    (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
+    result = build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100,
+                           clean=False)
+    assert result.n_models == 1
+    (failure,) = result.failures
+    assert failure["source"] == "tiny.off" and "underflow" in failure["reason"]
+
+
+@pytest.mark.parametrize("scale", [1e30, 1e-30])
+def test_a_mesh_at_1e30_or_1e_minus_30_is_still_fine(scale: float) -> None:
     from vptoolkit.mesh import Mesh
 
-    mesh = Mesh(np.eye(3) * 1e30, np.array([[0, 1, 2]]))
-    assert mesh.vertices.max() == 1e30
+    mesh = Mesh(np.eye(3) * scale, np.array([[0, 1, 2]]))
+    assert mesh.vertices.max() == scale
+
+
+@pytest.mark.parametrize("scale", ["1e-46", "1e300"])
+def test_predict_refuses_a_point_file_beyond_float32(tmp_path: Path, scale: str) -> None:
+    path = tmp_path / "cloud.npy"
+    np.save(path, np.vstack([np.zeros(3), np.eye(3)]) * float(scale))
+    code, text = _run("predict", path)
+    _assert_one_line_bad_input(code, text, "cloud.npy: ", scale.replace("1e300", "1e+300"),
+                               "rescale the point cloud")
 
 
 def test_meshlab_ascii_ply_with_texture_lists_reads_its_indices_and_warns_once(
@@ -146,6 +186,131 @@ def test_a_checkpoint_whose_json_disagrees_with_its_weights(tmp_path: Path) -> N
     (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
     code, text = _run("predict", "-m", tmp_path / "small.safetensors", sample_path("teapot"))
     _assert_one_line_bad_input(code, text, "small.safetensors: weights do not match")
+
+
+# Runs each checkpoint of a test in a child process limited to 3 GiB of address space, so a
+# configuration that asks for terabytes fails there instead of exhausting the machine.
+_LIMITED_PREDICT = textwrap.dedent("""
+    import json, resource, sys
+    resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
+    from click.testing import CliRunner
+    from vptoolkit.cli import main
+    cloud, *models = sys.argv[1:]
+    for model in models:
+        outcome = CliRunner().invoke(main, ["predict", cloud, "--model", model])
+        print(json.dumps([outcome.exit_code, outcome.output]))
+""")
+
+_HUGE_CONFIGS = {
+    "n-points": lambda config: config.update(input={"n_points": 10**9, "n_fps": 10**9}),
+    "latent-channels": lambda config: config["architecture"].update(latent_channels=200_000_000),
+    "levels-a-string": lambda config: config["architecture"].update(levels="abc"),
+    "many-parameters": lambda config: config["architecture"].update(
+        head_channels=[4096] * 16, kernel_size=256, global_kernel_size=256, kernel_hidden=256),
+    "input-a-list": lambda config: config.update(input=[1, 2]),
+    "format-version": lambda config: config.update(format_version=99),
+}
+_HUGE_NEEDLES = {
+    "n-points": "input.n_points", "latent-channels": "latent_channels",
+    "levels-a-string": "levels", "many-parameters": "parameters", "input-a-list": "input",
+    "format-version": "format_version",
+}
+
+
+def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    models = []
+    for case, change in _HUGE_CONFIGS.items():
+        model = tmp_path / case
+        shutil.copytree(PRETRAINED, model)
+        config = json.loads((model / "model.json").read_text())
+        change(config)
+        (model / "model.json").write_text(json.dumps(config))
+        models.append(model)
+    done = subprocess.run([sys.executable, "-c", _LIMITED_PREDICT, cloud, *models],
+                          capture_output=True, text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    outcomes = [json.loads(line) for line in done.stdout.splitlines()]
+    for case, (code, text) in zip(_HUGE_CONFIGS, outcomes):
+        _assert_one_line_bad_input(code, text, "model.json: ", _HUGE_NEEDLES[case])
+    assert len(outcomes) == len(_HUGE_CONFIGS)
+
+
+@pytest.mark.parametrize("weight", [float("nan"), float("inf"), 0.0], ids=["nan", "inf", "zero"])
+def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weight: float) -> None:
+    require_package("torch")
+    import torch
+
+    from vptoolkit.learn import model as M
+
+    small = M.ModelConfig(latent_channels=16, head_channels=(8,), levels=(
+        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                      neighbourhood="cell"),
+    ))
+    network = M.ViewpointNet(small)
+    with torch.no_grad():
+        for parameter in network.parameters():
+            parameter.fill_(weight)
+    M.save_model(network, tmp_path / "broken")
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    code, text = _run("predict", "-m", tmp_path / "broken", cloud, "-o", tmp_path / "p.npz")
+    needle = "model.safetensors: weight " if weight != 0.0 else "broken: the network answers"
+    assert "Traceback" not in text
+    _assert_one_line_bad_input(code, text.split("\r")[-1].splitlines()[-1] + "\n", needle)
+    assert not (tmp_path / "p.npz").exists()
+
+
+@pytest.mark.parametrize("reader", ["model.json", "categories.json"])
+def test_deeply_nested_checkpoint_json_is_one_line(tmp_path: Path, reader: str) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    model = tmp_path / "m"
+    if reader == "model.json":
+        shutil.copytree(PRETRAINED, model)
+    else:
+        model.mkdir()
+    (model / reader).write_text("[" * 200_000)
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(100, 3)))
+    code, text = _run("predict", "-m", model, cloud)
+    _assert_one_line_bad_input(code, text, f"{reader}: ", "nested too deeply")
+
+
+def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Path) -> None:
+    from vptoolkit.errors import InputError
+    from vptoolkit.files import parse_json, read_json_file
+
+    for bad in ("[" * 200_000, b"\xff{}", "{", "1" * 5000, ""):
+        with pytest.raises(InputError, match=r"^x\.json: not UTF-8 JSON \(") as caught:
+            parse_json(bad, "x.json")
+        assert "\n" not in str(caught.value)
+    state = tmp_path / "model.last.json"
+    state.write_text('{"a": ' * 200_000)
+    with pytest.raises(InputError, match=r"^model\.last\.json: not UTF-8 JSON \(nested too deeply\)$"):
+        read_json_file(state)
+    with pytest.raises(InputError, match=r"^folder: not a regular file$"):
+        read_json_file(tmp_path, "folder")
+
+
+def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
+    from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+    from vptoolkit.errors import InputError
+
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
+    staging = tmp_path / "out" / STAGING_DIR
+    staging.mkdir(parents=True)
+    (staging / "build.json").write_text("[" * 200_000)
+    with pytest.raises(InputError, match="build.json: unreadable build record .*nested too deeply"):
+        build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100, clean=False)
 
 
 def test_option_errors_are_one_line_like_every_other_error() -> None:

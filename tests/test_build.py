@@ -35,7 +35,7 @@ from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 
-from conftest import require_package
+from conftest import DASK_DASHBOARD, require_package
 
 MALFORMED = Path(__file__).parent / "data" / "malformed"
 SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000}
@@ -462,6 +462,7 @@ def test_two_workers_give_the_same_dataset_as_one(src, reference, tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.usefixtures("taken_dashboard_port")
 def test_dask_cluster_gives_the_same_dataset(src, reference, tmp_path):
     require_package("distributed")
     from distributed import LocalCluster
@@ -470,7 +471,7 @@ def test_dask_cluster_gives_the_same_dataset(src, reference, tmp_path):
     # at interpreter exit (seen with pymeshlab + scipy's libgfortran), so keep it
     # out of the pytest process.
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster:
+                      dashboard_address=DASK_DASHBOARD) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
         result = build_dataset(src, tmp_path / "out", scheduler=cluster.scheduler_address, **SMALL)
     assert_same_dataset(read_store(result.path), reference[1])

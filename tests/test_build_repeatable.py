@@ -30,7 +30,7 @@ from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.store import ARRAY_NAMES, open_store
 from vptoolkit.samples import sample_path
 
-from conftest import require_package
+from conftest import DASK_DASHBOARD, require_package
 
 REAL = Path(__file__).parent / "data" / "real"
 RABBIT = REAL / "rabbit.obj"
@@ -99,6 +99,7 @@ def test_cleaned_faces_start_at_their_smallest_vertex():
 
 
 @pytest.mark.slow
+@pytest.mark.usefixtures("taken_dashboard_port")
 def test_one_worker_two_workers_and_dask_give_identical_arrays(src, tmp_path):
     require_package("pymeshlab")
     require_package("distributed")
@@ -107,7 +108,7 @@ def test_one_worker_two_workers_and_dask_give_identical_arrays(src, tmp_path):
     one = _array_hashes(build_dataset(src, tmp_path / "one", **TINY).path)
     two = _array_hashes(build_dataset(src, tmp_path / "two", workers=2, **TINY).path)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None) as cluster:
+                      dashboard_address=DASK_DASHBOARD) as cluster:
         on_dask = build_dataset(src, tmp_path / "dask", scheduler=cluster.scheduler_address,
                                 **TINY)
     assert two == one

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import shutil
@@ -10,15 +11,19 @@ import subprocess
 import sys
 import textwrap
 import time
+import zipfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+from vptoolkit.dataset.sources import discover_models
+from vptoolkit.dataset.staging import scan_staging, source_signature
 from vptoolkit.dataset.store import ARRAY_NAMES, open_store
 from vptoolkit.samples import sample_path
 
+TET = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
 SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000, "clean": False}
 
 
@@ -103,6 +108,97 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
         for name in ARRAY_NAMES:
             assert np.array_equal(np.asarray(store.array(name)[...]), reference[name],
                                   equal_nan=True), name
+
+
+@pytest.fixture(scope="module")
+def staged_tetrahedron(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A source folder holding one tetrahedron and the staging folder of its build."""
+    root = tmp_path_factory.mktemp("staged")
+    src = root / "src"
+    src.mkdir()
+    (src / "tet.off").write_text(TET)
+    build_dataset(src, root / "out", **SMALL)
+    return src, root / "out" / STAGING_DIR
+
+
+def _break_deflate(staged: Path, src: Path) -> None:
+    """Make the deflate stream of the ``points`` member invalid (block type 3)."""
+    content = bytearray(staged.read_bytes())
+    with zipfile.ZipFile(staged) as archive:
+        info = archive.getinfo("points.npy")
+    name_length = int.from_bytes(content[info.header_offset + 26 : info.header_offset + 28], "little")
+    extra_length = int.from_bytes(content[info.header_offset + 28 : info.header_offset + 30], "little")
+    content[info.header_offset + 30 + name_length + extra_length] = 0xFF
+    staged.write_bytes(bytes(content))
+
+
+def _replace_meta(staged: Path, meta: bytes | None) -> None:
+    """Replace the ``meta`` member; None keeps its signature and drops its record."""
+    with np.load(staged, allow_pickle=False) as loaded:
+        arrays = {name: loaded[name] for name in loaded.files}
+    if meta is None:
+        signature = json.loads(arrays["meta"].tobytes())["signature"]
+        meta = json.dumps({"signature": signature}).encode()
+    arrays["meta"] = np.frombuffer(meta, dtype=np.uint8)
+    with open(staged, "wb") as stream:
+        np.savez_compressed(stream, **arrays)
+
+
+def _failure_instead(staged: Path, failure: str, src: Path) -> None:
+    (model,) = discover_models(src)
+    signature = json.dumps(source_signature(model))
+    staged.with_name(staged.name.replace(".npz", ".failed.json")).write_text(
+        failure.replace("SIGNATURE", signature))
+    staged.unlink()
+
+
+@pytest.mark.parametrize("damage", [
+    pytest.param(_break_deflate, id="damaged-deflate-stream"),
+    pytest.param(lambda staged, src: _replace_meta(staged, b"[1, 2]"), id="meta-a-list"),
+    pytest.param(lambda staged, src: _replace_meta(staged, None), id="meta-without-record"),
+    pytest.param(lambda staged, src: _replace_meta(staged, b"[" * 200_000), id="meta-nested"),
+    pytest.param(lambda staged, src: _failure_instead(staged, '{"signature": SIGNATURE, "failure": 3}', src),
+                 id="failure-a-number"),
+    pytest.param(lambda staged, src: _failure_instead(staged, "[" * 200_000, src), id="failure-nested"),
+])
+def test_a_staged_file_that_decodes_wrong_is_computed_again(
+    staged_tetrahedron: tuple[Path, Path], tmp_path: Path, caplog: pytest.LogCaptureFixture, damage
+) -> None:
+    src, reference = staged_tetrahedron
+    staging = tmp_path / STAGING_DIR
+    shutil.copytree(reference, staging)
+    (staged,) = staging.glob("m-*.npz")
+    damage(staged, src)
+    models = discover_models(src)
+
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
+        done, failed, todo = scan_staging(staging, models)
+    assert (done, failed, todo) == ({}, {}, models)
+    assert not list(staging.glob("m-*")), "the unreadable staged file is deleted"
+    warnings = [record.getMessage() for record in caplog.records if record.levelno >= logging.WARNING]
+    assert len(warnings) <= 1 and all("\n" not in warning for warning in warnings)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+def test_a_named_pipe_in_the_source_is_a_failure_not_a_hang(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    (src / "tet.off").write_text(TET)
+    os.mkfifo(src / "pipe.off")
+
+    def give_up(signum: int, frame: object) -> None:
+        raise TimeoutError("the build waited on the named pipe")
+
+    previous = signal.signal(signal.SIGALRM, give_up)
+    signal.alarm(60)
+    try:
+        result = build_dataset(src, tmp_path / "out", **SMALL)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert result.n_models == 1
+    (failure,) = result.failures
+    assert failure["source"] == "pipe.off" and "not a regular file" in failure["reason"]
 
 
 def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> None:

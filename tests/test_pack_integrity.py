@@ -85,6 +85,41 @@ def test_readers_refuse_a_missing_chunk_naming_array_and_models(build: Path) -> 
     assert "quality" in outcome.output and outcome.output.count("\n") == 1
 
 
+def _garble(path: Path) -> None:
+    """Damage a chunk past its header, so that blosc cannot decompress it."""
+    content = bytearray(path.read_bytes())
+    for position in range(16, len(content)):
+        content[position] ^= 0x5A
+    path.write_bytes(bytes(content))
+
+
+@pytest.mark.parametrize("command", ["evaluate", "predict", "report"])
+def test_readers_name_array_and_models_of_a_chunk_that_does_not_decompress(
+    build: Path, tmp_path: Path, command: str
+) -> None:
+    _garble(build / CHUNK)
+    predictions = tmp_path / "p.npy"
+    np.save(predictions, np.tile([0.0, 0.0, 1.0], (9, 4, 1)))
+    if command == "predict":
+        require_package("torch")
+        points = build / "dataset.zarr" / "points" / "c" / "0" / "0" / "0"
+        _garble(points)
+        arguments = ["predict", "--dataset", str(build), "--split", "all"]
+        array = "points"
+    elif command == "evaluate":
+        arguments = ["evaluate", str(predictions), "--dataset", str(build), "--split", "all"]
+        array = "quality"
+    else:
+        arguments = ["report", str(build), "-o", str(tmp_path / "report")]
+        array = "quality"
+    outcome = CliRunner().invoke(main, arguments)
+    assert outcome.exit_code == 1, outcome.output
+    last = outcome.output.split("\r")[-1].splitlines()[-1]
+    assert last.startswith("vptool: error: dataset.zarr: "), outcome.output
+    assert f"array {array!r} cannot be decoded, models airplane_0000" in last
+    assert "Traceback" not in outcome.output
+
+
 def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(build: Path) -> None:
     from vptoolkit.dataset.store import open_store
 

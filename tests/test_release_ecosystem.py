@@ -282,6 +282,47 @@ def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
     assert (three.path / "SHA256SUMS").read_text() == manifest
 
 
+@pytest.mark.parametrize(("created", "epoch", "needle"), [
+    ("9999-12-31T23:59:59-01:00", None, "created: '9999-12-31T23:59:59-01:00' is outside"),
+    ("0001-01-01T00:00:00+01:00", None, "created: '0001-01-01T00:00:00+01:00' is outside"),
+    (None, "99999999999999999999", "SOURCE_DATE_EPOCH: 99999999999999999999 seconds is beyond"),
+    (None, "\u00b2", "SOURCE_DATE_EPOCH: '\u00b2' is not a whole number"),
+    (None, "9" * 5000, "SOURCE_DATE_EPOCH: 999"),
+], ids=["after-9999", "before-year-1", "huge-epoch", "superscript-two", "5000-digits"])
+def test_release_times_beyond_the_calendar_are_one_line(monkeypatch, created, epoch,
+                                                        needle) -> None:
+    from vptoolkit.dataset.release import release_created
+
+    if epoch is None:
+        monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    else:
+        monkeypatch.setenv("SOURCE_DATE_EPOCH", epoch)
+    with pytest.raises(InputError, match=re.escape(needle)) as caught:
+        release_created(created, None)
+    assert "\n" not in str(caught.value) and len(str(caught.value)) < 300
+
+
+def test_release_times_before_the_year_1000_keep_four_digits(monkeypatch) -> None:
+    from vptoolkit.dataset.release import release_created
+
+    monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
+    assert release_created("1000-01-01T00:00:00+01:00", None) == "0999-12-31T23:00:00Z"
+    assert release_created("0042-03-04T05:06:07", None) == "0042-03-04T05:06:07Z"
+
+
+def test_cli_pack_refuses_a_created_beyond_9999_in_one_line(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release"),
+                                       "--created", "9999-12-31T23:59:59-01:00"])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith("vptool: error: created: ") and result.output.count("\n") == 1
+    assert not (tmp_path / "release").exists()
+
+
 # --------------------------------------------------------------------------- verify rows
 
 
@@ -408,6 +449,20 @@ def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None
     archive.write_bytes(bytes(data))
     with pytest.raises(VerificationError, match="mini-2.1.0.h5: differs from SHA256SUMS"):
         update_card(release_copy)
+
+
+@pytest.mark.parametrize("croissant", ["[" * 200_000, "[1, 2]"], ids=["nested", "a-list"])
+def test_cli_update_card_refuses_a_croissant_it_cannot_read(release_copy: Path,
+                                                            croissant: str) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    (release_copy / "croissant.json").write_text(croissant)
+    result = CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+    assert result.exit_code == 2, result.output
+    assert result.output.startswith("vptool: error: croissant.json: ")
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
 
 
 def test_cli_update_card(release_copy: Path) -> None:

@@ -16,7 +16,15 @@ import numpy as np
 
 from vptoolkit.errors import InputError
 
-__all__ = ["as_path", "check_bool", "check_int", "check_npy_header", "check_suffix", "one_line"]
+__all__ = [
+    "as_path",
+    "check_bool",
+    "check_int",
+    "check_npy_header",
+    "check_suffix",
+    "one_line",
+    "short_repr",
+]
 
 _MAX_MESSAGE_CHARS = 200
 
@@ -63,6 +71,12 @@ def one_line(error: BaseException | str) -> str:
     if len(text) > _MAX_MESSAGE_CHARS:
         return text[: _MAX_MESSAGE_CHARS - 3] + "..."
     return text
+
+
+def short_repr(value: object, limit: int = 40) -> str:
+    """``repr(value)`` cut to ``limit`` characters, for a message quoting a value that may be huge."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def check_npy_header(stream: BinaryIO, label: str, n_bytes: int) -> None:

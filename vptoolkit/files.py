@@ -1,4 +1,4 @@
-"""Writing files so that a reader never sees half of one.
+"""Writing files so that a reader never sees half of one, and reading JSON back in one line.
 
 Every output of vptoolkit (meshes, quality arrays, checkpoints, pictures,
 reports) is written through :func:`atomic_write`: the bytes go to a
@@ -6,24 +6,36 @@ temporary sibling (``.<name>.<random>.partial``, in the same folder so the
 rename cannot cross file systems), are flushed to disk, and the sibling is
 renamed over the target with :func:`os.replace`. An interrupted or failing
 write leaves the previous file (or no file) and no partial one.
+
+Every JSON the toolkit reads back (checkpoint configurations and training
+states, ``categories.json``, ``croissant.json``, the staging folder's records,
+JSON members and attributes of stores) goes through :func:`parse_json` or
+:func:`read_json_file`: bad UTF-8, bad syntax, a number Python refuses (more
+than 4300 digits) and nesting deeper than the interpreter's recursion limit
+(``'[' * 200000``) all raise an :class:`~vptoolkit.errors.InputError` that
+names the file, never a ``RecursionError`` traceback.
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import secrets
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
+from vptoolkit.checks import one_line
 from vptoolkit.errors import InputError
 
 __all__ = [
     "atomic_write",
     "check_output_folder",
+    "parse_json",
+    "read_json_file",
     "remove_stale_partials",
     "temporary_name",
     "temporary_prefix",
@@ -152,3 +164,63 @@ def write_bytes_atomic(path: str | os.PathLike[str], payload: bytes) -> Path:
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """Write UTF-8 ``text`` to ``path`` through :func:`atomic_write`; return the path."""
     return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def parse_json(data: str | bytes, label: str) -> Any:
+    """Decode JSON text.
+
+    Parameters
+    ----------
+    data : str or bytes
+        The text, or its UTF-8 bytes.
+    label : str
+        The file (or ``file:member``) named first in the message.
+
+    Returns
+    -------
+    value : Any
+        The decoded value; callers check its type.
+
+    Raises
+    ------
+    InputError
+        ``label: not UTF-8 JSON (...)`` for any decoding failure.
+    """
+    try:
+        text = data.decode("utf-8") if isinstance(data, (bytes, bytearray)) else data
+        return json.loads(text)
+    except RecursionError as err:
+        raise InputError(f"{label}: not UTF-8 JSON (nested too deeply)") from err
+    except (UnicodeDecodeError, ValueError, TypeError) as err:
+        raise InputError(f"{label}: not UTF-8 JSON ({one_line(err)})") from err
+
+
+def read_json_file(path: str | os.PathLike[str], label: str | None = None) -> Any:
+    """Read and decode a JSON file.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    label : str, optional
+        Named in messages (default: the file's name).
+
+    Returns
+    -------
+    value : Any
+        The decoded value; callers check its type.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be read or is not UTF-8 JSON.
+    """
+    path = Path(path)
+    label = path.name if label is None else label
+    if path.exists() and not path.is_file():
+        raise InputError(f"{label}: not a regular file")
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise InputError(f"{label}: cannot read ({one_line(err.strerror or err)})") from err
+    return parse_json(data, label)

@@ -9,13 +9,22 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
 
-__all__ = ["MAX_COORDINATE", "Mesh"]
+__all__ = ["MAX_COORDINATE", "MIN_COORDINATE", "Mesh", "check_coordinate_range"]
 
 MAX_COORDINATE = 1e38
 """Largest coordinate magnitude a mesh may have: float32 (points, stored meshes) ends at 3.4e38.
 
 Below it every product the measures, the cleaning and the sampling form
 (cross products, squared lengths) stays finite in float64.
+"""
+
+MIN_COORDINATE = 1e-37
+"""Smallest magnitude the largest coordinate of a mesh or point cloud may have.
+
+float32 (points, stored meshes) holds full precision down to 1.2e-38; a
+smaller shape would be stored (and then verified) as zeros or as a few
+subnormal steps. A shape whose coordinates are all exactly zero is left to
+the checks for a shape without extent.
 """
 
 
@@ -58,12 +67,7 @@ class Mesh:
         if not np.isfinite(vertices).all():
             n_bad = int((~np.isfinite(vertices).all(axis=1)).sum())
             raise InputError(f"{self.name}: {n_bad} vertices have NaN or infinite coordinates")
-        largest = float(np.abs(vertices).max()) if vertices.size else 0.0
-        if largest > MAX_COORDINATE:
-            raise InputError(
-                f"{self.name}: coordinates up to {largest:.3g} overflow the float32 of points, "
-                f"stored meshes and pictures (limit {MAX_COORDINATE:.0e}); rescale the mesh"
-            )
+        check_coordinate_range(vertices, self.name, "mesh")
         low, high = int(faces.min()), int(faces.max())
         if low < 0 or high >= len(vertices):
             bad = low if low < 0 else high
@@ -87,6 +91,37 @@ class Mesh:
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, n_vertices={self.n_vertices}, n_faces={self.n_faces})"
+
+
+def check_coordinate_range(coordinates: NDArray[np.float64], name: str, what: str) -> None:
+    """Refuse finite coordinates that float32 cannot hold (see MAX_ and MIN_COORDINATE).
+
+    Parameters
+    ----------
+    coordinates : (n, 3) float
+        Finite vertex or point coordinates.
+    name : str
+        The file or mesh named first in the message.
+    what : str
+        ``"mesh"`` or ``"point cloud"``, the thing to rescale.
+
+    Raises
+    ------
+    InputError
+        ``name: coordinates up to 1e+300 overflow the float32 ...; rescale the mesh``
+        or ``name: coordinates of at most 1e-46 underflow the float32 ...``.
+    """
+    largest = float(np.abs(coordinates).max()) if coordinates.size else 0.0
+    if largest > MAX_COORDINATE:
+        raise InputError(
+            f"{name}: coordinates up to {largest:.3g} overflow the float32 of points, "
+            f"stored meshes and pictures (limit {MAX_COORDINATE:.0e}); rescale the {what}"
+        )
+    if 0.0 < largest < MIN_COORDINATE:
+        raise InputError(
+            f"{name}: coordinates of at most {largest:.3g} underflow the float32 of points, "
+            f"stored meshes and pictures (limit {MIN_COORDINATE:.0e}); rescale the {what}"
+        )
 
 
 def _as_array(values: ArrayLike, dtype: type, name: str, what: str) -> NDArray:  # type: ignore[type-arg]

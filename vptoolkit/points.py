@@ -16,14 +16,15 @@ global random state.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import check_int
+from vptoolkit.checks import check_int, check_npy_header, one_line
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, check_coordinate_range
 
 __all__ = [
     "MAX_SURFACE_POINTS",
@@ -36,6 +37,7 @@ __all__ = [
     "network_input_indices",
     "network_input",
     "poisson_disk_points",
+    "read_point_file",
 ]
 
 N_SURFACE_POINTS = 20_000
@@ -406,6 +408,52 @@ def poisson_disk_points(
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(candidates.points))
     cloud.normals = o3d.utility.Vector3dVector(candidates.normals)
     return np.asarray(triangles.sample_points_poisson_disk(n, pcl=cloud).points, dtype=np.float64)
+
+
+def read_point_file(path: Path) -> NDArray[np.float64]:
+    """Read the points of an ``.npy`` point file, checked as a mesh's vertices are.
+
+    Parameters
+    ----------
+    path : Path
+        An ``(N, 3)`` or ``(N, 6)`` float array, ``x y z`` first (as ``vptool
+        sample`` writes).
+
+    Returns
+    -------
+    points : (N, 3) float64
+
+    Raises
+    ------
+    InputError
+        Naming the file, if its header claims more than it holds, it is not a
+        float array of that shape, a coordinate is NaN or infinite, the
+        coordinates are beyond float32's range
+        (:func:`vptoolkit.mesh.check_coordinate_range`), or fewer than two
+        distinct points leave it without extent.
+    """
+    try:
+        with open(path, "rb") as stream:
+            check_npy_header(stream, path.name, path.stat().st_size)
+            table = np.load(stream, allow_pickle=False)
+    except (OSError, ValueError, EOFError) as err:
+        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
+    if table.ndim != 2 or table.shape[1] not in (3, 6) or table.shape[0] < 1:
+        raise InputError(
+            f"{path.name}: expected an (N, 3) or (N, 6) point array, got shape {table.shape}"
+        )
+    if not np.issubdtype(table.dtype, np.floating):
+        raise InputError(f"{path.name}: expected float columns, got {table.dtype}")
+    points = np.asarray(table[:, :3], dtype=np.float64)
+    if not np.isfinite(points).all():
+        raise InputError(f"{path.name}: contains NaN or infinite coordinates")
+    check_coordinate_range(points, path.name, "point cloud")
+    if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
+        raise InputError(
+            f"{path.name}: its {len(points)} point(s) do not span any extent; a view can "
+            "only be predicted for a shape (at least 2 distinct points)"
+        )
+    return points
 
 
 def _as_points(points: ArrayLike, what: str) -> NDArray[np.float64]:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from vptoolkit.checks import check_npy_header, check_suffix, one_line
+from vptoolkit.checks import check_suffix
 from vptoolkit.cli.options import (
     EXISTING,
     MEASURE_CHOICE,
@@ -170,9 +170,11 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")
-    for source in sources:
+    from vptoolkit.points import read_point_file
+
+    for source in sources:  # refused before the network is loaded
         if source.suffix.lower() == ".npy" and source.is_file():
-            _check_point_file(source)
+            read_point_file(source)
     predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
                           progress=True, category=category, device=device)
     if output is not None:
@@ -185,24 +187,6 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
         click.echo(f"... and {len(predictions) - 10} more")
     if output is not None:
         click.echo(f"wrote {output} ({len(predictions)} models)")
-
-
-def _check_point_file(path: Path) -> None:
-    """Refuse a point file whose header lies or whose points have no extent, before predicting."""
-    import numpy as np
-
-    with open(path, "rb") as stream:
-        check_npy_header(stream, path.name, path.stat().st_size)
-    try:
-        table = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
-    if table.ndim == 2 and table.shape[1] in (3, 6) and np.issubdtype(table.dtype, np.number):
-        points = table[:, :3]
-        if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
-            raise InputError(f"{path.name}: its {len(points)} point(s) do not span any "
-                             "extent; a view can only be predicted for a shape (at least 2 "
-                             "distinct points)")
 
 
 COMMANDS = (train, predict_command, evaluate)

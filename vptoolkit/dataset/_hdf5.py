@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 
 from vptoolkit.dataset.schema import HDF5_JSON_KEY
+from vptoolkit.errors import InputError
+from vptoolkit.files import parse_json
 from vptoolkit.optional import require
 
 __all__ = ["Hdf5Sink", "open_hdf5"]
@@ -71,11 +73,13 @@ def open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
     is_open = False
     try:
         raw = dict(handle.attrs)
-        json_keys = set(json.loads(raw.pop(HDF5_JSON_KEY, "[]")))
+        json_keys = parse_json(raw.pop(HDF5_JSON_KEY, "[]"), f"{path.name}: {HDF5_JSON_KEY}")
+        if not isinstance(json_keys, list) or not all(isinstance(key, str) for key in json_keys):
+            raise InputError(f"{path.name}: {HDF5_JSON_KEY} is not a list of names")
         attrs = {}
         for key, value in raw.items():
             if key in json_keys:
-                attrs[key] = json.loads(value)
+                attrs[key] = parse_json(value, f"{path.name}: attribute {key}")
             elif isinstance(value, bytes):
                 attrs[key] = value.decode("utf-8")
             elif isinstance(value, (np.generic, np.ndarray)):

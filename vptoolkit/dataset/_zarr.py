@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vptoolkit.dataset.schema import array_sha256
-from vptoolkit.errors import VerificationError, VptoolkitError
+from vptoolkit.errors import VerificationError
 
 __all__ = ["ZarrSink", "open_zarr", "check_chunks"]
 
@@ -99,14 +99,6 @@ def open_zarr(zarr: Any, path: Path, kind: str) -> tuple[Any, Any, dict[str, Any
     return group, store, attrs, names
 
 
-_PER_MODEL_ARRAYS = (
-    "points", "normals", "quality", "quality_raw",
-    "best_index", "best_value", "worst_index", "worst_value",
-)
-_MESH_ARRAYS = {"mesh_vertices": "mesh_vertex_offsets", "mesh_faces": "mesh_face_offsets"}
-_MAX_NAMED_MODELS = 3
-
-
 def _stored_keys(reader: Any) -> set[str]:
     """Every key (``array/c/0/0``) of a Zarr directory or zip store."""
     if reader.kind == "zarr-zip":
@@ -148,31 +140,10 @@ def check_chunks(reader: Any) -> None:
         if not missing or array_sha256(array) == reader.stored_sha256(name):
             continue
         key = array.metadata.encode_chunk_key(missing[0])
+        first_row = missing[0][0] * array.chunks[0]
         more = f" (and {len(missing) - 1} more chunks)" if len(missing) > 1 else ""
         raise VerificationError(
             f"{reader.path.name}: array {name!r} chunk {key} is missing{more}, "
-            f"{_models_of_rows(reader, name, missing[0][0], array.chunks[0])}; "
+            f"{reader.models_of_rows(name, first_row, first_row + array.chunks[0])}; "
             "it would read as zeros (run vptool verify)"
         )
-
-
-def _models_of_rows(reader: Any, name: str, chunk_index: int, chunk_rows: int) -> str:
-    """Which models the rows of one chunk belong to, for an error message."""
-    first, stop = chunk_index * chunk_rows, (chunk_index + 1) * chunk_rows
-    try:
-        names = [str(record.get("name")) for record in reader.models()]
-        if name in _PER_MODEL_ARRAYS:
-            rows = list(range(first, min(stop, len(names))))
-        elif name in _MESH_ARRAYS:
-            offsets = np.asarray(reader.array(_MESH_ARRAYS[name])[...])
-            rows = [
-                row for row in range(len(names))
-                if offsets[row] < stop and offsets[row + 1] > first
-            ]
-        else:
-            return "which every model uses"
-    except (VptoolkitError, KeyError, ValueError, TypeError, AttributeError):
-        return "models unknown (models_json unreadable)"
-    shown = ", ".join(names[row] for row in rows[:_MAX_NAMED_MODELS])
-    extra = f" and {len(rows) - _MAX_NAMED_MODELS} more" if len(rows) > _MAX_NAMED_MODELS else ""
-    return f"models {shown}{extra}" if rows else "no model"

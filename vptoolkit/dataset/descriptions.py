@@ -26,7 +26,7 @@ from vptoolkit.dataset.manifest import (
     write_sha256sums,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import write_text_atomic
+from vptoolkit.files import read_json_file, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -125,10 +125,9 @@ def update_card(release_dir: Path | str) -> list[str]:
                 f"{relative}: differs from SHA256SUMS; only {CARD_NAME} may be edited "
                 "(run vptool verify to see what changed)"
             )
-    try:
-        document = json.loads((folder / CROISSANT_NAME).read_text(encoding="utf-8"))
-    except ValueError as err:
-        raise InputError(f"{CROISSANT_NAME}: not JSON ({err})") from err
+    document = read_json_file(folder / CROISSANT_NAME)
+    if not isinstance(document, dict):
+        raise InputError(f"{CROISSANT_NAME}: not a JSON object")
     card = (folder / CARD_NAME).read_text(encoding="utf-8")
     for key in [key for key in document if key.startswith("rai:")]:
         del document[key]

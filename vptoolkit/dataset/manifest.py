@@ -17,12 +17,14 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
+from vptoolkit.files import read_json_file
 
 __all__ = [
     "MANIFEST_NAME",
@@ -193,6 +195,13 @@ def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
     str
         64 lower-case hex digits.
 
+    Raises
+    ------
+    InputError
+        If ``path`` is not a regular file (a named pipe is never waited on).
+    OSError
+        If it cannot be opened or read.
+
     Examples
     --------
     >>> import tempfile, pathlib
@@ -202,7 +211,12 @@ def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
     'ba7816bf8f01cfea'
     """
     digest = hashlib.sha256()
-    with open(path, "rb") as stream:
+    # Opened without blocking, so a named pipe (or a device) is refused instead of
+    # waiting forever for a writer.
+    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(handle, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(handle).st_mode):
+            raise InputError(f"{Path(path).name}: not a regular file")
         while block := stream.read(block_size):
             digest.update(block)
     return digest.hexdigest()
@@ -396,14 +410,12 @@ def _compare_archives(found: dict[str, dict[str, str | None]], report: VerifyRep
 
 def _croissant_sums(folder: Path) -> dict[str, str]:
     """File -> SHA-256 as ``croissant.json`` lists them: a second witness beside the manifest."""
-    import json
-
     try:
-        document = json.loads((folder / "croissant.json").read_text(encoding="utf-8"))
+        document = read_json_file(folder / "croissant.json")
         return {str(item["contentUrl"]): str(item["sha256"]).lower()
                 for item in document.get("distribution", [])
                 if isinstance(item, dict) and "contentUrl" in item and "sha256" in item}
-    except (OSError, ValueError, AttributeError, TypeError):
+    except (InputError, AttributeError, TypeError):
         return {}
 
 

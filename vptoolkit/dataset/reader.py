@@ -25,9 +25,17 @@ from vptoolkit.dataset.schema import (
     ModelEntry,
     from_json_bytes,
 )
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.checks import one_line
+from vptoolkit.errors import InputError, VerificationError, VptoolkitError
 
 __all__ = ["StoreReader", "open_store"]
+
+_PER_MODEL_ARRAYS = (
+    "points", "normals", "quality", "quality_raw",
+    "best_index", "best_value", "worst_index", "worst_value",
+)
+_MESH_ARRAYS = {"mesh_vertices": "mesh_vertex_offsets", "mesh_faces": "mesh_face_offsets"}
+_MAX_NAMED_MODELS = 3  # models named in an error message before "and N more"
 
 
 class StoreReader:
@@ -83,7 +91,10 @@ class StoreReader:
         Returns
         -------
         array : zarr.Array or h5py.Dataset
-            Has ``shape`` and ``dtype``; slicing returns numpy arrays.
+            Wrapped so that a slice that cannot be decoded (a damaged chunk)
+            raises a :class:`VerificationError` naming the store, the array
+            and its models; attributes (``shape``, ``dtype``, ``attrs``, ...)
+            are the wrapped array's.
 
         Raises
         ------
@@ -95,7 +106,7 @@ class StoreReader:
         if name not in self._arrays:
             if name not in self._array_names:
                 raise InputError(f"{self.path.name}: no array {name!r}")
-            self._arrays[name] = self._root[name]
+            self._arrays[name] = _CheckedArray(self, name, self._root[name])
         return self._arrays[name]
 
     def stored_sha256(self, name: str) -> str:
@@ -172,6 +183,34 @@ class StoreReader:
             view_set=record.get("view_set"),
         )
 
+    def models_of_rows(self, name: str, first: int, stop: int) -> str:
+        """Which models rows ``first:stop`` of an array belong to, for an error message.
+
+        Returns
+        -------
+        text : str
+            ``"models a, b, c and 4 more"``, ``"no model"``, ``"which every model
+            uses"`` (an array not split by model) or, when ``models_json`` is
+            unreadable, ``"models unknown (models_json unreadable)"``.
+        """
+        try:
+            names = [str(record.get("name")) for record in self.models()]
+            if name in _PER_MODEL_ARRAYS:
+                rows = list(range(first, min(stop, len(names))))
+            elif name in _MESH_ARRAYS:
+                offsets = np.asarray(self._root[_MESH_ARRAYS[name]][...])
+                rows = [
+                    row for row in range(len(names))
+                    if offsets[row] < stop and offsets[row + 1] > first
+                ]
+            else:
+                return "which every model uses"
+        except Exception:  # noqa: BLE001 - only a message is being built
+            return "models unknown (models_json unreadable)"
+        shown = ", ".join(names[row] for row in rows[:_MAX_NAMED_MODELS])
+        extra = f" and {len(rows) - _MAX_NAMED_MODELS} more" if len(rows) > _MAX_NAMED_MODELS else ""
+        return f"models {shown}{extra}" if rows else "no model"
+
     def close(self) -> None:
         """Close the underlying file; safe to call twice."""
         if self._is_closed:
@@ -185,6 +224,57 @@ class StoreReader:
             return from_json_bytes(self.array(name)[...])
         except InputError as err:
             raise InputError(f"{self.path.name}: {name} is not UTF-8 JSON") from err
+
+
+class _CheckedArray:
+    """A stored array whose reads turn a decoding failure into one line.
+
+    zarr raises blosc's ``RuntimeError`` (or a codec's ``ValueError``) and
+    h5py an ``OSError`` for a chunk that does not decompress; this names the
+    store, the array and the models of the rows read instead.
+    """
+
+    def __init__(self, reader: StoreReader, name: str, array: Any) -> None:
+        self._reader = reader
+        self._name = name
+        self._array = array
+
+    def __getattr__(self, attribute: str) -> Any:
+        if attribute in ("_reader", "_name", "_array"):  # not set yet (copy, unpickling)
+            raise AttributeError(attribute)
+        return getattr(self._array, attribute)
+
+    def __len__(self) -> int:
+        return len(self._array)
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        values = np.asarray(self[...])
+        return values if dtype is None else values.astype(dtype)
+
+    def __getitem__(self, key: Any) -> Any:
+        try:
+            return self._array[key]
+        except VptoolkitError:
+            raise
+        except (RuntimeError, ValueError, OSError) as err:
+            first, stop = _rows_of(key, int(self._array.shape[0]) if self._array.shape else 0)
+            models = self._reader.models_of_rows(self._name, first, stop)
+            raise VerificationError(
+                f"{self._reader.path.name}: array {self._name!r} cannot be decoded, {models} "
+                f"({one_line(err)}); the store is damaged (run vptool verify)"
+            ) from err
+
+
+def _rows_of(key: Any, n_rows: int) -> tuple[int, int]:
+    """The rows ``first:stop`` a selection reads (all of them unless it starts with an int or slice)."""
+    head = key[0] if isinstance(key, tuple) and key else key
+    if isinstance(head, (int, np.integer)) and not isinstance(head, bool):
+        row = int(head) % n_rows if n_rows else 0
+        return row, row + 1
+    if isinstance(head, slice):
+        first, stop, _ = head.indices(n_rows)
+        return first, stop
+    return 0, n_rows
 
 
 def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> StoreReader:

@@ -44,6 +44,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
+from vptoolkit.checks import short_repr
 from vptoolkit.dataset.card import (
     dataset_info,
     format_info,
@@ -106,7 +107,7 @@ DEFAULT_VERSION = "1.0.0"
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _VERSION = re.compile(r"(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)")
-_CREATED = "%Y-%m-%dT%H:%M:%SZ"
+_EPOCH_SECONDS = re.compile(r"[0-9]+")  # ASCII digits: str.isdigit also passes "²", which int() refuses
 
 
 @dataclass(frozen=True)
@@ -328,18 +329,36 @@ def release_created(created: str | None, default: str | None) -> str:
         try:
             moment = datetime.fromisoformat(created.replace("Z", "+00:00"))
         except ValueError as err:
-            raise InputError(f"created: {created!r} is not an ISO 8601 time") from err
+            raise InputError(f"created: {short_repr(created)} is not an ISO 8601 time") from err
         if moment.tzinfo is None:
             moment = moment.replace(tzinfo=timezone.utc)
-        return moment.astimezone(timezone.utc).strftime(_CREATED)
+        try:
+            return _utc_text(moment.astimezone(timezone.utc))
+        except OverflowError as err:
+            raise InputError(
+                f"created: {short_repr(created)} is outside the years 1 to 9999 in UTC"
+            ) from err
     epoch = os.environ.get("SOURCE_DATE_EPOCH")
     if epoch:
-        if not epoch.isdigit():
-            raise InputError(f"SOURCE_DATE_EPOCH: {epoch!r} is not a whole number of seconds")
-        return datetime.fromtimestamp(int(epoch), timezone.utc).strftime(_CREATED)
+        if not _EPOCH_SECONDS.fullmatch(epoch):
+            raise InputError(
+                f"SOURCE_DATE_EPOCH: {short_repr(epoch)} is not a whole number of seconds"
+            )
+        try:
+            return _utc_text(datetime.fromtimestamp(int(epoch), timezone.utc))
+        except (OverflowError, OSError, ValueError) as err:
+            raise InputError(
+                f"SOURCE_DATE_EPOCH: {short_repr(epoch)[1:-1]} seconds is beyond the year 9999"
+            ) from err
     if default:
         return default
-    return datetime.now(timezone.utc).strftime(_CREATED)
+    return _utc_text(datetime.now(timezone.utc))
+
+
+def _utc_text(moment: datetime) -> str:
+    """``2026-01-02T03:04:05Z``, the year always four digits (``0999``, which strftime drops)."""
+    return (f"{moment.year:04d}-{moment.month:02d}-{moment.day:02d}"
+            f"T{moment.hour:02d}:{moment.minute:02d}:{moment.second:02d}Z")
 
 
 def _copy_schema(target: Path) -> None:

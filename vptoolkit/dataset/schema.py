@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.files import parse_json
 
 __all__ = [
     "FORMAT_NAME",
@@ -306,12 +307,9 @@ def from_json_bytes(array: ArrayLike) -> Any:
     Raises
     ------
     InputError
-        If the bytes are not valid UTF-8 JSON.
+        If the bytes are not valid UTF-8 JSON (:func:`vptoolkit.files.parse_json`).
     """
     raw = np.asarray(array)
     if raw.dtype != np.uint8 or raw.ndim != 1:
         raise InputError(f"array: expected (n,) uint8 JSON bytes, got {raw.shape} {raw.dtype}")
-    try:
-        return json.loads(raw.tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, ValueError) as err:
-        raise InputError(f"array: not UTF-8 JSON ({err})") from err
+    return parse_json(raw.tobytes(), "array")

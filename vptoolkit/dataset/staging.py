@@ -25,7 +25,6 @@ import json
 import logging
 import os
 import re
-import zipfile
 from collections.abc import Iterator, Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
@@ -36,10 +35,10 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.compute import FailedModel, MeasuredModel
-from vptoolkit.dataset.schema import ModelEntry, from_json_bytes, json_bytes
+from vptoolkit.dataset.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
 from vptoolkit.dataset.sources import SourceModel
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write
+from vptoolkit.files import atomic_write, read_json_file
 
 __all__ = [
     "STAGING_DIR",
@@ -78,6 +77,8 @@ _ARRAY_NAMES = (
     "vertices",
     "faces",
 )
+# Fields of a staged meta's record that StagedEntries reads.
+_RECORD_KEYS = ("name", "category", "source", "source_sha256", "cleaning")
 # Options a resumed build must share with the staged one; anything else would
 # mix models computed two ways in one store.
 _RESUME_OPTIONS = (
@@ -135,12 +136,12 @@ def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> st
     build_file = staging / _BUILD_FILE
     if build_file.exists():
         try:
-            recorded = json.loads(build_file.read_text(encoding="utf-8"))
+            recorded = read_json_file(build_file, str(build_file))
             # builds from before the option did not remesh
             staged_options = {"remesh": False, **recorded["options"]}
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:
-            raise InputError(f"{build_file}: unreadable build record ({err})") from err
+            raise InputError(f"{build_file}: unreadable build record ({one_line(err)})") from err
         changed = [
             f"{key}={staged_options.get(key)!r} (now {options[key]!r})"
             for key in _RESUME_OPTIONS
@@ -243,33 +244,55 @@ def source_signature(model: SourceModel) -> dict[str, Any]:
 def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
     """Whether a staged model is whole and was made from the same source file.
 
-    Every member is read in full, so a bad CRC or a truncated member anywhere
-    in the file (not just in ``meta``) counts as unreadable: the model is
-    computed again after one warning, instead of failing the final write.
+    Every member is read in full, so a bad CRC, a damaged deflate stream or a
+    truncated member anywhere in the file (not just in ``meta``) counts as
+    unreadable, and so does a ``meta`` that is not the object
+    :func:`stage_model` writes: the model is computed again after one
+    warning, instead of failing the final write or every resumed run.
     """
     try:
         # np.load leaks its file handle when the zip is broken, so open the file here.
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
-            meta = from_json_bytes(staged["meta"])
+            meta = _check_meta(from_json_bytes(staged["meta"]))
             missing = [name for name in _ARRAY_NAMES if name not in staged.files]
             if missing:
                 raise KeyError(f"no member {missing[0]!r}")
             for name in _ARRAY_NAMES:
                 staged[name]  # reads the member in full and checks its CRC
-    # unreadable: redo it
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile, UnicodeDecodeError) as err:
+    # Any failure to decode (zlib.error, BadZipFile, a wrong meta, ...) means unreadable.
+    except Exception as err:  # the file is redone, never trusted
         _log.warning("%s: staged model unreadable (%s); computing it again", path.name,
                      one_line(err))
         return False
-    return bool(meta.get("signature") == signature)
+    return bool(meta["signature"] == signature)
+
+
+def _check_meta(meta: Any) -> dict[str, Any]:
+    """Return a staged ``meta`` if it has the fields :class:`StagedEntries` reads, else raise."""
+    if not isinstance(meta, dict) or not isinstance(meta.get("record"), dict):
+        raise ValueError("meta is not an object with a record")
+    missing = [key for key in _RECORD_KEYS if key not in meta["record"]]
+    if missing:
+        raise ValueError(f"meta record has no {missing[0]!r}")
+    if "signature" not in meta:
+        raise ValueError("meta has no signature")
+    return meta
 
 
 def _read_failure(path: Path) -> dict[str, Any] | None:
+    """A staged failure record, or None (the model is redone) if it is unreadable or malformed."""
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        record = read_json_file(path)
+    except InputError:
         return None
-    return record if isinstance(record, dict) and "failure" in record else None
+    if not isinstance(record, dict):
+        return None
+    failure = record.get("failure")
+    if not isinstance(failure, dict) or not all(
+        isinstance(failure.get(key), str) for key in FAILURE_KEYS
+    ):
+        return None
+    return record
 
 
 def stage_model(staging: Path, result: MeasuredModel) -> Path:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
+from vptoolkit.errors import InputError
+from vptoolkit.files import parse_json
 from vptoolkit.io._polygons import FormatError, Polygons, triangle_polygons
 
 __all__ = ["read_gltf"]
@@ -48,9 +49,9 @@ def read_gltf(path: Path, data: bytes) -> tuple[NDArray[np.float64], Polygons]:
     suffix = path.suffix.lower()
     if suffix == ".gltf":
         try:
-            json.loads(data)
-        except ValueError as err:
-            raise FormatError(f"invalid glTF JSON ({one_line(str(err))})") from err
+            parse_json(data, path.name)
+        except InputError as err:
+            raise FormatError(f"invalid glTF JSON ({one_line(str(err.__cause__ or err))})") from err
     elif not data.startswith(b"glTF"):
         raise FormatError("not a GLB file (it does not start with 'glTF')")
     try:

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
 from vptoolkit.errors import InputError
-from vptoolkit.files import write_bytes_atomic
+from vptoolkit.files import read_json_file, write_bytes_atomic
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -88,10 +88,7 @@ def read_json(path: Path, what: str) -> dict[str, Any]:
     """Read a JSON object, raising :class:`InputError` naming ``path``."""
     if not path.is_file():
         raise InputError(f"{path}: {what} not found")
-    try:
-        values = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise InputError(f"{path.name}: cannot read {what} ({err})") from err
+    values = read_json_file(path)
     if not isinstance(values, dict):
         raise InputError(f"{path.name}: {what} is not a JSON object")
     return values

@@ -13,18 +13,42 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Final
 
+from vptoolkit.checks import check_int, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
 
-__all__ = ["HEADS", "MAX_GRID_LEVEL", "DEFAULT_LEVELS", "LevelConfig", "ModelConfig", "ball_level",
-           "check_positive_int"]
+__all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL", "MAX_LAYERS",
+           "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig", "ModelConfig",
+           "ball_level", "check_input_sizes", "check_positive_int"]
 
 HEADS: Final = ("direction", "sr", "dldl")
 """Network heads: unit directions, spherical regression, sphere maps."""
 
 MAX_GRID_LEVEL: Final = 16
 """Finest grid level used: ``(batch << 3k) | cell`` fits 63 bits for batches up to 2^15."""
+
+# Bounds of a configuration, so that a checkpoint's JSON cannot ask for more memory than a
+# machine has (the defaults are 64 to 512 channels, kernels of 8 and 16, 32 neighbours,
+# three levels, 2.3 million parameters and inputs of 4096 points).
+MAX_CHANNELS: Final = 4096
+"""Widest level, latent vector, head or decoder layer."""
+
+MAX_KERNEL: Final = 256
+"""Largest ``kernel_size``, ``global_kernel_size`` and ``kernel_hidden``."""
+
+MAX_INPUT_POINTS: Final = 1 << 16
+"""Most points of one network input (``n_points``)."""
+
+MAX_NEIGHBOURS: Final = 1024
+"""Most neighbours per point of one level (each level's neighbourhoods take that many slots)."""
+
+MAX_LAYERS: Final = 16
+"""Most levels, and most hidden layers of a head."""
+
+MAX_PARAMETERS: Final = 1 << 27
+"""Most parameters of a network (134 million, 512 MiB in float32)."""
+
 
 @dataclass(frozen=True)
 class LevelConfig:
@@ -133,22 +157,27 @@ class ModelConfig:
             raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, got {self.input_frame!r}")
         if self.head not in HEADS:
             raise InputError(f"head: unknown head {self.head!r}, expected one of {list(HEADS)}")
-        for name in ("n_measures", "latent_channels", "kernel_size", "global_kernel_size", "kernel_hidden"):
-            check_positive_int(getattr(self, name), name)
+        check_positive_int(self.n_measures, "n_measures", maximum=len(MEASURES))
+        check_positive_int(self.latent_channels, "latent_channels", maximum=MAX_CHANNELS)
+        for name in ("kernel_size", "global_kernel_size", "kernel_hidden"):
+            check_positive_int(getattr(self, name), name, maximum=MAX_KERNEL)
         if not self.levels:
             raise InputError("levels: expected at least one level")
+        if len(self.levels) > MAX_LAYERS:
+            raise InputError(f"levels: expected at most {MAX_LAYERS} levels, got {len(self.levels)}")
         source_level = MAX_GRID_LEVEL
         for position, level in enumerate(self.levels):
             if not isinstance(level, LevelConfig):
                 raise InputError(f"levels[{position}]: expected a LevelConfig, got {type(level).__name__}")
-            check_positive_int(level.max_neighbours, f"levels[{position}].max_neighbours")
-            check_positive_int(level.channels, f"levels[{position}].channels")
-            if not (isinstance(level.grid_level, int) and 1 <= level.grid_level <= source_level):
+            check_positive_int(level.max_neighbours, f"levels[{position}].max_neighbours",
+                               maximum=MAX_NEIGHBOURS)
+            check_positive_int(level.channels, f"levels[{position}].channels", maximum=MAX_CHANNELS)
+            if not (_is_int(level.grid_level) and 1 <= level.grid_level <= source_level):
                 raise InputError(
                     f"levels[{position}].grid_level: expected an integer in [1, {source_level}] "
                     f"(no finer than the level before), got {level.grid_level!r}"
                 )
-            if not (isinstance(level.radius, (int, float)) and 2.0**-MAX_GRID_LEVEL <= level.radius <= 1.0):
+            if not (_is_number(level.radius) and 2.0**-MAX_GRID_LEVEL <= level.radius <= 1.0):
                 raise InputError(f"levels[{position}].radius: expected a number in [2^-16, 1], got {level.radius!r}")
             if level.neighbourhood not in ("ball", "cell"):
                 raise InputError(
@@ -160,13 +189,15 @@ class ModelConfig:
                     f"finer than the previous level's 2^-{source_level}"
                 )
             source_level = level.grid_level
+        if len(self.head_channels) > MAX_LAYERS:
+            raise InputError(f"head_channels: expected at most {MAX_LAYERS} layers, got {len(self.head_channels)}")
         for position, width in enumerate(self.head_channels):
-            check_positive_int(width, f"head_channels[{position}]")
+            check_positive_int(width, f"head_channels[{position}]", maximum=MAX_CHANNELS)
         if len(self.decoder_channels) != 2:
             raise InputError(f"decoder_channels: expected two widths, got {self.decoder_channels!r}")
         for position, width in enumerate(self.decoder_channels):
-            check_positive_int(width, f"decoder_channels[{position}]")
-        if not (isinstance(self.dropout, (int, float)) and 0.0 <= self.dropout < 1.0):
+            check_positive_int(width, f"decoder_channels[{position}]", maximum=MAX_CHANNELS)
+        if not (_is_number(self.dropout) and 0.0 <= self.dropout < 1.0):
             raise InputError(f"dropout: expected a rate in [0, 1), got {self.dropout!r}")
 
     def to_dict(self) -> dict[str, Any]:
@@ -184,7 +215,9 @@ class ModelConfig:
         Raises
         ------
         InputError
-            On unknown keys or invalid values.
+            On unknown keys, invalid values or sizes beyond the bounds above
+            (``MAX_CHANNELS``, ``MAX_KERNEL``, ``MAX_NEIGHBOURS``, ``MAX_LAYERS``),
+            naming the field.
         """
         if not isinstance(values, Mapping):
             raise InputError(f"architecture: expected a mapping, got {type(values).__name__}")
@@ -194,18 +227,47 @@ class ModelConfig:
             raise InputError(f"architecture: unknown keys {unknown}")
         kwargs = dict(values)
         if "levels" in kwargs:
+            levels = kwargs["levels"]
+            if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping) for level in levels):
+                raise InputError(f"levels: expected a list of level objects, got {short_repr(levels)}")
+            if len(levels) > MAX_LAYERS:
+                raise InputError(f"levels: expected at most {MAX_LAYERS} levels, got {len(levels)}")
             try:
-                kwargs["levels"] = tuple(LevelConfig(**dict(level)) for level in kwargs["levels"])
+                kwargs["levels"] = tuple(LevelConfig(**dict(level)) for level in levels)
             except TypeError as err:
                 raise InputError(f"architecture: bad level description ({err})") from err
         for key in ("head_channels", "decoder_channels"):
             if key in kwargs:
+                if not isinstance(kwargs[key], (list, tuple)):
+                    raise InputError(f"{key}: expected a list of widths, got {short_repr(kwargs[key])}")
                 kwargs[key] = tuple(kwargs[key])
         return cls(**kwargs)
 
 
-def check_positive_int(value: Any, name: str) -> None:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise InputError(f"{name}: expected a positive integer, got {value!r}")
+def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> None:
+    """Raise an :class:`InputError` naming ``name`` unless ``value`` is an int in ``[1, maximum]``."""
+    if not _is_int(value) or value < 1:
+        raise InputError(f"{name}: expected a positive integer, got {short_repr(value)}")
+    if maximum is not None and value > maximum:
+        raise InputError(f"{name}: expected at most {maximum}, got {value}")
 
 
+def check_input_sizes(n_points: Any, n_fps: Any, *, prefix: str = "") -> tuple[int, int]:
+    """Return a network input's size and farthest-point part, or raise naming the bad one.
+
+    ``1 <= n_points <= MAX_INPUT_POINTS`` and ``0 <= n_fps <= n_points``; the
+    message names ``{prefix}n_points`` or ``{prefix}n_fps``.
+    """
+    n_points = check_int(n_points, f"{prefix}n_points", minimum=1, maximum=MAX_INPUT_POINTS)
+    n_fps = check_int(n_fps, f"{prefix}n_fps", minimum=0)
+    if n_fps > n_points:
+        raise InputError(f"{prefix}n_fps: {n_fps} exceeds n_points={n_points}")
+    return n_points, n_fps
+
+
+def _is_int(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)

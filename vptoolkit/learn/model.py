@@ -88,7 +88,15 @@ from vptoolkit.learn.checkpoint import (
     write_json_atomic,
     write_safetensors_atomic,
 )
-from vptoolkit.learn.config import DEFAULT_LEVELS, HEADS, LevelConfig, ModelConfig, check_positive_int
+from vptoolkit.learn.config import (
+    DEFAULT_LEVELS,
+    HEADS,
+    MAX_PARAMETERS,
+    LevelConfig,
+    ModelConfig,
+    check_input_sizes,
+    check_positive_int,
+)
 from vptoolkit.learn.frame import canonical_frame, from_frame, to_frame
 from vptoolkit.learn.hierarchy import (
     CODE_BITS,
@@ -216,6 +224,10 @@ class ViewpointNet(nn.Module):
             else:
                 self.heads = nn.ModuleList(
                     SphereMapDecoder(latent, config.decoder_channels) for _ in range(config.n_measures))
+        n_parameters = count_parameters(self)  # counted on the meta device, before any allocation
+        if n_parameters > MAX_PARAMETERS:
+            raise InputError(f"architecture: {n_parameters:,} parameters exceed the {MAX_PARAMETERS:,} "
+                             "a network may have")
         self.to_empty(device="cpu")
         self.reset_parameters(seed=seed)
         self._generator: torch.Generator | None = None
@@ -402,8 +414,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     Raises
     ------
     InputError
-        If a file is missing or unreadable, or the configuration is not a
-        vptoolkit model.
+        If a file is missing or unreadable, the configuration is not a
+        vptoolkit model or asks for sizes beyond the bounds of
+        :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
     VerificationError
         If the weights do not match the architecture.
     """
@@ -411,12 +424,32 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     config = read_json(config_path, "model configuration")
     if config.get("format") != MODEL_FORMAT:
         raise InputError(f"{config_path.name}: not a vptoolkit model configuration (format {config.get('format')!r})")
-    if list(config.get("measures", [])) != list(MEASURES[: len(config.get("measures", []))]):
-        raise VerificationError(f"{config_path.name}: measure order {config.get('measures')} differs from {list(MEASURES)}")
-    architecture = dict(config.get("architecture", {}))
-    architecture.setdefault("input_frame", "none")  # checkpoints written before the option saw raw inputs
-    model = ViewpointNet(ModelConfig.from_dict(architecture))
+    if config.get("format_version", 1) != 1:
+        raise InputError(f"{config_path.name}: format_version {config.get('format_version')!r} is not 1, "
+                         "the only one this vptoolkit reads")
+    measures = config.get("measures", [])
+    if not isinstance(measures, list) or len(measures) > len(MEASURES):
+        raise InputError(f"{config_path.name}: measures: expected a list of at most {len(MEASURES)} names")
+    if measures != list(MEASURES[: len(measures)]):
+        raise VerificationError(f"{config_path.name}: measure order {measures} differs from {list(MEASURES)}")
+    try:
+        trained = config.get("input", {})
+        if not isinstance(trained, Mapping):
+            raise InputError(f"input: expected an object, got {type(trained).__name__}")
+        check_input_sizes(trained.get("n_points", 4096), trained.get("n_fps", 1024), prefix="input.")
+        architecture = config.get("architecture", {})
+        if not isinstance(architecture, Mapping):
+            raise InputError(f"architecture: expected an object, got {type(architecture).__name__}")
+        # checkpoints written before the option saw raw inputs
+        architecture = {"input_frame": "none", **architecture}
+        model = ViewpointNet(ModelConfig.from_dict(architecture))
+    except InputError as err:
+        raise InputError(f"{config_path.name}: {err}") from err
     state = read_safetensors(weights_path)  # float16 weights are cast on loading
+    broken = next((name for name, tensor in state.items()
+                   if tensor.is_floating_point() and not bool(torch.isfinite(tensor).all())), None)
+    if broken is not None:
+        raise InputError(f"{weights_path.name}: weight {broken} holds NaN or infinite values")
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:

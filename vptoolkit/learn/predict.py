@@ -42,6 +42,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import (
     DEFAULT_MODEL,
     ViewpointNet,
@@ -51,6 +52,7 @@ from vptoolkit.learn.model import (
 )
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
+from vptoolkit.points import read_point_file
 
 if TYPE_CHECKING:
     import torch
@@ -169,7 +171,8 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
 
 
 def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | torch.Tensor, *,
-                       batch_size: int = 64, device: str = "cpu") -> NDArray[np.float64]:
+                       batch_size: int = 64, device: str = "cpu",
+                       checkpoint: str = "network") -> NDArray[np.float64]:
     """Run a network in evaluation mode on prepared inputs.
 
     Parameters
@@ -182,11 +185,19 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
         Models per forward pass (default: 64).
     device : {"cpu", "cuda", "auto"}
         Where the network runs (default: "cpu"; the model is moved there).
+    checkpoint : str
+        The network's checkpoint, named in errors (default: "network").
 
     Returns
     -------
     directions : (n_models, n_measures, 3) float64
         Unit directions.
+
+    Raises
+    ------
+    InputError
+        If the network answers a zero or non-finite vector for some input:
+        its weights are broken (all zero, NaN, overflowing), never a direction.
     """
 
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
@@ -205,7 +216,14 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     if not parts:
         return np.zeros((0, model.config.n_measures, 3))
     directions = torch.cat(parts).numpy()
-    return directions / np.linalg.norm(directions, axis=-1, keepdims=True)
+    lengths = np.linalg.norm(directions, axis=-1, keepdims=True)
+    is_bad = ~(np.isfinite(lengths) & (lengths > 0.0)).all(axis=(1, 2))
+    if is_bad.any():
+        raise InputError(
+            f"{checkpoint}: the network answers a zero or non-finite vector for {int(is_bad.sum())} "
+            f"of {len(directions)} inputs, not a direction; its weights are broken"
+        )
+    return directions / lengths
 
 
 def _is_dataset(path: Path) -> bool:
@@ -218,21 +236,6 @@ def _is_dataset(path: Path) -> bool:
     except InputError:
         return False
     return True
-
-
-def _point_file(path: Path) -> NDArray[np.float64]:
-    try:
-        table = np.load(path, allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise InputError(f"{path.name}: cannot read a numpy array ({err})") from err
-    if table.ndim != 2 or table.shape[1] not in (3, 6) or table.shape[0] < 1:
-        raise InputError(f"{path.name}: expected an (N, 3) or (N, 6) point array, got shape {table.shape}")
-    if not np.issubdtype(table.dtype, np.floating):
-        raise InputError(f"{path.name}: expected float columns, got {table.dtype}")
-    points = np.asarray(table[:, :3], dtype=np.float64)
-    if not np.isfinite(points).all():
-        raise InputError(f"{path.name}: contains NaN or infinite coordinates")
-    return points
 
 
 def _mesh_points(path: Path, seed: int) -> NDArray[np.float64]:
@@ -263,7 +266,7 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
         if suffix == ".npy":
             if not path.is_file():
                 raise InputError(f"{path}: no such point file")
-            yield path.stem, None, (lambda path=path: _point_file(path))
+            yield path.stem, None, (lambda path=path: read_point_file(path))
         elif suffix in SUPPORTED_SUFFIXES:
             if not path.is_file():
                 raise InputError(f"{path}: no such mesh file")
@@ -323,15 +326,9 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
 def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
     """Input size and farthest-point part: the given values, else the checkpoint's training values."""
     trained = config.get("input", {})
-    n_points = int(trained.get("n_points", 4096)) if n_points is None else n_points
-    n_fps = int(trained.get("n_fps", 1024)) if n_fps is None else n_fps
-    for value, what in ((n_points, "n_points"), (n_fps, "n_fps")):
-        if isinstance(value, bool) or not isinstance(value, int) or value < (1 if what == "n_points" else 0):
-            raise InputError(f"{what}: expected a {'positive' if what == 'n_points' else 'non-negative'} integer, "
-                             f"got {value!r}")
-    if n_fps > n_points:
-        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
-    return n_points, n_fps
+    n_points = trained.get("n_points", 4096) if n_points is None else n_points
+    n_fps = trained.get("n_fps", 1024) if n_fps is None else n_fps
+    return check_input_sizes(n_points, n_fps)
 
 
 def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
@@ -365,14 +362,20 @@ def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping
         for cloud, name, route in zip(points, names, routes):
             n_points, n_fps = _input_sizes(networks[route][1], None, None)
             prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed, name=name))
-        return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
+        return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
+                               model_path=model_path)
 
     return predictor
 
 
+def _checkpoint_name(model_path: str | os.PathLike[str], route: str | None) -> str:
+    """The checkpoint of one network, for messages: the path, with the category's folder if any."""
+    return str(model_path) if route is None else f"{model_path} (category {route})"
+
+
 def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]],
                     prepared: Sequence[NDArray[np.float32]], routes: Sequence[str | None], *,
-                    batch_size: int, device: str) -> NDArray[np.float64]:
+                    batch_size: int, device: str, model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
     """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
     first_model = next(iter(networks.values()))[0]
     directions = np.zeros((len(prepared), first_model.config.n_measures, 3))
@@ -380,7 +383,8 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
         rows = [i for i, chosen in enumerate(routes) if chosen == route]
         if rows:
             directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
-                                                  batch_size=batch_size, device=device)
+                                                  batch_size=batch_size, device=device,
+                                                  checkpoint=_checkpoint_name(model_path, route))
     return directions
 
 
@@ -417,7 +421,9 @@ class MeshPredictor:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
         networks = load_networks(model_path)
-        self.model, self.config = networks[_route(networks, Path(model_path).name, category)]
+        route = _route(networks, Path(model_path).name, category)
+        self.model, self.config = networks[route]
+        self.checkpoint = _checkpoint_name(model_path, route)
         self.n_points, self.n_fps = _input_sizes(self.config, None, None)
         self.measures = tuple(self.config.get("measures", MEASURES[: self.model.config.n_measures]))
         self.seed = seed
@@ -435,7 +441,7 @@ class MeshPredictor:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
         points = self.inputs(mesh)
         with torch_threads(self.threads):
-            return predict_directions(self.model, points[None])[0]
+            return predict_directions(self.model, points[None], checkpoint=self.checkpoint)[0]
 
 
 def predict(
@@ -496,7 +502,8 @@ def predict(
     InputError
         On a missing or unreadable input, an unknown file type, an unknown
         split, duplicate model names, a model whose category has no network,
-        or an invalid option.
+        an invalid option, or a network that answers no direction (broken
+        weights, :func:`predict_directions`).
     VerificationError
         If the checkpoint's weights do not match its architecture.
     """
@@ -519,5 +526,6 @@ def predict(
     first_model, first_config = next(iter(networks.values()))
     measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
     with torch_threads(threads):
-        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device)
+        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
+                                     model_path=model_path)
     return Predictions(tuple(names), directions.reshape(len(names), len(measures), 3), measures)

@@ -81,6 +81,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.store import published_split
 from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.labels import (
     check_label_method,
     head_for_method,
@@ -385,16 +386,13 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
     lr_step = (scaled_lr_step(epochs) if lr_step is None
                else check_int(lr_step, "lr_step", minimum=1))
     seed = check_int(seed, "seed", minimum=0)
-    n_points = check_int(n_points, "n_points", minimum=1)
-    n_fps = check_int(n_fps, "n_fps", minimum=0)
+    n_points, n_fps = check_input_sizes(n_points, n_fps)
     fps_pool = check_int(fps_pool, "fps_pool", minimum=0)
     val_rotations = check_int(val_rotations, "val_rotations", minimum=0)
     save_every = check_int(save_every, "save_every", minimum=1)
     workers = check_int(workers, "workers", minimum=0)
     if max_models is not None:
         max_models = check_int(max_models, "max_models", minimum=1)
-    if n_fps > n_points:
-        raise InputError(f"n_fps: {n_fps} exceeds n_points={n_points}")
     where = resolve_device(device)
     config = _architecture(architecture, labels)
     weights_path, config_path = checkpoint_paths(output)
