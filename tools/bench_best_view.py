@@ -217,9 +217,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bench_best_view: error: {error}", file=sys.stderr)
         return 2
     front = pareto(results)
+    where = "the bundled samples" if args.mesh_dir == SAMPLES else f"`{args.mesh_dir.name}/`"
     lines = [
+        f"## Best views: quality against cost, {where}",
+        "",
         f"Command: `python tools/bench_best_view.py{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
-        f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}`; "
+        f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}"
+        f"{''.join(f' --model {model}' for model in args.model or [])}`; "
         f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; wall time {time.perf_counter() - started:.0f} s.",
         "",
         f"{len(dataset)} meshes, {args.rotations} fixed rotations each; labels: cleaned mesh, "

@@ -1,0 +1,62 @@
+"""tools/bench_best_view.py --quick: one run prints quality against cost and writes its section."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from conftest import require_package
+from vptoolkit.samples import sample_path
+
+require_package("pymeshlab")
+require_package("torch")
+
+ROOT = Path(__file__).resolve().parents[1]
+TOOL = ROOT / "tools" / "bench_best_view.py"
+
+
+def _bench(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(TOOL), *args], capture_output=True, text=True, timeout=900,
+        check=False, env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+
+
+def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path) -> None:
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    for name in ("mug", "teapot", "suzanne"):
+        shutil.copyfile(sample_path(name), meshes / sample_path(name).name)
+    results = tmp_path / "results.md"
+    result = _bench(str(meshes), "--quick", "--cache", str(tmp_path / "cache"),
+                    "--results", str(results), "--json", str(tmp_path / "rows.json"))
+    assert result.returncode == 0, result.stderr[-2000:]
+    rows = json.loads((tmp_path / "rows.json").read_text())
+    assert {"random view (expectation)", "PCA axis", "network alone", "plain search 4 @ 128",
+            "coarse-to-fine 16 @ 128", "network prior + search 16 @ 128"} <= set(rows)
+    assert all(len(row["mean"]) == 4 for row in rows.values())
+    text = results.read_text()
+    assert "<!-- best_view:start -->" in text and "## Best views: quality against cost" in text
+    assert text.count(" * |") >= 1  # the Pareto front is marked
+    again = _bench(str(meshes), "--quick", "--cache", str(tmp_path / "cache"),
+                   "--json", str(tmp_path / "again.json"))
+    assert again.returncode == 0, again.stderr[-2000:]
+    first, second = (json.loads((tmp_path / name).read_text()) for name in ("rows.json", "again.json"))
+    assert {k: v["mean"] for k, v in first.items()} == {k: v["mean"] for k, v in second.items()}
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--budgets", "0,4"], "--budgets"),
+    (["--budgets", "a"], "--budgets"),
+    (["no/such/folder"], "not a folder"),
+])
+def test_bad_arguments_exit_2_in_one_line(arguments: list[str], message: str) -> None:
+    result = _bench(*arguments)
+    assert result.returncode == 2 and message in result.stderr
+    assert "Traceback" not in result.stderr
