@@ -17,7 +17,8 @@ import torch  # noqa: E402
 from vptoolkit.cli import main  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame  # noqa: E402
 from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
-from vptoolkit.learn.prior import NetworkPrior, distinct_directions  # noqa: E402
+from vptoolkit.learn.octahedral import sphere_map_directions  # noqa: E402
+from vptoolkit.learn.prior import NetworkPrior, distinct_directions, map_modes  # noqa: E402
 
 
 one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
@@ -54,7 +55,7 @@ def test_forward_in_the_canonical_frame_is_forward(prior):
     points = torch.as_tensor(prior.predictor.inputs(load_mesh(sample_path("teapot.stl"))))
     frame, centre = canonical_frame(points[None])
     with torch.inference_mode():
-        torch.testing.assert_close(model.forward_in_frames(points, frame, centre),
+        torch.testing.assert_close(model.forward_in_frames(points, frame, centre)["directions"],
                                    model(points[None])["directions"])
 
 
@@ -70,3 +71,17 @@ def test_best_view_with_the_default_prior_draws_its_candidates_first():
     stages = json.loads(result.stdout)["results"][0]["stages"]
     assert [stage["stage"] for stage in stages][:2] == ["coarse", "prior"]
     assert sum(stage["views"] for stage in stages) == 16
+
+
+def test_map_modes_are_the_highest_cells_far_enough_apart():
+    cells = sphere_map_directions(16, dtype=torch.float64).reshape(-1, 3)
+    up, side = torch.tensor([0.0, 0.0, 1.0], dtype=torch.float64), torch.tensor([1.0, 0, 0],
+                                                                                 dtype=torch.float64)
+    values = 2.0 * torch.exp(-8 * (1 - cells @ up)) + torch.exp(-8 * (1 - cells @ side))
+    maps = values.reshape(1, 1, 16, 16)
+    turn = torch.tensor([[0.0, 1, 0], [-1, 0, 0], [0, 0, 1]], dtype=torch.float64)[None]
+    first, second, third = map_modes(maps, turn, 3, 30.0)
+    assert np.degrees(np.arccos(first[0, 0] @ (up @ turn[0]).numpy())) < 10
+    assert np.degrees(np.arccos(second[0, 0] @ (side @ turn[0]).numpy())) < 10
+    for other in (first, second):
+        assert float(third[0, 0] @ other[0, 0]) < np.cos(np.radians(30.0))

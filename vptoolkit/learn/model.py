@@ -269,16 +269,19 @@ class ViewpointNet(nn.Module):
             outputs["frame"] = frame
         return outputs
 
-    def forward_in_frames(self, points: Tensor, frames: Tensor, centre: Tensor) -> Tensor:
-        """Directions ``(F, M, 3)`` for one cloud ``(N, 3)`` put in each of ``frames`` ``(F, 3, 3)``.
+    def forward_in_frames(self, points: Tensor, frames: Tensor, centre: Tensor) -> dict[str, Tensor]:
+        """The heads' outputs for one cloud ``(N, 3)`` put in each of ``frames`` ``(F, 3, 3)``.
 
-        The network sees ``(x - centre) C_f^T`` for every frame ``C_f`` and each
-        answer goes back with ``d C_f``: :meth:`forward` is the case of the one
-        canonical frame. For the frames of ambiguous axis signs
-        (:class:`vptoolkit.learn.prior.NetworkPrior`).
+        The network sees ``(x - centre) C_f^T`` for every frame ``C_f``;
+        ``"directions"`` ``(F, M, 3)`` come back in the input's frame (``d C_f``),
+        every other output (``"maps"`` of a DLDL head) stays in its frame:
+        :meth:`forward` is the case of the one canonical frame. For the frames of
+        ambiguous axis signs (:class:`vptoolkit.learn.prior.NetworkPrior`).
         """
         inputs = to_frame(points[None].expand(len(frames), -1, -1), frames, centre)
-        return from_frame(self._heads(self.encoder(inputs))["directions"], frames)
+        outputs = self._heads(self.encoder(inputs))
+        outputs["directions"] = from_frame(outputs["directions"], frames)
+        return outputs
 
     def _heads(self, latent: Tensor) -> dict[str, Tensor]:
         """Head outputs in the frame the encoder saw."""

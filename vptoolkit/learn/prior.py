@@ -11,10 +11,14 @@ has to put a good direction among a few candidates, not to be right.
 2. the answers in the frames that differ from it by the sign of an
    ambiguous axis (``|mu_3| < SIGN_AMBIGUITY sigma^3``: a mirror-symmetric
    model, whose frame sign is decided by sampling noise), one frame after
-   the other.
+   the other;
+3. for a network with a DLDL head, which predicts a quality map over the
+   sphere per measure, the next ``modes - 1`` modes of each map too: the
+   highest cells at least ``mode_angle_deg`` from every higher one kept.
 
 Directions closer than ``min_angle_deg`` to an earlier candidate are
-dropped; the order is by frame, then by measure (``MEASURES`` order).
+dropped; the order is by mode rank, then frame, then measure (``MEASURES``
+order).
 Directions point from the bounding-box centre towards the camera, in the
 mesh's own coordinates.
 """
@@ -41,7 +45,7 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["NetworkPrior", "distinct_directions"]
+__all__ = ["NetworkPrior", "distinct_directions", "map_modes"]
 
 
 def distinct_directions(directions: NDArray[np.float64], min_angle_deg: float) -> NDArray[np.float64]:
@@ -77,6 +81,10 @@ class NetworkPrior:
         Seed of the surface sampling (default: 0).
     min_angle_deg : float
         Candidates closer than this to an earlier one are dropped (default: 5).
+    modes : int
+        Modes per quality map of a DLDL network (default: 3; ignored for other heads).
+    mode_angle_deg : float
+        Smallest angle between two modes of one map (default: 30).
     threads : int, optional
         Torch threads during each call (default: torch's setting).
 
@@ -87,11 +95,17 @@ class NetworkPrior:
     """
 
     def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
-                 min_angle_deg: float = 5.0, threads: int | None = None) -> None:
-        if not 0.0 <= float(min_angle_deg) < 180.0:
-            raise InputError(f"min_angle_deg: expected an angle in [0, 180), got {min_angle_deg!r}")
+                 min_angle_deg: float = 5.0, modes: int = 3, mode_angle_deg: float = 30.0,
+                 threads: int | None = None) -> None:
+        for name, angle in (("min_angle_deg", min_angle_deg), ("mode_angle_deg", mode_angle_deg)):
+            if not 0.0 <= float(angle) < 180.0:
+                raise InputError(f"{name}: expected an angle in [0, 180), got {angle!r}")
+        if isinstance(modes, bool) or not isinstance(modes, int) or modes < 1:
+            raise InputError(f"modes: expected a positive integer, got {modes!r}")
         self.predictor = MeshPredictor(model_path, seed=seed, threads=threads)
         self.min_angle_deg = float(min_angle_deg)
+        self.modes = modes
+        self.mode_angle_deg = float(mode_angle_deg)
 
     def frames(self, points: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """The canonical frame first, then those with ambiguous axis signs flipped.
@@ -122,10 +136,49 @@ class NetworkPrior:
         with torch_threads(self.predictor.threads), torch.inference_mode():
             model.eval()
             if model.config.input_frame != "pca":
-                directions = model(points[None])["directions"]
+                frames = torch.eye(3, dtype=points.dtype)[None]
+                centre = torch.zeros((1, 1, 3), dtype=points.dtype)
             else:
                 frames, centre = self.frames(points)
-                directions = model.forward_in_frames(points, frames, centre)
-        candidates = directions.reshape(-1, 3).to(torch.float64).numpy()
+            outputs = model.forward_in_frames(points, frames, centre)
+        ranked = [outputs["directions"].to(torch.float64).numpy()]  # (F, M, 3): rank 1
+        if "maps" in outputs and self.modes > 1:
+            ranked += map_modes(outputs["maps"], frames, self.modes, self.mode_angle_deg)[1:]
+        candidates = np.concatenate([rank.reshape(-1, 3) for rank in ranked])
         candidates = candidates / np.linalg.norm(candidates, axis=1, keepdims=True)
         return distinct_directions(candidates, self.min_angle_deg)
+
+
+def map_modes(maps: torch.Tensor, frames: torch.Tensor, modes: int,
+              min_angle_deg: float) -> list[NDArray[np.float64]]:
+    """The ``modes`` highest cells of every quality map, each ``min_angle_deg`` from higher ones.
+
+    Parameters
+    ----------
+    maps : (F, M, R, R) float
+        Octahedral quality maps (:mod:`vptoolkit.learn.octahedral`), one per
+        frame and measure, in the frame's coordinates.
+    frames : (F, 3, 3) float
+        The frames; a cell's direction ``d`` goes back to the input as ``d C_f``.
+
+    Returns
+    -------
+    list of (F, M, 3) float64
+        One array per mode rank, best first; a map with fewer modes repeats its last.
+    """
+    from vptoolkit.learn.octahedral import sphere_map_directions
+
+    cells = sphere_map_directions(maps.shape[-1], dtype=torch.float64).reshape(-1, 3).numpy()
+    values = maps.flatten(start_dim=2).to(torch.float64).numpy()  # (F, M, R*R)
+    limit = math.cos(math.radians(min_angle_deg))
+    found = np.zeros((modes, *values.shape[:2], 3))
+    for f, m in itertools.product(range(values.shape[0]), range(values.shape[1])):
+        kept: list[int] = []
+        for cell in np.argsort(-values[f, m], kind="stable"):
+            if all(float(cells[cell] @ cells[other]) < limit for other in kept):
+                kept.append(int(cell))
+                if len(kept) == modes:
+                    break
+        kept += kept[-1:] * (modes - len(kept))
+        found[:, f, m] = cells[kept] @ frames[f].to(torch.float64).numpy()
+    return list(found)
