@@ -136,10 +136,11 @@ def test_train_threads_beyond_the_machine(build: Path, tmp_path: Path) -> None: 
 def test_a_checkpoint_whose_json_disagrees_with_its_weights(tmp_path: Path) -> None:
     require_package("torch")
     from vptoolkit.learn import model as M
+    from vptoolkit.learn.config import LevelConfig, ModelConfig
 
-    small = M.ModelConfig(levels=(
-        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
-                      neighbourhood="cell"),
+    small = ModelConfig(levels=(
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                    neighbourhood="cell"),
     ))
     M.save_model(M.ViewpointNet(small), tmp_path / "small.safetensors")
     M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")

@@ -27,7 +27,8 @@ import numpy as np
 import pytest
 
 from vptoolkit.dataset.build import build_dataset
-from vptoolkit.dataset.store import ARRAY_NAMES, open_store
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 
 from conftest import require_package

@@ -15,8 +15,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.dataset.build import STAGING_DIR, build_dataset
-from vptoolkit.dataset.store import ARRAY_NAMES, open_store
+from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import ARRAY_NAMES
+from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.samples import sample_path
 
 SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000, "clean": False}

@@ -56,8 +56,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vptoolkit.dataset.build import STAGING_DIR, build_dataset
-from vptoolkit.dataset.store import ModelEntry, StoreReader, open_store, write_dataset
+from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.reader import StoreReader, open_store
+from vptoolkit.dataset.schema import ModelEntry
+from vptoolkit.dataset.staging import STAGING_DIR
+from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
 

@@ -48,7 +48,8 @@ from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.labels import head_for_method
 from vptoolkit.learn.predict import network_predictor
-from vptoolkit.learn.train import scaled_lr_step, train_model, train_per_category
+from vptoolkit.learn.schedule import scaled_lr_step
+from vptoolkit.learn.train import train_model, train_per_category
 from vptoolkit.protocol import (
     ProtocolScores,
     best_constant_directions,

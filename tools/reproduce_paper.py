@@ -467,7 +467,8 @@ def section_timings(options: RunOptions) -> Section:
     import torch
     from tqdm import tqdm
 
-    from vptoolkit.learn.model import ModelConfig, ViewpointNet
+    from vptoolkit.learn.config import ModelConfig
+    from vptoolkit.learn.model import ViewpointNet
     from vptoolkit.learn.predict import network_points
 
     sizes = options.sizes

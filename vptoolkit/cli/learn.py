@@ -100,7 +100,8 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
       vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
       vptool train release/ -o per_category/ --per-category --epochs 300
     """
-    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.dataset.containers import find_store
+    from vptoolkit.dataset.reader import open_store
     from vptoolkit.learn.train import train_model, train_per_category
     from vptoolkit.points import N_FPS_POINTS
 

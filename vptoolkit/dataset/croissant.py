@@ -22,10 +22,10 @@ from vptoolkit.dataset.parquet import (
     model_columns,
     view_columns,
 )
-from vptoolkit.dataset.store import SPLITS
+from vptoolkit.dataset.schema import SPLITS
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = ["card_sections", "croissant_jsonld", "rai_fields"]
 

@@ -9,7 +9,7 @@ root attributes the build and the writer set (:data:`BUILD_ATTRS`,
 text encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array
 digest (:func:`array_sha256`). Described in ``dataset_card/SCHEMA.md``.
 
-Needs numpy only. :mod:`vptoolkit.dataset.store` re-exports every public name.
+Needs numpy only.
 """
 
 from __future__ import annotations
@@ -80,7 +80,7 @@ BUILD_ATTRS = (
     "created",
 )
 """Root attributes the build must pass to
-:func:`~vptoolkit.dataset.store.write_dataset` in ``attrs``."""
+:func:`~vptoolkit.dataset.writer.write_dataset` in ``attrs``."""
 
 WRITER_ATTRS = (
     "format",
@@ -92,7 +92,7 @@ WRITER_ATTRS = (
     "n_points",
     "n_failures",
 )
-"""Root attributes :func:`~vptoolkit.dataset.store.write_dataset` sets itself."""
+"""Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself."""
 
 SPLITS = ("train", "validation", "test")
 """The split names, one vocabulary everywhere a user sees one.
@@ -132,9 +132,9 @@ _HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
 class ModelEntry:
     """One model as it goes into or comes out of a store.
 
-    :func:`~vptoolkit.dataset.store.write_dataset` checks shapes and casts
+    :func:`~vptoolkit.dataset.writer.write_dataset` checks shapes and casts
     the arrays to the stored dtypes given below;
-    :meth:`~vptoolkit.dataset.store.StoreReader.entry` returns them in those
+    :meth:`~vptoolkit.dataset.reader.StoreReader.entry` returns them in those
     dtypes.
 
     Attributes

@@ -14,7 +14,7 @@ warning. The staging folder is kept after the store is written, so
 rerunning (e.g. after adding models to the source) computes only what is
 new; delete ``OUT/.staging`` to reclaim its space, after which OUT can no
 longer be resumed. :class:`StagedEntries` reads the staged models back as
-the entries of :func:`vptoolkit.dataset.store.write_dataset`.
+the entries of :func:`vptoolkit.dataset.writer.write_dataset`.
 """
 
 from __future__ import annotations

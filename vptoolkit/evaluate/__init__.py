@@ -17,6 +17,7 @@ score_directions`` keeps working. Numpy only (plus the store's zarr or h5py);
 never torch, open3d or pymeshlab at import.
 """
 
+from vptoolkit.evaluate._inputs import EVALUATION_SPLITS
 from vptoolkit.evaluate.baselines import oracle_directions, pca_directions, random_directions
 from vptoolkit.evaluate.coverage import (
     ViewSetReport,
@@ -27,7 +28,6 @@ from vptoolkit.evaluate.coverage import (
     stored_view_set,
 )
 from vptoolkit.evaluate.scores import (
-    EVALUATION_SPLITS,
     EvaluationReport,
     evaluate_predictions,
     load_predictions,

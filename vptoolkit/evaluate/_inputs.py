@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.data import ViewpointDataset
-from vptoolkit.dataset.store import SPLITS, published_split
+from vptoolkit.dataset.schema import SPLITS, published_split
 from vptoolkit.errors import InputError
 
 EVALUATION_SPLITS = (*SPLITS, "all")

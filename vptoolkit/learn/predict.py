@@ -42,13 +42,8 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.learn.model import (
-    DEFAULT_MODEL,
-    ViewpointNet,
-    load_model,
-    resolve_device,
-    torch_threads,
-)
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL
+from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 
@@ -160,8 +155,8 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     -------
     input_points : (n_points, 3) float32
     """
-    from vptoolkit.data.torch import model_key
     from vptoolkit.points import network_input
+    from vptoolkit.rotations import model_key
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), _SEED_INPUT, model_key(name)]))
     chosen = network_input(points, n_points, min(n_fps, len(points)), rng=rng)
@@ -209,7 +204,7 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
 
 
 def _is_dataset(path: Path) -> bool:
-    from vptoolkit.dataset.store import store_kind
+    from vptoolkit.dataset.containers import store_kind
 
     if path.is_dir():
         return True
@@ -295,7 +290,7 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
         If a checkpoint is missing or unreadable, or ``categories.json`` is not a
         per-category index.
     """
-    from vptoolkit.learn.model import read_json
+    from vptoolkit.learn.checkpoint import read_json
 
     index = Path(model_path) / "categories.json"
     if str(model_path) == DEFAULT_MODEL or not index.is_file():

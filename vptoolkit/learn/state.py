@@ -16,17 +16,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
-from vptoolkit.dataset.store import published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.learn.model import (
-    ModelConfig,
-    ViewpointNet,
+from vptoolkit.learn.checkpoint import (
     checkpoint_paths,
     read_json,
     read_safetensors,
     write_json_atomic,
     write_safetensors_atomic,
 )
+from vptoolkit.learn.config import ModelConfig
+from vptoolkit.learn.model import ViewpointNet
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:

@@ -59,7 +59,7 @@ Determinism
 The paper's settings and the learning-rate schedule are in
 :mod:`vptoolkit.learn.schedule`, the choice of models in
 :mod:`vptoolkit.learn.splits` and the validation in
-:mod:`vptoolkit.learn.validation`; the schedule's names are re-exported here.
+:mod:`vptoolkit.learn.validation`.
 """
 
 from __future__ import annotations
@@ -79,8 +79,10 @@ import numpy as np
 from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.store import published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
+from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.labels import (
     check_label_method,
     head_for_method,
@@ -88,14 +90,11 @@ from vptoolkit.learn.labels import (
     label_phase,
 )
 from vptoolkit.learn.model import (
-    ModelConfig,
     ViewpointNet,
-    checkpoint_paths,
     count_parameters,
     resolve_device,
     save_model,
     torch_threads,
-    write_json_atomic,
 )
 from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
 from vptoolkit.learn.record import training_record, update_best_record
@@ -104,13 +103,11 @@ from vptoolkit.learn.schedule import (
     PAPER_EPOCHS,
     PAPER_LR,
     PAPER_LR_DECAY,
-    PAPER_LR_STEP,
     learning_rate,
     scaled_lr_step,
 )
 from vptoolkit.learn.splits import select_categories, select_models
 from vptoolkit.learn.state import (
-    TRAINING_STATE_FORMAT,
     load_state,
     save_state,
     state_paths,
@@ -127,20 +124,9 @@ else:
     Tensor = torch.Tensor
 
 __all__ = [
-    "PAPER_EPOCHS",
-    "PAPER_BATCH_SIZE",
-    "PAPER_LR",
-    "PAPER_LR_DECAY",
-    "PAPER_LR_STEP",
-    "TRAINING_STATE_FORMAT",
     "TrainResult",
     "train_model",
     "train_per_category",
-    "CATEGORY_MODELS_FORMAT",
-    "learning_rate",
-    "scaled_lr_step",
-    "resolve_device",
-    "state_paths",
 ]
 
 _log = logging.getLogger(__name__)
