@@ -21,6 +21,7 @@ import torch  # noqa: E402
 
 from vptoolkit.data import open_dataset  # noqa: E402
 from vptoolkit.errors import InputError  # noqa: E402
+from vptoolkit.evaluate.protocol import random_view_scores, score_protocol  # noqa: E402
 from vptoolkit.learn import train as T  # noqa: E402
 from vptoolkit.learn.config import LevelConfig, ModelConfig  # noqa: E402
 from vptoolkit.learn.model import load_model, resolve_device  # noqa: E402
@@ -36,7 +37,6 @@ from vptoolkit.learn.schedule import (  # noqa: E402
     learning_rate,
     scaled_lr_step,
 )
-from vptoolkit.protocol import random_view_scores, score_protocol  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
 SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus")

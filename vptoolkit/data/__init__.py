@@ -2,7 +2,7 @@
 
 :func:`open_dataset` opens a store written by
 :func:`vptoolkit.dataset.writer.write_dataset` (Zarr directory, Zarr zip or
-HDF5; see ``dataset_card/SCHEMA.md``) and returns a lazy
+HDF5; see ``vptoolkit/dataset_card/SCHEMA.md``) and returns a lazy
 :class:`ViewpointDataset`: the per-model records and the view directions are
 read at once, everything else only when an item is asked for.
 
@@ -29,9 +29,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.containers import find_store
 from vptoolkit.dataset.reader import StoreReader, open_store
-from vptoolkit.dataset.schema import SPLITS, published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 

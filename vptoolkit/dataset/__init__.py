@@ -3,7 +3,7 @@
 Modules, one concept each (import them directly, e.g.
 ``from vptoolkit.dataset.reader import open_store``):
 
-- ``schema``: the data contract of ``dataset_card/SCHEMA.md`` (numpy only).
+- ``schema``: the data contract of ``vptoolkit/dataset_card/SCHEMA.md`` (numpy only).
 - ``containers``: which container (Zarr v3 directory or zip, HDF5) a path
   names; ``writer``: ``write_dataset``, atomic writing; ``reader``:
   ``open_store`` and ``StoreReader``, lazy reading; ``_zarr`` and ``_hdf5``:

@@ -1,7 +1,7 @@
 """Build a viewpoint-quality dataset from a folder of meshes, resumably.
 
 :func:`build_dataset` turns a source tree into one store (see
-``dataset_card/SCHEMA.md``). Per model it loads the mesh, cleans it (unless
+``vptoolkit/dataset_card/SCHEMA.md``). Per model it loads the mesh, cleans it (unless
 ``clean=False``), samples ``n_points`` surface points with their normals,
 computes VE, VR, VKL and VMI over ``n_views`` Fibonacci views and keeps the
 result; then it writes ``OUT/dataset.zarr`` or ``OUT/dataset.h5`` with

@@ -1,6 +1,6 @@
 """The dataset card: the ``README.md`` of a release and its dataset-hub YAML header.
 
-:func:`render_card` fills ``dataset_card/template.md`` with numbers computed
+:func:`render_card` fills ``vptoolkit/dataset_card/template.md`` with numbers computed
 from the store (nothing is typed by hand), in the sections of "Datasheets for
 Datasets" (Gebru et al.), under the YAML header of :func:`hub_yaml` in the
 style of dataset hubs (configurations, features, size category).
@@ -81,7 +81,7 @@ def render_card(
     license_link: str | None = None,
     warnings: Sequence[str] = (),
 ) -> str:
-    """Fill ``dataset_card/template.md`` into a release ``README.md``.
+    """Fill ``vptoolkit/dataset_card/template.md`` into a release ``README.md``.
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Which container a dataset store path names, and whether this install can read Zarr v3.
 
 One layout (:mod:`vptoolkit.dataset.schema`, described in
-``dataset_card/SCHEMA.md``) is stored in one of three containers chosen by
+``vptoolkit/dataset_card/SCHEMA.md``) is stored in one of three containers chosen by
 the file name:
 
 ========================  =========  ==========================================

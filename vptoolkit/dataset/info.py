@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.dataset.schema import SPLITS, published_split
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:

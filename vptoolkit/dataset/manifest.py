@@ -7,7 +7,7 @@ SHA256SUMS`` checks it without vptoolkit.
 
 :func:`verify` goes one level deeper: inside every archive (Zarr zip, Zarr
 directory or HDF5) it re-hashes each array and compares the digest with the
-array's stored ``sha256`` attribute (see ``dataset_card/SCHEMA.md``), so a
+array's stored ``sha256`` attribute (see ``vptoolkit/dataset_card/SCHEMA.md``), so a
 damaged archive is caught even where no manifest exists. Files are hashed as a
 stream of 1 MiB blocks, so memory stays flat for archives of any size.
 """

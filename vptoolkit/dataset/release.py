@@ -59,7 +59,8 @@ from vptoolkit.dataset.licenses import (
     write_licenses,
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
-from vptoolkit.dataset.schema import SPLITS, ModelEntry, published_split
+from vptoolkit.conventions import SPLITS
+from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import remove_stale_partials, temporary_prefix
 

@@ -3,11 +3,12 @@
 What every container holds, independent of how it is stored: the ``format``
 name and ``schema_version``, the root array names (:data:`ARRAY_NAMES`), the
 root attributes the build and the writer set (:data:`BUILD_ATTRS`,
-:data:`WRITER_ATTRS`), the split vocabulary (:data:`SPLITS`,
-:data:`SPLIT_ALIASES`, :func:`published_split`), the keys of a failure record
-(:data:`FAILURE_KEYS`), one model's content (:class:`ModelEntry`), the JSON
-text encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array
-digest (:func:`array_sha256`). Described in ``dataset_card/SCHEMA.md``.
+:data:`WRITER_ATTRS`), the aliases of the split names of
+:data:`vptoolkit.conventions.SPLITS` (:data:`SPLIT_ALIASES`,
+:func:`published_split`), the keys of a failure record (:data:`FAILURE_KEYS`),
+one model's content (:class:`ModelEntry`), the JSON text encoding
+(:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
+(:func:`array_sha256`). Described in ``vptoolkit/dataset_card/SCHEMA.md``.
 
 Needs numpy only.
 """
@@ -31,7 +32,6 @@ __all__ = [
     "ARRAY_NAMES",
     "BUILD_ATTRS",
     "WRITER_ATTRS",
-    "SPLITS",
     "SPLIT_ALIASES",
     "published_split",
     "FAILURE_KEYS",
@@ -94,22 +94,13 @@ WRITER_ATTRS = (
 )
 """Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself."""
 
-SPLITS = ("train", "validation", "test")
-"""The split names, one vocabulary everywhere a user sees one.
-
-The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
-shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
-hub does. Stores written before it (and builds, schema 1) may record
-``"val"``; :func:`published_split` maps it, and every API that takes a split
-accepts ``"val"`` as an alias.
-"""
-
 SPLIT_ALIASES = {"val": "validation"}
-"""Other names a model record or a caller may use for a split in :data:`SPLITS`."""
+"""Other names a model record or a caller may use for a split of
+:data:`~vptoolkit.conventions.SPLITS`."""
 
 
 def published_split(name: str) -> str:
-    """The name in :data:`SPLITS` of a split, resolving aliases.
+    """The name in :data:`~vptoolkit.conventions.SPLITS` of a split, resolving aliases.
 
     Examples
     --------

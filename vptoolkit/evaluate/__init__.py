@@ -11,6 +11,9 @@ One module per question asked of a prediction:
 ``coverage``
     ``k`` directions per model: the surface they show, against the greedy
     coverage set.
+``protocol``
+    A predictor scored on rotated inputs, the baselines under the same
+    protocol, standard errors and paired differences.
 
 Every public name is re-exported here, so ``from vptoolkit.evaluate import
 score_directions`` keeps working. Numpy only (plus the store's zarr or h5py);
@@ -26,6 +29,16 @@ from vptoolkit.evaluate.coverage import (
     model_visibility,
     score_view_sets,
     stored_view_set,
+)
+from vptoolkit.evaluate.protocol import (
+    Predictor,
+    ProtocolScores,
+    best_constant_directions,
+    constant_predictor,
+    paired_difference,
+    pca_predictor,
+    random_view_scores,
+    score_protocol,
 )
 from vptoolkit.evaluate.scores import (
     EvaluationReport,
@@ -51,4 +64,12 @@ __all__ = [
     "model_visibility",
     "model_view_set",
     "stored_view_set",
+    "Predictor",
+    "ProtocolScores",
+    "score_protocol",
+    "random_view_scores",
+    "pca_predictor",
+    "best_constant_directions",
+    "constant_predictor",
+    "paired_difference",
 ]

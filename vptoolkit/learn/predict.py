@@ -332,7 +332,7 @@ def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None
 def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
                       seed: int = 0, batch_size: int = 64,
                       device: str = "auto") -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
-    """A checkpoint as a :data:`vptoolkit.protocol.Predictor`: surface points and names to directions.
+    """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`: surface points and names to directions.
 
     Each cloud becomes a network input as in :func:`predict` (the
     checkpoint's input size, seeded from ``seed`` and the model's name).

@@ -18,7 +18,7 @@ is written every ``save_every`` epochs and at the end.
 ``tools/bench_train.py`` measures the effect.
 
 After every epoch the network predicts the validation models under the
-rotated protocol (:mod:`vptoolkit.protocol`): each model under
+rotated protocol (:mod:`vptoolkit.evaluate.protocol`): each model under
 ``val_rotations`` fixed rotations seeded by its name, eval mode, the same
 input points as :func:`vptoolkit.learn.predict.predict` would choose; each
 prediction scores the normalised quality of its nearest sampled view
