@@ -209,20 +209,22 @@ def test_train_on_too_few_points_says_how_many_it_needs(build: Path, tmp_path: P
     _assert_one_line_bad_input(code, text, "200 points", "at least 1024")
 
 
+@pytest.mark.parametrize("resume", [False, True], ids=["fresh", "resume"])
 def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Path,  # noqa: F811
-                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      resume: bool) -> None:
     import vptoolkit.learn.train as train
     import vptoolkit.points as points
-    from vptoolkit.errors import InputError
+    from vptoolkit.errors import ExistingRunError
 
     def refuse(*args: object, **kwargs: object) -> None:
-        raise InputError("m: already holds a training run (model.safetensors); pass "
-                         "resume=True to continue it or overwrite=True to replace it")
+        raise ExistingRunError("m: already holds a training run (model.safetensors); pass "
+                               "resume=True to continue it or overwrite=True to replace it")
 
     monkeypatch.setattr(points, "N_FPS_POINTS", 100)
     monkeypatch.setattr(train, "train_model", refuse)
-    code, text = _run("train", build, "-o", tmp_path / "m")
-    _assert_one_line_bad_input(code, text, "--resume")
+    code, text = _run("train", build, "-o", tmp_path / "m", *(["--resume"] if resume else []))
+    _assert_one_line_bad_input(code, text, "nothing to resume from" if resume else "add --resume")
     assert "resume=True" not in text and "overwrite=True" not in text
 
 

@@ -19,7 +19,7 @@ require_package("safetensors")
 
 import torch  # noqa: E402
 
-from vptoolkit.errors import InputError, VerificationError  # noqa: E402
+from vptoolkit.errors import CheckpointError, InputError  # noqa: E402
 from vptoolkit.io import load_mesh  # noqa: E402
 from vptoolkit.learn import model as M  # noqa: E402
 from vptoolkit.learn.checkpoint import MODEL_FORMAT, PRETRAINED, checkpoint_paths  # noqa: E402
@@ -299,7 +299,7 @@ def test_loading_bad_checkpoints_raises(tmp_path):
     M.save_model(M.ViewpointNet(SMALL), tmp_path / "small.safetensors")
     M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")
     (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
-    with pytest.raises(VerificationError, match="small.safetensors: weights do not match"):
+    with pytest.raises(CheckpointError, match="small.safetensors: weights do not match"):
         M.load_model(tmp_path / "small.safetensors")
     (tmp_path / "other.json").write_text('{"format": "something-else"}')
     (tmp_path / "other.safetensors").write_bytes(b"")

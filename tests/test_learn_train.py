@@ -20,7 +20,7 @@ require_package("zarr")
 import torch  # noqa: E402
 
 from vptoolkit.data import open_dataset  # noqa: E402
-from vptoolkit.errors import InputError  # noqa: E402
+from vptoolkit.errors import ExistingRunError, InputError  # noqa: E402
 from vptoolkit.evaluate.protocol import random_view_scores, score_protocol  # noqa: E402
 from vptoolkit.learn import train as T  # noqa: E402
 from vptoolkit.learn.config import LevelConfig, ModelConfig  # noqa: E402
@@ -177,7 +177,7 @@ def test_resume_can_extend_a_finished_run(dataset_dir, tmp_path):
 
 def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
     tiny_run(dataset_dir, tmp_path / "run", epochs=1)
-    with pytest.raises(InputError, match="already holds a training run"):
+    with pytest.raises(ExistingRunError, match="already holds a training run"):
         tiny_run(dataset_dir, tmp_path / "run", epochs=1)
     with pytest.raises(InputError, match=r"cannot resume with other options \(seed: 0 -> 1\)"):
         tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, resume=True)

@@ -22,6 +22,8 @@ from importlib.metadata import PackageNotFoundError, version
 
 from vptoolkit.conventions import MEASURES, N_VIEWS
 from vptoolkit.errors import (
+    CheckpointError,
+    ExistingRunError,
     InputError,
     MeasurementError,
     MeshLoadError,
@@ -42,6 +44,8 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 __all__ = [
     "MEASURES",
     "N_VIEWS",
+    "CheckpointError",
+    "ExistingRunError",
     "InputError",
     "MeasurementError",
     "Mesh",

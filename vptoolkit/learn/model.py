@@ -77,7 +77,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.errors import CheckpointError, InputError, VerificationError
 from vptoolkit.learn.checkpoint import (
     MODEL_FORMAT,
     checkpoint_paths,
@@ -351,8 +351,10 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     InputError
         If a file is missing or unreadable, or the configuration is not a
         vptoolkit model.
-    VerificationError
+    CheckpointError
         If the weights do not match the architecture.
+    VerificationError
+        If the configuration's measure order differs from ``MEASURES``.
     """
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
@@ -367,6 +369,6 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:
-        raise VerificationError(f"{weights_path.name}: weights do not match the architecture ({err})") from err
+        raise CheckpointError(f"{weights_path.name}: weights do not match the architecture ({err})") from err
     model.eval()
     return model, config

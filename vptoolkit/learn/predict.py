@@ -492,7 +492,7 @@ def predict(
         On a missing or unreadable input, an unknown file type, an unknown
         split, duplicate model names, a model whose category has no network,
         or an invalid option.
-    VerificationError
+    CheckpointError
         If the checkpoint's weights do not match its architecture.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:

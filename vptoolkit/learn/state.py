@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
 from vptoolkit.dataset.schema import published_split
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.learn.checkpoint import (
     checkpoint_paths,
     read_json,
@@ -120,7 +120,7 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     InputError
         If the file is not a training state or its arguments differ from
         ``arguments`` in any of ``keys``.
-    VerificationError
+    CheckpointError
         If the weights or Adam state do not fit the network.
     """
     state = read_json(json_path, "training state")
@@ -139,7 +139,7 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
         model.load_state_dict(model_state, strict=True)
         _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
     except (RuntimeError, ValueError, KeyError) as err:
-        raise VerificationError(f"{weights.name}: training state does not match the network ({err})") from err
+        raise CheckpointError(f"{weights.name}: training state does not match the network ({err})") from err
     best = dict(state["best"])
     if best["score"] is None:
         best["score"] = -math.inf

@@ -80,7 +80,7 @@ from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.schema import published_split
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.errors import ExistingRunError, InputError, VerificationError
 from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
 from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.labels import (
@@ -339,8 +339,12 @@ def train_model(
     Raises
     ------
     InputError
-        On invalid options, an empty split, an existing run in ``output``
-        without ``resume`` or ``overwrite``, or a resumed run with other options.
+        On invalid options, an empty split or a resumed run with other options.
+    ExistingRunError
+        If ``output`` holds a run and neither ``resume`` (with a state to
+        resume from) nor ``overwrite`` is given.
+    CheckpointError
+        If the state to resume from does not fit the network.
     VerificationError
         If the dataset's measure order differs from ``MEASURES``.
     """
@@ -412,8 +416,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to "
                     "start afresh" if resume
                     else "pass resume=True to continue it or overwrite=True to replace it")
-            raise InputError(f"{weights_path.parent}: already holds a training run "
-                             f"({weights_path.name}); {hint}")
+            raise ExistingRunError(f"{weights_path.parent}: already holds a training run "
+                                   f"({weights_path.name}); {hint}")
         train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps,
                                            rotate=rotate, seed=seed, fps_pool=fps_pool)
         validation = validation_inputs(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
