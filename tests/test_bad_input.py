@@ -1,7 +1,7 @@
 """Bad input is one line on stderr and exit status 2: never a traceback, a hang or a bad file.
 
-Each case here once gave a traceback, a numpy warning storm, a 60 s hang, a segfault,
-a 74 GiB allocation or an output full of inf; see issue 15.
+Each case here could give a traceback, a numpy warning storm, a 60 s hang, a segfault,
+a 74 GiB allocation or an output full of inf if its check went missing.
 """
 
 from __future__ import annotations

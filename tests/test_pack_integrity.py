@@ -1,8 +1,8 @@
 """Nothing corrupt is ever packed, and no reader takes a lost chunk for zeros.
 
-``pack`` re-hashes every array it copies, so before this check a flipped byte or a
-deleted chunk of ``OUT/dataset.zarr`` shipped with a fresh, matching checksum and
-``verify`` said OK on the release.
+``pack`` re-hashes every array it copies, so without this check a flipped byte or a
+deleted chunk of ``OUT/dataset.zarr`` would ship with a fresh, matching checksum and
+``verify`` would say OK on the release.
 """
 
 from __future__ import annotations

@@ -13,8 +13,7 @@ the seconds per model of each stage (load, clean, sample, measure, write;
 ``BuildResult.stage_seconds``) and its share of the time.
 
 ``--meshes DIR`` builds the mesh files under DIR instead of the samples, e.g.
-raw ModelNet models, whose cleaning costs far more than the samples' (the
-build of issue 15's figures).
+raw ModelNet models, whose cleaning costs far more than the samples'.
 
 Default sizes are the paper's: 1000 views at 1024 px, 20000 points, cleaning
 on with at most 10000 faces. ``--quick`` uses 100 views at 128 px, 2000

@@ -136,7 +136,7 @@ def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> st
     if build_file.exists():
         try:
             recorded = json.loads(build_file.read_text(encoding="utf-8"))
-            # builds from before the option did not remesh
+            # a record without the option is of a build that did not remesh
             staged_options = {"remesh": False, **recorded["options"]}
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:

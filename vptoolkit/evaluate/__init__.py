@@ -16,7 +16,7 @@ One module per question asked of a prediction:
     protocol, standard errors and paired differences.
 
 Every public name is re-exported here, so ``from vptoolkit.evaluate import
-score_directions`` keeps working. Numpy only (plus the store's zarr or h5py);
+score_directions`` works. Numpy only (plus the store's zarr or h5py);
 never torch, open3d or pymeshlab at import.
 """
 

@@ -363,7 +363,7 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     if list(config.get("measures", [])) != list(MEASURES[: len(config.get("measures", []))]):
         raise VerificationError(f"{config_path.name}: measure order {config.get('measures')} differs from {list(MEASURES)}")
     architecture = dict(config.get("architecture", {}))
-    architecture.setdefault("input_frame", "none")  # checkpoints written before the option saw raw inputs
+    architecture.setdefault("input_frame", "none")  # a configuration without it is of raw inputs
     model = ViewpointNet(ModelConfig.from_dict(architecture))
     state = read_safetensors(weights_path)  # float16 weights are cast on loading
     try:

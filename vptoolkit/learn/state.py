@@ -127,7 +127,7 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     if state.get("format") != TRAINING_STATE_FORMAT:
         raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
     stored = dict(state.get("arguments", {}))
-    stored["val_split"] = published_split(str(stored.get("val_split")))  # runs saved before the rename say "val"
+    stored["val_split"] = published_split(str(stored.get("val_split")))  # a run may record "val"
     current = json_value(arguments)
     differing = [key for key in keys if stored.get(key) != current.get(key)]
     if differing:
