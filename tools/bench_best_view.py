@@ -58,7 +58,7 @@ from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
-from vptoolkit.protocol import ProtocolScores, random_view_scores
+from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.rotations import fixed_rotations
 
 from results_doc import machine, markdown_table, score_cells, write_section

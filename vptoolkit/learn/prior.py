@@ -30,8 +30,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
-from vptoolkit.learn.model import DEFAULT_MODEL, torch_threads
+from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
