@@ -1,7 +1,7 @@
 """Bad input is one line on stderr and exit status 2: never a traceback, a hang or a bad file.
 
-Each case here once gave a traceback, a numpy warning storm, a 60 s hang, a segfault,
-a 74 GiB allocation or an output full of inf; see issue 15.
+Each case here could give a traceback, a numpy warning storm, a 60 s hang, a segfault,
+a 74 GiB allocation or an output full of inf if its check went missing.
 """
 
 from __future__ import annotations
@@ -176,10 +176,11 @@ def test_train_threads_beyond_the_machine(build: Path, tmp_path: Path) -> None: 
 def test_a_checkpoint_whose_json_disagrees_with_its_weights(tmp_path: Path) -> None:
     require_package("torch")
     from vptoolkit.learn import model as M
+    from vptoolkit.learn.config import LevelConfig, ModelConfig
 
-    small = M.ModelConfig(levels=(
-        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
-                      neighbourhood="cell"),
+    small = ModelConfig(levels=(
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                    neighbourhood="cell"),
     ))
     M.save_model(M.ViewpointNet(small), tmp_path / "small.safetensors")
     M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")
@@ -373,20 +374,22 @@ def test_train_on_too_few_points_says_how_many_it_needs(build: Path, tmp_path: P
     _assert_one_line_bad_input(code, text, "200 points", "at least 1024")
 
 
+@pytest.mark.parametrize("resume", [False, True], ids=["fresh", "resume"])
 def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Path,  # noqa: F811
-                                                      monkeypatch: pytest.MonkeyPatch) -> None:
+                                                      monkeypatch: pytest.MonkeyPatch,
+                                                      resume: bool) -> None:
     import vptoolkit.learn.train as train
     import vptoolkit.points as points
-    from vptoolkit.errors import InputError
+    from vptoolkit.errors import ExistingRunError
 
     def refuse(*args: object, **kwargs: object) -> None:
-        raise InputError("m: already holds a training run (model.safetensors); pass "
-                         "resume=True to continue it or overwrite=True to replace it")
+        raise ExistingRunError("m: already holds a training run (model.safetensors); pass "
+                               "resume=True to continue it or overwrite=True to replace it")
 
     monkeypatch.setattr(points, "N_FPS_POINTS", 100)
     monkeypatch.setattr(train, "train_model", refuse)
-    code, text = _run("train", build, "-o", tmp_path / "m")
-    _assert_one_line_bad_input(code, text, "--resume")
+    code, text = _run("train", build, "-o", tmp_path / "m", *(["--resume"] if resume else []))
+    _assert_one_line_bad_input(code, text, "nothing to resume from" if resume else "add --resume")
     assert "resume=True" not in text and "overwrite=True" not in text
 
 

@@ -23,14 +23,11 @@ import pytest
 
 from vptoolkit import parallel
 from vptoolkit.dataset import compute
-from vptoolkit.dataset.build import (
-    STAGING_DIR,
-    BuildResult,
-    assign_split,
-    build_dataset,
-    discover_models,
-)
-from vptoolkit.dataset.store import ARRAY_NAMES, open_store
+from vptoolkit.dataset.build import BuildResult, build_dataset
+from vptoolkit.dataset.sources import assign_split, discover_models
+from vptoolkit.dataset.staging import STAGING_DIR
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere

@@ -27,7 +27,8 @@ import numpy as np
 import pytest
 
 from vptoolkit.dataset.build import build_dataset
-from vptoolkit.dataset.store import ARRAY_NAMES, open_store
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 
 from conftest import DASK_DASHBOARD, require_package
@@ -120,8 +121,8 @@ def test_cleaning_removes_the_intersections_that_decimation_brings_back():
     from vptoolkit.clean import clean_mesh, count_self_intersections
     from vptoolkit.io import load_mesh
 
-    # Decimating this truck to 2000 faces used to leave 5 faces intersecting (a raw
-    # ModelNet airplane at 10000 faces: 233, 2.3 %).
+    # Quadric decimation of this truck to 2000 faces leaves faces intersecting (a raw
+    # ModelNet airplane at 10000 faces: 2.3 %); cleaning removes them.
     cleaned, report = clean_mesh(load_mesh(TRUCK), max_faces=2000)
     assert cleaned.n_faces <= 2000
     assert report.self_intersections_after == count_self_intersections(cleaned) == 0

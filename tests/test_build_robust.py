@@ -17,10 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.dataset.sources import discover_models
-from vptoolkit.dataset.staging import scan_staging, source_signature
-from vptoolkit.dataset.store import ARRAY_NAMES, open_store
+from vptoolkit.dataset.staging import STAGING_DIR, scan_staging, source_signature
 from vptoolkit.samples import sample_path
 
 TET = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"

@@ -363,10 +363,21 @@ def test_decimation_keeps_the_outline_of_an_open_sheet() -> None:
     assert face_areas(simplified).sum() == pytest.approx(1.0, abs=1e-6)
 
 
-def test_simplify_leaves_a_small_mesh_alone() -> None:
+def _wound_triangles(mesh: Mesh) -> list[tuple[int, ...]]:
+    """Each face as its vertex indices from the smallest on, in winding order, sorted."""
+    starts = mesh.faces.argmin(axis=1)
+    rows = np.arange(mesh.n_faces)
+    rolled = np.stack([mesh.faces[rows, (starts + k) % 3] for k in range(3)], axis=1)
+    return sorted(map(tuple, rolled.tolist()))
+
+
+def test_simplify_keeps_the_faces_of_a_small_mesh() -> None:
     box = trimesh.creation.box()
     mesh = Mesh(box.vertices, box.faces, name="box")
-    assert simplify_mesh(mesh, max_faces=100) is mesh
+    simplified = simplify_mesh(mesh, max_faces=100)
+    np.testing.assert_array_equal(simplified.vertices, mesh.vertices)
+    assert _wound_triangles(simplified) == _wound_triangles(mesh)
+    assert simplified.intersections_after == 0
 
 
 def test_remesh_keeps_the_budget(fine_sphere: Mesh) -> None:
@@ -383,6 +394,23 @@ def test_clean_mesh_decimates_to_max_faces(fine_sphere: Mesh) -> None:
     assert cleaned.n_faces <= 500
     assert report.step("simplify").faces_before == fine_sphere.n_faces
     assert report.step("simplify").faces_after == cleaned.n_faces
+
+
+@pytest.mark.parametrize("method", ["auto", "remove"])
+def test_the_three_steps_in_order_give_the_cleaned_mesh(planted: Planted, method: str) -> None:
+    # "remove" opens seams, which the repaired mesh carries into step 2; 600
+    # faces make step 3 decimate and remove the intersections that creates.
+    cleaned, report = clean_mesh(planted.mesh, max_faces=600, self_intersections=method, **FAST)
+    repaired = repair_mesh(planted.mesh, self_intersections=method)
+    visible = remove_hidden_faces(repaired, n_views=FAST["n_views"],
+                                  resolution=FAST["hidden_resolution"])
+    simplified = simplify_mesh(visible, max_faces=600)
+    np.testing.assert_array_equal(simplified.vertices, cleaned.vertices)
+    np.testing.assert_array_equal(simplified.faces, cleaned.faces)
+    assert repaired.method == report.self_intersection_method
+    assert (visible.hidden_area, visible.faces_flipped) == (report.hidden_area_removed,
+                                                            report.faces_flipped)
+    assert simplified.intersections_after == report.self_intersections_after
 
 
 # ---------------------------------------------------------------- the report

@@ -15,7 +15,7 @@ import pytest
 from test_store import FAILURES, MODELS, N_POINTS, N_VIEWS, synthetic_entries, write_synthetic
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.store import published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
 

@@ -19,7 +19,8 @@ if not is_available("torch") and not REQUIRE_ALL:  # with REQUIRE_ALL the import
     pytest.skip("torch not installed", allow_module_level=True)
 import torch  # noqa: E402
 
-from vptoolkit.data.torch import ViewpointTorchDataset, model_key, random_rotation  # noqa: E402
+from vptoolkit.data.torch import ViewpointTorchDataset  # noqa: E402
+from vptoolkit.rotations import model_key, random_rotation  # noqa: E402
 
 N_SURFACE = 2000  # enough for the paper's 1024 farthest points
 

@@ -144,6 +144,6 @@ def test_context_manager_closes_and_a_closed_engine_starts_again(name, box):
     engine.close()
     engine.close()  # closing twice is harmless
     assert second.shape == first.shape and second.dtype == np.uint8
-    # The same picture, but a fresh Open3D child was once seen (on a loaded machine) to
-    # differ by a level in a few pixels; byte equality within one engine is tested above.
+    # The same picture, but a fresh Open3D child can differ by a level in a few pixels
+    # (seen on a loaded machine); byte equality within one engine is tested above.
     assert np.abs(first.astype(np.int64) - second).mean() < 0.5

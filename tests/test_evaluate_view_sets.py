@@ -110,7 +110,7 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
 
 def test_the_build_stores_each_models_coverage_set_and_the_loader_reads_it(tiny_dataset):
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.build import VIEW_SET_VIEWS
+    from vptoolkit.dataset.compute import VIEW_SET_VIEWS
 
     with open_dataset(tiny_dataset) as dataset:
         for position in range(len(dataset)):
@@ -129,7 +129,8 @@ def test_a_store_without_view_sets_still_loads_and_reports(tiny_dataset, tmp_pat
     import dataclasses
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.store import open_store, write_dataset
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.writer import write_dataset
     from vptoolkit.evaluate import model_view_set
 
     with open_store(next(tiny_dataset.glob("dataset.*"))) as reader:

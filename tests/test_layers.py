@@ -18,11 +18,8 @@ LAYERS = {
     "measures": 4, "view_sets": 4,
     "clean": 5, "points": 5,
     "dataset": 6, "data": 7, "dataset_card": 0,
-    "synthetic": 5, "learn": 8, "evaluate": 9, "protocol": 9, "best_view": 9,
+    "synthetic": 5, "learn": 8, "evaluate": 9, "best_view": 9,
     "pictures": 10,
-    # shims left for one release at the old paths of vptoolkit.pictures' modules
-    "shading": 11, "render": 11, "software_render": 11, "sphere_map": 11, "report": 11,
-    "thumbnails": 11, "contact_sheet": 11,
     "cli": 99,
 }
 PACKAGE = Path(vptoolkit.__file__).parent

@@ -16,6 +16,7 @@ import torch  # noqa: E402
 from vptoolkit.errors import InputError  # noqa: E402
 from vptoolkit.io import load_mesh  # noqa: E402
 from vptoolkit.learn import model as M  # noqa: E402
+from vptoolkit.learn.config import HEADS, ModelConfig  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame, from_frame, to_frame  # noqa: E402
 from vptoolkit.learn.labels import label_loss  # noqa: E402
 from vptoolkit.points import network_input, sample_surface  # noqa: E402
@@ -93,7 +94,7 @@ def test_coincident_points_get_the_identity_frame():
     assert torch.equal(frame[0], torch.eye(3, dtype=frame.dtype))
 
 
-@pytest.mark.parametrize("head", M.HEADS)
+@pytest.mark.parametrize("head", HEADS)
 def test_rotating_the_input_rotates_the_prediction(head, clouds):
     """Median angle over seeded rotations below 10 degrees (the issue's tolerance).
 
@@ -102,8 +103,8 @@ def test_rotating_the_input_rotates_the_prediction(head, clouds):
     shapes and float32 rounding. Without the frame the same untrained network
     lands about 90 degrees off, i.e. at random.
     """
-    network = M.ViewpointNet(M.ModelConfig(head=head), seed=0).eval()
-    plain = M.ViewpointNet(M.ModelConfig(head=head, input_frame="none"), seed=0).eval()
+    network = M.ViewpointNet(ModelConfig(head=head), seed=0).eval()
+    plain = M.ViewpointNet(ModelConfig(head=head, input_frame="none"), seed=0).eval()
     errors, plain_errors = [], []
     with torch.no_grad():
         for name, cloud in clouds.items():
@@ -120,7 +121,7 @@ def test_rotating_the_input_rotates_the_prediction(head, clouds):
 @pytest.mark.parametrize("head,phase", [("direction", "sl"), ("direction", "gl"), ("sr", "sr"), ("dldl", "dldl")])
 def test_losses_do_not_depend_on_the_orientation(head, phase, clouds):
     """Labels rotate with the input, and heads that answer in the canonical frame get theirs mapped there."""
-    network = M.ViewpointNet(M.ModelConfig(head=head), seed=0).eval()
+    network = M.ViewpointNet(ModelConfig(head=head), seed=0).eval()
     cloud = clouds["bunny"]
     rng = np.random.default_rng(3)
     views = rng.standard_normal((200, 3))
@@ -141,18 +142,18 @@ def test_losses_do_not_depend_on_the_orientation(head, phase, clouds):
     assert np.allclose(losses[0], losses[1], atol=2e-3) and np.allclose(losses[0], losses[2], atol=2e-3), losses
 
 
-def test_old_checkpoints_keep_the_raw_input_frame(tmp_path):
-    values = M.ModelConfig().to_dict()
+def test_a_checkpoint_without_an_input_frame_sees_raw_inputs(tmp_path):
+    values = ModelConfig().to_dict()
     assert values["input_frame"] == "pca"
     del values["input_frame"]
-    assert M.ModelConfig.from_dict(values).input_frame == "pca"  # a partial architecture gets the default
-    weights, config_path = M.save_model(M.ViewpointNet(M.ModelConfig(input_frame="none")), tmp_path / "old")
+    assert ModelConfig.from_dict(values).input_frame == "pca"  # a partial architecture gets the default
+    weights, config_path = M.save_model(M.ViewpointNet(ModelConfig(input_frame="none")), tmp_path / "old")
     config = json.loads(config_path.read_text())
-    del config["architecture"]["input_frame"]  # as written before the option existed
+    del config["architecture"]["input_frame"]
     config_path.write_text(json.dumps(config))
     assert M.load_model(tmp_path / "old")[0].config.input_frame == "none"
     with pytest.raises(InputError, match="input_frame"):
-        M.ModelConfig(input_frame="octant")
+        ModelConfig(input_frame="octant")
 
 
 def test_the_shipped_network_turns_with_its_input(clouds):

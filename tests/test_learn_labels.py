@@ -15,6 +15,12 @@ import torch  # noqa: E402
 
 from vptoolkit.errors import InputError  # noqa: E402
 from vptoolkit.learn import labels as L  # noqa: E402
+from vptoolkit.learn.octahedral import (  # noqa: E402
+    octahedral_decode,
+    octahedral_encode,
+    sphere_map_cell,
+    sphere_map_directions,
+)
 from vptoolkit.sphere import fibonacci_sphere  # noqa: E402
 
 
@@ -169,7 +175,7 @@ def cell_diameter_deg(resolution: int) -> float:
     """Largest corner-to-corner angle of any cell of the octahedral map."""
     edges = -1.0 + torch.arange(resolution + 1, dtype=torch.float64) * (2.0 / resolution)
     w, u = torch.meshgrid(edges, edges, indexing="ij")
-    corners = L.octahedral_decode(torch.stack([u, w], dim=-1))
+    corners = octahedral_decode(torch.stack([u, w], dim=-1))
     first = angle_deg(corners[:-1, :-1], corners[1:, 1:])
     second = angle_deg(corners[1:, :-1], corners[:-1, 1:])
     return float(torch.maximum(first, second).max())
@@ -178,10 +184,10 @@ def cell_diameter_deg(resolution: int) -> float:
 def test_octahedral_map_round_trip():
     directions = torch.randn(2000, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(1))
     directions /= directions.norm(dim=-1, keepdim=True)
-    assert torch.allclose(L.octahedral_decode(L.octahedral_encode(directions)), directions, atol=1e-12)
-    centres = L.sphere_map_directions(32, dtype=torch.float64)
+    assert torch.allclose(octahedral_decode(octahedral_encode(directions)), directions, atol=1e-12)
+    centres = sphere_map_directions(32, dtype=torch.float64)
     assert centres.shape == (32, 32, 3)
-    assert torch.equal(L.sphere_map_cell(centres.reshape(-1, 3)), torch.arange(32 * 32))
+    assert torch.equal(sphere_map_cell(centres.reshape(-1, 3)), torch.arange(32 * 32))
 
 
 def test_quality_map_best_cell_decodes_near_the_true_best_view():

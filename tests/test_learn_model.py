@@ -19,9 +19,12 @@ require_package("safetensors")
 
 import torch  # noqa: E402
 
-from vptoolkit.errors import InputError, VerificationError  # noqa: E402
+from vptoolkit.errors import CheckpointError, InputError  # noqa: E402
 from vptoolkit.io import load_mesh  # noqa: E402
 from vptoolkit.learn import model as M  # noqa: E402
+from vptoolkit.learn.checkpoint import MODEL_FORMAT, PRETRAINED, checkpoint_paths  # noqa: E402
+from vptoolkit.learn.config import DEFAULT_LEVELS, HEADS, LevelConfig, ModelConfig  # noqa: E402
+from vptoolkit.learn.hierarchy import ball_query, cell_neighbourhood, grid_subsample, input_level, point_density  # noqa: E402
 from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
@@ -44,10 +47,10 @@ def network(one_thread: None) -> M.ViewpointNet:
     return M.ViewpointNet(seed=0).eval()
 
 
-SMALL = M.ModelConfig(
+SMALL = ModelConfig(
     levels=(
-        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8, neighbourhood="cell"),
-        M.LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=16, channels=16),
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8, neighbourhood="cell"),
+        LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=16, channels=16),
     ),
     latent_channels=32, kernel_size=4, global_kernel_size=4, kernel_hidden=8, head_channels=(16,),
     decoder_channels=(8, 4),
@@ -57,9 +60,9 @@ SMALL = M.ModelConfig(
 # ---------------------------------------------------------------- outputs
 
 
-@pytest.mark.parametrize("head", M.HEADS)
+@pytest.mark.parametrize("head", HEADS)
 def test_output_shapes_and_unit_directions(head, clouds):
-    model = M.ViewpointNet(M.ModelConfig(head=head)).eval()
+    model = M.ViewpointNet(ModelConfig(head=head)).eval()
     with torch.no_grad():
         outputs = model(clouds)
     directions = outputs["directions"]
@@ -81,9 +84,9 @@ def test_training_mode_outputs_have_gradients(clouds):
 
 def test_documented_parameter_counts_match(network):
     table = dict(re.findall(r"^\s+(direction|sr|dldl)\s+([\d,]+)\s*$", M.__doc__, flags=re.MULTILINE))
-    assert set(table) == set(M.HEADS)
+    assert set(table) == set(HEADS)
     for head, documented in table.items():
-        assert M.count_parameters(M.ViewpointNet(M.ModelConfig(head=head))) == int(documented.replace(",", ""))
+        assert M.count_parameters(M.ViewpointNet(ModelConfig(head=head))) == int(documented.replace(",", ""))
     encoder = M.count_parameters(network.encoder)
     assert f"{encoder:,} parameters" in M.__doc__
     for conv in network.encoder.convs:
@@ -109,10 +112,10 @@ def test_position_and_size_do_not_matter(network, clouds):
 def test_duplicating_every_point_changes_nothing(clouds):
     # Twice the density everywhere: the density-normalised Monte Carlo weights cancel it.
     levels = tuple(
-        M.LevelConfig(spec.grid_level, spec.radius, 512, spec.channels, spec.neighbourhood)
-        for spec in M.DEFAULT_LEVELS
+        LevelConfig(spec.grid_level, spec.radius, 512, spec.channels, spec.neighbourhood)
+        for spec in DEFAULT_LEVELS
     )
-    model = M.ViewpointNet(M.ModelConfig(levels=levels)).eval()
+    model = M.ViewpointNet(ModelConfig(levels=levels)).eval()
     with torch.no_grad():
         single = model(clouds)["directions"]
         double = model(torch.cat([clouds, clouds], dim=1))["directions"]
@@ -130,7 +133,7 @@ def test_batch_members_do_not_influence_each_other_in_eval_mode(network, clouds)
 
 
 def test_input_level_is_sorted_by_morton_code(clouds):
-    level = M.input_level(clouds)
+    level = input_level(clouds)
     assert level.points.shape == (2 * 2048, 3) and level.n_models == 2
     for model in range(2):
         codes = level.codes[level.batch == model]
@@ -141,8 +144,8 @@ def test_input_level_is_sorted_by_morton_code(clouds):
 
 
 def test_grid_subsample_gives_one_barycentre_per_occupied_cell(clouds):
-    level = M.input_level(clouds)
-    cells = M.grid_subsample(level, 4)
+    level = input_level(clouds)
+    cells = grid_subsample(level, 4)
     for model in range(2):
         points = level.points[level.batch == model].numpy()
         occupied = np.unique(np.floor((points.astype(np.float64) + 0.5) * 16).clip(0, 15), axis=0)
@@ -153,10 +156,10 @@ def test_grid_subsample_gives_one_barycentre_per_occupied_cell(clouds):
 
 
 def test_ball_query_finds_exactly_the_points_in_the_ball(clouds):
-    source = M.grid_subsample(M.input_level(clouds), 5)
-    centres = M.grid_subsample(source, 3)
+    source = grid_subsample(input_level(clouds), 5)
+    centres = grid_subsample(source, 3)
     radius = 1 / 8
-    neighbourhood = M.ball_query(source, centres, radius, 1024)
+    neighbourhood = ball_query(source, centres, radius, 1024)
     distance = torch.cdist(centres.points.double(), source.points.double())
     same_model = centres.batch[:, None] == source.batch[None, :]
     expected = (distance <= radius) & same_model
@@ -167,9 +170,9 @@ def test_ball_query_finds_exactly_the_points_in_the_ball(clouds):
 
 
 def test_crowded_neighbourhoods_are_thinned_evenly(clouds):
-    level = M.input_level(clouds)
-    neighbourhood = M.cell_neighbourhood(level, 2, 8)
-    full = M.cell_neighbourhood(level, 2, 4096)
+    level = input_level(clouds)
+    neighbourhood = cell_neighbourhood(level, 2, 8)
+    full = cell_neighbourhood(level, 2, 4096)
     assert neighbourhood.index.shape[1] == 8
     assert torch.equal(neighbourhood.count, full.count.clamp(max=8))
     assert (full.count > 100).sum() > 10
@@ -183,15 +186,15 @@ def test_crowded_neighbourhoods_are_thinned_evenly(clouds):
 
 
 def test_cell_neighbourhoods_partition_the_points(clouds):
-    level = M.input_level(clouds)
-    neighbourhood = M.cell_neighbourhood(level, 4, 4096)
+    level = input_level(clouds)
+    neighbourhood = cell_neighbourhood(level, 4, 4096)
     members = neighbourhood.index[neighbourhood.mask]
     assert torch.equal(members.sort().values, torch.arange(len(level.points)))
 
 
 def test_point_density_counts_points_per_cell(clouds):
-    level = M.input_level(clouds[:1])
-    density = M.point_density(level, 3)
+    level = input_level(clouds[:1])
+    density = point_density(level, 3)
     cells = np.floor((level.points.double().numpy() + 0.5) * 8).clip(0, 7)
     _, inverse, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)
     assert np.array_equal(density.numpy(), counts[inverse.reshape(-1)].astype(np.float32))
@@ -226,16 +229,16 @@ def test_dropout_draws_from_its_generator(clouds):
 # ---------------------------------------------------------------- checkpoints
 
 
-@pytest.mark.parametrize("head", M.HEADS)
+@pytest.mark.parametrize("head", HEADS)
 def test_checkpoint_round_trip_gives_identical_outputs(head, tmp_path, clouds, monkeypatch):
-    model = M.ViewpointNet(M.ModelConfig(head=head), seed=3)
+    model = M.ViewpointNet(ModelConfig(head=head), seed=3)
     model.train()
     model(clouds)  # move the batch-norm statistics away from their initial values
     model.eval()
     weights, config_path = M.save_model(model, tmp_path / "net.safetensors", metadata={"labels": "test"})
     assert (weights.name, config_path.name) == ("net.safetensors", "net.json")
     config = json.loads(config_path.read_text())
-    assert config["format"] == M.MODEL_FORMAT and config["architecture"]["head"] == head
+    assert config["format"] == MODEL_FORMAT and config["architecture"]["head"] == head
     assert config["measures"] == ["VE", "VR", "VKL", "VMI"] and config["labels"] == "test"
     assert config["n_parameters"] == M.count_parameters(model)
 
@@ -280,14 +283,14 @@ def test_half_precision_checkpoint_is_half_the_size_and_predicts_the_same(tmp_pa
 
 
 def test_default_is_the_bundled_pretrained_checkpoint(tmp_path, monkeypatch):
-    weights, config_path = M.checkpoint_paths("default")
-    assert weights == M.PRETRAINED / "model.safetensors" and weights.stat().st_size <= 5_000_000
+    weights, config_path = checkpoint_paths("default")
+    assert weights == PRETRAINED / "model.safetensors" and weights.stat().st_size <= 5_000_000
     model, config = M.load_model("default")
     assert config["labels"] == "ml+gl" and config["weights_dtype"] == "float16"
     assert config["pretrained"]["command"].startswith("python tools/reproduce_labels.py")
     monkeypatch.chdir(tmp_path)
     (tmp_path / "default").mkdir()  # a folder of that name in the working directory wins
-    assert M.checkpoint_paths("default")[0] == Path("default") / "model.safetensors"
+    assert checkpoint_paths("default")[0] == Path("default") / "model.safetensors"
 
 
 def test_loading_bad_checkpoints_raises(tmp_path):
@@ -296,7 +299,7 @@ def test_loading_bad_checkpoints_raises(tmp_path):
     M.save_model(M.ViewpointNet(SMALL), tmp_path / "small.safetensors")
     M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")
     (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
-    with pytest.raises(VerificationError, match="small.safetensors: weights do not match"):
+    with pytest.raises(CheckpointError, match="small.safetensors: weights do not match"):
         M.load_model(tmp_path / "small.safetensors")
     (tmp_path / "other.json").write_text('{"format": "something-else"}')
     (tmp_path / "other.safetensors").write_bytes(b"")
@@ -308,13 +311,13 @@ def test_loading_bad_checkpoints_raises(tmp_path):
 
 
 def test_configuration_round_trips_and_validates():
-    assert M.ModelConfig.from_dict(json.loads(json.dumps(SMALL.to_dict()))) == SMALL
+    assert ModelConfig.from_dict(json.loads(json.dumps(SMALL.to_dict()))) == SMALL
     with pytest.raises(InputError, match="head: unknown head"):
-        M.ModelConfig(head="mlp")
+        ModelConfig(head="mlp")
     with pytest.raises(InputError, match=r"levels\[1\].radius"):
-        M.ModelConfig(levels=(M.LevelConfig(2, 0.25, 16, 8), M.LevelConfig(2, 0.05, 16, 8)))
+        ModelConfig(levels=(LevelConfig(2, 0.25, 16, 8), LevelConfig(2, 0.05, 16, 8)))
     with pytest.raises(InputError, match="unknown keys"):
-        M.ModelConfig.from_dict({"width": 3})
+        ModelConfig.from_dict({"width": 3})
     with pytest.raises(InputError, match="points: expected shape"):
         M.ViewpointNet(SMALL)(torch.zeros(5, 3))
 

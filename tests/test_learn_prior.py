@@ -16,10 +16,9 @@ import torch  # noqa: E402
 
 from vptoolkit.cli import main  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame  # noqa: E402
-from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
 from vptoolkit.learn.octahedral import sphere_map_directions  # noqa: E402
+from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
 from vptoolkit.learn.prior import NetworkPrior, distinct_directions, map_modes  # noqa: E402
-
 
 one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
 

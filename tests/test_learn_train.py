@@ -20,11 +20,23 @@ require_package("zarr")
 import torch  # noqa: E402
 
 from vptoolkit.data import open_dataset  # noqa: E402
-from vptoolkit.errors import InputError  # noqa: E402
+from vptoolkit.errors import ExistingRunError, InputError  # noqa: E402
+from vptoolkit.evaluate.protocol import random_view_scores, score_protocol  # noqa: E402
 from vptoolkit.learn import train as T  # noqa: E402
-from vptoolkit.learn.model import LevelConfig, ModelConfig, load_model  # noqa: E402
-from vptoolkit.learn.predict import Predictions, network_predictor, predict  # noqa: E402
-from vptoolkit.protocol import random_view_scores, score_protocol  # noqa: E402
+from vptoolkit.learn.config import LevelConfig, ModelConfig  # noqa: E402
+from vptoolkit.learn.model import load_model, resolve_device  # noqa: E402
+from vptoolkit.learn.predict import (  # noqa: E402
+    CATEGORY_MODELS_FORMAT,
+    Predictions,
+    network_predictor,
+    predict,
+)
+from vptoolkit.learn.schedule import (  # noqa: E402
+    PAPER_BATCH_SIZE,
+    PAPER_EPOCHS,
+    learning_rate,
+    scaled_lr_step,
+)
 from vptoolkit.samples import sample_path  # noqa: E402
 
 SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus")
@@ -165,7 +177,7 @@ def test_resume_can_extend_a_finished_run(dataset_dir, tmp_path):
 
 def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
     tiny_run(dataset_dir, tmp_path / "run", epochs=1)
-    with pytest.raises(InputError, match="already holds a training run"):
+    with pytest.raises(ExistingRunError, match="already holds a training run"):
         tiny_run(dataset_dir, tmp_path / "run", epochs=1)
     with pytest.raises(InputError, match=r"cannot resume with other options \(seed: 0 -> 1\)"):
         tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, resume=True)
@@ -270,25 +282,25 @@ def test_training_options_are_checked(dataset_dir, tmp_path):
 
 
 def test_learning_rate_follows_the_papers_step_decay():
-    assert T.learning_rate(0) == 1e-3 and T.learning_rate(199) == 1e-3
-    assert T.learning_rate(200) == pytest.approx(7.5e-4) and T.learning_rate(2999) == pytest.approx(1e-3 * 0.75**14)
-    assert (T.PAPER_EPOCHS, T.PAPER_BATCH_SIZE) == (3000, 8)
+    assert learning_rate(0) == 1e-3 and learning_rate(199) == 1e-3
+    assert learning_rate(200) == pytest.approx(7.5e-4) and learning_rate(2999) == pytest.approx(1e-3 * 0.75**14)
+    assert (PAPER_EPOCHS, PAPER_BATCH_SIZE) == (3000, 8)
 
 
 def test_paper_schedule_scales_to_the_run_length():
-    assert T.scaled_lr_step(3000) == 200 and T.scaled_lr_step(100) == 7 and T.scaled_lr_step(5) == 1
-    run = T.learning_rate(99, lr_step=T.scaled_lr_step(100))
+    assert scaled_lr_step(3000) == 200 and scaled_lr_step(100) == 7 and scaled_lr_step(5) == 1
+    run = learning_rate(99, lr_step=scaled_lr_step(100))
     assert run == pytest.approx(1e-3 * 0.75**14)  # 15 steps, as in the paper's 3000 epochs
 
 
 def test_devices_resolve_and_cuda_is_never_required():
-    assert T.resolve_device("cpu").type == "cpu"
-    assert T.resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
+    assert resolve_device("cpu").type == "cpu"
+    assert resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
     if not torch.cuda.is_available():
         with pytest.raises(InputError, match="sees no CUDA device"):
-            T.resolve_device("cuda")
+            resolve_device("cuda")
     with pytest.raises(InputError, match="device: expected"):
-        T.resolve_device("tpu")
+        resolve_device("tpu")
 
 
 def test_the_farthest_point_pool_keeps_a_few_subsets_per_model(dataset_dir):
@@ -317,7 +329,7 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     results = T.train_per_category(dataset_dir, tmp_path / "per", **options)
     assert sorted(results) == sorted(set(categories.values()))
     index = json.loads((tmp_path / "per" / "categories.json").read_text())
-    assert index["format"] == T.CATEGORY_MODELS_FORMAT and sorted(index["categories"]) == sorted(results)
+    assert index["format"] == CATEGORY_MODELS_FORMAT and sorted(index["categories"]) == sorted(results)
     for name, result in results.items():
         config = json.loads(result.config_path.read_text())
         assert config["categories"] == [name] and result.n_train == list(categories.values()).count(name)

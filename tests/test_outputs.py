@@ -57,7 +57,8 @@ def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
     build: Path, tmp_path: Path  # noqa: F811
 ) -> None:
     from vptoolkit.dataset.release import pack_release
-    from vptoolkit.dataset.store import open_store, write_dataset
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.writer import write_dataset
     from vptoolkit.dataset.release import _ReaderEntries
 
     beside = tmp_path / ".release.k9x2ab.partial"

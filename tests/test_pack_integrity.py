@@ -1,8 +1,8 @@
 """Nothing corrupt is ever packed, and no reader takes a lost chunk for zeros.
 
-``pack`` re-hashes every array it copies, so before this check a flipped byte or a
-deleted chunk of ``OUT/dataset.zarr`` shipped with a fresh, matching checksum and
-``verify`` said OK on the release.
+``pack`` re-hashes every array it copies, so without this check a flipped byte or a
+deleted chunk of ``OUT/dataset.zarr`` would ship with a fresh, matching checksum and
+``verify`` would say OK on the release.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def build(tmp_path: Path) -> Path:
     """A build folder with a small synthetic ``dataset.zarr`` (9 models in one quality chunk)."""
     require_package("zarr")
     require_package("h5py")
-    from vptoolkit.dataset.store import write_dataset
+    from vptoolkit.dataset.writer import write_dataset
 
     rng = np.random.default_rng(15)
     views = rng.normal(size=(N_VIEWS, 3))
@@ -69,7 +69,7 @@ def test_pack_refuses_a_damaged_store_and_writes_nothing(build: Path, tmp_path: 
 
 def test_readers_refuse_a_missing_chunk_naming_array_and_models(build: Path) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.store import open_store
+    from vptoolkit.dataset.reader import open_store
 
     (build / CHUNK).unlink()
     expected = re.escape("array 'quality' chunk c/0/0/0 is missing, models airplane_0000")
@@ -121,7 +121,7 @@ def test_readers_name_array_and_models_of_a_chunk_that_does_not_decompress(
 
 
 def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(build: Path) -> None:
-    from vptoolkit.dataset.store import open_store
+    from vptoolkit.dataset.reader import open_store
 
     (build / "dataset.zarr" / "mesh_faces" / "c" / "0" / "0").unlink()
     with pytest.raises(VerificationError, match=r"'mesh_faces' chunk c/0/0 .*airplane_0000, "):
@@ -133,7 +133,8 @@ def test_every_chunk_is_written_even_all_zeros_and_an_old_empty_chunk_still_read
 ) -> None:
     import zarr
 
-    from vptoolkit.dataset.store import array_sha256, open_store
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.schema import array_sha256
 
     # A chunk of zeros is stored (zarr would skip it by default) ...
     source = build / "dataset.zarr"

@@ -12,7 +12,7 @@ import pytest
 from conftest import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
-from vptoolkit.protocol import (
+from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
     constant_predictor,

@@ -1,12 +1,18 @@
-"""The rasteriser's fast paths give exactly the pixels of the straightforward ones.
+"""The rasteriser gives exactly the pixels of its definition.
 
-Three levels: whole views of the sample meshes through the driver (the kernel
-against the one before issue 15, ``reference=True``); screen-space triangles
-put on the fixed-point grid by hand (shared edges through pixel centres,
-slivers, frame borders, boxes of every path's size) against a per-pixel test
-of the three edge functions; and the inverse-depth runs, also over whole
-narrow rows, against one float addition per pixel, at binade edges and ties.
+Three levels: whole views of two sample meshes through the driver, against
+per-face pixel counts frozen in ``tests/data/raster_counts.npz`` (any change
+of a pixel fails; the file is rewritten, by running this module, only for a
+deliberate change of what the kernel draws); screen-space triangles put on
+the fixed-point grid by hand (shared edges through pixel centres, slivers,
+frame borders, boxes of every path's size, depth ties) against
+:func:`_draw_by_definition`, a per-pixel test of the three edge functions
+with the inverse depth walked by one float addition per pixel in numpy; and
+the inverse-depth runs, also over whole narrow rows, against that walk, at
+binade edges and ties.
 """
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,44 +21,58 @@ from vptoolkit.camera import Camera
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
-from vptoolkit.visibility import _raster_view_histograms, face_id_images
+from vptoolkit.visibility import face_id_images, iter_view_histograms
 from vptoolkit.visibility._raster import (
     SUBPIXEL_BITS,
     _collect_histogram,
     _draw_row,
+    _edge_setup,
     _exact_steps,
     _rasterize_view,
     _walk_row,
 )
-from vptoolkit.visibility._raster_reference import rasterize_view_reference
 
 STEP = 1 << SUBPIXEL_BITS
+FROZEN_COUNTS = Path(__file__).parent / "data" / "raster_counts.npz"
+FROZEN_MESHES = ("suzanne.ply", "Duck.glb")
+FROZEN_VIEWS = {7: 12, 64: 12, 257: 12, 1024: 3}  # resolution: number of views
 
 
-def _histograms(mesh, views, resolution, camera, reference):
-    runs = list(_raster_view_histograms(mesh, views, resolution=resolution, camera=camera,
-                                        reference=reference))
+def _histograms(mesh, views, resolution, camera):
+    runs = list(iter_view_histograms(mesh, views, resolution=resolution, camera=camera))
     return [np.concatenate([getattr(run, name) for run in runs])
             for name in ("face_ids", "pixel_counts")], [run.offsets for run in runs]
 
 
-@pytest.mark.parametrize("name", ["bunny.ply", "torus.STL", "suzanne.ply", "Duck.glb",
-                                  "featuretype.STL"])
-@pytest.mark.parametrize("resolution", [1, 7, 64, 257, 1024])
-def test_kernel_counts_equal_the_previous_row_walk_bit_for_bit(name, resolution):
+def _frozen_case(name, resolution, culled):
+    """The arrays of one view list in the layout of ``raster_counts.npz``."""
     mesh = load_mesh(sample_path(name))
-    views = fibonacci_sphere(6 if resolution == 1024 else 24)
-    for camera in (Camera(), Camera(cull_back_faces=False)):
-        fast = _histograms(mesh, views, resolution, camera, reference=False)
-        walked = _histograms(mesh, views, resolution, camera, reference=True)
-        for got, want in zip(fast[0] + fast[1], walked[0] + walked[1]):
-            np.testing.assert_array_equal(got, want)
+    views = fibonacci_sphere(FROZEN_VIEWS[resolution])
+    (face_ids, pixel_counts), offsets = _histograms(
+        mesh, views, resolution, Camera(cull_back_faces=culled))
+    key = f"{name}/{resolution}/{'culled' if culled else 'two-sided'}"
+    lengths = np.concatenate([np.diff(run) for run in offsets])
+    return {f"{key}/face_ids": face_ids, f"{key}/pixel_counts": pixel_counts,
+            f"{key}/lengths": lengths}
+
+
+FROZEN_CASES = [(name, resolution, culled) for name in FROZEN_MESHES for resolution in FROZEN_VIEWS
+                for culled in (True, False)]
+FROZEN_IDS = [f"{name}-{resolution}-{'culled' if culled else 'two-sided'}"
+              for name, resolution, culled in FROZEN_CASES]
+
+
+@pytest.mark.parametrize("name,resolution,culled", FROZEN_CASES, ids=FROZEN_IDS)
+def test_kernel_counts_equal_the_frozen_counts_bit_for_bit(name, resolution, culled):
+    with np.load(FROZEN_COUNTS, allow_pickle=False) as frozen:
+        for key, got in _frozen_case(name, resolution, culled).items():
+            np.testing.assert_array_equal(got, frozen[key], err_msg=key)
 
 
 def test_histograms_count_the_pixels_of_the_id_images(bunny):
     views = fibonacci_sphere(5)
     images = face_id_images(bunny, views, resolution=200)
-    (face_ids, pixel_counts), offsets = _histograms(bunny, views, 200, Camera(), False)
+    (face_ids, pixel_counts), offsets = _histograms(bunny, views, 200, Camera())
     for view, (start, stop) in enumerate(zip(offsets[0][:-1], offsets[0][1:])):
         ids = images[view][images[view] >= 0]
         # in the order of each face's first pixel, row by row
@@ -77,13 +97,13 @@ def _covered(xs, ys, resolution):
     return inside
 
 
-def _draw(xs, ys, faces, resolution, reference, depth=None):
+def _draw(xs, ys, faces, resolution, depth=None):
+    """The kernel's frame and written row spans for screen-space triangles."""
     n = len(xs)
     frame = np.zeros(resolution * resolution, dtype=np.int64)
     row_low = np.full(resolution, resolution, dtype=np.int64)
     row_high = np.full(resolution, -1, dtype=np.int64)
-    draw = rasterize_view_reference if reference else _rasterize_view
-    draw(
+    _rasterize_view(
         np.asarray(faces, dtype=np.int32), np.zeros((len(faces), 3)), np.zeros(len(faces)),
         np.ones(len(faces), dtype=bool), False, np.zeros(3), np.asarray(xs, dtype=np.int64),
         np.asarray(ys, dtype=np.int64),
@@ -91,6 +111,47 @@ def _draw(xs, ys, faces, resolution, reference, depth=None):
         resolution, frame, row_low, row_high,
     )
     return frame.reshape(resolution, resolution), row_low, row_high
+
+
+def _draw_by_definition(xs, ys, faces, resolution, depth=None):
+    """:func:`_draw` in numpy, pixel by pixel from the definition of the kernel's docstring.
+
+    A pixel centre of a face's clipped bounding box is covered where all three
+    biased edge functions are >= 0; its key is the integer part of the row's
+    inverse depth at the box's left edge plus one float addition of the x step
+    per pixel (``np.add.accumulate`` adds in order), shifted over ``face + 1``;
+    the frame keeps the largest key. Only the edge set-up is the kernel's.
+    """
+    depth = np.full(len(xs), 0.5) if depth is None else np.asarray(depth, dtype=np.float64)
+    frame = np.zeros((resolution, resolution), dtype=np.int64)
+    written = np.zeros((resolution, resolution), dtype=bool)
+    for face, (a, b, c) in enumerate(np.asarray(faces, dtype=np.int64)):
+        ax, ay, bx, by, cx, cy = (np.int64(v) for v in (xs[a], ys[a], xs[b], ys[b], xs[c], ys[c]))
+        x0 = max((min(ax, bx, cx) - STEP // 2 + STEP - 1) // STEP, 0)
+        x1 = min((max(ax, bx, cx) - STEP // 2) // STEP, resolution - 1)
+        y0 = max((min(ay, by, cy) - STEP // 2 + STEP - 1) // STEP, 0)
+        y1 = min((max(ay, by, cy) - STEP // 2) // STEP, resolution - 1)
+        area2 = (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+        if x0 > x1 or y0 > y1 or area2 == 0:
+            continue
+        (row_ab, row_bc, row_ca, sx_ab, sy_ab, sx_bc, sy_bc, sx_ca, sy_ca, q_row, dq_dx,
+         dq_dy) = _edge_setup(ax, ay, bx, by, cx, cy, depth[a], depth[b], depth[c], area2,
+                              np.int64(x0), np.int64(y0))
+        k = np.arange(x1 - x0 + 1, dtype=np.int64)[None, :]
+        j = np.arange(y1 - y0 + 1, dtype=np.int64)[:, None]
+        inside = ((row_ab + k * sx_ab + j * sy_ab >= 0) & (row_bc + k * sx_bc + j * sy_bc >= 0)
+                  & (row_ca + k * sx_ca + j * sy_ca >= 0))
+        row_starts = np.add.accumulate(np.r_[q_row, np.full(y1 - y0, dq_dy)])
+        steps = np.full((len(row_starts), x1 - x0 + 1), dq_dx)
+        steps[:, 0] = row_starts
+        keys = (np.add.accumulate(steps, axis=1).astype(np.int64) << 32) | (face + 1)
+        box = frame[y0:y1 + 1, x0:x1 + 1]
+        box[inside] = np.maximum(box[inside], keys[inside])
+        written[y0:y1 + 1, x0:x1 + 1] |= inside
+    rows = written.any(axis=1)
+    row_low = np.where(rows, written.argmax(axis=1), resolution)
+    row_high = np.where(rows, resolution - 1 - written[:, ::-1].argmax(axis=1), -1)
+    return frame, row_low, row_high
 
 
 def _fan(resolution, rng, *, n_spokes, centre, radius, on_centres):
@@ -127,7 +188,7 @@ def test_shared_edges_slivers_and_frame_borders_cover_each_pixel_centre_once(res
     ]
     for fan in fans:
         xs, ys, faces = _fan(resolution, rng, on_centres=on_centres, **fan)
-        frame, row_low, row_high = _draw(xs, ys, faces, resolution, reference=False)
+        frame, row_low, row_high = _draw(xs, ys, faces, resolution)
         ids = (frame & 0xFFFFFFFF) - 1
         want = np.full((resolution, resolution), -1)
         hits = np.zeros((resolution, resolution), dtype=int)
@@ -142,13 +203,13 @@ def test_shared_edges_slivers_and_frame_borders_cover_each_pixel_centre_once(res
             row_low, np.where(hit_rows, hits.argmax(axis=1), resolution))
         np.testing.assert_array_equal(
             row_high, np.where(hit_rows, resolution - 1 - hits[:, ::-1].argmax(axis=1), -1))
-        walked = _draw(xs, ys, faces, resolution, reference=True)
-        for got, want_walked in zip((frame, row_low, row_high), walked):
-            np.testing.assert_array_equal(got, want_walked)
+        defined = _draw_by_definition(xs, ys, faces, resolution)
+        for got, want_defined in zip((frame, row_low, row_high), defined):
+            np.testing.assert_array_equal(got, want_defined)
 
 
 @pytest.mark.parametrize("resolution", [16, 333])
-def test_overlapping_random_triangles_keep_the_walked_depths(resolution):
+def test_overlapping_random_triangles_keep_the_defined_depths(resolution):
     # Depth ties, binade edges of the inverse depth (2**29 = depth 0.5) and tiny,
     # huge or degenerate triangles, all drawn over each other.
     rng = np.random.default_rng(7)
@@ -161,9 +222,9 @@ def test_overlapping_random_triangles_keep_the_walked_depths(resolution):
     slivers = np.column_stack([faces[:, 0], faces[:, 0] + 1, faces[:, 0] + 2]) % n
     xs[1::3] = xs[::3][: len(xs[1::3])] + rng.integers(-2, 3, len(xs[1::3]))
     faces = np.vstack([faces, slivers])
-    fast = _draw(xs, ys, faces, resolution, reference=False, depth=depth)
-    walked = _draw(xs, ys, faces, resolution, reference=True, depth=depth)
-    for got, want in zip(fast, walked):
+    fast = _draw(xs, ys, faces, resolution, depth=depth)
+    defined = _draw_by_definition(xs, ys, faces, resolution, depth=depth)
+    for got, want in zip(fast, defined):
         np.testing.assert_array_equal(got, want)
 
 
@@ -208,8 +269,7 @@ def test_histograms_counted_by_runs_or_by_pixels_are_the_same(resolution):
     xs = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
     ys = rng.integers(-resolution * STEP // 2, resolution * STEP * 3 // 2, n)
     faces = rng.integers(0, n, (400, 3))
-    frame, row_low, row_high = _draw(xs, ys, faces, resolution, reference=False,
-                                     depth=rng.uniform(0, 1, n))
+    frame, row_low, row_high = _draw(xs, ys, faces, resolution, depth=rng.uniform(0, 1, n))
     results = []
     for count_runs in (False, True):
         cleared = frame.ravel().copy(), row_low.copy(), row_high.copy()
@@ -245,3 +305,10 @@ def test_cached_kernels_inline_no_other_modules_code():
                 module = root.parent / (node.module.replace(".", "/") + ".py")
                 assert not module.exists() or "@njit" not in module.read_text(), (
                     f"{path.relative_to(root)} caches numba code and imports {node.module}")
+
+
+if __name__ == "__main__":  # rewrite the frozen counts from the current kernel
+    arrays = {}
+    for case in FROZEN_CASES:
+        arrays.update(_frozen_case(*case))
+    np.savez_compressed(FROZEN_COUNTS, **arrays)

@@ -33,7 +33,7 @@ DATASHEET_SECTIONS = (
 
 
 def _entries(rng: np.random.Generator) -> list:
-    from vptoolkit.dataset.store import ModelEntry
+    from vptoolkit.dataset.schema import ModelEntry
 
     entries = []
     for category, count in sorted(CATEGORIES.items()):
@@ -86,7 +86,7 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A build output folder holding a small synthetic ``dataset.zarr``."""
     require_package("zarr")
     require_package("h5py")
-    from vptoolkit.dataset.store import write_dataset
+    from vptoolkit.dataset.writer import write_dataset
 
     rng = np.random.default_rng(20210501)
     views = rng.normal(size=(N_VIEWS, 3))
@@ -114,7 +114,8 @@ def release_copy(release, tmp_path: Path) -> Path:
 
 
 def _source_records(build: Path) -> list[dict]:
-    from vptoolkit.dataset.store import open_store, published_split
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.schema import published_split
 
     with open_store(build / "dataset.zarr") as reader:
         return [{**r, "split": published_split(r["split"])} for r in reader.models()]
@@ -139,7 +140,7 @@ def test_release_holds_every_file(release) -> None:
 
 @pytest.mark.parametrize("archive", ["zarr_zip", "hdf5"])
 def test_archive_holds_the_source_content(build: Path, release, archive: str) -> None:
-    from vptoolkit.dataset.store import open_store
+    from vptoolkit.dataset.reader import open_store
 
     with open_store(build / "dataset.zarr") as source, \
             open_store(getattr(release, archive)) as packed:
@@ -235,7 +236,7 @@ def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> No
 
 
 def test_verify_passes_on_a_fresh_release(release) -> None:
-    from vptoolkit.dataset.release import verify
+    from vptoolkit.dataset.manifest import verify
 
     report = verify(release.path)
     assert report.ok, report.summary()
@@ -420,7 +421,7 @@ def test_card_has_every_datasheet_section_and_the_licence_note(release) -> None:
 
 
 def test_card_numbers_come_from_the_data(build: Path, release) -> None:
-    from vptoolkit.dataset.store import open_store
+    from vptoolkit.dataset.reader import open_store
 
     card = release.card.read_text(encoding="utf-8")
     records = _source_records(build)
@@ -450,7 +451,7 @@ def test_card_numbers_come_from_the_data(build: Path, release) -> None:
     (250_000, "100K<n<1M"), (10**6, "1M<n<10M"),
 ])
 def test_size_category(n_models: int, label: str) -> None:
-    from vptoolkit.dataset.card import size_category
+    from vptoolkit.dataset.info import size_category
 
     assert size_category(n_models) == label
 
@@ -495,7 +496,7 @@ def test_croissant_is_json_ld_with_the_manifest_sums(release) -> None:
 
 
 def test_dataset_info_counts_per_category_and_split(build: Path, release) -> None:
-    from vptoolkit.dataset.release import dataset_info, format_info
+    from vptoolkit.dataset.info import dataset_info, format_info
 
     records = _source_records(build)
     for path in (build, release.path, release.hdf5):
@@ -524,7 +525,7 @@ def test_dataset_info_counts_per_category_and_split(build: Path, release) -> Non
 
 
 def test_release_info_json_matches_dataset_info(release) -> None:
-    from vptoolkit.dataset.release import dataset_info
+    from vptoolkit.dataset.info import dataset_info
 
     stored = json.loads((release.path / "dataset_info.json").read_text(encoding="utf-8"))
     live = dataset_info(release.zarr_zip)

@@ -28,7 +28,7 @@ def _write_build(folder: Path, *, created: str = "2025-01-02T03:04:05Z",
     """A build folder with the synthetic models; ``splits`` overrides some models' split."""
     require_package("zarr")
     require_package("pyarrow")
-    from vptoolkit.dataset.store import write_dataset
+    from vptoolkit.dataset.writer import write_dataset
 
     rng = np.random.default_rng(20210501)
     views = rng.normal(size=(N_VIEWS, 3))
@@ -174,7 +174,7 @@ def test_croissant_carries_version_dates_creator_and_rai(release) -> None:
 
 
 def test_version_goes_into_names_attributes_card_and_croissant(release) -> None:
-    from vptoolkit.dataset.store import open_store
+    from vptoolkit.dataset.reader import open_store
 
     assert release.zarr_zip.name == "mini-2.1.0.zarr.zip" and release.hdf5.name == "mini-2.1.0.h5"
     with open_store(release.hdf5) as reader:
@@ -226,7 +226,7 @@ def test_bad_release_options_are_input_errors(tmp_path: Path, bad: dict, message
 
 
 def test_a_licence_table_without_its_columns_names_the_file(tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import read_licenses
+    from vptoolkit.dataset.licenses import read_licenses
 
     (tmp_path / "l.csv").write_text("name,licence\nx,mit\n", encoding="utf-8")
     with pytest.raises(InputError, match="l.csv: header lacks the column"):
@@ -408,20 +408,20 @@ def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypat
 def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
     import types
 
-    from vptoolkit.dataset import containers, store
+    from vptoolkit.dataset import containers, reader
 
     old = types.SimpleNamespace(__version__="2.18.3")
     monkeypatch.setattr(containers, "require", lambda module, extra=None: old)
     with pytest.raises(MissingDependencyError, match=r"zarr 2.18.3: .*pip install 'zarr>=3'"):
-        store.open_store(release.zarr_zip)
+        reader.open_store(release.zarr_zip)
 
 
 # --------------------------------------------------------------------------- card workflow
 
 
 def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) -> None:
+    from vptoolkit.dataset.descriptions import update_card
     from vptoolkit.dataset.manifest import verify
-    from vptoolkit.dataset.release import update_card
 
     before = {p.name: p.read_bytes() for p in release_copy.iterdir() if p.is_file()}
     assert update_card(release_copy) == ["croissant.json", "SHA256SUMS"]
@@ -441,7 +441,7 @@ def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) ->
 
 
 def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None:
-    from vptoolkit.dataset.release import update_card
+    from vptoolkit.dataset.descriptions import update_card
 
     archive = release_copy / "mini-2.1.0.h5"
     data = bytearray(archive.read_bytes())
@@ -511,7 +511,7 @@ def test_plain_install_needs_no_heavy_package() -> None:
 
 
 def test_the_sample_licence_table_covers_every_sample_mesh() -> None:
-    from vptoolkit.dataset.release import read_licenses
+    from vptoolkit.dataset.licenses import read_licenses
     from vptoolkit.samples import sample_names, sample_path
 
     table = read_licenses(sample_path("bunny.ply").parent / "LICENSES.csv")

@@ -245,7 +245,8 @@ def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message)
 def store(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A small dataset store of trimesh primitives with made-up smooth quality."""
     require_package("zarr")
-    from vptoolkit.dataset.store import ModelEntry, write_dataset
+    from vptoolkit.dataset.schema import ModelEntry
+    from vptoolkit.dataset.writer import write_dataset
 
     views = fibonacci_sphere(N_VIEWS)
     entries = []
@@ -322,7 +323,7 @@ def cards(page: str) -> list[dict[str, str]]:
 def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
     page = full_report.read_text(encoding="utf-8")
     assert full_report.name == "index.html"
-    from vptoolkit.dataset.store import published_split
+    from vptoolkit.dataset.schema import published_split
 
     assert cards(page) == [{"name": n, "category": c, "split": published_split(s)}
                            for c, n, s, _ in MODELS]

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import results_doc
 
-from vptoolkit.protocol import ProtocolScores
+from vptoolkit.evaluate.protocol import ProtocolScores
 
 
 def _scores(rows: list[list[float]]) -> ProtocolScores:

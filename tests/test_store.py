@@ -15,20 +15,19 @@ import numpy as np
 import pytest
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.store import (
+from vptoolkit.dataset.containers import find_store, store_kind
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.schema import (
     ARRAY_NAMES,
     BUILD_ATTRS,
     FORMAT_NAME,
     SCHEMA_VERSION,
     ModelEntry,
     array_sha256,
-    find_store,
     from_json_bytes,
     json_bytes,
-    open_store,
-    store_kind,
-    write_dataset,
 )
+from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.sphere import fibonacci_sphere
 

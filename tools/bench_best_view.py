@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from results_doc import machine, markdown_table, score_cells, write_section
 
 from vptoolkit.best_view import SEARCH_RESOLUTION, search_best_views
 from vptoolkit.data import open_dataset
@@ -54,15 +55,13 @@ from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.sources import discover_models
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate import pca_directions
+from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.progress import progress_bar
-from vptoolkit.protocol import ProtocolScores, random_view_scores
 from vptoolkit.rotations import fixed_rotations
-
-from results_doc import machine, markdown_table, score_cells, write_section
 
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
@@ -126,7 +125,8 @@ def labels(mesh_dir: Path, cache: Path, *, quick: bool) -> Path:
     return out
 
 
-def answers(budgets: list[int], resolution: int, models: list[str]) -> dict[str, tuple[str, Answer]]:
+def answers(budgets: list[int], resolution: int,
+            models: list[str]) -> dict[str, tuple[str, Answer]]:
     """Row label -> (views drawn, answer), in table order."""
     from vptoolkit.learn.predict import MeshPredictor
     from vptoolkit.learn.prior import NetworkPrior
@@ -221,10 +221,12 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         f"## Best views: quality against cost, {where}",
         "",
-        f"Command: `python tools/bench_best_view.py{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
+        "Command: `python tools/bench_best_view.py"
+        f"{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
         f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}"
         f"{''.join(f' --model {model}' for model in args.model or [])}`; "
-        f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; wall time {time.perf_counter() - started:.0f} s.",
+        f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; "
+        f"wall time {time.perf_counter() - started:.0f} s.",
         "",
         f"{len(dataset)} meshes, {args.rotations} fixed rotations each; labels: cleaned mesh, "
         f"{len(dataset.views)} views at {dataset.attrs.get('resolution', '?')} px. Scores in %, "

@@ -13,8 +13,7 @@ the seconds per model of each stage (load, clean, sample, measure, write;
 ``BuildResult.stage_seconds``) and its share of the time.
 
 ``--meshes DIR`` builds the mesh files under DIR instead of the samples, e.g.
-raw ModelNet models, whose cleaning costs far more than the samples' (the
-build of issue 15's figures).
+raw ModelNet models, whose cleaning costs far more than the samples'.
 
 Default sizes are the paper's: 1000 views at 1024 px, 20000 points, cleaning
 on with at most 10000 faces. ``--quick`` uses 100 views at 128 px, 2000
@@ -56,8 +55,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vptoolkit.dataset.build import STAGING_DIR, build_dataset
-from vptoolkit.dataset.store import ModelEntry, StoreReader, open_store, write_dataset
+from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.reader import StoreReader, open_store
+from vptoolkit.dataset.schema import ModelEntry
+from vptoolkit.dataset.staging import STAGING_DIR
+from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
 

@@ -40,7 +40,9 @@ import numpy as np
 import torch
 
 from vptoolkit.io import load_mesh
-from vptoolkit.learn.model import ModelConfig, ViewpointNet, build_hierarchy, save_model
+from vptoolkit.learn.config import ModelConfig
+from vptoolkit.learn.hierarchy import build_hierarchy
+from vptoolkit.learn.model import ViewpointNet, save_model
 from vptoolkit.learn.predict import network_points, predict
 from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path

@@ -4,14 +4,13 @@ coarse resolution costs in best-view accuracy.
 Prints, for meshes of about 10k, 100k and 1M faces (sample meshes,
 midpoint-subdivided to size):
 
-* seconds of the rasteriser for all views at 256, 512 and 1024 pixels, beside
-  its kernel before issue 15 (the per-row division and float walk of the
-  inverse depth, with the run-by-run histogram: ``visibility._raster_reference``,
-  compiled apart) and the speed-up, timed in the same run, alternately, best
-  of ``--repeat``: that kernel stays selectable by the private
-  ``reference=True`` of ``vptoolkit.visibility._raster_view_histograms``,
-  which ``tests/test_raster_kernel.py`` also runs to check that the counts are
-  the same bit for bit;
+* seconds of the rasteriser for all views at 256, 512 and 1024 pixels, best
+  of ``--repeat``;
+* with ``--baseline DIR``, beside them the seconds of the rasteriser of the
+  vptoolkit checked out in DIR (``git worktree add DIR REV``), timed on the
+  same mesh and views in a child process run there with ``PYTHONPATH`` DIR,
+  alternately with this code's runs so that both see the same machine load,
+  and the speed-up of this code over it;
 * seconds of Open3D's ray caster, timed on ``--raycast-views`` views and
   scaled to all views, and the ratio raycast / raster from the same run;
 * how far the best view per measure at 256 and 512 lies from the one at
@@ -24,6 +23,7 @@ Usage::
     python tools/bench_measures.py            # full run, a few minutes
     python tools/bench_measures.py --quick    # small sizes, seconds
     python tools/bench_measures.py --max-faces 200000   # without the 1M-face mesh
+    python tools/bench_measures.py --max-faces 200000 --baseline /tmp/base --repeat 2
 """
 
 from __future__ import annotations
@@ -36,6 +36,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -45,7 +46,7 @@ from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
-from vptoolkit.visibility import _raster_view_histograms, iter_view_histograms
+from vptoolkit.visibility import iter_view_histograms
 
 
 def subdivide(mesh: Mesh, times: int) -> Mesh:
@@ -65,11 +66,40 @@ def time_views(mesh: Mesh, views: np.ndarray, resolution: int, backend: str) -> 
     return time.perf_counter() - started
 
 
-def time_raster(mesh: Mesh, views: np.ndarray, resolution: int, reference: bool) -> float:
-    started = time.perf_counter()
-    for _ in _raster_view_histograms(mesh, views, resolution=resolution, reference=reference):
-        pass
-    return time.perf_counter() - started
+_CHILD_RASTER = """
+import json, sys, time
+import numpy as np
+import vptoolkit
+from vptoolkit.mesh import Mesh
+from vptoolkit.visibility import iter_view_histograms
+data = np.load(sys.argv[1])
+mesh = Mesh(data["vertices"], data["faces"], name="baseline")
+views, resolution = data["views"], int(sys.argv[2])
+for _ in iter_view_histograms(mesh, views[:2], resolution=16):  # numba's cached kernels
+    pass
+started = time.perf_counter()
+for _ in iter_view_histograms(mesh, views, resolution=resolution):
+    pass
+print(json.dumps({"seconds": time.perf_counter() - started, "code": vptoolkit.__file__}))
+"""
+
+
+def time_baseline(code: Path, mesh_file: Path, resolution: int) -> float:
+    """Seconds of the raster backend of the vptoolkit at ``code``, in a child process run there.
+
+    ``mesh_file`` is an ``.npz`` of ``vertices``, ``faces`` and ``views``.
+    """
+    done = subprocess.run(
+        [sys.executable, "-c", _CHILD_RASTER, str(mesh_file), str(resolution)],
+        env={**os.environ, "PYTHONPATH": str(code)}, cwd=code,
+        capture_output=True, text=True, check=False,
+    )
+    if done.returncode != 0:
+        raise SystemExit(f"bench_measures: the baseline raster failed:\n{done.stderr.strip()}")
+    record = json.loads(done.stdout.strip().splitlines()[-1])
+    if not Path(record["code"]).resolve().is_relative_to(code.resolve()):
+        raise SystemExit(f"bench_measures: the baseline child imported {record['code']}, not {code}")
+    return float(record["seconds"])
 
 
 def jit_seconds() -> tuple[float, float]:
@@ -96,10 +126,14 @@ def main() -> None:
     parser.add_argument("--views", type=int, default=1000)
     parser.add_argument("--raycast-views", type=int, default=40)
     parser.add_argument("--repeat", type=int, default=3,
-                        help="best of this many runs of each raster kernel (default: 3)")
+                        help="best of this many raster runs of each code (default: 3)")
     parser.add_argument("--max-faces", type=int, help="skip meshes with more faces")
+    parser.add_argument("--baseline", type=Path,
+                        help="a checkout of other vptoolkit code to time beside this one")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args()
+    if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
+        parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
     torus = load_mesh(sample_path("torus.STL"))
     bunny = load_mesh(sample_path("bunny.ply"))
@@ -109,55 +143,69 @@ def main() -> None:
         n_views, raycast_views = 100, 8
     else:
         meshes = [torus, bunny, subdivide(torus, 2), subdivide(bunny, 3)]
-    if args.max_faces is not None:
-        meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
         resolutions = [256, 512, 1024]
         n_views, raycast_views = args.views, args.raycast_views
+    if args.max_faces is not None:
+        meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
     views = fibonacci_sphere(n_views)
     cold, warm = jit_seconds()
     for backend in ("raster", "raycast"):  # imports and JIT load happen here, not in the timings
         time_views(torus, views[:2], 16, backend)
-    time_raster(torus, views[:2], 16, reference=True)
     print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
-    print(f"{n_views} views; raycast timed on {raycast_views} views and scaled\n")
-    print(f"raster: best of {args.repeat}; before: the kernel before issue 15, same run\n")
-    header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{'before s':>10}{'speed-up':>10}"
+    print(f"{n_views} views; raycast timed on {raycast_views} views and scaled")
+    print(f"raster: best of {args.repeat}" + (
+        f"; baseline: the code in {args.baseline}, alternately in the same run\n"
+        if args.baseline is not None else "\n"))
+    baseline_cells = f"{'baseline s':>11}{'speed-up':>10}" if args.baseline is not None else ""
+    header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{baseline_cells}"
               f"{'raycast s':>11}{'ratio':>8}")
     print(header)
     print("-" * len(header))
     results = []
     finest = resolutions[-1]
-    for mesh in meshes:
-        qualities = {}
-        for resolution in resolutions:
-            runs: dict[bool, list[float]] = {False: [], True: []}
-            for _ in range(args.repeat):  # alternately, so both see the same machine load
-                for reference in (False, True):
-                    runs[reference].append(time_raster(mesh, views, resolution, reference))
-            raster, before = min(runs[False]), min(runs[True])
-            raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
-            raycast *= n_views / raycast_views
-            print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{before:>10.2f}"
-                  f"{before / raster:>10.2f}{raycast:>11.1f}{raycast / raster:>8.1f}")
-            qualities[resolution] = compute_view_quality(mesh, view_directions=views,
-                                                         resolution=resolution)
-            results.append({"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution,
-                             "raster_s": raster, "raster_before_s": before,
-                             "raycast_s": raycast})
-        reference = qualities[finest]
-        for resolution in resolutions[:-1]:
-            coarse = qualities[resolution]
-            angles = angle_between_deg(coarse.best_views, reference.best_views)
-            lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
-            cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}" for m, a, q in zip(MEASURES, angles, lost))
-            print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
-            results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
-                            "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})
+    with tempfile.TemporaryDirectory(prefix="bench_measures_") as scratch:
+        mesh_file = Path(scratch) / "mesh.npz"
+        for mesh in meshes:
+            np.savez(mesh_file, vertices=mesh.vertices, faces=mesh.faces, views=views)
+            qualities = {}
+            for resolution in resolutions:
+                runs: list[float] = []
+                baseline_runs: list[float] = []
+                for _ in range(args.repeat):  # alternately, so both see the same machine load
+                    runs.append(time_views(mesh, views, resolution, "raster"))
+                    if args.baseline is not None:
+                        baseline_runs.append(time_baseline(args.baseline, mesh_file, resolution))
+                raster = min(runs)
+                raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
+                raycast *= n_views / raycast_views
+                record = {"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution,
+                          "raster_s": raster, "raycast_s": raycast}
+                cells = ""
+                if baseline_runs:
+                    baseline = min(baseline_runs)
+                    cells = f"{baseline:>11.2f}{baseline / raster:>10.2f}"
+                    record["raster_baseline_s"] = baseline
+                print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{cells}"
+                      f"{raycast:>11.1f}{raycast / raster:>8.1f}")
+                qualities[resolution] = compute_view_quality(mesh, view_directions=views,
+                                                             resolution=resolution)
+                results.append(record)
+            reference = qualities[finest]
+            for resolution in resolutions[:-1]:
+                coarse = qualities[resolution]
+                angles = angle_between_deg(coarse.best_views, reference.best_views)
+                lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
+                cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}"
+                                  for m, a, q in zip(MEASURES, angles, lost))
+                print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
+                results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
+                                "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     print(f"\npeak resident memory of this process: {peak_mb:.0f} MB")
     if args.json:
         with open(args.json, "w") as handle:
             json.dump({"jit_cold_s": cold, "jit_warm_s": warm, "peak_mb": peak_mb,
+                       "baseline": str(args.baseline) if args.baseline else None,
                        "results": results}, handle, indent=2)
 
 

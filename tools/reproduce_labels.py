@@ -6,7 +6,7 @@ proportions and symmetries), trains every label method (SL, ML, GL, ML+GL and
 the baselines SR and DLDL; with ``--category-networks`` also ML+GL as one
 network per category) with the same budget, side by side in ``--jobs``
 single-threaded processes, and scores each on the test split under the
-protocol of :mod:`vptoolkit.protocol`: rotated test inputs first, the stored
+protocol of :mod:`vptoolkit.evaluate.protocol`: rotated test inputs first, the stored
 orientation second, each score the normalised quality of the nearest sampled
 view in % with its standard error over models, beside three non-learned
 rows (a random view as an expectation, the PCA axis and the best constant
@@ -48,8 +48,9 @@ from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.labels import head_for_method
 from vptoolkit.learn.predict import network_predictor
-from vptoolkit.learn.train import scaled_lr_step, train_model, train_per_category
-from vptoolkit.protocol import (
+from vptoolkit.learn.schedule import scaled_lr_step
+from vptoolkit.learn.train import train_model, train_per_category
+from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
     constant_predictor,
@@ -318,7 +319,7 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         "",
         f"**Rotated test inputs (the primary protocol):** every test model under {sizes.rotations} fixed "
         "random rotations seeded by its name, the prediction rotated back before scoring "
-        "(`vptoolkit.protocol`). Scores: normalised quality of the nearest sampled view, in %, mean over "
+        "(`vptoolkit.evaluate.protocol`). Scores: normalised quality of the nearest sampled view, in %, mean over "
         "models ± standard error over models. Random view: the expectation over uniform directions; "
         "best constant direction: the view with the best mean quality over the training split in its "
         "stored (upright) orientation.",

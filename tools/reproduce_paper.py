@@ -105,7 +105,7 @@ PAPER_ROBUSTNESS: dict[str, tuple[float, float, float, float]] = {
 NETWORK_BUDGET_SECONDS = 60.0
 """Time after which a network cell stops repeating (once three passes ran)."""
 HELD_OUT_ROTATIONS = 8
-"""Fixed rotations per held-out real mesh in table 4 (:mod:`vptoolkit.protocol`)."""
+"""Fixed rotations per held-out real mesh in table 4 (:mod:`vptoolkit.evaluate.protocol`)."""
 SURFACE_POINTS = 20_000
 """Surface points per mesh before the network input is picked (the paper's)."""
 POISSON_INIT_FACTOR = 5
@@ -467,7 +467,8 @@ def section_timings(options: RunOptions) -> Section:
     import torch
     from tqdm import tqdm
 
-    from vptoolkit.learn.model import ModelConfig, ViewpointNet
+    from vptoolkit.learn.config import ModelConfig
+    from vptoolkit.learn.model import ViewpointNet
     from vptoolkit.learn.predict import network_points
 
     sizes = options.sizes
@@ -566,15 +567,20 @@ def section_robustness(options: RunOptions) -> Section:
     the bundled real meshes, built into a dataset with the labels dataset's
     settings, scored for the network, a random view and the PCA heuristic
     under :data:`HELD_OUT_ROTATIONS` fixed rotations each (the rotated
-    protocol of :mod:`vptoolkit.protocol`, with standard errors).
+    protocol of :mod:`vptoolkit.evaluate.protocol`, with standard errors).
     """
     from tqdm import tqdm
 
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.build import build_dataset
     from vptoolkit.evaluate import score_directions
+    from vptoolkit.evaluate.protocol import (
+        ProtocolScores,
+        pca_predictor,
+        random_view_scores,
+        score_protocol,
+    )
     from vptoolkit.learn.predict import network_predictor
-    from vptoolkit.protocol import ProtocolScores, pca_predictor, random_view_scores, score_protocol
 
     started = time.perf_counter()
     network = Network.load(checkpoint_path(options))
@@ -668,7 +674,7 @@ def section_robustness(options: RunOptions) -> Section:
         f"Held-out real meshes (`vptoolkit/samples`, {len(per_model)} meshes, "
         f"{'cleaned' if is_cleaned else 'not cleaned'}, {n_surface} points, quality from "
         f"{labels_settings[0]} views at {labels_settings[1]} px; {n_failed} failed to build), each under "
-        f"{HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.protocol`), mean over meshes ± standard error:",
+        f"{HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.evaluate.protocol`), mean over meshes ± standard error:",
         "",
         *markdown_table(["method", *MEASURES], [[label, *score_cells(scores)] for label, scores in held_out.items()]),
         "", "Network per mesh:", "",

@@ -21,7 +21,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.protocol import ProtocolScores, paired_difference
+from vptoolkit.evaluate.protocol import ProtocolScores, paired_difference
 
 
 def machine() -> str:

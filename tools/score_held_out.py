@@ -4,7 +4,7 @@ Builds (or resumes) a dataset of the meshes in a folder with the benchmark's
 settings (cleaned, 20000 points, 1000 views at 256 px), then scores the
 network, a random view (expectation), the PCA axis and, when ``--train`` names
 a dataset, the best constant direction of its training split, each under
-``--rotations`` fixed rotations per mesh (:mod:`vptoolkit.protocol`), with the
+``--rotations`` fixed rotations per mesh (:mod:`vptoolkit.evaluate.protocol`), with the
 standard error over meshes and the paired difference of the network to each
 baseline.
 
@@ -32,7 +32,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.learn.predict import network_predictor
-from vptoolkit.protocol import (
+from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
     constant_predictor,

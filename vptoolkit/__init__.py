@@ -24,6 +24,8 @@ from importlib.metadata import PackageNotFoundError, version
 from vptoolkit.best_view import BestViews, search_best_views
 from vptoolkit.conventions import MEASURES, N_VIEWS
 from vptoolkit.errors import (
+    CheckpointError,
+    ExistingRunError,
     InputError,
     MeasurementError,
     MeshLoadError,
@@ -45,6 +47,8 @@ __all__ = [
     "BestViews",
     "MEASURES",
     "N_VIEWS",
+    "CheckpointError",
+    "ExistingRunError",
     "InputError",
     "MeasurementError",
     "Mesh",

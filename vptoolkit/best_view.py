@@ -47,7 +47,7 @@ import contextlib
 import math
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Final
@@ -186,7 +186,8 @@ class _Incumbents:
                 continue
             best = int(np.nanargmax(values) if higher else np.nanargmin(values))
             current = self.raw[column]
-            if not np.isfinite(current) or (values[best] > current if higher else values[best] < current):
+            better = values[best] > current if higher else values[best] < current
+            if not np.isfinite(current) or better:
                 self.directions[column] = directions[best]
                 self.raw[column] = values[best]
 
@@ -201,7 +202,8 @@ class _Incumbents:
 
 
 def _check_count(value: Any, name: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not low <= value <= high:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or not low <= value <= high:
         raise InputError(f"{name}: expected an integer from {low} to {high}, got {value!r}")
     return int(value)
 
@@ -246,7 +248,7 @@ def coarse_directions(mesh: Mesh, n: int, areas: NDArray[np.float64] | None = No
 
 
 def ring(centre: NDArray[np.float64], angle: float, n: int, turn: float) -> NDArray[np.float64]:
-    """``n`` unit directions at ``angle`` radians from ``centre``, evenly around it from ``turn``."""
+    """``n`` unit directions ``angle`` radians from ``centre``, evenly around it from ``turn``."""
     helper = np.eye(3)[int(np.argmin(np.abs(centre)))]
     first = np.cross(centre, helper)
     first /= np.linalg.norm(first)
@@ -279,7 +281,7 @@ class _Renderer:
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,
                 estimate_face_probability: bool = False) -> NDArray[np.float64]:
-        """Raw measures ``(n, 4)`` of the directions at ``resolution``; NaN where nothing is seen."""
+        """Raw measures ``(n, 4)`` of the directions at ``resolution``; NaN where none is seen."""
         runs = list(self.scene.histograms(directions, resolution))
         if estimate_face_probability:
             counts = np.zeros(self.mesh.n_faces)
@@ -296,10 +298,11 @@ class _Renderer:
 
 def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
                         per_measure: int) -> NDArray[np.float64]:
-    """The best ``per_measure`` coarse directions of each measure, distinct, by rank then measure."""
+    """The best ``per_measure`` coarse directions of each measure, distinct, rank by rank."""
     orders = []
     for column, higher in enumerate(HIGHER_IS_BETTER):
-        values = np.where(np.isfinite(raw[:, column]), raw[:, column], -np.inf if higher else np.inf)
+        worst = -np.inf if higher else np.inf
+        values = np.where(np.isfinite(raw[:, column]), raw[:, column], worst)
         orders.append(np.argsort(-values if higher else values, kind="stable"))
     chosen: list[int] = []
     for rank in range(min(per_measure, len(directions))):
@@ -426,7 +429,8 @@ def _merge(stages: Sequence[SearchStage]) -> list[SearchStage]:
     merged: list[SearchStage] = []
     for stage in stages:
         if merged and merged[-1].name == stage.name and merged[-1].resolution == stage.resolution:
-            merged[-1] = SearchStage(stage.name, merged[-1].n_views + stage.n_views, stage.resolution)
+            merged[-1] = SearchStage(stage.name, merged[-1].n_views + stage.n_views,
+                                     stage.resolution)
         else:
             merged.append(stage)
     return merged
@@ -448,8 +452,8 @@ class SearchRun:
     failures: tuple[tuple[str, str], ...]
 
     def save_predictions(self, path: str | os.PathLike[str]) -> Path:
-        """Write the directions in the predictions format (:func:`vptoolkit.predictions.write_predictions`)
-        that ``vptool evaluate`` scores; ``(n_meshes, 4, 3)``."""
+        """Write the directions ``(n_meshes, 4, 3)`` as predictions that ``vptool evaluate``
+        scores (:func:`vptoolkit.predictions.write_predictions`)."""
         from vptoolkit.predictions import write_predictions
 
         return write_predictions(path, [result.name for result in self.results],
@@ -528,7 +532,8 @@ def _search_all(sources: list[tuple[str, Callable[[], Mesh]]], budget: int, reso
             try:
                 mesh = load()
                 if mesh.name in names:
-                    raise InputError(f"{label}: a second mesh named {mesh.name!r}; names must be unique")
+                    raise InputError(f"{label}: a second mesh named {mesh.name!r}; "
+                                     "names must be unique")
                 started = time.perf_counter()
                 candidates = prior(mesh) if prior is not None else None
                 proposing = time.perf_counter() - started  # part of the answer's cost

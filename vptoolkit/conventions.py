@@ -8,6 +8,10 @@ Measures
     information). Normalised values are always in [0, 1] with 1 = best.
     Logarithms are base 2 (bits).
 
+Splits
+    ``SPLITS = ("train", "validation", "test")`` names the splits everywhere
+    a user sees one.
+
 Views
     ``N_VIEWS = 1000`` directions on the authors' Fibonacci sphere
     (:func:`vptoolkit.sphere.fibonacci_sphere`). A view direction ``v`` is a
@@ -34,6 +38,7 @@ __all__ = [
     "N_VIEWS",
     "RESOLUTION",
     "SEED",
+    "SPLITS",
     "FOV_DEG",
     "DISTANCE_FACTOR",
     "UP",
@@ -55,6 +60,16 @@ RESOLUTION: Final = 1024
 
 SEED: Final = 0
 """Default seed of every seeded choice the command line offers (sampling, splits, training)."""
+
+SPLITS: Final = ("train", "validation", "test")
+"""The split names, one vocabulary everywhere a user sees one.
+
+The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
+shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
+hub does. A store or build of schema 1 may record ``"val"``;
+:func:`vptoolkit.dataset.schema.published_split` maps it, and every API that
+takes a split accepts ``"val"`` as an alias.
+"""
 
 FOV_DEG: Final = 45.0
 """Vertical (and, the image being square, horizontal) field of view in degrees."""

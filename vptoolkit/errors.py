@@ -7,7 +7,9 @@ Messages are one line: the file or argument first, then the problem, e.g.
 This module imports nothing else from the package, so catching an error never
 loads the heavy parts of the stack.
 
-The command line maps the tree onto exit codes: :class:`InputError` and
+The command line maps the tree onto exit codes by class alone:
+:class:`InputError` (with its subclasses :class:`MeshLoadError`,
+:class:`CheckpointError` and :class:`ExistingRunError`) and
 :class:`MissingDependencyError` exit with 2, :class:`MeasurementError` and
 :class:`VerificationError` with 1.
 """
@@ -18,6 +20,8 @@ __all__ = [
     "VptoolkitError",
     "InputError",
     "MeshLoadError",
+    "CheckpointError",
+    "ExistingRunError",
     "MissingDependencyError",
     "MeasurementError",
     "VerificationError",
@@ -37,6 +41,22 @@ class MeshLoadError(InputError):
 
     The message names the file and the problem: unreadable, unknown format,
     empty, no faces, non-finite coordinates or a face index out of range.
+    """
+
+
+class CheckpointError(InputError):
+    """A checkpoint's weights do not match the architecture its configuration declares.
+
+    Raised for a network checkpoint and for a training state; the message
+    names the weights file. The file is damaged or belongs to another
+    configuration, so the caller must give another one.
+    """
+
+
+class ExistingRunError(InputError):
+    """A training output already holds a run that the call would overwrite.
+
+    The message names the folder and says how to continue or replace the run.
     """
 
 

@@ -1,7 +1,7 @@
 """Random rotations and per-model seeds, in numpy.
 
 Everything that rotates a model (training augmentation, the rotated test
-protocol of :mod:`vptoolkit.protocol`) draws from here, so a model's rotations
+protocol of :mod:`vptoolkit.evaluate.protocol`) draws from here, so a model's rotations
 depend only on a seed and the model's name, never on its position in a
 dataset, a worker process or the global random state.
 

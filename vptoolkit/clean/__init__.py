@@ -4,7 +4,9 @@ Schelling et al. (2021, appendix "Mesh Cleaning Pipeline") clean every model
 before measuring it, because self-intersections, hidden parts and uneven
 tessellation distort the viewpoint quality measures (a face's area no longer
 matches its potentially visible area, which changes ``A_t`` and ``A_z``).
-:func:`clean_mesh` runs the same three steps; each is also available alone:
+:func:`clean_mesh` runs the same three steps by calling these public
+functions in order, so ``simplify_mesh(remove_hidden_faces(repair_mesh(mesh)))``
+(with the same options) gives the same mesh:
 
 1. :func:`repair_mesh` -- remove null and duplicate faces, merge duplicate
    vertices, drop unreferenced vertices, repair non-manifold edges and
@@ -14,7 +16,13 @@ matches its potentially visible area, which changes ``A_t`` and ``A_z``).
    and turn each remaining face towards the side it is seen from.
 3. :func:`simplify_mesh` -- quadric edge-collapse decimation to at most
    ``max_faces`` faces (the paper keeps models under 10k faces), optionally
-   followed by isotropic remeshing.
+   followed by isotropic remeshing, then the removal of the intersections
+   decimation created.
+
+Each step returns a :class:`~vptoolkit.mesh.Mesh` that also says what the
+step did (:class:`RepairedMesh`, :class:`VisibleMesh`,
+:class:`SimplifiedMesh`); the repaired mesh carries what step 2 needs to see
+through the seams that removing intersecting faces opened.
 
 :class:`CleaningReport` records faces and vertices before and after each
 step, self-intersections before and after, the hidden area removed and the
@@ -38,37 +46,27 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from vptoolkit.checks import check_bool, check_int
-from vptoolkit.clean._meshlab import (
-    load_pymeshlab,
-    to_mesh,
-    to_meshset,
-)
+from vptoolkit.clean._meshlab import load_pymeshlab
 from vptoolkit.clean.hidden import (
     HIDDEN_RESOLUTION,
-    hidden_before_resolving,
+    VisibleMesh,
     hidden_faces,
-    keep_small_faces_by_seen_ones,
     remove_hidden_faces,
-    seen_from_behind,
     two_sided_pixel_totals,
 )
 from vptoolkit.clean.repair import (
     MERGE_TOLERANCE,
+    RepairedMesh,
     SelfIntersectionMethod,
     check_method,
     count_self_intersections,
-    remove_intersections,
     repair_mesh,
-    run_repair,
 )
-from vptoolkit.clean.simplify import MAX_FACES, simplify_mesh, simplify_meshset
-from vptoolkit.clean.topology import check_mesh, submesh
+from vptoolkit.clean.simplify import MAX_FACES, SimplifiedMesh, simplify_mesh
+from vptoolkit.clean.topology import check_mesh
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
-from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
 
 __all__ = [
@@ -80,15 +78,15 @@ __all__ = [
     "CleaningReport",
     "clean_mesh",
     "repair_mesh",
+    "RepairedMesh",
     "two_sided_pixel_totals",
     "hidden_faces",
     "remove_hidden_faces",
+    "VisibleMesh",
     "simplify_mesh",
+    "SimplifiedMesh",
     "count_self_intersections",
 ]
-
-_AFTER_DECIMATION_ROUNDS = 3
-"""Rounds of removing the faces that decimation left intersecting (see :func:`clean_mesh`)."""
 
 _STEP_NAMES = ("repair", "remove_hidden", "simplify")
 
@@ -298,52 +296,29 @@ def clean_mesh(
     check_method(self_intersections)
     orient = check_bool(orient, "orient")
     remesh = check_bool(remesh, "remesh")
-    ml = load_pymeshlab()
+    load_pymeshlab()
 
     start = time.perf_counter()
-    repair = run_repair(ml, mesh, self_intersections, max_rounds)
-    repaired = repair.repaired
+    repaired = repair_mesh(mesh, self_intersections=self_intersections, max_rounds=max_rounds)
     steps = [_step("repair", mesh, repaired, start)]
-
     start = time.perf_counter()
-    pixels = two_sided_pixel_totals(repaired, n_views=n_views, resolution=hidden_resolution)
-    is_hidden = pixels.sum(axis=1) == 0
-    if repair.method != "none":
-        is_hidden |= hidden_before_resolving(repair, n_views, hidden_resolution)
-    is_hidden = keep_small_faces_by_seen_ones(repaired, is_hidden, hidden_resolution)
-    if orient:
-        is_flipped = seen_from_behind(repaired.faces, np.where(is_hidden[:, None], 0, pixels))
-        is_flipped &= ~is_hidden
-    else:
-        is_flipped = np.zeros(repaired.n_faces, dtype=bool)
-    areas = face_areas(repaired)
-    hidden_area = float(areas[is_hidden].sum())
-    total_area = float(areas.sum())
-    visible = submesh(repaired, ~is_hidden, "remove_hidden", flip=is_flipped)
+    visible = remove_hidden_faces(repaired, n_views=n_views, resolution=hidden_resolution,
+                                  orient=orient)
     steps.append(_step("remove_hidden", repaired, visible, start))
-
     start = time.perf_counter()
-    meshes = to_meshset(ml, visible.vertices, visible.faces, visible.name)
-    simplify_meshset(ml, meshes, mesh.name, max_faces, remesh)
-    # Quadric collapses do not test for intersections and bring some back
-    # (2.3 % of a raw ModelNet airplane's faces): remove them, without closing
-    # holes, which would also fill the model's own openings and add faces.
-    _, intersections_after = remove_intersections(
-        ml, meshes, mesh.name, _AFTER_DECIMATION_ROUNDS - 1, step="simplify", close_holes=False
-    )
-    simplified = to_mesh(meshes, mesh.name, "simplify")
+    simplified = simplify_mesh(visible, max_faces=max_faces, remesh=remesh)
     steps.append(_step("simplify", visible, simplified, start))
 
     report = CleaningReport(
         name=mesh.name,
         steps=tuple(steps),
-        self_intersection_method=repair.method,
-        self_intersections_before=repair.intersections_before,
-        self_intersections_after_repair=repair.intersections_after,
-        self_intersections_after=intersections_after,
-        hidden_area_removed=hidden_area,
-        hidden_area_fraction=hidden_area / total_area if total_area > 0.0 else 0.0,
-        faces_flipped=int(is_flipped.sum()),
+        self_intersection_method=repaired.method,
+        self_intersections_before=repaired.intersections_before,
+        self_intersections_after_repair=repaired.intersections_after,
+        self_intersections_after=simplified.intersections_after,
+        hidden_area_removed=visible.hidden_area,
+        hidden_area_fraction=visible.hidden_area_fraction,
+        faces_flipped=visible.faces_flipped,
     )
     return simplified, report
 

@@ -1,23 +1,24 @@
 """Step 2 of :mod:`vptoolkit.clean`: remove hidden faces and orient the rest.
 
-Owns :func:`remove_hidden_faces`, :func:`hidden_faces`,
-:func:`two_sided_pixel_totals` (each face drawn from both sides over the
-Fibonacci views), :data:`HIDDEN_RESOLUTION`, the rescue of sub-pixel faces next
-to seen ones, the per-patch orientation vote, and the test
-:func:`~vptoolkit.clean.clean_mesh` adds after a step 1 that removed faces
-(:func:`hidden_before_resolving`). Needs no pymeshlab.
+Owns :func:`remove_hidden_faces` and its result :class:`VisibleMesh`,
+:func:`hidden_faces`, :func:`two_sided_pixel_totals` (each face drawn from both
+sides over the Fibonacci views), :data:`HIDDEN_RESOLUTION`, the rescue of
+sub-pixel faces next to seen ones, the per-patch orientation vote, and the
+test added after a step 1 that removed intersecting faces
+(:func:`_hidden_before_resolving`). Needs no pymeshlab.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_bool, check_int
+from vptoolkit.clean.repair import RepairedMesh
 from vptoolkit.clean.topology import check_mesh, coherent_patches, submesh, undirected_edges
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.geometry import bounding_frame, face_areas, face_normals
@@ -25,14 +26,30 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import face_pixel_totals
 
-if TYPE_CHECKING:
-    from vptoolkit.clean.repair import Repaired
-
 HIDDEN_RESOLUTION = 256
 """Default image side, in pixels, of the visibility pass that finds hidden faces."""
 
 _BACK_OFFSET = 1e-5
 """Offset of the reversed copy of each face in :func:`hidden_faces`, in diagonals."""
+
+
+@dataclass(frozen=True, eq=False, repr=False, kw_only=True)
+class VisibleMesh(Mesh):
+    """The mesh :func:`remove_hidden_faces` returns: a :class:`~vptoolkit.mesh.Mesh` and what went.
+
+    Attributes
+    ----------
+    hidden_area : float
+        Area of the faces removed, in model units squared.
+    hidden_area_fraction : float
+        ``hidden_area`` over the area of the input (0 for an input of no area).
+    faces_flipped : int
+        Kept faces reversed because they were seen mostly from behind.
+    """
+
+    hidden_area: float
+    hidden_area_fraction: float
+    faces_flipped: int
 
 
 def two_sided_pixel_totals(
@@ -135,14 +152,18 @@ def remove_hidden_faces(
     n_views: int = N_VIEWS,
     resolution: int = HIDDEN_RESOLUTION,
     orient: bool = True,
-) -> Mesh:
+) -> VisibleMesh:
     """Step 2: drop the faces seen in none of the views and orient the rest.
 
     A face is dropped if neither side covers a pixel in any view
-    (:func:`hidden_faces`). With ``orient``, the faces are turned towards the
-    side they are seen from, because raw models often mix inward and outward
-    faces and the measures cull back faces. The vote is per patch of
-    consistently wound faces joined by manifold edges: a patch whose faces
+    (:func:`hidden_faces`). Removing intersecting faces in step 1 can open
+    seams through which buried parts become visible, so when ``mesh`` is the
+    :class:`~vptoolkit.clean.repair.RepairedMesh` of a step 1 that did, a face
+    is also dropped if the face it comes from was already hidden before the
+    intersections were resolved. With ``orient``, the kept faces are turned
+    towards the side they are seen from, because raw models often mix inward
+    and outward faces and the measures cull back faces. The vote is per patch
+    of consistently wound faces joined by manifold edges: a patch whose faces
     cover more pixels from behind than from the front is reversed as a whole.
     A consistently outward-oriented mesh is left as it is; a triangle soup
     is oriented face by face.
@@ -150,7 +171,8 @@ def remove_hidden_faces(
     Parameters
     ----------
     mesh : Mesh
-        The repaired mesh.
+        The repaired mesh, as :func:`~vptoolkit.clean.repair.repair_mesh`
+        returns it.
     n_views : int
         Number of view directions (default: 1000).
     resolution : int
@@ -160,8 +182,9 @@ def remove_hidden_faces(
 
     Returns
     -------
-    visible : Mesh
-        The faces seen from some view, without unreferenced vertices.
+    visible : VisibleMesh
+        The faces seen from some view, without unreferenced vertices, and the
+        hidden area and flipped faces.
 
     Raises
     ------
@@ -169,13 +192,34 @@ def remove_hidden_faces(
         If no face is seen; the message starts with the mesh name.
     """
     orient = check_bool(orient, "orient")
+    n_views = check_int(n_views, "n_views", minimum=1)
+    resolution = check_int(resolution, "resolution", minimum=8)
     pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
-    is_hidden = keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
-    is_flipped = seen_from_behind(mesh.faces, pixels) if orient else None
-    return submesh(mesh, ~is_hidden, "remove_hidden", flip=is_flipped)
+    is_hidden = pixels.sum(axis=1) == 0
+    if isinstance(mesh, RepairedMesh) and mesh.method != "none":
+        is_hidden |= _hidden_before_resolving(mesh, n_views, resolution)
+    is_hidden = keep_small_faces_by_seen_ones(mesh, is_hidden, resolution)
+    if orient:
+        is_flipped = seen_from_behind(mesh.faces, np.where(is_hidden[:, None], 0, pixels))
+        is_flipped &= ~is_hidden
+    else:
+        is_flipped = np.zeros(mesh.n_faces, dtype=bool)
+    areas = face_areas(mesh)
+    hidden_area = float(areas[is_hidden].sum())
+    total_area = float(areas.sum())
+    visible = submesh(mesh, ~is_hidden, "remove_hidden", flip=is_flipped)
+    return VisibleMesh(
+        visible.vertices,
+        visible.faces,
+        visible.name,
+        hidden_area=hidden_area,
+        hidden_area_fraction=hidden_area / total_area if total_area > 0.0 else 0.0,
+        faces_flipped=int(is_flipped.sum()),
+    )
 
 
-def hidden_before_resolving(repair: Repaired, n_views: int, resolution: int) -> NDArray[np.bool_]:
+def _hidden_before_resolving(repaired: RepairedMesh, n_views: int,
+                             resolution: int) -> NDArray[np.bool_]:
     """Repaired faces that were hidden before the self-intersections were resolved.
 
     Resolving intersections by removal opens seams through which buried parts
@@ -186,7 +230,7 @@ def hidden_before_resolving(repair: Repaired, n_views: int, resolution: int) -> 
     its own. New faces come last, so where one exactly covers a removed face
     the rasteriser's depth tie goes to the new face.
     """
-    connected, repaired, origin = repair.connected, repair.repaired, repair.origin
+    connected, origin = repaired.connected, repaired.origin
     is_new = origin < 0
     scene = Mesh(
         np.vstack([connected.vertices, repaired.vertices]),

@@ -4,8 +4,8 @@ Owns :func:`repair_mesh` (null and duplicate faces, merging close vertices,
 non-manifold edges and vertices, then resolving self-intersections by boolean
 union of closed parts and by removal), :func:`count_self_intersections`,
 :data:`MERGE_TOLERANCE`, :data:`SelfIntersectionMethod` and the step-1 result
-that :func:`~vptoolkit.clean.clean_mesh` passes on to step 2
-(:class:`Repaired`).
+(:class:`RepairedMesh`), a mesh that carries what step 2 needs to see through
+the seams that removing intersecting faces opened.
 """
 
 from __future__ import annotations
@@ -52,16 +52,31 @@ SelfIntersectionMethod = Literal["auto", "remove"]
 """How :func:`repair_mesh` resolves self-intersections (see its Notes)."""
 
 
-@dataclass(frozen=True)
-class Repaired:
-    """Result of step 1 with the bookkeeping step 2 needs."""
+@dataclass(frozen=True, eq=False, repr=False, kw_only=True)
+class RepairedMesh(Mesh):
+    """The mesh :func:`repair_mesh` returns: a :class:`~vptoolkit.mesh.Mesh` and what step 1 did.
 
-    connected: Mesh  # after the connectivity repairs, before resolving intersections
-    repaired: Mesh
-    origin: NDArray[np.int64]  # face of ``connected`` each repaired face comes from, -1 if new
+    Attributes
+    ----------
+    method : str
+        What was done about self-intersections: ``"none"`` (there were
+        none), ``"union"``, ``"remove"`` or ``"union+remove"``.
+    intersections_before, intersections_after : int
+        Faces pymeshlab's self-intersection test selects once duplicate
+        vertices are merged, and on the repaired mesh.
+    connected : Mesh
+        The mesh after the connectivity repairs, before the intersections
+        were resolved.
+    origin : (n_faces,) int64
+        Face of ``connected`` each face comes from, -1 for a face step 1
+        created (a hole filling).
+    """
+
     method: str
     intersections_before: int
     intersections_after: int
+    connected: Mesh
+    origin: NDArray[np.int64]
 
 
 def repair_mesh(
@@ -69,7 +84,7 @@ def repair_mesh(
     *,
     self_intersections: SelfIntersectionMethod = "auto",
     max_rounds: int = 5,
-) -> Mesh:
+) -> RepairedMesh:
     """Step 1: fix the connectivity and resolve self-intersections.
 
     Connectivity, in order: remove null (zero-area) and duplicate faces, merge
@@ -99,9 +114,12 @@ def repair_mesh(
 
     Returns
     -------
-    repaired : Mesh
+    repaired : RepairedMesh
         Same name; pymeshlab's self-intersection test selects no face (unless
-        ``max_rounds`` is 0).
+        ``max_rounds`` is 0). Pass it to
+        :func:`~vptoolkit.clean.hidden.remove_hidden_faces` as it is: step 2
+        then also drops the faces seen only through the seams of removed
+        intersecting faces.
 
     Raises
     ------
@@ -147,7 +165,7 @@ def repair_mesh(
     check_mesh(mesh)
     check_method(self_intersections)
     max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
-    return run_repair(load_pymeshlab(), mesh, self_intersections, max_rounds).repaired
+    return _repair(load_pymeshlab(), mesh, self_intersections, max_rounds)
 
 
 def count_self_intersections(mesh: Mesh) -> int:
@@ -178,7 +196,7 @@ def check_method(method: str) -> None:
         raise InputError(f"self_intersections: expected 'auto' or 'remove', got {method!r}")
 
 
-def run_repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> Repaired:
+def _repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> RepairedMesh:
     name = mesh.name
     meshes = to_meshset(ml, mesh.vertices, mesh.faces, name)
     run_filter(meshes, name, "repair", "meshing_remove_null_faces")
@@ -218,9 +236,11 @@ def run_repair(ml: ModuleType, mesh: Mesh, method: str, max_rounds: int) -> Repa
     vertices, faces, origin = to_arrays(meshes)
     if len(faces) == 0:
         raise MeasurementError(f"{name}: cleaning step 'repair' left no faces")
-    return Repaired(
+    return RepairedMesh(
+        vertices,
+        faces,
+        name,
         connected=connected,
-        repaired=Mesh(vertices, faces, name=name),
         origin=origin,
         method="+".join(used) if used else "none",
         intersections_before=intersections_before,

@@ -113,7 +113,7 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
       vptool pack --update-card release/
     """
     if update_card:
-        from vptoolkit.dataset.release import update_card as rewrite
+        from vptoolkit.dataset.descriptions import update_card as rewrite
 
         if release_dir is not None:
             raise InputError("--update-card: takes the release folder only, no RELEASE_DIR")
@@ -178,7 +178,7 @@ def info(path: Path, as_json: bool) -> None:
     Example:
       vptool info release/
     """
-    from vptoolkit.dataset.card import dataset_info, format_info
+    from vptoolkit.dataset.info import dataset_info, format_info
 
     details = dataset_info(path)
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))

@@ -18,7 +18,7 @@ from vptoolkit.cli.options import (
     device_option,
     seed_option,
 )
-from vptoolkit.errors import InputError
+from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_output_folder
 
 
@@ -100,7 +100,8 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
       vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
       vptool train release/ -o per_category/ --per-category --epochs 300
     """
-    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.dataset.containers import find_store
+    from vptoolkit.dataset.reader import open_store
     from vptoolkit.learn.train import train_model, train_per_category
     from vptoolkit.points import N_FPS_POINTS
 
@@ -124,11 +125,11 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
             results = train_per_category(dataset, output, categories=chosen, **options)
         else:
             results = {"": train_model(dataset, output, categories=chosen, **options)}
-    except InputError as error:
-        if "already holds a training run" not in str(error):
-            raise
-        raise InputError(f"{output}: already holds a training run; add --resume to continue it, "
-                         "or give another -o (or delete it) to start afresh") from error
+    except ExistingRunError as error:
+        how = ("it has nothing to resume from" if resume
+               else "add --resume to continue it")
+        raise InputError(f"{output}: already holds a training run; {how}, or give another -o "
+                         "(or delete it) to start afresh") from error
     for category, result in results.items():
         scores = ", ".join(f"{m} {100 * v:.1f}%" for m, v in result.best_scores.items())
         click.echo(f"{category + ': ' if category else ''}best epoch {result.best_epoch} of "

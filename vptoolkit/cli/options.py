@@ -130,7 +130,7 @@ def budget_option() -> Callable[[Decorated], Decorated]:
 
 
 def search_resolution_option() -> Callable[[Decorated], Decorated]:
-    """``--resolution PX``: the side of the images that decide a search (default ``SEARCH_RESOLUTION``)."""
+    """``--resolution PX``: the image side that decides a search (default ``SEARCH_RESOLUTION``)."""
     from vptoolkit.best_view import SEARCH_RESOLUTION
 
     return click.option("--resolution", default=SEARCH_RESOLUTION, show_default=True,

@@ -1,8 +1,8 @@
 """Load the viewpoint-quality dataset with numpy alone.
 
 :func:`open_dataset` opens a store written by
-:func:`vptoolkit.dataset.store.write_dataset` (Zarr directory, Zarr zip or
-HDF5; see ``dataset_card/SCHEMA.md``) and returns a lazy
+:func:`vptoolkit.dataset.writer.write_dataset` (Zarr directory, Zarr zip or
+HDF5; see ``vptoolkit/dataset_card/SCHEMA.md``) and returns a lazy
 :class:`ViewpointDataset`: the per-model records and the view directions are
 read at once, everything else only when an item is asked for.
 
@@ -29,13 +29,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.dataset.store import (
-    SPLITS,
-    StoreReader,
-    find_store,
-    open_store,
-    published_split,
-)
+from vptoolkit.conventions import SPLITS
+from vptoolkit.dataset.containers import find_store
+from vptoolkit.dataset.reader import StoreReader, open_store
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -391,7 +388,7 @@ def open_dataset(path: str | os.PathLike[str]) -> ViewpointDataset:
     ----------
     path : path-like
         A store (``*.zarr``, ``*.zarr.zip``, ``*.h5``), a build output folder
-        or a release folder (see :func:`vptoolkit.dataset.store.find_store`).
+        or a release folder (see :func:`vptoolkit.dataset.containers.find_store`).
 
     Returns
     -------

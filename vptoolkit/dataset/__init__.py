@@ -1,12 +1,13 @@
 """Building, storing, verifying and describing the viewpoint-quality dataset.
 
 Modules, one concept each (import them directly, e.g.
-``from vptoolkit.dataset.store import open_store``):
+``from vptoolkit.dataset.reader import open_store``):
 
-- ``schema``: the data contract of ``dataset_card/SCHEMA.md`` (numpy only).
-- ``store``: the public API of a store in Zarr v3 (directory or zip) or
-  HDF5, over ``containers`` (which container a path names), ``writer``
-  (atomic writing), ``reader`` (lazy reading), ``_zarr`` and ``_hdf5``.
+- ``schema``: the data contract of ``vptoolkit/dataset_card/SCHEMA.md`` (numpy only).
+- ``containers``: which container (Zarr v3 directory or zip, HDF5) a path
+  names; ``writer``: ``write_dataset``, atomic writing; ``reader``:
+  ``open_store`` and ``StoreReader``, lazy reading; ``_zarr`` and ``_hdf5``:
+  one container each.
 - ``build``: the resumable build from a folder of meshes, with a failure
   log, over ``sources`` (mesh files, ids, splits, seeds), ``staging`` (the
   resumable staging folder) and ``compute`` (one model's task).

@@ -1,11 +1,11 @@
 """Build a viewpoint-quality dataset from a folder of meshes, resumably.
 
 :func:`build_dataset` turns a source tree into one store (see
-``dataset_card/SCHEMA.md``). Per model it loads the mesh, cleans it (unless
+``vptoolkit/dataset_card/SCHEMA.md``). Per model it loads the mesh, cleans it (unless
 ``clean=False``), samples ``n_points`` surface points with their normals,
 computes VE, VR, VKL and VMI over ``n_views`` Fibonacci views and keeps the
 result; then it writes ``OUT/dataset.zarr`` or ``OUT/dataset.h5`` with
-:func:`vptoolkit.dataset.store.write_dataset`. This module is the
+:func:`vptoolkit.dataset.writer.write_dataset`. This module is the
 orchestration; its parts live beside it:
 
 - :mod:`vptoolkit.dataset.sources`: finding the mesh files, model ids,
@@ -75,7 +75,7 @@ from vptoolkit.dataset.staging import (
     stage_model,
     warn_about_models_left_out,
 )
-from vptoolkit.dataset.store import write_dataset
+from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks

@@ -1,15 +1,12 @@
 """The dataset card: the ``README.md`` of a release and its dataset-hub YAML header.
 
-:func:`render_card` fills ``dataset_card/template.md`` with numbers computed
+:func:`render_card` fills ``vptoolkit/dataset_card/template.md`` with numbers computed
 from the store (nothing is typed by hand), in the sections of "Datasheets for
 Datasets" (Gebru et al.), under the YAML header of :func:`hub_yaml` in the
 style of dataset hubs (configurations, features, size category).
 
 The summary the card is written from lives in :mod:`vptoolkit.dataset.info`
-and the Croissant metadata in :mod:`vptoolkit.dataset.croissant`; this module
-re-exports their public names (:func:`dataset_info`, :func:`info_from_reader`,
-:func:`format_info`, :func:`size_category`, :data:`SPLIT_ORDER`,
-:func:`croissant_jsonld`, :func:`card_sections`, :func:`rai_fields`).
+and the Croissant metadata in :mod:`vptoolkit.dataset.croissant`.
 """
 
 from __future__ import annotations
@@ -23,13 +20,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.dataset.croissant import card_sections, croissant_jsonld, rai_fields
 from vptoolkit.dataset.info import (
     CITATION,
-    SPLIT_ORDER,
     camera_sentence,
-    dataset_info,
-    format_info,
     format_number,
     info_from_reader,
     plural,
@@ -47,19 +40,11 @@ from vptoolkit.dataset.parquet import (
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
-    "SPLIT_ORDER",
-    "size_category",
-    "info_from_reader",
-    "dataset_info",
-    "format_info",
     "render_card",
     "hub_yaml",
-    "croissant_jsonld",
-    "card_sections",
-    "rai_fields",
 ]
 
 _ARRAY_MEANINGS = {
@@ -96,7 +81,7 @@ def render_card(
     license_link: str | None = None,
     warnings: Sequence[str] = (),
 ) -> str:
-    """Fill ``dataset_card/template.md`` into a release ``README.md``.
+    """Fill ``vptoolkit/dataset_card/template.md`` into a release ``README.md``.
 
     Parameters
     ----------

@@ -1,11 +1,37 @@
 """Which container a dataset store path names, and whether this install can read Zarr v3.
 
+One layout (:mod:`vptoolkit.dataset.schema`, described in
+``vptoolkit/dataset_card/SCHEMA.md``) is stored in one of three containers chosen by
+the file name:
+
+========================  =========  ==========================================
+suffix                    ``kind``   container
+========================  =========  ==========================================
+``*.zarr``                zarr       Zarr v3 directory (Blosc/zstd chunks)
+``*.zarr.zip``            zarr-zip   the same Zarr v3 hierarchy in a zip file
+``*.h5``, ``*.hdf5``      hdf5       HDF5 file (gzip level 4 with shuffle)
+========================  =========  ==========================================
+
+All three hold the same arrays with the same names, shapes, dtypes and
+``sha256`` attributes. Text is UTF-8 JSON in ``uint8`` arrays; nothing is
+pickled and no array has object dtype.
+
+HDF5 cannot hold nested attributes, so in an HDF5 file every root attribute
+that is not a ``str``, ``bool``, ``int`` or ``float`` (``measures``,
+``higher_is_better``, ``camera``, ``cleaning``, ``split_fractions``, ...) is
+stored as a JSON string, and the root attribute ``json_attributes`` (itself a
+JSON list) names those keys. :class:`~vptoolkit.dataset.reader.StoreReader`
+decodes them, so its ``attrs`` is the same dictionary for every container.
+
 :func:`store_kind` maps a suffix to ``"zarr"``, ``"zarr-zip"`` or ``"hdf5"``;
 :func:`find_store` picks the store a file or folder refers to;
 :func:`zarr_is_usable` and :func:`require_zarr` say whether zarr >= 3 is
 installed (the first without importing it). The writer
 (:mod:`vptoolkit.dataset.writer`) and the reader
-(:mod:`vptoolkit.dataset.reader`) both start here.
+(:mod:`vptoolkit.dataset.reader`) both start here; each container's own
+reading and writing lives in :mod:`vptoolkit.dataset._zarr` and
+:mod:`vptoolkit.dataset._hdf5`, and ``zarr`` or ``h5py`` is imported inside
+the functions that need it, only the one for the container in use.
 """
 
 from __future__ import annotations

@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
+from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.info import CITATION, info_from_reader, plural, source_name
 from vptoolkit.dataset.parquet import (
     VIEWS_CONFIG,
@@ -22,10 +23,9 @@ from vptoolkit.dataset.parquet import (
     model_columns,
     view_columns,
 )
-from vptoolkit.dataset.store import SPLITS
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = ["card_sections", "croissant_jsonld", "rai_fields"]
 

@@ -30,7 +30,7 @@ from vptoolkit.files import read_json_file, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = ["CARD_NAME", "CROISSANT_NAME", "INFO_NAME", "ReleaseOptions", "update_card",
            "write_descriptions", "write_json"]

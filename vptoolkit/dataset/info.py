@@ -19,12 +19,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.dataset.store import SPLITS, published_split
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
     "CITATION",
@@ -82,7 +82,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
     Parameters
     ----------
     reader : StoreReader
-        An open store (:func:`vptoolkit.dataset.store.open_store`).
+        An open store (:func:`vptoolkit.dataset.reader.open_store`).
 
     Returns
     -------
@@ -185,14 +185,15 @@ def dataset_info(path: Path | str) -> dict[str, Any]:
     ----------
     path : Path or str
         A store, a build folder or a release folder (anything
-        :func:`vptoolkit.dataset.store.find_store` accepts).
+        :func:`vptoolkit.dataset.containers.find_store` accepts).
 
     Returns
     -------
     dict
         See :func:`info_from_reader`; ``path`` holds the store that was read.
     """
-    from vptoolkit.dataset.store import find_store, open_store
+    from vptoolkit.dataset.containers import find_store
+    from vptoolkit.dataset.reader import open_store
 
     store_path = find_store(path)
     with open_store(store_path) as reader:

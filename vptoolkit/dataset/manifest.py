@@ -7,7 +7,7 @@ SHA256SUMS`` checks it without vptoolkit.
 
 :func:`verify` goes one level deeper: inside every archive (Zarr zip, Zarr
 directory or HDF5) it re-hashes each array and compares the digest with the
-array's stored ``sha256`` attribute (see ``dataset_card/SCHEMA.md``), so a
+array's stored ``sha256`` attribute (see ``vptoolkit/dataset_card/SCHEMA.md``), so a
 damaged archive is caught even where no manifest exists. Files are hashed as a
 stream of 1 MiB blocks, so memory stays flat for archives of any size.
 """
@@ -348,7 +348,8 @@ def _check_arrays(
     store_path: Path, label: str, report: VerifyReport
 ) -> dict[str, str | None]:
     """Re-hash every array of one store; return name -> digest of its content."""
-    from vptoolkit.dataset.store import array_sha256, open_store
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.schema import array_sha256
 
     digests: dict[str, str | None] = {}
     try:
@@ -491,7 +492,7 @@ def verify(path: Path | str) -> VerifyReport:
         of every archive in the folder is re-hashed against its ``sha256``
         attribute and compared across archives. An archive that cannot be
         opened for lack of a package is ``skipped``, not damaged. Otherwise any path
-        :func:`vptoolkit.dataset.store.find_store` accepts (a ``*.zarr``,
+        :func:`vptoolkit.dataset.containers.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
 
     Returns
@@ -511,7 +512,7 @@ def verify(path: Path | str) -> VerifyReport:
         raise InputError(f"{path}: no such file or folder")
     if path.is_dir() and not path.name.endswith(".zarr") and _is_release_folder(path):
         return _verify_release(path)
-    from vptoolkit.dataset.store import find_store
+    from vptoolkit.dataset.containers import find_store
 
     store_path = find_store(path)
     report = VerifyReport(path=path, kind="store")

@@ -9,7 +9,7 @@ release also carries, written with pyarrow:
 - ``views/views-00000-of-00001.parquet``: one row per view direction, shared
   by every model (:func:`view_columns`).
 
-Splits use the names of :data:`vptoolkit.dataset.store.SPLITS`
+Splits use the names of :data:`vptoolkit.conventions.SPLITS`
 (``train``, ``validation``, ``test``); an empty split gets no file. Arrays
 of a fixed shape are nested lists (``list<list<float>>``, the storage of
 Hugging Face's ``Array2D``); short vectors are fixed-size lists. Files are
@@ -30,12 +30,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.store import SPLITS, published_split
+from vptoolkit.conventions import MEASURES, SPLITS
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
     "PARQUET_FOLDER",

@@ -9,7 +9,7 @@ A release folder holds, for ``name = "vptoolkit-viewpoints"`` and
     views/views-00000-of-00001.parquet     the shared view directions    (format parquet)
     README.md                       dataset card (hub YAML header + datasheet)
     croissant.json                  Croissant 1.1 JSON-LD, record sets over the Parquet shards
-    dataset_info.json               :func:`~vptoolkit.dataset.card.dataset_info` as JSON
+    dataset_info.json               :func:`~vptoolkit.dataset.info.dataset_info` as JSON
     SCHEMA.md                       the layout of the archives
     LICENSES.csv                    per-mesh licence and attribution (with ``licenses``)
     SHA256SUMS                      ``sha256sum`` manifest of every other file
@@ -21,12 +21,11 @@ compare its ``SHA256SUMS``.
 :func:`pack_release` writes all of it into a hidden temporary sibling folder
 and renames that into place at the end, so the release folder either does not
 exist, stays empty, or is complete. :func:`~vptoolkit.dataset.manifest.verify`
-checks a release; :func:`~vptoolkit.dataset.card.dataset_info` and
-:func:`~vptoolkit.dataset.card.format_info` describe one. They are re-exported
-here so the command line needs one import, and so are the names of
-:mod:`vptoolkit.dataset.licenses` (``LICENSES.csv``) and
-:mod:`vptoolkit.dataset.descriptions` (the card, ``croissant.json`` and
-:func:`update_card`), which packing uses.
+checks a release; :func:`~vptoolkit.dataset.info.dataset_info` and
+:func:`~vptoolkit.dataset.info.format_info` describe one. Packing writes
+``LICENSES.csv`` through :mod:`vptoolkit.dataset.licenses` and the card and
+``croissant.json`` through :mod:`vptoolkit.dataset.descriptions`, which also
+holds :func:`~vptoolkit.dataset.descriptions.update_card`.
 """
 
 from __future__ import annotations
@@ -45,53 +44,38 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
 from vptoolkit.checks import short_repr
-from vptoolkit.dataset.card import (
-    dataset_info,
-    format_info,
-    info_from_reader,
-    render_card,
-)
+from vptoolkit.dataset.card import render_card
+from vptoolkit.dataset.info import info_from_reader
 from vptoolkit.dataset.descriptions import (
     CARD_NAME,
     CROISSANT_NAME,
     INFO_NAME,
     ReleaseOptions,
-    update_card,
     write_descriptions,
     write_json,
 )
 from vptoolkit.dataset.licenses import (
-    LICENSE_COLUMNS,
     LICENSES_NAME,
     read_licenses,
     write_licenses,
 )
-from vptoolkit.dataset.manifest import MANIFEST_NAME, VerifyReport, sha256_file, verify, write_sha256sums
-from vptoolkit.dataset.store import SPLITS, ModelEntry, published_split
+from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
+from vptoolkit.conventions import SPLITS
+from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import remove_stale_partials, temporary_prefix
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
-    from vptoolkit.dataset.store import StoreReader
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
     "DEFAULT_NAME",
     "DEFAULT_VERSION",
     "FORMATS",
-    "LICENSE_COLUMNS",
-    "read_licenses",
     "release_created",
-    "CARD_NAME",
-    "CROISSANT_NAME",
-    "INFO_NAME",
     "ReleaseResult",
     "pack_release",
-    "update_card",
-    "verify",
-    "VerifyReport",
-    "dataset_info",
-    "format_info",
 ]
 
 DEFAULT_NAME = "vptoolkit-viewpoints"
@@ -416,7 +400,7 @@ def pack_release(
     ----------
     dataset : Path or str
         A built dataset: a store or any folder
-        :func:`vptoolkit.dataset.store.find_store` accepts.
+        :func:`vptoolkit.dataset.containers.find_store` accepts.
     release_dir : Path or str
         Output folder; must not exist or be empty. Its parent folders are
         created.
@@ -474,7 +458,9 @@ def pack_release(
         If an array of ``dataset`` differs from its stored SHA-256 (checked
         before anything is written).
     """
-    from vptoolkit.dataset.store import find_store, open_store, write_dataset
+    from vptoolkit.dataset.containers import find_store
+    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.writer import write_dataset
 
     base = DEFAULT_NAME if name is None else name
     _check_name(base)

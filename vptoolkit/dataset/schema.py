@@ -3,13 +3,14 @@
 What every container holds, independent of how it is stored: the ``format``
 name and ``schema_version``, the root array names (:data:`ARRAY_NAMES`), the
 root attributes the build and the writer set (:data:`BUILD_ATTRS`,
-:data:`WRITER_ATTRS`), the split vocabulary (:data:`SPLITS`,
-:data:`SPLIT_ALIASES`, :func:`published_split`), the keys of a failure record
-(:data:`FAILURE_KEYS`), one model's content (:class:`ModelEntry`), the JSON
-text encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array
-digest (:func:`array_sha256`). Described in ``dataset_card/SCHEMA.md``.
+:data:`WRITER_ATTRS`), the aliases of the split names of
+:data:`vptoolkit.conventions.SPLITS` (:data:`SPLIT_ALIASES`,
+:func:`published_split`), the keys of a failure record (:data:`FAILURE_KEYS`),
+one model's content (:class:`ModelEntry`), the JSON text encoding
+(:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
+(:func:`array_sha256`). Described in ``vptoolkit/dataset_card/SCHEMA.md``.
 
-Needs numpy only. :mod:`vptoolkit.dataset.store` re-exports every public name.
+Needs numpy only.
 """
 
 from __future__ import annotations
@@ -32,7 +33,6 @@ __all__ = [
     "ARRAY_NAMES",
     "BUILD_ATTRS",
     "WRITER_ATTRS",
-    "SPLITS",
     "SPLIT_ALIASES",
     "published_split",
     "FAILURE_KEYS",
@@ -81,7 +81,7 @@ BUILD_ATTRS = (
     "created",
 )
 """Root attributes the build must pass to
-:func:`~vptoolkit.dataset.store.write_dataset` in ``attrs``."""
+:func:`~vptoolkit.dataset.writer.write_dataset` in ``attrs``."""
 
 WRITER_ATTRS = (
     "format",
@@ -93,24 +93,15 @@ WRITER_ATTRS = (
     "n_points",
     "n_failures",
 )
-"""Root attributes :func:`~vptoolkit.dataset.store.write_dataset` sets itself."""
-
-SPLITS = ("train", "validation", "test")
-"""The split names, one vocabulary everywhere a user sees one.
-
-The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
-shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
-hub does. Stores written before it (and builds, schema 1) may record
-``"val"``; :func:`published_split` maps it, and every API that takes a split
-accepts ``"val"`` as an alias.
-"""
+"""Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself."""
 
 SPLIT_ALIASES = {"val": "validation"}
-"""Other names a model record or a caller may use for a split in :data:`SPLITS`."""
+"""Other names a model record or a caller may use for a split of
+:data:`~vptoolkit.conventions.SPLITS`."""
 
 
 def published_split(name: str) -> str:
-    """The name in :data:`SPLITS` of a split, resolving aliases.
+    """The name in :data:`~vptoolkit.conventions.SPLITS` of a split, resolving aliases.
 
     Examples
     --------
@@ -133,9 +124,9 @@ _HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
 class ModelEntry:
     """One model as it goes into or comes out of a store.
 
-    :func:`~vptoolkit.dataset.store.write_dataset` checks shapes and casts
+    :func:`~vptoolkit.dataset.writer.write_dataset` checks shapes and casts
     the arrays to the stored dtypes given below;
-    :meth:`~vptoolkit.dataset.store.StoreReader.entry` returns them in those
+    :meth:`~vptoolkit.dataset.reader.StoreReader.entry` returns them in those
     dtypes.
 
     Attributes

@@ -14,7 +14,7 @@ warning. The staging folder is kept after the store is written, so
 rerunning (e.g. after adding models to the source) computes only what is
 new; delete ``OUT/.staging`` to reclaim its space, after which OUT can no
 longer be resumed. :class:`StagedEntries` reads the staged models back as
-the entries of :func:`vptoolkit.dataset.store.write_dataset`.
+the entries of :func:`vptoolkit.dataset.writer.write_dataset`.
 """
 
 from __future__ import annotations
@@ -137,7 +137,7 @@ def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> st
     if build_file.exists():
         try:
             recorded = read_json_file(build_file, str(build_file))
-            # builds from before the option did not remesh
+            # a record without the option is of a build that did not remesh
             staged_options = {"remesh": False, **recorded["options"]}
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError) as err:

@@ -26,7 +26,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
 from vptoolkit.dataset.containers import require_zarr, store_kind
 from vptoolkit.dataset.schema import (
     ARRAY_NAMES,
@@ -35,7 +35,6 @@ from vptoolkit.dataset.schema import (
     FORMAT_NAME,
     HDF5_JSON_KEY,
     SCHEMA_VERSION,
-    SPLITS,
     ModelEntry,
     array_sha256,
     json_bytes,

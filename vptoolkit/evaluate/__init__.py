@@ -11,12 +11,16 @@ One module per question asked of a prediction:
 ``coverage``
     ``k`` directions per model: the surface they show, against the greedy
     coverage set.
+``protocol``
+    A predictor scored on rotated inputs, the baselines under the same
+    protocol, standard errors and paired differences.
 
 Every public name is re-exported here, so ``from vptoolkit.evaluate import
-score_directions`` keeps working. Numpy only (plus the store's zarr or h5py);
+score_directions`` works. Numpy only (plus the store's zarr or h5py);
 never torch, open3d or pymeshlab at import.
 """
 
+from vptoolkit.evaluate._inputs import EVALUATION_SPLITS
 from vptoolkit.evaluate.baselines import oracle_directions, pca_directions, random_directions
 from vptoolkit.evaluate.coverage import (
     ViewSetReport,
@@ -26,8 +30,17 @@ from vptoolkit.evaluate.coverage import (
     score_view_sets,
     stored_view_set,
 )
+from vptoolkit.evaluate.protocol import (
+    Predictor,
+    ProtocolScores,
+    best_constant_directions,
+    constant_predictor,
+    paired_difference,
+    pca_predictor,
+    random_view_scores,
+    score_protocol,
+)
 from vptoolkit.evaluate.scores import (
-    EVALUATION_SPLITS,
     EvaluationReport,
     evaluate_predictions,
     load_predictions,
@@ -51,4 +64,12 @@ __all__ = [
     "model_visibility",
     "model_view_set",
     "stored_view_set",
+    "Predictor",
+    "ProtocolScores",
+    "score_protocol",
+    "random_view_scores",
+    "pca_predictor",
+    "best_constant_directions",
+    "constant_predictor",
+    "paired_difference",
 ]

@@ -13,8 +13,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.conventions import SPLITS
 from vptoolkit.data import ViewpointDataset
-from vptoolkit.dataset.store import SPLITS, published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 
 EVALUATION_SPLITS = (*SPLITS, "all")

@@ -136,8 +136,8 @@ class ModelConfig:
         ``"pca"``: the network sees each input in its canonical principal-axis
         frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
         so a rotated input gets a rotated prediction; ``"none"``: the input's
-        own frame (:func:`load_model` gives it to checkpoints older than this
-        option). Default: "pca".
+        own frame (:func:`load_model` gives it to a checkpoint whose
+        configuration has no ``input_frame``). Default: "pca".
     """
 
     head: str = "direction"

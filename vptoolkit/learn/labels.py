@@ -32,7 +32,7 @@ Euclidean distance ``|v - v_hat|`` itself, not of its square, with
 prediction at every step, so no gradient flows through the choice of target.
 
 Sphere maps (DLDL) use the octahedral parametrisation of the unit sphere of
-:mod:`vptoolkit.learn.octahedral`, whose names are re-exported here.
+:mod:`vptoolkit.learn.octahedral`.
 """
 
 from __future__ import annotations
@@ -43,9 +43,6 @@ from typing import TYPE_CHECKING, Final
 from vptoolkit.errors import InputError
 from vptoolkit.learn.octahedral import (
     MAP_RESOLUTION,
-    octahedral_decode,
-    octahedral_encode,
-    sphere_map_cell,
     sphere_map_directions,
 )
 from vptoolkit.optional import require
@@ -63,7 +60,6 @@ __all__ = [
     "ML_THRESHOLD",
     "GL_SIGMA",
     "GL_SHIFT",
-    "MAP_RESOLUTION",
     "SIGN_PATTERNS",
     "check_label_method",
     "head_for_method",
@@ -77,10 +73,6 @@ __all__ = [
     "spherical_exponential",
     "decode_spherical_regression",
     "spherical_regression_loss",
-    "octahedral_encode",
-    "octahedral_decode",
-    "sphere_map_directions",
-    "sphere_map_cell",
     "quality_maps",
     "decode_sphere_maps",
     "distribution_loss",

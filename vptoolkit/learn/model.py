@@ -8,13 +8,13 @@ The network is assembled here from its parts, one concept per module:
 :mod:`~vptoolkit.learn.frame` (the canonical input frame),
 :mod:`~vptoolkit.learn.hierarchy` (grid levels and neighbourhoods, no
 weights), :mod:`~vptoolkit.learn.layers` (convolutions, encoder, heads) and
-:mod:`~vptoolkit.learn.checkpoint` (files); their public names are
-re-exported here, so ``vptoolkit.learn.model.X`` keeps working.
+:mod:`~vptoolkit.learn.checkpoint` (files); import their names from them.
 
 Preprocessing (inside the network)
     Points are put in their canonical principal-axis frame (for
     ``input_frame="pca"``), centred on their bounding-box centre and scaled to
-    a unit bounding-box diagonal (:func:`normalize_points`). Translation and
+    a unit bounding-box diagonal
+    (:func:`~vptoolkit.learn.hierarchy.normalize_points`). Translation and
     uniform scaling leave directions unchanged, and the frame's rotation is
     undone on the output, so predictions come back in the input's own frame.
 
@@ -77,55 +77,24 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.errors import CheckpointError, InputError, VerificationError
 from vptoolkit.learn.checkpoint import (
-    DEFAULT_MODEL,
     MODEL_FORMAT,
-    PRETRAINED,
     checkpoint_paths,
     read_json,
     read_safetensors,
     write_json_atomic,
     write_safetensors_atomic,
 )
-from vptoolkit.learn.config import (
-    DEFAULT_LEVELS,
-    HEADS,
-    MAX_PARAMETERS,
-    LevelConfig,
-    ModelConfig,
-    check_input_sizes,
-    check_positive_int,
-)
+from vptoolkit.learn.config import MAX_PARAMETERS, ModelConfig, check_input_sizes, check_positive_int
 from vptoolkit.learn.frame import canonical_frame, from_frame, to_frame
-from vptoolkit.learn.hierarchy import (
-    CODE_BITS,
-    Hierarchy,
-    Neighbourhood,
-    PointLevel,
-    check_clouds,
-    ball_query,
-    build_hierarchy,
-    cell_neighbourhood,
-    grid_subsample,
-    input_level,
-    morton_codes,
-    normalize_points,
-    point_density,
-    whole_model_neighbourhood,
-)
+from vptoolkit.learn.hierarchy import check_clouds
 from vptoolkit.learn.labels import (
-    decode_spherical_regression,
     decode_sphere_maps,
+    decode_spherical_regression,
     spherical_exponential,
 )
-from vptoolkit.learn.layers import (
-    DirectionHead,
-    GeneratorDropout,
-    MonteCarloConv,
-    PointEncoder,
-    SphereMapDecoder,
-)
+from vptoolkit.learn.layers import DirectionHead, GeneratorDropout, PointEncoder, SphereMapDecoder
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -136,43 +105,13 @@ else:
     nn = torch.nn
     Tensor = torch.Tensor
 
-__all__ = [  # the network, plus the names of the modules it was split into, for old import paths
-    "HEADS",
-    "CODE_BITS",
-    "DEFAULT_LEVELS",
-    "MODEL_FORMAT",
-    "LevelConfig",
-    "ModelConfig",
-    "PointLevel",
-    "Neighbourhood",
-    "Hierarchy",
-    "normalize_points",
-    "morton_codes",
-    "input_level",
-    "grid_subsample",
-    "ball_query",
-    "whole_model_neighbourhood",
-    "point_density",
-    "cell_neighbourhood",
-    "build_hierarchy",
-    "GeneratorDropout",
-    "MonteCarloConv",
-    "PointEncoder",
-    "DirectionHead",
-    "SphereMapDecoder",
+__all__ = [
     "ViewpointNet",
     "count_parameters",
     "torch_threads",
     "resolve_device",
-    "checkpoint_paths",
-    "DEFAULT_MODEL",
-    "PRETRAINED",
     "save_model",
     "load_model",
-    "read_json",
-    "read_safetensors",
-    "write_json_atomic",
-    "write_safetensors_atomic",
 ]
 
 
@@ -420,8 +359,10 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         If a file is missing or unreadable, the configuration is not a
         vptoolkit model or asks for sizes beyond the bounds of
         :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
-    VerificationError
+    CheckpointError
         If the weights do not match the architecture.
+    VerificationError
+        If the configuration's measure order differs from ``MEASURES``.
     """
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
@@ -443,7 +384,7 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         architecture = config.get("architecture", {})
         if not isinstance(architecture, Mapping):
             raise InputError(f"architecture: expected an object, got {type(architecture).__name__}")
-        # checkpoints written before the option saw raw inputs
+        # a configuration without the option is of raw inputs
         architecture = {"input_frame": "none", **architecture}
         model = ViewpointNet(ModelConfig.from_dict(architecture))
     except InputError as err:
@@ -456,6 +397,6 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:
-        raise VerificationError(f"{weights_path.name}: weights do not match the architecture ({err})") from err
+        raise CheckpointError(f"{weights_path.name}: weights do not match the architecture ({err})") from err
     model.eval()
     return model, config

@@ -42,14 +42,9 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL
 from vptoolkit.learn.config import check_input_sizes
-from vptoolkit.learn.model import (
-    DEFAULT_MODEL,
-    ViewpointNet,
-    load_model,
-    resolve_device,
-    torch_threads,
-)
+from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.points import read_point_file
@@ -162,8 +157,8 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     -------
     input_points : (n_points, 3) float32
     """
-    from vptoolkit.data.torch import model_key
     from vptoolkit.points import network_input
+    from vptoolkit.rotations import model_key
 
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), _SEED_INPUT, model_key(name)]))
     chosen = network_input(points, n_points, min(n_fps, len(points)), rng=rng)
@@ -227,7 +222,7 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
 
 
 def _is_dataset(path: Path) -> bool:
-    from vptoolkit.dataset.store import store_kind
+    from vptoolkit.dataset.containers import store_kind
 
     if path.is_dir():
         return True
@@ -298,7 +293,7 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
         If a checkpoint is missing or unreadable, or ``categories.json`` is not a
         per-category index.
     """
-    from vptoolkit.learn.model import read_json
+    from vptoolkit.learn.checkpoint import read_json
 
     index = Path(model_path) / "categories.json"
     if str(model_path) == DEFAULT_MODEL or not index.is_file():
@@ -334,7 +329,7 @@ def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None
 def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
                       seed: int = 0, batch_size: int = 64,
                       device: str = "auto") -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
-    """A checkpoint as a :data:`vptoolkit.protocol.Predictor`: surface points and names to directions.
+    """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`: surface points and names to directions.
 
     Each cloud becomes a network input as in :func:`predict` (the
     checkpoint's input size, seeded from ``seed`` and the model's name).
@@ -504,7 +499,7 @@ def predict(
         split, duplicate model names, a model whose category has no network,
         an invalid option, or a network that answers no direction (broken
         weights, :func:`predict_directions`).
-    VerificationError
+    CheckpointError
         If the checkpoint's weights do not match its architecture.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:

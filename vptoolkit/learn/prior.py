@@ -34,8 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
-from vptoolkit.learn.model import DEFAULT_MODEL, torch_threads
+from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
@@ -48,7 +49,8 @@ else:
 __all__ = ["NetworkPrior", "distinct_directions", "map_modes"]
 
 
-def distinct_directions(directions: NDArray[np.float64], min_angle_deg: float) -> NDArray[np.float64]:
+def distinct_directions(directions: NDArray[np.float64],
+                        min_angle_deg: float) -> NDArray[np.float64]:
     """The directions in order, without any closer than ``min_angle_deg`` to an earlier one.
 
     Parameters

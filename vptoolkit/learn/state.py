@@ -16,17 +16,17 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
-from vptoolkit.dataset.store import published_split
-from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.learn.model import (
-    ModelConfig,
-    ViewpointNet,
+from vptoolkit.dataset.schema import published_split
+from vptoolkit.errors import CheckpointError, InputError
+from vptoolkit.learn.checkpoint import (
     checkpoint_paths,
     read_json,
     read_safetensors,
     write_json_atomic,
     write_safetensors_atomic,
 )
+from vptoolkit.learn.config import ModelConfig
+from vptoolkit.learn.model import ViewpointNet
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -120,14 +120,14 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     InputError
         If the file is not a training state or its arguments differ from
         ``arguments`` in any of ``keys``.
-    VerificationError
+    CheckpointError
         If the weights or Adam state do not fit the network.
     """
     state = read_json(json_path, "training state")
     if state.get("format") != TRAINING_STATE_FORMAT:
         raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
     stored = dict(state.get("arguments", {}))
-    stored["val_split"] = published_split(str(stored.get("val_split")))  # runs saved before the rename say "val"
+    stored["val_split"] = published_split(str(stored.get("val_split")))  # a run may record "val"
     current = json_value(arguments)
     differing = [key for key in keys if stored.get(key) != current.get(key)]
     if differing:
@@ -139,7 +139,7 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
         model.load_state_dict(model_state, strict=True)
         _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
     except (RuntimeError, ValueError, KeyError) as err:
-        raise VerificationError(f"{weights.name}: training state does not match the network ({err})") from err
+        raise CheckpointError(f"{weights.name}: training state does not match the network ({err})") from err
     best = dict(state["best"])
     if best["score"] is None:
         best["score"] = -math.inf

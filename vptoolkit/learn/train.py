@@ -18,7 +18,7 @@ is written every ``save_every`` epochs and at the end.
 ``tools/bench_train.py`` measures the effect.
 
 After every epoch the network predicts the validation models under the
-rotated protocol (:mod:`vptoolkit.protocol`): each model under
+rotated protocol (:mod:`vptoolkit.evaluate.protocol`): each model under
 ``val_rotations`` fixed rotations seeded by its name, eval mode, the same
 input points as :func:`vptoolkit.learn.predict.predict` would choose; each
 prediction scores the normalised quality of its nearest sampled view
@@ -59,7 +59,7 @@ Determinism
 The paper's settings and the learning-rate schedule are in
 :mod:`vptoolkit.learn.schedule`, the choice of models in
 :mod:`vptoolkit.learn.splits` and the validation in
-:mod:`vptoolkit.learn.validation`; the schedule's names are re-exported here.
+:mod:`vptoolkit.learn.validation`.
 """
 
 from __future__ import annotations
@@ -79,9 +79,10 @@ import numpy as np
 from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.store import published_split
-from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.learn.config import check_input_sizes
+from vptoolkit.dataset.schema import published_split
+from vptoolkit.errors import ExistingRunError, InputError, VerificationError
+from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
+from vptoolkit.learn.config import ModelConfig, check_input_sizes
 from vptoolkit.learn.labels import (
     check_label_method,
     head_for_method,
@@ -89,14 +90,11 @@ from vptoolkit.learn.labels import (
     label_phase,
 )
 from vptoolkit.learn.model import (
-    ModelConfig,
     ViewpointNet,
-    checkpoint_paths,
     count_parameters,
     resolve_device,
     save_model,
     torch_threads,
-    write_json_atomic,
 )
 from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
 from vptoolkit.learn.record import training_record, update_best_record
@@ -105,13 +103,11 @@ from vptoolkit.learn.schedule import (
     PAPER_EPOCHS,
     PAPER_LR,
     PAPER_LR_DECAY,
-    PAPER_LR_STEP,
     learning_rate,
     scaled_lr_step,
 )
 from vptoolkit.learn.splits import select_categories, select_models
 from vptoolkit.learn.state import (
-    TRAINING_STATE_FORMAT,
     load_state,
     save_state,
     state_paths,
@@ -128,20 +124,9 @@ else:
     Tensor = torch.Tensor
 
 __all__ = [
-    "PAPER_EPOCHS",
-    "PAPER_BATCH_SIZE",
-    "PAPER_LR",
-    "PAPER_LR_DECAY",
-    "PAPER_LR_STEP",
-    "TRAINING_STATE_FORMAT",
     "TrainResult",
     "train_model",
     "train_per_category",
-    "CATEGORY_MODELS_FORMAT",
-    "learning_rate",
-    "scaled_lr_step",
-    "resolve_device",
-    "state_paths",
 ]
 
 _log = logging.getLogger(__name__)
@@ -354,8 +339,12 @@ def train_model(
     Raises
     ------
     InputError
-        On invalid options, an empty split, an existing run in ``output``
-        without ``resume`` or ``overwrite``, or a resumed run with other options.
+        On invalid options, an empty split or a resumed run with other options.
+    ExistingRunError
+        If ``output`` holds a run and neither ``resume`` (with a state to
+        resume from) nor ``overwrite`` is given.
+    CheckpointError
+        If the state to resume from does not fit the network.
     VerificationError
         If the dataset's measure order differs from ``MEASURES``.
     """
@@ -424,8 +413,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to "
                     "start afresh" if resume
                     else "pass resume=True to continue it or overwrite=True to replace it")
-            raise InputError(f"{weights_path.parent}: already holds a training run "
-                             f"({weights_path.name}); {hint}")
+            raise ExistingRunError(f"{weights_path.parent}: already holds a training run "
+                                   f"({weights_path.name}); {hint}")
         train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps,
                                            rotate=rotate, seed=seed, fps_pool=fps_pool)
         validation = validation_inputs(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,

@@ -378,7 +378,7 @@ def _options(values: Sequence[str]) -> str:
 
 
 def _summary_table(dataset: Any, cards: list[_Card], evaluation: Any) -> str:
-    from vptoolkit.dataset.store import SPLITS
+    from vptoolkit.conventions import SPLITS
 
     categories = sorted({card.category for card in cards})
     counts = Counter((card.category, card.split) for card in cards)
@@ -470,7 +470,7 @@ def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
 
 def _page(dataset: Any, cards: list[_Card], evaluation: Any, *, has_pictures: bool,
           camera: Camera) -> str:
-    from vptoolkit.dataset.store import SPLITS
+    from vptoolkit.conventions import SPLITS
 
     title = f"Viewpoint quality: {dataset.path.name}"
     categories = sorted({card.category for card in cards})

@@ -131,34 +131,11 @@ def iter_view_histograms(
         if diagonal > 0.0:
             mesh = Mesh((mesh.vertices - centre) / diagonal, mesh.faces, name=mesh.name)
     if backend == "raster":
-        yield from _raster_view_histograms(mesh, view_directions, resolution=resolution,
-                                           camera=camera)
+        yield from RasterScene(mesh, camera).histograms(view_directions, resolution)
         return
     camera, poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, view_directions, resolution, camera)
     yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
-
-
-def _raster_view_histograms(
-    mesh: Mesh,
-    view_directions: ArrayLike,
-    *,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    reference: bool = False,
-) -> Iterator[ViewHistograms]:
-    """The ``"raster"`` backend of :func:`iter_view_histograms`.
-
-    ``reference=True`` selects the kernel as it was before issue 15
-    (:mod:`._raster_reference`): one division per edge and row for the
-    covered run, the inverse depth walked by one float addition per pixel
-    from the bounding box's left edge, and the histogram counted run by run.
-    The counts are the same bit for bit. Kept so that
-    ``tools/bench_measures.py`` times both in one run and
-    ``tests/test_raster_kernel.py`` checks they agree.
-    """
-    yield from RasterScene(mesh, camera).histograms(view_directions, resolution,
-                                                    reference=reference)
 
 
 def _check_resolution(resolution: int) -> int:
@@ -231,16 +208,12 @@ class RasterScene:
         self.is_drawable = is_drawable[self.face_order]
         self._workspaces: dict[int, Any] = {}
 
-    def histograms(self, view_directions: ArrayLike, resolution: int = RESOLUTION, *,
-                   reference: bool = False) -> Iterator[ViewHistograms]:
+    def histograms(self, view_directions: ArrayLike,
+                   resolution: int = RESOLUTION) -> Iterator[ViewHistograms]:
         """Yield the per-face pixel histograms of the views, as :func:`iter_view_histograms`."""
         from vptoolkit.visibility._raster import rasterize_batch
         from vptoolkit.visibility._workspace import RasterWorkspace, histogram_capacity
 
-        if reference:
-            from vptoolkit.visibility._raster_reference import (
-                rasterize_batch_reference as rasterize_batch,
-            )
         resolution = _check_resolution(resolution)
         directions = as_directions(view_directions, name="view_directions")
         camera, mesh = self.camera, self.mesh

@@ -39,9 +39,10 @@ Views are split over the threads; each thread owns its buffers
 put in an order that keeps those buffers in cache
 (:func:`._workspace.locality_order`).
 
-The kernel before issue 15 is :mod:`._raster_reference`:
-``tools/bench_measures.py`` times both and ``tests/test_raster_kernel.py``
-checks that they give the same pixels bit for bit.
+``tests/test_raster_kernel.py`` checks the paths against a numpy rasteriser
+of this definition and whole views against frozen per-face counts, bit for
+bit; ``tools/bench_measures.py --baseline DIR`` times the kernel against the
+one of another checkout.
 
 Size
     About 610 lines for one concept, the scan conversion and counting of a

@@ -52,6 +52,7 @@ from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
+from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.rotations import fixed_rotations
 
 __all__ = [
@@ -175,8 +176,6 @@ def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
 
 def pca_predictor(points: Sequence[NDArray[np.float64]], names: Sequence[str]) -> NDArray[np.float64]:
     """The PCA heuristic as a :data:`Predictor` (:func:`vptoolkit.evaluate.pca_directions`)."""
-    from vptoolkit.evaluate import pca_directions
-
     return pca_directions(list(points))
 
 
