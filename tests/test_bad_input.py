@@ -248,10 +248,11 @@ def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weigh
     import torch
 
     from vptoolkit.learn import model as M
+    from vptoolkit.learn.config import LevelConfig, ModelConfig
 
-    small = M.ModelConfig(latent_channels=16, head_channels=(8,), levels=(
-        M.LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
-                      neighbourhood="cell"),
+    small = ModelConfig(latent_channels=16, head_channels=(8,), levels=(
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                    neighbourhood="cell"),
     ))
     network = M.ViewpointNet(small)
     with torch.no_grad():
@@ -294,7 +295,8 @@ def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Pa
         assert "\n" not in str(caught.value)
     state = tmp_path / "model.last.json"
     state.write_text('{"a": ' * 200_000)
-    with pytest.raises(InputError, match=r"^model\.last\.json: not UTF-8 JSON \(nested too deeply\)$"):
+    nested = r"^model\.last\.json: not UTF-8 JSON \(nested too deeply\)$"
+    with pytest.raises(InputError, match=nested):
         read_json_file(state)
     with pytest.raises(InputError, match=r"^folder: not a regular file$"):
         read_json_file(tmp_path, "folder")

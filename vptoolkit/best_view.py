@@ -10,8 +10,11 @@ of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
    128), laid out in the model's principal-axis frame (the sphere's poles on
    the axis of least spread), so the pattern turns with the model and any
    input orientation is searched alike;
-2. **prior** (optional): candidate directions proposed by someone else, e.g.
-   a network (:mod:`vptoolkit.learn.prior`), drawn at ``resolution``;
+2. **prior** (optional): the first candidate directions proposed by someone
+   else, e.g. a network (:mod:`vptoolkit.learn.prior`), drawn at
+   ``resolution``: at most an eighth of the budget (one view at least), since
+   on real meshes a larger share cost the sphere more than the network's
+   candidates gave back;
 3. **confirm**: the two best coarse directions of each measure drawn again at
    ``resolution`` (only when the coarse sphere was drawn smaller);
 4. **refine**: rounds of pattern search: around each measure's best direction
@@ -99,6 +102,7 @@ MAX_BUDGET: Final = 100_000
 
 _RING = 4  # directions per ring of the refinement
 _FIRST_STEP = 0.5  # the first ring's angle, in coarse spacings
+_PRIOR_SHARE = 0.125  # the most of the budget a prior's candidates take (at least one view)
 _CONFIRM_PER_MEASURE = 2  # coarse directions per measure drawn again at full resolution
 
 
@@ -337,7 +341,7 @@ def search_best_views(
         Image side in pixels of the views that decide the answer (default: 128).
     prior : (k, 3) array_like, optional
         Candidate directions, most promising first, drawn first at
-        ``resolution`` (at most half the budget; e.g. from
+        ``resolution`` (an eighth of the budget, at least one view; e.g. from
         :class:`vptoolkit.learn.prior.NetworkPrior`).
     coarse_views : int, optional
         Directions of the coarse sphere (default: half of what the prior
@@ -370,7 +374,7 @@ def search_best_views(
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
-    n_prior = min(len(candidates), max(1, budget // 2)) if len(candidates) else 0
+    n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
     flat = budget < FLAT_BELOW
     if coarse_views is None:
         coarse_views = budget - n_prior if flat else max(1, (budget - n_prior) // 2)

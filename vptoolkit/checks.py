@@ -74,7 +74,7 @@ def one_line(error: BaseException | str) -> str:
 
 
 def short_repr(value: object, limit: int = 40) -> str:
-    """``repr(value)`` cut to ``limit`` characters, for a message quoting a value that may be huge."""
+    """``repr(value)`` cut to ``limit`` characters, for a message quoting a maybe huge value."""
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from vptoolkit.checks import one_line
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.dataset.containers import require_zarr, store_kind
 from vptoolkit.dataset.schema import (
@@ -25,7 +26,6 @@ from vptoolkit.dataset.schema import (
     ModelEntry,
     from_json_bytes,
 )
-from vptoolkit.checks import one_line
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
 
 __all__ = ["StoreReader", "open_store"]
@@ -208,7 +208,8 @@ class StoreReader:
         except Exception:  # noqa: BLE001 - only a message is being built
             return "models unknown (models_json unreadable)"
         shown = ", ".join(names[row] for row in rows[:_MAX_NAMED_MODELS])
-        extra = f" and {len(rows) - _MAX_NAMED_MODELS} more" if len(rows) > _MAX_NAMED_MODELS else ""
+        hidden = len(rows) - _MAX_NAMED_MODELS
+        extra = f" and {hidden} more" if hidden > 0 else ""
         return f"models {shown}{extra}" if rows else "no model"
 
     def close(self) -> None:
@@ -266,7 +267,7 @@ class _CheckedArray:
 
 
 def _rows_of(key: Any, n_rows: int) -> tuple[int, int]:
-    """The rows ``first:stop`` a selection reads (all of them unless it starts with an int or slice)."""
+    """The rows ``first:stop`` a selection reads (all unless it starts with an int or slice)."""
     head = key[0] if isinstance(key, tuple) and key else key
     if isinstance(head, (int, np.integer)) and not isinstance(head, bool):
         row = int(head) % n_rows if n_rows else 0
