@@ -24,10 +24,12 @@ of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
    :data:`MIN_STEP_DEG`.
 
 Budgets below :data:`FLAT_BELOW` views are one coarse sphere at
-``resolution``: there, more directions beat refining a few. On 29 real meshes
-under rotation (``docs/results.md``) the refinement finds at 64 views what a
-flat sphere finds at 256, and a coarse sphere at 32 px loses more quality than
-it saves time, since a small image's cost is mostly the per-face work.
+``resolution``: there, more directions beat refining a few. These choices were
+tuned on 29 licensed real meshes under rotation: a coarse sphere at 32 px lost
+more quality than it saved time (a small image's cost is mostly the per-face
+work), and larger prior shares lost. On the bundled meshes (``docs/results.md``)
+the search at 64 views scores like a flat sphere of 256; on the reference check
+set it ties a flat sphere of its own budget.
 
 Only views drawn at ``resolution`` compete for the answer, so every answer's
 measured value is at that resolution, and the answer is never worse there than
@@ -337,8 +339,8 @@ def search_best_views(
     budget : int
         Views drawn over all stages, at least 1 (default: 64). A view at
         ``resolution`` px costs about what one of the 1000 views of
-        :func:`~vptoolkit.measures.compute_view_quality` costs there; the
-        coarse views cost less.
+        :func:`~vptoolkit.measures.compute_view_quality` costs there; views of
+        a smaller ``coarse_resolution`` cost less.
     resolution : int
         Image side in pixels of the views that decide the answer (default: 128).
     prior : (k, 3) array_like, optional
