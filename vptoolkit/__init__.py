@@ -1,19 +1,30 @@
 """vptoolkit: find good viewpoints on 3D models.
 
-Subpackages and modules, one concept each:
+Subpackages and modules, one concept each (README's Layout section has every
+module, layer by layer):
 
-- ``errors``, ``conventions``, ``optional``: exception tree; measure order,
-  view count and camera defaults; lazy access to heavy optional packages.
-- ``mesh``, ``io``, ``samples``: the Mesh container; reading and writing
-  OFF/OBJ/PLY/STL/glTF; small licensed sample meshes.
-- ``geometry``, ``sphere``, ``camera``: face areas and bounding frame;
-  Fibonacci view directions; the pinhole camera.
+- ``errors``, ``conventions``, ``optional``, ``checks``, ``files``,
+  ``progress``, ``parallel``: exception tree; measure order, view count,
+  camera defaults and splits; lazy optional packages; argument checks;
+  atomic writes and the JSON reader; the progress bar; the process pool.
+- ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
+  and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes; the
+  predictions ``.npz``.
+- ``geometry``, ``sphere``, ``camera``, ``rotations``: face areas and bounding
+  frame; Fibonacci view directions; the pinhole camera; seeded rotations.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting).
-- ``measures``: VE, VR, VKL and VMI per view, normalised per model.
-- ``best_view``: the anytime best-view search within a budget of drawn views.
-- ``clean``, ``points``: pymeshlab cleaning pipeline; surface sampling and
-  farthest point sampling.
+- ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
+  model; complementary view sets.
+- ``clean``, ``points``, ``synthetic``: the pymeshlab cleaning pipeline;
+  surface and farthest point sampling; procedural category-like shapes.
+- ``dataset``, ``data``: building, packing and verifying datasets and
+  releases; the light loader (numpy with zarr or h5py) and its torch adapter.
+- ``learn``: the point network, its labels, training, prediction and prior.
+- ``evaluate``, ``best_view``: scoring directions the authors' way and the
+  rotated protocol; the anytime best-view search within a budget of views.
+- ``pictures``: shaded pictures, sphere maps, contact sheets, thumbnails and
+  the HTML report.
 - ``cli``: the ``vptool`` command line.
 """
 
