@@ -1,6 +1,6 @@
 """Each module imports only from its own or lower layers, and no imports go round in a cycle.
 
-The layers are those of the Layout section of README.md.
+The layers are those of the Layout section of docs/architecture.md.
 """
 
 import ast

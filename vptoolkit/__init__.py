@@ -1,6 +1,6 @@
 """vptoolkit: find good viewpoints on 3D models.
 
-Subpackages and modules, one concept each (README's Layout section has every
+Subpackages and modules, one concept each (``docs/architecture.md`` has every
 module, layer by layer):
 
 - ``errors``, ``conventions``, ``optional``, ``checks``, ``files``,

@@ -1,4 +1,4 @@
-"""README's Layout section names every module of the package, so the map cannot fall behind."""
+"""docs/architecture.md's Layout section names every module of the package, so the map cannot fall behind."""
 
 from __future__ import annotations
 
@@ -7,11 +7,11 @@ from pathlib import Path
 import vptoolkit
 
 PACKAGE = Path(vptoolkit.__file__).parent
-README = PACKAGE.parent / "README.md"
+ARCHITECTURE = PACKAGE.parent / "docs" / "architecture.md"
 
 
 def _layout_paragraphs() -> list[str]:
-    text = README.read_text(encoding="utf-8")
+    text = ARCHITECTURE.read_text(encoding="utf-8")
     section = text.split("\n## Layout\n", 1)[1].split("\n## ", 1)[0]
     return section.split("\n\n")
 
@@ -34,4 +34,4 @@ def test_layout_names_every_module():
     paragraphs = _layout_paragraphs()
     missing = [str(path.relative_to(PACKAGE)) for path in sorted(PACKAGE.rglob("*.py"))
                if not _named(path, paragraphs)]
-    assert not missing, f"README's Layout section does not name: {', '.join(missing)}"
+    assert not missing, f"docs/architecture.md's Layout section does not name: {', '.join(missing)}"
