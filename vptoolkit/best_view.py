@@ -49,6 +49,7 @@ higher is better for VE and VR, lower for VKL and VMI.
 from __future__ import annotations
 
 import contextlib
+import functools
 import math
 import os
 import time
@@ -474,11 +475,15 @@ def _meshes(inputs: Sequence[str | os.PathLike[str]], subset: Any,
     """(label, loader) of every mesh file, then of every model of the dataset subset."""
     from vptoolkit.io import load_mesh
 
-    files = [(str(source), (lambda source=source: load_mesh(source))) for source in inputs]
+    def stored(name: str) -> Mesh:
+        vertices, faces = subset.mesh(name)
+        return Mesh(vertices, faces, name=name)
+
+    files: list[tuple[str, Callable[[], Mesh]]] = [
+        (str(source), functools.partial(load_mesh, source)) for source in inputs]
     if subset is None:
         return files
-    return files + [(name, (lambda name=name: Mesh(*subset.mesh(name), name=name)))
-                    for name in subset.names]
+    return files + [(name, functools.partial(stored, name)) for name in subset.names]
 
 
 def search_inputs(
