@@ -1,4 +1,4 @@
-"""docs/architecture.md's Layout section names every module of the package, so the map cannot fall behind."""
+"""docs/architecture.md names every module of the package, so the map cannot fall behind."""
 
 from __future__ import annotations
 
