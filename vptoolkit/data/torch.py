@@ -42,7 +42,7 @@ from vptoolkit.rotations import model_key, random_rotation
 if TYPE_CHECKING:
     import torch
 else:
-    torch = require("torch", extra="learn")
+    torch = require("torch", extra="torch")
 
 __all__ = ["ViewpointTorchDataset", "random_rotation", "model_key"]
 
