@@ -465,6 +465,95 @@ def test_cli_update_card_refuses_a_croissant_it_cannot_read(release_copy: Path,
     assert result.output.count("\n") == 1 and "Traceback" not in result.output
 
 
+def _update_card_cli(release_copy: Path):
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    return CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+
+
+def _unchanged(release_copy: Path, before: dict[str, bytes]) -> None:
+    for name in ("croissant.json", "SHA256SUMS"):
+        assert (release_copy / name).read_bytes() == before[name], name
+
+
+def _tamper_copied_shard(release_copy: Path) -> None:
+    shard = next(iter(sorted((release_copy / "data").glob("*.parquet"))))
+    shutil.copy(shard, shard.with_name("extra-00000-of-00001.parquet"))
+
+
+def _tamper_croissant(release_copy: Path) -> None:
+    path = release_copy / "croissant.json"
+    document = json.loads(path.read_text(encoding="utf-8"))
+    document["license"] = "https://example.org/mine"
+    document["name"] = "someone else's"
+    path.write_text(json.dumps(document), encoding="utf-8")
+
+
+def _tamper_card_link(release_copy: Path) -> None:
+    card = release_copy / "README.md"
+    elsewhere = release_copy.parent / "card-elsewhere.md"
+    elsewhere.write_bytes(card.read_bytes() + b"\nedited\n")
+    card.unlink()
+    card.symlink_to(elsewhere)
+
+
+@pytest.mark.parametrize(("tamper", "message"), [
+    (_tamper_copied_shard, r"data/extra-00000-of-00001.parquet: not listed in SHA256SUMS"),
+    (_tamper_croissant, r"croissant.json: differs from SHA256SUMS"),
+    (_tamper_card_link, r"README.md: a symbolic link"),
+], ids=["unlisted-shard", "edited-croissant", "card-symlink"])
+def test_update_card_blesses_only_the_card(release_copy: Path, tamper, message: str) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    tamper(release_copy)
+    before = {name: (release_copy / name).read_bytes()
+              for name in ("croissant.json", "SHA256SUMS")}
+    result = _update_card_cli(release_copy)
+    assert result.exit_code == 1, result.output
+    assert re.search(message, result.output), result.output
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    _unchanged(release_copy, before)
+    report = verify(release_copy)
+    assert not report.ok or report.warnings
+
+
+def test_update_card_puts_croissant_back_when_the_manifest_cannot_be_written(
+        release_copy: Path, monkeypatch) -> None:
+    from vptoolkit.dataset import descriptions
+
+    card = release_copy / "README.md"
+    card.write_text(card.read_text(encoding="utf-8") + "\nA correction.\n", encoding="utf-8")
+    before = {name: (release_copy / name).read_bytes()
+              for name in ("croissant.json", "SHA256SUMS")}
+    real = descriptions.write_bytes_atomic
+
+    def failing(path, payload):
+        if Path(path).name == "SHA256SUMS":
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, payload)
+
+    monkeypatch.setattr(descriptions, "write_bytes_atomic", failing)
+    with pytest.raises(OSError, match="No space left"):
+        descriptions.update_card(release_copy)
+    _unchanged(release_copy, before)
+    assert [p.name for p in release_copy.iterdir() if p.name.startswith(".")] == []
+
+
+@pytest.mark.parametrize("name", ["README.md", "SHA256SUMS"])
+def test_cli_update_card_on_a_file_that_is_not_utf8_is_one_line(release_copy: Path,
+                                                                 name: str) -> None:
+    path = release_copy / name
+    path.write_bytes(path.read_bytes() + b"\xff\xfe latin-1 \xe9\n")
+    before = {n: (release_copy / n).read_bytes() for n in ("croissant.json", "SHA256SUMS")}
+    result = _update_card_cli(release_copy)
+    assert result.exit_code in (1, 2), result.output
+    assert f"{name}: not UTF-8 text" in result.output
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    _unchanged(release_copy, before)
+
+
 def test_cli_update_card(release_copy: Path) -> None:
     from click.testing import CliRunner
 

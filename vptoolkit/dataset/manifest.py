@@ -24,7 +24,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import read_json_file
+from vptoolkit.files import read_json_file, write_text_atomic
 
 __all__ = [
     "MANIFEST_NAME",
@@ -293,7 +293,7 @@ def write_sha256sums(folder: Path | str) -> dict[str, str]:
     """
     folder = Path(folder)
     sums = hash_folder(folder)
-    (folder / MANIFEST_NAME).write_text(format_sha256sums(sums), encoding="utf-8", newline="\n")
+    write_text_atomic(folder / MANIFEST_NAME, format_sha256sums(sums))
     return sums
 
 
@@ -311,12 +311,16 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
     Raises
     ------
     VerificationError
-        On a malformed line, a repeated path, or a path that is absolute or
-        leaves the folder (``..``); the message names the line number.
+        On text that is not UTF-8, a malformed line, a repeated path, or a
+        path that is absolute or leaves the folder (``..``); the message names
+        the line number.
     """
     path = Path(path)
     sums: dict[str, str] = {}
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise VerificationError(f"{path.name}: not UTF-8 text (byte {err.start})") from err
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
