@@ -416,6 +416,68 @@ def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
         reader.open_store(release.zarr_zip)
 
 
+# --------------------------------------------------------------------------- Parquet only
+
+
+@pytest.fixture(scope="module")
+def parquet_release(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from vptoolkit.dataset.release import pack_release
+
+    base = tmp_path_factory.mktemp("parquet-only")
+    build = _write_build(base / "build")
+    return pack_release(build, base / "release", created=CREATED, formats=["parquet"]).path
+
+
+def test_a_parquet_only_release_verifies_by_its_hashes(parquet_release: Path,
+                                                       tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    result = CliRunner().invoke(main, ["verify", str(parquet_release)])
+    assert result.exit_code == 0, result.output
+    assert "OK" in result.output
+    copy = Path(shutil.copytree(parquet_release, tmp_path / "release"))
+    shard = next(iter(sorted((copy / "data").glob("*.parquet"))))
+    data = bytearray(shard.read_bytes())
+    data[len(data) // 2] ^= 0x5A
+    shard.write_bytes(bytes(data))
+    result = CliRunner().invoke(main, ["verify", str(copy)])
+    assert result.exit_code == 1, result.output
+    assert shard.name in result.output
+
+
+@pytest.mark.parametrize("command", [
+    ["info", "{release}"],
+    ["evaluate", "{predictions}", "--dataset", "{release}"],
+    ["predict", "--dataset", "{release}"],
+    ["report", "{release}", "-o", "{out}"],
+    ["train", "{release}", "-o", "{out}"],
+], ids=lambda command: command[0])
+def test_readers_say_in_one_line_how_to_read_a_parquet_only_release(
+        parquet_release: Path, tmp_path: Path, command: list[str]) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    predictions = tmp_path / "p.npz"
+    np.savez(predictions, names=np.array(["airplane_0000"]),
+             directions=np.zeros((1, 4, 3)) + [0.0, 0.0, 1.0])
+    fill = {"release": str(parquet_release), "predictions": str(predictions),
+            "out": str(tmp_path / "out")}
+    result = CliRunner().invoke(main, [part.format(**fill) for part in command])
+    assert result.exit_code == 2, result.output
+    assert "Parquet-only release" in result.output and "datasets" in result.output, result.output
+    assert result.output.count("vptool: error:") == 1 and "Traceback" not in result.output
+
+
+def test_open_dataset_says_how_to_read_a_parquet_only_release(parquet_release: Path) -> None:
+    from vptoolkit.data import open_dataset
+
+    with pytest.raises(InputError, match="Parquet-only release.*datasets"):
+        open_dataset(parquet_release)
+
+
 # --------------------------------------------------------------------------- card workflow
 
 

@@ -473,7 +473,8 @@ def _verify_release(folder: Path) -> VerifyReport:
     archives = sorted(
         entry for entry in folder.iterdir() if _is_archive(entry) and not entry.name.startswith(".")
     )
-    if not archives:
+    if not archives and not any(relative.endswith(".parquet") for relative in listed):
+        # A Parquet-only release is checked by the manifest's digests alone.
         report.problems.append(Problem("missing", folder.name or str(folder),
                                        "no archive (*.zarr.zip, *.h5) in the release"))
     found = {}
@@ -494,7 +495,8 @@ def verify(path: Path | str) -> VerifyReport:
         listed file is re-hashed against the manifest (a missing manifest is
         a problem), files it does not list become warnings, then every array
         of every archive in the folder is re-hashed against its ``sha256``
-        attribute and compared across archives. An archive that cannot be
+        attribute and compared across archives (a release of Parquet shards
+        only is checked by the manifest alone). An archive that cannot be
         opened for lack of a package is ``skipped``, not damaged. Otherwise any path
         :func:`vptoolkit.dataset.containers.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
