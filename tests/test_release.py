@@ -221,6 +221,22 @@ def test_failed_pack_leaves_no_release_and_no_staging(build: Path, tmp_path: Pat
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_full_disk_while_packing_names_the_release(build: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+
+    from vptoolkit.dataset import release as release_module
+
+    def full(folder: Path) -> dict:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(release_module, "write_sha256sums", full)
+    with pytest.raises(OSError) as caught:
+        release_module.pack_release(build, tmp_path / "release")
+    assert caught.value.filename == str(tmp_path / "release")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 

@@ -34,6 +34,7 @@ from vptoolkit.errors import InputError
 __all__ = [
     "atomic_write",
     "check_output_folder",
+    "named_os_error",
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
@@ -77,19 +78,27 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
     except OSError as err:  # name the user's file, not the hidden temporary one
         raise OSError(err.errno, err.strerror, str(target)) from err
     try:
+        # Closing flushes what is buffered, so a full disk can fail there too.
         with os.fdopen(handle, "wb") as stream:
-            try:
-                yield stream
-                stream.flush()
-                os.fsync(stream.fileno())
-            except OSError as err:
-                if err.filename is None or str(err.filename) == str(temporary):
-                    # e.g. a full disk: say which output could not be written
-                    raise OSError(err.errno, err.strerror, str(target)) from err
-                raise
+            yield stream
+            stream.flush()
+            os.fsync(stream.fileno())
         os.replace(temporary, target)
+    except OSError as err:
+        if err.filename is None or str(err.filename) == str(temporary):
+            # e.g. a full disk: say which output could not be written
+            raise named_os_error(err, target) from err
+        raise
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def named_os_error(error: OSError, path: str | os.PathLike[str]) -> OSError:
+    """``error`` (a full disk, a file too large) as an OSError whose ``filename`` is ``path``."""
+    if error.strerror is None:  # numpy's tofile says only "N requested and M written"
+        return OSError(error.errno, f"not fully written ({one_line(error)}); is the disk full?",
+                       str(path))
+    return OSError(error.errno, error.strerror, str(path))
 
 
 _MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS

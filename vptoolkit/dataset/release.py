@@ -63,7 +63,7 @@ from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import remove_stale_partials, temporary_prefix
+from vptoolkit.files import named_os_error, remove_stale_partials, temporary_prefix
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -532,6 +532,12 @@ def pack_release(
         _check_release_dir(target)
         _publish(staging, target)
         remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
+    except OSError as err:
+        shutil.rmtree(staging, ignore_errors=True)
+        if err.filename is None or str(err.filename).startswith(str(staging)):
+            # a full disk or a file too large: name the release, not the hidden folder
+            raise named_os_error(err, target) from err
+        raise
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
