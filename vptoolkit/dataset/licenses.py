@@ -54,7 +54,8 @@ def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
     try:
         return _licence_rows(source, rows)
     except csv.Error as err:  # a cell beyond csv.field_size_limit(), a stray NUL
-        raise InputError(f"{source.name}: line {rows.line_num + 1} is not a CSV row ({err})") from err
+        line = rows.line_num + 1
+        raise InputError(f"{source.name}: line {line} is not a CSV row ({err})") from err
 
 
 def _licence_rows(source: Path, rows: csv.DictReader[str]) -> dict[str, dict[str, str]]:
