@@ -333,6 +333,24 @@ def test_a_symlink_loop_is_named_as_such(tmp_path: Path) -> None:
     assert "does not exist" not in text
 
 
+def test_build_into_a_symlink_loop_is_one_line(tmp_path: Path) -> None:
+    source = tmp_path / "src"
+    source.mkdir()
+    (source / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
+    (tmp_path / "loop").symlink_to(tmp_path / "loop")
+    for out in (tmp_path / "loop", tmp_path / "loop" / "sub"):
+        code, text = _run("build-dataset", source, out, "--views", "10")
+        _assert_one_line_bad_input(code, text, f"{out}: symbolic link loop")
+
+
+def test_a_licence_table_with_a_huge_cell_is_one_line(build: Path, tmp_path: Path) -> None:  # noqa: F811
+    table = tmp_path / "licenses.csv"
+    table.write_text("name,license,author,url\nm,mit," + "a" * 200_000 + ",u\n")
+    code, text = _run("pack", build, tmp_path / "rel", "--licenses", table)
+    _assert_one_line_bad_input(code, text, "licenses.csv: line 2 is not a CSV row")
+    assert not (tmp_path / "rel").exists()
+
+
 def test_sphere_map_inputs_that_cannot_be_drawn(tmp_path: Path) -> None:
     views = np.eye(3)
     cases = {

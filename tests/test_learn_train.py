@@ -321,6 +321,29 @@ def test_the_farthest_point_pool_keeps_a_few_subsets_per_model(dataset_dir):
         assert torch.equal(again[0]["points"], items[-1])
 
 
+def test_training_fewer_categories_keeps_the_others_in_the_index(tmp_path, monkeypatch):
+    import contextlib
+
+    trained = []
+
+    def fake_train(dataset_path, output, *, categories, **options):
+        Path(output).mkdir(parents=True, exist_ok=True)
+        trained.append(categories[0])
+        return categories[0]
+
+    monkeypatch.setattr(T, "train_model", fake_train)
+    monkeypatch.setattr(T, "open_dataset", lambda path: contextlib.nullcontext(None))
+    monkeypatch.setattr(T, "select_categories", lambda dataset, chosen: list(chosen))
+    T.train_per_category("ds", tmp_path / "per", categories=["a", "b"])
+    T.train_per_category("ds", tmp_path / "per", categories=["a"], resume=True)
+    index = json.loads((tmp_path / "per" / "categories.json").read_text())
+    assert index["categories"] == {"a": "a", "b": "b"} and trained == ["a", "b", "a"]
+    (tmp_path / "per" / "categories.json").write_text('{"format": "other"}')
+    with pytest.raises(InputError, match="categories.json: not a vptoolkit per-category index"):
+        T.train_per_category("ds", tmp_path / "per", categories=["a"], resume=True)
+    assert trained == ["a", "b", "a"]
+
+
 def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")

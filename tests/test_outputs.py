@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import errno
+import io
 import logging
+import os
 import shutil
 from pathlib import Path
 
@@ -44,6 +46,60 @@ def test_a_failed_write_names_the_target_not_the_temporary_file(tmp_path: Path) 
         raise OSError(errno.ENOSPC, "No space left on device")  # what a full disk raises
     assert caught.value.filename == str(target)
     assert not list(tmp_path.iterdir())
+
+
+class _FullDisk(io.RawIOBase):
+    """A file on a full disk: every write fails, as the kernel's ENOSPC does."""
+
+    def __init__(self, handle: int) -> None:
+        self._handle = handle
+
+    def writable(self) -> bool:
+        return True
+
+    def fileno(self) -> int:
+        return self._handle
+
+    def write(self, data) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    def close(self) -> None:
+        if not self.closed:
+            os.close(self._handle)
+        super().close()
+
+
+class _OsOnAFullDisk:
+    """``os`` for vptoolkit.files, whose fdopen gives a file on a full disk."""
+
+    def __getattr__(self, name: str):
+        return getattr(os, name)
+
+    @staticmethod
+    def fdopen(handle: int, mode: str = "rb", *args, **kwargs):
+        return io.BufferedWriter(_FullDisk(handle))
+
+
+@pytest.mark.parametrize("command, args", [
+    ("sample", ["-o", "{out}/p.npy"]),
+    ("measures", ["--views", "20", "--resolution", "32", "-o", "{out}/q.npz"]),
+    ("views", ["--views", "20", "--resolution", "32", "-o", "{out}/v.npz"]),
+    ("render", ["--view", "0,0,1", "--size", "32", "-o", "{out}/r.png"]),
+    ("predict", ["-o", "{out}/d.npz"]),
+], ids=lambda value: value if isinstance(value, str) else None)
+def test_a_full_disk_names_the_output(tmp_path: Path, monkeypatch, command: str,
+                                      args: list[str]) -> None:
+    from vptoolkit import files
+
+    out = tmp_path / "out"
+    out.mkdir()
+    filled = [arg.format(out=out) for arg in args]
+    monkeypatch.setattr(files, "os", _OsOnAFullDisk())
+    code, text = _run(command, sample_path("teapot"), *filled)
+    assert code == 2, text
+    line = text.splitlines()[-1]
+    assert line == f"vptool: error: {filled[-1]}: No space left on device", text
+    assert "Traceback" not in text and list(out.iterdir()) == []
 
 
 @pytest.mark.parametrize("n_bytes", [235, 250, 255])

@@ -221,6 +221,56 @@ def test_failed_pack_leaves_no_release_and_no_staging(build: Path, tmp_path: Pat
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_full_disk_while_packing_names_the_release(build: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+
+    from vptoolkit.dataset import release as release_module
+
+    def full(folder: Path) -> dict:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(release_module, "write_sha256sums", full)
+    with pytest.raises(OSError) as caught:
+        release_module.pack_release(build, tmp_path / "release")
+    assert caught.value.filename == str(tmp_path / "release")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_pack_removes_only_its_own_stale_staging_folders(build: Path, tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.files import held
+
+    stale = tmp_path / ".rel.ab12cd34.partial"       # a killed pack into rel
+    other = tmp_path / ".rel.v2.ef56gh78.partial"    # a stale one of rel.v2, not of rel
+    live = tmp_path / ".rel.ij90kl12.partial"        # a pack into rel still running
+    for folder in (stale, other, live):
+        folder.mkdir()
+        (folder / "part.h5").write_bytes(b"x")
+    with held(live):
+        pack_release(build, tmp_path / "rel", formats=["hdf5"])
+        assert not stale.exists()
+        assert (other / "part.h5").exists() and (live / "part.h5").exists()
+
+
+def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    from vptoolkit.dataset import release as release_module
+
+    target = tmp_path / "rel"
+    real = release_module.write_sha256sums
+
+    def meanwhile(folder: Path) -> dict:
+        target.mkdir(exist_ok=True)
+        (target / "README.md").write_text("another pack's card\n")
+        return real(folder)
+
+    monkeypatch.setattr(release_module, "write_sha256sums", meanwhile)
+    with pytest.raises(InputError, match="rel: folder was filled while packing"):
+        release_module.pack_release(build, target, formats=["hdf5"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rel"]
+
+
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 

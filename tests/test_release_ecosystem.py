@@ -416,6 +416,68 @@ def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
         reader.open_store(release.zarr_zip)
 
 
+# --------------------------------------------------------------------------- Parquet only
+
+
+@pytest.fixture(scope="module")
+def parquet_release(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from vptoolkit.dataset.release import pack_release
+
+    base = tmp_path_factory.mktemp("parquet-only")
+    build = _write_build(base / "build")
+    return pack_release(build, base / "release", created=CREATED, formats=["parquet"]).path
+
+
+def test_a_parquet_only_release_verifies_by_its_hashes(parquet_release: Path,
+                                                       tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    result = CliRunner().invoke(main, ["verify", str(parquet_release)])
+    assert result.exit_code == 0, result.output
+    assert "OK" in result.output
+    copy = Path(shutil.copytree(parquet_release, tmp_path / "release"))
+    shard = next(iter(sorted((copy / "data").glob("*.parquet"))))
+    data = bytearray(shard.read_bytes())
+    data[len(data) // 2] ^= 0x5A
+    shard.write_bytes(bytes(data))
+    result = CliRunner().invoke(main, ["verify", str(copy)])
+    assert result.exit_code == 1, result.output
+    assert shard.name in result.output
+
+
+@pytest.mark.parametrize("command", [
+    ["info", "{release}"],
+    ["evaluate", "{predictions}", "--dataset", "{release}"],
+    ["predict", "--dataset", "{release}"],
+    ["report", "{release}", "-o", "{out}"],
+    ["train", "{release}", "-o", "{out}"],
+], ids=lambda command: command[0])
+def test_readers_say_in_one_line_how_to_read_a_parquet_only_release(
+        parquet_release: Path, tmp_path: Path, command: list[str]) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    predictions = tmp_path / "p.npz"
+    np.savez(predictions, names=np.array(["airplane_0000"]),
+             directions=np.zeros((1, 4, 3)) + [0.0, 0.0, 1.0])
+    fill = {"release": str(parquet_release), "predictions": str(predictions),
+            "out": str(tmp_path / "out")}
+    result = CliRunner().invoke(main, [part.format(**fill) for part in command])
+    assert result.exit_code == 2, result.output
+    assert "Parquet-only release" in result.output and "datasets" in result.output, result.output
+    assert result.output.count("vptool: error:") == 1 and "Traceback" not in result.output
+
+
+def test_open_dataset_says_how_to_read_a_parquet_only_release(parquet_release: Path) -> None:
+    from vptoolkit.data import open_dataset
+
+    with pytest.raises(InputError, match="Parquet-only release.*datasets"):
+        open_dataset(parquet_release)
+
+
 # --------------------------------------------------------------------------- card workflow
 
 
@@ -463,6 +525,95 @@ def test_cli_update_card_refuses_a_croissant_it_cannot_read(release_copy: Path,
     assert result.exit_code == 2, result.output
     assert result.output.startswith("vptool: error: croissant.json: ")
     assert result.output.count("\n") == 1 and "Traceback" not in result.output
+
+
+def _update_card_cli(release_copy: Path):
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    return CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+
+
+def _unchanged(release_copy: Path, before: dict[str, bytes]) -> None:
+    for name in ("croissant.json", "SHA256SUMS"):
+        assert (release_copy / name).read_bytes() == before[name], name
+
+
+def _tamper_copied_shard(release_copy: Path) -> None:
+    shard = next(iter(sorted((release_copy / "data").glob("*.parquet"))))
+    shutil.copy(shard, shard.with_name("extra-00000-of-00001.parquet"))
+
+
+def _tamper_croissant(release_copy: Path) -> None:
+    path = release_copy / "croissant.json"
+    document = json.loads(path.read_text(encoding="utf-8"))
+    document["license"] = "https://example.org/mine"
+    document["name"] = "someone else's"
+    path.write_text(json.dumps(document), encoding="utf-8")
+
+
+def _tamper_card_link(release_copy: Path) -> None:
+    card = release_copy / "README.md"
+    elsewhere = release_copy.parent / "card-elsewhere.md"
+    elsewhere.write_bytes(card.read_bytes() + b"\nedited\n")
+    card.unlink()
+    card.symlink_to(elsewhere)
+
+
+@pytest.mark.parametrize(("tamper", "message"), [
+    (_tamper_copied_shard, r"data/extra-00000-of-00001.parquet: not listed in SHA256SUMS"),
+    (_tamper_croissant, r"croissant.json: differs from SHA256SUMS"),
+    (_tamper_card_link, r"README.md: a symbolic link"),
+], ids=["unlisted-shard", "edited-croissant", "card-symlink"])
+def test_update_card_blesses_only_the_card(release_copy: Path, tamper, message: str) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    tamper(release_copy)
+    before = {name: (release_copy / name).read_bytes()
+              for name in ("croissant.json", "SHA256SUMS")}
+    result = _update_card_cli(release_copy)
+    assert result.exit_code == 1, result.output
+    assert re.search(message, result.output), result.output
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    _unchanged(release_copy, before)
+    report = verify(release_copy)
+    assert not report.ok or report.warnings
+
+
+def test_update_card_puts_croissant_back_when_the_manifest_cannot_be_written(
+        release_copy: Path, monkeypatch) -> None:
+    from vptoolkit.dataset import descriptions
+
+    card = release_copy / "README.md"
+    card.write_text(card.read_text(encoding="utf-8") + "\nA correction.\n", encoding="utf-8")
+    before = {name: (release_copy / name).read_bytes()
+              for name in ("croissant.json", "SHA256SUMS")}
+    real = descriptions.write_bytes_atomic
+
+    def failing(path, payload):
+        if Path(path).name == "SHA256SUMS":
+            raise OSError(28, "No space left on device", str(path))
+        return real(path, payload)
+
+    monkeypatch.setattr(descriptions, "write_bytes_atomic", failing)
+    with pytest.raises(OSError, match="No space left"):
+        descriptions.update_card(release_copy)
+    _unchanged(release_copy, before)
+    assert [p.name for p in release_copy.iterdir() if p.name.startswith(".")] == []
+
+
+@pytest.mark.parametrize("name", ["README.md", "SHA256SUMS"])
+def test_cli_update_card_on_a_file_that_is_not_utf8_is_one_line(release_copy: Path,
+                                                                 name: str) -> None:
+    path = release_copy / name
+    path.write_bytes(path.read_bytes() + b"\xff\xfe latin-1 \xe9\n")
+    before = {n: (release_copy / n).read_bytes() for n in ("croissant.json", "SHA256SUMS")}
+    result = _update_card_cli(release_copy)
+    assert result.exit_code in (1, 2), result.output
+    assert f"{name}: not UTF-8 text" in result.output
+    assert result.output.count("\n") == 1 and "Traceback" not in result.output
+    _unchanged(release_copy, before)
 
 
 def test_cli_update_card(release_copy: Path) -> None:

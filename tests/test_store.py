@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import weakref
 import zipfile
@@ -305,6 +306,40 @@ def test_failed_write_leaves_no_target_and_no_leftovers(tmp_path: Path, kind: st
     with pytest.raises(OSError, match="simulated failure"):
         write_synthetic(tmp_path / SUFFIXES[kind], lazy)
     assert _listing(tmp_path) == []
+
+
+def test_a_full_disk_waits_for_writes_in_flight_then_cleans_up(tmp_path: Path, monkeypatch,
+                                                                 caplog) -> None:
+    """One chunk write fails while others still run: they finish first, then nothing is left."""
+    import errno
+    import gc
+    import time
+
+    local = pytest.importorskip("zarr.storage._local")
+
+    real = local._put
+    calls = {"n": 0}
+
+    def put(path, value, exclusive=False):
+        calls["n"] += 1
+        if calls["n"] == 30:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        if calls["n"] > 30:
+            time.sleep(0.3)  # a write still in flight when the first one failed
+        return real(path, value, exclusive=exclusive)
+
+    monkeypatch.setattr(local, "_put", put)
+    entries = [synthetic_entry("chair", f"chair_{i:04d}", "train") for i in range(40)]
+    target = tmp_path / "x.zarr"
+    with caplog.at_level(logging.ERROR, logger="asyncio"):
+        with pytest.raises(OSError) as caught:
+            write_synthetic(target, entries)
+        time.sleep(0.5)
+        gc.collect()
+    assert caught.value.filename == str(target)
+    assert "No space left on device" in str(caught.value)
+    assert _listing(tmp_path) == []
+    assert "never retrieved" not in caplog.text
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -23,14 +23,18 @@ import argparse
 import json
 import shlex
 import sys
+from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import NoReturn
 
 import numpy as np
 
+from vptoolkit.cli.group import exit_code, one_line_error
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.errors import VptoolkitError
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
@@ -44,11 +48,25 @@ from vptoolkit.evaluate.protocol import (
 from results_doc import comparison_table, machine, markdown_table, score_cells, write_section
 
 
-def parse_args() -> argparse.Namespace:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+class _Parser(argparse.ArgumentParser):
+    """argparse whose errors are one line, like every other check of the arguments."""
+
+    def error(self, message: str) -> NoReturn:
+        fail(message)
+
+
+def fail(message: str) -> NoReturn:
+    """One line on stderr and exit status 2: the arguments are wrong."""
+    print(f"score_held_out.py: error: {' '.join(message.split())}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = _Parser(description=__doc__.splitlines()[0])
     parser.add_argument("meshes", type=Path, help="folder of mesh files (category = parent folder)")
     parser.add_argument("--model", default="default", help="checkpoint, per-category folder or 'default'")
-    parser.add_argument("--out", type=Path, help="dataset folder (default: reproduction/held_out/<folder name>)")
+    parser.add_argument("--out", type=Path, help="dataset folder, new or a build to resume "
+                        "(default: reproduction/held_out/<folder name>)")
     parser.add_argument("--train", type=Path, help="a dataset whose train split gives the best constant direction")
     parser.add_argument("--rotations", type=int, default=8, help="fixed rotations per mesh")
     parser.add_argument("--views", type=int, default=1000)
@@ -57,14 +75,45 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--json", type=Path, help="also write the scores here")
     parser.add_argument("--results", type=Path, help="also write the table into this markdown file ...")
     parser.add_argument("--section", default="held_out", help="... between <!-- SECTION:start/end --> markers")
-    return parser.parse_args()
+    args = parser.parse_args(argv)
+    check_args(args)
+    return args
+
+
+def check_args(args: argparse.Namespace) -> None:
+    """Every argument checked before the build and the scoring, each failure one line (exit 2)."""
+    if not args.meshes.is_dir():
+        fail(f"{args.meshes}: {'not a folder' if args.meshes.exists() else 'no such folder'}")
+    for name in ("rotations", "views", "resolution", "workers"):
+        if getattr(args, name) < 1:
+            fail(f"--{name}: {getattr(args, name)} is not a positive integer")
+    if args.out is not None and args.out.exists() and not args.out.is_dir():
+        fail(f"--out: {args.out}: exists and is not a folder")
+    if args.out is not None and args.out.is_dir() and any(args.out.iterdir()) and not (
+            (args.out / ".staging").is_dir() or (args.out / "dataset.zarr").exists()
+            or (args.out / "dataset.h5").exists()):
+        fail(f"--out: {args.out}: exists and holds no build to resume; give a new folder")
+    if args.model != "default" and not Path(args.model).exists():
+        fail(f"--model: {args.model}: no such checkpoint or folder")
+    if args.train is not None and not args.train.exists():
+        fail(f"--train: {args.train}: no such dataset")
+    for name in ("json", "results"):
+        path = getattr(args, name)
+        if path is not None:
+            if path.is_dir():
+                fail(f"--{name}: {path}: is a folder")
+            if not path.parent.is_dir():
+                fail(f"--{name}: {path}: folder {path.parent} does not exist")
 
 
 def score(dataset_path: Path, model: str, *, rotations: int, train: Path | None = None) -> dict[str, ProtocolScores]:
     """Every row under the rotated protocol on all models of ``dataset_path``."""
     rows: dict[str, ProtocolScores] = {}
     with open_dataset(dataset_path) as dataset:
-        rows["network"] = score_protocol(dataset, network_predictor(model), n_rotations=rotations)
+        # A per-category folder routes each mesh to its category's network.
+        categories = dict(zip(dataset.names, dataset.categories))
+        rows["network"] = score_protocol(dataset, network_predictor(model, categories=categories),
+                                         n_rotations=rotations)
         rows["random view (expectation)"] = random_view_scores(dataset)
         rows["PCA axis"] = score_protocol(dataset, pca_predictor, n_rotations=rotations)
         if train is not None:
@@ -81,8 +130,20 @@ def table(rows: dict[str, ProtocolScores]) -> str:
     return "\n".join([*scores, "", *comparison_table(rows, "network")])
 
 
-def main() -> None:
-    args = parse_args()
+def main(argv: Sequence[str] | None = None) -> None:
+    args = parse_args(argv)
+    try:
+        run(args)
+    except VptoolkitError as error:
+        print(f"score_held_out.py: error: {one_line_error(error)}", file=sys.stderr)
+        raise SystemExit(exit_code(error)) from None
+    except OSError as error:
+        where = f"{error.filename}: " if error.filename else ""
+        print(f"score_held_out.py: error: {where}{error.strerror or error}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
+def run(args: argparse.Namespace) -> None:
     out = args.out or Path("reproduction/held_out") / args.meshes.resolve().name
     built = build_dataset(args.meshes, out, n_views=args.views, resolution=args.resolution, n_points=20000,
                           clean=True, workers=args.workers, split_seed=0, progress=True)

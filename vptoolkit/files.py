@@ -21,6 +21,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import secrets
 import shutil
 from collections.abc import Iterator
@@ -29,11 +30,18 @@ from pathlib import Path
 from typing import Any, BinaryIO
 
 from vptoolkit.checks import one_line
+
+try:
+    import fcntl
+except ImportError:  # Windows: no advisory locks, nothing is held
+    fcntl = None  # type: ignore[assignment]
 from vptoolkit.errors import InputError
 
 __all__ = [
     "atomic_write",
     "check_output_folder",
+    "held",
+    "named_os_error",
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
@@ -77,19 +85,27 @@ def atomic_write(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
     except OSError as err:  # name the user's file, not the hidden temporary one
         raise OSError(err.errno, err.strerror, str(target)) from err
     try:
+        # Closing flushes what is buffered, so a full disk can fail there too.
         with os.fdopen(handle, "wb") as stream:
-            try:
-                yield stream
-                stream.flush()
-                os.fsync(stream.fileno())
-            except OSError as err:
-                if err.filename is None or str(err.filename) == str(temporary):
-                    # e.g. a full disk: say which output could not be written
-                    raise OSError(err.errno, err.strerror, str(target)) from err
-                raise
+            yield stream
+            stream.flush()
+            os.fsync(stream.fileno())
         os.replace(temporary, target)
+    except OSError as err:
+        if err.filename is None or str(err.filename) == str(temporary):
+            # e.g. a full disk: say which output could not be written
+            raise named_os_error(err, target) from err
+        raise
     finally:
         temporary.unlink(missing_ok=True)
+
+
+def named_os_error(error: OSError, path: str | os.PathLike[str]) -> OSError:
+    """``error`` (a full disk, a file too large) as an OSError whose ``filename`` is ``path``."""
+    if error.strerror is None:  # numpy's tofile says only "N requested and M written"
+        return OSError(error.errno, f"not fully written ({one_line(error)}); is the disk full?",
+                       str(path))
+    return OSError(error.errno, error.strerror, str(path))
 
 
 _MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS
@@ -140,18 +156,64 @@ def remove_stale_partials(folder: str | os.PathLike[str], name: str) -> None:
     """Delete the temporary siblings of ``name`` that an interrupted write left in ``folder``.
 
     Call it only after a write of ``name`` succeeded; a ``kill -9`` in the
-    middle of a write leaves its ``.<name>.*.partial`` file or folder behind.
+    middle of a write leaves its ``.<name>.<random>.partial`` file or folder
+    behind. Only that exact pattern is matched (so ``.rel.v2.<random>.partial``,
+    the sibling of ``rel.v2``, is not one of ``rel``'s), and an entry that a
+    live process holds (:func:`held`) is left alone.
     """
     root = Path(folder)
     if not root.is_dir():
         return
-    prefix = temporary_prefix(name)
+    pattern = re.compile(re.escape(temporary_prefix(name)) + r"[A-Za-z0-9_]+\.partial")
     for entry in sorted(root.iterdir()):
-        if entry.name.startswith(prefix) and entry.name.endswith(".partial"):
-            if entry.is_dir() and not entry.is_symlink():
-                shutil.rmtree(entry, ignore_errors=True)
-            else:
-                entry.unlink(missing_ok=True)
+        if not pattern.fullmatch(entry.name) or _is_held(entry):
+            continue
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry, ignore_errors=True)
+        else:
+            entry.unlink(missing_ok=True)
+
+
+@contextmanager
+def held(path: str | os.PathLike[str]) -> Iterator[None]:
+    """Hold an advisory lock on a temporary file or folder while the block runs.
+
+    :func:`remove_stale_partials`, in this process or another, skips what is
+    held, so a write in progress never loses its temporary sibling. Where
+    locks are not available (no ``fcntl``), nothing is held.
+    """
+    handle = _lock(path)
+    try:
+        yield
+    finally:
+        if handle is not None:
+            os.close(handle)
+
+
+def _lock(path: str | os.PathLike[str]) -> int | None:
+    if fcntl is None:
+        return None
+    try:
+        handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))  # a FIFO never waits
+    except OSError:
+        return None
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(handle)
+        return None
+    return handle
+
+
+def _is_held(path: Path) -> bool:
+    """Whether a live process holds ``path`` (see :func:`held`)."""
+    if path.is_symlink():
+        return False
+    handle = _lock(path)
+    if handle is not None:
+        os.close(handle)  # it could be locked: nobody holds it
+        return False
+    return fcntl is not None and path.exists()
 
 
 def write_bytes_atomic(path: str | os.PathLike[str], payload: bytes) -> Path:

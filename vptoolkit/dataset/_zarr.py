@@ -11,6 +11,8 @@ module lazily, inside the functions that use it; importing it imports no
 
 from __future__ import annotations
 
+import asyncio
+import concurrent.futures
 import itertools
 import os
 import zipfile
@@ -56,9 +58,40 @@ class ZarrSink:
         )
 
     def close(self) -> None:
+        """Close the store once no write is in flight (after a failed one, others may be)."""
+        wait_for_writes()
         self._store.close()
         if self._zip_path is not None:
             _normalise_zip(self._zip_path)
+
+
+_SETTLE_SECONDS = 120.0
+
+
+def wait_for_writes() -> None:
+    """Wait until zarr's event loop runs no task, and collect their errors.
+
+    zarr writes the chunks of one assignment concurrently; when one write
+    fails (a full disk), the assignment raises at once while the others
+    still run in zarr's I/O thread. Removing the folder then would race them
+    (a late write re-creates it) and their errors would be printed as
+    "Future exception was never retrieved" at exit.
+    """
+    from zarr.core import sync
+
+    loop = getattr(sync, "loop", [None])[0]
+    if loop is None or not loop.is_running():
+        return
+
+    async def settle() -> None:
+        current = asyncio.current_task()
+        while pending := [task for task in asyncio.all_tasks() if task is not current]:
+            await asyncio.gather(*pending, return_exceptions=True)
+
+    try:
+        asyncio.run_coroutine_threadsafe(settle(), loop).result(timeout=_SETTLE_SECONDS)
+    except concurrent.futures.TimeoutError:
+        return
 
 
 def _normalise_zip(path: Path) -> None:

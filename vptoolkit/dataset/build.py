@@ -248,6 +248,11 @@ def build_dataset(
         raise InputError("workers: give either workers > 1 or scheduler, not both")
     progress = check_bool(progress, "progress")
     out_dir = as_path(out, "out")
+    try:
+        out_dir.resolve()
+    except (RuntimeError, OSError) as err:  # RuntimeError up to Python 3.12, ELOOP after
+        raise InputError(f"out: {out_dir}: symbolic link loop; give a folder that can be "
+                         "created") from err
     _check_dependencies(options, scheduler)
 
     models = discover_models(src, categories)

@@ -93,7 +93,8 @@ def find_store(path: str | os.PathLike[str]) -> Path:
     Raises
     ------
     InputError
-        If the path does not exist or no single store can be chosen.
+        If the path does not exist or no single store can be chosen; for a
+        release of Parquet shards only, the message says how to load it.
     """
     target = Path(path)
     if not target.exists():
@@ -123,6 +124,14 @@ def find_store(path: str | os.PathLike[str]) -> Path:
         if len(found) > 1:
             names = ", ".join(p.name for p in found)
             raise InputError(f"{target}: holds {len(found)} stores ({names}); pass one of them")
+    if any(visible_file.name.endswith(".parquet")
+           for folder in (target, target / "data") if folder.is_dir()
+           for visible_file in folder.iterdir()):
+        raise InputError(
+            f"{target}: a Parquet-only release, which vptool reads only as a *.zarr.zip or *.h5 "
+            f"archive; load it with datasets (datasets.load_dataset('{target}')) or pyarrow, or "
+            "pack the build again with --formats including zarr or hdf5"
+        )
     raise InputError(
         f"{target}: no dataset.zarr, dataset.h5, *.zarr.zip or *.h5 store in this folder"
     )

@@ -5,14 +5,17 @@ card (``README.md``) and then ``croissant.json`` from it
 (:func:`write_descriptions`: the card's SHA-256, size and ``rai:`` fields
 go into the JSON-LD). A person may edit the card of a packed release later;
 :func:`update_card` then rewrites ``croissant.json`` and ``SHA256SUMS`` to
-match, after checking that nothing else changed. The options a publisher
+match, after checking that nothing else changed, nothing was added and no
+file is a symbolic link. The options a publisher
 gave at packing are kept in ``croissant.json`` (:class:`ReleaseOptions`) so
 the rewrite says the same.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,12 +24,12 @@ from typing import TYPE_CHECKING, Any
 from vptoolkit.dataset.croissant import croissant_jsonld, rai_fields
 from vptoolkit.dataset.manifest import (
     MANIFEST_NAME,
+    format_sha256sums,
     read_sha256sums,
     sha256_file,
-    write_sha256sums,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import read_json_file, write_text_atomic
+from vptoolkit.files import parse_json, write_bytes_atomic, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -79,9 +82,28 @@ def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, 
     write_json(folder / CROISSANT_NAME, croissant)
 
 
+def _json_text(value: Any) -> str:
+    return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+
+
 def write_json(path: Path, value: Any) -> None:
-    text = json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False)
-    write_text_atomic(path, text + "\n")
+    write_text_atomic(path, _json_text(value))
+
+
+def _release_files(folder: Path) -> list[str]:
+    """Every file below ``folder`` as sorted POSIX paths; a symbolic link is refused."""
+    found = []
+    for root, dirs, files in os.walk(folder):
+        dirs.sort()
+        for name in [*dirs, *files]:
+            path = Path(root) / name
+            if path.is_symlink():
+                raise VerificationError(
+                    f"{path.relative_to(folder).as_posix()}: a symbolic link; a release holds "
+                    f"plain files only, so {CARD_NAME} must be edited in place"
+                )
+        found.extend((Path(root) / name).relative_to(folder).as_posix() for name in files)
+    return sorted(found)
 
 
 def update_card(release_dir: Path | str) -> list[str]:
@@ -90,8 +112,11 @@ def update_card(release_dir: Path | str) -> list[str]:
     A person may edit a release's ``README.md`` (wording, a contact, a
     correction). This rewrites what depends on it: in ``croissant.json`` the
     card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
-    text, then ``SHA256SUMS``. Archives, shards and every other file are
-    checked against the manifest first and never written.
+    text, then ``SHA256SUMS``. Every other file, ``croissant.json`` included,
+    must be what the manifest lists, so the rewrite starts from the metadata
+    written at packing; no file may be added and none may be a symbolic link.
+    ``croissant.json`` is written first and put back if ``SHA256SUMS`` cannot
+    be written, so the two never disagree after a failure.
 
     Parameters
     ----------
@@ -107,40 +132,64 @@ def update_card(release_dir: Path | str) -> list[str]:
     ------
     InputError
         If the folder lacks ``README.md``, ``croissant.json`` or
-        ``SHA256SUMS``, or ``croissant.json`` is not JSON.
+        ``SHA256SUMS``, ``croissant.json`` is not a JSON object or the card
+        is not UTF-8 text.
     VerificationError
-        If a file other than the card and the files derived from it differs
-        from the manifest: only the card may be edited.
+        If a file other than the card differs from the manifest, is missing,
+        is not listed in it or is a symbolic link, or the manifest is
+        malformed: only the card may be edited.
     """
     folder = Path(release_dir)
+    present = _release_files(folder) if folder.is_dir() else []
     for required in (CARD_NAME, CROISSANT_NAME, MANIFEST_NAME):
         if not (folder / required).is_file():
             raise InputError(f"{folder / required}: missing; --update-card needs a packed release")
-    derived = {CARD_NAME, CROISSANT_NAME}
-    for relative, digest in read_sha256sums(folder / MANIFEST_NAME).items():
-        if relative in derived:
+    listed = read_sha256sums(folder / MANIFEST_NAME)
+    for relative in present:
+        if relative != MANIFEST_NAME and relative not in listed:
+            raise VerificationError(
+                f"{relative}: not listed in SHA256SUMS; only {CARD_NAME} may be edited, "
+                "no file added (run vptool verify to see what changed)"
+            )
+    old_croissant = (folder / CROISSANT_NAME).read_bytes()
+    document = parse_json(old_croissant, CROISSANT_NAME)
+    if not isinstance(document, dict):
+        raise InputError(f"{CROISSANT_NAME}: not a JSON object")
+    for relative, digest in listed.items():
+        if relative == CARD_NAME:
             continue
         if not (folder / relative).is_file() or sha256_file(folder / relative) != digest:
             raise VerificationError(
                 f"{relative}: differs from SHA256SUMS; only {CARD_NAME} may be edited "
                 "(run vptool verify to see what changed)"
             )
-    document = read_json_file(folder / CROISSANT_NAME)
-    if not isinstance(document, dict):
-        raise InputError(f"{CROISSANT_NAME}: not a JSON object")
-    card = (folder / CARD_NAME).read_text(encoding="utf-8")
+    card_bytes = (folder / CARD_NAME).read_bytes()
+    try:
+        card = card_bytes.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise InputError(f"{folder / CARD_NAME}: not UTF-8 text (byte {err.start}); "
+                         "save the card as UTF-8") from err
+    card_digest = hashlib.sha256(card_bytes).hexdigest()
     for key in [key for key in document if key.startswith("rai:")]:
         del document[key]
-    rai = rai_fields(card)
     distribution = document.pop("distribution", [])
     record_sets = document.pop("recordSet", [])
-    document.update(rai)
+    document.update(rai_fields(card))
     for item in distribution:
         if isinstance(item, dict) and item.get("contentUrl") == CARD_NAME:
-            item["sha256"] = sha256_file(folder / CARD_NAME)
-            item["contentSize"] = f"{(folder / CARD_NAME).stat().st_size} B"
+            item["sha256"] = card_digest
+            item["contentSize"] = f"{len(card_bytes)} B"
     document["distribution"] = distribution
     document["recordSet"] = record_sets
-    write_json(folder / CROISSANT_NAME, document)
-    write_sha256sums(folder)
+    croissant = _json_text(document).encode("utf-8")
+    sums = dict(listed)
+    sums[CARD_NAME] = card_digest
+    sums[CROISSANT_NAME] = hashlib.sha256(croissant).hexdigest()
+    manifest = format_sha256sums(sums).encode("utf-8")
+    write_bytes_atomic(folder / CROISSANT_NAME, croissant)
+    try:
+        write_bytes_atomic(folder / MANIFEST_NAME, manifest)
+    except BaseException:
+        write_bytes_atomic(folder / CROISSANT_NAME, old_croissant)
+        raise
     return [CROISSANT_NAME, MANIFEST_NAME]

@@ -41,8 +41,9 @@ def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
     Raises
     ------
     InputError
-        On a missing column, an empty name or licence, or a repeated name;
-        the message names the file and the line.
+        On a missing column, an empty name or licence, a repeated name or a
+        row the CSV reader refuses (a cell longer than its field limit); the
+        message names the file and the line.
     """
     source = Path(path)
     try:
@@ -50,6 +51,14 @@ def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(f"{source.name}: cannot read ({err})") from err
     rows = csv.DictReader(text.splitlines())
+    try:
+        return _licence_rows(source, rows)
+    except csv.Error as err:  # a cell beyond csv.field_size_limit(), a stray NUL
+        line = rows.line_num + 1
+        raise InputError(f"{source.name}: line {line} is not a CSV row ({err})") from err
+
+
+def _licence_rows(source: Path, rows: csv.DictReader[str]) -> dict[str, dict[str, str]]:
     missing = [c for c in LICENSE_COLUMNS if c not in (rows.fieldnames or [])]
     if missing:
         raise InputError(f"{source.name}: header lacks the column(s) {', '.join(missing)}")

@@ -24,7 +24,7 @@ from pathlib import Path, PurePosixPath
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import read_json_file
+from vptoolkit.files import read_json_file, write_text_atomic
 
 __all__ = [
     "MANIFEST_NAME",
@@ -293,7 +293,7 @@ def write_sha256sums(folder: Path | str) -> dict[str, str]:
     """
     folder = Path(folder)
     sums = hash_folder(folder)
-    (folder / MANIFEST_NAME).write_text(format_sha256sums(sums), encoding="utf-8", newline="\n")
+    write_text_atomic(folder / MANIFEST_NAME, format_sha256sums(sums))
     return sums
 
 
@@ -311,12 +311,16 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
     Raises
     ------
     VerificationError
-        On a malformed line, a repeated path, or a path that is absolute or
-        leaves the folder (``..``); the message names the line number.
+        On text that is not UTF-8, a malformed line, a repeated path, or a
+        path that is absolute or leaves the folder (``..``); the message names
+        the line number.
     """
     path = Path(path)
     sums: dict[str, str] = {}
-    text = path.read_text(encoding="utf-8")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise VerificationError(f"{path.name}: not UTF-8 text (byte {err.start})") from err
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
@@ -469,7 +473,8 @@ def _verify_release(folder: Path) -> VerifyReport:
     archives = sorted(
         entry for entry in folder.iterdir() if _is_archive(entry) and not entry.name.startswith(".")
     )
-    if not archives:
+    if not archives and not any(relative.endswith(".parquet") for relative in listed):
+        # A Parquet-only release is checked by the manifest's digests alone.
         report.problems.append(Problem("missing", folder.name or str(folder),
                                        "no archive (*.zarr.zip, *.h5) in the release"))
     found = {}
@@ -490,7 +495,8 @@ def verify(path: Path | str) -> VerifyReport:
         listed file is re-hashed against the manifest (a missing manifest is
         a problem), files it does not list become warnings, then every array
         of every archive in the folder is re-hashed against its ``sha256``
-        attribute and compared across archives. An archive that cannot be
+        attribute and compared across archives (a release of Parquet shards
+        only is checked by the manifest alone). An archive that cannot be
         opened for lack of a package is ``skipped``, not damaged. Otherwise any path
         :func:`vptoolkit.dataset.containers.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.

@@ -63,7 +63,7 @@ from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import remove_stale_partials, temporary_prefix
+from vptoolkit.files import held, named_os_error, remove_stale_partials, temporary_prefix
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -234,6 +234,13 @@ def _check_release_dir(release_dir: Path) -> None:
             raise InputError(
                 f"{release_dir}: folder is not empty; pack into a new or empty folder"
             )
+
+
+def _check_still_empty(release_dir: Path) -> None:
+    """The check of :func:`_check_release_dir` again, once everything is written."""
+    if release_dir.is_dir() and not release_dir.is_symlink() and any(release_dir.iterdir()):
+        raise InputError(f"{release_dir}: folder was filled while packing; release left untouched")
+    _check_release_dir(release_dir)
 
 
 def _umask() -> int:
@@ -483,55 +490,62 @@ def pack_release(
     staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
                                     dir=target.parent))
     try:
-        with open_store(source) as reader:
-            attrs = dict(reader.attrs)
-            when = release_created(created, attrs.get("created"))
-            attrs["created"] = when
-            attrs["dataset_version"] = version
-            entries = _ReaderEntries(reader, provenance)
-            views = reader.array("views")[:]
-            failures = reader.failures()
-            for archive in dict.fromkeys([*written, described_name]):
-                write_dataset(staging / archive, entries, attrs=attrs, views=views,
-                              failures=failures, progress=progress)
-        digests = {archive: sha256_file(staging / archive) for archive in written}
-        shards: list[ParquetShard] = []
-        with open_store(staging / described_name) as packed:
-            records = packed.models()
-            if "parquet" in chosen:
-                from vptoolkit.dataset.parquet import write_parquet_shards
+        with held(staging):  # a concurrent pack's cleanup leaves it alone
+            with open_store(source) as reader:
+                attrs = dict(reader.attrs)
+                when = release_created(created, attrs.get("created"))
+                attrs["created"] = when
+                attrs["dataset_version"] = version
+                entries = _ReaderEntries(reader, provenance)
+                views = reader.array("views")[:]
+                failures = reader.failures()
+                for archive in dict.fromkeys([*written, described_name]):
+                    write_dataset(staging / archive, entries, attrs=attrs, views=views,
+                                  failures=failures, progress=progress)
+            digests = {archive: sha256_file(staging / archive) for archive in written}
+            shards: list[ParquetShard] = []
+            with open_store(staging / described_name) as packed:
+                records = packed.models()
+                if "parquet" in chosen:
+                    from vptoolkit.dataset.parquet import write_parquet_shards
 
-                shards = write_parquet_shards(packed, staging)
-                digests.update({s.path: sha256_file(staging / s.path) for s in shards})
-            found = _release_warnings(records, provenance is not None)
-            if provenance is not None:
-                write_licenses(staging / LICENSES_NAME, records)
-            _copy_schema(staging / SCHEMA_NAME)
-            for extra in (LICENSES_NAME, SCHEMA_NAME):
-                if (staging / extra).exists():
-                    digests[extra] = sha256_file(staging / extra)
-            sizes = {file: (staging / file).stat().st_size for file in digests}
-            options = ReleaseOptions(
-                license=license, version=version, created=when, pretty_name=pretty_name,
-                source_url=source_url, url=url, creator=creator,
-                license_name=license_name or ("source-mesh-licenses" if license == "other"
-                                              else None),
-                license_link=license_link or (
-                    (LICENSES_NAME if provenance is not None else CARD_NAME)
-                    if license == "other" else None),
-            )
-            card = render_card(packed, digests, file_sizes=sizes, shards=shards,
-                               **options.card_arguments(), warnings=found)
-            (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
-            write_descriptions(staging, packed, digests, sizes, shards, options)
-            info = info_from_reader(packed)
-        if described_name not in written:
-            (staging / described_name).unlink()
-        write_json(staging / INFO_NAME, info)
-        files = write_sha256sums(staging)
-        _check_release_dir(target)
-        _publish(staging, target)
-        remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
+                    shards = write_parquet_shards(packed, staging)
+                    digests.update({s.path: sha256_file(staging / s.path) for s in shards})
+                found = _release_warnings(records, provenance is not None)
+                if provenance is not None:
+                    write_licenses(staging / LICENSES_NAME, records)
+                _copy_schema(staging / SCHEMA_NAME)
+                for extra in (LICENSES_NAME, SCHEMA_NAME):
+                    if (staging / extra).exists():
+                        digests[extra] = sha256_file(staging / extra)
+                sizes = {file: (staging / file).stat().st_size for file in digests}
+                options = ReleaseOptions(
+                    license=license, version=version, created=when, pretty_name=pretty_name,
+                    source_url=source_url, url=url, creator=creator,
+                    license_name=license_name or ("source-mesh-licenses" if license == "other"
+                                                  else None),
+                    license_link=license_link or (
+                        (LICENSES_NAME if provenance is not None else CARD_NAME)
+                        if license == "other" else None),
+                )
+                card = render_card(packed, digests, file_sizes=sizes, shards=shards,
+                                   **options.card_arguments(), warnings=found)
+                (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
+                write_descriptions(staging, packed, digests, sizes, shards, options)
+                info = info_from_reader(packed)
+            if described_name not in written:
+                (staging / described_name).unlink()
+            write_json(staging / INFO_NAME, info)
+            files = write_sha256sums(staging)
+            _check_still_empty(target)
+            _publish(staging, target)
+            remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
+    except OSError as err:
+        shutil.rmtree(staging, ignore_errors=True)
+        if err.filename is None or str(err.filename).startswith(str(staging)):
+            # a full disk or a file too large: name the release, not the hidden folder
+            raise named_os_error(err, target) from err
+        raise
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

@@ -42,7 +42,7 @@ from vptoolkit.dataset.schema import (
     published_split,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import remove_stale_partials, temporary_prefix
+from vptoolkit.files import named_os_error, remove_stale_partials, temporary_prefix
 from vptoolkit.progress import Bar, progress_bar
 
 __all__ = ["write_dataset"]
@@ -514,6 +514,11 @@ def write_dataset(
         _move_into_place(temporary, target, kind)
         remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
         is_done = True
+    except OSError as err:
+        if err.filename is None or str(err.filename).startswith(str(temporary)):
+            # a full disk or a file too large: name the store, not the hidden folder
+            raise named_os_error(err, target) from err
+        raise
     finally:
         if not is_done:
             _remove(temporary)

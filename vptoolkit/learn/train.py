@@ -500,7 +500,8 @@ def train_per_category(
 
     Each category's run is :func:`train_model` with ``categories=[name]``
     into ``output/<category>/``; ``output/categories.json`` indexes them
-    (``format``, ``categories``: name to checkpoint folder). Give that folder
+    (``format``, ``categories``: name to checkpoint folder); categories an
+    earlier run into the same folder listed stay listed. Give that folder
     to :func:`vptoolkit.learn.predict.predict`, which routes each model to
     its category's network.
 
@@ -527,15 +528,33 @@ def train_per_category(
     with open_dataset(dataset_path) as dataset:
         names = select_categories(dataset, categories) if categories is not None else sorted(
             set(dataset.split("train").categories))
+    index = _category_index(folder)
     results = {}
     for name in names:
         results[name] = train_model(dataset_path, folder / name, categories=[name],
                                     progress=progress, **options)
+        index[name] = name
         write_json_atomic(folder / "categories.json", {
             "format": CATEGORY_MODELS_FORMAT,
-            "categories": {done: done for done in results},
+            "categories": dict(sorted(index.items())),
         })
     return results
+
+
+def _category_index(folder: Path) -> dict[str, str]:
+    """The networks ``folder/categories.json`` already lists, kept when other categories train."""
+    from vptoolkit.learn.checkpoint import read_json
+
+    path = folder / "categories.json"
+    if not path.exists():
+        return {}
+    entries = read_json(path, "per-category index")
+    listed = entries.get("categories")
+    if entries.get("format") != CATEGORY_MODELS_FORMAT or not isinstance(listed, dict) or not all(
+            isinstance(key, str) and isinstance(value, str) for key, value in listed.items()):
+        raise InputError(f"{path}: not a vptoolkit per-category index; move it away or train "
+                         "into another folder")
+    return dict(listed)
 
 
 def _train_epoch(model: ViewpointNet, optimizer: torch.optim.Optimizer, train_data: Any,

@@ -1,0 +1,77 @@
+"""tools/score_held_out.py: its arguments are checked first, each in one line, and a
+per-category folder scores each mesh with its category's network."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from conftest import require_package
+from test_pack_integrity import build  # noqa: F401 - a small synthetic store
+
+
+@pytest.fixture()
+def tool(monkeypatch) -> ModuleType:
+    """The script, with its build replaced by one that must not run before the checks."""
+    for module in ("torch", "safetensors", "zarr"):
+        require_package(module)
+    module = importlib.import_module("score_held_out")
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("built before the arguments were checked")
+
+    monkeypatch.setattr(module, "build_dataset", no_build)
+    return module
+
+
+@pytest.mark.parametrize("case", ["missing-folder", "rotations-0", "views-0", "out-is-a-file",
+                                  "out-holds-no-build", "json-in-a-missing-folder",
+                                  "not-an-integer"])
+def test_bad_arguments_are_one_line_with_exit_2(tool: ModuleType, tmp_path: Path, capsys,
+                                                case: str) -> None:
+    meshes = tmp_path / "meshes"
+    meshes.mkdir()
+    (tmp_path / "file").write_text("x")
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("mine")
+    argv = {
+        "missing-folder": [str(tmp_path / "nowhere")],
+        "rotations-0": [str(meshes), "--rotations", "0"],
+        "views-0": [str(meshes), "--views", "0"],
+        "out-is-a-file": [str(meshes), "--out", str(tmp_path / "file")],
+        "out-holds-no-build": [str(meshes), "--out", str(tmp_path / "other")],
+        "json-in-a-missing-folder": [str(meshes), "--json", str(tmp_path / "no" / "s.json")],
+        "not-an-integer": [str(meshes), "--views", "many"],
+    }[case]
+    with pytest.raises(SystemExit) as caught:
+        tool.main(argv)
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("score_held_out.py: error: "), err
+    assert "Traceback" not in err
+
+
+def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, build: Path,  # noqa: F811
+                                                     monkeypatch) -> None:
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(build) as dataset:
+        expected = dict(zip(dataset.names, dataset.categories))
+    seen = {}
+
+    def network_predictor(model, *, categories=None):
+        seen.update(categories or {})
+
+        def predictor(points, names):
+            assert all(name in seen for name in names)  # every mesh has its category
+            return np.tile([0.0, 0.0, 1.0], (len(names), 4, 1))
+
+        return predictor
+
+    monkeypatch.setattr(tool, "network_predictor", network_predictor)
+    rows = tool.score(build, "per-category", rotations=1)
+    assert seen == expected and len(rows["network"].names) == len(expected)
