@@ -46,7 +46,6 @@ def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path) -> No
     assert text.count(" * |") >= 1  # the Pareto front is marked
 
 
-
 @pytest.mark.parametrize("arguments, message", [
     (["--budgets", "0,4"], "--budgets"),
     (["--budgets", "a"], "--budgets"),
