@@ -213,3 +213,48 @@ def test_export_refuses_a_store_without_the_authors_views(tmp_path):
     with pytest.raises(InputError, match="Fibonacci sphere of 1000"):
         export_authors(result.path, tmp_path / "ModelNet")
     assert not (tmp_path / "ModelNet").exists()
+
+
+# --------------------------------------------------------------------------- command line
+
+
+def test_import_and_export_from_the_command_line(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.data import open_dataset
+    from vptoolkit.evaluate import oracle_directions
+
+    runner = CliRunner()
+    tree = write_tree(tmp_path / "set", listed(("chair", 10), ("lamp", 10)), n_points=64)
+    (tree / "pts_unif/lamp/train/lamp_0003.txt").write_text("1,2,3\n")
+    out = tmp_path / "out"
+    imported = runner.invoke(main, ["import-authors", str(tree), str(out)])
+    assert imported.exit_code == 1, imported.output
+    assert imported.stdout.startswith("imported ") and "19 models" in imported.stdout
+    assert "lamp_0003.txt" in imported.stderr and "Traceback" not in imported.output
+    for command in (["info", str(out)], ["verify", str(out)],
+                    ["pack", str(out), str(tmp_path / "release")]):
+        result = runner.invoke(main, command)
+        assert result.exit_code == 0, (command, result.output)
+    card = (tmp_path / "release/README.md").read_text()
+    assert "The measures were imported, not computed" in card and "index % 10" in card
+    with open_dataset(out) as dataset:
+        test = dataset.split("test")
+        assert test.names == ["chair_0010", "lamp_0010"]
+        np.save(tmp_path / "oracle.npy", oracle_directions(test))
+    scored = runner.invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                  str(out), "--json"])
+    assert scored.exit_code == 0, scored.output
+    assert json.loads(scored.stdout)["mean"] == {m: 100.0 for m in MEASURES}
+    only = runner.invoke(main, ["import-authors", str(tree), str(tmp_path / "chairs"),
+                                "--categories", "chair", "--no-meshes"])
+    assert only.exit_code == 0 and "10 models (8 train, 1 validation, 1 test)" in only.stdout
+    exported = runner.invoke(main, ["export-authors", str(out), str(tmp_path / "again")])
+    assert exported.exit_code == 0, exported.output
+    assert (tmp_path / "again/small.txt").read_text().count("\n") == 19
+    refused = runner.invoke(main, ["import-authors", str(tmp_path), str(tmp_path / "x")])
+    assert refused.exit_code == 2 and refused.stderr.count("\n") == 1
+    assert "not in the authors' layout" in refused.stderr

@@ -1,4 +1,5 @@
-"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify`` and ``info``."""
+"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify``, ``info``,
+``import-authors`` and ``export-authors``."""
 
 from __future__ import annotations
 
@@ -184,5 +185,69 @@ def info(path: Path, as_json: bool) -> None:
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
 
 
-COMMANDS = (build_dataset, pack, verify, info)
+@click.command("import-authors")
+@click.argument("tree", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--categories", help="Comma-separated categories to import (default: all); the "
+              "paper's split counts only their lines of small.txt.")
+@click.option("--no-meshes", is_flag=True, help="Leave out objfiles/ (store empty meshes).")
+def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: bool) -> None:
+    """Import the paper authors' released data set TREE (data/<set>) into OUT.
+
+    OUT/dataset.zarr is an ordinary store: their measures (vq5 = VE, vq4 = VR,
+    vq7 = VKL, vq8 = VMI) as raw values and normalised per model, their points,
+    normals and meshes, and the paper's split (index % 10 over the
+    category-filtered lines of small.txt: 0-7 train, 8 validation, 9 test).
+    A model with a missing or malformed file is a failure (exit code 1); a
+    tree not in their layout is refused (exit code 2).
+
+    \b
+    Example:
+      vptool import-authors data/ModelNet40 out/ \\
+          --categories airplane,bench,bottle,car,chair,sofa,table,toilet
+    """
+    from vptoolkit.dataset.authors import import_authors as run_import
+
+    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    result = run_import(tree, out, categories=chosen, meshes=not no_meshes, progress=True)
+    counts = ", ".join(f"{n} {split}" for split, n in result.split_counts.items())
+    click.echo(f"imported {result.path}: {result.n_models} models ({counts}), "
+               f"{result.n_failures} failures")
+    for failure in result.failures:
+        click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
+    if result.n_failures:
+        sys.exit(EXIT_FAILURE)
+
+
+@click.command("export-authors")
+@click.argument("dataset", type=EXISTING)
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+def export_authors(dataset: Path, out: Path) -> None:
+    """Write DATASET in the paper authors' tree OUT (data/<set>) for their training code.
+
+    small.txt is ordered so that the paper's rule (index % 10 over its lines)
+    gives each model its split; the models it cannot place are listed. The
+    store needs the 1000 Fibonacci views of the paper.
+
+    \b
+    Example:
+      vptool export-authors out/ viewpoint_learning/data/mine
+    """
+    from vptoolkit.dataset.authors import export_authors as run_export
+
+    result = run_export(dataset, out, progress=True)
+    click.echo(f"exported {result.n_models} models into {result.path}")
+    if result.mismatched:
+        click.echo(f"vptool: warning: the paper's rule over small.txt gives "
+                   f"{len(result.mismatched)} models another split than ours (the split "
+                   f"sizes do not fit 8:1:1): {', '.join(result.mismatched)}", err=True)
+    if result.n_meshless:
+        click.echo(f"vptool: warning: {result.n_meshless} models have no stored mesh; "
+                   "their objfiles/ entry is not written", err=True)
+    if result.n_unseen_values:
+        click.echo(f"vptool: warning: {result.n_unseen_values} raw values of views that see "
+                   "nothing were written as their measure's worst value", err=True)
+
+
+COMMANDS = (build_dataset, pack, verify, info, import_authors, export_authors)
 """The commands this module adds to ``vptool``."""

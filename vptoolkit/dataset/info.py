@@ -168,6 +168,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         },
         "camera": attrs.get("camera"),
         "cleaning": attrs.get("cleaning"),
+        "provenance": attrs.get("provenance"),
         "statistics": statistics,
         "n_failures": len(failures),
         "failures": [
