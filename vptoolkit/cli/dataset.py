@@ -39,11 +39,16 @@ from vptoolkit.errors import InputError
 @workers_option("Local worker processes.", default=1)
 @click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
 @click.option("--split-seed", default=SEED, show_default=True, type=int,
-              help="Seed of the train/val/test assignment.")
+              help="Seed of the train/val/test assignment (and of the point samples).")
+@click.option("--splits", "split_file",
+              type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
+              help="A published split instead of the seeded one: a CSV with the header "
+              "name,split, or the paper authors' small.txt (their index % 10 rule over "
+              "the lines of --categories).")
 def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
                   n_views: int, resolution: int, n_points: int, max_faces: int,
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
-                  split_seed: int) -> None:
+                  split_seed: int, split_file: Path | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
@@ -55,6 +60,8 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     \b
     Example:
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
+      vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
+          --splits data/ModelNet40/small.txt
     """
     from vptoolkit.dataset.build import build_dataset as build
 
@@ -62,9 +69,17 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
                    resolution=resolution, n_points=n_points, max_faces=max_faces,
                    clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
-                   split_seed=split_seed, progress=True)
+                   split_seed=split_seed, splits=split_file, progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")
+    if result.split_file is not None:
+        report = result.split_file
+        click.echo(f"split from {report.path}: placed {report.n_placed} models")
+        if report.not_in_source:
+            shown = ", ".join(report.not_in_source[:5])
+            more = ", ..." if len(report.not_in_source) > 5 else ""
+            click.echo(f"vptool: warning: {len(report.not_in_source)} names in {report.path} "
+                       f"are not models of SRC: {shown}{more}", err=True)
     for failure in result.failures:
         click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
     if result.n_failures:

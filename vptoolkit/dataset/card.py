@@ -369,6 +369,10 @@ def _method_sentences(info: dict[str, Any], split_sentence: str,
         "  The per-face pixel counts give the measures in the notation of Bonaventura et\n"
         "  al., as defined in the paper."
     )
+    split_file = info.get("split_file")
+    if isinstance(split_file, dict):
+        splits_sentence = (f"Read from the split file `{split_file.get('name')}` "
+                           f"(SHA-256 `{split_file.get('sha256')}`), a published split.")
     if provenance.get("measures") == "imported, not computed":
         splits_sentence = f"The paper's own: {provenance.get('split_rule')}."
         collection_sentence = (
