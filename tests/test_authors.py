@@ -9,12 +9,8 @@ import numpy as np
 import pytest
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.authors import (
-    AUTHORS_FOLDERS,
-    export_authors,
-    import_authors,
-    order_for_paper_rule,
-)
+from vptoolkit.dataset.authors import AUTHORS_FOLDERS, import_authors
+from vptoolkit.dataset.authors_export import export_authors, order_for_paper_rule
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.split_files import paper_split, paper_splits, read_model_list
 from vptoolkit.errors import InputError

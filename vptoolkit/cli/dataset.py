@@ -248,7 +248,7 @@ def export_authors(dataset: Path, out: Path) -> None:
     Example:
       vptool export-authors out/ viewpoint_learning/data/mine
     """
-    from vptoolkit.dataset.authors import export_authors as run_export
+    from vptoolkit.dataset.authors_export import export_authors as run_export
 
     result = run_export(dataset, out, progress=True)
     click.echo(f"exported {result.n_models} models into {result.path}")

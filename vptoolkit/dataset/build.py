@@ -55,6 +55,7 @@ from vptoolkit.dataset.compute import (
     process_model,
     worker_died,
 )
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.dataset.sources import (
     SPLIT_FRACTIONS,
     SourceModel,
@@ -80,7 +81,6 @@ from vptoolkit.dataset.staging import (
     warn_about_models_left_out,
 )
 from vptoolkit.dataset.writer import write_dataset
-from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
