@@ -254,3 +254,33 @@ def test_import_and_export_from_the_command_line(tmp_path):
     refused = runner.invoke(main, ["import-authors", str(tmp_path), str(tmp_path / "x")])
     assert refused.exit_code == 2 and refused.stderr.count("\n") == 1
     assert "not in the authors' layout" in refused.stderr
+
+
+# --------------------------------------------------------------------------- the measures check
+
+
+def test_check_finds_our_own_measures_in_an_exported_build(built, tmp_path):
+    from vptoolkit.dataset.authors_check import check_measures
+
+    export_authors(built, tmp_path / "set")
+    imported = import_authors(tmp_path / "set", tmp_path / "back")
+    check = check_measures(imported.path, 2, resolution=32)
+    assert [m.name for m in check.models] == ["bottle", "table"] and not check.failures
+    for row in check.summary().values():
+        assert row["mean_correlation"] > 0.99 and row["median_angle_deg"] < 1.0
+
+
+def test_check_from_the_command_line_and_without_meshes(tmp_path):
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    result = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "out"),
+                                       "--check", "5", "--check-resolution", "16"])
+    assert result.exit_code == 0, result.output
+    assert "check: our measures at 16 px on 2 models against theirs" in result.stdout
+    assert "VKL: rank correlation" in result.stdout and "deg apart (median)" in result.stdout
+    bare = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "bare"),
+                                     "--no-meshes", "--check", "1"])
+    assert bare.exit_code == 0 and "no stored mesh" in bare.stderr

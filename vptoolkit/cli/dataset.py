@@ -206,7 +206,13 @@ def info(path: Path, as_json: bool) -> None:
 @click.option("--categories", help="Comma-separated categories to import (default: all); the "
               "paper's split counts only their lines of small.txt.")
 @click.option("--no-meshes", is_flag=True, help="Leave out objfiles/ (store empty meshes).")
-def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: bool) -> None:
+@click.option("--check", "n_check", type=click.IntRange(1), help="Then measure N imported "
+              "models with our pipeline and compare: rank correlation per measure and the "
+              "angle between the best views.")
+@click.option("--check-resolution", default=1024, show_default=True,
+              type=click.IntRange(1, 16384), help="Image side in pixels of --check.")
+def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: bool,
+                   n_check: int | None, check_resolution: int) -> None:
     """Import the paper authors' released data set TREE (data/<set>) into OUT.
 
     OUT/dataset.zarr is an ordinary store: their measures (vq5 = VE, vq4 = VR,
@@ -219,7 +225,7 @@ def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: boo
     \b
     Example:
       vptool import-authors data/ModelNet40 out/ \\
-          --categories airplane,bench,bottle,car,chair,sofa,table,toilet
+          --categories airplane,bench,bottle,car,chair,sofa,table,toilet --check 20
     """
     from vptoolkit.dataset.authors import import_authors as run_import
 
@@ -230,6 +236,21 @@ def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: boo
                f"{result.n_failures} failures")
     for failure in result.failures:
         click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
+    if n_check is not None:
+        from vptoolkit.dataset.authors_check import check_measures
+
+        check = check_measures(result.path, n_check, resolution=check_resolution,
+                               progress=True)
+        click.echo(f"check: our measures at {check.resolution} px on {len(check.models)} "
+                   "models against theirs")
+        for measure, row in check.summary().items():
+            correlation = row["mean_correlation"]
+            angle = row["median_angle_deg"]
+            click.echo(f"  {measure}: rank correlation "
+                       f"{'-' if correlation is None else f'{correlation:.3f}'} (mean), best "
+                       f"views {'-' if angle is None else f'{angle:.1f}'} deg apart (median)")
+        for line in check.failures:
+            click.echo(f"  not checked {line}", err=True)
     if result.n_failures:
         sys.exit(EXIT_FAILURE)
 

@@ -228,9 +228,9 @@ def _write_measures(root: Path, stem: str, raw: NDArray[Any], quality: NDArray[A
         _write(root / "best_views" / folder / "3D" / f"{stem}_vq_list.txt",
                _text(values[:, None], "%.9g"))
         best = int(np.argmax(quality[:, column]))
-        summary = np.array([values.max(), values.min(), *views[best]], dtype=np.float64)
+        extremes = _text(np.array([[values.max()], [values.min()]], dtype=np.float32), "%.9g")
         _write(root / "best_views" / folder / "best" / f"{stem}.txt",
-               _text(summary[:, None], "%.17g"))
+               extremes + _text(views[best][:, None], "%.17g"))
     return n_unseen
 
 
