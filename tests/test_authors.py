@@ -284,3 +284,19 @@ def test_check_from_the_command_line_and_without_meshes(tmp_path):
     bare = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "bare"),
                                      "--no-meshes", "--check", "1"])
     assert bare.exit_code == 0 and "no stored mesh" in bare.stderr
+
+
+def test_unprefixed_lines_duplicates_and_unknown_categories(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    lines = (tree / "small.txt").read_text().splitlines()
+    (tree / "small.txt").write_text("\n".join([lines[0].removeprefix("objfiles/"), *lines,
+                                               ""]))
+    result = import_authors(tree, tmp_path / "out")
+    assert result.n_models == 2 and result.n_failures == 1
+    assert "lists 'chair_0001' a second time" in result.failures[0]["reason"]
+    with pytest.raises(InputError, match="no lines of the categories lamp"):
+        import_authors(tree, tmp_path / "other", categories=["chair", "lamp"])
+    with pytest.raises(InputError, match="exists and is not an empty folder"):
+        import_authors(tree, tmp_path / "out")
+    with pytest.raises(InputError, match="exists and is not an empty folder"):
+        export_authors(result.path, tree)
