@@ -300,16 +300,19 @@ def import_authors(
     point count unlike the first model's) is a failure with a one-line reason
     and still takes its place in the split index. The root attributes record
     ``provenance``: the measures were imported, not computed, the tree's name,
-    and the SHA-256 of small.txt and over every file read.
+    and the SHA-256 of small.txt and one over the files of every imported model.
     """
     root = as_path(tree, "tree")
     out_dir = as_path(out, "out")
     meshes = check_bool(meshes, "meshes")
     progress = check_bool(progress, "progress")
     _check_tree(root)
-    wanted = None if categories is None else list(categories)
+    root = root.resolve()  # so that "." still names the tree
     if isinstance(categories, str):
         raise InputError(f"categories: expected a list of names, got the string {categories!r}")
+    wanted = None if categories is None else list(categories)
+    if wanted is not None and (not wanted or not all(isinstance(c, str) and c for c in wanted)):
+        raise InputError(f"categories: expected non-empty category names, got {wanted!r}")
     listed_lines = read_model_list(root / MODEL_LIST)
     if wanted is not None:
         found = {model.category for model in listed_lines}
