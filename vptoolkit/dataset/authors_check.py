@@ -79,8 +79,8 @@ class MeasureCheck:
         """
         result: dict[str, dict[str, float | None]] = {}
         for column, measure in enumerate(MEASURES):
-            values = [m.correlation[column] for m in self.models
-                      if m.correlation[column] is not None]
+            values = [value for m in self.models
+                      if (value := m.correlation[column]) is not None]
             angles = [m.best_angle_deg[column] for m in self.models]
             result[measure] = {
                 "mean_correlation": float(np.mean(values)) if values else None,
