@@ -9,8 +9,9 @@ the commands, so ``--help`` stays fast.
 Modules: ``group`` (the click group: one-line errors, exit codes), ``options``
 (options and types several commands share, defaults from
 :mod:`vptoolkit.conventions`), ``measure`` (measures, views, clean, sample),
-``dataset`` (build-dataset, pack, verify, info), ``learn`` (train, predict,
-evaluate), ``search`` (best-view) and ``pictures`` (render, sphere-map, report, thumbnails).
+``dataset`` (build-dataset, pack, verify, info, import-authors,
+export-authors), ``learn`` (train, predict, evaluate), ``search`` (best-view)
+and ``pictures`` (render, sphere-map, report, thumbnails).
 """
 
 from __future__ import annotations

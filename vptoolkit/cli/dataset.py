@@ -1,4 +1,5 @@
-"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify`` and ``info``."""
+"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify``, ``info``,
+``import-authors`` and ``export-authors``."""
 
 from __future__ import annotations
 
@@ -38,11 +39,16 @@ from vptoolkit.errors import InputError
 @workers_option("Local worker processes.", default=1)
 @click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
 @click.option("--split-seed", default=SEED, show_default=True, type=int,
-              help="Seed of the train/val/test assignment.")
+              help="Seed of the train/val/test assignment (and of the point samples).")
+@click.option("--splits", "split_file",
+              type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
+              help="A published split instead of the seeded one: a CSV with the header "
+              "name,split, or the paper authors' small.txt (their index % 10 rule over "
+              "the lines of --categories).")
 def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
                   n_views: int, resolution: int, n_points: int, max_faces: int,
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
-                  split_seed: int) -> None:
+                  split_seed: int, split_file: Path | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
@@ -54,6 +60,8 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     \b
     Example:
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
+      vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
+          --splits data/ModelNet40/small.txt
     """
     from vptoolkit.dataset.build import build_dataset as build
 
@@ -61,9 +69,17 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
                    resolution=resolution, n_points=n_points, max_faces=max_faces,
                    clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
-                   split_seed=split_seed, progress=True)
+                   split_seed=split_seed, splits=split_file, progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")
+    if result.split_file is not None:
+        report = result.split_file
+        click.echo(f"split from {report.path}: placed {report.n_placed} models")
+        if report.not_in_source:
+            shown = ", ".join(report.not_in_source[:5])
+            more = ", ..." if len(report.not_in_source) > 5 else ""
+            click.echo(f"vptool: warning: {len(report.not_in_source)} names in {report.path} "
+                       f"are not models of SRC: {shown}{more}", err=True)
     for failure in result.failures:
         click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
     if result.n_failures:
@@ -184,5 +200,90 @@ def info(path: Path, as_json: bool) -> None:
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
 
 
-COMMANDS = (build_dataset, pack, verify, info)
+@click.command("import-authors")
+@click.argument("tree", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+@click.option("--categories", help="Comma-separated categories to import (default: all); the "
+              "paper's split counts only their lines of small.txt.")
+@click.option("--no-meshes", is_flag=True, help="Leave out objfiles/ (store empty meshes).")
+@click.option("--check", "n_check", type=click.IntRange(1), help="Then measure N imported "
+              "models with our pipeline and compare: rank correlation per measure and the "
+              "angle between the best views.")
+@click.option("--check-resolution", default=1024, show_default=True,
+              type=click.IntRange(1, 16384), help="Image side in pixels of --check.")
+def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: bool,
+                   n_check: int | None, check_resolution: int) -> None:
+    """Import the paper authors' released data set TREE (data/<set>) into OUT.
+
+    OUT/dataset.zarr is an ordinary store: their measures (vq5 = VE, vq4 = VR,
+    vq7 = VKL, vq8 = VMI) as raw values and normalised per model, their points,
+    normals and meshes, and the paper's split (index % 10 over the
+    category-filtered lines of small.txt: 0-7 train, 8 validation, 9 test).
+    A model with a missing or malformed file is a failure (exit code 1); a
+    tree not in their layout is refused (exit code 2).
+
+    \b
+    Example:
+      vptool import-authors data/ModelNet40 out/ \\
+          --categories airplane,bench,bottle,car,chair,sofa,table,toilet --check 20
+    """
+    from vptoolkit.dataset.authors import import_authors as run_import
+
+    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    result = run_import(tree, out, categories=chosen, meshes=not no_meshes, progress=True)
+    counts = ", ".join(f"{n} {split}" for split, n in result.split_counts.items())
+    click.echo(f"imported {result.path}: {result.n_models} models ({counts}), "
+               f"{result.n_failures} failures")
+    for failure in result.failures:
+        click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
+    if n_check is not None:
+        from vptoolkit.dataset.authors_check import check_measures
+
+        check = check_measures(result.path, n_check, resolution=check_resolution,
+                               progress=True)
+        click.echo(f"check: our measures at {check.resolution} px on {len(check.models)} "
+                   "models against theirs")
+        for measure, row in check.summary().items():
+            correlation = row["mean_correlation"]
+            angle = row["median_angle_deg"]
+            click.echo(f"  {measure}: rank correlation "
+                       f"{'-' if correlation is None else f'{correlation:.3f}'} (mean), best "
+                       f"views {'-' if angle is None else f'{angle:.1f}'} deg apart (median)")
+        for line in check.failures:
+            click.echo(f"  not checked {line}", err=True)
+    if result.n_failures:
+        sys.exit(EXIT_FAILURE)
+
+
+@click.command("export-authors")
+@click.argument("dataset", type=EXISTING)
+@click.argument("out", type=click.Path(file_okay=False, path_type=Path))
+def export_authors(dataset: Path, out: Path) -> None:
+    """Write DATASET in the paper authors' tree OUT (data/<set>) for their training code.
+
+    small.txt is ordered so that the paper's rule (index % 10 over its lines)
+    gives each model its split; the models it cannot place are listed. The
+    store needs the 1000 Fibonacci views of the paper.
+
+    \b
+    Example:
+      vptool export-authors out/ viewpoint_learning/data/mine
+    """
+    from vptoolkit.dataset.authors_export import export_authors as run_export
+
+    result = run_export(dataset, out, progress=True)
+    click.echo(f"exported {result.n_models} models into {result.path}")
+    if result.mismatched:
+        click.echo(f"vptool: warning: the paper's rule over small.txt gives "
+                   f"{len(result.mismatched)} models another split than ours (the split "
+                   f"sizes do not fit 8:1:1): {', '.join(result.mismatched)}", err=True)
+    if result.n_meshless:
+        click.echo(f"vptool: warning: {result.n_meshless} models have no stored mesh; "
+                   "their objfiles/ entry is not written", err=True)
+    if result.n_unseen_values:
+        click.echo(f"vptool: warning: {result.n_unseen_values} raw values of views that see "
+                   "nothing were written as their measure's worst value", err=True)
+
+
+COMMANDS = (build_dataset, pack, verify, info, import_authors, export_authors)
 """The commands this module adds to ``vptool``."""

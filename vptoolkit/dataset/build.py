@@ -10,6 +10,8 @@ orchestration; its parts live beside it:
 
 - :mod:`vptoolkit.dataset.sources`: finding the mesh files, model ids,
   categories, duplicate names, splits and per-model seeds;
+- :mod:`vptoolkit.dataset.split_files`: a published split read from a file
+  (``splits``) instead of the seeded one;
 - :mod:`vptoolkit.dataset.staging`: the resumable ``OUT/.staging`` folder,
   its files and their validation (how a killed build resumes);
 - :mod:`vptoolkit.dataset.compute`: what one model's task does (load,
@@ -33,6 +35,7 @@ Parallelism
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import time
@@ -52,6 +55,7 @@ from vptoolkit.dataset.compute import (
     process_model,
     worker_died,
 )
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.dataset.sources import (
     SPLIT_FRACTIONS,
     SourceModel,
@@ -62,6 +66,7 @@ from vptoolkit.dataset.sources import (
     split_duplicates,
     split_of,
 )
+from vptoolkit.dataset.split_files import read_split_file
 from vptoolkit.dataset.staging import (
     STAGING_DIR,
     StagedEntries,
@@ -90,6 +95,7 @@ __all__ = [
     "STAGING_DIR",
     "VIEW_SET_VIEWS",
     "BuildResult",
+    "SplitFileReport",
     "SourceModel",
     "assign_split",
     "build_dataset",
@@ -133,6 +139,9 @@ class BuildResult:
     n_computed : int
         Models computed (not resumed) in this call, the count behind
         ``stage_seconds`` (default: 0).
+    split_file : SplitFileReport or None
+        With ``splits``: how many models the file placed and which of its
+        names are not models of the source (default: None).
     """
 
     path: Path
@@ -143,6 +152,26 @@ class BuildResult:
     n_resumed: int = 0
     stage_seconds: dict[str, float] = field(default_factory=dict)
     n_computed: int = 0
+    split_file: SplitFileReport | None = None
+
+
+@dataclass(frozen=True)
+class SplitFileReport:
+    """How a split file of :func:`build_dataset` (``splits``) matched the source.
+
+    Attributes
+    ----------
+    path : Path
+        The split file.
+    n_placed : int
+        Models of the source (after ``categories``) the file gave a split.
+    not_in_source : tuple of str
+        Names in the file that are not models of the source, sorted.
+    """
+
+    path: Path
+    n_placed: int
+    not_in_source: tuple[str, ...] = ()
 
 
 def build_dataset(
@@ -160,6 +189,7 @@ def build_dataset(
     workers: int = 1,
     scheduler: str | None = None,
     split_seed: int = 0,
+    splits: str | os.PathLike[str] | None = None,
     progress: bool = False,
 ) -> BuildResult:
     """Measure every mesh under ``src`` and write one dataset store in ``out``.
@@ -202,6 +232,13 @@ def build_dataset(
         same path (default: None, run locally).
     split_seed : int
         Seed of the split and of every model's point sample (default: 0).
+    splits : str or os.PathLike, optional
+        A published split to use instead of the seeded one
+        (:func:`~vptoolkit.dataset.split_files.read_split_file`): a
+        ``name,split`` CSV, or the paper authors' ``small.txt`` with their
+        rule over the lines of ``categories``. Every model of the source must
+        be in it; names in it that the source lacks are reported in
+        :attr:`BuildResult.split_file` (default: None, the seeded split).
     progress : bool
         Show a progress bar (models, failures, ETA) on stderr (default: False).
 
@@ -216,7 +253,9 @@ def build_dataset(
         If an option is invalid, ``src`` has no meshes, ``out`` is a
         non-empty folder that is not a build folder, ``out`` holds a build
         with other options, another build is running in ``out``, or the
-        scheduler cannot be reached.
+        scheduler cannot be reached, or the split file cannot be read or
+        does not place every model of the source (the message counts and
+        names them).
     MissingDependencyError
         If zarr/h5py, pymeshlab (with ``clean``) or distributed (with
         ``scheduler``) is not installed.
@@ -240,6 +279,7 @@ def build_dataset(
         clean=clean,
         remesh=remesh,
         split_seed=split_seed,
+        splits=splits,
     )
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None:
@@ -259,6 +299,7 @@ def build_dataset(
     root = as_path(src, "src").resolve()
     models = models_outside(models, out_dir)
     unique, duplicate_failures = split_duplicates(models)
+    chosen_splits, split_report = _file_splits(splits, categories, models, unique)
 
     staging = prepare_out(out_dir)
     with build_lock(staging):
@@ -305,7 +346,9 @@ def build_dataset(
 
         entries = StagedEntries(
             [
-                (done[model.model_id], split_of(model, options["split_seed"]))
+                (done[model.model_id],
+                 chosen_splits[model.name] if chosen_splits is not None
+                 else split_of(model, options["split_seed"]))
                 for model in unique
                 if model.model_id in done
             ]
@@ -319,7 +362,8 @@ def build_dataset(
         write_dataset(
             store_path,
             entries,
-            attrs=_store_attrs(options, source=root.name, created=created),
+            attrs=_store_attrs(options, source=root.name, created=created,
+                               split_file=split_report),
             views=fibonacci_sphere(options["n_views"]),
             failures=failures,
             progress=progress,
@@ -336,7 +380,32 @@ def build_dataset(
         n_resumed=n_resumed,
         stage_seconds=stage_seconds,
         n_computed=n_computed,
+        split_file=split_report,
     )
+
+
+def _file_splits(
+    splits: str | os.PathLike[str] | None, categories: Iterable[str] | None,
+    models: list[SourceModel], unique: list[SourceModel],
+) -> tuple[dict[str, str] | None, SplitFileReport | None]:
+    """The split of each unique model from the split file, and how the file matched."""
+    if splits is None:
+        return None, None
+    path = as_path(splits, "splits")
+    listed = read_split_file(path, None if categories is None else list(categories))
+    unplaced = [model.source for model in unique if model.name not in listed]
+    if unplaced:
+        shown = ", ".join(unplaced[:5]) + (", ..." if len(unplaced) > 5 else "")
+        raise InputError(
+            f"{path}: does not place {len(unplaced)} of the {len(unique)} models of the "
+            f"source ({shown}); add them to the file or leave them out with categories"
+        )
+    found = {model.name for model in models}
+    chosen = {model.name: "val" if published_split(listed[model.name]) == "validation"
+              else listed[model.name] for model in unique}
+    report = SplitFileReport(path=path, n_placed=len(chosen),
+                             not_in_source=tuple(sorted(set(listed) - found)))
+    return chosen, report
 
 
 def _check_options(
@@ -349,8 +418,13 @@ def _check_options(
     clean: bool,
     remesh: bool,
     split_seed: int,
+    splits: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]:
-    """Validate the options that define the result; return them as JSON types."""
+    """Validate the options that define the result; return them as JSON types.
+
+    A split file enters as the SHA-256 of its bytes (``splits_sha256``), so a
+    resumed build with an edited file is refused like one with another seed.
+    """
     if format not in FORMATS:
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {format!r}")
     import vptoolkit
@@ -364,6 +438,7 @@ def _check_options(
         "clean": check_bool(clean, "clean"),
         "remesh": check_bool(remesh, "remesh"),
         "split_seed": check_int(split_seed, "split_seed", minimum=None),
+        "splits_sha256": None if splits is None else _file_sha256(as_path(splits, "splits")),
         "backend": BACKEND,
         "camera": Camera().to_dict(),
         "toolkit_version": vptoolkit.__version__,
@@ -385,7 +460,19 @@ def _check_dependencies(options: Mapping[str, Any], scheduler: str | None) -> No
             require(module, extra=extra)  # raises MissingDependencyError with the pip command
 
 
-def _store_attrs(options: Mapping[str, Any], *, source: str, created: str) -> dict[str, Any]:
+def _file_sha256(path: Path) -> str:
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError as err:
+        raise InputError(f"{path}: cannot read the split file ({err.strerror or err})") from err
+
+
+def _store_attrs(options: Mapping[str, Any], *, source: str, created: str,
+                 split_file: SplitFileReport | None = None) -> dict[str, Any]:
+    extra: dict[str, Any] = {}
+    if split_file is not None:
+        extra["split_file"] = {"name": split_file.path.name,
+                               "sha256": options["splits_sha256"]}
     return {
         "resolution": options["resolution"],
         "backend": options["backend"],
@@ -397,6 +484,7 @@ def _store_attrs(options: Mapping[str, Any], *, source: str, created: str) -> di
         "source": source,
         "toolkit_version": options["toolkit_version"],
         "created": created,
+        **extra,
     }
 
 

@@ -148,17 +148,9 @@ def render_card(
     failure_rows = [[f"`{r.get('source')}`", r.get("category") or "-", r.get("reason") or "-"]
                     for r in info["failures"]]
     reasons = Counter(str(r.get("reason")) for r in info["failures"])
-    if cleaning.get("enabled"):
-        cleaning_sentence = (
-            "Every mesh went through the toolkit's cleaning pipeline (`vptoolkit.clean`): "
-            "self-intersections resolved, faces hidden from every view removed, then "
-            f"simplified to at most {cleaning.get('max_faces')} faces. Each model record "
-            "keeps the cleaning report (`cleaning`)."
-        )
-    else:
-        cleaning_sentence = ("The meshes were not cleaned (built with `--no-clean`); "
-                             "the measures are computed on the source meshes as read.")
     split_sentence = ", ".join(f"{name} {format_number(value)}" for name, value in fractions.items())
+    splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
+        info, split_sentence, cleaning)
 
     license_extra = "".join(
         f"\n{key}: {_yaml_str(value)}"
@@ -228,6 +220,8 @@ def render_card(
         "log_base": measures["log_base"],
         "normalisation": measures["normalisation"],
         "split_seed": info.get("split_seed"),
+        "splits_sentence": splits_sentence,
+        "collection_sentence": collection_sentence,
         "split_fractions": split_sentence or "not recorded",
         "toolkit_version": info.get("toolkit_version"),
         "created": created or info.get("created"),
@@ -353,3 +347,52 @@ def _cell(text: Any) -> str:
 def _yaml_str(text: str) -> str:
     """Quote a string for YAML (a JSON string is a valid YAML double-quoted scalar)."""
     return json.dumps(text, ensure_ascii=False)
+
+
+def _method_sentences(info: dict[str, Any], split_sentence: str,
+                      cleaning: dict[str, Any]) -> tuple[str, str, str]:
+    """The card's sentences on the split, the rendering and the cleaning.
+
+    A store imported from the paper authors' tree (root attribute
+    ``provenance``) says so instead: their split rule and their files' digests.
+    """
+    provenance = info.get("provenance") or {}
+    splits_sentence = (
+        f"Fractions {split_sentence or 'not recorded'}, decided per model from seed "
+        f"{info.get('split_seed')}\n  and `category/name` alone, so adding a model never "
+        "moves another; in a\n  ModelNet-style source tree a model under `test/` stays in test."
+    )
+    collection_sentence = (
+        "For every view direction the cleaned mesh was rendered into a triangle-ID image\n"
+        f"  of {info['resolution']} x {info['resolution']} pixels (`{info['backend']}` backend). "
+        f"Camera: {camera_sentence(info.get('camera'))}.\n"
+        "  The per-face pixel counts give the measures in the notation of Bonaventura et\n"
+        "  al., as defined in the paper."
+    )
+    split_file = info.get("split_file")
+    if isinstance(split_file, dict):
+        splits_sentence = (f"Read from the split file `{split_file.get('name')}` "
+                           f"(SHA-256 `{split_file.get('sha256')}`), a published split.")
+    if provenance.get("measures") == "imported, not computed":
+        splits_sentence = f"The paper's own: {provenance.get('split_rule')}."
+        collection_sentence = (
+            f"The measures were imported, not computed: they are the paper authors' released "
+            f"values for the `{provenance.get('tree')}` data set (small.txt SHA-256 "
+            f"`{provenance.get('small_txt_sha256')}`, SHA-256 over the {provenance.get('n_files')} "
+            f"files read `{provenance.get('files_sha256')}`), rendered by the authors at "
+            f"{info['resolution']} x {info['resolution']} pixels."
+        )
+    if provenance.get("measures") == "imported, not computed":
+        cleaning_sentence = ("The meshes and points are the authors' own, as released "
+                             "(cleaned by them, not by `vptoolkit.clean`).")
+    elif cleaning.get("enabled"):
+        cleaning_sentence = (
+            "Every mesh went through the toolkit's cleaning pipeline (`vptoolkit.clean`): "
+            "self-intersections resolved, faces hidden from every view removed, then "
+            f"simplified to at most {cleaning.get('max_faces')} faces. Each model record "
+            "keeps the cleaning report (`cleaning`)."
+        )
+    else:
+        cleaning_sentence = ("The meshes were not cleaned (built with `--no-clean`); "
+                             "the measures are computed on the source meshes as read.")
+    return splits_sentence, collection_sentence, cleaning_sentence

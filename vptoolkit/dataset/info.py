@@ -168,6 +168,8 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         },
         "camera": attrs.get("camera"),
         "cleaning": attrs.get("cleaning"),
+        "provenance": attrs.get("provenance"),
+        "split_file": attrs.get("split_file"),
         "statistics": statistics,
         "n_failures": len(failures),
         "failures": [

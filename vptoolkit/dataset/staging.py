@@ -90,6 +90,7 @@ _RESUME_OPTIONS = (
     "clean",
     "remesh",
     "split_seed",
+    "splits_sha256",
     "backend",
     "camera",
     "toolkit_version",

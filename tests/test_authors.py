@@ -1,0 +1,302 @@
+"""The authors' released layout: import, export, the paper's split rule, malformed trees."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.dataset.authors import AUTHORS_FOLDERS, import_authors
+from vptoolkit.dataset.authors_export import export_authors, order_for_paper_rule
+from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.split_files import paper_split, paper_splits, read_model_list
+from vptoolkit.errors import InputError
+from vptoolkit.measures import normalize_quality
+from vptoolkit.samples import sample_path
+from vptoolkit.sphere import fibonacci_sphere
+
+pytest.importorskip("zarr")
+
+
+def write_tree(root: Path, models: list[tuple[str, str, str]], *, n_points: int = 16,
+               seed: int = 0) -> Path:
+    """A tree in the authors' layout with random measures, a box mesh per model."""
+    rng = np.random.default_rng(seed)
+    views = fibonacci_sphere(1000)
+    for folder in AUTHORS_FOLDERS.values():
+        listing = root / "best_views" / folder / "3D"
+        listing.mkdir(parents=True, exist_ok=True)
+        np.savetxt(listing / "_point_list.txt", views, fmt="%s", delimiter=",")
+    lines = []
+    for category, split, name in models:
+        stem = f"{category}/{split}/{name}"
+        lines.append(f"objfiles/{stem}.obj")
+        obj = root / "objfiles" / f"{stem}.obj"
+        obj.parent.mkdir(parents=True, exist_ok=True)
+        obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
+        points = root / "pts_unif" / f"{stem}.txt"
+        points.parent.mkdir(parents=True, exist_ok=True)
+        np.savetxt(points, rng.random((n_points, 6)), fmt="%s", delimiter=",")
+        for folder in AUTHORS_FOLDERS.values():
+            values = root / "best_views" / folder / "3D" / f"{stem}_vq_list.txt"
+            values.parent.mkdir(parents=True, exist_ok=True)
+            np.savetxt(values, rng.random(1000), fmt="%s")
+    (root / "small.txt").write_text("\n".join(lines) + "\n")
+    return root
+
+
+def listed(*categories_and_counts: tuple[str, int]) -> list[tuple[str, str, str]]:
+    return [(category, "train", f"{category}_{i:04d}")
+            for category, count in categories_and_counts for i in range(1, count + 1)]
+
+
+# --------------------------------------------------------------------------- the split rule
+
+
+def test_paper_split_counts_only_the_filtered_lines(tmp_path):
+    models = [("chair", "train", "chair_0001"), ("lamp", "train", "lamp_0001")] * 1
+    models = [(c, "train", f"{c}_{i:04d}") for i in range(12) for c in ("chair", "lamp")]
+    write_tree(tmp_path, models)
+    lines = read_model_list(tmp_path / "small.txt")
+    chairs = paper_splits(lines, ["chair"])
+    assert [split for _, split in chairs] == [paper_split(i) for i in range(12)]
+    assert [model.name for model, _ in chairs] == [f"chair_{i:04d}" for i in range(12)]
+    assert chairs[8][1] == "validation" and chairs[9][1] == "test"
+    everything = paper_splits(lines)
+    assert [m.name for m, s in everything if s == "test"] == ["lamp_0004", "lamp_0009"]
+
+
+def test_import_keeps_the_rule_with_missing_files_and_filtered_categories(tmp_path):
+    models = [(c, "train", f"{c}_{i:04d}") for i in range(11) for c in ("chair", "lamp")]
+    tree = write_tree(tmp_path / "set", models)
+    (tree / "pts_unif/chair/train/chair_0002.txt").unlink()  # index 2 is skipped, not reused
+    result = import_authors(tree, tmp_path / "out", categories=["chair"])
+    assert result.n_models == 10 and result.n_failures == 1
+    assert "chair_0002.txt: points file is missing" in result.failures[0]["reason"]
+    with open_store(result.path) as store:
+        splits = {r["name"]: r["split"] for r in store.models()}
+        assert store.attrs["provenance"]["measures"] == "imported, not computed"
+    assert splits["chair_0008"] == "validation" and splits["chair_0009"] == "test"
+    assert splits["chair_0010"] == "train" and "chair_0002" not in splits
+    assert result.split_counts == {"train": 8, "validation": 1, "test": 1}
+
+
+def test_imported_measures_follow_the_authors_normalisation(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    result = import_authors(tree, tmp_path / "out", meshes=False)
+    with open_store(result.path) as store:
+        entry = store.entry(0)
+    for column, measure in enumerate(MEASURES):
+        theirs = np.loadtxt(tree / "best_views" / AUTHORS_FOLDERS[measure] / "3D/chair/train"
+                            / "chair_0001_vq_list.txt")
+        np.testing.assert_allclose(entry.quality_raw[:, column], theirs, rtol=1e-6)
+        if measure in ("VKL", "VMI"):
+            theirs = theirs.max() - theirs
+        expected = (theirs - theirs.min()) / (theirs.max() - theirs.min())
+        np.testing.assert_allclose(entry.quality[:, column], expected, atol=1e-6)
+        assert entry.best_index[column] == np.argmax(expected)
+    assert len(entry.faces) == 0
+    np.testing.assert_allclose(normalize_quality(entry.quality_raw), entry.quality, atol=1e-6)
+
+
+def test_order_for_paper_rule_reproduces_fitting_splits_and_names_the_rest():
+    splits = ["train"] * 8 + ["validation", "test"] + ["train"] * 3 + ["test"] * 2
+    order, mismatched = order_for_paper_rule([(f"m{i}", s) for i, s in enumerate(splits)])
+    by_name = dict((f"m{i}", s) for i, s in enumerate(splits))
+    assert sorted(order) == sorted(by_name)
+    wrong = [name for i, name in enumerate(order) if paper_split(i) != by_name[name]]
+    assert wrong == mismatched and len(wrong) == 2  # 15 lines have one test slot
+
+
+# --------------------------------------------------------------------------- malformed input
+
+
+def test_a_malformed_model_is_a_failure_and_the_import_goes_on(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 4)))
+    ve = tree / "best_views/vq5/3D/chair/train"
+    (ve / "chair_0001_vq_list.txt").write_text("0.5\n" * 999)
+    (tree / "best_views/vq7/3D/chair/train/chair_0002_vq_list.txt").write_text("nan\n" * 1000)
+    (tree / "objfiles/chair/train/chair_0003.obj").write_text("not a mesh\n")
+    result = import_authors(tree, tmp_path / "out")
+    assert result.n_models == 1
+    reasons = [failure["reason"] for failure in result.failures]
+    assert "expected 1000 lines" in reasons[0] and "chair_0001_vq_list.txt" in reasons[0]
+    assert "NaN" in reasons[1]
+    assert "chair_0003.obj" in reasons[2]
+    assert all("\n" not in reason for reason in reasons)
+
+
+@pytest.mark.parametrize("damage", ["no_small", "bad_line", "views", "no_point_list"])
+def test_a_tree_not_in_the_layout_is_refused_with_one_line(tmp_path, damage):
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    point_list = tree / "best_views/vq4/3D/_point_list.txt"
+    if damage == "no_small":
+        (tree / "small.txt").unlink()
+    elif damage == "bad_line":
+        (tree / "small.txt").write_text("chair_0001.obj\n")
+    elif damage == "views":
+        views = fibonacci_sphere(1000)[::-1]
+        np.savetxt(point_list, views, fmt="%s", delimiter=",")
+    else:
+        point_list.unlink()
+    with pytest.raises(InputError) as caught:
+        import_authors(tree, tmp_path / "out")
+    assert "\n" not in str(caught.value)
+    assert str(tree) in str(caught.value)
+    assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------- round trip
+
+
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    from vptoolkit.dataset.build import build_dataset
+
+    src = tmp_path_factory.mktemp("src")
+    for category, sample in (("bottle", "bottle.obj"), ("mug", "mug.obj"), ("table", "table.obj")):
+        (src / category).mkdir()
+        shutil.copy(sample_path(sample), src / category / sample)
+    out = tmp_path_factory.mktemp("built")
+    result = build_dataset(src, out, n_views=1000, resolution=32, n_points=64, clean=False)
+    assert result.n_failures == 0
+    return result.path
+
+
+def test_export_then_import_gives_back_every_array(built, tmp_path):
+    exported = export_authors(built, tmp_path / "ModelNet")
+    assert exported.n_models == 3
+    assert (tmp_path / "ModelNet/small.txt").is_file()
+    imported = import_authors(tmp_path / "ModelNet", tmp_path / "back")
+    assert imported.n_failures == 0
+    with open_store(built) as ours, open_store(imported.path) as back:
+        assert [r["name"] for r in ours.models()] == [r["name"] for r in back.models()]
+        mismatched = set(exported.mismatched)
+        for a, b in zip(ours.models(), back.models()):
+            assert a["name"] in mismatched or a["split"] == b["split"]
+        np.testing.assert_array_equal(np.asarray(ours.array("views")),
+                                      np.asarray(back.array("views")))
+        for name in ("points", "normals", "quality_raw", "mesh_vertices", "mesh_faces",
+                     "best_index", "worst_index"):
+            np.testing.assert_array_equal(np.asarray(ours.array(name)),
+                                          np.asarray(back.array(name)), err_msg=name)
+        np.testing.assert_allclose(np.asarray(ours.array("quality")),
+                                   np.asarray(back.array("quality")), atol=1e-6)
+        assert back.attrs["provenance"]["n_files"] == 3 * 6
+
+
+def test_import_is_repeatable_byte_for_byte(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 3)))
+    first = import_authors(tree, tmp_path / "a").path
+    second = import_authors(tree, tmp_path / "b").path
+    files = sorted(p.relative_to(first) for p in first.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(second) for p in second.rglob("*") if p.is_file())
+    for name in files:
+        assert (first / name).read_bytes() == (second / name).read_bytes(), name
+
+
+def test_export_refuses_a_store_without_the_authors_views(tmp_path):
+    from vptoolkit.dataset.build import build_dataset
+
+    src = tmp_path / "src" / "mug"
+    src.mkdir(parents=True)
+    shutil.copy(sample_path("mug.obj"), src)
+    result = build_dataset(tmp_path / "src", tmp_path / "built", n_views=20, resolution=16,
+                           n_points=16, clean=False)
+    with pytest.raises(InputError, match="Fibonacci sphere of 1000"):
+        export_authors(result.path, tmp_path / "ModelNet")
+    assert not (tmp_path / "ModelNet").exists()
+
+
+# --------------------------------------------------------------------------- command line
+
+
+def test_import_and_export_from_the_command_line(tmp_path):
+    import json
+
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.data import open_dataset
+    from vptoolkit.evaluate import oracle_directions
+
+    runner = CliRunner()
+    tree = write_tree(tmp_path / "set", listed(("chair", 10), ("lamp", 10)), n_points=64)
+    (tree / "pts_unif/lamp/train/lamp_0003.txt").write_text("1,2,3\n")
+    out = tmp_path / "out"
+    imported = runner.invoke(main, ["import-authors", str(tree), str(out)])
+    assert imported.exit_code == 1, imported.output
+    assert imported.stdout.startswith("imported ") and "19 models" in imported.stdout
+    assert "lamp_0003.txt" in imported.stderr and "Traceback" not in imported.output
+    for command in (["info", str(out)], ["verify", str(out)],
+                    ["pack", str(out), str(tmp_path / "release")]):
+        result = runner.invoke(main, command)
+        assert result.exit_code == 0, (command, result.output)
+    card = (tmp_path / "release/README.md").read_text()
+    assert "The measures were imported, not computed" in card and "index % 10" in card
+    with open_dataset(out) as dataset:
+        test = dataset.split("test")
+        assert test.names == ["chair_0010", "lamp_0010"]
+        np.save(tmp_path / "oracle.npy", oracle_directions(test))
+    scored = runner.invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                  str(out), "--json"])
+    assert scored.exit_code == 0, scored.output
+    assert json.loads(scored.stdout)["mean"] == {m: 100.0 for m in MEASURES}
+    only = runner.invoke(main, ["import-authors", str(tree), str(tmp_path / "chairs"),
+                                "--categories", "chair", "--no-meshes"])
+    assert only.exit_code == 0 and "10 models (8 train, 1 validation, 1 test)" in only.stdout
+    exported = runner.invoke(main, ["export-authors", str(out), str(tmp_path / "again")])
+    assert exported.exit_code == 0, exported.output
+    assert (tmp_path / "again/small.txt").read_text().count("\n") == 19
+    refused = runner.invoke(main, ["import-authors", str(tmp_path), str(tmp_path / "x")])
+    assert refused.exit_code == 2 and refused.stderr.count("\n") == 1
+    assert "not in the authors' layout" in refused.stderr
+
+
+# --------------------------------------------------------------------------- the measures check
+
+
+def test_check_finds_our_own_measures_in_an_exported_build(built, tmp_path):
+    from vptoolkit.dataset.authors_check import check_measures
+
+    export_authors(built, tmp_path / "set")
+    imported = import_authors(tmp_path / "set", tmp_path / "back")
+    check = check_measures(imported.path, 2, resolution=32)
+    assert [m.name for m in check.models] == ["bottle", "table"] and not check.failures
+    for row in check.summary().values():
+        assert row["mean_correlation"] > 0.99 and row["median_angle_deg"] < 1.0
+
+
+def test_check_from_the_command_line_and_without_meshes(tmp_path):
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    result = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "out"),
+                                       "--check", "5", "--check-resolution", "16"])
+    assert result.exit_code == 0, result.output
+    assert "check: our measures at 16 px on 2 models against theirs" in result.stdout
+    assert "VKL: rank correlation" in result.stdout and "deg apart (median)" in result.stdout
+    bare = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "bare"),
+                                     "--no-meshes", "--check", "1"])
+    assert bare.exit_code == 0 and "no stored mesh" in bare.stderr
+
+
+def test_unprefixed_lines_duplicates_and_unknown_categories(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    lines = (tree / "small.txt").read_text().splitlines()
+    (tree / "small.txt").write_text("\n".join([lines[0].removeprefix("objfiles/"), *lines,
+                                               ""]))
+    result = import_authors(tree, tmp_path / "out")
+    assert result.n_models == 2 and result.n_failures == 1
+    assert "lists 'chair_0001' a second time" in result.failures[0]["reason"]
+    with pytest.raises(InputError, match="no lines of the categories lamp"):
+        import_authors(tree, tmp_path / "other", categories=["chair", "lamp"])
+    with pytest.raises(InputError, match="exists and is not an empty folder"):
+        import_authors(tree, tmp_path / "out")
+    with pytest.raises(InputError, match="exists and is not an empty folder"):
+        export_authors(result.path, tree)
