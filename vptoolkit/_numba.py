@@ -18,3 +18,21 @@ __all__ = ["numba"]
 
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
     numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+
+
+def will_compile(dispatcher: object) -> bool:
+    """Whether the next call of a ``cache=True`` function compiles it (no usable cache).
+
+    True only when the function is not compiled in this process and numba's
+    on-disk index for it is missing or stale (its source file changed), the
+    cases where numba compiles instead of loading. Any doubt (another numba
+    version's internals, an unreadable index) answers False, so a message
+    built on it is never shown for a load from the cache.
+    """
+    try:
+        if dispatcher.signatures:  # type: ignore[attr-defined]
+            return False
+        index = dispatcher._cache._cache_file._load_index()  # type: ignore[attr-defined]
+    except Exception:  # noqa: BLE001 - numba internals; silence is the safe answer
+        return False
+    return not index

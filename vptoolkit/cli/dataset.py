@@ -45,20 +45,31 @@ from vptoolkit.errors import InputError
               help="A published split instead of the seeded one: a CSV with the header "
               "name,split, or the paper authors' small.txt (their index % 10 rule over "
               "the lines of --categories).")
+@click.option("--max-models", type=click.IntRange(1), help="Build only N models, taken in "
+              "turn from each category in sorted order (OUT resumes with the same N only).")
+@click.option("--dry-run", is_flag=True, help="Write nothing to OUT: list the models per "
+              "category and split, and estimate hours and disk from a few models built "
+              "in a temporary folder.")
+@click.option("--calibrate", type=click.IntRange(0),
+              help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
 def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
                   n_views: int, resolution: int, n_points: int, max_faces: int,
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
-                  split_seed: int, split_file: Path | None) -> None:
+                  split_seed: int, split_file: Path | None, max_models: int | None,
+                  dry_run: bool, calibrate: int | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
     folder of meshes (category = parent folder). Each model is loaded, cleaned,
     sampled and measured; bad inputs are recorded as failures and the build
     goes on. Rerunning the same command resumes an interrupted build. Exit code
-    1 when some inputs failed.
+    1 when some inputs failed. --dry-run sizes the build first: the models per
+    category and split, and the hours and disk estimated from --calibrate
+    models.
 
     \b
     Example:
+      vptool build-dataset ModelNet40/ out/ --categories airplane,chair --dry-run
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
@@ -66,10 +77,25 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     from vptoolkit.dataset.build import build_dataset as build
 
     chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    if calibrate is not None and not dry_run:
+        raise InputError("--calibrate: only with --dry-run")
+    if dry_run:
+        from vptoolkit.dataset.plan import plan_build
+
+        plan = plan_build(src, out, format=store_format, categories=chosen, n_views=n_views,
+                          resolution=resolution, n_points=n_points, max_faces=max_faces,
+                          clean=not no_clean, remesh=remesh, split_seed=split_seed,
+                          splits=split_file, max_models=max_models,
+                          calibrate=3 if calibrate is None else calibrate,
+                          progress=True)
+        for line in plan.lines():
+            click.echo(line)
+        return
     result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
                    resolution=resolution, n_points=n_points, max_faces=max_faces,
                    clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
-                   split_seed=split_seed, splits=split_file, progress=True)
+                   split_seed=split_seed, splits=split_file, max_models=max_models,
+                   progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")
     if result.split_file is not None:

@@ -38,6 +38,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import os
+import sys
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -65,6 +66,7 @@ from vptoolkit.dataset.sources import (
     models_outside,
     split_duplicates,
     split_of,
+    spread_over_categories,
 )
 from vptoolkit.dataset.split_files import read_split_file
 from vptoolkit.dataset.staging import (
@@ -89,6 +91,7 @@ from vptoolkit.sphere import fibonacci_sphere
 
 __all__ = [
     "BACKEND",
+    "COMPILE_NOTICE",
     "FORMATS",
     "SPLIT_FRACTIONS",
     "STAGES",
@@ -190,7 +193,9 @@ def build_dataset(
     scheduler: str | None = None,
     split_seed: int = 0,
     splits: str | os.PathLike[str] | None = None,
+    max_models: int | None = None,
     progress: bool = False,
+    compile_notice: bool | None = None,
 ) -> BuildResult:
     """Measure every mesh under ``src`` and write one dataset store in ``out``.
 
@@ -239,8 +244,18 @@ def build_dataset(
         rule over the lines of ``categories``. Every model of the source must
         be in it; names in it that the source lacks are reported in
         :attr:`BuildResult.split_file` (default: None, the seeded split).
+    max_models : int, optional
+        Build only this many models, taken in turn from each category
+        (:func:`~vptoolkit.dataset.sources.spread_over_categories`); their
+        splits are those of the whole source, and models with duplicate names
+        are left out instead of recorded as failures. A build folder is
+        resumed only with the same value (default: None, every model).
     progress : bool
         Show a progress bar (models, failures, ETA) on stderr (default: False).
+    compile_notice : bool, optional
+        Print :data:`COMPILE_NOTICE` on stderr before the first model when
+        numba has no usable cache of the rasteriser, so the wait is explained
+        (default: None, as ``progress``).
 
     Returns
     -------
@@ -280,6 +295,7 @@ def build_dataset(
         remesh=remesh,
         split_seed=split_seed,
         splits=splits,
+        max_models=max_models,
     )
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None:
@@ -287,6 +303,8 @@ def build_dataset(
     if scheduler is not None and workers != 1:
         raise InputError("workers: give either workers > 1 or scheduler, not both")
     progress = check_bool(progress, "progress")
+    compile_notice = progress if compile_notice is None else check_bool(compile_notice,
+                                                                        "compile_notice")
     out_dir = as_path(out, "out")
     try:
         out_dir.resolve()
@@ -295,11 +313,11 @@ def build_dataset(
                          "created") from err
     _check_dependencies(options, scheduler)
 
-    models = discover_models(src, categories)
-    root = as_path(src, "src").resolve()
-    models = models_outside(models, out_dir)
-    unique, duplicate_failures = split_duplicates(models)
-    chosen_splits, split_report = _file_splits(splits, categories, models, unique)
+    selection = select_models(src, out_dir, categories=categories, splits=splits,
+                              max_models=options["max_models"],
+                              split_seed=options["split_seed"])
+    root, unique, duplicate_failures = selection.root, selection.models, selection.duplicates
+    split_report = selection.split_file
 
     staging = prepare_out(out_dir)
     with build_lock(staging):
@@ -309,6 +327,8 @@ def build_dataset(
         n_resumed = len(done) + len(staged_failures)
         run_failures: dict[str, dict[str, str]] = {}
         stage_seconds = dict.fromkeys((*STAGES, "models"), 0.0)
+        if compile_notice and todo:
+            _say_if_compiling()
         tasks = (_task(model, options) for model in todo)
         results = (
             run_on_cluster(process_model, tasks, address=scheduler, failed=cluster_lost,
@@ -346,9 +366,7 @@ def build_dataset(
 
         entries = StagedEntries(
             [
-                (done[model.model_id],
-                 chosen_splits[model.name] if chosen_splits is not None
-                 else split_of(model, options["split_seed"]))
+                (done[model.model_id], selection.splits[model.model_id])
                 for model in unique
                 if model.model_id in done
             ]
@@ -382,6 +400,56 @@ def build_dataset(
         n_computed=n_computed,
         split_file=split_report,
     )
+
+
+@dataclass(frozen=True)
+class ModelSelection:
+    """The models a build takes from its source (:func:`select_models`).
+
+    Attributes
+    ----------
+    root : Path
+        The source folder, resolved.
+    models : list of SourceModel
+        The models to build, in discovery order (after ``categories``,
+        duplicates and ``max_models``).
+    duplicates : list of dict
+        Failure records of the files with a duplicate name (empty with
+        ``max_models``, which leaves them out).
+    splits : dict
+        ``train``, ``val`` or ``test`` of each model id of ``models``.
+    split_file : SplitFileReport or None
+        How the split file matched the source, with ``splits``.
+    n_found : int
+        Models of the source after ``categories``, before ``max_models``.
+    """
+
+    root: Path
+    models: list[SourceModel]
+    duplicates: list[dict[str, str]]
+    splits: dict[str, str]
+    split_file: SplitFileReport | None
+    n_found: int
+
+
+def select_models(
+    src: str | os.PathLike[str], out_dir: Path, *, categories: Iterable[str] | None,
+    splits: str | os.PathLike[str] | None, max_models: int | None, split_seed: int,
+) -> ModelSelection:
+    """Discover the models of ``src`` and choose those a build with these options takes."""
+    models = discover_models(src, categories)
+    root = as_path(src, "src").resolve()
+    models = models_outside(models, out_dir)
+    unique, duplicates = split_duplicates(models)
+    chosen_splits, split_report = _file_splits(splits, categories, models, unique)
+    n_found = len(unique) + len(duplicates)
+    if max_models is not None:
+        unique = spread_over_categories(unique, max_models)
+        duplicates = []
+    by_id = {model.model_id: chosen_splits[model.name] if chosen_splits is not None
+             else split_of(model, split_seed) for model in unique}
+    return ModelSelection(root=root, models=unique, duplicates=duplicates, splits=by_id,
+                          split_file=split_report, n_found=n_found)
 
 
 def _file_splits(
@@ -419,6 +487,7 @@ def _check_options(
     remesh: bool,
     split_seed: int,
     splits: str | os.PathLike[str] | None = None,
+    max_models: int | None = None,
 ) -> dict[str, Any]:
     """Validate the options that define the result; return them as JSON types.
 
@@ -439,6 +508,8 @@ def _check_options(
         "remesh": check_bool(remesh, "remesh"),
         "split_seed": check_int(split_seed, "split_seed", minimum=None),
         "splits_sha256": None if splits is None else _file_sha256(as_path(splits, "splits")),
+        "max_models": None if max_models is None else check_int(max_models, "max_models",
+                                                                minimum=1),
         "backend": BACKEND,
         "camera": Camera().to_dict(),
         "toolkit_version": vptoolkit.__version__,
@@ -458,6 +529,19 @@ def _check_dependencies(options: Mapping[str, Any], scheduler: str | None) -> No
     for module, extra in needed:
         if not is_available(module):
             require(module, extra=extra)  # raises MissingDependencyError with the pip command
+
+
+COMPILE_NOTICE = "compiling the rasteriser (first run only, about 30 s)"
+"""The stderr line of a build whose first model compiles the numba kernel."""
+
+
+def _say_if_compiling() -> None:
+    """Print :data:`COMPILE_NOTICE` on stderr when numba has no usable cache of the kernel."""
+    from vptoolkit._numba import will_compile
+    from vptoolkit.visibility._raster import rasterize_batch
+
+    if will_compile(rasterize_batch):
+        print(COMPILE_NOTICE, file=sys.stderr, flush=True)
 
 
 def _file_sha256(path: Path) -> str:

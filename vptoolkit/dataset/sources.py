@@ -16,6 +16,11 @@ Splits (:func:`assign_split`)
     80/10/10 from the split seed and ``category/name`` alone, so adding a
     model never moves another; a model under ``test/`` stays test.
 
+Subsets (:func:`spread_over_categories`)
+    ``max_models`` takes models in turn from each category (sorted), each
+    category's in the sorted model order, so a subset covers the categories
+    and is the same on every run over the same source.
+
 Seeds (:func:`model_seed`)
     The point sample of a model is seeded from the split seed and its
     ``category/name``, never from a worker or queue position.
@@ -42,6 +47,7 @@ __all__ = [
     "models_outside",
     "split_duplicates",
     "split_of",
+    "spread_over_categories",
 ]
 
 SPLIT_FRACTIONS: dict[str, float] = {"train": 0.8, "val": 0.1, "test": 0.1}
@@ -210,6 +216,29 @@ def models_outside(models: list[SourceModel], out_dir: Path) -> list[SourceModel
     """Drop files inside the build folder, in case it lies within the source folder."""
     out_resolved = out_dir.resolve()
     return [model for model in models if not model.path.is_relative_to(out_resolved)]
+
+
+def spread_over_categories(models: Sequence[SourceModel], n: int) -> list[SourceModel]:
+    """The first ``n`` models taking one from each category in turn, in discovery order.
+
+    Categories are visited in sorted order and each one's models in the order
+    of ``models`` (sorted by :func:`discover_models`): with categories ``a``
+    (models a1, a2, a3) and ``b`` (b1), ``n=3`` takes a1, b1, then a2, and
+    returns them in the order of ``models``: a1, a2, b1.
+    """
+    n = check_int(n, "max_models", minimum=1)
+    by_category: dict[str, list[SourceModel]] = {}
+    for model in models:
+        by_category.setdefault(model.category, []).append(model)
+    queues = [by_category[category] for category in sorted(by_category)]
+    chosen: set[int] = set()
+    for depth in range(max((len(queue) for queue in queues), default=0)):
+        for queue in queues:
+            if len(chosen) == n:
+                break
+            if depth < len(queue):
+                chosen.add(id(queue[depth]))
+    return [model for model in models if id(model) in chosen]
 
 
 # --------------------------------------------------------------------------- splits and seeds

@@ -91,6 +91,7 @@ _RESUME_OPTIONS = (
     "remesh",
     "split_seed",
     "splits_sha256",
+    "max_models",
     "backend",
     "camera",
     "toolkit_version",

@@ -1,0 +1,206 @@
+"""Size a build before it runs: its models per category and split, and an estimate.
+
+:func:`plan_build` finds the models a :func:`~vptoolkit.dataset.build.build_dataset`
+call with the same options would take, counts them per category and split,
+and builds a few of them (``calibrate``, spread over the categories as
+``max_models`` spreads them) into a temporary folder with the same options.
+The seconds and bytes of those models, scaled to all the models, are the
+estimate: the seconds of one process (as ``workers=1``), and the bytes of
+the build folder (its staging files plus the store). It is an estimate from
+a few models: sizes vary from mesh to mesh. Before the timed models, the
+first of them is built once at a tiny resolution and point count, so the
+compilation of the numba kernels on a first run is not counted.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+
+from vptoolkit.checks import as_path, check_int
+
+__all__ = ["BuildPlan", "plan_build"]
+
+
+@dataclass(frozen=True)
+class BuildPlan:
+    """What :func:`plan_build` found and estimated.
+
+    Attributes
+    ----------
+    counts : dict
+        ``{category: {"train": n, "val": n, "test": n}}``, sorted by category.
+    n_models : int
+        Models the build would take.
+    n_duplicates : int
+        Files with a duplicate name (failures of the build).
+    n_found : int
+        Models of the source after ``categories``, before ``max_models``.
+    n_calibrated : int
+        Models built to make the estimate (0 with ``calibrate=0``).
+    n_calibration_failures : int
+        Of those, how many failed (not counted in the per-model figures).
+    seconds_per_model, bytes_per_model : float or None
+        Mean seconds (load, clean, sample, measure, write) and build-folder
+        bytes of a calibrated model; None when none was built.
+    """
+
+    counts: dict[str, dict[str, int]]
+    n_models: int
+    n_duplicates: int
+    n_found: int
+    n_calibrated: int = 0
+    n_calibration_failures: int = 0
+    seconds_per_model: float | None = None
+    bytes_per_model: float | None = None
+
+    @property
+    def estimated_seconds(self) -> float | None:
+        """Seconds of the whole build in one process, or None without calibration."""
+        if self.seconds_per_model is None:
+            return None
+        return self.seconds_per_model * self.n_models
+
+    @property
+    def estimated_bytes(self) -> float | None:
+        """Bytes of the whole build folder, or None without calibration."""
+        if self.bytes_per_model is None:
+            return None
+        return self.bytes_per_model * self.n_models
+
+    def lines(self) -> list[str]:
+        """The plan as text: one line per category, totals, then the estimate."""
+        width = max((len(category) for category in self.counts), default=8)
+        rows = [f"{'category':<{width}}  {'train':>6} {'val':>6} {'test':>6}"]
+        for category, split in self.counts.items():
+            rows.append(f"{category:<{width}}  {split['train']:>6} {split['val']:>6} "
+                        f"{split['test']:>6}")
+        totals = {name: sum(split[name] for split in self.counts.values())
+                  for name in ("train", "val", "test")}
+        rows.append(f"{'total':<{width}}  {totals['train']:>6} {totals['val']:>6} "
+                    f"{totals['test']:>6}")
+        subset = (f" (a subset of the {self.n_found} found)"
+                  if self.n_found != self.n_models + self.n_duplicates else "")
+        rows.append(f"{self.n_models} models to build{subset}, {self.n_duplicates} "
+                    "duplicate names (failures)")
+        if self.seconds_per_model is None or self.bytes_per_model is None:
+            if self.n_calibrated:
+                rows.append(f"no estimate: all {self.n_calibrated} calibration models failed")
+            return rows
+        rows.append(
+            f"estimate from {self.n_calibrated - self.n_calibration_failures} calibration "
+            f"models: about {_hours(self.estimated_seconds)} in one process "
+            f"({self.seconds_per_model:.1f} s a model) and {_size(self.estimated_bytes)} "
+            f"on disk ({_size(self.bytes_per_model)} a model)"
+        )
+        return rows
+
+
+def plan_build(
+    src: str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    *,
+    format: Literal["zarr", "hdf5"] = "zarr",
+    categories: Iterable[str] | None = None,
+    n_views: int = 1000,
+    resolution: int = 1024,
+    n_points: int = 20000,
+    max_faces: int = 10000,
+    clean: bool = True,
+    remesh: bool = False,
+    split_seed: int = 0,
+    splits: str | os.PathLike[str] | None = None,
+    max_models: int | None = None,
+    calibrate: int = 3,
+    progress: bool = False,
+) -> BuildPlan:
+    """List the models a build would take and estimate its hours and disk.
+
+    The options are those of :func:`~vptoolkit.dataset.build.build_dataset`;
+    ``out`` is only read (models inside it are left out, as the build leaves
+    them out). ``calibrate`` models are built into a temporary folder that is
+    deleted afterwards (0: count only).
+
+    Returns
+    -------
+    BuildPlan
+        Counts per category and split, and the estimate.
+
+    Raises
+    ------
+    InputError
+        As :func:`~vptoolkit.dataset.build.build_dataset` for bad options or
+        sources.
+    """
+    from vptoolkit.dataset.build import _check_options, build_dataset, select_models
+
+    options = _check_options(format=format, n_views=n_views, resolution=resolution,
+                             n_points=n_points, max_faces=max_faces, clean=clean,
+                             remesh=remesh, split_seed=split_seed, splits=splits,
+                             max_models=max_models)
+    calibrate = check_int(calibrate, "calibrate", minimum=0)
+    selection = select_models(src, as_path(out, "out"), categories=categories, splits=splits,
+                              max_models=options["max_models"],
+                              split_seed=options["split_seed"])
+    counts: dict[str, dict[str, int]] = {}
+    for model in selection.models:
+        row = counts.setdefault(model.category, {"train": 0, "val": 0, "test": 0})
+        row[selection.splits[model.model_id]] += 1
+    plan = BuildPlan(counts=dict(sorted(counts.items())), n_models=len(selection.models),
+                     n_duplicates=len(selection.duplicates), n_found=selection.n_found)
+    n_calibrate = min(calibrate, len(selection.models))
+    if n_calibrate == 0:
+        return plan
+    with tempfile.TemporaryDirectory(prefix="vptoolkit-plan-") as folder:
+        # The same code paths on a small problem: numba compiles (or loads) its kernels here.
+        build_dataset(
+            selection.root, Path(folder) / "warm-up", format=options["format"],
+            categories=categories, n_views=min(n_views, 8), resolution=min(resolution, 16),
+            n_points=min(n_points, 50), max_faces=max_faces, clean=clean, remesh=remesh,
+            split_seed=split_seed, splits=splits, max_models=1, progress=False,
+            compile_notice=progress,
+        )
+        trial = Path(folder) / "build"
+        # max_models=n takes the first n of the models max_models chose: the same spread.
+        result = build_dataset(
+            selection.root, trial, format=options["format"], categories=categories,
+            n_views=n_views, resolution=resolution, n_points=n_points, max_faces=max_faces,
+            clean=clean, remesh=remesh, split_seed=split_seed, splits=splits,
+            max_models=n_calibrate, progress=progress,
+        )
+        n_bytes = sum(path.stat().st_size for path in trial.rglob("*") if path.is_file())
+    n_built = result.n_computed
+    if n_built == 0:
+        return _with(plan, n_calibrate, result.n_failures, None, None)
+    seconds = sum(result.stage_seconds.values()) / n_built
+    return _with(plan, n_calibrate, n_calibrate - n_built, seconds, n_bytes / n_built)
+
+
+def _with(plan: BuildPlan, n_calibrated: int, n_failed: int, seconds: float | None,
+          n_bytes: float | None) -> BuildPlan:
+    from dataclasses import replace
+
+    return replace(plan, n_calibrated=n_calibrated, n_calibration_failures=n_failed,
+                   seconds_per_model=seconds, bytes_per_model=n_bytes)
+
+
+def _hours(seconds: float | None) -> str:
+    seconds = seconds or 0.0
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def _size(n_bytes: float | None) -> str:
+    value = float(n_bytes or 0.0)
+    for unit in ("B", "KB", "MB", "GB"):
+        if value < 1000:
+            return f"{value:.0f} {unit}" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1000
+    return f"{value:.1f} TB"
