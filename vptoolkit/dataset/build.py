@@ -254,8 +254,9 @@ def build_dataset(
         Show a progress bar (models, failures, ETA) on stderr (default: False).
     compile_notice : bool, optional
         Print :data:`COMPILE_NOTICE` on stderr before the first model when
-        numba has no usable cache of the rasteriser, so the wait is explained
-        (default: None, as ``progress``).
+        numba has no usable cache of the rasteriser here, so the wait is
+        explained; never with ``scheduler``, whose workers have their own
+        caches (default: None, as ``progress``).
 
     Returns
     -------
@@ -327,7 +328,7 @@ def build_dataset(
         n_resumed = len(done) + len(staged_failures)
         run_failures: dict[str, dict[str, str]] = {}
         stage_seconds = dict.fromkeys((*STAGES, "models"), 0.0)
-        if compile_notice and todo:
+        if compile_notice and todo and scheduler is None:  # a cluster's caches are not ours
             _say_if_compiling()
         tasks = (_task(model, options) for model in todo)
         results = (
