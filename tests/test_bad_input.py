@@ -242,6 +242,30 @@ def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -
     assert len(outcomes) == len(_HUGE_CONFIGS)
 
 
+_LAX_CONFIGS = {
+    "no-fps-points": (lambda config: config["input"].update(n_fps=0), "input.n_fps"),
+    "no-architecture": (lambda config: config.pop("architecture"), "architecture: missing"),
+}
+
+
+@pytest.mark.parametrize("case", list(_LAX_CONFIGS))
+def test_checkpoint_configs_that_leave_out_or_reorder_are_bad_input(tmp_path: Path,
+                                                                    case: str) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    model = tmp_path / case
+    shutil.copytree(PRETRAINED, model)
+    config = json.loads((model / "model.json").read_text())
+    change, needle = _LAX_CONFIGS[case]
+    change(config)
+    (model / "model.json").write_text(json.dumps(config))
+    code, text = _run("predict", cloud, "--model", model)
+    _assert_one_line_bad_input(code, text, "model.json: ", needle)
+
+
 @pytest.mark.parametrize("weight", [float("nan"), float("inf"), 0.0], ids=["nan", "inf", "zero"])
 def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weight: float) -> None:
     require_package("torch")

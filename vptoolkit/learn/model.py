@@ -357,8 +357,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     ------
     InputError
         If a file is missing or unreadable, the configuration is not a
-        vptoolkit model or asks for sizes beyond the bounds of
-        :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
+        vptoolkit model, has no ``architecture`` or asks for sizes beyond
+        the bounds of :mod:`vptoolkit.learn.config`, or a weight is NaN or
+        infinite.
     CheckpointError
         If the weights do not match the architecture.
     VerificationError
@@ -381,7 +382,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         if not isinstance(trained, Mapping):
             raise InputError(f"input: expected an object, got {type(trained).__name__}")
         check_input_sizes(trained.get("n_points", 4096), trained.get("n_fps", 1024), prefix="input.")
-        architecture = config.get("architecture", {})
+        if "architecture" not in config:
+            raise InputError("architecture: missing; a checkpoint names its network's architecture")
+        architecture = config["architecture"]
         if not isinstance(architecture, Mapping):
             raise InputError(f"architecture: expected an object, got {type(architecture).__name__}")
         # a configuration without the option is of raw inputs
