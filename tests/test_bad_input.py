@@ -245,6 +245,8 @@ def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -
 _LAX_CONFIGS = {
     "no-fps-points": (lambda config: config["input"].update(n_fps=0), "input.n_fps"),
     "no-architecture": (lambda config: config.pop("architecture"), "architecture: missing"),
+    "measure-order": (lambda config: config.update(measures=["VR", "VE", "VKL", "VMI"]),
+                      "measure order"),
 }
 
 
