@@ -446,3 +446,17 @@ def test_predict_refuses_a_cloud_without_extent(tmp_path: Path, points: np.ndarr
     np.save(path, points.astype(np.float32))
     code, text = _run("predict", path)
     _assert_one_line_bad_input(code, text, "cloud.npy: ", "extent")
+
+
+def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(sample_path("mug.obj"), src / "mug.obj")
+    code, text = _run("build-dataset", src, tmp_path / "out", "--remesh", "--no-clean")
+    _assert_one_line_bad_input(code, text, "--remesh", "--no-clean")
+    assert "clean=True" not in text and not (tmp_path / "out").exists()
+    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.errors import InputError
+
+    with pytest.raises(InputError, match="remesh: .* needs clean=True"):
+        build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
