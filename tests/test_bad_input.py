@@ -460,3 +460,52 @@ def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
 
     with pytest.raises(InputError, match="remesh: .* needs clean=True"):
         build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
+
+
+def test_train_names_its_options_not_the_python_arguments(build: Path, tmp_path: Path,  # noqa: F811
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    import vptoolkit.learn.train as train
+    import vptoolkit.points as points
+    from vptoolkit.learn.splits import select_models
+
+    class NoModels:
+        path = Path("dataset.zarr")
+
+        def split(self, name: str) -> list[str]:
+            return []
+
+    def empty_validation(*args: object, **kwargs: object) -> None:
+        select_models(NoModels(), "test", None, None, "val_split")  # type: ignore[arg-type]
+
+    monkeypatch.setattr(points, "N_FPS_POINTS", 1)
+    monkeypatch.setattr(train, "train_model", empty_validation)
+    code, text = _run("train", build, "-o", tmp_path / "m", "--val-split", "test")
+    _assert_one_line_bad_input(code, text, "--val-split: split 'test' of dataset.zarr has no "
+                               "models; choose another with --val-split")
+    assert "val_split" not in text
+
+
+def test_predict_with_a_per_category_folder_asks_for_the_option(tmp_path: Path) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+    from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
+
+    folder = tmp_path / "per"
+    shutil.copytree(PRETRAINED, folder / "mug")
+    (folder / "categories.json").write_text(json.dumps(
+        {"format": CATEGORY_MODELS_FORMAT, "categories": {"mug": "mug"}}))
+    code, text = _run("predict", sample_path("mug.obj"), "--model", folder)
+    last = text.splitlines()[-1]  # after the progress bar
+    assert code == 2 and "Traceback" not in text, text
+    assert last.startswith("vptool: error: mug: ") and "pass --category" in last
+    assert "category=" not in text
+
+
+def test_thumbnails_refuses_a_model_with_a_view_set_by_its_options(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(sample_path("mug.obj"), src / "mug.obj")
+    code, text = _run("thumbnails", src, tmp_path / "out", "--model", "default",
+                      "--view-set", "2")
+    _assert_one_line_bad_input(code, text, "--view-set: --model gives one view per mesh")
+    assert "view_set" not in text and "predictor" not in text

@@ -312,7 +312,7 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
         return None
     if category is None:
         raise InputError(f"{name}: the model folder holds one network per category ({', '.join(map(str, networks))}); "
-                         "pass category= (--category) for meshes and point files")
+                         "pass category= for meshes and point files")
     if category not in networks:
         raise InputError(f"{name}: no network for category {category!r} (have {', '.join(map(str, networks))})")
     return category
