@@ -509,3 +509,19 @@ def test_thumbnails_refuses_a_model_with_a_view_set_by_its_options(tmp_path: Pat
                       "--view-set", "2")
     _assert_one_line_bad_input(code, text, "--view-set: --model gives one view per mesh")
     assert "view_set" not in text and "predictor" not in text
+
+
+def test_a_default_file_in_the_working_directory_does_not_shadow_the_bundled_network(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED, checkpoint_paths
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "default").write_text("not a checkpoint")
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    assert checkpoint_paths("default")[0] == PRETRAINED / "model.safetensors"
+    code, text = _run("predict", cloud, "--model", "default")
+    assert code == 0, text
+    code, text = _run("predict", cloud, "--model", "./default")
+    assert code == 2 and "default/model.json" in text, text
