@@ -439,8 +439,10 @@ def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Pa
     assert "resume=True" not in text and "overwrite=True" not in text
 
 
-@pytest.mark.parametrize("points", [np.zeros((1, 3)), np.ones((50, 6))],
-                         ids=["one-point", "identical-points"])
+@pytest.mark.parametrize("points", [
+    np.zeros((1, 3)), np.ones((50, 6)), np.array([[0, 0, 0], [1, 2, 3]]),
+    np.outer(np.linspace(-1, 1, 5000), [0.3, -2.0, 1.1]) + [5, 6, 7],
+], ids=["one-point", "identical-points", "two-points", "collinear-points"])
 def test_predict_refuses_a_cloud_without_extent(tmp_path: Path, points: np.ndarray) -> None:
     path = tmp_path / "cloud.npy"
     np.save(path, points.astype(np.float32))
