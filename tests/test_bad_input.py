@@ -377,6 +377,18 @@ def test_a_licence_table_with_a_huge_cell_is_one_line(build: Path, tmp_path: Pat
     assert not (tmp_path / "rel").exists()
 
 
+@pytest.mark.parametrize("cell", ["MIT\x1b[2J", "MIT\tBSD", '"MIT\nBSD"', "MIT\x85"],
+                         ids=["escape", "tab", "line-break", "c1-control"])
+def test_a_licence_table_with_control_characters_is_one_line(build: Path, tmp_path: Path,  # noqa: F811
+                                                             cell: str) -> None:
+    table = tmp_path / "licenses.csv"
+    table.write_text(f"name,license,author,url\nm,{cell},a,u\n", encoding="utf-8")
+    code, text = _run("pack", build, tmp_path / "rel", "--licenses", table)
+    _assert_one_line_bad_input(code, text, "licenses.csv: line 2: the license cell holds the "
+                               "control character U+")
+    assert not (tmp_path / "rel").exists()
+
+
 def test_sphere_map_inputs_that_cannot_be_drawn(tmp_path: Path) -> None:
     views = np.eye(3)
     cases = {
