@@ -242,6 +242,32 @@ def test_checkpoint_configs_that_ask_for_too_much_are_one_line(tmp_path: Path) -
     assert len(outcomes) == len(_HUGE_CONFIGS)
 
 
+_LAX_CONFIGS = {
+    "no-fps-points": (lambda config: config["input"].update(n_fps=0), "input.n_fps"),
+    "no-architecture": (lambda config: config.pop("architecture"), "architecture: missing"),
+    "measure-order": (lambda config: config.update(measures=["VR", "VE", "VKL", "VMI"]),
+                      "measure order"),
+}
+
+
+@pytest.mark.parametrize("case", list(_LAX_CONFIGS))
+def test_checkpoint_configs_that_leave_out_or_reorder_are_bad_input(tmp_path: Path,
+                                                                    case: str) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    model = tmp_path / case
+    shutil.copytree(PRETRAINED, model)
+    config = json.loads((model / "model.json").read_text())
+    change, needle = _LAX_CONFIGS[case]
+    change(config)
+    (model / "model.json").write_text(json.dumps(config))
+    code, text = _run("predict", cloud, "--model", model)
+    _assert_one_line_bad_input(code, text, "model.json: ", needle)
+
+
 @pytest.mark.parametrize("weight", [float("nan"), float("inf"), 0.0], ids=["nan", "inf", "zero"])
 def test_a_checkpoint_with_broken_weights_predicts_nothing(tmp_path: Path, weight: float) -> None:
     require_package("torch")
@@ -351,6 +377,18 @@ def test_a_licence_table_with_a_huge_cell_is_one_line(build: Path, tmp_path: Pat
     assert not (tmp_path / "rel").exists()
 
 
+@pytest.mark.parametrize("cell", ["MIT\x1b[2J", "MIT\tBSD", '"MIT\nBSD"', "MIT\x85"],
+                         ids=["escape", "tab", "line-break", "c1-control"])
+def test_a_licence_table_with_control_characters_is_one_line(build: Path, tmp_path: Path,  # noqa: F811
+                                                             cell: str) -> None:
+    table = tmp_path / "licenses.csv"
+    table.write_text(f"name,license,author,url\nm,{cell},a,u\n", encoding="utf-8")
+    code, text = _run("pack", build, tmp_path / "rel", "--licenses", table)
+    _assert_one_line_bad_input(code, text, "licenses.csv: line 2: the license cell holds the "
+                               "control character U+")
+    assert not (tmp_path / "rel").exists()
+
+
 def test_sphere_map_inputs_that_cannot_be_drawn(tmp_path: Path) -> None:
     views = np.eye(3)
     cases = {
@@ -413,10 +451,91 @@ def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Pa
     assert "resume=True" not in text and "overwrite=True" not in text
 
 
-@pytest.mark.parametrize("points", [np.zeros((1, 3)), np.ones((50, 6))],
-                         ids=["one-point", "identical-points"])
+@pytest.mark.parametrize("points", [
+    np.zeros((1, 3)), np.ones((50, 6)), np.array([[0, 0, 0], [1, 2, 3]]),
+    np.outer(np.linspace(-1, 1, 5000), [0.3, -2.0, 1.1]) + [5, 6, 7],
+], ids=["one-point", "identical-points", "two-points", "collinear-points"])
 def test_predict_refuses_a_cloud_without_extent(tmp_path: Path, points: np.ndarray) -> None:
     path = tmp_path / "cloud.npy"
     np.save(path, points.astype(np.float32))
     code, text = _run("predict", path)
     _assert_one_line_bad_input(code, text, "cloud.npy: ", "extent")
+
+
+def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(sample_path("mug.obj"), src / "mug.obj")
+    code, text = _run("build-dataset", src, tmp_path / "out", "--remesh", "--no-clean")
+    _assert_one_line_bad_input(code, text, "--remesh", "--no-clean")
+    assert "clean=True" not in text and not (tmp_path / "out").exists()
+    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.errors import InputError
+
+    with pytest.raises(InputError, match="remesh: .* needs clean=True"):
+        build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
+
+
+def test_train_names_its_options_not_the_python_arguments(build: Path, tmp_path: Path,  # noqa: F811
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    import vptoolkit.learn.train as train
+    import vptoolkit.points as points
+    from vptoolkit.learn.splits import select_models
+
+    class NoModels:
+        path = Path("dataset.zarr")
+
+        def split(self, name: str) -> list[str]:
+            return []
+
+    def empty_validation(*args: object, **kwargs: object) -> None:
+        select_models(NoModels(), "test", None, None, "val_split")  # type: ignore[arg-type]
+
+    monkeypatch.setattr(points, "N_FPS_POINTS", 1)
+    monkeypatch.setattr(train, "train_model", empty_validation)
+    code, text = _run("train", build, "-o", tmp_path / "m", "--val-split", "test")
+    _assert_one_line_bad_input(code, text, "--val-split: split 'test' of dataset.zarr has no "
+                               "models; choose another with --val-split")
+    assert "val_split" not in text
+
+
+def test_predict_with_a_per_category_folder_asks_for_the_option(tmp_path: Path) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+    from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
+
+    folder = tmp_path / "per"
+    shutil.copytree(PRETRAINED, folder / "mug")
+    (folder / "categories.json").write_text(json.dumps(
+        {"format": CATEGORY_MODELS_FORMAT, "categories": {"mug": "mug"}}))
+    code, text = _run("predict", sample_path("mug.obj"), "--model", folder)
+    last = text.splitlines()[-1]  # after the progress bar
+    assert code == 2 and "Traceback" not in text, text
+    assert last.startswith("vptool: error: mug: ") and "pass --category" in last
+    assert "category=" not in text
+
+
+def test_thumbnails_refuses_a_model_with_a_view_set_by_its_options(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    src.mkdir()
+    shutil.copy(sample_path("mug.obj"), src / "mug.obj")
+    code, text = _run("thumbnails", src, tmp_path / "out", "--model", "default",
+                      "--view-set", "2")
+    _assert_one_line_bad_input(code, text, "--view-set: --model gives one view per mesh")
+    assert "view_set" not in text and "predictor" not in text
+
+
+def test_a_default_file_in_the_working_directory_does_not_shadow_the_bundled_network(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED, checkpoint_paths
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "default").write_text("not a checkpoint")
+    cloud = tmp_path / "cloud.npy"
+    np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
+    assert checkpoint_paths("default")[0] == PRETRAINED / "model.safetensors"
+    code, text = _run("predict", cloud, "--model", "default")
+    assert code == 0, text
+    code, text = _run("predict", cloud, "--model", "./default")
+    assert code == 2 and "default/model.json" in text, text

@@ -214,3 +214,17 @@ def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> 
     assert result.stage_seconds["measure"] > 0.0
     again = build_dataset(src, tmp_path / "out", **SMALL)  # all resumed: nothing computed
     assert again.n_computed == 0 and again.stage_seconds["measure"] == 0.0
+
+
+def test_a_dangling_symlink_in_the_source_is_named_by_its_path_under_src(tmp_path: Path) -> None:
+    src = tmp_path / "src"
+    (src / "tets").mkdir(parents=True)
+    (src / "tets" / "tet.off").write_text(TET)
+    (src / "tets" / "gone.off").symlink_to(tmp_path / "nowhere" / "gone.off")
+    result = build_dataset(src, tmp_path / "out", **SMALL)
+    assert result.n_models == 1
+    (failure,) = result.failures
+    assert failure["source"] == "tets/gone.off"
+    assert failure["reason"] == "tets/gone.off: dangling symbolic link (its target does not exist)"
+    store = [path for path in (tmp_path / "out" / "dataset.zarr").rglob("*") if path.is_file()]
+    assert store and not any(str(tmp_path).encode() in path.read_bytes() for path in store)

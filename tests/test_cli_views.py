@@ -110,3 +110,35 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
     assert read_png(out / "mug.png").shape[1] == 2 * 48 + 3 * 6
     record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
     assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")
+
+
+@pytest.mark.parametrize("arguments, expected", [
+    (["--coverage", "nan"], "--coverage: must lie in (0, 1], got nan"),
+    (["-o", "missing/v.npz"], "--output: missing/v.npz: output folder missing does not exist"),
+])
+def test_views_refuses_a_bad_target_or_output_folder_before_drawing(runner, monkeypatch,
+                                                                    tmp_path, arguments,
+                                                                    expected):
+    import vptoolkit.view_sets
+
+    def never(*args, **kwargs):
+        raise AssertionError("the views were drawn")
+
+    monkeypatch.setattr(vptoolkit.view_sets, "measure_view_set", never)
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *SMALL, *arguments])
+    assert result.exit_code == 2, result.output
+    assert one_error_line(result) == f"vptool: error: {expected}"
+
+
+def test_views_with_an_unreachable_min_pixels_is_a_failure(runner, tmp_path):
+    out = tmp_path / "v.npz"
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), "--views", "12",
+                                  "--resolution", "16", "--min-pixels", "100000",
+                                  "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    line = result.stderr.strip().splitlines()[-1]  # after the progress bar
+    assert line.startswith("vptool: error: ") and "--min-pixels" in line
+    assert "no face has 100000 pixels in any of the 12 views" in line
+    assert not out.exists()

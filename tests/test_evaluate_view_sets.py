@@ -72,6 +72,37 @@ def test_cli_scores_view_sets_from_an_npz(tiny_dataset, tmp_path):
     assert mean_row.split()[-1] == "100.0"
 
 
+def test_directions_near_the_largest_float_score_as_their_unit_vectors(tiny_dataset, tmp_path):
+    import warnings
+
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(tiny_dataset) as dataset:
+        names = dataset.names
+        directions = greedy_directions(dataset, 2)
+    rows = []
+    for scale in (1.0, 1.7e308):
+        path = tmp_path / f"sets-{scale}.npz"
+        np.savez(path, names=np.array(names), directions=directions * scale)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # numpy's overflow warning
+            result = CliRunner().invoke(main, ["evaluate", str(path), "--dataset",
+                                               str(tiny_dataset), "--split", "all",
+                                               "--view-sets"])
+        assert result.exit_code == 0, result.output
+        assert "overflow" not in result.output
+        rows.append([line for line in result.stdout.splitlines() if line.startswith("mean")])
+    assert rows[1] == rows[0] and rows[0][0].split()[-1] == "100.0"
+    per_measure = tmp_path / "huge.npz"  # the per-measure evaluation reads them the same way
+    np.savez(per_measure, names=np.array(names), measures=np.array(["VE", "VR", "VKL", "VMI"]),
+             directions=np.repeat(directions[:, :1], 4, axis=1) * 1.7e308)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        result = CliRunner().invoke(main, ["evaluate", str(per_measure), "--dataset",
+                                           str(tiny_dataset), "--split", "all"])
+    assert result.exit_code == 0 and "overflow" not in result.output, result.output
+
+
 def test_bad_view_set_files_are_one_line_errors(tiny_dataset, tmp_path):
     flat = tmp_path / "flat.npy"
     np.save(flat, np.ones((4, 3)))

@@ -289,8 +289,10 @@ def test_default_is_the_bundled_pretrained_checkpoint(tmp_path, monkeypatch):
     assert config["labels"] == "ml+gl" and config["weights_dtype"] == "float16"
     assert config["pretrained"]["command"].startswith("python tools/reproduce_labels.py")
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "default").mkdir()  # a folder of that name in the working directory wins
-    assert checkpoint_paths("default")[0] == Path("default") / "model.safetensors"
+    (tmp_path / "default").mkdir()  # a folder of that name is reached as a path, not "default"
+    assert checkpoint_paths("default")[0] == PRETRAINED / "model.safetensors"
+    assert checkpoint_paths("./default")[0] == Path("default") / "model.safetensors"
+    assert checkpoint_paths(Path("default"))[0] == Path("default") / "model.safetensors"
 
 
 def test_loading_bad_checkpoints_raises(tmp_path):

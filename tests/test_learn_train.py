@@ -366,3 +366,22 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     assert predict(tmp_path / "per", [sample_path("Duck")], category=chosen).directions.shape == (1, 4, 3)
     with pytest.raises(InputError, match="categories:"):
         T.train_model(dataset_dir, tmp_path / "x", categories=["no-such-category"], **options)
+
+
+@pytest.mark.parametrize("epoch", [10**12, -1, 1])
+def test_a_resumed_state_with_an_impossible_epoch_is_refused(dataset_dir, tmp_path, epoch):
+    tiny_run(dataset_dir, tmp_path / "run", epochs=2)
+    state_path = tmp_path / "run" / "model.last.json"
+    state = json.loads(state_path.read_text())
+    state["epoch"] = epoch  # the history holds two epochs
+    state_path.write_text(json.dumps(state))
+    config_before = (tmp_path / "run" / "model.json").read_bytes()
+    with pytest.raises(InputError, match=r"^model\.last\.json: epoch"):
+        tiny_run(dataset_dir, tmp_path / "run", epochs=3, resume=True)
+    assert (tmp_path / "run" / "model.json").read_bytes() == config_before
+
+
+def test_resuming_with_fewer_epochs_than_done_is_refused(dataset_dir, tmp_path):
+    tiny_run(dataset_dir, tmp_path / "run", epochs=2)
+    with pytest.raises(InputError, match="at epoch 2, past the 1 epochs asked for"):
+        tiny_run(dataset_dir, tmp_path / "run", epochs=1, resume=True)

@@ -429,8 +429,8 @@ def read_point_file(path: Path) -> NDArray[np.float64]:
         Naming the file, if its header claims more than it holds, it is not a
         float array of that shape, a coordinate is NaN or infinite, the
         coordinates are beyond float32's range
-        (:func:`vptoolkit.mesh.check_coordinate_range`), or fewer than two
-        distinct points leave it without extent.
+        (:func:`vptoolkit.mesh.check_coordinate_range`), or the points lie
+        on one line (two points, or all at one point) and so span no surface.
     """
     try:
         with open(path, "rb") as stream:
@@ -448,12 +448,26 @@ def read_point_file(path: Path) -> NDArray[np.float64]:
     if not np.isfinite(points).all():
         raise InputError(f"{path.name}: contains NaN or infinite coordinates")
     check_coordinate_range(points, path.name, "point cloud")
-    if len(points) < 2 or np.ptp(points, axis=0).max() == 0:
+    if _on_one_line(points):
         raise InputError(
-            f"{path.name}: its {len(points)} point(s) do not span any extent; a view can "
-            "only be predicted for a shape (at least 2 distinct points)"
+            f"{path.name}: its {len(points)} point(s) lie on one line, without the extent of "
+            "a surface; a view can only be predicted for a shape (points not all on a line)"
         )
     return points
+
+
+def _on_one_line(points: NDArray[np.float64]) -> bool:
+    """Whether ``points`` lie on a line (or at one point) up to rounding.
+
+    The second principal variance is compared with the first, after scaling
+    the cloud to a unit box so that squares neither overflow nor underflow.
+    """
+    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    if len(points) < 3 or extent == 0.0:
+        return True
+    centred = (points - points.mean(axis=0)) / extent
+    variances = np.linalg.eigvalsh(centred.T @ centred / len(points))
+    return bool(variances[1] <= 1e-10 * variances[2])
 
 
 def _as_points(points: ArrayLike, what: str) -> NDArray[np.float64]:

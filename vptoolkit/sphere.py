@@ -14,7 +14,8 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
 
-__all__ = ["fibonacci_sphere", "nearest_view", "as_directions", "angle_between_deg"]
+__all__ = ["fibonacci_sphere", "nearest_view", "as_directions", "angle_between_deg",
+           "is_zero_length"]
 
 
 def fibonacci_sphere(n: int = N_VIEWS) -> NDArray[np.float64]:
@@ -87,10 +88,34 @@ def as_directions(directions: ArrayLike, *, name: str = "directions") -> NDArray
         raise InputError(f"{name}: expected shape (n, 3), got {np.shape(directions)}")
     if not np.isfinite(array).all():
         raise InputError(f"{name}: contains NaN or infinite values")
-    norms = np.linalg.norm(array, axis=1)
-    if (norms < 1e-12).any():
-        raise InputError(f"{name}: contains {int((norms < 1e-12).sum())} zero-length vectors")
-    return array / norms[:, None]
+    is_zero = is_zero_length(array)
+    if is_zero.any():
+        raise InputError(f"{name}: contains {int(is_zero.sum())} zero-length vectors")
+    scaled = _largest_component_one(array)
+    return scaled / np.linalg.norm(scaled, axis=1)[:, None]
+
+
+def _largest_component_one(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Each finite vector divided by its largest absolute component (zero vectors kept).
+
+    Its length is then 1 to sqrt(3), so no square overflows near the largest
+    float (1.7e308) or underflows near the smallest.
+    """
+    scale = np.abs(vectors).max(axis=-1, keepdims=True)
+    return vectors / np.where(scale > 0, scale, 1.0)
+
+
+def is_zero_length(vectors: ArrayLike) -> NDArray[np.bool_]:
+    """Whether each finite vector (along the last axis) is shorter than 1e-12.
+
+    Computed without squaring the components as they are, so vectors near
+    the largest float give no overflow warning and count as long.
+    """
+    values = np.asarray(vectors, dtype=np.float64)
+    scale = np.abs(values).max(axis=-1)
+    tiny = scale < 1e-12  # longer vectors are never shorter than their largest component
+    lengths = np.where(tiny, scale, 0.0) * np.linalg.norm(_largest_component_one(values), axis=-1)
+    return tiny & (lengths < 1e-12)
 
 
 def nearest_view(

@@ -76,6 +76,8 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
     """
     from vptoolkit.dataset.build import build_dataset as build
 
+    if remesh and no_clean:
+        raise InputError("--remesh: remeshing is a cleaning step; drop --no-clean or --remesh")
     chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
     if calibrate is not None and not dry_run:
         raise InputError("--calibrate: only with --dry-run")

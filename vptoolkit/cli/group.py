@@ -7,7 +7,10 @@ toolkit errors read ``vptool: error: ...`` with the error's own message.
 
 from __future__ import annotations
 
+import re
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import click
@@ -15,7 +18,8 @@ import click
 from vptoolkit.checks import one_line
 from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
 
-__all__ = ["EXIT_FAILURE", "EXIT_BAD_INPUT", "VptoolGroup", "exit_code", "one_line_error"]
+__all__ = ["EXIT_FAILURE", "EXIT_BAD_INPUT", "VptoolGroup", "exit_code", "one_line_error",
+           "options_named"]
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -92,3 +96,24 @@ def _missing_module_line(error: ModuleNotFoundError) -> str:
 
     module = error.name or "a package"
     return f"{module}: not installed; this command needs it: {install_hint(module)}"
+
+
+@contextmanager
+def options_named(**names: str) -> Iterator[None]:
+    """Say the command line's names in the bad-input errors of the library calls inside.
+
+    The library names its Python arguments (``val_split``, ``category=``); a
+    command maps each on to its option, e.g. ``options_named(val_split="--val-split")``.
+    A key ending in ``_`` stands for the argument written with ``=`` (``category_``
+    for ``category=``). The error keeps its class, so the exit code is unchanged.
+    """
+    try:
+        yield
+    except InputError as error:
+        message = str(error)
+        for name, option in names.items():
+            word = f"{name[:-1]}=" if name.endswith("_") else name
+            message = re.sub(rf"(?<![\w.-]){re.escape(word)}(?![\w=])", option, message)
+        if message == str(error):
+            raise
+        raise type(error)(message) from error

@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from vptoolkit.checks import check_suffix
+from vptoolkit.cli.group import options_named
 from vptoolkit.cli.options import (
     EXISTING,
     MEASURE_CHOICE,
@@ -121,10 +122,11 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
                "command": " ".join(["vptool", *sys.argv[1:]])}
     chosen = [name.strip() for name in categories.split(",")] if categories else None
     try:
-        if per_category:
-            results = train_per_category(dataset, output, categories=chosen, **options)
-        else:
-            results = {"": train_model(dataset, output, categories=chosen, **options)}
+        with options_named(val_split="--val-split", dataset_path="DATASET"):
+            if per_category:
+                results = train_per_category(dataset, output, categories=chosen, **options)
+            else:
+                results = {"": train_model(dataset, output, categories=chosen, **options)}
     except ExistingRunError as error:
         how = ("it has nothing to resume from" if resume
                else "add --resume to continue it")
@@ -176,8 +178,9 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     for source in sources:  # refused before the network is loaded
         if source.suffix.lower() == ".npy" and source.is_file():
             read_point_file(source)
-    predictions = predict(model, sources, split=None if split == "all" else split, seed=seed,
-                          progress=True, category=category, device=device)
+    with options_named(category_="--category"):
+        predictions = predict(model, sources, split=None if split == "all" else split,
+                              seed=seed, progress=True, category=category, device=device)
     if output is not None:
         predictions.save_npz(output)
     for name, directions in zip(predictions.names[:10], predictions.directions[:10]):

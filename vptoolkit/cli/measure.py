@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -16,6 +17,7 @@ from vptoolkit.cli.options import (
     seed_option,
     views_option,
 )
+from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
 
 
@@ -108,8 +110,11 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     from vptoolkit.io import load_mesh
     from vptoolkit.view_sets import measure_view_set
 
+    if target is not None and not math.isfinite(target):
+        raise InputError(f"--coverage: must lie in (0, 1], got {target}")
     if output is not None:
         check_suffix(output, ".npz")
+        check_output_folder(output, "--output")  # before drawing the views
     loaded = load_mesh(mesh)
     started = time.perf_counter()
     _, view_set = measure_view_set(
@@ -117,6 +122,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
         resolution=resolution, progress=True, objective=objective, until_coverage=target,
         measure=measure, min_pixels=min_pixels)
     seconds = time.perf_counter() - started
+    if view_set.reachable == 0:
+        raise MeasurementError(f"{mesh}: no face has {min_pixels} pixels in any of the "
+                               f"{n_views} views; lower --min-pixels or raise --resolution")
     if output is not None:
         view_set.save_npz(output)
     if as_json:

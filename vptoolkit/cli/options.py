@@ -97,7 +97,8 @@ EXISTING = ExistingPath(exists=True, path_type=Path)
 MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
 """One of :data:`vptoolkit.conventions.MEASURES`, in any case."""
 
-MODEL_HELP = "Checkpoint (folder or .safetensors), or 'default' for the bundled network."
+MODEL_HELP = ("Checkpoint (folder or .safetensors), or 'default' for the bundled network "
+              "(./default for a checkpoint of that name).")
 
 _ENGINE_HELP = ("software: the measures' rasteriser, fast on any CPU; open3d: Filament's "
                 "shading via Vulkan (erratic frame times on software Vulkan).")

@@ -197,6 +197,8 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
     from vptoolkit.pictures.shading import RenderStyle
     from vptoolkit.pictures.thumbnails import render_thumbnails
 
+    if model_path is not None and view_set_k is not None:
+        raise InputError("--view-set: --model gives one view per mesh; drop one of them")
     predictor = None
     if model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor

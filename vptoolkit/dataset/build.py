@@ -222,7 +222,7 @@ def build_dataset(
     clean : bool
         Clean each mesh before measuring (default: True).
     remesh : bool
-        With ``clean``, also remesh isotropically in the last cleaning step
+        Also remesh isotropically in the last cleaning step (needs ``clean``)
         (:func:`vptoolkit.clean.clean_mesh`; default: False). Viewpoint
         entropy depends on the tessellation: shapes assembled from a few
         large faces (``vptoolkit.synthetic``) reward views that scanned or
@@ -499,6 +499,8 @@ def _check_options(
         raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {format!r}")
     import vptoolkit
 
+    if remesh and not clean:
+        raise InputError("remesh: remeshing is a cleaning step; it needs clean=True")
     return {
         "format": format,
         "n_views": check_int(n_views, "n_views", minimum=1),

@@ -178,6 +178,8 @@ def process_model(task: ModelTask) -> ModelResult:
         return failed_model(task, f"{task.source}: out of memory", is_staged=False)
     except VptoolkitError as err:
         return failed_model(task, _with_source(task.source, one_line(err)))
+    except OSError as err:
+        return failed_model(task, _os_error_reason(task, err))
     # This is the one place a broad except is right: an unexpected bug on one
     # model of thousands must not stop the batch; it is recorded with its type.
     except Exception as err:  # noqa: BLE001
@@ -273,6 +275,20 @@ def cluster_lost(task: ModelTask, error: Exception) -> FailedModel:
         f"{task.source}: cluster task failed ({type(error).__name__}: {one_line(error)})",
         is_staged=False,
     )
+
+
+def _os_error_reason(task: ModelTask, error: OSError) -> str:
+    """The reason of a file that cannot be read, named by its path under SRC.
+
+    The absolute path of the build machine (and a symbolic link's target)
+    stays out of the failures and so out of the card.
+    """
+    path = Path(task.path)
+    if path.is_symlink() and not path.exists():
+        return f"{task.source}: dangling symbolic link (its target does not exist)"
+    if error.filename is not None and Path(str(error.filename)) != path:
+        return f"{task.source}: unexpected {type(error).__name__}: {one_line(error)}"
+    return f"{task.source}: cannot read ({error.strerror or type(error).__name__})"
 
 
 def _with_source(source: str, reason: str) -> str:

@@ -9,6 +9,8 @@ row per model name with its licence, author and URL);
 from __future__ import annotations
 
 import csv
+import io
+import unicodedata
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -41,8 +43,9 @@ def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
     Raises
     ------
     InputError
-        On a missing column, an empty name or licence, a repeated name or a
-        row the CSV reader refuses (a cell longer than its field limit); the
+        On a missing column, an empty name or licence, a repeated name, a
+        control character (a tab, a line break, an escape) in a cell or a row
+        the CSV reader refuses (a cell longer than its field limit); the
         message names the file and the line.
     """
     source = Path(path)
@@ -50,7 +53,7 @@ def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
         text = source.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as err:
         raise InputError(f"{source.name}: cannot read ({err})") from err
-    rows = csv.DictReader(text.splitlines())
+    rows = csv.DictReader(io.StringIO(text, newline=""))  # rows end at line breaks only
     try:
         return _licence_rows(source, rows)
     except csv.Error as err:  # a cell beyond csv.field_size_limit(), a stray NUL
@@ -70,6 +73,11 @@ def _licence_rows(source: Path, rows: csv.DictReader[str]) -> dict[str, dict[str
             raise InputError(f"{source.name}: line {line} needs a name and a license")
         if name in table:
             raise InputError(f"{source.name}: line {line} repeats the model {name!r}")
+        for key in LICENSE_COLUMNS:
+            control = next((c for c in row.get(key) or "" if unicodedata.category(c) == "Cc"), None)
+            if control is not None:
+                raise InputError(f"{source.name}: line {line}: the {key} cell holds the control "
+                                 f"character U+{ord(control):04X}; remove it")
         table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
                        if (row.get(key) or "").strip()}
     return table

@@ -17,6 +17,7 @@ from vptoolkit.conventions import SPLITS
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
+from vptoolkit.sphere import is_zero_length
 
 EVALUATION_SPLITS = (*SPLITS, "all")
 """Splits an evaluation may select: the published ones, or ``"all"``."""
@@ -44,7 +45,7 @@ def check_directions(file_name: str, directions: NDArray[Any], names: Sequence[s
     is_bad = ~np.isfinite(values).all(axis=-1)
     problem = "NaN or infinite"
     if not is_bad.any():
-        is_bad = np.linalg.norm(values, axis=-1) < 1e-12
+        is_bad = is_zero_length(values)
         problem = "a zero vector"
     if is_bad.any():
         model, column = np.argwhere(is_bad)[0]

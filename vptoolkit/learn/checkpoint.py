@@ -26,6 +26,7 @@ __all__ = [
     "DEFAULT_MODEL",
     "PRETRAINED",
     "checkpoint_paths",
+    "is_default_model",
     "read_json",
     "read_safetensors",
     "write_json_atomic",
@@ -43,6 +44,17 @@ PRETRAINED: Final = Path(__file__).parent / "pretrained"
 ``model.json`` with the command that trained it); see ``docs/results.md``."""
 
 
+def is_default_model(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` stands for the bundled checkpoint: the string ``"default"``.
+
+    The bundled network always wins over a file or folder named ``default``
+    in the working directory, so the meaning of ``--model default`` does not
+    depend on where the command runs; that file is reached as ``./default``
+    (or as a :class:`~pathlib.Path`, which always names a file).
+    """
+    return isinstance(path, str) and path == DEFAULT_MODEL
+
+
 def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     """The weights and configuration files of a checkpoint.
 
@@ -52,15 +64,14 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
         A folder (``model.safetensors`` and ``model.json`` inside it), a
         ``*.safetensors`` file or its ``*.json`` configuration, or
         ``"default"`` for the pretrained checkpoint bundled with the package
-        (:data:`PRETRAINED`; a file or folder named ``default`` in the
-        working directory takes precedence).
+        (:data:`PRETRAINED`, see :func:`is_default_model`).
 
     Returns
     -------
     weights, config : Path
         ``<stem>.safetensors`` and ``<stem>.json`` side by side.
     """
-    if str(path) == DEFAULT_MODEL and not Path(path).exists():
+    if is_default_model(path):
         path = PRETRAINED
     path = Path(path)
     if path.suffix == ".safetensors":

@@ -255,11 +255,12 @@ def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> 
 def check_input_sizes(n_points: Any, n_fps: Any, *, prefix: str = "") -> tuple[int, int]:
     """Return a network input's size and farthest-point part, or raise naming the bad one.
 
-    ``1 <= n_points <= MAX_INPUT_POINTS`` and ``0 <= n_fps <= n_points``; the
+    ``1 <= n_points <= MAX_INPUT_POINTS`` and ``1 <= n_fps <= n_points``: a
+    network's input starts with farthest-point picks, as in the paper. The
     message names ``{prefix}n_points`` or ``{prefix}n_fps``.
     """
     n_points = check_int(n_points, f"{prefix}n_points", minimum=1, maximum=MAX_INPUT_POINTS)
-    n_fps = check_int(n_fps, f"{prefix}n_fps", minimum=0)
+    n_fps = check_int(n_fps, f"{prefix}n_fps", minimum=1)
     if n_fps > n_points:
         raise InputError(f"{prefix}n_fps: {n_fps} exceeds n_points={n_points}")
     return n_points, n_fps

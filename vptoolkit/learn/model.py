@@ -77,7 +77,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.errors import CheckpointError, InputError, VerificationError
+from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.learn.checkpoint import (
     MODEL_FORMAT,
     checkpoint_paths,
@@ -357,12 +357,11 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     ------
     InputError
         If a file is missing or unreadable, the configuration is not a
-        vptoolkit model or asks for sizes beyond the bounds of
-        :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
+        vptoolkit model, has no ``architecture``, lists its measures in
+        another order than ``MEASURES`` or asks for sizes beyond the bounds
+        of :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
     CheckpointError
         If the weights do not match the architecture.
-    VerificationError
-        If the configuration's measure order differs from ``MEASURES``.
     """
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
@@ -375,13 +374,15 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     if not isinstance(measures, list) or len(measures) > len(MEASURES):
         raise InputError(f"{config_path.name}: measures: expected a list of at most {len(MEASURES)} names")
     if measures != list(MEASURES[: len(measures)]):
-        raise VerificationError(f"{config_path.name}: measure order {measures} differs from {list(MEASURES)}")
+        raise InputError(f"{config_path.name}: measure order {measures} differs from {list(MEASURES)}")
     try:
         trained = config.get("input", {})
         if not isinstance(trained, Mapping):
             raise InputError(f"input: expected an object, got {type(trained).__name__}")
         check_input_sizes(trained.get("n_points", 4096), trained.get("n_fps", 1024), prefix="input.")
-        architecture = config.get("architecture", {})
+        if "architecture" not in config:
+            raise InputError("architecture: missing; a checkpoint names its network's architecture")
+        architecture = config["architecture"]
         if not isinstance(architecture, Mapping):
             raise InputError(f"architecture: expected an object, got {type(architecture).__name__}")
         # a configuration without the option is of raw inputs

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import Mesh
@@ -296,7 +296,7 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
     from vptoolkit.learn.checkpoint import read_json
 
     index = Path(model_path) / "categories.json"
-    if str(model_path) == DEFAULT_MODEL or not index.is_file():
+    if is_default_model(model_path) or not index.is_file():
         return {None: load_model(model_path)}
     entries = read_json(index, "per-category index")
     if entries.get("format") != CATEGORY_MODELS_FORMAT or not isinstance(entries.get("categories"), dict):
@@ -312,7 +312,7 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
         return None
     if category is None:
         raise InputError(f"{name}: the model folder holds one network per category ({', '.join(map(str, networks))}); "
-                         "pass category= (--category) for meshes and point files")
+                         "pass category= for meshes and point files")
     if category not in networks:
         raise InputError(f"{name}: no network for category {category!r} (have {', '.join(map(str, networks))})")
     return category

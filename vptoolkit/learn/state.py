@@ -16,6 +16,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
+from vptoolkit.checks import check_int, short_repr
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.learn.checkpoint import (
@@ -118,14 +119,26 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     Raises
     ------
     InputError
-        If the file is not a training state or its arguments differ from
-        ``arguments`` in any of ``keys``.
+        If the file is not a training state, its epoch is not that of its
+        history or beyond ``arguments["epochs"]``, or its arguments differ
+        from ``arguments`` in any of ``keys``.
     CheckpointError
         If the weights or Adam state do not fit the network.
     """
     state = read_json(json_path, "training state")
     if state.get("format") != TRAINING_STATE_FORMAT:
         raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
+    history = state.get("history")
+    if not isinstance(history, list):
+        raise InputError(f"{json_path.name}: history: expected a list, got {short_repr(history)}")
+    epoch = check_int(state.get("epoch"), f"{json_path.name}: epoch", minimum=0)
+    if epoch != len(history):
+        raise InputError(f"{json_path.name}: epoch {epoch} does not match the {len(history)} "
+                         "epochs of its history")
+    epochs = arguments.get("epochs")
+    if isinstance(epochs, int) and epoch > epochs:
+        raise InputError(f"{json_path.name}: the run is at epoch {epoch}, past the {epochs} "
+                         "epochs asked for")
     stored = dict(state.get("arguments", {}))
     stored["val_split"] = published_split(str(stored.get("val_split")))  # a run may record "val"
     current = json_value(arguments)
@@ -143,4 +156,4 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     best = dict(state["best"])
     if best["score"] is None:
         best["score"] = -math.inf
-    return int(state["epoch"]), list(state["history"]), best
+    return epoch, list(history), best
