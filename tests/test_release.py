@@ -581,3 +581,40 @@ def test_release_info_json_matches_dataset_info(release) -> None:
     live = dataset_info(release.zarr_zip)
     live.pop("path")
     assert stored == live
+
+
+def test_a_read_only_parent_folder_names_the_release(build: Path, tmp_path: Path,
+                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    import errno
+
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.dataset import release as release_module
+
+    def refused(*args: object, prefix: str = "", suffix: str = "", dir: object = None) -> str:
+        raise PermissionError(errno.EACCES, "Permission denied",
+                              str(Path(str(dir)) / f"{prefix}abcd1234{suffix}"))
+
+    monkeypatch.setattr(release_module.tempfile, "mkdtemp", refused)
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release")])
+    assert result.exit_code == 2
+    message = result.output.strip().splitlines()[-1]
+    assert f"{tmp_path / 'release'}: Permission denied" in message
+    assert ".partial" not in result.output
+    assert "Traceback" not in result.output
+
+
+def test_a_version_too_long_for_a_file_name_names_the_release(build: Path,
+                                                              tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release"),
+                                       "--version", "1.0." + "9" * 240])
+    assert result.exit_code == 2
+    assert f"{tmp_path / 'release'}: file name" in result.output
+    assert "longer than 255 bytes" in result.output
+    assert ".partial" not in result.output
+    assert list(tmp_path.iterdir()) == []

@@ -243,6 +243,13 @@ def _check_still_empty(release_dir: Path) -> None:
     _check_release_dir(release_dir)
 
 
+_MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS
+
+
+def _name_bytes(name: str) -> int:
+    return len(name.encode("utf-8", "surrogateescape"))
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -487,8 +494,17 @@ def pack_release(
     written = [archive_names[f] for f in ("zarr", "hdf5") if f in chosen]
     # Without an archive, a hidden HDF5 copy serves the descriptions and is removed.
     described_name = written[0] if written else f".{stem}.describe.h5"
-    staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
-                                    dir=target.parent))
+    longest = max([*archive_names.values(), described_name], key=_name_bytes)
+    if _name_bytes(longest) > _MAX_NAME_BYTES:
+        raise InputError(
+            f"{target}: file name {short_repr(longest)} is longer than {_MAX_NAME_BYTES} bytes; "
+            "choose a shorter name or version"
+        )
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
+                                        dir=target.parent))
+    except OSError as err:  # a read-only or full parent folder: name the release
+        raise named_os_error(err, target) from err
     try:
         with held(staging):  # a concurrent pack's cleanup leaves it alone
             with open_store(source) as reader:
