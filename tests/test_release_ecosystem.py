@@ -263,6 +263,22 @@ def test_parquet_only_release(tmp_path: Path) -> None:
     assert not [p for p in result.path.rglob(".*")]  # the describing copy is gone
 
 
+
+def test_hdf5_only_card_promises_no_datasets_loading(tmp_path: Path) -> None:
+    import yaml
+
+    from vptoolkit.dataset.release import pack_release
+
+    build = _write_build(tmp_path / "build")
+    result = pack_release(build, tmp_path / "release", formats=["hdf5"])
+    card = result.card.read_text(encoding="utf-8")
+    header = yaml.safe_load(card.split("---\n")[1])
+    assert "configs" not in header and "dataset_info" not in header
+    body = card.split("---\n", 2)[2]
+    assert "load_dataset" not in body and "Parquet shards hold" not in body
+    assert f"`datasets` cannot load it; read `{result.hdf5.name}`" in body
+    assert f'h5py.File("{result.hdf5.name}"' in body
+
 # --------------------------------------------------------------------------- reproducibility
 
 

@@ -130,11 +130,8 @@ def render_card(
         yaml_hub = hub_yaml(shards, n_points=int(info["n_points"] or 0),
                             n_views=int(info["n_views"]))
     else:
-        yaml_splits = "\n".join(
-            f"  - name: {_yaml_str(s)}\n    num_examples: {info['split_totals'][s]}"
-            for s in info["splits"]
-        ) or "  []"
-        yaml_hub = f"dataset_info:\n  config_name: default\n  splits:\n{yaml_splits}"
+        # Without Parquet shards `datasets` has nothing to load: no configs, no splits.
+        yaml_hub = ""
 
     count_header, count_rows = split_count_rows(info)
     measure_rows = [
@@ -182,6 +179,25 @@ def render_card(
     archives = [name for name in sorted(files) if name.endswith(".zarr.zip")]
     hdf5_files = [name for name in sorted(files) if name.endswith((".h5", ".hdf5"))]
     n_failures = info["n_failures"]
+    split_names = ", ".join(f"`{s}`" for s in info["splits"])
+    if shards:
+        datasets_block = (
+            f"With Hugging Face `datasets` (the Parquet shards, splits {split_names}):\n\n"
+            "```python\nfrom datasets import load_dataset\n\n"
+            'data = load_dataset("path/to/this/folder")            # or streaming=True\n'
+            'points = data["train"].with_format("numpy")[0]["points"]   '
+            f"# ({info['n_points']}, 3) float32\n"
+            'views = load_dataset("path/to/this/folder", "views")["train"]  '
+            f"# the {info['n_views']} view directions\n```"
+        )
+    else:
+        readable = " or ".join(f"`{name}`" for name in [*hdf5_files, *archives]) or "the archive"
+        tools = ", ".join(["vptoolkit", *(["`h5py`"] if hdf5_files else []),
+                           *(["`zarr>=3`"] if archives else [])])
+        datasets_block = (
+            "This release has no Parquet shards, so Hugging Face `datasets` cannot load it; "
+            f"read {readable} with {tools} as shown below."
+        )
     values = {
         "models_phrase": plural(info["n_models"], "model"),
         "failures_phrase": (
@@ -202,7 +218,9 @@ def render_card(
                                              provenance_rows, ["l", "l", "l", "l"])
                              if provenance_rows else ""),
         "formats_sentence": " and ".join(formats) or "no archive",
-        "split_names": ", ".join(f"`{s}`" for s in info["splits"]),
+        "split_names": split_names,
+        "datasets_block": datasets_block,
+        "same_data_sentence": _same_data_sentence(files),
         "yaml_size_category": _yaml_str(size_category(info["n_models"])),
         "yaml_hub": yaml_hub,
         "title": title,
@@ -255,6 +273,17 @@ def render_card(
         return template.substitute({key: str(value) for key, value in values.items()})
     except (KeyError, ValueError) as err:
         raise InputError(f"template.md: cannot fill placeholder ({err})") from err
+
+
+def _same_data_sentence(files: Mapping[str, str]) -> str:
+    """`` The Zarr zip and the HDF5 file hold the same data; ...`` for two or more formats."""
+    held = [label for suffix, label in ((".zarr.zip", "the Zarr zip"), (".h5", "the HDF5 file"),
+                                        (".parquet", "the Parquet shards"))
+            if any(name.endswith(suffix) for name in files)]
+    if len(held) < 2:
+        return ""
+    listed = ", ".join(held[:-1]) + " and " + held[-1]
+    return f" {listed[0].upper()}{listed[1:]} hold the same data; use whichever your tools read."
 
 
 def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> str:
