@@ -539,3 +539,21 @@ def test_a_default_file_in_the_working_directory_does_not_shadow_the_bundled_net
     assert code == 0, text
     code, text = _run("predict", cloud, "--model", "./default")
     assert code == 2 and "default/model.json" in text, text
+
+
+@pytest.mark.parametrize("folder", ["../outside", "/abs/model", "mug/../../x", ""],
+                         ids=["parent", "absolute", "climbing", "empty"])
+def test_a_per_category_index_pointing_outside_the_model_folder_is_refused(
+        tmp_path: Path, folder: str) -> None:
+    require_package("torch")
+    from vptoolkit.learn.checkpoint import PRETRAINED
+    from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
+
+    shutil.copytree(PRETRAINED, tmp_path / "outside")  # a loadable network out there
+    model = tmp_path / "per"
+    model.mkdir()
+    (model / "categories.json").write_text(json.dumps(
+        {"format": CATEGORY_MODELS_FORMAT, "categories": {"mug": folder}}))
+    code, text = _run("predict", sample_path("mug.obj"), "--model", model, "--category", "mug")
+    _assert_one_line_bad_input(code, text, f"{model / 'categories.json'}: category 'mug' names",
+                               "not a folder inside the model folder")

@@ -26,7 +26,7 @@ import secrets
 import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any, BinaryIO
 
 from vptoolkit.checks import one_line
@@ -106,6 +106,19 @@ def named_os_error(error: OSError, path: str | os.PathLike[str]) -> OSError:
         return OSError(error.errno, f"not fully written ({one_line(error)}); is the disk full?",
                        str(path))
     return OSError(error.errno, error.strerror, str(path))
+
+
+def is_inside_folder(relative: str) -> bool:
+    """Whether ``relative`` is a non-empty relative path that stays inside its folder.
+
+    Refuses an absolute path (POSIX or Windows, with a drive), a ``..``
+    component and a backslash, judged on the text alone.
+    """
+    if not relative or "\\" in relative:
+        return False
+    posix = PurePosixPath(relative)
+    return (not posix.is_absolute() and not PureWindowsPath(relative).anchor
+            and ".." not in posix.parts)
 
 
 _MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS

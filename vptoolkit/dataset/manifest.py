@@ -20,11 +20,11 @@ import re
 import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import read_json_file, write_text_atomic
+from vptoolkit.files import is_inside_folder, read_json_file, write_text_atomic
 
 __all__ = [
     "MANIFEST_NAME",
@@ -328,8 +328,7 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
         if match is None:
             raise VerificationError(f"{path.name}: line {number} is not '<sha256>  <path>'")
         relative = match["path"]
-        parts = PurePosixPath(relative).parts
-        if relative.startswith("/") or ".." in parts or "\\" in relative:
+        if not is_inside_folder(relative):
             raise VerificationError(f"{path.name}: line {number} names a path outside the folder")
         if relative in sums:
             raise VerificationError(f"{path.name}: line {number} repeats {relative}")

@@ -40,8 +40,10 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
@@ -301,7 +303,11 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
     entries = read_json(index, "per-category index")
     if entries.get("format") != CATEGORY_MODELS_FORMAT or not isinstance(entries.get("categories"), dict):
         raise InputError(f"{index}: not a vptoolkit per-category index (format {entries.get('format')!r})")
-    return {str(name): load_model(Path(model_path) / str(folder))
+    for name, folder in entries["categories"].items():
+        if not isinstance(folder, str) or not is_inside_folder(folder):
+            raise InputError(f"{index}: category {short_repr(name)} names {short_repr(folder)}, "
+                             "not a folder inside the model folder")
+    return {str(name): load_model(Path(model_path) / folder)
             for name, folder in sorted(entries["categories"].items())}
 
 
