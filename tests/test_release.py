@@ -618,3 +618,56 @@ def test_a_version_too_long_for_a_file_name_names_the_release(build: Path,
     assert "longer than 255 bytes" in result.output
     assert ".partial" not in result.output
     assert list(tmp_path.iterdir()) == []
+
+
+def _forge_shard(folder: Path, relative: str, column: str) -> str:
+    """Change one value of ``column`` in a shard, then re-hash SHA256SUMS and Croissant."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from vptoolkit.dataset.manifest import sha256_file, write_sha256sums
+
+    table = pq.read_table(folder / relative)
+    rows = table.column(column).to_pylist()
+    rows[0][0][0] += 1.0
+    forged = table.set_column(table.column_names.index(column), column,
+                              pa.array(rows, table.schema.field(column).type))
+    pq.write_table(forged, folder / relative)
+    write_sha256sums(folder)
+    croissant = json.loads((folder / "croissant.json").read_text(encoding="utf-8"))
+    for item in croissant["distribution"]:
+        if item.get("contentUrl") == relative:
+            item["sha256"] = sha256_file(folder / relative)
+    (folder / "croissant.json").write_text(json.dumps(croissant), encoding="utf-8")
+    write_sha256sums(folder)
+    return str(table.column("name")[0])
+
+
+def test_verify_names_a_forged_parquet_shard_with_re_hashed_sums(release_copy: Path) -> None:
+    require_package("pyarrow")
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    shard = "data/train-00000-of-00001.parquet"
+    name = _forge_shard(release_copy, shard, "points")
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 1, result.output
+    assert f"{shard}:{name}:points: differs from the archive ({STEM}.h5)" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_verify_says_it_skipped_the_shards_without_pyarrow(
+        release_copy: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from vptoolkit.dataset import parquet
+    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.errors import MissingDependencyError
+
+    def absent(module: str, extra: str | None = None) -> None:
+        raise MissingDependencyError(f"{module} is not installed: pip install 'vptoolkit[{extra}]'")
+
+    monkeypatch.setattr(parquet, "require", absent)
+    report = verify(release_copy)
+    assert not report.problems
+    assert [p.target for p in report.skipped] == [", ".join(PARQUET_FILES)]
+    assert "contents not compared with" in report.summary()

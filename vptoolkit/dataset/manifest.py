@@ -480,7 +480,31 @@ def _verify_release(folder: Path) -> VerifyReport:
     for archive in archives:
         found[archive.name] = _check_arrays(archive, archive.name, report)
     _compare_archives(found, report)
+    from vptoolkit.conventions import SPLITS
+    from vptoolkit.dataset.parquet import VIEWS_CONFIG, shard_name
+
+    shards = sorted(present & {shard_name(split) for split in (*SPLITS, VIEWS_CONFIG)})
+    intact = [archive for archive in archives
+              if found[archive.name] and None not in found[archive.name].values()]
+    if shards and intact:
+        _compare_shards(folder, intact[0], shards, report)
     return report
+
+
+def _compare_shards(folder: Path, archive: Path, shards: list[str], report: VerifyReport) -> None:
+    """Flag Parquet shards whose rows differ from the archive's models."""
+    from vptoolkit.dataset.parquet import shard_differences
+    from vptoolkit.dataset.reader import open_store
+
+    try:
+        with open_store(archive, check_chunks=False) as reader:
+            differences = shard_differences(reader, folder, shards)
+    except MissingDependencyError as err:
+        report.skipped.append(Problem(
+            "skipped", ", ".join(shards), f"contents not compared with {archive.name}: {err}"))
+        return
+    for target, detail in differences:
+        report.problems.append(Problem("array", target, f"{detail} ({archive.name})"))
 
 
 def verify(path: Path | str) -> VerifyReport:
@@ -494,9 +518,11 @@ def verify(path: Path | str) -> VerifyReport:
         listed file is re-hashed against the manifest (a missing manifest is
         a problem), files it does not list become warnings, then every array
         of every archive in the folder is re-hashed against its ``sha256``
-        attribute and compared across archives (a release of Parquet shards
-        only is checked by the manifest alone). An archive that cannot be
-        opened for lack of a package is ``skipped``, not damaged. Otherwise any path
+        attribute and compared across archives, and every row of the Parquet
+        shards is compared with the first intact archive (a release of
+        Parquet shards only is checked by the manifest alone). An archive, or
+        shards, that cannot be read for lack of a package is ``skipped``, not
+        damaged. Otherwise any path
         :func:`vptoolkit.dataset.containers.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
 

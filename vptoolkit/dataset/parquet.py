@@ -287,3 +287,132 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str) -> list[P
     n_rows, num_bytes = _write(pa, pq, folder / relative, view_cols, [batch])
     shards.append(ParquetShard(VIEWS_CONFIG, relative, n_rows, num_bytes))
     return shards
+
+
+def _shard_values(pa: Any, array: Any, column: Column) -> list[NDArray[Any]]:
+    """The rows of one column of a record batch as numpy arrays of the column's dtype."""
+    dtype = np.dtype(column.dtype)
+    if isinstance(array, pa.ChunkedArray):
+        array = array.combine_chunks()
+    if array.null_count:
+        raise ValueError("null values")
+    if not column.shape:
+        return list(array.to_numpy(zero_copy_only=False).astype(dtype))
+    lengths = np.asarray(array.value_lengths().to_numpy(zero_copy_only=False), np.int64)
+    flat = array.flatten()
+    if len(column.shape) == 2:
+        inner = pa.compute.list_value_length(flat).to_numpy(zero_copy_only=False)
+        if flat.null_count or np.any(inner != column.shape[1]):
+            raise ValueError(f"rows are not of {column.shape[1]} values")
+        flat = flat.flatten()
+    values = np.asarray(flat.to_numpy(zero_copy_only=False), dtype)
+    inner_size = int(column.shape[-1]) if len(column.shape) == 2 else 1
+    bounds = np.concatenate([[0], np.cumsum(lengths)]) * inner_size
+    rows = [values[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
+    return [row.reshape(-1, inner_size) if len(column.shape) == 2 else row for row in rows]
+
+
+def _same(expected: Any, found: Any, dtype: str) -> bool:
+    if dtype == "string":
+        return expected == found
+    left = np.asarray(expected, np.dtype(dtype))
+    right = np.asarray(found)
+    if left.size != right.size:
+        return False
+    left, right = left.reshape(-1), right.reshape(-1)
+    return bool(np.array_equal(left, right, equal_nan=left.dtype.kind == "f"))
+
+
+def shard_differences(reader: StoreReader, release_dir: Path | str,
+                      shards: list[str]) -> list[tuple[str, str]]:
+    """Compare Parquet shards, row by row, with the store they were written from.
+
+    Parameters
+    ----------
+    reader : StoreReader
+        An archive of the release.
+    release_dir : Path or str
+        The release folder.
+    shards : list of str
+        The shards to compare, as paths relative to ``release_dir``
+        (:func:`shard_name`; other names are left alone).
+
+    Returns
+    -------
+    list of (str, str)
+        ``(target, detail)`` per difference; the target is ``<shard>`` or
+        ``<shard>:<model>:<column>``. Empty when every shard holds what the
+        store holds.
+
+    Raises
+    ------
+    MissingDependencyError
+        If pyarrow is not installed.
+    """
+    require("pyarrow.compute", extra="dataset")
+    pa = require("pyarrow", extra="dataset")
+    pq = require("pyarrow.parquet", extra="dataset")
+    folder = Path(release_dir)
+    attrs = reader.attrs
+    records = reader.models()
+    for record in records:
+        provenance = record.get("provenance") or {}
+        for key in _PROVENANCE:
+            record.setdefault(key, provenance.get(key) if isinstance(provenance, Mapping) else None)
+    names = [str(record["name"]) for record in records]
+    by_split = {split: [row for row, record in enumerate(records)
+                        if published_split(str(record["split"])) == split] for split in SPLITS}
+    model_cols = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
+    found: list[tuple[str, str]] = []
+    for relative in shards:
+        split = relative.split("/")[-1].split("-00000-of-")[0]
+        views_shard = relative == shard_name(VIEWS_CONFIG)
+        if not views_shard and (split not in by_split or relative != shard_name(split)):
+            continue  # not a file of this layout
+        columns = view_columns() if views_shard else model_cols
+        try:
+            table = pq.read_table(folder / relative)
+            missing = [c.name for c in columns if c.name not in table.column_names]
+            if missing:
+                found.append((relative, f"columns missing: {', '.join(missing)}"))
+                continue
+            if views_shard:
+                views = np.asarray(reader.array("views")[...], np.float64)
+                index = _shard_values(pa, table.column("view_index"), columns[0])
+                direction = _shard_values(pa, table.column("direction"), columns[1])
+                if not (_same(np.arange(len(views)), index, "int64")
+                        and _same(views, direction, "float64")):
+                    found.append((relative, "view directions differ from the archive's"))
+                continue
+            rows = by_split[split]
+            shard_names = [str(v) for v in table.column("name").to_pylist()]
+            if shard_names != [names[row] for row in rows]:
+                found.append((relative, f"models differ from the archive's {split} split "
+                                        f"({len(shard_names)} rows, {len(rows)} models)"))
+                continue
+            vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
+            face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
+            for column in columns:
+                if column.dtype == "string":
+                    values: list[Any] = table.column(column.name).to_pylist()
+                else:
+                    values = _shard_values(pa, table.column(column.name), column)
+                if column.name in ("mesh_vertices", "mesh_faces"):
+                    offsets = vertex_offsets if column.name == "mesh_vertices" else face_offsets
+                    stored = reader.array(column.name)
+                for position, row in enumerate(rows):
+                    if column.dtype == "string":
+                        expected: Any = records[row].get(column.name)
+                        if column.name == "split":
+                            expected = published_split(str(expected))
+                        expected = None if expected is None else str(expected)
+                    elif column.name in ("mesh_vertices", "mesh_faces"):
+                        expected = stored[offsets[row] : offsets[row + 1]]
+                    else:
+                        expected = reader.array(column.name)[row]
+                    if not _same(expected, values[position], column.dtype):
+                        found.append((f"{relative}:{names[row]}:{column.name}",
+                                      "differs from the archive"))
+        except Exception as err:  # noqa: BLE001 - a shard that cannot be read is the finding
+            found.append((relative, f"cannot be compared ({type(err).__name__}: {err})"))
+    return found
