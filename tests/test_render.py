@@ -306,7 +306,10 @@ def test_a_killed_child_is_replaced(renderer, cube):
     os.kill(renderer._child.process.pid, signal.SIGKILL)
     after = renderer.render(cube, [1.0, 1.0, 1.0])[0]
     assert renderer.n_restarts == restarts + 1
-    np.testing.assert_array_equal(after, before)
+    # Filament on a software Vulkan driver may round a pixel or two differently in a
+    # new process; the picture is the same.
+    difference = np.abs(after.astype(np.int64) - before.astype(np.int64))
+    assert difference.max() <= 2 and np.count_nonzero(difference) <= 0.001 * difference.size
 
 
 @pytest.mark.renderer
