@@ -103,6 +103,16 @@ class ParquetShard:
     num_bytes: int
 
 
+def _shard_records(reader: Any) -> list[dict[str, Any]]:
+    """The store's model records, provenance fields lifted to the top as shards hold them."""
+    records = reader.models()
+    for record in records:
+        provenance = record.get("provenance") or {}
+        for key in _PROVENANCE:
+            record.setdefault(key, provenance.get(key) if isinstance(provenance, Mapping) else None)
+    return records
+
+
 def shard_name(split: str) -> str:
     """Relative path of the shard of ``split``, e.g. ``data/train-00000-of-00001.parquet``.
 
@@ -262,11 +272,7 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str) -> list[P
     folder = Path(release_dir)
     (folder / PARQUET_FOLDER).mkdir(parents=True, exist_ok=True)
     attrs = reader.attrs
-    records = reader.models()
-    for record in records:
-        provenance = record.get("provenance") or {}
-        for key in _PROVENANCE:
-            record.setdefault(key, provenance.get(key) if isinstance(provenance, Mapping) else None)
+    records = _shard_records(reader)
     columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
     shards = []
     for split in SPLITS:
@@ -354,11 +360,7 @@ def shard_differences(reader: StoreReader, release_dir: Path | str,
     pq = require("pyarrow.parquet", extra="dataset")
     folder = Path(release_dir)
     attrs = reader.attrs
-    records = reader.models()
-    for record in records:
-        provenance = record.get("provenance") or {}
-        for key in _PROVENANCE:
-            record.setdefault(key, provenance.get(key) if isinstance(provenance, Mapping) else None)
+    records = _shard_records(reader)
     names = [str(record["name"]) for record in records]
     by_split = {split: [row for row, record in enumerate(records)
                         if published_split(str(record["split"])) == split] for split in SPLITS}
