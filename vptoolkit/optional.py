@@ -34,6 +34,7 @@ EXTRAS = {
     "torch": "learn",
     "safetensors": "learn",
     "matplotlib": "pictures",
+    "fsspec": "remote",
 }
 """The vptoolkit extra that installs each optional top-level module.
 

@@ -11,8 +11,11 @@ import click
 
 from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE
 from vptoolkit.cli.options import (
+    DATASET,
     EXISTING,
     ExistingPath,
+    cache_dir_option,
+    local_dataset,
     resolution_option,
     views_option,
     workers_option,
@@ -184,23 +187,27 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
 
 
 @click.command()
-@click.argument("path", type=EXISTING)
+@click.argument("path", type=DATASET)
 @click.option("--json", "as_json", is_flag=True, help="Print the full report as JSON.")
-def verify(path: Path, as_json: bool) -> None:
+@cache_dir_option()
+def verify(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     """Re-hash a release folder or dataset store against its checksums.
 
     Every file is checked against SHA256SUMS and every array against the
     SHA-256 stored with it; each mismatch and each unlisted file is named.
     Exit code 1 on any mismatch; 2 if an archive could not be checked because
-    a package is missing (the line says which to install).
+    a package is missing (the line says which to install). PATH may be the
+    URL of a release: every file is downloaded into --cache-dir, each
+    refused unless it matches SHA256SUMS, and the copy is checked.
 
     \b
     Example:
       vptool verify release/
+      vptool verify https://example.org/viewpoints/ --cache-dir cache/
     """
     from vptoolkit.dataset.manifest import verify as verify_path
 
-    report = verify_path(path)
+    report = verify_path(local_dataset(path, cache_dir, everything=True))
     # The summary is printed once: on stdout when all is well, else as the error line.
     if as_json:
         click.echo(json.dumps(report.to_dict(), indent=2))
@@ -213,18 +220,23 @@ def verify(path: Path, as_json: bool) -> None:
 
 
 @click.command()
-@click.argument("path", type=EXISTING)
+@click.argument("path", type=DATASET)
 @click.option("--json", "as_json", is_flag=True, help="Print the information as JSON.")
-def info(path: Path, as_json: bool) -> None:
+@cache_dir_option()
+def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     """Show counts per category and split, conventions and failures of a dataset.
+
+    PATH is a store, a build or release folder, or a release's URL
+    (downloaded into --cache-dir and verified first).
 
     \b
     Example:
       vptool info release/
+      vptool info https://example.org/viewpoints/
     """
     from vptoolkit.dataset.info import dataset_info, format_info
 
-    details = dataset_info(path)
+    details = dataset_info(local_dataset(path, cache_dir))
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
 
 

@@ -12,11 +12,14 @@ import click
 from vptoolkit.checks import check_suffix
 from vptoolkit.cli.group import options_named
 from vptoolkit.cli.options import (
+    DATASET,
     EXISTING,
     MEASURE_CHOICE,
     MODEL_HELP,
     ExistingPath,
+    cache_dir_option,
     device_option,
+    local_dataset,
     seed_option,
 )
 from vptoolkit.errors import ExistingRunError, InputError
@@ -25,8 +28,9 @@ from vptoolkit.files import check_output_folder
 
 @click.command()
 @click.argument("predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path))
-@click.option("--dataset", "dataset_path", required=True, type=EXISTING,
-              help="Dataset built by build-dataset (store, build folder or release folder).")
+@click.option("--dataset", "dataset_path", required=True, type=DATASET,
+              help="Dataset built by build-dataset (store, build folder or release folder, "
+                   "or a release's URL).")
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Models to score.")
@@ -36,8 +40,9 @@ from vptoolkit.files import check_output_folder
 @click.option("--view-sets", is_flag=True,
               help="PREDICTIONS holds k directions per model, (N, k, 3): report the coverage "
                    "they reach against the greedy k-view set's.")
-def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | None,
-             as_json: bool, view_sets: bool) -> None:
+@cache_dir_option()
+def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: str | None,
+             as_json: bool, view_sets: bool, cache_dir: Path | None) -> None:
     """Score predicted view directions against a dataset.
 
     PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
@@ -52,6 +57,7 @@ def evaluate(predictions: Path, dataset_path: Path, split: str, measure: str | N
     """
     from vptoolkit.evaluate import evaluate_predictions, evaluate_view_sets
 
+    dataset_path = local_dataset(dataset_path, cache_dir)
     if view_sets:
         sets = evaluate_view_sets(dataset_path, predictions, split=split)
         click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
@@ -141,7 +147,8 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
 @click.command("predict")
 @click.argument("inputs", nargs=-1, type=EXISTING)
 @click.option("-m", "--model", default="default", show_default=True, help=MODEL_HELP)
-@click.option("--dataset", "dataset_path", type=EXISTING, help="Predict the models of a dataset.")
+@click.option("--dataset", "dataset_path", type=DATASET,
+              help="Predict the models of a dataset (a path or a release's URL).")
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Split of --dataset.")
@@ -151,8 +158,10 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
 @click.option("--category",
               help="Category of mesh and point-file inputs, for a per-category model folder.")
 @device_option()
-def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | None, split: str,
-                    output: Path | None, seed: int, category: str | None, device: str) -> None:
+@cache_dir_option()
+def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | str | None,
+                    split: str, output: Path | None, seed: int, category: str | None,
+                    device: str, cache_dir: Path | None) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
     INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
@@ -170,6 +179,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | N
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
+    if dataset_path is not None:
+        dataset_path = local_dataset(dataset_path, cache_dir)
     sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
     if not sources:
         raise InputError("inputs: give mesh or point files, or --dataset")

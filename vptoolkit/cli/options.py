@@ -26,6 +26,9 @@ __all__ = [
     "ExistingPath",
     "MESH",
     "EXISTING",
+    "DATASET",
+    "cache_dir_option",
+    "local_dataset",
     "MEASURE_CHOICE",
     "MODEL_HELP",
     "views_option",
@@ -93,6 +96,46 @@ MESH = ExistingPath(exists=True, dir_okay=False, path_type=Path)
 
 EXISTING = ExistingPath(exists=True, path_type=Path)
 """An existing file or folder."""
+
+class DatasetSource(ExistingPath):
+    """An existing file or folder, or the URL of a release, which is kept as text."""
+
+    name = "path_or_url"
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        """Pass a URL (``scheme://...``) through; check a local path as :class:`ExistingPath`."""
+        from vptoolkit.data.remote import is_remote
+
+        if is_remote(value):
+            return value
+        return super().convert(value, param, ctx)
+
+
+DATASET = DatasetSource(exists=True, path_type=Path)
+"""A dataset: an existing store or folder, or a release's URL (``https://``, ``hf://``, ...)."""
+
+
+def cache_dir_option() -> Callable[[Decorated], Decorated]:
+    """``--cache-dir``: where a dataset given as a URL is downloaded."""
+    return click.option(
+        "--cache-dir", type=click.Path(file_okay=False, path_type=Path),
+        help="Where a dataset given as a URL is downloaded and verified "
+             "(default: $XDG_CACHE_HOME/vptoolkit, else ~/.cache/vptoolkit).")
+
+
+def local_dataset(source: Path | str, cache_dir: Path | None, *,
+                  everything: bool = False) -> Path:
+    """A :data:`DATASET` value as a local path: a URL is fetched into the cache first.
+
+    ``everything`` fetches every file of the release, not only what reading needs.
+    """
+    from vptoolkit.data.remote import fetch_release, is_remote
+
+    if is_remote(source):
+        return fetch_release(str(source), cache_dir=cache_dir, everything=everything)
+    return Path(source)
+
 
 MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
 """One of :data:`vptoolkit.conventions.MEASURES`, in any case."""

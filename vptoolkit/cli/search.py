@@ -8,7 +8,14 @@ from pathlib import Path
 import click
 
 from vptoolkit.checks import check_suffix
-from vptoolkit.cli.options import EXISTING, MESH, budget_option, search_resolution_option
+from vptoolkit.cli.options import (
+    DATASET,
+    MESH,
+    budget_option,
+    cache_dir_option,
+    local_dataset,
+    search_resolution_option,
+)
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import check_output_folder
 
@@ -20,8 +27,8 @@ from vptoolkit.files import check_output_folder
 @click.option("--prior", default="none", show_default=True,
               help="none, default (the bundled network) or a checkpoint: the network "
                    "proposes the first candidates.")
-@click.option("--dataset", "dataset_path", type=EXISTING,
-              help="Search the stored meshes of a dataset split.")
+@click.option("--dataset", "dataset_path", type=DATASET,
+              help="Search the stored meshes of a dataset split (a path or a release's URL).")
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Split of --dataset.")
@@ -30,8 +37,10 @@ from vptoolkit.files import check_output_folder
                    "(scored by vptool evaluate).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print per mesh the directions, views drawn, resolutions and seconds.")
+@cache_dir_option()
 def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str,
-              dataset_path: Path | None, split: str, output: Path | None, as_json: bool) -> None:
+              dataset_path: Path | str | None, split: str, output: Path | None, as_json: bool,
+              cache_dir: Path | None) -> None:
     """Find the best view per measure of MESHES within a budget of drawn views.
 
     A Fibonacci sphere of half the budget (at 128 px when --resolution is
@@ -56,6 +65,8 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         check_output_folder(output, "--output")
     if not meshes and dataset_path is None:
         raise InputError("inputs: give mesh files or --dataset")
+    if dataset_path is not None:
+        dataset_path = local_dataset(dataset_path, cache_dir)
     propose = None
     if prior != "none":
         from vptoolkit.learn.prior import NetworkPrior

@@ -17,6 +17,11 @@ Examples
 ...     item = train[0]
 ...     item["points"].shape, item["quality"].shape
 ((20000, 3), (1000, 4))
+
+A URL opens a published release through a verified local cache
+(:mod:`vptoolkit.data.remote`):
+
+>>> dataset = open_dataset("https://example.org/viewpoints/")   # doctest: +SKIP
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import SPLITS
+from vptoolkit.data.remote import fetch_release, is_remote
 from vptoolkit.dataset.containers import find_store
 from vptoolkit.dataset.reader import StoreReader, open_store
 from vptoolkit.dataset.schema import published_split
@@ -381,14 +387,22 @@ class ViewpointDataset:
         self.close()
 
 
-def open_dataset(path: str | os.PathLike[str]) -> ViewpointDataset:
-    """Open a dataset store lazily.
+def open_dataset(path: str | os.PathLike[str], *,
+                 cache_dir: str | os.PathLike[str] | None = None) -> ViewpointDataset:
+    """Open a dataset store lazily, local or remote.
 
     Parameters
     ----------
-    path : path-like
+    path : path-like or str
         A store (``*.zarr``, ``*.zarr.zip``, ``*.h5``), a build output folder
-        or a release folder (see :func:`vptoolkit.dataset.containers.find_store`).
+        or a release folder (see :func:`vptoolkit.dataset.containers.find_store`);
+        or the URL of a release folder or archive (``https://...``,
+        ``hf://datasets/...``, ``s3://...``), which is downloaded, verified
+        against its ``SHA256SUMS`` and read from the local cache
+        (:func:`vptoolkit.data.remote.fetch_release`).
+    cache_dir : path-like, optional
+        Cache folder for a URL (default: ``$XDG_CACHE_HOME/vptoolkit``, else
+        ``~/.cache/vptoolkit``).
 
     Returns
     -------
@@ -398,10 +412,16 @@ def open_dataset(path: str | os.PathLike[str]) -> ViewpointDataset:
     Raises
     ------
     InputError
-        If no store is found or it cannot be read.
+        If no store is found, it cannot be read or a URL cannot be fetched.
     VerificationError
-        If the store's measure order differs from ``MEASURES``.
+        If the store's measure order differs from ``MEASURES``, or a
+        downloaded file differs from the release's ``SHA256SUMS`` (it is not
+        cached).
+    MissingDependencyError
+        For a URL other than http(s) without fsspec (the ``remote`` extra).
     """
+    if is_remote(path):
+        path = fetch_release(str(path), cache_dir=cache_dir)
     shared = _SharedStore(find_store(path))
     rows = np.arange(len(shared.records), dtype=np.int64)
     return ViewpointDataset(shared, rows, is_owner=True)

@@ -44,7 +44,7 @@ from typing import Any
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.optional import is_available, require
 
-__all__ = ["find_store", "require_zarr", "store_kind", "zarr_is_usable"]
+__all__ = ["archive_preference", "find_store", "require_zarr", "store_kind", "zarr_is_usable"]
 
 
 def store_kind(path: str | os.PathLike[str]) -> str:
@@ -114,10 +114,7 @@ def find_store(path: str | os.PathLike[str]) -> Path:
     if built:
         return built[0]
     visible = sorted(p for p in target.iterdir() if not p.name.startswith("."))
-    containers: list[tuple[str, ...]] = [(".zarr.zip",), (".h5", ".hdf5")]
-    if not zarr_is_usable() and is_available("h5py"):
-        containers.reverse()  # a release holds both: open the one this install can read
-    for suffixes in containers:
+    for suffixes in archive_preference():
         found = [p for p in visible if p.is_file() and p.name.lower().endswith(suffixes)]
         if len(found) == 1:
             return found[0]
@@ -135,6 +132,18 @@ def find_store(path: str | os.PathLike[str]) -> Path:
     raise InputError(
         f"{target}: no dataset.zarr, dataset.h5, *.zarr.zip or *.h5 store in this folder"
     )
+
+
+def archive_preference() -> list[tuple[str, ...]]:
+    """The suffixes of a release's archives, the one to open first first.
+
+    The Zarr zip, then HDF5; HDF5 first where zarr >= 3 is missing and h5py
+    is installed (a release may hold both: open the one this install reads).
+    """
+    containers: list[tuple[str, ...]] = [(".zarr.zip",), (".h5", ".hdf5")]
+    if not zarr_is_usable() and is_available("h5py"):
+        containers.reverse()
+    return containers
 
 
 def zarr_is_usable() -> bool:

@@ -35,6 +35,7 @@ __all__ = [
     "hash_folder",
     "format_sha256sums",
     "write_sha256sums",
+    "parse_sha256sums",
     "read_sha256sums",
     "verify",
 ]
@@ -316,22 +317,30 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
         the line number.
     """
     path = Path(path)
+    return parse_sha256sums(path.read_bytes(), path.name)
+
+
+def parse_sha256sums(data: bytes, label: str = MANIFEST_NAME) -> dict[str, str]:
+    """Parse the bytes of a ``SHA256SUMS`` file, as :func:`read_sha256sums` does.
+
+    ``label`` names the file in error messages (a path or a URL).
+    """
     sums: dict[str, str] = {}
     try:
-        text = path.read_bytes().decode("utf-8")
+        text = data.decode("utf-8")
     except UnicodeDecodeError as err:
-        raise VerificationError(f"{path.name}: not UTF-8 text (byte {err.start})") from err
+        raise VerificationError(f"{label}: not UTF-8 text (byte {err.start})") from err
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
         match = _LINE.match(line)
         if match is None:
-            raise VerificationError(f"{path.name}: line {number} is not '<sha256>  <path>'")
+            raise VerificationError(f"{label}: line {number} is not '<sha256>  <path>'")
         relative = match["path"]
         if not is_inside_folder(relative):
-            raise VerificationError(f"{path.name}: line {number} names a path outside the folder")
+            raise VerificationError(f"{label}: line {number} names a path outside the folder")
         if relative in sums:
-            raise VerificationError(f"{path.name}: line {number} repeats {relative}")
+            raise VerificationError(f"{label}: line {number} repeats {relative}")
         sums[relative] = match["digest"].lower()
     return sums
 
