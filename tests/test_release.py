@@ -23,7 +23,7 @@ FAILURES = [
     {"source": "car/train/car_0007.off", "category": "car", "reason": "no faces"},
     {"source": "car/test/car_0100.off", "category": "car", "reason": "no view sees the model"},
 ]
-STEM = "vptoolkit-viewpoints-1.0.0"
+STEM = "vptoolkit-viewpoints"
 PARQUET_FILES = ["data/test-00000-of-00001.parquet", "data/train-00000-of-00001.parquet",
                  "data/validation-00000-of-00001.parquet", "views/views-00000-of-00001.parquet"]
 DATASHEET_SECTIONS = (
@@ -99,12 +99,12 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="session")
 def release(build: Path, tmp_path_factory: pytest.TempPathFactory):
-    """The release of ``build``, packed into an existing empty folder."""
-    from vptoolkit.dataset.release import pack_release
+    """The release of ``build`` in every format, packed into an existing empty folder."""
+    from vptoolkit.dataset.release import FORMATS, pack_release
 
     folder = tmp_path_factory.mktemp("release") / "out"
     folder.mkdir()
-    return pack_release(build, folder)
+    return pack_release(build, folder, formats=FORMATS)
 
 
 @pytest.fixture()
@@ -274,9 +274,10 @@ def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
-    result = pack_release(build, tmp_path / "nested" / "rel", name="mini-v1", license="cc-by-4.0")
-    assert result.zarr_zip.name == "mini-v1-1.0.0.zarr.zip"
-    assert result.hdf5.name == "mini-v1-1.0.0.h5"
+    result = pack_release(build, tmp_path / "nested" / "rel", name="mini-v1", license="cc-by-4.0",
+                          version="2.3.4")
+    assert result.zarr_zip is None  # by default Parquet and one archive, HDF5
+    assert result.hdf5.name == "mini-v1.h5"  # the version is not in file names
     card = result.card.read_text(encoding="utf-8")
     assert re.search(r'^license: "cc-by-4.0"$', card, re.MULTILINE)
     assert json.loads(result.croissant.read_text())["license"] == "cc-by-4.0"
@@ -527,9 +528,14 @@ def test_croissant_is_json_ld_with_the_manifest_sums(release) -> None:
         assert obj["sha256"] == release.files[url], url
     ids = {obj["@id"] for obj in document["distribution"]}
     record_sets = {record_set["@id"]: record_set for record_set in document["recordSet"]}
-    assert list(record_sets) == ["models", "views"]
+    assert list(record_sets) == ["splits", "models", "views"]
+    splits = record_sets.pop("splits")
+    assert splits["dataType"] == "cr:Split"
+    assert [row["splits/name"] for row in splits["data"]] == ["train", "validation", "test"]
     names = [field["name"] for field in record_sets["models"]["field"]]
     assert names[:3] == ["name", "category", "split"] and "points" in names
+    split = record_sets["models"]["field"][2]
+    assert split["references"] == {"field": {"@id": "splits/name"}}
     for record_set in record_sets.values():
         for field in record_set["field"]:
             source = field["source"]
@@ -605,14 +611,14 @@ def test_a_read_only_parent_folder_names_the_release(build: Path, tmp_path: Path
     assert "Traceback" not in result.output
 
 
-def test_a_version_too_long_for_a_file_name_names_the_release(build: Path,
-                                                              tmp_path: Path) -> None:
+def test_a_name_too_long_for_a_file_name_names_the_release(build: Path,
+                                                           tmp_path: Path) -> None:
     from click.testing import CliRunner
 
     from vptoolkit.cli import main
 
     result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release"),
-                                       "--version", "1.0." + "9" * 240])
+                                       "--name", "n" * 253])
     assert result.exit_code == 2
     assert f"{tmp_path / 'release'}: file name" in result.output
     assert "longer than 255 bytes" in result.output

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import require_package
-from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries
+from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries, _forge_shard
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -54,11 +54,12 @@ def licenses_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def release(tmp_path_factory: pytest.TempPathFactory, licenses_csv: Path):
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release import FORMATS, pack_release
 
     base = tmp_path_factory.mktemp("eco")
     build = _write_build(base / "build")
-    return pack_release(build, base / "release", created=CREATED, version="2.1.0",
+    return pack_release(build, base / "release", formats=FORMATS, created=CREATED,
+                        version="2.1.0",
                         name="mini", pretty_name="Mini viewpoints", licenses=licenses_csv,
                         source_url="https://example.org/src", creator="Tester")
 
@@ -130,6 +131,79 @@ def test_card_dataset_info_has_features_and_sizes(release) -> None:
 # --------------------------------------------------------------------------- Croissant
 
 
+@pytest.fixture(scope="module")
+def sharded(tmp_path_factory: pytest.TempPathFactory):
+    """The release cut into Parquet shards of at most 30 kB of rows (several per split)."""
+    from vptoolkit.dataset.release import pack_release
+
+    base = tmp_path_factory.mktemp("sharded")
+    return pack_release(_write_build(base / "build"), base / "release", created=CREATED,
+                        shard_size="30KB")
+
+
+def test_a_small_shard_size_gives_several_hub_named_shards_that_datasets_loads(
+        sharded, tmp_path: Path, monkeypatch) -> None:
+    require_package("datasets")
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    import datasets
+
+    train = sorted(p.name for p in (sharded.path / "data").glob("train-*.parquet"))
+    assert len(train) >= 2
+    assert train == [f"train-{i:05d}-of-{len(train):05d}.parquet" for i in range(len(train))]
+    import pyarrow.parquet as pq
+
+    for shard in sharded.parquet:  # the rows' Arrow size is bounded, as the hub measures it
+        assert pq.read_table(shard).nbytes <= 30_000
+        assert shard.stat().st_size <= 30_000 + pq.ParquetFile(shard).metadata.serialized_size
+    card = sharded.card.read_text(encoding="utf-8")
+    for name in train:
+        assert f"    - data/{name}\n" in card  # the configs list every shard
+    loaded = datasets.load_dataset(str(sharded.path), cache_dir=str(tmp_path / "cache"))
+    from vptoolkit.data import open_dataset
+
+    with open_dataset(sharded.path) as reference:
+        for split, rows in loaded.items():
+            assert rows["name"] == reference.split(split).names  # every shard, in store order
+        first = loaded["train"].with_format("numpy")[len(loaded["train"]) - 1]
+        np.testing.assert_array_equal(first["quality"], reference.split("train")[-1]["quality"])
+
+
+def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None:
+    from vptoolkit.dataset.manifest import verify
+
+    assert verify(sharded.path).ok
+    copy = Path(shutil.copytree(sharded.path, tmp_path / "release"))
+    second = "data/train-00001-of-" + next(
+        (copy / "data").glob("train-00001-of-*.parquet")).name.rsplit("-of-", 1)[1]
+    name = _forge_shard(copy, second, "quality")
+    report = verify(copy)
+    assert [p.target for p in report.problems] == [f"{second}:{name}:quality"]
+
+
+@pytest.mark.parametrize(("text", "expected"), [("200KB", 200_000), ("500MB", 500_000_000),
+                                                ("1.5GB", 1_500_000_000), ("64MiB", 64 << 20),
+                                                ("4096", 4096), (" 2 kb ", 2000)])
+def test_shard_sizes_read_as_bytes(text: str, expected: int) -> None:
+    from vptoolkit.dataset.parquet import parse_size
+
+    assert parse_size(text) == expected
+
+
+def test_a_bad_shard_size_is_one_line_and_exit_2(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    for bad in ("lots", "0KB", "5 parsecs"):
+        result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release"),
+                                           "--shard-size", bad])
+        assert result.exit_code == 2, result.output
+        assert result.output.startswith("vptool: error: --shard-size: ")
+        assert not (tmp_path / "release").exists()
+
+
 # rdflib and pandas, under mlcroissant, warn about their own APIs; not ours.
 @pytest.mark.filterwarnings("ignore:ConjunctiveGraph is deprecated:DeprecationWarning")
 @pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.reset_index")
@@ -173,10 +247,11 @@ def test_croissant_carries_version_dates_creator_and_rai(release) -> None:
 # --------------------------------------------------------------------------- versions, provenance
 
 
-def test_version_goes_into_names_attributes_card_and_croissant(release) -> None:
+def test_version_goes_into_attributes_card_and_croissant_not_names(release) -> None:
     from vptoolkit.dataset.reader import open_store
 
-    assert release.zarr_zip.name == "mini-2.1.0.zarr.zip" and release.hdf5.name == "mini-2.1.0.h5"
+    assert release.zarr_zip.name == "mini.zarr.zip" and release.hdf5.name == "mini.h5"
+    assert not [name for name in release.files if "2.1.0" in name]
     with open_store(release.hdf5) as reader:
         assert reader.attrs["dataset_version"] == "2.1.0"
         assert reader.attrs["created"] == CREATED
@@ -393,7 +468,7 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
 
     report = verify(release_copy)
     assert report.problems == [] and not report.ok
-    assert [p.target for p in report.skipped] == ["mini-2.1.0.zarr.zip"]
+    assert [p.target for p in report.skipped] == ["mini.zarr.zip"]
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
         report.raise_if_failed()
     result = CliRunner().invoke(main, ["verify", str(release_copy)])
@@ -418,7 +493,7 @@ def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypat
 
     monkeypatch.setattr(containers, "zarr_is_usable", lambda: False)
     with open_dataset(release.path) as dataset:
-        assert dataset.path.name == "mini-2.1.0.h5" and len(dataset) == N_MODELS
+        assert dataset.path.name == "mini.h5" and len(dataset) == N_MODELS
 
 
 def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
@@ -521,11 +596,11 @@ def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) ->
 def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None:
     from vptoolkit.dataset.descriptions import update_card
 
-    archive = release_copy / "mini-2.1.0.h5"
+    archive = release_copy / "mini.h5"
     data = bytearray(archive.read_bytes())
     data[-10] ^= 0xFF
     archive.write_bytes(bytes(data))
-    with pytest.raises(VerificationError, match="mini-2.1.0.h5: differs from SHA256SUMS"):
+    with pytest.raises(VerificationError, match="mini.h5: differs from SHA256SUMS"):
         update_card(release_copy)
 
 
@@ -671,7 +746,7 @@ def test_plain_install_needs_no_heavy_package() -> None:
     core = [re.split(r"[<>=;\[ ]", dep)[0] for dep in project["project"]["dependencies"]]
     assert sorted(core) == ["click", "h5py", "numpy", "tqdm"]
     extras = project["project"]["optional-dependencies"]
-    assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures]" in extras["all"]
+    assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures,remote]" in extras["all"]
     for package in ("numba", "trimesh"):
         assert any(dep.startswith(package) for dep in extras["measures"])
     assert {"datasets", "mlcroissant"} <= {re.split(r"[<>=]", d)[0] for d in extras["dev"]}
@@ -743,7 +818,7 @@ def test_cli_pack_options_reach_the_release(tmp_path: Path, licenses_csv: Path) 
         "--license-name", "mixed", "--license-link", "https://example.org/terms"])
     assert result.exit_code == 0, result.output
     assert f"version 0.2.0, created {CREATED}" in result.stdout
-    assert (release / "vptoolkit-viewpoints-0.2.0.h5").is_file()
+    assert (release / "vptoolkit-viewpoints.h5").is_file()
     assert not list(release.glob("*.zarr.zip"))
     card = (release / "README.md").read_text(encoding="utf-8")
     assert 'license_name: "mixed"' in card and 'license_link: "https://example.org/terms"' in card

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE
+from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE, options_named
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
@@ -123,10 +123,14 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
 @click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
 @click.option("--license", "license_id", default="other", show_default=True,
               help="Licence identifier for the card (that of the source meshes).")
-@click.option("--formats", default="parquet,zarr,hdf5", show_default=True,
-              help="Containers to write, comma-separated: parquet, zarr, hdf5.")
+@click.option("--formats", default="parquet,hdf5", show_default=True,
+              help="Containers to write, comma-separated: parquet, zarr, hdf5 (each a full "
+              "copy of the data).")
+@click.option("--shard-size", default="500MB", show_default=True,
+              help="Largest size of one Parquet shard's rows (Arrow bytes), e.g. 200KB, 1GB.")
 @click.option("--version", "dataset_version", default="1.0.0", show_default=True,
-              help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant, file names).")
+              help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant; "
+              "never file names).")
 @click.option("--created", help="Release time, ISO 8601 (default: $SOURCE_DATE_EPOCH, else the "
               "build's). The same build and --created give byte-identical files.")
 @click.option("--pretty-name", help="Title of the card and the Croissant name.")
@@ -141,17 +145,19 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
               help="DATASET is a release whose README.md was edited: rewrite croissant.json "
               "and SHA256SUMS to match it, leaving the archives as they are.")
 def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: str,
-         formats: str, dataset_version: str, created: str | None, pretty_name: str | None,
+         formats: str, shard_size: str, dataset_version: str, created: str | None,
+         pretty_name: str | None,
          source_url: str | None, url: str | None, creator: str | None,
          licenses: Path | None, license_name: str | None, license_link: str | None,
          update_card: bool) -> None:
     """Pack a built DATASET into RELEASE_DIR for publishing.
 
-    Writes Parquet shards per split, a Zarr v3 zip and an HDF5 file with the
-    same content, the dataset card README.md (with the hub's configs),
-    croissant.json, SCHEMA.md and a SHA256SUMS manifest. RELEASE_DIR must be
-    new or empty. With --update-card, DATASET is an existing release whose
-    card a person edited; only croissant.json and SHA256SUMS are rewritten.
+    Writes Parquet shards per split (data/train-00000-of-00012.parquet ...)
+    and an HDF5 file with the same content (--formats adds a Zarr v3 zip),
+    the dataset card README.md (with the hub's configs), croissant.json,
+    SCHEMA.md and a SHA256SUMS manifest. RELEASE_DIR must be new or empty.
+    With --update-card, DATASET is an existing release whose card a person
+    edited; only croissant.json and SHA256SUMS are rewritten.
 
     \b
     Example:
@@ -172,12 +178,13 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
     from vptoolkit.dataset.release import pack_release
 
     chosen = [part.strip() for part in formats.split(",") if part.strip()]
-    result = pack_release(
-        dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
-        version=dataset_version, created=created, pretty_name=pretty_name,
-        source_url=source_url, url=url, creator=creator, licenses=licenses,
-        license_name=license_name, license_link=license_link,
-    )
+    with options_named(shard_size="--shard-size"):
+        result = pack_release(
+            dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
+            version=dataset_version, created=created, pretty_name=pretty_name,
+            source_url=source_url, url=url, creator=creator, licenses=licenses,
+            license_name=license_name, license_link=license_link, shard_size=shard_size,
+        )
     for line in result.warnings:
         click.echo(f"vptool: warning: {line}", err=True)
     top = sorted({name.split("/")[0] + ("/" if "/" in name else "") for name in result.files})

@@ -289,7 +289,7 @@ def _same_data_sentence(files: Mapping[str, str]) -> str:
 def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> str:
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
-    Two configurations: ``default`` (one Parquet shard per split, one row
+    Two configurations: ``default`` (the Parquet shards of each split, one row
     per model, columns :func:`~vptoolkit.dataset.parquet.model_columns`) and
     ``views`` (the shared view directions, as split ``train``, the hub's
     name for a configuration's only split). ``datasets.load_dataset(release)``
@@ -307,28 +307,41 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
     str
         YAML lines without a trailing newline.
     """
-    model_shards = [shard for shard in shards if shard.split != VIEWS_CONFIG]
-    view_shards = [shard for shard in shards if shard.split == VIEWS_CONFIG]
+    by_split: dict[str, list[ParquetShard]] = {}
+    for shard in shards:
+        by_split.setdefault(shard.split, []).append(shard)
+    model_splits = {split: files for split, files in by_split.items() if split != VIEWS_CONFIG}
+    view_splits = {"train": by_split[VIEWS_CONFIG]} if VIEWS_CONFIG in by_split else {}
     lines = ["configs:", "- config_name: default", "  default: true", "  data_files:"]
-    lines += [f"  - split: {shard.split}\n    path: {shard.path}" for shard in model_shards]
-    for shard in view_shards:
-        lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:",
-                  f"  - split: train\n    path: {shard.path}"]
+    lines += _data_files(model_splits)
+    if view_splits:
+        lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:", *_data_files(view_splits)]
     lines.append("dataset_info:")
-    configs = [("default", model_columns(n_points, n_views), model_shards),
-               (VIEWS_CONFIG, view_columns(), view_shards)]
+    configs = [("default", model_columns(n_points, n_views), model_splits),
+               (VIEWS_CONFIG, view_columns(), view_splits)]
     for config_name, columns, chosen in configs:
         if not chosen:
             continue
         lines += [f"- config_name: {config_name}", "  features:"]
         lines += [_yaml_feature(column) for column in columns]
         lines.append("  splits:")
-        for shard in chosen:
-            split = "train" if config_name == VIEWS_CONFIG else shard.split
-            lines += [f"  - name: {split}", f"    num_bytes: {shard.num_bytes}",
-                      f"    num_examples: {shard.n_rows}"]
-        lines.append(f"  dataset_size: {sum(shard.num_bytes for shard in chosen)}")
+        for split, files in chosen.items():
+            lines += [f"  - name: {split}", f"    num_bytes: {sum(s.num_bytes for s in files)}",
+                      f"    num_examples: {sum(s.n_rows for s in files)}"]
+        total = sum(s.num_bytes for files in chosen.values() for s in files)
+        lines.append(f"  dataset_size: {total}")
     return "\n".join(lines)
+
+
+def _data_files(splits: Mapping[str, Sequence[ParquetShard]]) -> list[str]:
+    """The ``data_files`` entries of a configuration: one path, or the list of a split's shards."""
+    lines = []
+    for split, files in splits.items():
+        if len(files) == 1:
+            lines.append(f"  - split: {split}\n    path: {files[0].path}")
+        else:
+            lines += [f"  - split: {split}", "    path:", *(f"    - {s.path}" for s in files)]
+    return lines
 
 
 def _yaml_feature(column: Column) -> str:

@@ -191,12 +191,14 @@ def croissant_jsonld(
             "@type": "cr:FileSet",
             "@id": "model-shards",
             "name": "model-shards",
-            "description": ("Parquet shards, one per split "
-                            f"({', '.join(s.split for s in model_shards)}), one row per model"),
+            "description": ("Parquet shards of the splits "
+                            f"({', '.join(dict.fromkeys(s.split for s in model_shards))}), "
+                            "one row per model"),
             "encodingFormat": "application/x-parquet",
             "includes": f"{folder}/*.parquet",
         })
         columns = model_columns(int(n_points or 0), int(n_views))
+        record_sets.append(_split_record_set())
         record_sets.append({
             "@type": "cr:RecordSet",
             "@id": "models",
@@ -207,6 +209,10 @@ def croissant_jsonld(
             "field": [_croissant_field("models", c, {"fileSet": {"@id": "model-shards"}})
                       for c in columns],
         })
+        for field in record_sets[-1]["field"]:
+            if field["name"] == "split":
+                field["dataType"] = ["sc:Text", "cr:Split"]
+                field["references"] = {"field": {"@id": f"{SPLITS_RECORD_SET}/name"}}
     for shard in view_shards:
         record_sets.append({
             "@type": "cr:RecordSet",
@@ -250,6 +256,33 @@ def croissant_jsonld(
     document["distribution"] = distribution
     document["recordSet"] = record_sets
     return document
+
+
+SPLITS_RECORD_SET = "splits"
+"""The ``cr:Split`` record set naming the splits of the ``models`` record set."""
+
+_SPLIT_URLS = {"train": "cr:TrainingSplit", "validation": "cr:ValidationSplit",
+               "test": "cr:TestSplit"}
+
+
+def _split_record_set() -> dict[str, Any]:
+    """The splits as a ``cr:Split`` record set: each name and Croissant's split URL."""
+    return {
+        "@type": "cr:RecordSet",
+        "@id": SPLITS_RECORD_SET,
+        "name": SPLITS_RECORD_SET,
+        "description": "The splits of the models record set",
+        "dataType": "cr:Split",
+        "key": {"@id": f"{SPLITS_RECORD_SET}/name"},
+        "field": [
+            {"@type": "cr:Field", "@id": f"{SPLITS_RECORD_SET}/name",
+             "name": f"{SPLITS_RECORD_SET}/name", "dataType": "sc:Text"},
+            {"@type": "cr:Field", "@id": f"{SPLITS_RECORD_SET}/url",
+             "name": f"{SPLITS_RECORD_SET}/url", "dataType": "sc:URL"},
+        ],
+        "data": [{f"{SPLITS_RECORD_SET}/name": split,
+                  f"{SPLITS_RECORD_SET}/url": _SPLIT_URLS[split]} for split in SPLITS],
+    }
 
 
 def card_sections(card: str) -> dict[str, str]:

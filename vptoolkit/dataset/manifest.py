@@ -489,10 +489,9 @@ def _verify_release(folder: Path) -> VerifyReport:
     for archive in archives:
         found[archive.name] = _check_arrays(archive, archive.name, report)
     _compare_archives(found, report)
-    from vptoolkit.conventions import SPLITS
-    from vptoolkit.dataset.parquet import VIEWS_CONFIG, shard_name
+    from vptoolkit.dataset.parquet import parse_shard_name
 
-    shards = sorted(present & {shard_name(split) for split in (*SPLITS, VIEWS_CONFIG)})
+    shards = sorted(relative for relative in present if parse_shard_name(relative) is not None)
     intact = [archive for archive in archives
               if found[archive.name] and None not in found[archive.name].values()]
     if shards and intact:

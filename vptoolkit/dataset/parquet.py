@@ -1,16 +1,21 @@
-"""Parquet shards of a release: one file per split, one row per model.
+"""Parquet shards of a release: files of bounded size per split, one row per model.
 
 The archives (Zarr zip, HDF5) hold the whole layout of ``SCHEMA.md`` as a
 handful of large arrays; dataset hubs and their libraries read rows. So a
 release also carries, written with pyarrow:
 
-- ``data/<split>-00000-of-00001.parquet``: one row per model of the split,
-  the columns of :func:`model_columns`;
+- ``data/<split>-<i>-of-<n>.parquet`` (``data/train-00000-of-00012.parquet``,
+  the hub's naming): one row per model of the split, the columns of
+  :func:`model_columns`, in store order, cut into the fewest shards whose
+  rows hold at most ``shard_bytes`` of Arrow data each (the measure the
+  hub's ``max_shard_size`` uses; compressed files are smaller), at least one
+  model per shard;
 - ``views/views-00000-of-00001.parquet``: one row per view direction, shared
   by every model (:func:`view_columns`).
 
 Splits use the names of :data:`vptoolkit.conventions.SPLITS`
-(``train``, ``validation``, ``test``); an empty split gets no file. Arrays
+(``train``, ``validation``, ``test``); an empty split gets no file. The
+names hold no version, so a loader's paths stay valid across releases. Arrays
 of a fixed shape are nested lists (``list<list<float>>``, the storage of
 Hugging Face's ``Array2D``); short vectors are fixed-size lists. Files are
 zstd-compressed, one row group per 64 models, and the same store gives the
@@ -22,6 +27,7 @@ extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,14 +38,18 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES, SPLITS
 from vptoolkit.dataset.schema import published_split
+from vptoolkit.errors import InputError
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
+    "DEFAULT_SHARD_BYTES",
     "PARQUET_FOLDER",
     "VIEWS_CONFIG",
+    "parse_shard_name",
+    "parse_size",
     "Column",
     "ParquetShard",
     "model_columns",
@@ -54,8 +64,16 @@ PARQUET_FOLDER = "data"
 VIEWS_CONFIG = "views"
 """Name of the shard (and hub configuration) holding the shared view directions."""
 
+DEFAULT_SHARD_BYTES = 500 * 1000**2
+"""Largest Arrow size of the rows of one model shard, 500 MB (the hub's default)."""
+
 _ROWS_PER_GROUP = 64
 _PROVENANCE = ("license", "author", "url")
+_SHARD = re.compile(r"(?P<folder>[a-z]+)/(?P<split>[a-z]+)-(?P<index>[0-9]{5})-of-"
+                    r"(?P<count>[0-9]{5})\.parquet")
+_SIZE = re.compile(r"\s*([0-9]+(?:\.[0-9]+)?)\s*([KMGT]?i?B?)\s*", re.IGNORECASE)
+_UNITS = {"": 1, "B": 1, "KB": 1000, "MB": 1000**2, "GB": 1000**3, "TB": 1000**4,
+          "KIB": 1024, "MIB": 1024**2, "GIB": 1024**3, "TIB": 1024**4}
 
 
 @dataclass(frozen=True)
@@ -113,14 +131,51 @@ def _shard_records(reader: Any) -> list[dict[str, Any]]:
     return records
 
 
-def shard_name(split: str) -> str:
-    """Relative path of the shard of ``split``, e.g. ``data/train-00000-of-00001.parquet``.
+def shard_name(split: str, index: int = 0, count: int = 1) -> str:
+    """Relative path of shard ``index`` of ``count`` of ``split``.
 
-    The views shard goes in a folder of its own, ``views/``, so that
-    ``data/*.parquet`` matches exactly the model shards.
+    E.g. ``data/train-00003-of-00012.parquet``. The views shard goes in a
+    folder of its own, ``views/``, so that ``data/*.parquet`` matches exactly
+    the model shards.
     """
     folder = VIEWS_CONFIG if split == VIEWS_CONFIG else PARQUET_FOLDER
-    return f"{folder}/{split}-00000-of-00001.parquet"
+    return f"{folder}/{split}-{index:05d}-of-{count:05d}.parquet"
+
+
+def parse_shard_name(relative: str) -> tuple[str, int, int] | None:
+    """``(split, index, count)`` of a path :func:`shard_name` writes, else None."""
+    match = _SHARD.fullmatch(relative)
+    if match is None:
+        return None
+    split, index, count = match["split"], int(match["index"]), int(match["count"])
+    if relative != shard_name(split, index, count) or index >= count:
+        return None
+    if split != VIEWS_CONFIG and split not in SPLITS:
+        return None
+    return split, index, count
+
+
+def parse_size(text: str | int, label: str = "--shard-size") -> int:
+    """Bytes from a size: ``200KB``, ``500MB``, ``1.5GB``, ``64MiB`` or a plain number.
+
+    KB, MB, GB and TB are powers of 1000, KiB, MiB, GiB and TiB of 1024.
+
+    Raises
+    ------
+    InputError
+        For anything else, or a size under one byte, naming ``label``.
+    """
+    if isinstance(text, int) and not isinstance(text, bool):
+        value = float(text)
+    else:
+        match = _SIZE.fullmatch(str(text))
+        unit = match[2].upper() if match else ""
+        if match is None or unit not in _UNITS:
+            raise InputError(f"{label}: {text!r} is not a size such as 200KB, 500MB or 1GB")
+        value = float(match[1]) * _UNITS[unit]
+    if value < 1:
+        raise InputError(f"{label}: {text!r} is under one byte")
+    return int(value)
 
 
 def model_columns(n_points: int, n_views: int) -> list[Column]:
@@ -245,7 +300,49 @@ def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[
         yield arrays
 
 
-def write_parquet_shards(reader: StoreReader, release_dir: Path | str) -> list[ParquetShard]:
+def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[int],
+               lengths: Mapping[str, NDArray[np.int64]]) -> list[int]:
+    """The Arrow size of each row: values plus the 4-byte offsets of every list."""
+    fixed = 0
+    for column in columns:
+        if column.dtype == "string" or None in column.shape:
+            continue
+        fixed += int(np.prod(column.shape)) * np.dtype(column.dtype).itemsize
+        if len(column.shape) == 2:
+            fixed += 4 * (int(column.shape[0]) + 1)
+    sizes = []
+    for row in rows:
+        size = fixed
+        for column in columns:
+            if column.dtype == "string":
+                value = records[row].get(column.name)
+                size += 4 + (0 if value is None else len(str(value).encode("utf-8")))
+            elif None in column.shape:
+                n = int(lengths[column.name][row])
+                size += n * int(column.shape[-1] or 1) * np.dtype(column.dtype).itemsize
+                size += 4 * (n + 1)
+        sizes.append(size)
+    return sizes
+
+
+def _cut(rows: list[int], sizes: list[int], limit: int) -> list[list[int]]:
+    """Consecutive rows in the fewest groups of at most ``limit`` bytes (at least one row each)."""
+    groups: list[list[int]] = []
+    current: list[int] = []
+    total = 0
+    for row, size in zip(rows, sizes):
+        if current and total + size > limit:
+            groups.append(current)
+            current, total = [], 0
+        current.append(row)
+        total += size
+    if current:
+        groups.append(current)
+    return groups
+
+
+def write_parquet_shards(reader: StoreReader, release_dir: Path | str, *,
+                         shard_bytes: int = DEFAULT_SHARD_BYTES) -> list[ParquetShard]:
     """Write the Parquet shards of a store into ``release_dir/data/``.
 
     Parameters
@@ -255,12 +352,15 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str) -> list[P
         category, then name).
     release_dir : Path or str
         The release folder (or its staging folder); ``data/`` is created.
+    shard_bytes : int
+        Largest Arrow size of the rows of one model shard (default 500 MB);
+        a model larger than that gets a shard of its own.
 
     Returns
     -------
     list of ParquetShard
         The model shards in :data:`SPLITS` order (non-empty splits only),
-        then the views shard.
+        each split's in file order, then the views shard.
 
     Raises
     ------
@@ -274,16 +374,21 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str) -> list[P
     attrs = reader.attrs
     records = _shard_records(reader)
     columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
+    lengths = {column: np.diff(np.asarray(reader.array(offsets)[...], np.int64))
+               for column, offsets in (("mesh_vertices", "mesh_vertex_offsets"),
+                                       ("mesh_faces", "mesh_face_offsets"))}
     shards = []
     for split in SPLITS:
         rows = [row for row, record in enumerate(records)
                 if published_split(str(record["split"])) == split]
         if not rows:
             continue
-        relative = shard_name(split)
-        n_rows, num_bytes = _write(pa, pq, folder / relative, columns,
-                                   _model_batches(pa, reader, rows, columns, records))
-        shards.append(ParquetShard(split, relative, n_rows, num_bytes))
+        groups = _cut(rows, _row_bytes(columns, records, rows, lengths), shard_bytes)
+        for index, group in enumerate(groups):
+            relative = shard_name(split, index, len(groups))
+            n_rows, num_bytes = _write(pa, pq, folder / relative, columns,
+                                       _model_batches(pa, reader, group, columns, records))
+            shards.append(ParquetShard(split, relative, n_rows, num_bytes))
     views = np.asarray(reader.array("views")[...], np.float64)
     view_cols = view_columns()
     relative = shard_name(VIEWS_CONFIG)
@@ -365,56 +470,75 @@ def shard_differences(reader: StoreReader, release_dir: Path | str,
     by_split = {split: [row for row, record in enumerate(records)
                         if published_split(str(record["split"])) == split] for split in SPLITS}
     model_cols = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
+    groups: dict[str, list[tuple[str, int]]] = {}
+    for relative in sorted(shards):
+        parsed = parse_shard_name(relative)
+        if parsed is not None:  # other names are not files of this layout
+            groups.setdefault(parsed[0], []).append((relative, parsed[2]))
     found: list[tuple[str, str]] = []
-    for relative in shards:
-        split = relative.split("/")[-1].split("-00000-of-")[0]
-        views_shard = relative == shard_name(VIEWS_CONFIG)
-        if not views_shard and (split not in by_split or relative != shard_name(split)):
-            continue  # not a file of this layout
-        columns = view_columns() if views_shard else model_cols
+    for split, listed in groups.items():
+        files = [relative for relative, _ in listed]
+        label = files[0] if len(files) == 1 else f"{PARQUET_FOLDER}/{split}-*.parquet"
+        counts = {count for _, count in listed}
+        if len(counts) != 1 or len(files) != counts.pop():
+            found.append((label, f"shards of split {split!r} do not form one complete set"))
+            continue
+        columns = view_columns() if split == VIEWS_CONFIG else model_cols
         try:
-            table = pq.read_table(folder / relative)
-            missing = [c.name for c in columns if c.name not in table.column_names]
+            tables = [pq.read_table(folder / relative) for relative in files]
+            missing = sorted({c.name for c in columns for table in tables
+                              if c.name not in table.column_names})
             if missing:
-                found.append((relative, f"columns missing: {', '.join(missing)}"))
+                found.append((label, f"columns missing: {', '.join(missing)}"))
                 continue
-            if views_shard:
+            table = pa.concat_tables([t.select([c.name for c in columns]) for t in tables])
+            where = [relative for relative, t in zip(files, tables) for _ in range(t.num_rows)]
+            if split == VIEWS_CONFIG:
                 views = np.asarray(reader.array("views")[...], np.float64)
                 index = _shard_values(pa, table.column("view_index"), columns[0])
                 direction = _shard_values(pa, table.column("direction"), columns[1])
                 if not (_same(np.arange(len(views)), index, "int64")
                         and _same(views, direction, "float64")):
-                    found.append((relative, "view directions differ from the archive's"))
+                    found.append((label, "view directions differ from the archive's"))
                 continue
             rows = by_split[split]
             shard_names = [str(v) for v in table.column("name").to_pylist()]
             if shard_names != [names[row] for row in rows]:
-                found.append((relative, f"models differ from the archive's {split} split "
-                                        f"({len(shard_names)} rows, {len(rows)} models)"))
+                found.append((label, f"models differ from the archive's {split} split "
+                                     f"({len(shard_names)} rows, {len(rows)} models)"))
                 continue
-            vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
-            face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
-            for column in columns:
-                if column.dtype == "string":
-                    values: list[Any] = table.column(column.name).to_pylist()
-                else:
-                    values = _shard_values(pa, table.column(column.name), column)
-                if column.name in ("mesh_vertices", "mesh_faces"):
-                    offsets = vertex_offsets if column.name == "mesh_vertices" else face_offsets
-                    stored = reader.array(column.name)
-                for position, row in enumerate(rows):
-                    if column.dtype == "string":
-                        expected: Any = records[row].get(column.name)
-                        if column.name == "split":
-                            expected = published_split(str(expected))
-                        expected = None if expected is None else str(expected)
-                    elif column.name in ("mesh_vertices", "mesh_faces"):
-                        expected = stored[offsets[row] : offsets[row + 1]]
-                    else:
-                        expected = reader.array(column.name)[row]
-                    if not _same(expected, values[position], column.dtype):
-                        found.append((f"{relative}:{names[row]}:{column.name}",
-                                      "differs from the archive"))
+            found += _row_differences(pa, reader, table, columns, records, rows, where)
         except Exception as err:  # noqa: BLE001 - a shard that cannot be read is the finding
-            found.append((relative, f"cannot be compared ({type(err).__name__}: {err})"))
+            found.append((label, f"cannot be compared ({type(err).__name__}: {err})"))
+    return found
+
+
+def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Column],
+                     records: list[dict[str, Any]], rows: list[int],
+                     where: list[str]) -> list[tuple[str, str]]:
+    """``(<shard>:<model>:<column>, detail)`` for each value of ``table`` unlike the store's."""
+    found = []
+    vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
+    face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
+    for column in columns:
+        if column.dtype == "string":
+            values: list[Any] = table.column(column.name).to_pylist()
+        else:
+            values = _shard_values(pa, table.column(column.name), column)
+        if column.name in ("mesh_vertices", "mesh_faces"):
+            offsets = vertex_offsets if column.name == "mesh_vertices" else face_offsets
+            stored = reader.array(column.name)
+        for position, row in enumerate(rows):
+            if column.dtype == "string":
+                expected: Any = records[row].get(column.name)
+                if column.name == "split":
+                    expected = published_split(str(expected))
+                expected = None if expected is None else str(expected)
+            elif column.name in ("mesh_vertices", "mesh_faces"):
+                expected = stored[offsets[row] : offsets[row + 1]]
+            else:
+                expected = reader.array(column.name)[row]
+            if not _same(expected, values[position], column.dtype):
+                found.append((f"{where[position]}:{records[row]['name']}:{column.name}",
+                              "differs from the archive"))
     return found

@@ -1,18 +1,24 @@
 """Pack a built dataset into a release folder.
 
-A release folder holds, for ``name = "vptoolkit-viewpoints"`` and
-``version = "1.0.0"``::
+A release folder holds, for ``name = "vptoolkit-viewpoints"``::
 
-    vptoolkit-viewpoints-1.0.0.zarr.zip    Zarr v3 zip store             (format zarr)
-    vptoolkit-viewpoints-1.0.0.h5          HDF5 file, same arrays        (format hdf5)
-    data/<split>-00000-of-00001.parquet    one row per model per split   (format parquet)
+    data/<split>-00000-of-00012.parquet    one row per model, shards of a split (format parquet)
     views/views-00000-of-00001.parquet     the shared view directions    (format parquet)
+    vptoolkit-viewpoints.h5                HDF5 file, the same models    (format hdf5)
+    vptoolkit-viewpoints.zarr.zip          Zarr v3 zip store, the same   (format zarr)
     README.md                       dataset card (hub YAML header + datasheet)
     croissant.json                  Croissant 1.1 JSON-LD, record sets over the Parquet shards
     dataset_info.json               :func:`~vptoolkit.dataset.info.dataset_info` as JSON
     SCHEMA.md                       the layout of the archives
     LICENSES.csv                    per-mesh licence and attribution (with ``licenses``)
     SHA256SUMS                      ``sha256sum`` manifest of every other file
+
+The file names hold no version (it is in the card, ``croissant.json``,
+``dataset_info.json`` and the archives' attributes), so a loader's paths
+stay valid from one release to the next. The default formats are
+:data:`DEFAULT_FORMATS`, Parquet and HDF5: Parquet for the hub, ``datasets``
+and ``mlcroissant``, one archive for :mod:`vptoolkit.data` and ``h5py`` on
+the light install; a Zarr zip would be a third full copy of the data.
 
 Packing is reproducible: the same build, options and ``created`` time give
 the same bytes in every file, so a third party can rebuild a release and
@@ -60,6 +66,7 @@ from vptoolkit.dataset.licenses import (
     write_licenses,
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
+from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES, parse_size
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
@@ -70,6 +77,7 @@ if TYPE_CHECKING:
     from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
+    "DEFAULT_FORMATS",
     "DEFAULT_NAME",
     "DEFAULT_VERSION",
     "FORMATS",
@@ -84,7 +92,11 @@ DEFAULT_NAME = "vptoolkit-viewpoints"
 SCHEMA_NAME = "SCHEMA.md"
 
 FORMATS = ("parquet", "zarr", "hdf5")
-"""Containers :func:`pack_release` can write; all three by default."""
+"""Containers :func:`pack_release` can write."""
+
+DEFAULT_FORMATS = ("parquet", "hdf5")
+"""What :func:`pack_release` writes by default: the Parquet shards and one archive, HDF5,
+which the light install (numpy, h5py) reads; each format is a full copy of the data."""
 
 DEFAULT_VERSION = "1.0.0"
 """Dataset version when :func:`pack_release` is given none."""
@@ -105,10 +117,10 @@ class ReleaseResult:
     name : str
         Base name of the archives.
     zarr_zip : Path or None
-        The Zarr v3 zip store, ``<path>/<name>-<version>.zarr.zip`` (None
-        without the ``zarr`` format).
+        The Zarr v3 zip store, ``<path>/<name>.zarr.zip`` (None without the
+        ``zarr`` format).
     hdf5 : Path or None
-        The HDF5 file, ``<path>/<name>-<version>.h5`` (None without ``hdf5``).
+        The HDF5 file, ``<path>/<name>.h5`` (None without ``hdf5``).
     card : Path
         The dataset card, ``README.md``.
     croissant : Path
@@ -389,7 +401,7 @@ def pack_release(
     name: str | None = None,
     license: str = "other",  # noqa: A002 - the dataset-hub field is called license
     progress: bool = False,
-    formats: Sequence[str] = FORMATS,
+    formats: Sequence[str] = DEFAULT_FORMATS,
     version: str = DEFAULT_VERSION,
     created: str | None = None,
     pretty_name: str | None = None,
@@ -399,12 +411,13 @@ def pack_release(
     licenses: Path | str | Mapping[str, dict[str, str]] | None = None,
     license_name: str | None = None,
     license_link: str | None = None,
+    shard_size: int | str = DEFAULT_SHARD_BYTES,
 ) -> ReleaseResult:
     """Pack a built dataset into a release folder.
 
     The models are copied entry by entry (never all in memory) into the
-    chosen containers (a Zarr v3 zip store, an HDF5 file, Parquet shards
-    per split), then the dataset card, Croissant metadata, a JSON summary,
+    chosen containers (Parquet shards of bounded size per split, an HDF5
+    file, a Zarr v3 zip store), then the dataset card, Croissant metadata, a JSON summary,
     ``SCHEMA.md`` and the ``SHA256SUMS`` manifest are written. Everything
     goes into a hidden temporary sibling of ``release_dir`` that is renamed
     into place at the end; on any error it is removed and ``release_dir`` is
@@ -420,18 +433,19 @@ def pack_release(
         created.
     name : str, optional
         Base name of the archives (default: ``"vptoolkit-viewpoints"``); the
-        files are called ``<name>-<version>.zarr.zip`` and ``.h5``.
+        files are called ``<name>.h5`` and ``<name>.zarr.zip``.
     license : str
         Licence identifier of the annotations for the card and Croissant
         metadata (default: ``"other"``; the source meshes' licences apply).
     progress : bool
         Show progress bars while the archives are written (default: False).
     formats : sequence of str
-        Containers to write, from :data:`FORMATS` (default: all three).
+        Containers to write, from :data:`FORMATS` (default:
+        :data:`DEFAULT_FORMATS`, Parquet and HDF5).
     version : str
         Dataset version ``MAJOR.MINOR.PATCH`` (default: ``"1.0.0"``), written
-        into the attributes (``dataset_version``), card, Croissant and file
-        names.
+        into the attributes (``dataset_version``), card and Croissant; never
+        into file names.
     created : str, optional
         Release time, ISO 8601 (default: ``$SOURCE_DATE_EPOCH``, else the
         build's ``created``); written into the archives' ``created``
@@ -453,6 +467,10 @@ def pack_release(
         The hub's ``license_name`` / ``license_link`` for ``license="other"``
         (default: ``"source-mesh-licenses"`` and ``LICENSES.csv`` or
         ``README.md``).
+    shard_size : int or str
+        Largest Arrow size of the rows of one Parquet shard, in bytes or as
+        text (``"500MB"``, the default; ``"200KB"``; see
+        :func:`~vptoolkit.dataset.parquet.parse_size`).
 
     Returns
     -------
@@ -463,7 +481,7 @@ def pack_release(
     ------
     InputError
         If ``release_dir`` exists and is not an empty folder, ``name``,
-        ``version``, ``created`` or ``formats`` is malformed, the licence
+        ``version``, ``created``, ``formats`` or ``shard_size`` is malformed, the licence
         table is bad, or ``dataset`` holds no readable store.
     MissingDependencyError
         If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
@@ -480,6 +498,7 @@ def pack_release(
     _check_name(base)
     chosen = _check_formats(formats)
     _check_version(version)
+    shard_bytes = parse_size(shard_size, "shard_size")
     target = Path(release_dir)
     _check_release_dir(target)
     provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
@@ -489,7 +508,7 @@ def pack_release(
     _check_source_intact(source)
     target.parent.mkdir(parents=True, exist_ok=True)
 
-    stem = f"{base}-{version}"
+    stem = base
     archive_names = {"zarr": f"{stem}.zarr.zip", "hdf5": f"{stem}.h5"}
     written = [archive_names[f] for f in ("zarr", "hdf5") if f in chosen]
     # Without an archive, a hidden HDF5 copy serves the descriptions and is removed.
@@ -498,7 +517,7 @@ def pack_release(
     if _name_bytes(longest) > _MAX_NAME_BYTES:
         raise InputError(
             f"{target}: file name {short_repr(longest)} is longer than {_MAX_NAME_BYTES} bytes; "
-            "choose a shorter name or version"
+            "choose a shorter name"
         )
     try:
         staging = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name), suffix=".partial",
@@ -525,7 +544,7 @@ def pack_release(
                 if "parquet" in chosen:
                     from vptoolkit.dataset.parquet import write_parquet_shards
 
-                    shards = write_parquet_shards(packed, staging)
+                    shards = write_parquet_shards(packed, staging, shard_bytes=shard_bytes)
                     digests.update({s.path: sha256_file(staging / s.path) for s in shards})
                 found = _release_warnings(records, provenance is not None)
                 if provenance is not None:
