@@ -452,7 +452,8 @@ def test_card_yaml_header(build: Path, release) -> None:
                     r"^configs:\n- config_name: default\n",
                     r"^dataset_info:\n- config_name: default$"]:
         assert re.search(pattern, header, re.MULTILINE), pattern
-    assert "source_datasets" not in header  # a local folder name is no hub dataset id
+    # derived from another data set; a local folder name is no hub dataset id to add
+    assert re.search(r"^source_datasets:\n- extended$", header, re.MULTILINE)
     default_info = header.split("dataset_info:")[1].split("- config_name: views")[0]
     splits = dict(re.findall(r"- name: (\w+)\n\s+num_bytes: \d+\n\s+num_examples: (\d+)",
                              default_info))

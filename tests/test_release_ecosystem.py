@@ -833,3 +833,102 @@ def test_a_zarr_directory_store_gets_the_umask_mode_not_0700(tmp_path: Path) -> 
     mask = os.umask(0)
     os.umask(mask)
     assert (build / "dataset.zarr").stat().st_mode & 0o777 == 0o777 & ~mask
+
+
+# --------------------------------------------------------------------------- licences and card
+
+
+def test_update_card_refuses_a_card_that_lost_the_heading_of_an_rai_field(
+        release_copy: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    card = release_copy / "README.md"
+    before = (release_copy / "croissant.json").read_bytes()
+    card.write_text(card.read_text(encoding="utf-8").replace("## Uses\n", "## Intended uses\n"),
+                    encoding="utf-8")
+    result = CliRunner().invoke(main, ["pack", "--update-card", str(release_copy)])
+    assert result.exit_code == 2
+    assert len(result.output.strip().splitlines()) == 1
+    assert "rai:dataUseCases is read from the card's section '## Uses'" in result.output
+    assert (release_copy / "croissant.json").read_bytes() == before
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--license", "CC BY"], "--license: 'CC BY' is not an SPDX licence identifier"),
+    (["--licenses", "TABLE"], "licenses.csv: line 3: 'free for all' is not an SPDX licence"),
+])
+def test_licences_must_be_spdx_identifiers_or_urls(tmp_path: Path, options: list[str],
+                                                    message: str) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    table = tmp_path / "licenses.csv"
+    table.write_text("name,license,author,url\nairplane_0000,CC-BY-4.0,,\n"
+                     "chair_0001,free for all,,\nchair_0002,https://example.org/terms,,\n",
+                     encoding="utf-8")
+    options = [str(table) if part == "TABLE" else part for part in options]
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release"), *options])
+    assert result.exit_code == 2
+    assert result.output.startswith(f"vptool: error: {message}")
+    assert len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "release").exists()
+
+
+def test_one_licence_for_every_model_fills_records_shards_and_card(tmp_path: Path) -> None:
+    import pyarrow.parquet as pq
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.data import open_dataset
+
+    build = _write_build(tmp_path / "build")
+    release = tmp_path / "release"
+    result = CliRunner().invoke(main, ["pack", str(build), str(release), "--license",
+                                       "CC-BY-4.0", "--creator", "Jane Doe",
+                                       "--created", CREATED])
+    assert result.exit_code == 0, result.output
+    assert "warning" not in result.stderr
+    with open_dataset(release) as dataset:
+        assert {r["provenance"]["license"] for r in dataset.records} == {"CC-BY-4.0"}
+    licences = pq.read_table(release / "data/train-00000-of-00001.parquet").column("license")
+    assert set(licences.to_pylist()) == {"CC-BY-4.0"}
+    card = (release / "README.md").read_text(encoding="utf-8")
+    assert re.search(r'^license: "CC-BY-4.0"$', card, re.MULTILINE)
+    assert "Every source mesh is under `CC-BY-4.0`" in card
+    assert "*Who created it?* Jane Doe, with vptoolkit" in card
+    assert "@misc{viewpoint_quality_of_modelnet40_mini_models_2026," in card
+    assert "  author  = {Jane Doe}," in card and "  version = {1.0.0}," in card
+    document = json.loads((release / "croissant.json").read_text(encoding="utf-8"))
+    assert document["creator"]["name"] == "Jane Doe"
+    assert document["license"] == "CC-BY-4.0"
+
+
+def test_pack_without_a_licence_warns_on_stderr(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    build = _write_build(tmp_path / "build")
+    result = CliRunner().invoke(main, ["pack", str(build), str(tmp_path / "release")])
+    assert result.exit_code == 0, result.output
+    assert "vptool: warning: no licence given for the source meshes" in result.stderr
+    card = (tmp_path / "release/README.md").read_text(encoding="utf-8")
+    assert "no licence given" not in card  # the card's licence note says it in its words
+    assert "vptoolkit was given no licence for them" in card
+
+
+def test_card_states_modelnet_terms_lists_the_loaded_columns_and_names_mlcroissant(
+        release) -> None:
+    from vptoolkit.dataset.card import MODELNET_TERMS, _terms_block
+
+    card = release.card.read_text(encoding="utf-8")
+    assert MODELNET_TERMS in card  # the source, ModelNet40-mini, is recognised
+    assert _terms_block("my-scans") == ""
+    assert "| `points` | float32 | (200, 3) | points sampled by area on the cleaned mesh |" in card
+    assert "| `mesh_faces` | int32 | (n, 3) |" in card
+    assert "pip install 'mlcroissant[parquet]'" in card
+    assert 'records(record_set="models")' in card

@@ -122,7 +122,8 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
 @click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path), required=False)
 @click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
 @click.option("--license", "license_id", default="other", show_default=True,
-              help="Licence identifier for the card (that of the source meshes).")
+              help="Licence of the release and of every source mesh --licenses does not "
+              "name: an SPDX identifier (CC-BY-4.0, MIT) or a URL; 'other' states none.")
 @click.option("--formats", default="parquet,hdf5", show_default=True,
               help="Containers to write, comma-separated: parquet, zarr, hdf5 (each a full "
               "copy of the data).")
@@ -138,7 +139,8 @@ def build_dataset(src: Path, out: Path, store_format: str, categories: str | Non
 @click.option("--url", help="Where the release is published (Croissant url).")
 @click.option("--creator", help="Who made the release (Croissant creator).")
 @click.option("--licenses", type=click.Path(exists=True, dir_okay=False, path_type=Path),
-              help="CSV with the columns name, license, author, url: one row per model.")
+              help="CSV with the columns name, license, author, url: one row per model; "
+              "each license an SPDX identifier or a URL.")
 @click.option("--license-name", help="The hub's license_name when --license is other.")
 @click.option("--license-link", help="The hub's license_link when --license is other.")
 @click.option("--update-card", is_flag=True,
@@ -163,6 +165,8 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
     Example:
       vptool pack out/ release/ --version 1.0.0 --created 2026-01-01T00:00:00Z \\
           --licenses licenses.csv --pretty-name "Viewpoints of my meshes"
+      vptool pack out/ release/ --license CC-BY-4.0 --creator "Jane Doe" \\
+          --shard-size 200MB
       vptool pack --update-card release/
     """
     if update_card:
@@ -175,7 +179,11 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
         return
     if release_dir is None:
         raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
+    from vptoolkit.dataset.licenses import check_license
     from vptoolkit.dataset.release import pack_release
+
+    if license_id != "other":
+        check_license(license_id, "--license")
 
     chosen = [part.strip() for part in formats.split(",") if part.strip()]
     with options_named(shard_size="--shard-size"):

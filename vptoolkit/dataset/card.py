@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import importlib.resources
 import json
+import re
 import string
 from collections import Counter
 from collections.abc import Mapping, Sequence
@@ -80,6 +81,8 @@ def render_card(
     license_name: str | None = None,
     license_link: str | None = None,
     warnings: Sequence[str] = (),
+    creator: str | None = None,
+    url: str | None = None,
 ) -> str:
     """Fill ``vptoolkit/dataset_card/template.md`` into a release ``README.md``.
 
@@ -109,6 +112,10 @@ def render_card(
         The hub's fields for a licence ``other``.
     warnings : sequence of str
         Lines shown in a warning block at the top (an empty split, say).
+    creator : str, optional
+        Who made the release (default: ``"vptoolkit"``), in the citation.
+    url : str, optional
+        Where the release is published, in the citation.
 
     Returns
     -------
@@ -161,7 +168,17 @@ def render_card(
          r["provenance"].get("author", "-"), r["provenance"].get("url", "-")]
         for r in licensed
     ]
-    if licensed:
+    shared = {json.dumps(r["provenance"], sort_keys=True) for r in licensed}
+    one_licence = (len(licensed) == len(records) > 0 and len(shared) == 1
+                   and set(licensed[0]["provenance"]) == {"license"})
+    if one_licence:
+        provenance_sentence = (
+            f"Every source mesh is under `{licensed[0]['provenance']['license']}`, as the "
+            "publisher stated (`provenance` in each model record and the `license` column "
+            "of the Parquet shards)."
+        )
+        provenance_rows = []
+    elif licensed:
         provenance_sentence = (
             f"The licence and attribution of {plural(len(licensed), 'source mesh')}"
             f"{'' if len(licensed) == len(records) else f' (of {len(records)})'} are "
@@ -169,9 +186,9 @@ def render_card(
             "and `url` columns of the Parquet shards, and `LICENSES.csv`):"
         )
     else:
-        provenance_sentence = ("vptoolkit was given no licence table for them "
-                               "(`vptool pack --licenses FILE.csv`); check them before "
-                               "redistributing.")
+        provenance_sentence = ("vptoolkit was given no licence for them "
+                               "(`vptool pack --license ID` or `--licenses FILE.csv`); check "
+                               "them before redistributing.")
     formats = [label for suffix, label in ((".zarr.zip", "a Zarr v3 zip store"),
                                            (".h5", "an HDF5 file"),
                                            (".parquet", "Parquet shards per split"))
@@ -198,6 +215,20 @@ def render_card(
             "This release has no Parquet shards, so Hugging Face `datasets` cannot load it; "
             f"read {readable} with {tools} as shown below."
         )
+    if shards:
+        columns = model_columns(int(info["n_points"] or 0), int(info["n_views"]))
+        datasets_block += (
+            "\n\nThe columns of a row (one model):\n\n"
+            + _markdown_table(["column", "type", "shape", "meaning"],
+                              [[f"`{c.name}`", c.dtype, _shape_text(c.shape), c.description]
+                               for c in columns], ["l", "l", "l", "l"])
+            + "\n\nWith `mlcroissant` (`pip install 'mlcroissant[parquet]'`), the records "
+            "`croissant.json` describes:\n\n"
+            "```python\nimport mlcroissant as mlc\n\n"
+            'records = mlc.Dataset(jsonld="croissant.json").records(record_set="models")\n'
+            'first = next(iter(records))    # "models/name", "models/points", ...\n```'
+        )
+    when = str(created or info.get("created") or "")
     values = {
         "models_phrase": plural(info["n_models"], "model"),
         "failures_phrase": (
@@ -212,6 +243,12 @@ def render_card(
         "yaml_license_extra": license_extra,
         "version": version,
         "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
+        "terms_block": _terms_block(source),
+        "creator": creator or "vptoolkit",
+        "dataset_citation": dataset_citation(title, creator=creator or "vptoolkit",
+                                             year=when[:4], version=version, url=url,
+                                             source=source,
+                                             toolkit_version=info.get("toolkit_version")),
         "warnings_block": "".join(f"\n> **Warning.** {line}.\n" for line in warnings),
         "provenance_sentence": provenance_sentence,
         "provenance_table": (_markdown_table(["model", "licence", "author", "url"],
@@ -273,6 +310,48 @@ def render_card(
         return template.substitute({key: str(value) for key, value in values.items()})
     except (KeyError, ValueError) as err:
         raise InputError(f"template.md: cannot fill placeholder ({err})") from err
+
+
+MODELNET_TERMS = (
+    "**ModelNet terms of use.** The source is recognised as ModelNet "
+    "(<https://modelnet.cs.princeton.edu/>). Its CAD models were collected from the "
+    "Internet and their original authors hold the copyright; the ModelNet team provides "
+    "the data for the convenience of academic research only. Those terms apply to the "
+    "meshes, points and normals here: use this dataset for academic research, and cite "
+    "Wu et al., *3D ShapeNets: A Deep Representation for Volumetric Shapes*, CVPR 2015, "
+    "beside this dataset."
+)
+"""The paragraph a card gains when its source is recognised as ModelNet (ModelNet10/40)."""
+
+
+def _terms_block(source: str) -> str:
+    """ModelNet's terms of use for a ModelNet source, else nothing."""
+    return f"\n{MODELNET_TERMS}\n" if re.match(r"modelnet", source, re.IGNORECASE) else ""
+
+
+def dataset_citation(title: str, *, creator: str, year: str, version: str, url: str | None,
+                     source: str, toolkit_version: Any) -> str:
+    """A BibTeX ``@misc`` entry citing the release itself.
+
+    The key is the title in lower case, its runs of letters and digits
+    joined by ``_``, then the year.
+    """
+    key = re.sub(r"[^a-z0-9]+", "_", title.lower()).strip("_") or "dataset"
+    lines = [f"@misc{{{key}_{year},", f"  title   = {{{title}}},", f"  author  = {{{creator}}},",
+             f"  year    = {{{year}}},", f"  version = {{{version}}},"]
+    if url:
+        lines.append(f"  url     = {{{url}}},")
+    lines.append(f"  note    = {{Viewpoint quality measures of {source} models, generated "
+                 f"with vptoolkit {toolkit_version}}}")
+    return "\n".join(lines) + "\n}"
+
+
+def _shape_text(shape: tuple[int | None, ...]) -> str:
+    """``scalar``, ``(4,)`` or ``(n, 3)`` for a column shape (``n`` varies per row)."""
+    if not shape:
+        return "scalar"
+    cells = ["n" if d is None else str(d) for d in shape]
+    return "(" + ", ".join(cells) + ("," if len(cells) == 1 else "") + ")"
 
 
 def _same_data_sentence(files: Mapping[str, str]) -> str:

@@ -27,7 +27,7 @@ from vptoolkit.dataset.parquet import (
 if TYPE_CHECKING:
     from vptoolkit.dataset.reader import StoreReader
 
-__all__ = ["card_sections", "croissant_jsonld", "rai_fields"]
+__all__ = ["card_sections", "croissant_jsonld", "rai_field_sources", "rai_fields"]
 
 _CROISSANT_CONTEXT: dict[str, Any] = {
     "@language": "en",
@@ -316,6 +316,12 @@ def rai_fields(card: str) -> dict[str, str]:
         if text:
             fields[key] = text
     return fields
+
+
+def rai_field_sources() -> dict[str, str]:
+    """Where the card holds each RAI field: ``"section '## Uses', bullet '- Not suitable'"``."""
+    return {key: f"section '## {heading}'" + (f", bullet '{prefix}'" if prefix else "")
+            for key, heading, prefix in _RAI_SECTIONS}
 
 
 def _bullets(text: str) -> list[str]:

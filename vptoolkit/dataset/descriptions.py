@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vptoolkit.dataset.croissant import croissant_jsonld, rai_fields
+from vptoolkit.dataset.croissant import croissant_jsonld, rai_field_sources, rai_fields
 from vptoolkit.dataset.manifest import (
     MANIFEST_NAME,
     format_sha256sums,
@@ -61,7 +61,7 @@ class ReleaseOptions:
         return {"license": self.license, "pretty_name": self.pretty_name,
                 "version": self.version, "created": self.created,
                 "source_url": self.source_url, "license_name": self.license_name,
-                "license_link": self.license_link}
+                "license_link": self.license_link, "creator": self.creator, "url": self.url}
 
 
 def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],
@@ -112,7 +112,10 @@ def update_card(release_dir: Path | str) -> list[str]:
     A person may edit a release's ``README.md`` (wording, a contact, a
     correction). This rewrites what depends on it: in ``croissant.json`` the
     card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
-    text, then ``SHA256SUMS``. Every other file, ``croissant.json`` included,
+    text, then ``SHA256SUMS``. The datasheet's headings and bullets are where
+    the RAI fields live (:func:`~vptoolkit.dataset.croissant.rai_field_sources`):
+    a card that lost one that ``croissant.json`` holds is refused rather than
+    the field silently dropped. Every other file, ``croissant.json`` included,
     must be what the manifest lists, so the rewrite starts from the metadata
     written at packing; no file may be added and none may be a symbolic link.
     ``croissant.json`` is written first and put back if ``SHA256SUMS`` cannot
@@ -132,8 +135,8 @@ def update_card(release_dir: Path | str) -> list[str]:
     ------
     InputError
         If the folder lacks ``README.md``, ``croissant.json`` or
-        ``SHA256SUMS``, ``croissant.json`` is not a JSON object or the card
-        is not UTF-8 text.
+        ``SHA256SUMS``, ``croissant.json`` is not a JSON object, the card
+        is not UTF-8 text or it lost the heading or bullet of an RAI field.
     VerificationError
         If a file other than the card differs from the manifest, is missing,
         is not listed in it or is a symbolic link, or the manifest is
@@ -170,11 +173,21 @@ def update_card(release_dir: Path | str) -> list[str]:
         raise InputError(f"{folder / CARD_NAME}: not UTF-8 text (byte {err.start}); "
                          "save the card as UTF-8") from err
     card_digest = hashlib.sha256(card_bytes).hexdigest()
+    rai = rai_fields(card)
+    lost = [key for key in document if key.startswith("rai:") and key not in rai]
+    if lost:
+        sources = rai_field_sources()
+        more = f" (and {len(lost) - 1} more field(s))" if len(lost) > 1 else ""
+        raise InputError(
+            f"{folder / CARD_NAME}: {lost[0]} is read from the card's "
+            f"{sources.get(lost[0], 'datasheet')}, which is gone{more}; restore the heading "
+            "so that croissant.json keeps the field (nothing rewritten)"
+        )
     for key in [key for key in document if key.startswith("rai:")]:
         del document[key]
     distribution = document.pop("distribution", [])
     record_sets = document.pop("recordSet", [])
-    document.update(rai_fields(card))
+    document.update(rai)
     for item in distribution:
         if isinstance(item, dict) and item.get("contentUrl") == CARD_NAME:
             item["sha256"] = card_digest

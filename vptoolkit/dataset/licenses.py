@@ -4,12 +4,16 @@
 row per model name with its licence, author and URL);
 :func:`write_licenses` writes the table of a release from the model records'
 ``provenance``, in model order, so the same records give the same bytes.
+:func:`check_license` accepts a licence only as an SPDX identifier (from the
+common ones of :data:`SPDX_IDS`, or a ``LicenseRef-`` of one's own) or as
+the URL of its text, so that a release's licences can be read by machines.
 """
 
 from __future__ import annotations
 
 import csv
 import io
+import re
 import unicodedata
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -17,13 +21,50 @@ from typing import Any
 
 from vptoolkit.errors import InputError
 
-__all__ = ["LICENSES_NAME", "LICENSE_COLUMNS", "read_licenses", "write_licenses"]
+__all__ = ["LICENSES_NAME", "LICENSE_COLUMNS", "SPDX_IDS", "check_license", "read_licenses",
+           "write_licenses"]
 
 LICENSES_NAME = "LICENSES.csv"
 """File name of the table in a release folder."""
 
 LICENSE_COLUMNS = ("name", "license", "author", "url")
 """Header of a per-mesh licence table (``--licenses FILE.csv``)."""
+
+_CREATIVE_COMMONS = [f"CC-{kind}-{version}" for kind in ("BY", "BY-SA", "BY-NC", "BY-NC-SA",
+                                                          "BY-ND", "BY-NC-ND")
+                     for version in ("1.0", "2.0", "2.5", "3.0", "4.0")]
+SPDX_IDS = frozenset(name.lower() for name in [
+    *_CREATIVE_COMMONS, "CC0-1.0", "CC-PDDC", "PDDL-1.0", "ODbL-1.0", "ODC-By-1.0",
+    "CDLA-Permissive-1.0", "CDLA-Permissive-2.0", "CDLA-Sharing-1.0", "MIT", "MIT-0",
+    "Apache-2.0", "BSD-2-Clause", "BSD-3-Clause", "ISC", "Zlib", "Unlicense", "0BSD",
+    "MPL-2.0", "EPL-2.0", "EUPL-1.2", "Artistic-2.0", "GPL-2.0-only", "GPL-2.0-or-later",
+    "GPL-3.0-only", "GPL-3.0-or-later", "LGPL-2.1-only", "LGPL-2.1-or-later",
+    "LGPL-3.0-only", "LGPL-3.0-or-later", "AGPL-3.0-only", "AGPL-3.0-or-later",
+    "GFDL-1.3-only", "GFDL-1.3-or-later",
+])
+"""The SPDX identifiers :func:`check_license` knows, lower case (the hub's spelling)."""
+
+_LICENSE_REF = re.compile(r"LicenseRef-[A-Za-z0-9.-]+")
+_URL = re.compile(r"https?://\S+")
+
+
+def check_license(value: str, label: str) -> str:
+    """Return ``value`` if it is an SPDX identifier or a URL, else raise.
+
+    Identifiers are compared without regard to case (``CC-BY-4.0`` and the
+    hub's ``cc-by-4.0`` are both accepted and kept as written).
+
+    Raises
+    ------
+    InputError
+        ``<label>: 'xyz' is not an SPDX licence identifier (e.g. CC-BY-4.0, MIT)
+        or a URL``.
+    """
+    text = value.strip()
+    if text.lower() in SPDX_IDS or _LICENSE_REF.fullmatch(text) or _URL.fullmatch(text):
+        return text
+    raise InputError(f"{label}: {value!r} is not an SPDX licence identifier (e.g. CC-BY-4.0, "
+                     "MIT, LicenseRef-...) or the URL of the licence")
 
 
 def read_licenses(path: Path | str) -> dict[str, dict[str, str]]:
@@ -78,6 +119,7 @@ def _licence_rows(source: Path, rows: csv.DictReader[str]) -> dict[str, dict[str
             if control is not None:
                 raise InputError(f"{source.name}: line {line}: the {key} cell holds the control "
                                  f"character U+{ord(control):04X}; remove it")
+        check_license(licence, f"{source.name}: line {line}")
         table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
                        if (row.get(key) or "").strip()}
     return table

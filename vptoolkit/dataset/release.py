@@ -62,6 +62,7 @@ from vptoolkit.dataset.descriptions import (
 )
 from vptoolkit.dataset.licenses import (
     LICENSES_NAME,
+    check_license,
     read_licenses,
     write_licenses,
 )
@@ -183,15 +184,18 @@ class _ReaderEntries(Sequence["ModelEntry"]):
     """The models of an open store as a lazy sequence: entry ``i`` is read on access.
 
     Splits come out under their published names, and a model named in
-    ``provenance`` gets its licence, author and url.
+    ``provenance`` gets its licence, author and url; any other model without
+    stored provenance gets ``{"license": default_license}`` when that is given.
     """
 
     def __init__(self, reader: StoreReader,
-                 provenance: Mapping[str, dict[str, str]] | None = None) -> None:
+                 provenance: Mapping[str, dict[str, str]] | None = None,
+                 default_license: str | None = None) -> None:
         self._reader = reader
         self._records = reader.models()
         self._length = len(self._records)
         self._provenance = provenance or {}
+        self._default = {"license": default_license} if default_license else None
 
     def __len__(self) -> int:
         return self._length
@@ -209,7 +213,7 @@ class _ReaderEntries(Sequence["ModelEntry"]):
         fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
         fields["split"] = published_split(entry.split)
         fields["provenance"] = (self._provenance.get(entry.name)
-                                or self._records[index].get("provenance"))
+                                or self._records[index].get("provenance") or self._default)
         return _ReleaseEntry(**fields)
 
 
@@ -376,6 +380,11 @@ def _copy_schema(target: Path) -> None:
     target.write_text(resource.read_text(encoding="utf-8"), encoding="utf-8", newline="\n")
 
 
+_NO_LICENCE = ("no licence given for the source meshes (--license ID for all of them, or "
+               "--licenses FILE.csv per model): the card tells users to check them before "
+               "redistributing")
+
+
 def _release_warnings(records: Sequence[Mapping[str, Any]], has_licenses: bool) -> list[str]:
     found = []
     counts = {split: 0 for split in SPLITS}
@@ -435,8 +444,11 @@ def pack_release(
         Base name of the archives (default: ``"vptoolkit-viewpoints"``); the
         files are called ``<name>.h5`` and ``<name>.zarr.zip``.
     license : str
-        Licence identifier of the annotations for the card and Croissant
-        metadata (default: ``"other"``; the source meshes' licences apply).
+        Licence of the release: an SPDX identifier (``CC-BY-4.0``) or the
+        URL of the licence, for the card and Croissant metadata; it is also
+        the licence of every source mesh the ``licenses`` table does not name.
+        The default ``"other"`` says nothing: the source meshes' licences
+        apply, and ``warnings`` says none was given.
     progress : bool
         Show progress bars while the archives are written (default: False).
     formats : sequence of str
@@ -475,14 +487,17 @@ def pack_release(
     Returns
     -------
     ReleaseResult
-        ``warnings`` names an empty split and models without a licence.
+        ``warnings`` names an empty split, models without a licence, and a
+        release given no licence at all (which only the card's licence note
+        states, not its warning block).
 
     Raises
     ------
     InputError
         If ``release_dir`` exists and is not an empty folder, ``name``,
-        ``version``, ``created``, ``formats`` or ``shard_size`` is malformed, the licence
-        table is bad, or ``dataset`` holds no readable store.
+        ``version``, ``created``, ``formats`` or ``shard_size`` is malformed,
+        ``license`` or a licence in the table is neither an SPDX identifier
+        nor a URL, the licence table is bad, or ``dataset`` holds no readable store.
     MissingDependencyError
         If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
         install 'vptoolkit[dataset]'``).
@@ -499,6 +514,7 @@ def pack_release(
     chosen = _check_formats(formats)
     _check_version(version)
     shard_bytes = parse_size(shard_size, "shard_size")
+    default_license = None if license == "other" else check_license(license, "license")
     target = Path(release_dir)
     _check_release_dir(target)
     provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
@@ -531,7 +547,7 @@ def pack_release(
                 when = release_created(created, attrs.get("created"))
                 attrs["created"] = when
                 attrs["dataset_version"] = version
-                entries = _ReaderEntries(reader, provenance)
+                entries = _ReaderEntries(reader, provenance, default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
                 for archive in dict.fromkeys([*written, described_name]):
@@ -547,6 +563,7 @@ def pack_release(
                     shards = write_parquet_shards(packed, staging, shard_bytes=shard_bytes)
                     digests.update({s.path: sha256_file(staging / s.path) for s in shards})
                 found = _release_warnings(records, provenance is not None)
+                unlicensed = not any(record.get("provenance") for record in records)
                 if provenance is not None:
                     write_licenses(staging / LICENSES_NAME, records)
                 _copy_schema(staging / SCHEMA_NAME)
@@ -598,7 +615,7 @@ def pack_release(
         version=version,
         created=when,
         parquet=tuple(target / s.path for s in shards),
-        warnings=tuple(found),
+        warnings=tuple(found) + ((_NO_LICENCE,) if unlicensed else ()),
     )
 
 
