@@ -932,3 +932,23 @@ def test_card_states_modelnet_terms_lists_the_loaded_columns_and_names_mlcroissa
     assert "| `mesh_faces` | int32 | (n, 3) |" in card
     assert "pip install 'mlcroissant[parquet]'" in card
     assert 'records(record_set="models")' in card
+
+
+def test_a_licence_given_by_url_is_other_on_the_hub_with_its_link(tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    url = "https://example.org/terms"
+    result = pack_release(_write_build(tmp_path / "build"), tmp_path / "release", license=url,
+                          formats=["hdf5"])
+    header = result.card.read_text(encoding="utf-8").split("\n---\n")[0]
+    assert 'license: "other"\nlicense_name: "custom"\nlicense_link: "https://example.org/terms"' \
+        in header
+    assert json.loads(result.croissant.read_text(encoding="utf-8"))["license"] == url
+
+
+def test_the_same_build_and_shard_size_pack_to_the_same_bytes(sharded, tmp_path: Path) -> None:
+    from vptoolkit.dataset.release import pack_release
+
+    again = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
+                         created=CREATED, shard_size="30KB")
+    assert again.files == sharded.files

@@ -94,7 +94,9 @@ def render_card(
         Release file name -> SHA-256 hex digest, listed in the card.
     license : str
         Licence identifier for the YAML header (default: ``"other"``; the
-        toolkit cannot know the source meshes' licences, which apply).
+        toolkit cannot know the source meshes' licences, which apply). A
+        licence given as a URL is ``other`` there, with that URL as
+        ``license_link`` (and ``license_name`` ``"custom"``) unless given.
     pretty_name : str, optional
         Human-readable title (default: derived from the source folder name).
     file_sizes : mapping of str to int, optional
@@ -156,6 +158,12 @@ def render_card(
     splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
         info, split_sentence, cleaning)
 
+    # The hub's `license` takes an identifier; a licence given by its URL is `other` there.
+    by_url = license.startswith(("http://", "https://"))
+    yaml_license = "other" if by_url else license
+    if by_url:
+        license_name = license_name or "custom"
+        license_link = license_link or license
     license_extra = "".join(
         f"\n{key}: {_yaml_str(value)}"
         for key, value in (("license_name", license_name), ("license_link", license_link))
@@ -239,7 +247,7 @@ def render_card(
         "zarr_zip_name": archives[0] if archives else "dataset.zarr.zip",
         "hdf5_name": hdf5_files[0] if hdf5_files else "dataset.h5",
         "yaml_pretty_name": _yaml_str(title),
-        "yaml_license": _yaml_str(license),
+        "yaml_license": _yaml_str(yaml_license),
         "yaml_license_extra": license_extra,
         "version": version,
         "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
