@@ -353,6 +353,13 @@ def test_hdf5_only_card_promises_no_datasets_loading(tmp_path: Path) -> None:
     assert "load_dataset" not in body and "Parquet shards hold" not in body
     assert f"`datasets` cannot load it; read `{result.hdf5.name}`" in body
     assert f'h5py.File("{result.hdf5.name}"' in body
+    assert "zarr" not in body.split("## Counts")[0]  # no Zarr zip to name
+
+
+def test_card_shows_zarr_reading_only_with_a_zarr_zip(release) -> None:
+    body = release.card.read_text(encoding="utf-8").split("## Counts")[0]
+    assert f'ZipStore("{release.zarr_zip.name}"' in body
+    assert f'h5py.File("{release.hdf5.name}"' in body
 
 # --------------------------------------------------------------------------- reproducibility
 

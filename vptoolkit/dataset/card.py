@@ -244,8 +244,11 @@ def render_card(
             f"{'it is' if n_failures == 1 else 'they are'} listed below and in the "
             "`failures_json` array." if n_failures else "No input failed."
         ),
-        "zarr_zip_name": archives[0] if archives else "dataset.zarr.zip",
-        "hdf5_name": hdf5_files[0] if hdf5_files else "dataset.h5",
+        "store_name": (hdf5_files or archives or ["dataset.h5"])[0],
+        "raw_readers": " and ".join(["`h5py`"] * bool(hdf5_files or not archives)
+                                    + ["`zarr>=3`"] * bool(archives)) + " read",
+        "raw_example": _raw_example(hdf5_files[0] if hdf5_files else None,
+                                    archives[0] if archives else None),
         "yaml_pretty_name": _yaml_str(title),
         "yaml_license": _yaml_str(yaml_license),
         "yaml_license_extra": license_extra,
@@ -352,6 +355,19 @@ def dataset_citation(title: str, *, creator: str, year: str, version: str, url: 
     lines.append(f"  note    = {{Viewpoint quality measures of {source} models, generated "
                  f"with vptoolkit {toolkit_version}}}")
     return "\n".join(lines) + "\n}"
+
+
+def _raw_example(hdf5_name: str | None, zarr_zip_name: str | None) -> str:
+    """Python lines reading the quality of model 0 with h5py and/or zarr alone."""
+    lines = []
+    if hdf5_name or not zarr_zip_name:
+        lines += ["import h5py", "", f'with h5py.File("{hdf5_name or "dataset.h5"}", "r") as handle:',
+                  '    quality = handle["quality"][0]']
+    if zarr_zip_name:
+        lines += [*([""] if lines else []), "import zarr", "",
+                  f'store = zarr.storage.ZipStore("{zarr_zip_name}", mode="r")',
+                  'quality = zarr.open_group(store, mode="r")["quality"][0]']
+    return "\n".join(lines)
 
 
 def _shape_text(shape: tuple[int | None, ...]) -> str:
