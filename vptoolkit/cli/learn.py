@@ -67,7 +67,7 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
 
 
 @click.command()
-@click.argument("dataset", type=EXISTING)
+@click.argument("dataset", type=DATASET)
 @click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
               help="Checkpoint: a folder, or a path ending in .safetensors.")
 @click.option("--labels", type=click.Choice(["sl", "ml", "gl", "ml+gl", "sr", "dldl"]),
@@ -91,10 +91,12 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
 @device_option()
 @click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
-def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int, lr: float,
-          seed: int, val_split: str, per_category: bool, categories: str | None, fps_pool: int,
-          device: str, threads: int | None, resume: bool) -> None:
-    """Train a viewpoint network on the train split of DATASET.
+@cache_dir_option()
+def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_size: int,
+          lr: float, seed: int, val_split: str, per_category: bool, categories: str | None,
+          fps_pool: int, device: str, threads: int | None, resume: bool,
+          cache_dir: Path | None) -> None:
+    """Train a viewpoint network on the train split of DATASET (a path or a release's URL).
 
     Inputs are put in their canonical principal-axis frame, so the network's
     answer turns with the model. Keeps the checkpoint with the best mean
@@ -116,6 +118,7 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
     if threads is not None and threads > most_threads:
         raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
                          f"got {threads}")
+    dataset = local_dataset(dataset, cache_dir)
     with open_store(find_store(dataset)) as store:
         n_points = int(store.attrs["n_points"])
     if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
