@@ -33,9 +33,7 @@ import hashlib
 import os
 import re
 import tempfile
-import urllib.error
 import urllib.parse
-import urllib.request
 from collections.abc import Iterable
 from contextlib import AbstractContextManager
 from pathlib import Path
@@ -81,6 +79,9 @@ class _HttpSource:
         return f"{self.base}/{urllib.parse.quote(relative)}"
 
     def open(self, relative: str) -> AbstractContextManager[IO[bytes]]:
+        import urllib.error  # with urllib.request: 10 ms that only a download needs
+        import urllib.request
+
         url = self.url_of(relative)
         request = urllib.request.Request(url, headers={"User-Agent": _USER_AGENT})
         try:
