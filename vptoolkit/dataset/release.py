@@ -519,16 +519,18 @@ def pack_release(
     _check_release_dir(target)
     provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
                   else dict(licenses) if licenses is not None else None)
+    if provenance is not None and not isinstance(licenses, (str, Path)):
+        for model, row in provenance.items():  # a parsed table, checked as a file's rows are
+            check_license(str(row.get("license", "")), f"licenses: {model}")
     source = find_store(dataset)
     _require_formats(chosen)
     _check_source_intact(source)
     target.parent.mkdir(parents=True, exist_ok=True)
 
-    stem = base
-    archive_names = {"zarr": f"{stem}.zarr.zip", "hdf5": f"{stem}.h5"}
+    archive_names = {"zarr": f"{base}.zarr.zip", "hdf5": f"{base}.h5"}
     written = [archive_names[f] for f in ("zarr", "hdf5") if f in chosen]
     # Without an archive, a hidden HDF5 copy serves the descriptions and is removed.
-    described_name = written[0] if written else f".{stem}.describe.h5"
+    described_name = written[0] if written else f".{base}.describe.h5"
     longest = max([*archive_names.values(), described_name], key=_name_bytes)
     if _name_bytes(longest) > _MAX_NAME_BYTES:
         raise InputError(
