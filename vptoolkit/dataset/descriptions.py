@@ -28,6 +28,7 @@ from vptoolkit.dataset.manifest import (
     read_sha256sums,
     sha256_file,
 )
+from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import parse_json, write_bytes_atomic, write_text_atomic
 
@@ -56,6 +57,8 @@ class ReleaseOptions:
     creator: str | None = None
     license_name: str | None = None
     license_link: str | None = None
+    shard_bytes: int = DEFAULT_SHARD_BYTES
+    """Largest Arrow size of the rows of one Parquet shard."""
 
     def card_arguments(self) -> dict[str, Any]:
         return {"license": self.license, "pretty_name": self.pretty_name,

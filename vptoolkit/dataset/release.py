@@ -549,6 +549,16 @@ def pack_release(
                 when = release_created(created, attrs.get("created"))
                 attrs["created"] = when
                 attrs["dataset_version"] = version
+                options = ReleaseOptions(
+                    license=license, version=version, created=when, pretty_name=pretty_name,
+                    source_url=source_url, url=url, creator=creator,
+                    license_name=license_name or ("source-mesh-licenses" if license == "other"
+                                                  else None),
+                    license_link=license_link or (
+                        (LICENSES_NAME if provenance is not None else CARD_NAME)
+                        if license == "other" else None),
+                    shard_bytes=shard_bytes,
+                )
                 entries = _ReaderEntries(reader, provenance, default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
@@ -562,7 +572,8 @@ def pack_release(
                 if "parquet" in chosen:
                     from vptoolkit.dataset.parquet import write_parquet_shards
 
-                    shards = write_parquet_shards(packed, staging, shard_bytes=shard_bytes)
+                    shards = write_parquet_shards(packed, staging,
+                                                  shard_bytes=options.shard_bytes)
                     digests.update({s.path: sha256_file(staging / s.path) for s in shards})
                 found = _release_warnings(records, provenance is not None)
                 unlicensed = not any(record.get("provenance") for record in records)
@@ -573,15 +584,6 @@ def pack_release(
                     if (staging / extra).exists():
                         digests[extra] = sha256_file(staging / extra)
                 sizes = {file: (staging / file).stat().st_size for file in digests}
-                options = ReleaseOptions(
-                    license=license, version=version, created=when, pretty_name=pretty_name,
-                    source_url=source_url, url=url, creator=creator,
-                    license_name=license_name or ("source-mesh-licenses" if license == "other"
-                                                  else None),
-                    license_link=license_link or (
-                        (LICENSES_NAME if provenance is not None else CARD_NAME)
-                        if license == "other" else None),
-                )
                 card = render_card(packed, digests, file_sizes=sizes, shards=shards,
                                    **options.card_arguments(), warnings=found)
                 (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
