@@ -166,3 +166,20 @@ def test_a_file_url_goes_through_fsspec(release: Path, tmp_path: Path) -> None:
     require_package("fsspec")
     with open_dataset(release.as_uri(), cache_dir=tmp_path) as dataset:
         assert len(dataset) > 0
+
+
+def test_cli_evaluate_scores_against_a_release_url_as_against_the_folder(
+        served: _Server, release: Path, tmp_path: Path) -> None:
+    import json
+
+    from vptoolkit.evaluate import oracle_directions
+
+    with open_dataset(release) as dataset:
+        np.save(tmp_path / "oracle.npy", oracle_directions(dataset.split("test")))
+    remote = CliRunner().invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                       served.url, "--cache-dir", str(tmp_path / "cache"),
+                                       "--json"])
+    local = CliRunner().invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                      str(release), "--json"])
+    assert remote.exit_code == 0, remote.output
+    assert json.loads(remote.stdout) == json.loads(local.stdout)
