@@ -17,6 +17,7 @@ import pytest
 
 from conftest import require_package
 from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -351,7 +352,7 @@ def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
     report = verify(release_copy)
     assert not report.ok and report.kind == "release"
     assert ("missing", "SHA256SUMS") in [(p.kind, p.target) for p in report.problems]
-    assert report.arrays_checked == 2 * 15  # the .h5 is checked too
+    assert report.arrays_checked == 2 * len(ARRAY_NAMES)  # the .h5 is checked too
 
 
 def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
@@ -392,12 +393,23 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
     from vptoolkit.dataset.manifest import verify
 
     report = verify(release_copy)
-    assert report.problems == [] and not report.ok
+    assert report.problems == [] and report.ok  # the files and the HDF5 arrays were verified
     assert [p.target for p in report.skipped] == ["mini-2.1.0.zarr.zip"]
+    report.raise_if_failed()
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 0, result.output
+    assert ": OK (" in result.stdout and "skipped mini-2.1.0.zarr.zip: arrays not checked" in (
+        result.stdout) and "vptoolkit[dataset]" in result.stdout
+    # A damaged file still fails, the skipped archive aside.
+    (release_copy / "README.md").write_text("edited\n")
+    assert CliRunner().invoke(main, ["verify", str(release_copy)]).exit_code == 1
+    # A lone Zarr archive: nothing could be verified at all.
+    report = verify(release_copy / "mini-2.1.0.zarr.zip")
+    assert not report.ok and report.nothing_verified
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
         report.raise_if_failed()
-    result = CliRunner().invoke(main, ["verify", str(release_copy)])
-    assert result.exit_code == 2 and "skipped" in result.stderr and result.stdout == ""
+    result = CliRunner().invoke(main, ["verify", str(release_copy / "mini-2.1.0.zarr.zip")])
+    assert result.exit_code == 2 and "NOT VERIFIED" in result.stderr and result.stdout == ""
 
 
 def test_verify_prints_its_summary_once(release_copy: Path) -> None:
