@@ -99,6 +99,49 @@ def test_datasets_loads_the_release_offline_with_splits_and_shapes(release, tmp_
         np.testing.assert_array_equal(directions, reference.views)
 
 
+def test_class_labels_are_one_sorted_map_in_stores_card_croissant_and_datasets(
+        release, tmp_path: Path, monkeypatch) -> None:
+    require_package("datasets")
+    import datasets
+    import yaml
+
+    from vptoolkit.data import open_dataset
+    from vptoolkit.dataset.reader import open_store
+
+    expected = sorted(CATEGORIES)
+    for store in sorted(release.path.glob("*.h5")) + sorted(release.path.glob("*.zarr.zip")):
+        with open_store(store) as reader:
+            assert reader.attrs["class_names"] == expected, store.name
+            categories = reader.array("categories")[...].tolist()
+            labels = reader.array("labels")[...].tolist()
+            assert labels == [expected.index(c if isinstance(c, str) else c.decode())
+                              for c in categories], store.name
+    card = release.card.read_text(encoding="utf-8")
+    header = yaml.safe_load(card.split("---\n")[1])
+    default = next(c for c in header["dataset_info"] if c["config_name"] == "default")
+    label = next(f for f in default["features"] if f["name"] == "label")
+    assert label["dtype"]["class_label"]["names"] == {str(i): n for i, n in enumerate(expected)}
+    assert "| 0 | `airplane` |" in card and "| 1 | `chair` |" in card
+    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+    categories_set = next(r for r in document["recordSet"] if r["@id"] == "categories")
+    assert [(row["categories/label"], row["categories/category"])
+            for row in categories_set["data"]] == list(enumerate(expected))
+    models = next(r for r in document["recordSet"] if r["@id"] == "models")
+    label_field = next(f for f in models["field"] if f["name"] == "label")
+    assert label_field["references"] == {"field": {"@id": "categories/label"}}
+
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    loaded = datasets.load_dataset(str(release.path), cache_dir=str(tmp_path / "cache"))
+    feature = loaded["train"].features["label"]
+    assert isinstance(feature, datasets.ClassLabel) and feature.names == expected
+    with open_dataset(release.path) as reference:
+        assert reference.class_names == expected
+        for split, rows in loaded.items():
+            assert rows["label"] == reference.split(split).labels.tolist()
+            assert [feature.int2str(v) for v in rows["label"]] == rows["category"]
+
+
 def test_datasets_streams_the_release(release, monkeypatch) -> None:
     require_package("datasets")
     monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")

@@ -11,7 +11,9 @@ cd "$(dirname "$0")/.."
 out="${1:-sample_run}"
 vptool=.venv/bin/vptool
 
-"$vptool" build-dataset vptoolkit/samples "$out/build" --workers 2
+# The samples' split file gives 8 train, 2 validation and 2 test models.
+"$vptool" build-dataset vptoolkit/samples "$out/build" --workers 2 \
+    --splits vptoolkit/samples/splits.csv
 # A release folder must be new: replace the one this script made last time.
 if [ -f "$out/release/SHA256SUMS" ]; then rm -r "$out/release"; fi
 # Reproducible: the same build and release time give the same SHA256SUMS anywhere.
