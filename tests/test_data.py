@@ -146,10 +146,11 @@ def test_array_stacks_one_key_of_every_item(dataset: ViewpointDataset) -> None:
     entries = synthetic_entries()
     quality = dataset.array("quality")
     assert quality.shape == (len(MODELS), N_VIEWS, 4) and quality.dtype == np.float32
-    np.testing.assert_array_equal(quality, np.stack([e.quality for e in entries]).astype(np.float32))
+    expected = np.stack([entry.quality for entry in entries]).astype(np.float32)
+    np.testing.assert_array_equal(quality, expected)
     picked = dataset[[4, 0, 3]]
-    np.testing.assert_array_equal(picked.array("points"),
-                                  np.stack([entries[i].points for i in (4, 0, 3)]).astype(np.float32))
+    points = np.stack([entries[i].points for i in (4, 0, 3)]).astype(np.float32)
+    np.testing.assert_array_equal(picked.array("points"), points)
     assert picked.array("best_index").dtype == np.int64
     assert picked.array("name").tolist() == ["chair_0002", "airplane_0001", "chair_0001"]
     assert picked.array("category").tolist() == ["chair", "airplane", "chair"]

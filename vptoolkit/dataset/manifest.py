@@ -123,7 +123,7 @@ class VerifyReport:
 
     @property
     def ok(self) -> bool:
-        """Whether nothing failed and something was verified (warnings and skipped parts allowed)."""
+        """Whether nothing failed and something was verified (warnings, skipped parts allowed)."""
         return not self.problems and not (self.skipped and self.nothing_verified)
 
     @property
