@@ -124,6 +124,20 @@ def test_items_carry_category_and_the_label_of_the_sorted_class_map(
     assert train.class_names == dataset.class_names and train.labels.tolist() == [0, 1, 1]
 
 
+def test_a_store_without_class_names_and_string_arrays_still_loads(tmp_path: Path) -> None:
+    import h5py
+
+    store = write_synthetic(tmp_path / "older.h5")
+    with h5py.File(store, "r+") as handle:
+        for name in ("names", "categories", "splits", "labels"):
+            del handle[name]
+        del handle.attrs["class_names"]
+    with open_dataset(store) as older:
+        assert "class_names" not in older.attrs
+        assert older.class_names == ["airplane", "chair"]
+        assert older.labels.tolist() == [0, 0, 0, 1, 1] and older[3]["label"] == 1
+
+
 def test_slices_and_index_lists_give_datasets(dataset: ViewpointDataset) -> None:
     head = dataset[0:3]
     assert isinstance(head, ViewpointDataset)
