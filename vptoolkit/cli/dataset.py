@@ -191,8 +191,10 @@ def verify(path: Path, as_json: bool) -> None:
 
     Every file is checked against SHA256SUMS and every array against the
     SHA-256 stored with it; each mismatch and each unlisted file is named.
-    Exit code 1 on any mismatch; 2 if an archive could not be checked because
-    a package is missing (the line says which to install).
+    What cannot be read for lack of a package (a Zarr archive without zarr,
+    the Parquet shards without pyarrow) is skipped and named in the summary.
+    Exit code 0 when everything checked passed, 1 on any mismatch, 2 if
+    nothing could be checked (the line says which package to install).
 
     \b
     Example:

@@ -89,7 +89,8 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
     dict
         ``store`` (file name), ``store_kind``, ``format``, ``schema_version``,
         ``n_models``, ``n_views``, ``n_points`` (per model), ``resolution``,
-        ``backend``, ``categories`` and ``splits`` (ordered),
+        ``backend``, ``categories``, ``class_names`` (label ``i`` is
+        ``class_names[i]``) and ``splits`` (ordered),
         ``counts`` (category -> split -> models, every pair present),
         ``split_totals``, ``category_totals``, ``measures`` (order,
         higher_is_better, log_base, units, normalisation), ``camera``,
@@ -154,6 +155,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "split_seed": attrs.get("split_seed"),
         "split_fractions": attrs.get("split_fractions"),
         "categories": categories,
+        "class_names": list(attrs.get("class_names") or categories),
         "splits": splits,
         "counts": counts,
         "split_totals": split_totals,
