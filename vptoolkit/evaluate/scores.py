@@ -450,7 +450,7 @@ def score_directions(
     if values.shape != (n_models, len(MEASURES), 3):
         raise InputError(f"directions: expected shape ({n_models}, {len(MEASURES)}, 3), "
                          f"got {values.shape}")
-    is_missing = np.isnan(values).any(axis=2)  # (n_models, 4)
+    is_missing = np.any(np.isnan(values), axis=2)  # (n_models, 4)
     is_scored = ~is_missing.all(axis=0)
     partial = [m for m, column in zip(MEASURES, is_missing.T) if 0 < column.sum() < n_models]
     if partial:
