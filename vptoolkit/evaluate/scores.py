@@ -81,6 +81,10 @@ def _percent_or_none(value: float) -> float | None:
 class EvaluationReport:
     """Scores of one set of predictions on one split, in percent.
 
+    The derived tables are properties: :attr:`categories`,
+    :attr:`category_counts`, :attr:`category_scores`, :attr:`mean` (over
+    categories, the paper's headline) and :attr:`model_mean` (over models).
+
     Attributes
     ----------
     dataset : str
@@ -97,10 +101,6 @@ class EvaluationReport:
         Normalised quality of the nearest sampled view, in percent, in
         ``MEASURES`` order; NaN for a measure that was not predicted.
         Read-only.
-
-    The derived tables are properties: :attr:`categories`,
-    :attr:`category_counts`, :attr:`category_scores`, :attr:`mean` (over
-    categories, the paper's headline) and :attr:`model_mean` (over models).
     """
 
     dataset: str
