@@ -71,3 +71,24 @@ def test_site_markdown_rewrites_links_only(docs_site):
 ])
 def test_roles_become_code(docs_site, docstring, markdown):
     assert docs_site.roles_as_code(docstring) == markdown
+
+
+def test_attribute_entry_of_several_names_becomes_one_per_name(docs_site, tmp_path):
+    import griffe
+
+    (tmp_path / "bounds.py").write_text('''
+class Bounds:
+    """A range.
+
+    Attributes
+    ----------
+    low, high : float
+        The ends, as :func:`~numpy.clip` takes them.
+    """
+''', encoding="utf-8")
+    module = griffe.load("bounds", search_paths=[tmp_path], docstring_parser="numpy",
+                         extensions=griffe.load_extensions(docs_site.Numpydoc))
+    sections = module["Bounds"].docstring.parsed
+    (attributes,) = [s for s in sections if s.kind is griffe.DocstringSectionKind.attributes]
+    assert [entry.name for entry in attributes.value] == ["low", "high"]
+    assert {entry.description for entry in attributes.value} == {"The ends, as `clip` takes them."}
