@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Literal
 
 import click
 
@@ -52,9 +53,9 @@ from vptoolkit.errors import InputError
               "in a temporary folder.")
 @click.option("--calibrate", type=click.IntRange(0),
               help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
-def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
-                  n_views: int, resolution: int, n_points: int, max_faces: int,
-                  no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
+def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
+                  categories: str | None, n_views: int, resolution: int, n_points: int,
+                  max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
                   dry_run: bool, calibrate: int | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.

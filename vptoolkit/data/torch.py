@@ -59,7 +59,7 @@ def _non_negative_int(value: Any, what: str) -> int:
     return int(value)
 
 
-class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
+class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     """Network inputs and labels from a :class:`~vptoolkit.data.ViewpointDataset`.
 
     Parameters

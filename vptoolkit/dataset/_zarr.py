@@ -138,7 +138,7 @@ def _stored_keys(reader: Any) -> set[str]:
     if reader.kind == "zarr-zip":
         with zipfile.ZipFile(reader.path) as archive:
             return set(archive.namelist())
-    keys = set()
+    keys: set[str] = set()
     for folder, _, files in os.walk(reader.path):
         relative = Path(folder).relative_to(reader.path).as_posix()
         keys.update(name if relative == "." else f"{relative}/{name}" for name in files)

@@ -118,9 +118,9 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         -1, len(MEASURES)
     )
     best_stats = {m: _summary(best_value[:, i]) for i, m in enumerate(MEASURES)}
-    faces = [record.get("n_faces") for record in models if record.get("n_faces") is not None]
+    faces = [record["n_faces"] for record in models if record.get("n_faces") is not None]
     vertices = [
-        record.get("n_vertices") for record in models if record.get("n_vertices") is not None
+        record["n_vertices"] for record in models if record.get("n_vertices") is not None
     ]
     cleaning_records = [record["cleaning"] for record in models if record.get("cleaning")]
     faces_before = [
@@ -179,7 +179,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
             for record in failures
         ],
     }
-    return _json_safe(info)  # type: ignore[no-any-return]
+    return _json_safe(info)
 
 
 def dataset_info(path: Path | str) -> dict[str, Any]:

@@ -325,7 +325,7 @@ def _shard_values(pa: Any, array: Any, column: Column) -> list[NDArray[Any]]:
             raise ValueError(f"rows are not of {column.shape[1]} values")
         flat = flat.flatten()
     values = np.asarray(flat.to_numpy(zero_copy_only=False), dtype)
-    inner_size = int(column.shape[-1]) if len(column.shape) == 2 else 1
+    inner_size = int(column.shape[-1] or 1) if len(column.shape) == 2 else 1
     bounds = np.concatenate([[0], np.cumsum(lengths)]) * inner_size
     rows = [values[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     return [row.reshape(-1, inner_size) if len(column.shape) == 2 else row for row in rows]

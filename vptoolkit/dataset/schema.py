@@ -302,13 +302,13 @@ def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
         hasher.update(json_bytes(string_values(array[...])))
         return hasher.hexdigest()
     if isinstance(array, np.ndarray) or not hasattr(array, "shape") or not array.shape:
-        hasher.update(le_bytes(np.asarray(array)))
+        hasher.update(le_bytes(np.asarray(array)).data)
         return hasher.hexdigest()
     n_rows = int(array.shape[0])
     row_bytes = max(1, math.prod(array.shape[1:]) * np.dtype(array.dtype).itemsize)
     step = max(1, _HASH_BLOCK_BYTES // row_bytes)
     for start in range(0, n_rows, step):
-        hasher.update(le_bytes(np.asarray(array[start : start + step])))
+        hasher.update(le_bytes(np.asarray(array[start : start + step])).data)
     return hasher.hexdigest()
 
 

@@ -62,7 +62,7 @@ class _Checked(NamedTuple):
     arrays: dict[str, NDArray[Any]]
 
 
-_ENTRY_ARRAYS = {
+_ENTRY_ARRAYS: dict[str, tuple[str, np.dtype[Any]]] = {
     # stored array name: (ModelEntry field, dtype)
     "points": ("points", np.dtype("<f4")),
     "normals": ("normals", np.dtype("<f4")),
@@ -168,7 +168,7 @@ def _entry_checksum(checked: _Checked, hashers: Mapping[str, Any] | None = None)
     """
     value = zlib.crc32(json.dumps(checked.record, sort_keys=True).encode("utf-8"))
     for name, array in checked.arrays.items():
-        data = le_bytes(array)
+        data = le_bytes(array).data
         if hashers is not None:
             hashers[name].update(data)
         value = zlib.crc32(data, value)
@@ -473,7 +473,7 @@ def write_dataset(
         n_failures=len(failure_records), labels=labels,
     )
     label_of = {name: label for label, name in enumerate(labels)}
-    whole = {
+    whole: dict[str, NDArray[Any]] = {
         "views": view_directions,
         "mesh_vertex_offsets": plan.vertex_offsets,
         "mesh_face_offsets": plan.face_offsets,
