@@ -460,7 +460,7 @@ class ViewpointDataset:
         self.close()
 
 
-_STACKED = {
+_STACKED: dict[str, type[np.generic]] = {
     "points": np.float32, "normals": np.float32, "quality": np.float32, "quality_raw": np.float32,
     "best_index": np.int64, "best_value": np.float32, "worst_index": np.int64,
     "worst_value": np.float32,

@@ -299,7 +299,7 @@ def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
     """
     hasher = hashlib.sha256()
     if np.dtype(getattr(array, "dtype", np.uint8)).kind in "OTUS":
-        hasher.update(json_bytes(string_values(array[...])))
+        hasher.update(json_bytes(string_values(array[...])).data)
         return hasher.hexdigest()
     if isinstance(array, np.ndarray) or not hasattr(array, "shape") or not array.shape:
         hasher.update(le_bytes(np.asarray(array)).data)
