@@ -17,6 +17,7 @@ import pytest
 
 from conftest import require_package
 from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries, _forge_shard
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -99,6 +100,49 @@ def test_datasets_loads_the_release_offline_with_splits_and_shapes(release, tmp_
         np.testing.assert_array_equal(directions, reference.views)
 
 
+def test_class_labels_are_one_sorted_map_in_stores_card_croissant_and_datasets(
+        release, tmp_path: Path, monkeypatch) -> None:
+    require_package("datasets")
+    import datasets
+    import yaml
+
+    from vptoolkit.data import open_dataset
+    from vptoolkit.dataset.reader import open_store
+
+    expected = sorted(CATEGORIES)
+    for store in sorted(release.path.glob("*.h5")) + sorted(release.path.glob("*.zarr.zip")):
+        with open_store(store) as reader:
+            assert reader.attrs["class_names"] == expected, store.name
+            categories = reader.array("categories")[...].tolist()
+            labels = reader.array("labels")[...].tolist()
+            assert labels == [expected.index(c if isinstance(c, str) else c.decode())
+                              for c in categories], store.name
+    card = release.card.read_text(encoding="utf-8")
+    header = yaml.safe_load(card.split("---\n")[1])
+    default = next(c for c in header["dataset_info"] if c["config_name"] == "default")
+    label = next(f for f in default["features"] if f["name"] == "label")
+    assert label["dtype"]["class_label"]["names"] == {str(i): n for i, n in enumerate(expected)}
+    assert "| 0 | `airplane` |" in card and "| 1 | `chair` |" in card
+    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+    categories_set = next(r for r in document["recordSet"] if r["@id"] == "categories")
+    assert [(row["categories/label"], row["categories/category"])
+            for row in categories_set["data"]] == list(enumerate(expected))
+    models = next(r for r in document["recordSet"] if r["@id"] == "models")
+    label_field = next(f for f in models["field"] if f["name"] == "label")
+    assert label_field["references"] == {"field": {"@id": "categories/label"}}
+
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    loaded = datasets.load_dataset(str(release.path), cache_dir=str(tmp_path / "cache"))
+    feature = loaded["train"].features["label"]
+    assert isinstance(feature, datasets.ClassLabel) and feature.names == expected
+    with open_dataset(release.path) as reference:
+        assert reference.class_names == expected
+        for split, rows in loaded.items():
+            assert rows["label"] == reference.split(split).labels.tolist()
+            assert [feature.int2str(v) for v in rows["label"]] == rows["category"]
+
+
 def test_datasets_streams_the_release(release, monkeypatch) -> None:
     require_package("datasets")
     monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
@@ -165,6 +209,7 @@ def test_a_small_shard_size_gives_several_hub_named_shards_that_datasets_loads(
     with open_dataset(sharded.path) as reference:
         for split, rows in loaded.items():
             assert rows["name"] == reference.split(split).names  # every shard, in store order
+            assert rows["label"] == reference.split(split).labels.tolist()
         first = loaded["train"].with_format("numpy")[len(loaded["train"]) - 1]
         np.testing.assert_array_equal(first["quality"], reference.split("train")[-1]["quality"])
 
@@ -177,8 +222,10 @@ def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None
     second = "data/train-00001-of-" + next(
         (copy / "data").glob("train-00001-of-*.parquet")).name.rsplit("-of-", 1)[1]
     name = _forge_shard(copy, second, "quality")
+    _forge_shard(copy, second, "label")  # compared with the store's labels array
     report = verify(copy)
-    assert [p.target for p in report.problems] == [f"{second}:{name}:quality"]
+    assert [p.target for p in report.problems] == [f"{second}:{name}:label",
+                                                   f"{second}:{name}:quality"]
 
 
 @pytest.mark.parametrize(("text", "expected"), [("200KB", 200_000), ("500MB", 500_000_000),
@@ -433,7 +480,7 @@ def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
     report = verify(release_copy)
     assert not report.ok and report.kind == "release"
     assert ("missing", "SHA256SUMS") in [(p.kind, p.target) for p in report.problems]
-    assert report.arrays_checked == 2 * 15  # the .h5 is checked too
+    assert report.arrays_checked == 2 * len(ARRAY_NAMES)  # the .h5 is checked too
 
 
 def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
@@ -474,12 +521,23 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
     from vptoolkit.dataset.manifest import verify
 
     report = verify(release_copy)
-    assert report.problems == [] and not report.ok
+    assert report.problems == [] and report.ok  # the files and the HDF5 arrays were verified
     assert [p.target for p in report.skipped] == ["mini.zarr.zip"]
+    report.raise_if_failed()
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 0, result.output
+    assert ": OK (" in result.stdout and "skipped mini.zarr.zip: arrays not checked" in (
+        result.stdout) and "vptoolkit[dataset]" in result.stdout
+    # A damaged file still fails, the skipped archive aside.
+    (release_copy / "README.md").write_text("edited\n")
+    assert CliRunner().invoke(main, ["verify", str(release_copy)]).exit_code == 1
+    # A lone Zarr archive: nothing could be verified at all.
+    report = verify(release_copy / "mini.zarr.zip")
+    assert not report.ok and report.nothing_verified
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
         report.raise_if_failed()
-    result = CliRunner().invoke(main, ["verify", str(release_copy)])
-    assert result.exit_code == 2 and "skipped" in result.stderr and result.stdout == ""
+    result = CliRunner().invoke(main, ["verify", str(release_copy / "mini.zarr.zip")])
+    assert result.exit_code == 2 and "NOT VERIFIED" in result.stderr and result.stdout == ""
 
 
 def test_verify_prints_its_summary_once(release_copy: Path) -> None:
@@ -937,6 +995,8 @@ def test_card_states_modelnet_terms_lists_the_loaded_columns_and_names_mlcroissa
     assert _terms_block("my-scans") == ""
     assert "| `points` | float32 | (200, 3) | points sampled by area on the cleaned mesh |" in card
     assert "| `mesh_faces` | int32 | (n, 3) |" in card
+    assert ("| `label` | int64 | scalar | class label: the category's index in the sorted "
+            "category names |") in card
     assert "pip install 'mlcroissant[parquet]'" in card
     assert 'records(record_set="models")' in card
 

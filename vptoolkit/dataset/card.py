@@ -64,6 +64,10 @@ _ARRAY_MEANINGS = {
     "mesh_face_offsets": "model m owns face rows offsets[m]:offsets[m+1]",
     "models_json": "UTF-8 JSON list of model records in row order",
     "failures_json": "UTF-8 JSON list of inputs that could not be processed",
+    "names": "model name per model, in row order",
+    "categories": "category per model",
+    "splits": "split per model: train, validation or test",
+    "labels": "class label per model: index into the root attribute `class_names`",
 }
 
 
@@ -137,7 +141,7 @@ def render_card(
 
     if shards:
         yaml_hub = hub_yaml(shards, n_points=int(info["n_points"] or 0),
-                            n_views=int(info["n_views"]))
+                            n_views=int(info["n_views"]), class_names=info["class_names"])
     else:
         # Without Parquet shards `datasets` has nothing to load: no configs, no splits.
         yaml_hub = ""
@@ -301,6 +305,9 @@ def render_card(
                                            ["l", "l", "l"])
                            if failure_rows else ""),
         "count_table": _markdown_table(count_header, count_rows),
+        "class_table": _markdown_table(
+            ["label", "category"], [[label, f"`{name}`"] for label, name in
+                                    enumerate(info["class_names"])], ["r", "l"]),
         "measure_table": _markdown_table(
             ["measure", "name", "best", "raw unit", "best raw mean", "best raw min",
              "best raw max"], measure_rows, ["l", "l", "l", "l", "r", "r", "r"]),
@@ -358,15 +365,18 @@ def dataset_citation(title: str, *, creator: str, year: str, version: str, url: 
 
 
 def _raw_example(hdf5_name: str | None, zarr_zip_name: str | None) -> str:
-    """Python lines reading the quality of model 0 with h5py and/or zarr alone."""
+    """Python lines reading model 0's quality and the model names with h5py and/or zarr alone."""
     lines = []
     if hdf5_name or not zarr_zip_name:
         lines += ["import h5py", "", f'with h5py.File("{hdf5_name or "dataset.h5"}", "r") as handle:',
-                  '    quality = handle["quality"][0]']
+                  '    quality = handle["quality"][0]',
+                  '    names = handle["names"].asstr()[...]  # also categories, splits, labels']
     if zarr_zip_name:
         lines += [*([""] if lines else []), "import zarr", "",
                   f'store = zarr.storage.ZipStore("{zarr_zip_name}", mode="r")',
-                  'quality = zarr.open_group(store, mode="r")["quality"][0]']
+                  'root = zarr.open_group(store, mode="r")',
+                  'quality = root["quality"][0]',
+                  'names = root["names"][...]  # also categories, splits, labels']
     return "\n".join(lines)
 
 
@@ -389,7 +399,8 @@ def _same_data_sentence(files: Mapping[str, str]) -> str:
     return f" {listed[0].upper()}{listed[1:]} hold the same data; use whichever your tools read."
 
 
-def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> str:
+def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
+             class_names: Sequence[str] = ()) -> str:
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
     Two configurations: ``default`` (the Parquet shards of each split, one row
@@ -404,6 +415,9 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
         What :func:`~vptoolkit.dataset.parquet.write_parquet_shards` wrote.
     n_points, n_views : int
         Points and views per model, the shapes of the array features.
+    class_names : sequence of str
+        The store's ``class_names``: the ``label`` feature is a
+        ``ClassLabel`` with these names.
 
     Returns
     -------
@@ -420,7 +434,7 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
     if view_splits:
         lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:", *_data_files(view_splits)]
     lines.append("dataset_info:")
-    configs = [("default", model_columns(n_points, n_views), model_splits),
+    configs = [("default", model_columns(n_points, n_views, class_names), model_splits),
                (VIEWS_CONFIG, view_columns(), view_splits)]
     for config_name, columns, chosen in configs:
         if not chosen:
@@ -450,6 +464,10 @@ def _data_files(splits: Mapping[str, Sequence[ParquetShard]]) -> list[str]:
 def _yaml_feature(column: Column) -> str:
     """One feature of a hub ``dataset_info``, as the hub's YAML writes it."""
     head = f"  - name: {column.name}\n"
+    if column.class_names is not None:
+        names = "\n".join(f"          '{label}': {_yaml_str(name)}"
+                          for label, name in enumerate(column.class_names))
+        return head + "    dtype:\n      class_label:\n        names:\n" + names
     if not column.shape:
         return head + f"    dtype: {column.dtype}"
     if len(column.shape) == 1:
@@ -479,7 +497,8 @@ def _array_rows(reader: StoreReader) -> list[list[str]]:
     for name in sorted(reader.array_names()):
         array = reader.array(name)
         shape = "(" + ", ".join(str(int(n)) for n in array.shape) + ("," if len(array.shape) == 1 else "") + ")"
-        rows.append([f"`{name}`", shape, str(np.dtype(array.dtype)),
+        dtype = "string" if np.dtype(array.dtype).kind in "OT" else str(np.dtype(array.dtype))
+        rows.append([f"`{name}`", shape, dtype,
                      _ARRAY_MEANINGS.get(name, "")])
     return rows
 

@@ -142,8 +142,11 @@ def croissant_jsonld(
         reads Parquet, not HDF5 or Zarr): ``models`` (one record per model,
         the columns of :func:`~vptoolkit.dataset.parquet.model_columns`,
         arrays with ``isArray``/``arrayShape``) from the FileSet
-        ``model-shards``, and ``views`` from the FileObject of the views shard.
-        Without shards there are no record sets.
+        ``model-shards``, and ``views`` from the FileObject of the views shard;
+        beside them, given inline, ``splits`` (``cr:Split``, which the
+        ``split`` field references) and ``categories`` (the class labels,
+        which the ``label`` field references). Without shards there are no
+        record sets.
     card : str, optional
         The release's ``README.md``; the ``rai:`` fields are taken from its
         datasheet sections.
@@ -199,6 +202,7 @@ def croissant_jsonld(
         })
         columns = model_columns(int(n_points or 0), int(n_views))
         record_sets.append(_split_record_set())
+        record_sets.append(_category_record_set(info["class_names"]))
         record_sets.append({
             "@type": "cr:RecordSet",
             "@id": "models",
@@ -335,6 +339,30 @@ def _bullets(text: str) -> list[str]:
     return items
 
 
+_CATEGORIES = "categories"
+"""The record set of the class labels: one record (label, category) per category."""
+
+
+def _category_record_set(class_names: Sequence[str]) -> dict[str, Any]:
+    """The enumeration of the categories: label ``i`` is ``class_names[i]``, given inline."""
+    return {
+        "@type": "cr:RecordSet",
+        "@id": _CATEGORIES,
+        "name": _CATEGORIES,
+        "description": ("The class labels: a model's label is the index of its category in "
+                        "the sorted category names"),
+        "key": {"@id": f"{_CATEGORIES}/label"},
+        "field": [
+            {"@type": "cr:Field", "@id": f"{_CATEGORIES}/label", "name": "label",
+             "description": "class label", "dataType": _CROISSANT_TYPES["int64"]},
+            {"@type": "cr:Field", "@id": f"{_CATEGORIES}/category", "name": "category",
+             "description": "category name", "dataType": _CROISSANT_TYPES["string"]},
+        ],
+        "data": [{f"{_CATEGORIES}/label": label, f"{_CATEGORIES}/category": name}
+                 for label, name in enumerate(class_names)],
+    }
+
+
 def _croissant_field(record_set: str, column: Column, source: dict[str, Any]) -> dict[str, Any]:
     spec: dict[str, Any] = {
         "@type": "cr:Field",
@@ -344,6 +372,8 @@ def _croissant_field(record_set: str, column: Column, source: dict[str, Any]) ->
         "dataType": _CROISSANT_TYPES[column.dtype],
         "source": {**source, "extract": {"column": column.name}},
     }
+    if column.name == "label":
+        spec["references"] = {"field": {"@id": f"{_CATEGORIES}/label"}}
     if column.shape:
         spec["isArray"] = True
         spec["arrayShape"] = ",".join("-1" if d is None else str(d) for d in column.shape)

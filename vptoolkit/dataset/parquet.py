@@ -28,7 +28,7 @@ extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -68,6 +68,7 @@ DEFAULT_SHARD_BYTES = 500 * 1000**2
 """Largest Arrow size of the rows of one model shard, 500 MB (the hub's default)."""
 
 _ROWS_PER_GROUP = 64
+_STORED_AS = {"label": "labels"}  # column -> store array, where the names differ
 _PROVENANCE = ("license", "author", "url")
 _SHARD = re.compile(r"(?P<folder>[a-z]+)/(?P<split>[a-z]+)-(?P<index>[0-9]{5})-of-"
                     r"(?P<count>[0-9]{5})\.parquet")
@@ -91,12 +92,16 @@ class Column:
         length that varies from row to row.
     description : str
         One line for the card and Croissant.
+    class_names : tuple of str, optional
+        For a class label column: the category of each label (the hub's
+        ``ClassLabel`` names, Croissant's category record set).
     """
 
     name: str
     dtype: str
     shape: tuple[int | None, ...]
     description: str
+    class_names: tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -178,7 +183,8 @@ def parse_size(text: str | int, label: str = "--shard-size") -> int:
     return int(value)
 
 
-def model_columns(n_points: int, n_views: int) -> list[Column]:
+def model_columns(n_points: int, n_views: int,
+                  class_names: Sequence[str] | None = None) -> list[Column]:
     """The columns of a model shard, in file order.
 
     Parameters
@@ -187,6 +193,9 @@ def model_columns(n_points: int, n_views: int) -> list[Column]:
         Points per model.
     n_views : int
         Views per model.
+    class_names : sequence of str, optional
+        The store's ``class_names``, kept on the ``label`` column (for the
+        card and Croissant; the shard itself stores the integer).
 
     Returns
     -------
@@ -197,6 +206,8 @@ def model_columns(n_points: int, n_views: int) -> list[Column]:
     return [
         Column("name", "string", (), "unique model name"),
         Column("category", "string", (), "object category"),
+        Column("label", "int64", (), "class label: the category's index in the sorted category "
+               "names", None if class_names is None else tuple(class_names)),
         Column("split", "string", (), f"split: {', '.join(SPLITS)}"),
         Column("source", "string", (), "path of the source mesh inside the source dataset"),
         Column("source_sha256", "string", (), "SHA-256 of the source mesh file"),
@@ -238,6 +249,8 @@ def _arrow_type(pa: Any, column: Column) -> Any:
 def _nested(pa: Any, rows: list[NDArray[Any]], column: Column) -> Any:
     """Rows of equal inner shape as a (fixed-size) list array of the column's type."""
     dtype = np.dtype(column.dtype)
+    if not column.shape:
+        return pa.array(np.asarray(rows, dtype).reshape(-1))
     if len(column.shape) == 1 and column.shape[0] is not None:
         flat = np.concatenate([np.asarray(r, dtype).reshape(-1) for r in rows]) if rows else (
             np.zeros(0, dtype))
@@ -294,22 +307,23 @@ def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[
                 block = [reader.array("mesh_faces")[face_offsets[r] : face_offsets[r + 1]]
                          for r in chunk]
             else:
-                stored = reader.array(column.name)
+                stored = reader.array(_STORED_AS.get(column.name, column.name))
                 block = [stored[r] for r in chunk]
             arrays.append(_nested(pa, block, column))
         yield arrays
 
 
 def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[int],
-               lengths: Mapping[str, NDArray[np.int64]]) -> list[int]:
+               lengths: Mapping[str, NDArray[Any]]) -> list[int]:
     """The Arrow size of each row: values plus the 4-byte offsets of every list."""
     fixed = 0
     for column in columns:
-        if column.dtype == "string" or None in column.shape:
+        dims = [d for d in column.shape if d is not None]
+        if column.dtype == "string" or len(dims) < len(column.shape):
             continue
-        fixed += int(np.prod(column.shape)) * np.dtype(column.dtype).itemsize
-        if len(column.shape) == 2:
-            fixed += 4 * (int(column.shape[0]) + 1)
+        fixed += int(np.prod(dims)) * np.dtype(column.dtype).itemsize
+        if len(dims) == 2:
+            fixed += 4 * (dims[0] + 1)
     sizes = []
     for row in rows:
         size = fixed
@@ -417,7 +431,7 @@ def _shard_values(pa: Any, array: Any, column: Column) -> list[NDArray[Any]]:
             raise ValueError(f"rows are not of {column.shape[1]} values")
         flat = flat.flatten()
     values = np.asarray(flat.to_numpy(zero_copy_only=False), dtype)
-    inner_size = int(column.shape[-1]) if len(column.shape) == 2 else 1
+    inner_size = int(column.shape[-1] or 1) if len(column.shape) == 2 else 1
     bounds = np.concatenate([[0], np.cumsum(lengths)]) * inner_size
     rows = [values[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     return [row.reshape(-1, inner_size) if len(column.shape) == 2 else row for row in rows]
@@ -537,7 +551,7 @@ def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Col
             elif column.name in ("mesh_vertices", "mesh_faces"):
                 expected = stored[offsets[row] : offsets[row + 1]]
             else:
-                expected = reader.array(column.name)[row]
+                expected = reader.array(_STORED_AS.get(column.name, column.name))[row]
             if not _same(expected, values[position], column.dtype):
                 found.append((f"{where[position]}:{records[row]['name']}:{column.name}",
                               "differs from the archive"))
