@@ -31,7 +31,7 @@ from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 
-from conftest import DASK_DASHBOARD, require_package
+from fixtures.environment import DASK_DASHBOARD, require_package
 
 REAL = Path(__file__).parent / "data" / "real"
 RABBIT = REAL / "rabbit.obj"

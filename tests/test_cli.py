@@ -98,7 +98,7 @@ def test_sample_writes_points_with_normals(runner, tmp_path):
 
 
 def test_pack_verify_info_on_a_small_store(runner, tmp_path):
-    from test_store import write_synthetic
+    from fixtures.stores import write_synthetic
 
     store = write_synthetic(tmp_path / "dataset.zarr")
     release = tmp_path / "release"
@@ -118,7 +118,7 @@ def test_pack_verify_info_on_a_small_store(runner, tmp_path):
 
 
 def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_path):
-    from test_store import write_synthetic
+    from fixtures.stores import write_synthetic
 
     from vptoolkit.data import open_dataset
     from vptoolkit.evaluate import oracle_directions

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import box_mesh, decode_png, model_mask, require_package, started_renderer
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
+from fixtures.pictures import decode_png, model_mask, started_renderer
 from vptoolkit.cli import main
 from vptoolkit.io import save_mesh
 from vptoolkit.samples import sample_path

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_store import synthetic_entry, write_synthetic
+from fixtures.stores import synthetic_entry, write_synthetic
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError

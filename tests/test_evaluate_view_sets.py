@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import require_package
+from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate import evaluate_view_sets, score_view_sets
@@ -120,7 +120,7 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
     require_package("matplotlib")
     import re
 
-    from conftest import read_png
+    from fixtures.pictures import read_png
     from vptoolkit.data import open_dataset
     from vptoolkit.evaluate import model_visibility
     from vptoolkit.pictures.report import write_report

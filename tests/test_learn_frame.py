@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import one_torch_thread, require_package
+from fixtures.environment import one_torch_thread, require_package
 
 require_package("torch")
 

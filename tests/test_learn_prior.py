@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import box_mesh, one_torch_thread, require_package
+from fixtures.environment import one_torch_thread, require_package
+from fixtures.meshes import box_mesh
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
 

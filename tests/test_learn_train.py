@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import one_torch_thread, require_package
+from fixtures.environment import one_torch_thread, require_package
 
 require_package("torch")
 require_package("safetensors")

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.protocol import (

@@ -12,17 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
+from fixtures.releases import CATEGORIES, FAILURES, write_release_build
+from fixtures.stores import N_POINTS, N_VIEWS
 from vptoolkit.errors import InputError, VerificationError
 
-N_POINTS = 200
-N_VIEWS = 50
-CATEGORIES = {"airplane": 5, "chair": 4}
-SPLIT_CYCLE = ("train", "train", "val", "test")
-FAILURES = [
-    {"source": "car/train/car_0007.off", "category": "car", "reason": "no faces"},
-    {"source": "car/test/car_0100.off", "category": "car", "reason": "no view sees the model"},
-]
 STEM = "vptoolkit-viewpoints-1.0.0"
 PARQUET_FILES = ["data/test-00000-of-00001.parquet", "data/train-00000-of-00001.parquet",
                  "data/validation-00000-of-00001.parquet", "views/views-00000-of-00001.parquet"]
@@ -32,69 +26,11 @@ DATASHEET_SECTIONS = (
 )
 
 
-def _entries(rng: np.random.Generator) -> list:
-    from vptoolkit.dataset.schema import ModelEntry
-
-    entries = []
-    for category, count in sorted(CATEGORIES.items()):
-        for i in range(count):
-            name = f"{category}_{i:04d}"
-            n_vertices = int(rng.integers(8, 40))
-            n_faces = int(rng.integers(4, 60))
-            quality_raw = rng.random((N_VIEWS, 4)).astype(np.float32)
-            quality_raw[i % N_VIEWS, 0] = np.nan  # a view that sees nothing
-            entries.append(ModelEntry(
-                name=name,
-                category=category,
-                split=SPLIT_CYCLE[i % len(SPLIT_CYCLE)],
-                source=f"{category}/train/{name}.off",
-                source_sha256=hashlib.sha256(name.encode()).hexdigest(),
-                points=rng.normal(size=(N_POINTS, 3)),
-                normals=rng.normal(size=(N_POINTS, 3)),
-                quality=rng.random((N_VIEWS, 4)),
-                quality_raw=quality_raw,
-                best_index=rng.integers(0, N_VIEWS, 4),
-                best_value=rng.random(4),
-                worst_index=rng.integers(0, N_VIEWS, 4),
-                worst_value=rng.random(4),
-                vertices=rng.normal(size=(n_vertices, 3)),
-                faces=rng.integers(0, n_vertices, (n_faces, 3)),
-                cleaning={"faces_before": 2 * n_faces, "faces_after": n_faces},
-            ))
-    return entries
-
-
-def _attrs() -> dict:
-    return {
-        "resolution": 64,
-        "backend": "raster",
-        "camera": {"fov_deg": 45.0, "distance_factor": 1.5, "up": [0.0, -1.0, 0.0],
-                   "fallback_up": [0.0, 0.0, 1.0], "cull_back_faces": True,
-                   "projection": "perspective", "target": "bounding-box centre",
-                   "distance_unit": "bounding-box diagonal"},
-        "cleaning": {"enabled": True, "max_faces": 10000},
-        "split_seed": 7,
-        "split_fractions": {"train": 0.8, "val": 0.1, "test": 0.1},
-        "source": "ModelNet40-mini",
-        "toolkit_version": "0.1.0",
-        "created": "2025-01-02T03:04:05Z",
-    }
-
-
 @pytest.fixture(scope="session")
 def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A build output folder holding a small synthetic ``dataset.zarr``."""
-    require_package("zarr")
     require_package("h5py")
-    from vptoolkit.dataset.writer import write_dataset
-
-    rng = np.random.default_rng(20210501)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    folder = tmp_path_factory.mktemp("build")
-    write_dataset(folder / "dataset.zarr", _entries(rng), attrs=_attrs(), views=views,
-                  failures=FAILURES)
-    return folder
+    return write_release_build(tmp_path_factory.mktemp("build"))
 
 
 @pytest.fixture(scope="session")

@@ -3,7 +3,6 @@ mlcroissant, reproducible bytes, per-mesh provenance, and verify's integrity row
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import re
@@ -11,35 +10,24 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from conftest import require_package
-from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries
+from fixtures.environment import require_package
+from fixtures.releases import CATEGORIES, write_release_build
+from fixtures.stores import N_POINTS, N_VIEWS
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
 N_MODELS = sum(CATEGORIES.values())
 
 
-def _write_build(folder: Path, *, created: str = "2025-01-02T03:04:05Z",
-                 splits: dict[str, str] | None = None) -> Path:
-    """A build folder with the synthetic models; ``splits`` overrides some models' split."""
-    require_package("zarr")
+def _write_build(folder: Path, **options: Any) -> Path:
+    """A build folder with the synthetic models (``write_release_build``'s options)."""
     require_package("pyarrow")
-    from vptoolkit.dataset.writer import write_dataset
-
-    rng = np.random.default_rng(20210501)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    entries = _entries(rng)
-    if splits:
-        entries = [dataclasses.replace(e, split=splits.get(e.name, e.split)) for e in entries]
-    folder.mkdir(parents=True, exist_ok=True)
-    write_dataset(folder / "dataset.zarr", entries, attrs={**_attrs(), "created": created},
-                  views=views, failures=FAILURES)
-    return folder
+    return write_release_build(folder, **options)
 
 
 @pytest.fixture(scope="module")

@@ -27,15 +27,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import (
-    REQUIRE_ALL,
-    decode_png,
-    model_mask,
-    primitive_mesh,
-    read_png,
-    require_package,
-    started_renderer,
-)
+from fixtures.environment import REQUIRE_ALL, require_package
+from fixtures.meshes import primitive_mesh
+from fixtures.pictures import decode_png, model_mask, read_png, started_renderer
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh

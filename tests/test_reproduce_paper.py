@@ -11,7 +11,7 @@ from types import ModuleType
 
 import numpy as np
 import pytest
-from conftest import require_package
+from fixtures.environment import require_package
 
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh

@@ -7,7 +7,7 @@ import itertools
 import numpy as np
 import pytest
 
-from conftest import box_mesh
+from fixtures.meshes import box_mesh
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality, quality_from_histograms
