@@ -328,7 +328,8 @@ def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Pa
 
 
 def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
-    from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.staging import STAGING_DIR
     from vptoolkit.errors import InputError
 
     src = tmp_path / "src"

@@ -18,6 +18,7 @@ require_package("torch")
 TOOL = "bench_best_view.py"
 
 
+@pytest.mark.slow
 def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path,
                                                           run_tool: RunTool) -> None:
     meshes = tmp_path / "meshes"

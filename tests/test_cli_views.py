@@ -119,12 +119,12 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
 def test_views_refuses_a_bad_target_or_output_folder_before_drawing(runner, monkeypatch,
                                                                     tmp_path, arguments,
                                                                     expected):
-    import vptoolkit.view_sets
+    import vptoolkit.view_sets.search
 
     def never(*args, **kwargs):
         raise AssertionError("the views were drawn")
 
-    monkeypatch.setattr(vptoolkit.view_sets, "measure_view_set", never)
+    monkeypatch.setattr(vptoolkit.view_sets.search, "measure_view_set", never)
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *SMALL, *arguments])
     assert result.exit_code == 2, result.output

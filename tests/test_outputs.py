@@ -143,7 +143,7 @@ def test_sphere_map_of_a_text_file_says_what_it_is(tmp_path: Path) -> None:
 
 def test_huge_direction_vectors_score_like_unit_ones(small_build: Path) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.evaluate import score_directions
+    from vptoolkit.evaluate.scores import score_directions
 
     with open_dataset(small_build) as dataset:
         directions = np.random.default_rng(0).normal(size=(len(dataset), 4, 3))

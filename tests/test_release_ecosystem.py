@@ -119,6 +119,7 @@ def test_card_dataset_info_has_features_and_sizes(release) -> None:
 
 
 # rdflib and pandas, under mlcroissant, warn about their own APIs; not ours.
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:ConjunctiveGraph is deprecated:DeprecationWarning")
 @pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.reset_index")
 def test_mlcroissant_validates_and_loads_a_record_of_each_record_set(release) -> None:

@@ -60,7 +60,7 @@ from vptoolkit.dataset.licenses import (
     write_licenses,
 )
 from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
-from vptoolkit.conventions import SPLITS
+from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import held, named_os_error, remove_stale_partials, temporary_prefix
@@ -71,7 +71,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DEFAULT_NAME",
-    "DEFAULT_VERSION",
     "FORMATS",
     "release_created",
     "ReleaseResult",
@@ -85,9 +84,6 @@ SCHEMA_NAME = "SCHEMA.md"
 
 FORMATS = ("parquet", "zarr", "hdf5")
 """Containers :func:`pack_release` can write; all three by default."""
-
-DEFAULT_VERSION = "1.0.0"
-"""Dataset version when :func:`pack_release` is given none."""
 
 _NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
 _VERSION = re.compile(r"(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)")
@@ -142,7 +138,7 @@ class ReleaseResult:
     files: dict[str, str]
     n_models: int
     n_failures: int
-    version: str = DEFAULT_VERSION
+    version: str = DATASET_VERSION
     created: str = ""
     parquet: tuple[Path, ...] = ()
     warnings: tuple[str, ...] = ()
@@ -390,7 +386,7 @@ def pack_release(
     license: str = "other",  # noqa: A002 - the dataset-hub field is called license
     progress: bool = False,
     formats: Sequence[str] = FORMATS,
-    version: str = DEFAULT_VERSION,
+    version: str = DATASET_VERSION,
     created: str | None = None,
     pretty_name: str | None = None,
     source_url: str | None = None,
