@@ -146,3 +146,20 @@ def test_long_modules_say_why_they_are_not_split():
             unexplained.append(f"{path.relative_to(PACKAGE)} ({source.count(chr(10))} lines)")
     assert not unexplained, (f"over {MODULE_LINES} lines without a 'Size' paragraph in the "
                              f"docstring: {', '.join(unexplained)}")
+
+
+def test_names_are_exported_only_by_the_module_that_defines_them():
+    # docs/architecture.md, "Package faces": vptoolkit itself is the one face.
+    re_exported = []
+    for name, path in MODULES.items():
+        if name == "vptoolkit":
+            continue
+        tree = ast.parse(path.read_text())
+        imported = {alias.asname or alias.name for node in tree.body
+                    if isinstance(node, ast.ImportFrom) for alias in node.names}
+        for node in tree.body:
+            if (isinstance(node, ast.Assign)
+                    and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets)):
+                exported = [ast.literal_eval(element) for element in node.value.elts]
+                re_exported += [f"{name}.{item}" for item in exported if item in imported]
+    assert not re_exported, f"__all__ lists imported names: {', '.join(re_exported)}"
