@@ -116,20 +116,6 @@ def test_sphere_map_of_a_wrong_file_exits_2(runner, tmp_path):
     assert "bad.npz: lacks views, normalized" in one_error_line(result)
 
 
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory) -> Path:
-    require_package("zarr")
-    from vptoolkit.synthetic import write_collection
-
-    root = tmp_path_factory.mktemp("tiny")
-    write_collection(root / "shapes", n_per_category=2, categories=("bottle", "table"), seed=0)
-    result = CliRunner().invoke(main, ["build-dataset", str(root / "shapes"), str(root / "out"),
-                                       "--views", "60", "--resolution", "48", "--points", "1500",
-                                       "--no-clean"])
-    assert result.exit_code == 0, result.output
-    return root / "out"
-
-
 def test_report_without_pictures(runner, tiny_dataset, tmp_path):
     require_package("matplotlib")
     result = runner.invoke(main, ["report", str(tiny_dataset), "--no-pictures", "-o",

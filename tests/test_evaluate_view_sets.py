@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -15,20 +13,6 @@ from vptoolkit.evaluate.coverage import evaluate_view_sets, score_view_sets
 from vptoolkit.mesh import Mesh
 from vptoolkit.view_sets.search import best_view_set
 from vptoolkit.view_sets.visibility import FaceVisibility
-
-
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory) -> Path:
-    require_package("zarr")
-    from vptoolkit.synthetic import write_collection
-
-    root = tmp_path_factory.mktemp("tiny")
-    write_collection(root / "shapes", n_per_category=2, categories=("bottle", "table"), seed=0)
-    result = CliRunner().invoke(main, ["build-dataset", str(root / "shapes"), str(root / "out"),
-                                       "--views", "60", "--resolution", "64", "--points", "500",
-                                       "--no-clean"])
-    assert result.exit_code == 0, result.output
-    return root / "out"
 
 
 def greedy_directions(dataset, k: int) -> np.ndarray:

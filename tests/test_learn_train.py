@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
+from fixtures.builds import build_samples
 from fixtures.environment import one_torch_thread, require_package
 
 require_package("torch")
@@ -57,17 +57,10 @@ one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
 @pytest.fixture(scope="module")
 def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
     """Eight sample meshes measured from 100 views at 64 px: six train, one val, one test."""
-    from vptoolkit.dataset.build import build_dataset
-
-    root = tmp_path_factory.mktemp("learn")
-    source = root / "src" / "shapes"
-    source.mkdir(parents=True)
-    for name in SHAPES:
-        path = sample_path(name)
-        shutil.copyfile(path, source / path.name)
-    build_dataset(root / "src", root / "out", n_views=100, resolution=64, n_points=2000, clean=False)
+    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes", n_views=100,
+                        resolution=64, n_points=2000, clean=False)
     torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
-    return root / "out"
+    return out
 
 
 @pytest.fixture(scope="module")
