@@ -24,6 +24,7 @@ pytest_plugins = [
     "fixtures.builds",
     "fixtures.environment",
     "fixtures.meshes",
+    "fixtures.networks",
     "fixtures.pictures",
     "fixtures.releases",
     "fixtures.scripts",
