@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from fixtures.networks import TINY_CONFIG
-from fixtures.environment import one_torch_thread, require_package
+from fixtures.environment import require_package
 
 require_package("torch")
 require_package("safetensors")
@@ -30,7 +30,7 @@ from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fixtures.builds import build_samples
-from fixtures.environment import one_torch_thread, require_package
+from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
 
 require_package("torch")
@@ -44,7 +44,7 @@ SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus
 FAST = {"n_points": 512, "n_fps": 128, "rotate": False, "val_split": "train", "device": "cpu"}
 
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")
