@@ -31,8 +31,16 @@ def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path,
     assert result.returncode == 0, result.stderr[-2000:]
     rows = json.loads((tmp_path / "rows.json").read_text())
     assert {"random view (expectation)", "PCA axis", "network alone", "plain search 4 @ 128",
-            "coarse-to-fine 16 @ 128", "network prior + search 16 @ 128"} <= set(rows)
+            "coarse-to-fine 16 @ 128", "network prior + search 16 @ 128",
+            "ceiling: best of the 4-view sphere",
+            "ceiling: best of the network's prior candidates"} <= set(rows)
     assert all(len(row["mean"]) == 4 for row in rows.values())
+    # a ceiling is the best of its candidates by the labels: a 4-view search draws exactly
+    # the 4-view sphere and picks by its own measurement, so it never beats that ceiling
+    ceiling = rows["ceiling: best of the 4-view sphere"]["mean"]
+    searched = rows["coarse-to-fine 4 @ 128"]["mean"]
+    assert all(c >= s - 1e-9 for c, s in zip(ceiling, searched))
+    assert rows["ceiling: best of the 4-view sphere"]["views"] == "4"
     text = results.read_text()
     assert "<!-- best_view:start -->" in text and "## Best views: quality against cost" in text
     assert text.count(" * |") >= 1  # the Pareto front is marked

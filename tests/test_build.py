@@ -27,7 +27,7 @@ from vptoolkit.dataset.build import BuildResult, build_dataset
 from vptoolkit.dataset.sources import assign_split, discover_models
 from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.dataset.reader import open_store
-from vptoolkit.dataset.schema import ARRAY_NAMES
+from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
@@ -65,7 +65,8 @@ def read_store(path: Path) -> dict[str, Any]:
     with open_store(path) as store:
         return {
             "attrs": dict(store.attrs),
-            "arrays": {name: np.asarray(store.array(name)[...]) for name in ARRAY_NAMES},
+            "arrays": {name: np.array(string_values(store.array(name)) if name in STRING_ARRAYS
+                                      else store.array(name)[...]) for name in ARRAY_NAMES},
             "sha256": {name: store.stored_sha256(name) for name in ARRAY_NAMES},
             "models": store.models(),
             "failures": store.failures(),

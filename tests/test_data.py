@@ -115,6 +115,67 @@ def test_split(dataset: ViewpointDataset) -> None:
     assert dataset[0]["name"] == "airplane_0001"
 
 
+def test_items_carry_category_and_the_label_of_the_sorted_class_map(
+        dataset: ViewpointDataset) -> None:
+    assert dataset.class_names == ["airplane", "chair"] == dataset.attrs["class_names"]
+    assert [(item["category"], item["label"]) for item in dataset] == [
+        (category, ["airplane", "chair"].index(category)) for category, _, _ in MODELS]
+    assert dataset.labels.tolist() == [0, 0, 0, 1, 1] and dataset.labels.dtype == np.int64
+    train = dataset.split("train")
+    assert train.class_names == dataset.class_names and train.labels.tolist() == [0, 1, 1]
+
+
+def test_a_store_without_class_names_and_string_arrays_still_loads(tmp_path: Path) -> None:
+    import h5py
+
+    store = write_synthetic(tmp_path / "older.h5")
+    with h5py.File(store, "r+") as handle:
+        for name in ("names", "categories", "splits", "labels"):
+            del handle[name]
+        del handle.attrs["class_names"]
+    with open_dataset(store) as older:
+        assert "class_names" not in older.attrs
+        assert older.class_names == ["airplane", "chair"]
+        assert older.labels.tolist() == [0, 0, 0, 1, 1] and older[3]["label"] == 1
+
+
+def test_slices_and_index_lists_give_datasets(dataset: ViewpointDataset) -> None:
+    head = dataset[0:3]
+    assert isinstance(head, ViewpointDataset)
+    assert head.names == dataset.names[0:3]
+    assert dataset[::-2].names == dataset.names[::-2]
+    assert dataset[[0, 2]].names == ["airplane_0001", "airplane_0003"]
+    assert dataset[np.array([4, -5])].names == ["chair_0002", "airplane_0001"]
+    assert dataset[np.array([True, False, False, False, True])].names == [
+        "airplane_0001", "chair_0002"]
+    assert len(dataset[[]]) == 0
+    np.testing.assert_array_equal(dataset[[3]][0]["points"], dataset[3]["points"])
+    assert dataset.split("train")[1:].names == ["chair_0001", "chair_0002"]
+    with pytest.raises(IndexError, match="index 5 out of range"):
+        dataset[[0, 5]]
+    with pytest.raises(IndexError, match="boolean index"):
+        dataset[np.array([True, False])]
+
+
+def test_array_stacks_one_key_of_every_item(dataset: ViewpointDataset) -> None:
+    entries = synthetic_entries()
+    quality = dataset.array("quality")
+    assert quality.shape == (len(MODELS), N_VIEWS, 4) and quality.dtype == np.float32
+    expected = np.stack([entry.quality for entry in entries]).astype(np.float32)
+    np.testing.assert_array_equal(quality, expected)
+    picked = dataset[[4, 0, 3]]
+    points = np.stack([entries[i].points for i in (4, 0, 3)]).astype(np.float32)
+    np.testing.assert_array_equal(picked.array("points"), points)
+    assert picked.array("best_index").dtype == np.int64
+    assert picked.array("name").tolist() == ["chair_0002", "airplane_0001", "chair_0001"]
+    assert picked.array("category").tolist() == ["chair", "airplane", "chair"]
+    assert picked.array("split").tolist() == ["train", "train", "train"]
+    assert picked.array("label").tolist() == [1, 0, 1]
+    assert dataset[[]].array("quality").shape == (0, N_VIEWS, 4)
+    with pytest.raises(InputError, match="key: expected one of"):
+        dataset.array("mesh_faces")
+
+
 def test_quality_of_uses_the_nearest_sampled_view(dataset: ViewpointDataset) -> None:
     rng = np.random.default_rng(7)
     directions = rng.normal(size=(300, 3)) * rng.uniform(0.1, 10.0, size=(300, 1))

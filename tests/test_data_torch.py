@@ -40,10 +40,11 @@ def test_items_have_the_documented_shapes_and_dtypes(dataset: ViewpointDataset) 
     expected = {"points": ((4096, 3), torch.float32), "views": ((N_VIEWS, 3), torch.float32),
                 "quality": ((N_VIEWS, 4), torch.float32), "best_views": ((4, 3), torch.float32),
                 "best_index": ((4,), torch.int64), "rotation": ((3, 3), torch.float32)}
-    assert set(item) == {*expected, "name"}
+    assert set(item) == {*expected, "name", "category", "label"}
     for key, (shape, dtype) in expected.items():
         assert tuple(item[key].shape) == shape and item[key].dtype == dtype, key
-    assert item["name"] == "airplane_0001"
+    assert (item["name"], item["category"], item["label"]) == ("airplane_0001", "airplane", 0)
+    assert (adapter[4]["category"], adapter[4]["label"]) == ("chair", 1)
     rotation = item["rotation"].double().numpy()
     np.testing.assert_allclose(rotation @ rotation.T, np.eye(3), atol=1e-6)
     assert np.linalg.det(rotation) == pytest.approx(1.0, abs=1e-6)
@@ -96,7 +97,8 @@ def test_rotated_best_view_keeps_its_quality(dataset: ViewpointDataset) -> None:
 
 
 def _same(a: dict, b: dict) -> bool:
-    return all(torch.equal(a[key], b[key]) for key in a if key != "name") and a["name"] == b["name"]
+    return all(torch.equal(a[key], b[key]) if isinstance(a[key], torch.Tensor) else a[key] == b[key]
+               for key in a)
 
 
 def test_items_are_deterministic_per_seed_epoch_and_model(dataset: ViewpointDataset) -> None:
@@ -144,6 +146,38 @@ def test_data_loader_batches_and_workers(dataset: ViewpointDataset) -> None:
     assert len(parallel) == len(serial) == 3
     for a, b in zip(serial, parallel):
         assert _same(a, b)
+
+
+def test_persistent_workers_follow_set_epoch(dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4)
+    loader = torch.utils.data.DataLoader(adapter, batch_size=len(MODELS), num_workers=1,
+                                         persistent_workers=True)
+    rotations = []
+    for epoch in (0, 1, 2, 1):
+        adapter.set_epoch(epoch)
+        (batch,) = list(loader)
+        assert adapter.epoch == epoch
+        here = torch.stack([adapter[index]["rotation"] for index in range(len(MODELS))])
+        assert torch.equal(batch["rotation"], here)  # the worker used this epoch
+        assert batch["label"].tolist() == [0, 0, 0, 1, 1]
+        rotations.append(batch["rotation"])
+    assert not torch.equal(rotations[0], rotations[1])
+    assert not torch.equal(rotations[1], rotations[2])
+    assert torch.equal(rotations[1], rotations[3])  # deterministic per epoch
+
+
+def test_transform_sees_the_augmented_item(dataset: ViewpointDataset) -> None:
+    plain = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4)
+    scaled = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4,
+                                   transform=lambda item: {**item, "points": item["points"] * 2})
+    assert torch.equal(scaled[2]["points"], plain[2]["points"] * 2)
+    assert torch.equal(scaled[2]["rotation"], plain[2]["rotation"])
+    only_label = ViewpointTorchDataset(dataset, n_points=128, n_fps=32,
+                                       transform=lambda item: (item["points"], item["label"]))
+    points, label = only_label[3]
+    assert points.shape == (128, 3) and label == 1
+    with pytest.raises(InputError, match="transform: expected a callable"):
+        ViewpointTorchDataset(dataset, transform=3)  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(("options", "message"), [

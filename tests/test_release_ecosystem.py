@@ -18,6 +18,7 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.releases import CATEGORIES, write_release_build
 from fixtures.stores import N_POINTS, N_VIEWS
+from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -84,6 +85,49 @@ def test_datasets_loads_the_release_offline_with_splits_and_shapes(release, tmp_
     directions = np.array(views["train"].to_dict()["direction"])  # float64 as stored
     with open_dataset(release.path) as reference:
         np.testing.assert_array_equal(directions, reference.views)
+
+
+def test_class_labels_are_one_sorted_map_in_stores_card_croissant_and_datasets(
+        release, tmp_path: Path, monkeypatch) -> None:
+    require_package("datasets")
+    import datasets
+    import yaml
+
+    from vptoolkit.data import open_dataset
+    from vptoolkit.dataset.reader import open_store
+
+    expected = sorted(CATEGORIES)
+    for store in sorted(release.path.glob("*.h5")) + sorted(release.path.glob("*.zarr.zip")):
+        with open_store(store) as reader:
+            assert reader.attrs["class_names"] == expected, store.name
+            categories = reader.array("categories")[...].tolist()
+            labels = reader.array("labels")[...].tolist()
+            assert labels == [expected.index(c if isinstance(c, str) else c.decode())
+                              for c in categories], store.name
+    card = release.card.read_text(encoding="utf-8")
+    header = yaml.safe_load(card.split("---\n")[1])
+    default = next(c for c in header["dataset_info"] if c["config_name"] == "default")
+    label = next(f for f in default["features"] if f["name"] == "label")
+    assert label["dtype"]["class_label"]["names"] == {str(i): n for i, n in enumerate(expected)}
+    assert "| 0 | `airplane` |" in card and "| 1 | `chair` |" in card
+    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+    categories_set = next(r for r in document["recordSet"] if r["@id"] == "categories")
+    assert [(row["categories/label"], row["categories/category"])
+            for row in categories_set["data"]] == list(enumerate(expected))
+    models = next(r for r in document["recordSet"] if r["@id"] == "models")
+    label_field = next(f for f in models["field"] if f["name"] == "label")
+    assert label_field["references"] == {"field": {"@id": "categories/label"}}
+
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    loaded = datasets.load_dataset(str(release.path), cache_dir=str(tmp_path / "cache"))
+    feature = loaded["train"].features["label"]
+    assert isinstance(feature, datasets.ClassLabel) and feature.names == expected
+    with open_dataset(release.path) as reference:
+        assert reference.class_names == expected
+        for split, rows in loaded.items():
+            assert rows["label"] == reference.split(split).labels.tolist()
+            assert [feature.int2str(v) for v in rows["label"]] == rows["category"]
 
 
 def test_datasets_streams_the_release(release, monkeypatch) -> None:
@@ -340,7 +384,7 @@ def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
     report = verify(release_copy)
     assert not report.ok and report.kind == "release"
     assert ("missing", "SHA256SUMS") in [(p.kind, p.target) for p in report.problems]
-    assert report.arrays_checked == 2 * 15  # the .h5 is checked too
+    assert report.arrays_checked == 2 * len(ARRAY_NAMES)  # the .h5 is checked too
 
 
 def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
@@ -381,12 +425,23 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
     from vptoolkit.dataset.manifest import verify
 
     report = verify(release_copy)
-    assert report.problems == [] and not report.ok
+    assert report.problems == [] and report.ok  # the files and the HDF5 arrays were verified
     assert [p.target for p in report.skipped] == ["mini-2.1.0.zarr.zip"]
+    report.raise_if_failed()
+    result = CliRunner().invoke(main, ["verify", str(release_copy)])
+    assert result.exit_code == 0, result.output
+    assert ": OK (" in result.stdout and "skipped mini-2.1.0.zarr.zip: arrays not checked" in (
+        result.stdout) and "vptoolkit[dataset]" in result.stdout
+    # A damaged file still fails, the skipped archive aside.
+    (release_copy / "README.md").write_text("edited\n")
+    assert CliRunner().invoke(main, ["verify", str(release_copy)]).exit_code == 1
+    # A lone Zarr archive: nothing could be verified at all.
+    report = verify(release_copy / "mini-2.1.0.zarr.zip")
+    assert not report.ok and report.nothing_verified
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[dataset\\]"):
         report.raise_if_failed()
-    result = CliRunner().invoke(main, ["verify", str(release_copy)])
-    assert result.exit_code == 2 and "skipped" in result.stderr and result.stdout == ""
+    result = CliRunner().invoke(main, ["verify", str(release_copy / "mini-2.1.0.zarr.zip")])
+    assert result.exit_code == 2 and "NOT VERIFIED" in result.stderr and result.stdout == ""
 
 
 def test_verify_prints_its_summary_once(release_copy: Path) -> None:

@@ -13,7 +13,7 @@ from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.split_files import read_split_file
 from vptoolkit.errors import InputError
-from vptoolkit.samples import sample_path
+from vptoolkit.samples import SAMPLE_SPLITS, sample_names, sample_path
 
 pytest.importorskip("zarr")
 
@@ -124,3 +124,16 @@ def test_build_dataset_says_how_many_the_file_placed(tmp_path):
     refused = CliRunner().invoke(main, ["build-dataset", str(src), str(tmp_path / "new"),
                                         "--views", "20", "--no-clean", "--splits", str(csv)])
     assert refused.exit_code == 2 and refused.stderr.count("\n") == 1
+
+
+def test_the_samples_split_file_places_every_sample_in_all_three_splits(tmp_path):
+    from vptoolkit.dataset.plan import plan_build
+
+    splits = read_split_file(SAMPLE_SPLITS)
+    assert sorted(splits) == sorted(Path(name).stem for name in sample_names())
+    assert sorted(splits.values()).count("test") == 2
+    plan = plan_build(SAMPLE_SPLITS.parent, tmp_path / "out", splits=SAMPLE_SPLITS, calibrate=0)
+    assert plan.counts == {"samples": {"train": 8, "val": 2, "test": 2}}
+    script = (Path(__file__).resolve().parents[1] / "tools" / "run_sample.sh").read_text()
+    assert "build-dataset vptoolkit/samples" in script
+    assert "--splits vptoolkit/samples/splits.csv" in script

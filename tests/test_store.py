@@ -34,10 +34,12 @@ from vptoolkit.dataset.schema import (
     BUILD_ATTRS,
     FORMAT_NAME,
     SCHEMA_VERSION,
+    STRING_ARRAYS,
     ModelEntry,
     array_sha256,
     from_json_bytes,
     json_bytes,
+    string_values,
 )
 from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError, VerificationError
@@ -75,6 +77,7 @@ def expected_dtype(name: str) -> np.dtype[Any]:
     return np.dtype({
         "views": "<f8", "best_index": "<i8", "worst_index": "<i8", "mesh_vertex_offsets": "<i8",
         "mesh_face_offsets": "<i8", "mesh_faces": "<i4", "models_json": "u1", "failures_json": "u1",
+        "labels": "<i8",
     }.get(name, "<f4"))
 
 
@@ -137,7 +140,10 @@ def test_arrays_have_schema_shapes_dtypes_and_checksums(stores: dict[str, Path],
         assert reader.array_names() == sorted(ARRAY_NAMES)
         for name in ARRAY_NAMES:
             array = reader.array(name)
-            assert np.dtype(array.dtype) == expected_dtype(name), name
+            if name in STRING_ARRAYS:
+                assert np.dtype(array.dtype).kind in "OT", name  # h5py's and zarr's strings
+            else:
+                assert np.dtype(array.dtype) == expected_dtype(name), name
             if name in shapes:
                 assert tuple(array.shape) == shapes[name], name
             content = np.asarray(array[...])
@@ -164,6 +170,9 @@ def test_the_three_formats_hold_identical_arrays(stores: dict[str, Path]) -> Non
                 assert other.attrs == reference.attrs
                 for name in ARRAY_NAMES:
                     a, b = reference.array(name)[...], other.array(name)[...]
+                    if name in STRING_ARRAYS:
+                        assert string_values(a) == string_values(b), (kind, name)
+                        continue
                     assert a.dtype == b.dtype and a.shape == b.shape, (kind, name)
                     assert a.tobytes() == b.tobytes(), (kind, name)
                     assert other.stored_sha256(name) == reference.stored_sha256(name)
@@ -189,16 +198,52 @@ def test_zip_has_each_member_once(stores: dict[str, Path]) -> None:
     assert "zarr.json" in names and "points/zarr.json" in names
 
 
-def test_hdf5_keeps_scalars_native_and_objects_as_json(stores: dict[str, Path]) -> None:
+def test_hdf5_keeps_scalars_and_lists_native_and_objects_as_json(stores: dict[str, Path]) -> None:
     import h5py
 
     with h5py.File(stores["hdf5"], "r") as handle:
         assert int(handle.attrs["n_models"]) == len(MODELS)
         assert handle.attrs["backend"] == "raster"
         assert json.loads(handle.attrs["camera"]) == BUILD["camera"]
-        assert json.loads(handle.attrs["measures"]) == list(MEASURES)
+        assert handle.attrs["measures"].tolist() == list(MEASURES)
+        assert handle.attrs["higher_is_better"].tolist() == [True, True, False, False]
+        assert handle.attrs["class_names"].tolist() == ["airplane", "chair"]
         assert set(json.loads(handle.attrs["json_attributes"])) == {
-            "measures", "higher_is_better", "camera", "cleaning", "split_fractions"}
+            "camera", "cleaning", "split_fractions"}
+
+
+def test_names_categories_splits_and_labels_read_with_h5py_or_zarr_alone(
+        stores: dict[str, Path]) -> None:
+    import h5py
+    import zarr
+
+    names = [name for _, name, _ in MODELS]
+    categories = [category for category, _, _ in MODELS]
+    splits = [{"val": "validation"}.get(split, split) for _, _, split in MODELS]
+    labels = [0, 0, 0, 1, 1]
+    group = zarr.open_group(stores["zarr"], mode="r")
+    assert group.attrs["class_names"] == ["airplane", "chair"]
+    assert group["names"][...].tolist() == names
+    assert group["categories"][...].tolist() == categories
+    assert group["splits"][...].tolist() == splits
+    assert group["labels"][...].tolist() == labels
+    with h5py.File(stores["hdf5"], "r") as handle:
+        assert handle["names"].asstr()[...].tolist() == names
+        assert handle["categories"].asstr()[...].tolist() == categories
+        assert handle["splits"].asstr()[...].tolist() == splits
+        assert handle["labels"][...].tolist() == labels
+
+
+def test_class_names_are_kept_when_given_and_checked(tmp_path: Path) -> None:
+    kept = write_synthetic(tmp_path / "kept.h5",
+                           attrs={**BUILD, "class_names": ["airplane", "bench", "chair"]})
+    with open_store(kept) as reader:
+        assert reader.attrs["class_names"] == ["airplane", "bench", "chair"]
+        assert reader.array("labels")[...].tolist() == [0, 0, 0, 2, 2]
+    with pytest.raises(InputError, match="class_names: category 'chair' has no label"):
+        write_synthetic(tmp_path / "bad.h5", attrs={**BUILD, "class_names": ["airplane"]})
+    with pytest.raises(InputError, match="sorted, unique"):
+        write_synthetic(tmp_path / "bad.h5", attrs={**BUILD, "class_names": ["chair", "airplane"]})
 
 
 def test_a_store_converts_to_another_format_unchanged(stores: dict[str, Path],

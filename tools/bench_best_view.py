@@ -20,7 +20,18 @@ Answers:
 * prior-guided search N @ R: the same with :class:`vptoolkit.learn.prior.NetworkPrior`
   (per ``--model``);
 
-at every budget of ``--budgets``. Cost: views drawn, and the median wall time
+at every budget of ``--budgets``. Two more rows are ceilings, not answers: the
+best of a set of candidate directions as the labels score them (an oracle
+choice), which no search that draws those candidates can beat:
+
+* a sphere of ``--ceiling-views`` directions in the principal frame
+  (:func:`vptoolkit.best_view.coarse_directions`), what a search of that
+  budget draws;
+* the candidates of each network's prior (:class:`vptoolkit.learn.prior.NetworkPrior`),
+  all of them, however many it proposes (their mean count is the row's views).
+
+A prior helps only where its candidates' ceiling beats the sphere's at the
+same number of views. Cost: views drawn, and the median wall time
 per mesh and rotation in ms (the mesh already loaded; the prior's network time
 included). The Pareto front (no other row at most as slow and at least as good
 in the mean over the four measures) is starred. With ``--results FILE`` the
@@ -49,7 +60,7 @@ from typing import Any
 import numpy as np
 from results_doc import machine, markdown_table, score_cells, write_section
 
-from vptoolkit.best_view import SEARCH_RESOLUTION, search_best_views
+from vptoolkit.best_view import SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.sources import discover_models
@@ -82,6 +93,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--results", type=Path, help="write the table into this markdown file")
     parser.add_argument("--section", default="best_view", help="its section name")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
+    parser.add_argument("--ceiling-views", type=int, default=8,
+                        help="directions of the sphere whose ceiling is shown (default: 8)")
     parser.add_argument("--quick", action="store_true",
                         help="3 meshes, 1 rotation, budgets 4 and 16, labels at 64 px")
     args = parser.parse_args(argv)
@@ -91,14 +104,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error(f"--budgets: expected integers separated by commas, got {args.budgets!r}")
     if not args.budget_list or min(args.budget_list) < 1:
         parser.error("--budgets: every budget must be at least 1")
-    if args.rotations < 1 or args.resolution < 1:
-        parser.error("--rotations and --resolution must be at least 1")
+    if min(args.rotations, args.resolution, args.ceiling_views) < 1:
+        parser.error("--rotations, --resolution and --ceiling-views must be at least 1")
     if not args.mesh_dir.is_dir():
         parser.error(f"{args.mesh_dir}: not a folder")
     if args.results is not None and args.results.exists() and not args.results.is_file():
         parser.error(f"--results: {args.results} is not a file")
     if args.quick:
-        args.budget_list, args.rotations = [4, 16], 1
+        args.budget_list, args.rotations, args.ceiling_views = [4, 16], 1, 4
     args.models = args.model or ["default"]
     return args
 
@@ -182,6 +195,41 @@ def score(dataset: Any, meshes: dict[str, Mesh], rotations: int,
             for label in answers}
 
 
+def ceilings(dataset: Any, meshes: dict[str, Mesh], rotations: int,
+             proposers: dict[str, Answer]) -> dict[str, tuple[ProtocolScores, float]]:
+    """Each candidate set's ceiling: per measure the best label quality among its directions.
+
+    Returns the protocol scores and the mean number of candidates per mesh and rotation.
+    """
+    names = list(dataset.names)
+    totals = {label: np.zeros((len(names), 4)) for label in proposers}
+    counts: dict[str, list[int]] = {label: [] for label in proposers}
+    for row, name in enumerate(names):
+        for turn in fixed_rotations(name, rotations):
+            rotated = Mesh(meshes[name].vertices @ turn.T, meshes[name].faces, name=name)
+            for label, propose in proposers.items():
+                candidates = np.asarray(propose(rotated), dtype=np.float64)
+                counts[label].append(len(candidates))
+                totals[label][row] += 100.0 * dataset.quality_of(row, candidates @ turn).max(axis=0)
+    return {label: (ProtocolScores(tuple(names), tuple(dataset.categories),
+                                   totals[label] / rotations, rotations),
+                    float(np.mean(counts[label])))
+            for label in proposers}
+
+
+def candidate_sets(sphere_views: int, models: list[str]) -> dict[str, Answer]:
+    """Row label -> candidate directions of a mesh, for :func:`ceilings`."""
+    from vptoolkit.learn.prior import NetworkPrior
+
+    sets: dict[str, Answer] = {
+        f"ceiling: best of the {sphere_views}-view sphere": (
+            lambda mesh: coarse_directions(mesh, sphere_views))}
+    for model in models:
+        label = "network" if model == "default" else f"network {Path(model).name}"
+        sets[f"ceiling: best of the {label}'s prior candidates"] = NetworkPrior(model)
+    return sets
+
+
 def pareto(rows: dict[str, dict[str, Any]]) -> set[str]:
     """Rows that no other row beats: at most as slow and at least as good in the mean."""
     timed = {label: row for label, row in rows.items() if row["ms"] is not None}
@@ -213,6 +261,10 @@ def main(argv: list[str] | None = None) -> int:
             scores, ms = scored[label]
             results[label] = {"views": views, "scores": scores, "ms": ms,
                               "mean": float(scores.mean.mean())}
+        sets = candidate_sets(args.ceiling_views, args.models)
+        for label, (scores, count) in ceilings(dataset, meshes, args.rotations, sets).items():
+            results[label] = {"views": f"{count:.1f}".removesuffix(".0"), "scores": scores,
+                              "ms": None, "mean": float(scores.mean.mean())}
     except VptoolkitError as error:
         print(f"bench_best_view: error: {error}", file=sys.stderr)
         return 2
@@ -224,6 +276,7 @@ def main(argv: list[str] | None = None) -> int:
         "Command: `python tools/bench_best_view.py"
         f"{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
         f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}"
+        f" --ceiling-views {args.ceiling_views}"
         f"{''.join(f' --model {model}' for model in args.model or [])}`; "
         f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; "
         f"wall time {time.perf_counter() - started:.0f} s.",
@@ -231,7 +284,9 @@ def main(argv: list[str] | None = None) -> int:
         f"{len(dataset)} meshes, {args.rotations} fixed rotations each; labels: cleaned mesh, "
         f"{len(dataset.views)} views at {dataset.attrs.get('resolution', '?')} px. Scores in %, "
         "mean ± standard error over meshes; ms: median per mesh and rotation on this machine, "
-        "the mesh loaded; * marks the Pareto front of mean quality against time.",
+        "the mesh loaded; * marks the Pareto front of mean quality against time. A ceiling "
+        "is the best of a candidate set as the labels score it: what a search that draws "
+        "those candidates could reach at most.",
         "",
     ]
     lines += markdown_table(

@@ -17,7 +17,8 @@ import numba
 __all__ = ["numba"]
 
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
-    numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]
+    # numba.config sets its options at run time, out of the stubs' sight
+    numba.config.THREADING_LAYER_PRIORITY = ["omp", "tbb", "workqueue"]  # type: ignore[attr-defined]
 
 
 def will_compile(dispatcher: object) -> bool:

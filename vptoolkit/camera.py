@@ -144,7 +144,8 @@ class Camera:
         if not self.distance_factor >= minimum:
             raise InputError(
                 f"distance_factor: {self.distance_factor} puts the camera inside the view "
-                f"frustum's reach of the model; at fov {self.fov_deg} deg it must be >= {minimum:.4f}"
+                f"frustum's reach of the model; at fov {self.fov_deg} deg it must be "
+                f">= {minimum:.4f}"
             )
         for name in ("up", "fallback_up"):
             vector = np.asarray(getattr(self, name), dtype=np.float64)
@@ -157,8 +158,11 @@ class Camera:
     def from_dict(cls, record: dict[str, Any]) -> Camera:
         """The camera of a :meth:`to_dict` record (descriptive keys are ignored)."""
         names = ("fov_deg", "distance_factor", "up", "fallback_up", "cull_back_faces")
-        return cls(**{name: tuple(record[name]) if isinstance(record[name], list) else record[name]
-                      for name in names if name in record})
+        values: dict[str, Any] = {
+            name: tuple(record[name]) if isinstance(record[name], list) else record[name]
+            for name in names if name in record
+        }
+        return cls(**values)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe record of the conventions, stored beside every result."""

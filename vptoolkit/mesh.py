@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -124,7 +125,7 @@ def check_coordinate_range(coordinates: NDArray[np.float64], name: str, what: st
         )
 
 
-def _as_array(values: ArrayLike, dtype: type, name: str, what: str) -> NDArray:  # type: ignore[type-arg]
+def _as_array(values: ArrayLike, dtype: type, name: str, what: str) -> NDArray[Any]:
     try:
         return np.array(values, dtype=dtype, copy=True)
     except (TypeError, ValueError) as err:

@@ -117,7 +117,7 @@ def read_arrays(path: str | os.PathLike[str]) -> NDArray[Any] | dict[str, NDArra
                         raise InputError(f"{path.name}: member {info.filename!r} is not a "
                                          ".npy array")
                     with loaded.zip.open(info) as member:
-                        check_npy_header(member, f"{path.name}: member {info.filename}",  # type: ignore[arg-type]
+                        check_npy_header(member, f"{path.name}: member {info.filename}",
                                          info.file_size)
                 return {key: loaded[key] for key in loaded.files}
         except InputError:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import ModuleType
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -368,12 +368,18 @@ _RETEST_CHANGED = 0.02
 """Above this fraction of changed faces :func:`_retest` tests everything: it is as fast then."""
 
 
+def _corner_bytes(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> list[bytes]:
+    """The bytes of each face's three corners in order."""
+    corners = np.ascontiguousarray(vertices[faces], dtype=np.float64).reshape(len(faces), 9)
+    # the items of an unstructured void array list as bytes
+    return cast("list[bytes]", corners.view(np.dtype((np.void, 72))).ravel().tolist())
+
+
 def _face_keys(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> set[bytes] | None:
     """Each face as the bytes of its three corners in order; None if two vertices coincide."""
     if len(np.unique(vertices, axis=0)) != len(vertices):
         return None
-    corners = np.ascontiguousarray(vertices[faces], dtype=np.float64).reshape(len(faces), 9)
-    return set(corners.view(np.dtype((np.void, 72))).ravel().tolist())
+    return set(_corner_bytes(vertices, faces))
 
 
 def _retest(
@@ -399,10 +405,8 @@ def _retest(
         return np.zeros(0, dtype=bool)
     if len(np.unique(vertices, axis=0)) != len(vertices):
         return None
-    keys = np.ascontiguousarray(vertices[faces], dtype=np.float64).reshape(len(faces), 9)
-    keys = keys.view(np.dtype((np.void, 72))).ravel()
-    is_changed = np.fromiter((key not in cleared for key in keys.tolist()), dtype=bool,
-                             count=len(faces))
+    is_changed = np.fromiter((key not in cleared for key in _corner_bytes(vertices, faces)),
+                             dtype=bool, count=len(faces))
     if not is_changed.any():
         return np.zeros(len(faces), dtype=bool)
     if is_changed.sum() > _RETEST_CHANGED * len(faces):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
+from typing import Literal
 
 import click
 
@@ -54,9 +55,9 @@ from vptoolkit.errors import InputError
               "in a temporary folder.")
 @click.option("--calibrate", type=click.IntRange(0),
               help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
-def build_dataset(src: Path, out: Path, store_format: str, categories: str | None,
-                  n_views: int, resolution: int, n_points: int, max_faces: int,
-                  no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
+def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
+                  categories: str | None, n_views: int, resolution: int, n_points: int,
+                  max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
                   dry_run: bool, calibrate: int | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
@@ -193,8 +194,10 @@ def verify(path: Path, as_json: bool) -> None:
 
     Every file is checked against SHA256SUMS and every array against the
     SHA-256 stored with it; each mismatch and each unlisted file is named.
-    Exit code 1 on any mismatch; 2 if an archive could not be checked because
-    a package is missing (the line says which to install).
+    What cannot be read for lack of a package (a Zarr archive without zarr,
+    the Parquet shards without pyarrow) is skipped and named in the summary.
+    Exit code 0 when everything checked passed, 1 on any mismatch, 2 if
+    nothing could be checked (the line says which package to install).
 
     \b
     Example:

@@ -6,6 +6,7 @@ import json
 import os
 import sys
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -117,10 +118,11 @@ def train(dataset: Path, output: Path, labels: str, epochs: int, batch_size: int
         raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
                          f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
                          f"or more; the paper uses {N_SURFACE_POINTS})")
-    options = {"labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
-               "resume": resume, "progress": True, "threads": threads, "val_split": val_split,
-               "fps_pool": fps_pool, "device": device,
-               "command": " ".join(["vptool", *sys.argv[1:]])}
+    options: dict[str, Any] = {
+        "labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
+        "resume": resume, "progress": True, "threads": threads, "val_split": val_split,
+        "fps_pool": fps_pool, "device": device, "command": " ".join(["vptool", *sys.argv[1:]]),
+    }
     chosen = [name.strip() for name in categories.split(",")] if categories else None
     try:
         with options_named(val_split="--val-split", dataset_path="DATASET"):

@@ -65,7 +65,8 @@ class ExistingPath(click.Path):
         return super().convert(value, param, ctx)
 
 
-class Direction(click.ParamType):
+# ParamType takes type arguments at run time only in recent click releases
+class Direction(click.ParamType):  # type: ignore[type-arg]
     """A direction typed as ``x,y,z``: three finite numbers, not all zero.
 
     Converts to a ``tuple[float, float, float]`` as typed (not normalised).

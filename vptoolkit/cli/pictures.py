@@ -98,6 +98,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
         picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size,
                                    style=style, engine=engine)
     else:
+        assert view is not None  # exactly one choice, checked above
         direction = as_directions(view, name="--view")[0]
         picture = RenderedView(render_view(loaded, direction, size=size, style=style,
                                            engine=engine), direction, "--view")

@@ -24,7 +24,7 @@ from __future__ import annotations
 import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -32,7 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.containers import find_store
 from vptoolkit.dataset.reader import StoreReader, open_store
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.schema import class_names, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -66,6 +66,8 @@ class _SharedStore:
             self.failures: list[dict[str, Any]] = reader.failures()
             views = np.asarray(reader.array("views")[...], dtype=np.float64)
             best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
+            self.class_names: list[str] = class_names(
+                (record["category"] for record in self.records), self.attrs.get("class_names"))
             is_read = True
         finally:
             if not is_read:
@@ -74,6 +76,8 @@ class _SharedStore:
         self.views: NDArray[np.float64] = views
         self.best_index: NDArray[np.int64] = best_index
         self.row_of_name = {record["name"]: row for row, record in enumerate(self.records)}
+        label_of = {name: label for label, name in enumerate(self.class_names)}
+        self.labels = np.array([label_of[record["category"]] for record in self.records], np.int64)
         self._vertex_offsets: NDArray[np.int64] | None = None
         self._face_offsets: NDArray[np.int64] | None = None
 
@@ -115,7 +119,9 @@ class ViewpointDataset:
     datasets over the same open store.
 
     Items (``dataset[i]``, ``dataset["airplane_0001"]``, iteration) are
-    dicts:
+    dicts; a slice, a list or array of indices or a boolean mask
+    (``dataset[0:3]``, ``dataset[[0, 2]]``) gives another dataset over those
+    items, and :meth:`array` reads one key for every item at once:
 
     ==============  ==========================  ===================================
     key             value                       meaning
@@ -128,10 +134,13 @@ class ViewpointDataset:
     ``best_index``  (4,) int64                  best view per measure
     ``name``        str                         model name
     ``category``    str                         category
+    ``label``       int                         class label: ``class_names[label] == category``
     ``split``       str                         ``"train"``, ``"validation"`` or ``"test"``
     ==============  ==========================  ===================================
 
     The last axis of size 4 follows ``measures`` (``("VE", "VR", "VKL", "VMI")``).
+    Labels number the sorted category names of the whole store from 0
+    (:attr:`class_names`), the same in every split and subset.
     """
 
     def __init__(self, shared: _SharedStore, rows: NDArray[np.int64], *,
@@ -170,6 +179,16 @@ class ViewpointDataset:
     def splits(self) -> list[str]:
         """Split of each model, in item order."""
         return [self._shared.records[row]["split"] for row in self._rows]
+
+    @property
+    def labels(self) -> NDArray[np.int64]:
+        """Class label of each model, in item order (see :attr:`class_names`)."""
+        return self._shared.labels[self._rows]
+
+    @property
+    def class_names(self) -> list[str]:
+        """Category of each label: the store's sorted category names, label ``i`` at ``[i]``."""
+        return list(self._shared.class_names)
 
     @property
     def records(self) -> list[dict[str, Any]]:
@@ -267,7 +286,15 @@ class ViewpointDataset:
         """One model's ``models_json`` record (SCHEMA.md), by item index or name."""
         return dict(self._shared.records[self.row(key)])
 
-    def __getitem__(self, key: int | str) -> dict[str, Any]:
+    @overload
+    def __getitem__(self, key: int | np.integer | str) -> dict[str, Any]: ...
+
+    @overload
+    def __getitem__(self, key: slice | Sequence[int] | NDArray[Any]) -> ViewpointDataset: ...
+
+    def __getitem__(self, key: Any) -> Any:
+        if isinstance(key, (slice, list, tuple, np.ndarray)):
+            return self._select(key)
         row = self.row(key)
         reader = self._shared.reader()
         record = self._shared.records[row]
@@ -280,8 +307,60 @@ class ViewpointDataset:
             "best_index": self._shared.best_index[row].copy(),
             "name": record["name"],
             "category": record["category"],
+            "label": int(self._shared.labels[row]),
             "split": record["split"],
         }
+
+    def _select(self, key: slice | Sequence[int] | NDArray[Any]) -> ViewpointDataset:
+        if isinstance(key, slice):
+            rows = self._rows[key]
+        else:
+            index = np.asarray(key)
+            if index.dtype == bool:
+                if index.shape != (len(self),):
+                    raise IndexError(f"boolean index of shape {index.shape} for {len(self)} models")
+                rows = self._rows[index]
+            elif index.size == 0 or (index.ndim == 1 and index.dtype.kind in "iu"):
+                index = index.astype(np.int64)
+                outside = index[(index < -len(self)) | (index >= len(self))]
+                if outside.size:
+                    raise IndexError(f"index {outside[0]} out of range for {len(self)} models")
+                rows = self._rows[index]
+            else:
+                raise InputError(f"key: expected integer indices or a boolean mask, got {key!r}")
+        return ViewpointDataset(self._shared, np.asarray(rows, np.int64), split_name=self._split_name)
+
+    def array(self, key: str) -> NDArray[Any]:
+        """One key of every item, stacked: e.g. ``array("quality")`` is ``(n, n_views, 4)``.
+
+        Parameters
+        ----------
+        key : str
+            ``"points"``, ``"normals"``, ``"quality"``, ``"quality_raw"``,
+            ``"best_index"``, ``"best_value"``, ``"worst_index"``,
+            ``"worst_value"`` (the store's per-model arrays, dtypes as in the
+            items), ``"label"`` (int64), or ``"name"``, ``"category"``,
+            ``"split"`` (numpy string arrays).
+
+        Returns
+        -------
+        values : numpy.ndarray
+            One row per item, in item order. Stored arrays are read a chunk
+            at a time, so memory holds the result and one chunk.
+
+        Raises
+        ------
+        InputError
+            For another key.
+        """
+        if key in ("name", "category", "split"):
+            return np.array([self._shared.records[row][key] for row in self._rows], dtype=str)
+        if key == "label":
+            return self.labels
+        if key not in _STACKED:
+            raise InputError(f"key: expected one of {['name', 'category', 'split', 'label', *_STACKED]}, "
+                             f"got {key!r}")
+        return _take_rows(self._shared.reader().array(key), self._rows, _STACKED[key])
 
     def __iter__(self) -> Iterator[dict[str, Any]]:
         for position in range(len(self)):
@@ -379,6 +458,29 @@ class ViewpointDataset:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+_STACKED: dict[str, type[np.generic]] = {
+    "points": np.float32, "normals": np.float32, "quality": np.float32, "quality_raw": np.float32,
+    "best_index": np.int64, "best_value": np.float32, "worst_index": np.int64,
+    "worst_value": np.float32,
+}
+
+
+def _take_rows(array: Any, rows: NDArray[np.int64], dtype: type[np.generic]) -> NDArray[Any]:
+    """``array[rows]`` for a lazy per-model array, read one chunk of rows at a time."""
+    out = np.empty((len(rows), *array.shape[1:]), dtype=dtype)
+    order = np.argsort(rows, kind="stable")
+    wanted = rows[order]
+    step = max(1, int((array.chunks or (1,))[0]))
+    first = 0
+    while first < len(wanted):
+        start = int(wanted[first]) // step * step
+        stop = int(np.searchsorted(wanted, start + step))
+        block = np.asarray(array[start : min(start + step, int(array.shape[0]))])
+        out[order[first:stop]] = block[wanted[first:stop] - start]
+        first = stop
+    return out
 
 
 def open_dataset(path: str | os.PathLike[str]) -> ViewpointDataset:

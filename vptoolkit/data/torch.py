@@ -19,9 +19,11 @@ Randomness
     generators are spawned from ``numpy.random.SeedSequence([seed, epoch,
     model_key(name)])``, the first for the rotation, the second for the
     point selection (so the points chosen do not depend on ``rotate``).
-    Call :meth:`ViewpointTorchDataset.set_epoch` before each epoch for fresh
-    augmentations; with ``persistent_workers=True`` in a DataLoader the
-    workers keep the epoch they were started with.
+    Call :meth:`ViewpointTorchDataset.set_epoch` before each epoch (before
+    iterating the DataLoader) for fresh augmentations. The epoch lives in
+    shared memory, so worker processes see the new epoch too, also with
+    ``persistent_workers=True``; a given epoch gives the same items in any
+    process.
 
 torch is imported when this module is imported; :mod:`vptoolkit.data` never
 imports this module.
@@ -29,6 +31,7 @@ imports this module.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -57,7 +60,7 @@ def _non_negative_int(value: Any, what: str) -> int:
     return int(value)
 
 
-class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
+class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     """Network inputs and labels from a :class:`~vptoolkit.data.ViewpointDataset`.
 
     Parameters
@@ -85,6 +88,11 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
     cache : bool
         Keep every model's points, quality and best views in memory after
         the first read (default: True; about 0.3 MB per model).
+    transform : callable, optional
+        Called on every item dict (below) and returning the item the
+        dataset gives, e.g. to add noise or drop keys; it runs in the
+        worker process, after the augmentations. For randomness that
+        follows the epoch, draw from :meth:`generators`.
 
     Notes
     -----
@@ -100,6 +108,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
     ``best_index``  (4,) int64              index of the best view per measure
     ``rotation``    (3, 3) float32          the rotation ``R``: rotated = ``v @ R.T``
     ``name``        str                     model name
+    ``category``    str                     category
+    ``label``       int                     class label, ``dataset.class_names[label]``
     ==============  ======================  =============================================
 
     Points are rotated about the origin of the model coordinates; view
@@ -112,7 +122,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
 
     def __init__(self, dataset: ViewpointDataset, *, n_points: int = N_NETWORK_POINTS,
                  n_fps: int = N_FPS_POINTS, rotate: bool = True, seed: int = 0, fps_pool: int = 0,
-                 cache: bool = True) -> None:
+                 cache: bool = True,
+                 transform: Callable[[dict[str, Any]], Any] | None = None) -> None:
         if not isinstance(dataset, ViewpointDataset):
             raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")
         self.dataset = dataset
@@ -126,16 +137,25 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
         self.seed = _non_negative_int(seed, "seed")
         self.fps_pool = _non_negative_int(fps_pool, "fps_pool")
         self.cache = bool(cache)
-        self.epoch = 0
+        if transform is not None and not callable(transform):
+            raise InputError(f"transform: expected a callable, got {type(transform).__name__}")
+        self.transform = transform
+        # In shared memory: DataLoader workers, persistent ones too, read the epoch set here.
+        self._epoch = torch.zeros((), dtype=torch.int64).share_memory_()
         self._items: dict[int, dict[str, Any]] = {}
         self._pool: dict[tuple[int, int], NDArray[np.int64]] = {}
 
     def __len__(self) -> int:
         return len(self.dataset)
 
+    @property
+    def epoch(self) -> int:
+        """The epoch whose augmentations items get (0 until :meth:`set_epoch`)."""
+        return int(self._epoch.item())
+
     def set_epoch(self, epoch: int) -> None:
-        """Select the augmentations of another epoch (non-negative)."""
-        self.epoch = _non_negative_int(epoch, "epoch")
+        """Select the augmentations of another epoch (non-negative), in every worker too."""
+        self._epoch.fill_(_non_negative_int(epoch, "epoch"))
 
     def generators(self, index: int) -> tuple[np.random.Generator, np.random.Generator]:
         """The (rotation, point selection) generators of item ``index`` this epoch."""
@@ -148,7 +168,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
         if index in self._items:
             return self._items[index]
         item = self.dataset[index]
-        kept = {key: item[key] for key in ("points", "quality", "best_index", "name", "views")}
+        kept = {key: item[key]
+                for key in ("points", "quality", "best_index", "name", "category", "label", "views")}
         if self.cache:
             self._items[index] = kept
         return kept
@@ -177,7 +198,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
         points = item["points"][chosen]
         views = item["views"] @ rotation.T
         best_index = item["best_index"]
-        return {
+        result = {
             "points": torch.from_numpy((points @ rotation.T).astype(np.float32)),
             "views": torch.from_numpy(views.astype(np.float32)),
             "quality": torch.from_numpy(np.array(item["quality"], dtype=np.float32)),
@@ -185,4 +206,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset):  # type: ignore[misc]
             "best_index": torch.from_numpy(np.array(best_index, dtype=np.int64)),
             "rotation": torch.from_numpy(rotation.astype(np.float32)),
             "name": item["name"],
+            "category": item["category"],
+            "label": item["label"],
         }
+        return result if self.transform is None else self.transform(result)

@@ -1,9 +1,11 @@
 """The HDF5 container of a dataset store: ``*.h5`` and ``*.hdf5`` files.
 
 Owns writing (:class:`Hdf5Sink`, gzip level 4 with shuffle) and opening for
-reading (:func:`open_hdf5`). HDF5 cannot hold nested attributes, so every
-root attribute that is not a ``str``, ``bool``, ``int`` or ``float`` is
-stored as a JSON string and the root attribute ``json_attributes``
+reading (:func:`open_hdf5`). A root attribute that is a ``str``, ``bool``,
+``int`` or ``float``, or a non-empty list of scalars of one of these types, is
+stored as HDF5 holds it (a list as a 1-D array, strings as UTF-8). HDF5 cannot
+hold nested attributes, so every other one is stored as a JSON string and the
+root attribute ``json_attributes``
 (:data:`~vptoolkit.dataset.schema.HDF5_JSON_KEY`) names those keys; reading
 decodes them. ``h5py`` is imported inside the functions, and
 :mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader` import
@@ -31,15 +33,15 @@ class Hdf5Sink:
 
     def __init__(self, path: Path, root_attrs: dict[str, Any]) -> None:
         h5py = require("h5py")  # a core dependency
+        self._h5py = h5py
         self._file = h5py.File(path, "w", track_order=True)
         json_keys = []
-        int64 = np.iinfo(np.int64)
         for key, value in root_attrs.items():
-            is_native = isinstance(value, (str, bool, float)) or (
-                isinstance(value, int) and int64.min <= value <= int64.max
-            )
-            if is_native:
+            if _is_scalar(value):
                 self._file.attrs[key] = value
+            elif _is_plain_list(value):
+                self._file.attrs[key] = (np.array(value, dtype=h5py.string_dtype())
+                                         if isinstance(value[0], str) else value)
             else:
                 self._file.attrs[key] = json.dumps(value, ensure_ascii=False)
                 json_keys.append(key)
@@ -47,6 +49,8 @@ class Hdf5Sink:
 
     def create(self, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
                chunks: tuple[int, ...], sha256: str) -> Any:
+        if dtype == np.dtype(object):  # a string array: variable-length UTF-8
+            dtype = self._h5py.string_dtype()
         if 0 in shape:
             # HDF5 cannot chunk an empty dimension; an empty dataset needs no compression.
             dataset = self._file.create_dataset(name, shape=shape, dtype=dtype)
@@ -67,6 +71,20 @@ class Hdf5Sink:
         self._file.close()
 
 
+def _is_scalar(value: Any) -> bool:
+    int64 = np.iinfo(np.int64)
+    return isinstance(value, (str, bool, float)) or (
+        isinstance(value, int) and int64.min <= value <= int64.max
+    )
+
+
+def _is_plain_list(value: Any) -> bool:
+    """A non-empty list of scalars of one type, which HDF5 holds as a 1-D attribute."""
+    if not isinstance(value, list) or not value or not all(_is_scalar(item) for item in value):
+        return False
+    return len({type(item) for item in value}) == 1
+
+
 def open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
     h5py = require("h5py")  # a core dependency
     handle = h5py.File(path, "r")
@@ -83,7 +101,8 @@ def open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
             elif isinstance(value, bytes):
                 attrs[key] = value.decode("utf-8")
             elif isinstance(value, (np.generic, np.ndarray)):
-                attrs[key] = value.tolist()
+                attrs[key] = [item.decode("utf-8") if isinstance(item, bytes) else item
+                              for item in value.tolist()] if value.ndim else value.tolist()
             else:
                 attrs[key] = value
         names = sorted(key for key, node in handle.items() if isinstance(node, h5py.Dataset))

@@ -44,13 +44,14 @@ class ZarrSink:
 
     def create(self, name: str, shape: tuple[int, ...], dtype: np.dtype[Any],
                chunks: tuple[int, ...], sha256: str) -> Any:
+        is_text = dtype == np.dtype(object)  # a string array: variable-length UTF-8
         return self._group.create_array(
             name,
             shape=shape,
-            dtype=dtype,
+            dtype=str if is_text else dtype,
             chunks=tuple(max(1, c) for c in chunks),
             compressors=self._codec,
-            fill_value=0,
+            fill_value="" if is_text else 0,
             attributes={"sha256": sha256},
             # Every chunk is stored, even all zeros: a reader can then tell a
             # deleted chunk (an error) from an empty one (see check_chunks).
@@ -137,7 +138,7 @@ def _stored_keys(reader: Any) -> set[str]:
     if reader.kind == "zarr-zip":
         with zipfile.ZipFile(reader.path) as archive:
             return set(archive.namelist())
-    keys = set()
+    keys: set[str] = set()
     for folder, _, files in os.walk(reader.path):
         relative = Path(folder).relative_to(reader.path).as_posix()
         keys.update(name if relative == "." else f"{relative}/{name}" for name in files)

@@ -64,6 +64,10 @@ _ARRAY_MEANINGS = {
     "mesh_face_offsets": "model m owns face rows offsets[m]:offsets[m+1]",
     "models_json": "UTF-8 JSON list of model records in row order",
     "failures_json": "UTF-8 JSON list of inputs that could not be processed",
+    "names": "model name per model, in row order",
+    "categories": "category per model",
+    "splits": "split per model: train, validation or test",
+    "labels": "class label per model: index into the root attribute `class_names`",
 }
 
 
@@ -129,7 +133,7 @@ def render_card(
 
     if shards:
         yaml_hub = hub_yaml(shards, n_points=int(info["n_points"] or 0),
-                            n_views=int(info["n_views"]))
+                            n_views=int(info["n_views"]), class_names=info["class_names"])
     else:
         # Without Parquet shards `datasets` has nothing to load: no configs, no splits.
         yaml_hub = ""
@@ -254,6 +258,9 @@ def render_card(
                                            ["l", "l", "l"])
                            if failure_rows else ""),
         "count_table": _markdown_table(count_header, count_rows),
+        "class_table": _markdown_table(
+            ["label", "category"], [[label, f"`{name}`"] for label, name in
+                                    enumerate(info["class_names"])], ["r", "l"]),
         "measure_table": _markdown_table(
             ["measure", "name", "best", "raw unit", "best raw mean", "best raw min",
              "best raw max"], measure_rows, ["l", "l", "l", "l", "r", "r", "r"]),
@@ -287,7 +294,8 @@ def _same_data_sentence(files: Mapping[str, str]) -> str:
     return f" {listed[0].upper()}{listed[1:]} hold the same data; use whichever your tools read."
 
 
-def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> str:
+def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
+             class_names: Sequence[str] = ()) -> str:
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
     Two configurations: ``default`` (one Parquet shard per split, one row
@@ -302,6 +310,9 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
         What :func:`~vptoolkit.dataset.parquet.write_parquet_shards` wrote.
     n_points, n_views : int
         Points and views per model, the shapes of the array features.
+    class_names : sequence of str
+        The store's ``class_names``: the ``label`` feature is a
+        ``ClassLabel`` with these names.
 
     Returns
     -------
@@ -316,7 +327,7 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
         lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:",
                   f"  - split: train\n    path: {shard.path}"]
     lines.append("dataset_info:")
-    configs = [("default", model_columns(n_points, n_views), model_shards),
+    configs = [("default", model_columns(n_points, n_views, class_names), model_shards),
                (VIEWS_CONFIG, view_columns(), view_shards)]
     for config_name, columns, chosen in configs:
         if not chosen:
@@ -335,6 +346,10 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int) -> 
 def _yaml_feature(column: Column) -> str:
     """One feature of a hub ``dataset_info``, as the hub's YAML writes it."""
     head = f"  - name: {column.name}\n"
+    if column.class_names is not None:
+        names = "\n".join(f"          '{label}': {_yaml_str(name)}"
+                          for label, name in enumerate(column.class_names))
+        return head + "    dtype:\n      class_label:\n        names:\n" + names
     if not column.shape:
         return head + f"    dtype: {column.dtype}"
     if len(column.shape) == 1:
@@ -364,7 +379,8 @@ def _array_rows(reader: StoreReader) -> list[list[str]]:
     for name in sorted(reader.array_names()):
         array = reader.array(name)
         shape = "(" + ", ".join(str(int(n)) for n in array.shape) + ("," if len(array.shape) == 1 else "") + ")"
-        rows.append([f"`{name}`", shape, str(np.dtype(array.dtype)),
+        dtype = "string" if np.dtype(array.dtype).kind in "OT" else str(np.dtype(array.dtype))
+        rows.append([f"`{name}`", shape, dtype,
                      _ARRAY_MEANINGS.get(name, "")])
     return rows
 

@@ -22,7 +22,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -43,7 +43,7 @@ __all__ = [
     "worker_died",
 ]
 
-BACKEND = "raster"
+BACKEND: Final = "raster"
 """Pixel-counting backend of every build (:mod:`vptoolkit.visibility`)."""
 
 VIEW_SET_VIEWS = 6
@@ -215,7 +215,7 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     seconds["sample"] = time.perf_counter() - started
     columns = np.arange(quality.raw.shape[1])
     raw = quality.raw.astype(np.float32)
-    arrays = {
+    arrays: dict[str, NDArray[Any]] = {
         "points": sample.points.astype(np.float32),
         "normals": sample.normals.astype(np.float32),
         "quality": quality.normalized.astype(np.float32),

@@ -197,6 +197,7 @@ def croissant_jsonld(
             "includes": f"{folder}/*.parquet",
         })
         columns = model_columns(int(n_points or 0), int(n_views))
+        record_sets.append(_category_record_set(info["class_names"]))
         record_sets.append({
             "@type": "cr:RecordSet",
             "@id": "models",
@@ -296,6 +297,30 @@ def _bullets(text: str) -> list[str]:
     return items
 
 
+_CATEGORIES = "categories"
+"""The record set of the class labels: one record (label, category) per category."""
+
+
+def _category_record_set(class_names: Sequence[str]) -> dict[str, Any]:
+    """The enumeration of the categories: label ``i`` is ``class_names[i]``, given inline."""
+    return {
+        "@type": "cr:RecordSet",
+        "@id": _CATEGORIES,
+        "name": _CATEGORIES,
+        "description": ("The class labels: a model's label is the index of its category in "
+                        "the sorted category names"),
+        "key": {"@id": f"{_CATEGORIES}/label"},
+        "field": [
+            {"@type": "cr:Field", "@id": f"{_CATEGORIES}/label", "name": "label",
+             "description": "class label", "dataType": _CROISSANT_TYPES["int64"]},
+            {"@type": "cr:Field", "@id": f"{_CATEGORIES}/category", "name": "category",
+             "description": "category name", "dataType": _CROISSANT_TYPES["string"]},
+        ],
+        "data": [{f"{_CATEGORIES}/label": label, f"{_CATEGORIES}/category": name}
+                 for label, name in enumerate(class_names)],
+    }
+
+
 def _croissant_field(record_set: str, column: Column, source: dict[str, Any]) -> dict[str, Any]:
     spec: dict[str, Any] = {
         "@type": "cr:Field",
@@ -305,6 +330,8 @@ def _croissant_field(record_set: str, column: Column, source: dict[str, Any]) ->
         "dataType": _CROISSANT_TYPES[column.dtype],
         "source": {**source, "extract": {"column": column.name}},
     }
+    if column.name == "label":
+        spec["references"] = {"field": {"@id": f"{_CATEGORIES}/label"}}
     if column.shape:
         spec["isArray"] = True
         spec["arrayShape"] = ",".join("-1" if d is None else str(d) for d in column.shape)

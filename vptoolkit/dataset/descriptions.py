@@ -92,7 +92,7 @@ def write_json(path: Path, value: Any) -> None:
 
 def _release_files(folder: Path) -> list[str]:
     """Every file below ``folder`` as sorted POSIX paths; a symbolic link is refused."""
-    found = []
+    found: list[str] = []
     for root, dirs, files in os.walk(folder):
         dirs.sort()
         for name in [*dirs, *files]:

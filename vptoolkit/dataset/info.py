@@ -89,7 +89,8 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
     dict
         ``store`` (file name), ``store_kind``, ``format``, ``schema_version``,
         ``n_models``, ``n_views``, ``n_points`` (per model), ``resolution``,
-        ``backend``, ``categories`` and ``splits`` (ordered),
+        ``backend``, ``categories``, ``class_names`` (label ``i`` is
+        ``class_names[i]``) and ``splits`` (ordered),
         ``counts`` (category -> split -> models, every pair present),
         ``split_totals``, ``category_totals``, ``measures`` (order,
         higher_is_better, log_base, units, normalisation), ``camera``,
@@ -117,9 +118,9 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         -1, len(MEASURES)
     )
     best_stats = {m: _summary(best_value[:, i]) for i, m in enumerate(MEASURES)}
-    faces = [record.get("n_faces") for record in models if record.get("n_faces") is not None]
+    faces = [record["n_faces"] for record in models if record.get("n_faces") is not None]
     vertices = [
-        record.get("n_vertices") for record in models if record.get("n_vertices") is not None
+        record["n_vertices"] for record in models if record.get("n_vertices") is not None
     ]
     cleaning_records = [record["cleaning"] for record in models if record.get("cleaning")]
     faces_before = [
@@ -154,6 +155,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "split_seed": attrs.get("split_seed"),
         "split_fractions": attrs.get("split_fractions"),
         "categories": categories,
+        "class_names": list(attrs.get("class_names") or categories),
         "splits": splits,
         "counts": counts,
         "split_totals": split_totals,
@@ -177,7 +179,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
             for record in failures
         ],
     }
-    return _json_safe(info)  # type: ignore[no-any-return]
+    return _json_safe(info)
 
 
 def dataset_info(path: Path | str) -> dict[str, Any]:

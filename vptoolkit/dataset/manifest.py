@@ -107,9 +107,10 @@ class VerifyReport:
     warnings : list of Problem
         Findings that do not fail verification (files the manifest does not list).
     skipped : list of Problem
-        Archives whose arrays could not be checked because a package is
-        missing (kind ``"skipped"``, detail: what to install). Nothing is
-        known to be wrong with them, but the check is incomplete.
+        Parts that could not be checked because a package is missing (kind
+        ``"skipped"``, detail: what to install): an archive's arrays, or the
+        comparison of the Parquet shards with an archive. Nothing is known
+        to be wrong with them; the summary names them.
     """
 
     path: Path
@@ -122,8 +123,13 @@ class VerifyReport:
 
     @property
     def ok(self) -> bool:
-        """Whether nothing failed and nothing was skipped (warnings allowed)."""
-        return not self.problems and not self.skipped
+        """Whether nothing failed and something was verified (warnings, skipped parts allowed)."""
+        return not self.problems and not (self.skipped and self.nothing_verified)
+
+    @property
+    def nothing_verified(self) -> bool:
+        """Whether no file and no array was checked."""
+        return self.files_checked == 0 and self.arrays_checked == 0
 
     @property
     def mismatches(self) -> list[str]:
@@ -140,6 +146,8 @@ class VerifyReport:
                 count = len(self.warnings)
                 extra = (f", {count} warning{'s' if count != 1 else ''}: "
                          + "; ".join(str(warning) for warning in self.warnings))
+            if self.skipped:
+                extra += "; skipped " + "; ".join(str(problem) for problem in self.skipped)
             return f"{self.path}: OK ({checked} verified{extra})"
         if not self.problems:
             shown = "; ".join(str(problem) for problem in self.skipped)
@@ -158,12 +166,13 @@ class VerifyReport:
         VerificationError
             With :meth:`summary` as its one-line message, if anything mismatches.
         MissingDependencyError
-            If nothing mismatches but an archive was skipped for lack of a
-            package (the message says which to install).
+            If nothing mismatches but nothing could be verified either, every
+            part skipped for lack of a package (the message says which to
+            install).
         """
         if self.problems:
             raise VerificationError(self.summary())
-        if self.skipped:
+        if not self.ok:
             raise MissingDependencyError(self.summary())
 
     def to_dict(self) -> dict[str, Any]:

@@ -22,7 +22,7 @@ extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -55,6 +55,7 @@ VIEWS_CONFIG = "views"
 """Name of the shard (and hub configuration) holding the shared view directions."""
 
 _ROWS_PER_GROUP = 64
+_STORED_AS = {"label": "labels"}  # column -> store array, where the names differ
 _PROVENANCE = ("license", "author", "url")
 
 
@@ -73,12 +74,16 @@ class Column:
         length that varies from row to row.
     description : str
         One line for the card and Croissant.
+    class_names : tuple of str, optional
+        For a class label column: the category of each label (the hub's
+        ``ClassLabel`` names, Croissant's category record set).
     """
 
     name: str
     dtype: str
     shape: tuple[int | None, ...]
     description: str
+    class_names: tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -123,7 +128,8 @@ def shard_name(split: str) -> str:
     return f"{folder}/{split}-00000-of-00001.parquet"
 
 
-def model_columns(n_points: int, n_views: int) -> list[Column]:
+def model_columns(n_points: int, n_views: int,
+                  class_names: Sequence[str] | None = None) -> list[Column]:
     """The columns of a model shard, in file order.
 
     Parameters
@@ -132,6 +138,9 @@ def model_columns(n_points: int, n_views: int) -> list[Column]:
         Points per model.
     n_views : int
         Views per model.
+    class_names : sequence of str, optional
+        The store's ``class_names``, kept on the ``label`` column (for the
+        card and Croissant; the shard itself stores the integer).
 
     Returns
     -------
@@ -142,6 +151,8 @@ def model_columns(n_points: int, n_views: int) -> list[Column]:
     return [
         Column("name", "string", (), "unique model name"),
         Column("category", "string", (), "object category"),
+        Column("label", "int64", (), "class label: the category's index in the sorted category "
+               "names", None if class_names is None else tuple(class_names)),
         Column("split", "string", (), f"split: {', '.join(SPLITS)}"),
         Column("source", "string", (), "path of the source mesh inside the source dataset"),
         Column("source_sha256", "string", (), "SHA-256 of the source mesh file"),
@@ -183,6 +194,8 @@ def _arrow_type(pa: Any, column: Column) -> Any:
 def _nested(pa: Any, rows: list[NDArray[Any]], column: Column) -> Any:
     """Rows of equal inner shape as a (fixed-size) list array of the column's type."""
     dtype = np.dtype(column.dtype)
+    if not column.shape:
+        return pa.array(np.asarray(rows, dtype).reshape(-1))
     if len(column.shape) == 1 and column.shape[0] is not None:
         flat = np.concatenate([np.asarray(r, dtype).reshape(-1) for r in rows]) if rows else (
             np.zeros(0, dtype))
@@ -239,7 +252,7 @@ def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[
                 block = [reader.array("mesh_faces")[face_offsets[r] : face_offsets[r + 1]]
                          for r in chunk]
             else:
-                stored = reader.array(column.name)
+                stored = reader.array(_STORED_AS.get(column.name, column.name))
                 block = [stored[r] for r in chunk]
             arrays.append(_nested(pa, block, column))
         yield arrays
@@ -312,7 +325,7 @@ def _shard_values(pa: Any, array: Any, column: Column) -> list[NDArray[Any]]:
             raise ValueError(f"rows are not of {column.shape[1]} values")
         flat = flat.flatten()
     values = np.asarray(flat.to_numpy(zero_copy_only=False), dtype)
-    inner_size = int(column.shape[-1]) if len(column.shape) == 2 else 1
+    inner_size = int(column.shape[-1] or 1) if len(column.shape) == 2 else 1
     bounds = np.concatenate([[0], np.cumsum(lengths)]) * inner_size
     rows = [values[a:b] for a, b in zip(bounds[:-1], bounds[1:])]
     return [row.reshape(-1, inner_size) if len(column.shape) == 2 else row for row in rows]
@@ -411,7 +424,7 @@ def shard_differences(reader: StoreReader, release_dir: Path | str,
                     elif column.name in ("mesh_vertices", "mesh_faces"):
                         expected = stored[offsets[row] : offsets[row + 1]]
                     else:
-                        expected = reader.array(column.name)[row]
+                        expected = reader.array(_STORED_AS.get(column.name, column.name))[row]
                     if not _same(expected, values[position], column.dtype):
                         found.append((f"{relative}:{names[row]}:{column.name}",
                                       "differs from the archive"))

@@ -23,6 +23,7 @@ from vptoolkit.dataset.schema import (
     ARRAY_NAMES,
     FORMAT_NAME,
     SCHEMA_VERSION,
+    STRING_ARRAYS,
     ModelEntry,
     from_json_bytes,
 )
@@ -299,7 +300,8 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> St
     ------
     InputError
         If the file is missing, unreadable, not a vptoolkit viewpoint
-        dataset, lacks one of :data:`ARRAY_NAMES`, or has a
+        dataset, lacks one of :data:`ARRAY_NAMES` (a store without the root
+        attribute ``class_names`` may lack the label and string arrays), or has a
         ``schema_version`` other than :data:`SCHEMA_VERSION`.
     VerificationError
         If its ``measures`` or ``higher_is_better`` attribute differs from
@@ -361,7 +363,10 @@ def _check_root(reader: StoreReader) -> None:
             f"{label}: higher_is_better {attrs.get('higher_is_better')!r} differs from "
             f"{list(HIGHER_IS_BETTER)}"
         )
-    missing = [name for name in ARRAY_NAMES if name not in reader.array_names()]
+    # A store without class_names predates the label and string arrays; it is read without them.
+    expected = ARRAY_NAMES if "class_names" in attrs else [
+        name for name in ARRAY_NAMES if name not in (*STRING_ARRAYS, "labels")]
+    missing = [name for name in expected if name not in reader.array_names()]
     if missing:
         raise InputError(f"{label}: missing arrays {missing}")
     for key in ("n_models", "n_views", "n_points"):

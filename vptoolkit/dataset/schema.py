@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -31,16 +32,19 @@ __all__ = [
     "FORMAT_NAME",
     "SCHEMA_VERSION",
     "ARRAY_NAMES",
+    "STRING_ARRAYS",
     "BUILD_ATTRS",
     "WRITER_ATTRS",
     "SPLIT_ALIASES",
     "published_split",
+    "class_names",
     "FAILURE_KEYS",
     "HDF5_JSON_KEY",
     "ModelEntry",
     "array_sha256",
     "le_bytes",
     "json_bytes",
+    "string_values",
     "from_json_bytes",
 ]
 
@@ -66,8 +70,15 @@ ARRAY_NAMES = (
     "mesh_face_offsets",
     "models_json",
     "failures_json",
+    "names",
+    "categories",
+    "splits",
+    "labels",
 )
 """Every root array of a store, in the order of SCHEMA.md."""
+
+STRING_ARRAYS = ("names", "categories", "splits")
+"""Root arrays of UTF-8 strings, one per model: readable with h5py or zarr alone."""
 
 BUILD_ATTRS = (
     "resolution",
@@ -92,8 +103,10 @@ WRITER_ATTRS = (
     "n_views",
     "n_points",
     "n_failures",
+    "class_names",
 )
-"""Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself."""
+"""Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself
+(``class_names`` may also be passed, see :func:`class_names`)."""
 
 SPLIT_ALIASES = {"val": "validation"}
 """Other names a model record or a caller may use for a split of
@@ -109,6 +122,44 @@ def published_split(name: str) -> str:
     ('validation', 'test')
     """
     return SPLIT_ALIASES.get(name, name)
+
+
+def class_names(categories: Iterable[str], given: Sequence[str] | None = None) -> list[str]:
+    """The class labels of a dataset: category ``class_names[i]`` has label ``i``.
+
+    Parameters
+    ----------
+    categories : iterable of str
+        The category of every model.
+    given : sequence of str, optional
+        A map to keep (e.g. a subset's parent's ``class_names``, so labels
+        stay the same): sorted, unique, and holding every category.
+
+    Returns
+    -------
+    names : list of str
+        ``given``, else the sorted distinct categories.
+
+    Raises
+    ------
+    InputError
+        If ``given`` is not sorted and unique strings or lacks a category.
+
+    Examples
+    --------
+    >>> class_names(["mug", "bottle", "mug"])
+    ['bottle', 'mug']
+    """
+    found = sorted({str(category) for category in categories})
+    if given is None:
+        return found
+    names = list(given)
+    if not all(isinstance(name, str) for name in names) or names != sorted(set(names)):
+        raise InputError("class_names: expected sorted, unique category names")
+    missing = sorted(set(found) - set(names))
+    if missing:
+        raise InputError(f"class_names: category {missing[0]!r} has no label")
+    return names
 
 
 FAILURE_KEYS = ("source", "category", "reason")
@@ -230,6 +281,10 @@ def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
     ``np.ascontiguousarray(a, a.dtype.newbyteorder("<")).tobytes()``; shape
     and dtype are not part of it.
 
+    A string array (:data:`STRING_ARRAYS`) is hashed as the compact UTF-8
+    JSON list of its values (:func:`json_bytes`), so the digest is the same
+    for zarr's and h5py's string types.
+
     Parameters
     ----------
     array : numpy.ndarray or lazy array
@@ -243,15 +298,24 @@ def array_sha256(array: NDArray[Any] | _ArrayLike) -> str:
         64 lower-case hex digits.
     """
     hasher = hashlib.sha256()
+    if np.dtype(getattr(array, "dtype", np.uint8)).kind in "OTUS":
+        hasher.update(json_bytes(string_values(array[...])).data)
+        return hasher.hexdigest()
     if isinstance(array, np.ndarray) or not hasattr(array, "shape") or not array.shape:
-        hasher.update(le_bytes(np.asarray(array)))
+        hasher.update(le_bytes(np.asarray(array)).data)
         return hasher.hexdigest()
     n_rows = int(array.shape[0])
     row_bytes = max(1, math.prod(array.shape[1:]) * np.dtype(array.dtype).itemsize)
     step = max(1, _HASH_BLOCK_BYTES // row_bytes)
     for start in range(0, n_rows, step):
-        hasher.update(le_bytes(np.asarray(array[start : start + step])))
+        hasher.update(le_bytes(np.asarray(array[start : start + step])).data)
     return hasher.hexdigest()
+
+
+def string_values(array: ArrayLike) -> list[str]:
+    """The values of a string array as ``str`` (h5py reads UTF-8 bytes, zarr ``str``)."""
+    return [value.decode("utf-8") if isinstance(value, bytes) else str(value)
+            for value in np.asarray(array).tolist()]
 
 
 def json_bytes(obj: Any, *, sort_keys: bool = False) -> NDArray[np.uint8]:

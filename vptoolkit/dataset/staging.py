@@ -327,7 +327,8 @@ def _write_atomic(path: Path, payload: bytes | Mapping[str, NDArray[Any]]) -> No
         if isinstance(payload, bytes):
             stream.write(payload)
         else:
-            np.savez_compressed(stream, **payload)
+            # the stub reads ** as if it could hold allow_pickle; the keys are array names
+            np.savez_compressed(stream, **payload)  # type: ignore[arg-type]
     _fsync_folder(path.parent)
 
 

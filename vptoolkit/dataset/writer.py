@@ -35,8 +35,10 @@ from vptoolkit.dataset.schema import (
     FORMAT_NAME,
     HDF5_JSON_KEY,
     SCHEMA_VERSION,
+    STRING_ARRAYS,
     ModelEntry,
     array_sha256,
+    class_names,
     json_bytes,
     le_bytes,
     published_split,
@@ -60,7 +62,7 @@ class _Checked(NamedTuple):
     arrays: dict[str, NDArray[Any]]
 
 
-_ENTRY_ARRAYS = {
+_ENTRY_ARRAYS: dict[str, tuple[str, np.dtype[Any]]] = {
     # stored array name: (ModelEntry field, dtype)
     "points": ("points", np.dtype("<f4")),
     "normals": ("normals", np.dtype("<f4")),
@@ -166,7 +168,7 @@ def _entry_checksum(checked: _Checked, hashers: Mapping[str, Any] | None = None)
     """
     value = zlib.crc32(json.dumps(checked.record, sort_keys=True).encode("utf-8"))
     for name, array in checked.arrays.items():
-        data = le_bytes(array)
+        data = le_bytes(array).data
         if hashers is not None:
             hashers[name].update(data)
         value = zlib.crc32(data, value)
@@ -250,9 +252,18 @@ def _check_failures(failures: Sequence[Mapping[str, str]]) -> list[dict[str, str
     return checked
 
 
+def _strings(values: Any) -> NDArray[np.object_]:
+    """A string array (:data:`STRING_ARRAYS`) as the sinks take it: ``str`` objects."""
+    return np.array(list(values) or [], dtype=object)
+
+
 def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
-                n_points: int | None, n_failures: int) -> dict[str, Any]:
-    """The complete root attributes; ``n_points`` None checks ``attrs`` before it is known."""
+                n_points: int | None, n_failures: int,
+                labels: list[str] | None = None) -> dict[str, Any]:
+    """The complete root attributes; ``n_points`` None checks ``attrs`` before it is known.
+
+    ``labels`` is the ``class_names`` attribute, known after the first pass.
+    """
     if not isinstance(attrs, Mapping):
         raise InputError(f"attrs: expected a mapping, got {type(attrs).__name__}")
     missing = [key for key in BUILD_ATTRS if key not in attrs]
@@ -269,7 +280,9 @@ def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
         "n_views": n_views,
         "n_points": 0 if n_points is None else n_points,
     }
-    tail = {"n_failures": n_failures}
+    tail: dict[str, Any] = {"n_failures": n_failures}
+    if labels is not None:
+        tail["class_names"] = labels
     for key, value in {**own, **tail}.items():
         # Attributes read back from a store may be passed through unchanged.
         if key == "n_points" and n_points is None:
@@ -281,7 +294,7 @@ def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
     root = dict(own)
     for key in BUILD_ATTRS:
         root[key] = attrs[key]
-    for key in sorted(set(attrs) - set(root) - set(tail)):
+    for key in sorted(set(attrs) - set(root) - set(tail) - {"class_names"}):
         if not isinstance(key, str):
             raise InputError(f"attrs: keys must be strings, got {key!r}")
         root[key] = attrs[key]
@@ -453,16 +466,23 @@ def write_dataset(
     with progress_bar(total=n_models, description=f"{target.name}: check", unit="model",
                       enabled=progress) as bar:
         plan = _first_pass(entries, n_views, bar)
+    categories = [record["category"] for record in plan.records]
+    labels = class_names(categories, attrs.get("class_names"))
     root_attrs = _root_attrs(
         attrs, n_models=n_models, n_views=n_views, n_points=plan.n_points,
-        n_failures=len(failure_records),
+        n_failures=len(failure_records), labels=labels,
     )
-    whole = {
+    label_of = {name: label for label, name in enumerate(labels)}
+    whole: dict[str, NDArray[Any]] = {
         "views": view_directions,
         "mesh_vertex_offsets": plan.vertex_offsets,
         "mesh_face_offsets": plan.face_offsets,
         "models_json": json_bytes(plan.records),
         "failures_json": json_bytes(failure_records),
+        "names": _strings(record["name"] for record in plan.records),
+        "categories": _strings(categories),
+        "splits": _strings(published_split(record["split"]) for record in plan.records),
+        "labels": np.array([label_of[category] for category in categories], np.int64),
     }
     n_points = plan.n_points
     layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
@@ -482,6 +502,7 @@ def write_dataset(
         "mesh_face_offsets": ((n_models + 1,), (_CHUNK_ROWS,)),
         "models_json": ((len(whole["models_json"]),), (_CHUNK_BYTES,)),
         "failures_json": ((len(whole["failures_json"]),), (_CHUNK_BYTES,)),
+        **{name: ((n_models,), (_CHUNK_ROWS,)) for name in (*STRING_ARRAYS, "labels")},
     }
     digests = {name: array_sha256(array) for name, array in whole.items()}
     digests.update(plan.digests)

@@ -79,6 +79,10 @@ def _percent_or_none(value: float) -> float | None:
 class EvaluationReport:
     """Scores of one set of predictions on one split, in percent.
 
+    The derived tables are properties: :attr:`categories`,
+    :attr:`category_counts`, :attr:`category_scores`, :attr:`mean` (over
+    categories, the paper's headline) and :attr:`model_mean` (over models).
+
     Attributes
     ----------
     dataset : str
@@ -95,10 +99,6 @@ class EvaluationReport:
         Normalised quality of the nearest sampled view, in percent, in
         ``MEASURES`` order; NaN for a measure that was not predicted.
         Read-only.
-
-    The derived tables are properties: :attr:`categories`,
-    :attr:`category_counts`, :attr:`category_scores`, :attr:`mean` (over
-    categories, the paper's headline) and :attr:`model_mean` (over models).
     """
 
     dataset: str
@@ -448,7 +448,7 @@ def score_directions(
     if values.shape != (n_models, len(MEASURES), 3):
         raise InputError(f"directions: expected shape ({n_models}, {len(MEASURES)}, 3), "
                          f"got {values.shape}")
-    is_missing = np.isnan(values).any(axis=2)  # (n_models, 4)
+    is_missing = np.any(np.isnan(values), axis=2)  # (n_models, 4)
     is_scored = ~is_missing.all(axis=0)
     partial = [m for m, column in zip(MEASURES, is_missing.T) if 0 < column.sum() < n_models]
     if partial:

@@ -88,7 +88,7 @@ def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
     root = as_path(folder, "folder")
     if not root.is_dir():
         raise InputError(f"{root}: not a folder")
-    found = []
+    found: list[Path] = []
     for parent, subfolders, files in os.walk(root):
         subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
         found.extend(

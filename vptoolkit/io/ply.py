@@ -382,7 +382,7 @@ def _unpack(data: bytes, offset: int, code: str, element: _Element) -> int | flo
     if offset + dtype.itemsize > len(data):
         raise _truncated(element)
     value = np.frombuffer(data, dtype=dtype, count=1, offset=offset)[0]
-    return value.item()  # type: ignore[no-any-return]
+    return value.item()
 
 
 def _list_length(data: bytes, offset: int, code: str, element: _Element) -> int:

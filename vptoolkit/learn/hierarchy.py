@@ -103,9 +103,10 @@ class Neighbourhood(NamedTuple):
         Neighbours per centre (``mask.sum(1)``), at least 0.
     """
 
-    index: Tensor
+    # Fields named like tuple's index and count methods: reading them gives the field.
+    index: Tensor  # type: ignore[assignment]
     mask: Tensor
-    count: Tensor
+    count: Tensor  # type: ignore[assignment]
 
 
 class Hierarchy(NamedTuple):

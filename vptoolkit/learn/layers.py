@@ -10,7 +10,7 @@ sphere map. See :mod:`vptoolkit.learn.model` for the sizes.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.hierarchy import (
@@ -176,7 +176,7 @@ class PointEncoder(nn.Module):
 
     def forward(self, points: Tensor) -> Tensor:
         check_clouds(points)
-        dtype = self.convs[0].linear.weight.dtype
+        dtype = cast(MonteCarloConv, self.convs[0]).linear.weight.dtype
         hierarchy = build_hierarchy(points.to(dtype), self.config)
         levels = hierarchy.levels
         features = levels[0].points

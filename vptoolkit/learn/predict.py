@@ -34,6 +34,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
@@ -262,11 +263,11 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
         if suffix == ".npy":
             if not path.is_file():
                 raise InputError(f"{path}: no such point file")
-            yield path.stem, None, (lambda path=path: read_point_file(path))
+            yield path.stem, None, partial(read_point_file, path)
         elif suffix in SUPPORTED_SUFFIXES:
             if not path.is_file():
                 raise InputError(f"{path}: no such mesh file")
-            yield path.stem, None, (lambda path=path: _mesh_points(path, seed))
+            yield path.stem, None, partial(_mesh_points, path, seed)
         elif _is_dataset(path):
             dataset = open_dataset(path)
             try:
@@ -282,7 +283,11 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
 def _dataset_sources(dataset: ViewpointDataset, split: str | None) -> Iterator[Source]:
     subset = dataset.split(split) if split is not None else dataset
     for position, (name, category) in enumerate(zip(subset.names, subset.categories)):
-        yield name, category, (lambda position=position: np.asarray(subset[position]["points"], dtype=np.float64))
+        yield name, category, partial(_row_points, subset, position)
+
+
+def _row_points(dataset: ViewpointDataset, position: int) -> NDArray[np.float64]:
+    return np.asarray(dataset[position]["points"], dtype=np.float64)
 
 
 def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[ViewpointNet, dict[str, Any]]]:

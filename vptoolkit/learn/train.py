@@ -527,8 +527,8 @@ def train_per_category(
         raise InputError(f"{folder}: per-category training writes a folder, not one "
                          ".safetensors file")
     with open_dataset(dataset_path) as dataset:
-        names = select_categories(dataset, categories) if categories is not None else sorted(
-            set(dataset.split("train").categories))
+        chosen = select_categories(dataset, categories)
+        names = chosen if chosen is not None else sorted(set(dataset.split("train").categories))
     index = _category_index(folder)
     results = {}
     for name in names:

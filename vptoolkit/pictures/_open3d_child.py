@@ -105,8 +105,9 @@ def serve() -> None:
     try:
         header, _ = read_message(protocol_in)
         size = int(header["size"])
-        style = RenderStyle(**{k: tuple(v) if isinstance(v, list) else v
-                               for k, v in header["style"].items()})
+        style_values: dict[str, Any] = {k: tuple(v) if isinstance(v, list) else v
+                                         for k, v in header["style"].items()}
+        style = RenderStyle(**style_values)
         try:
             from vptoolkit.optional import require
 

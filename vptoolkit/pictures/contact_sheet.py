@@ -11,7 +11,7 @@ the same inputs give the same bytes.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -48,7 +48,7 @@ def view_set_captions(view_set: ViewSet) -> list[str]:
 
 
 def contact_sheet(
-    images: ArrayLike | Sequence[ArrayLike],
+    images: Iterable[ArrayLike],
     captions: Sequence[str],
     *,
     columns: int | None = None,

@@ -195,7 +195,7 @@ def crease_normals(mesh: Mesh, crease_angle_deg: float) -> CreaseNormals:
 def picture_camera(camera: Camera, up: tuple[float, float, float]) -> Camera:
     """The measures' camera rolled so that ``up`` is the image up."""
     fallback = camera.fallback_up
-    if abs(float(np.dot(up, fallback / np.linalg.norm(fallback)))) > 0.99:
+    if abs(float(np.dot(up, np.asarray(fallback) / np.linalg.norm(fallback)))) > 0.99:
         fallback = camera.up  # e.g. up = +z: fall back to the measures' own up
     return replace(camera, up=up, fallback_up=fallback)
 

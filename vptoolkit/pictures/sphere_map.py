@@ -56,6 +56,7 @@ from vptoolkit.sphere import as_directions, nearest_view
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
+    from matplotlib.image import AxesImage
 
 __all__ = [
     "BEST_COLOR",
@@ -262,7 +263,7 @@ def _draw_panel(
     max_latitude_deg: float,
     limits: tuple[float, float],
     view_set: NDArray[np.float64] | None = None,
-) -> object:
+) -> AxesImage:
     """Draw one map on ``axes``; return the image artist (for a colour bar)."""
     y_max = float(mercator_y([max_latitude_deg])[0])
     shown = np.where(np.isnan(values), limits[0], values)
@@ -438,7 +439,6 @@ def sphere_maps(
     grid = sphere_grid(view_array, width=width, max_latitude_deg=max_latitude_deg)
     figure = _new_figure((12.0, 3.4))
     limits = _limits(values)
-    image = None
     for column, measure in enumerate(MEASURES):
         axes = figure.add_axes((0.035 + 0.226 * column, 0.1, 0.19, 0.74), gid=f"map-{measure}")
         image = _draw_panel(

@@ -1,7 +1,8 @@
 """Small licensed sample meshes shipped with vptoolkit, for demos and tests.
 
 The files and their sources, licences and SHA-256 sums are listed in
-``README.md`` beside them::
+``README.md`` beside them; :data:`SAMPLE_SPLITS` places them in the three
+splits (``build-dataset --splits``)::
 
     from vptoolkit.io import load_mesh
     from vptoolkit.samples import sample_path
@@ -16,9 +17,13 @@ from pathlib import Path
 from vptoolkit.errors import InputError
 from vptoolkit.io import SUPPORTED_SUFFIXES
 
-__all__ = ["sample_names", "sample_path"]
+__all__ = ["SAMPLE_SPLITS", "sample_names", "sample_path"]
 
 _SAMPLES_DIR = Path(__file__).resolve().parent
+
+SAMPLE_SPLITS = _SAMPLES_DIR / "splits.csv"
+"""The samples' split file (``name,split``): 8 train, 2 validation and 2 test
+meshes, so a sample build has every split."""
 
 
 def sample_names() -> list[str]:

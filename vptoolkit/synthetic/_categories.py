@@ -13,6 +13,7 @@ import math
 from collections.abc import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from vptoolkit.synthetic._parts import (
     _Z_TO_X,
@@ -205,7 +206,7 @@ def _bottle(rng: np.random.Generator) -> list[_Part]:
     t = np.linspace(0.0, 1.0, 9)[1:]
     shoulder_r = neck_r + (radius - neck_r) * (1 + np.cos(np.pi * t)) / 2
     top, lip, lip_r = body_h + shoulder_h + neck_h, radius * 0.08, neck_r * 1.18
-    profile = [
+    profile: list[ArrayLike] = [
         [[radius * 0.9, 0.0]],  # a chamfered bottom edge
         np.stack([body_r, body_z], axis=1),
         np.stack([shoulder_r, body_h + shoulder_h * t], axis=1),

@@ -103,7 +103,7 @@ def _project_vertices(
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _owns_edge(dx: np.int64, dy: np.int64) -> bool:
+def _owns_edge(dx: np.int64, dy: np.int64) -> np.bool_:
     # Top-left rule for the orientation used below (positive doubled area):
     # the two triangles sharing an edge traverse it in opposite directions,
     # so exactly one of them owns the pixel centres lying on it.
@@ -190,7 +190,7 @@ _BOX_WIDTH = 16  # in narrower boxes a row's run is drawn by a loop over the who
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _exact_steps(q: float, dq: float) -> tuple[bool, float, np.int64, np.int64]:
+def _exact_steps(q: float, dq: float) -> tuple[bool | np.bool_, float, np.int64, np.int64]:
     """Whether the float sums ``q + dq + dq + ...`` in ``q``'s binade form an exact progression.
 
     Let ``q`` lie in the binade ``[2**(e-1), 2**e)``, where the doubles are the
@@ -241,7 +241,7 @@ def _walk_row(q: float, dq: float, k_low: np.int64, k_high: np.int64, face_id: n
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _draw_row(q: float, dq: float, exact: bool, scale: float, shift: np.int64,
+def _draw_row(q: float, dq: float, exact: bool | np.bool_, scale: float, shift: np.int64,
               unit_step: np.int64, k_low: np.int64, k_high: np.int64, face_id: np.int64,
               frame: NDArray[np.int64], start: np.int64, width: np.int64) -> None:
     """:func:`_walk_row` with integer arithmetic where :func:`_exact_steps` allows it.
@@ -297,13 +297,15 @@ def _pixel_box(ax: np.int64, ay: np.int64, bx: np.int64, by: np.int64, cx: np.in
     x1 = min((max(ax, bx, cx) - half_step) // step, resolution - 1)
     y0 = max((min(ay, by, cy) - half_step + step - 1) // step, 0)
     y1 = min((max(ay, by, cy) - half_step) // step, resolution - 1)
-    return x0, x1, y0, y1
+    # typeshed's min and max of a numpy and a Python integer lose the numpy type
+    return x0, x1, y0, y1  # type: ignore[return-value]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _edge_setup(ax: np.int64, ay: np.int64, bx: np.int64, by: np.int64, cx: np.int64,
                 cy: np.int64, qa: float, qb: float, qc: float, area2: np.int64, x0: np.int64,
-                y0: np.int64) -> tuple:
+                y0: np.int64) -> tuple[np.int64, np.int64, np.int64, np.int64, np.int64, np.int64,
+                                       np.int64, np.int64, np.int64, float, float, float]:
     """Edge functions and inverse depth of a triangle at the pixel centre ``(x0, y0)``.
 
     ``area2`` is the signed doubled area (non-zero); the orientation is made
@@ -403,8 +405,8 @@ def _rasterize_view(
             for y in range(y0, y1 + 1):
                 e_ab, e_bc, e_ca, q = row_ab, row_bc, row_ca, q_row
                 base = y * resolution
-                low = x1 + 1
-                high = x0 - 1
+                low: int | np.int64 = x1 + 1
+                high: int | np.int64 = x0 - 1
                 for x in range(x0, x1 + 1):
                     inside = (e_ab | e_bc | e_ca) >= 0
                     i = uint64(base + x)
