@@ -221,7 +221,7 @@ def test_import_and_export_from_the_command_line(tmp_path):
 
     from vptoolkit.cli import main
     from vptoolkit.data import open_dataset
-    from vptoolkit.evaluate import oracle_directions
+    from vptoolkit.evaluate.baselines import oracle_directions
 
     runner = CliRunner()
     tree = write_tree(tmp_path / "set", listed(("chair", 10), ("lamp", 10)), n_points=64)

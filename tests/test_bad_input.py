@@ -21,8 +21,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import require_package
-from test_pack_integrity import build  # noqa: F401 - a small store for evaluate
+from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.samples import sample_path
 
@@ -141,17 +140,17 @@ def _absurd_npy() -> bytes:
     return header.getvalue() + bytes(96)
 
 
-def test_predictions_that_are_not_npy_or_claim_terabytes(build: Path, tmp_path: Path) -> None:  # noqa: F811
+def test_predictions_that_are_not_npy_or_claim_terabytes(small_build: Path, tmp_path: Path) -> None:
     not_npy = tmp_path / "p.npz"
     with zipfile.ZipFile(not_npy, "w") as archive:
         archive.writestr("names.txt", "chair")
         archive.writestr("directions.npy", b"not an array")
-    code, text = _run("evaluate", not_npy, "--dataset", build)
+    code, text = _run("evaluate", not_npy, "--dataset", small_build)
     _assert_one_line_bad_input(code, text, "p.npz", "names.txt", "not a .npy array")
 
     absurd = tmp_path / "p.npy"
     absurd.write_bytes(_absurd_npy())
-    code, text = _run("evaluate", absurd, "--dataset", build)
+    code, text = _run("evaluate", absurd, "--dataset", small_build)
     _assert_one_line_bad_input(code, text, "p.npy", "(400000000000, 4, 3)")
     code, text = _run("predict", absurd)
     _assert_one_line_bad_input(code, text, "p.npy", "but the file holds 96")
@@ -168,8 +167,8 @@ def test_a_scheduler_that_is_not_a_dask_address_is_refused_at_once(tmp_path: Pat
     assert not (tmp_path / "out").exists()
 
 
-def test_train_threads_beyond_the_machine(build: Path, tmp_path: Path) -> None:  # noqa: F811
-    code, text = _run("train", build, "-o", tmp_path / "m", "--threads", "100000")
+def test_train_threads_beyond_the_machine(small_build: Path, tmp_path: Path) -> None:
+    code, text = _run("train", small_build, "-o", tmp_path / "m", "--threads", "100000")
     _assert_one_line_bad_input(code, text, "--threads")
 
 
@@ -329,7 +328,8 @@ def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Pa
 
 
 def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
-    from vptoolkit.dataset.build import STAGING_DIR, build_dataset
+    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.staging import STAGING_DIR
     from vptoolkit.errors import InputError
 
     src = tmp_path / "src"
@@ -369,21 +369,21 @@ def test_build_into_a_symlink_loop_is_one_line(tmp_path: Path) -> None:
         _assert_one_line_bad_input(code, text, f"{out}: symbolic link loop")
 
 
-def test_a_licence_table_with_a_huge_cell_is_one_line(build: Path, tmp_path: Path) -> None:  # noqa: F811
+def test_a_licence_table_with_a_huge_cell_is_one_line(small_build: Path, tmp_path: Path) -> None:
     table = tmp_path / "licenses.csv"
     table.write_text("name,license,author,url\nm,mit," + "a" * 200_000 + ",u\n")
-    code, text = _run("pack", build, tmp_path / "rel", "--licenses", table)
+    code, text = _run("pack", small_build, tmp_path / "rel", "--licenses", table)
     _assert_one_line_bad_input(code, text, "licenses.csv: line 2 is not a CSV row")
     assert not (tmp_path / "rel").exists()
 
 
 @pytest.mark.parametrize("cell", ["MIT\x1b[2J", "MIT\tBSD", '"MIT\nBSD"', "MIT\x85"],
                          ids=["escape", "tab", "line-break", "c1-control"])
-def test_a_licence_table_with_control_characters_is_one_line(build: Path, tmp_path: Path,  # noqa: F811
+def test_a_licence_table_with_control_characters_is_one_line(small_build: Path, tmp_path: Path,
                                                              cell: str) -> None:
     table = tmp_path / "licenses.csv"
     table.write_text(f"name,license,author,url\nm,{cell},a,u\n", encoding="utf-8")
-    code, text = _run("pack", build, tmp_path / "rel", "--licenses", table)
+    code, text = _run("pack", small_build, tmp_path / "rel", "--licenses", table)
     _assert_one_line_bad_input(code, text, "licenses.csv: line 2: the license cell holds the "
                                "control character U+")
     assert not (tmp_path / "rel").exists()
@@ -427,13 +427,13 @@ def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) 
     np.testing.assert_allclose(raycast, raster, rtol=0.01)
 
 
-def test_train_on_too_few_points_says_how_many_it_needs(build: Path, tmp_path: Path) -> None:  # noqa: F811
-    code, text = _run("train", build, "-o", tmp_path / "m", "--epochs", "1")
+def test_train_on_too_few_points_says_how_many_it_needs(small_build: Path, tmp_path: Path) -> None:
+    code, text = _run("train", small_build, "-o", tmp_path / "m", "--epochs", "1")
     _assert_one_line_bad_input(code, text, "200 points", "at least 1024")
 
 
 @pytest.mark.parametrize("resume", [False, True], ids=["fresh", "resume"])
-def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Path,  # noqa: F811
+def test_train_into_an_existing_run_suggests_cli_flags(small_build: Path, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch,
                                                       resume: bool) -> None:
     import vptoolkit.learn.train as train
@@ -446,7 +446,7 @@ def test_train_into_an_existing_run_suggests_cli_flags(build: Path, tmp_path: Pa
 
     monkeypatch.setattr(points, "N_FPS_POINTS", 100)
     monkeypatch.setattr(train, "train_model", refuse)
-    code, text = _run("train", build, "-o", tmp_path / "m", *(["--resume"] if resume else []))
+    code, text = _run("train", small_build, "-o", tmp_path / "m", *(["--resume"] if resume else []))
     _assert_one_line_bad_input(code, text, "nothing to resume from" if resume else "add --resume")
     assert "resume=True" not in text and "overwrite=True" not in text
 
@@ -476,7 +476,7 @@ def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
         build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
 
 
-def test_train_names_its_options_not_the_python_arguments(build: Path, tmp_path: Path,  # noqa: F811
+def test_train_names_its_options_not_the_python_arguments(small_build: Path, tmp_path: Path,
                                                           monkeypatch: pytest.MonkeyPatch) -> None:
     import vptoolkit.learn.train as train
     import vptoolkit.points as points
@@ -493,7 +493,7 @@ def test_train_names_its_options_not_the_python_arguments(build: Path, tmp_path:
 
     monkeypatch.setattr(points, "N_FPS_POINTS", 1)
     monkeypatch.setattr(train, "train_model", empty_validation)
-    code, text = _run("train", build, "-o", tmp_path / "m", "--val-split", "test")
+    code, text = _run("train", small_build, "-o", tmp_path / "m", "--val-split", "test")
     _assert_one_line_bad_input(code, text, "--val-split: split 'test' of dataset.zarr has no "
                                "models; choose another with --val-split")
     assert "val_split" not in text

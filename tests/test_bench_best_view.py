@@ -3,39 +3,31 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
+from fixtures.scripts import RunTool
 from vptoolkit.samples import sample_path
 
 require_package("pymeshlab")
 require_package("torch")
 
-ROOT = Path(__file__).resolve().parents[1]
-TOOL = ROOT / "tools" / "bench_best_view.py"
+TOOL = "bench_best_view.py"
 
 
-def _bench(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, str(TOOL), *args], capture_output=True, text=True, timeout=900,
-        check=False, env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )
-
-
-def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path) -> None:
+@pytest.mark.slow
+def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path,
+                                                          run_tool: RunTool) -> None:
     meshes = tmp_path / "meshes"
     meshes.mkdir()
     for name in ("mug", "teapot", "suzanne"):
         shutil.copyfile(sample_path(name), meshes / sample_path(name).name)
     results = tmp_path / "results.md"
-    result = _bench(str(meshes), "--quick", "--cache", str(tmp_path / "cache"),
-                    "--results", str(results), "--json", str(tmp_path / "rows.json"))
+    result = run_tool(TOOL, str(meshes), "--quick", "--cache", str(tmp_path / "cache"),
+                      "--results", str(results), "--json", str(tmp_path / "rows.json"), timeout=900)
     assert result.returncode == 0, result.stderr[-2000:]
     rows = json.loads((tmp_path / "rows.json").read_text())
     assert {"random view (expectation)", "PCA axis", "network alone", "plain search 4 @ 128",
@@ -59,7 +51,8 @@ def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path) -> No
     (["--budgets", "a"], "--budgets"),
     (["no/such/folder"], "not a folder"),
 ])
-def test_bad_arguments_exit_2_in_one_line(arguments: list[str], message: str) -> None:
-    result = _bench(*arguments)
+def test_bad_arguments_exit_2_in_one_line(arguments: list[str], message: str,
+                                          run_tool: RunTool) -> None:
+    result = run_tool(TOOL, *arguments)
     assert result.returncode == 2 and message in result.stderr
     assert "Traceback" not in result.stderr

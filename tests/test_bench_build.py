@@ -3,35 +3,26 @@
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
-from conftest import require_package
+from fixtures.environment import require_package
+from fixtures.scripts import RunTool
 from vptoolkit.samples import sample_path
 
 require_package("pymeshlab")
 
-ROOT = Path(__file__).resolve().parents[1]
-TOOL = ROOT / "tools" / "bench_build.py"
+TOOL = "bench_build.py"
 
 
-def _bench(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, str(TOOL), *args], capture_output=True, text=True, timeout=600,
-        check=False, env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )
-
-
-def test_meshes_folder_is_built_instead_of_the_samples(tmp_path: Path) -> None:
+def test_meshes_folder_is_built_instead_of_the_samples(tmp_path: Path,
+                                                        run_tool: RunTool) -> None:
     meshes = tmp_path / "meshes" / "nested"
     meshes.mkdir(parents=True)
     for name in ("table", "bottle"):
         shutil.copyfile(sample_path(name), meshes / sample_path(name).name)
     (meshes / "notes.txt").write_text("not a mesh")
-    result = _bench("--quick", "--workers", "1", "--meshes", str(tmp_path / "meshes"),
+    result = run_tool(TOOL, "--quick", "--workers", "1", "--meshes", str(tmp_path / "meshes"),
                     "--json", str(tmp_path / "bench.json"))
     assert result.returncode == 0, result.stderr[-2000:]
     assert f"2 files from 2 meshes under {tmp_path / 'meshes'}" in result.stdout
@@ -40,9 +31,9 @@ def test_meshes_folder_is_built_instead_of_the_samples(tmp_path: Path) -> None:
     assert [(run["n_models"], run["n_failures"]) for run in record["runs"]] == [(2, 0)]
 
 
-def test_a_folder_without_meshes_is_refused(tmp_path: Path) -> None:
+def test_a_folder_without_meshes_is_refused(tmp_path: Path, run_tool: RunTool) -> None:
     (tmp_path / "notes.txt").write_text("not a mesh")
-    result = _bench("--quick", "--meshes", str(tmp_path))
+    result = run_tool(TOOL, "--quick", "--meshes", str(tmp_path))
     assert result.returncode == 2 and "no mesh file under" in result.stderr
-    result = _bench("--quick", "--meshes", str(tmp_path / "missing"))
+    result = run_tool(TOOL, "--quick", "--meshes", str(tmp_path / "missing"))
     assert result.returncode == 2 and "is not a folder" in result.stderr

@@ -3,24 +3,20 @@
 from __future__ import annotations
 
 import re
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
+from fixtures.scripts import RunTool
 
 require_package("torch")
 require_package("zarr")
 
-TOOL = Path(__file__).resolve().parents[1] / "tools" / "bench_train.py"
 
 
 @pytest.mark.slow
-def test_quick_bench_prints_every_row_with_a_rate():
-    result = subprocess.run([sys.executable, str(TOOL), "--quick"], capture_output=True, text=True,
-                            timeout=600, check=False)
+def test_quick_bench_prints_every_row_with_a_rate(run_tool: RunTool) -> None:
+    result = run_tool("bench_train.py", "--quick")
     assert result.returncode == 0, result.stderr[-2000:]
     rows = [line for line in result.stdout.splitlines() if line.startswith("  ")]
     assert [row.split("  ")[1].strip() for row in rows][:3] == [

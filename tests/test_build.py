@@ -32,7 +32,7 @@ from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import fibonacci_sphere
 
-from conftest import DASK_DASHBOARD, require_package
+from fixtures.environment import DASK_DASHBOARD, require_package
 
 MALFORMED = Path(__file__).parent / "data" / "malformed"
 SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000}

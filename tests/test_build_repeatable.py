@@ -31,7 +31,7 @@ from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 
-from conftest import DASK_DASHBOARD, require_package
+from fixtures.environment import DASK_DASHBOARD, require_package
 
 REAL = Path(__file__).parent / "data" / "real"
 RABBIT = REAL / "rabbit.obj"
@@ -83,6 +83,7 @@ def src(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
+@pytest.mark.slow
 def test_cleaning_a_model_does_not_depend_on_what_the_process_cleaned_before():
     require_package("pymeshlab")
     fresh = _cleaned_hash(TRUCK)
@@ -118,7 +119,8 @@ def test_one_worker_two_workers_and_dask_give_identical_arrays(src, tmp_path):
 
 def test_cleaning_removes_the_intersections_that_decimation_brings_back():
     require_package("pymeshlab")
-    from vptoolkit.clean import clean_mesh, count_self_intersections
+    from vptoolkit.clean import clean_mesh
+    from vptoolkit.clean.repair import count_self_intersections
     from vptoolkit.io import load_mesh
 
     # Quadric decimation of this truck to 2000 faces leaves faces intersecting (a raw

@@ -15,16 +15,14 @@ from vptoolkit.mesh import Mesh
 
 pytest.importorskip("pymeshlab")
 
-from vptoolkit.clean import (  # noqa: E402  (after the skip)
-    CleaningReport,
-    clean_mesh,
-    count_self_intersections,
+from vptoolkit.clean import CleaningReport, clean_mesh  # noqa: E402  (after the skip)
+from vptoolkit.clean.hidden import (  # noqa: E402
     hidden_faces,
     remove_hidden_faces,
-    repair_mesh,
-    simplify_mesh,
     two_sided_pixel_totals,
 )
+from vptoolkit.clean.repair import count_self_intersections, repair_mesh  # noqa: E402
+from vptoolkit.clean.simplify import simplify_mesh  # noqa: E402
 
 # Few views keep the visibility passes fast; 200 Fibonacci views at 128 px
 # still see every face of the convex test shapes.
@@ -495,6 +493,7 @@ def test_clean_mesh_rejects_a_non_mesh() -> None:
 # ---------------------------------------------------------------- measures
 
 
+@pytest.mark.slow
 def test_measures_of_a_cleaned_real_mesh_stay_close() -> None:
     from vptoolkit.io import load_mesh
     from vptoolkit.measures import compute_view_quality

@@ -98,7 +98,7 @@ def test_sample_writes_points_with_normals(runner, tmp_path):
 
 
 def test_pack_verify_info_on_a_small_store(runner, tmp_path):
-    from test_store import write_synthetic
+    from fixtures.stores import write_synthetic
 
     store = write_synthetic(tmp_path / "dataset.zarr")
     release = tmp_path / "release"
@@ -118,10 +118,10 @@ def test_pack_verify_info_on_a_small_store(runner, tmp_path):
 
 
 def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_path):
-    from test_store import write_synthetic
+    from fixtures.stores import write_synthetic
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.evaluate import oracle_directions
+    from vptoolkit.evaluate.baselines import oracle_directions
 
     store = write_synthetic(tmp_path / "dataset.zarr")
     with open_dataset(store) as dataset:
@@ -154,6 +154,7 @@ def test_build_dataset_records_failures_and_exits_1(runner, tmp_path):
     assert shown.exit_code == 0 and "things" in shown.stdout
 
 
+@pytest.mark.slow
 def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
     import shutil
 

@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import box_mesh, decode_png, model_mask, require_package, started_renderer
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
+from fixtures.pictures import decode_png, model_mask, started_renderer
 from vptoolkit.cli import main
 from vptoolkit.io import save_mesh
 from vptoolkit.samples import sample_path
@@ -112,20 +114,6 @@ def test_sphere_map_of_a_wrong_file_exits_2(runner, tmp_path):
     result = runner.invoke(main, ["sphere-map", str(bad), "-o", str(tmp_path / "map.png")])
     assert result.exit_code == 2
     assert "bad.npz: lacks views, normalized" in one_error_line(result)
-
-
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory) -> Path:
-    require_package("zarr")
-    from vptoolkit.synthetic import write_collection
-
-    root = tmp_path_factory.mktemp("tiny")
-    write_collection(root / "shapes", n_per_category=2, categories=("bottle", "table"), seed=0)
-    result = CliRunner().invoke(main, ["build-dataset", str(root / "shapes"), str(root / "out"),
-                                       "--views", "60", "--resolution", "48", "--points", "1500",
-                                       "--no-clean"])
-    assert result.exit_code == 0, result.output
-    return root / "out"
 
 
 def test_report_without_pictures(runner, tiny_dataset, tmp_path):

@@ -82,7 +82,7 @@ def test_views_rejects_bad_options_with_exit_2(runner, tmp_path, arguments, mess
 
 
 def test_render_view_set_draws_a_contact_sheet(runner, tmp_path):
-    from conftest import read_png
+    from fixtures.pictures import read_png
 
     output = tmp_path / "sheet.png"
     result = runner.invoke(main, ["render", str(sample_path("teapot.stl")), "--view-set", "3",
@@ -97,7 +97,7 @@ def test_render_view_set_draws_a_contact_sheet(runner, tmp_path):
 def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
     import shutil
 
-    from conftest import read_png
+    from fixtures.pictures import read_png
 
     source = tmp_path / "models"
     source.mkdir()
@@ -119,12 +119,12 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
 def test_views_refuses_a_bad_target_or_output_folder_before_drawing(runner, monkeypatch,
                                                                     tmp_path, arguments,
                                                                     expected):
-    import vptoolkit.view_sets
+    import vptoolkit.view_sets.search
 
     def never(*args, **kwargs):
         raise AssertionError("the views were drawn")
 
-    monkeypatch.setattr(vptoolkit.view_sets, "measure_view_set", never)
+    monkeypatch.setattr(vptoolkit.view_sets.search, "measure_view_set", never)
     monkeypatch.chdir(tmp_path)
     result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *SMALL, *arguments])
     assert result.exit_code == 2, result.output

@@ -12,7 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_store import FAILURES, MODELS, N_POINTS, N_VIEWS, synthetic_entries, write_synthetic
+from fixtures.stores import (
+    FAILURES,
+    MODELS,
+    N_POINTS,
+    N_VIEWS,
+    STORE_NAMES,
+    synthetic_entries,
+    write_synthetic,
+)
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.schema import published_split
@@ -20,17 +28,10 @@ from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
 
 REPO = Path(__file__).resolve().parents[1]
-KINDS = {"zarr": "dataset.zarr", "zarr-zip": "dataset.zarr.zip", "hdf5": "dataset.h5"}
 LOADER_MUST_NOT_IMPORT = ("torch", "open3d", "pymeshlab", "numba", "trimesh")
 
 
-@pytest.fixture(scope="module")
-def stores(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("loader")
-    return {kind: write_synthetic(folder / name) for kind, name in KINDS.items()}
-
-
-@pytest.fixture(params=list(KINDS))
+@pytest.fixture(params=list(STORE_NAMES))
 def dataset(request: pytest.FixtureRequest,
             stores: dict[str, Path]) -> Iterator[ViewpointDataset]:
     with open_dataset(stores[request.param]) as opened:

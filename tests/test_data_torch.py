@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import REQUIRE_ALL
-from test_store import MODELS, N_VIEWS, synthetic_entries, write_synthetic
+from fixtures.environment import REQUIRE_ALL
+from fixtures.stores import MODELS, N_VIEWS, synthetic_entries, write_synthetic
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"

@@ -13,7 +13,9 @@ from collections.abc import Iterator
 import numpy as np
 import pytest
 
-from conftest import REQUIRE_ALL, box_mesh, model_mask, require_package
+from fixtures.environment import REQUIRE_ALL, require_package
+from fixtures.meshes import box_mesh
+from fixtures.pictures import model_mask
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.engine import ENGINES, Engine, open_renderer

@@ -12,17 +12,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_store import synthetic_entry, write_synthetic
+from fixtures.stores import synthetic_entry, write_synthetic
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
-from vptoolkit.evaluate import (
+from vptoolkit.evaluate.baselines import oracle_directions, pca_directions, random_directions
+from vptoolkit.evaluate.scores import (
     EvaluationReport,
     evaluate_predictions,
     load_predictions,
-    oracle_directions,
-    pca_directions,
-    random_directions,
     save_predictions,
     score_directions,
 )
@@ -353,7 +351,7 @@ def test_score_directions_checks_its_array(test_split: ViewpointDataset) -> None
 def test_evaluation_imports_numpy_only(store: Path, tmp_path: Path) -> None:
     path = save_predictions(tmp_path / "p.npz", TEST_NAMES, random_directions(N_TEST, seed=0))
     code = (
-        "import sys; from vptoolkit.evaluate import evaluate_predictions; "
+        "import sys; from vptoolkit.evaluate.scores import evaluate_predictions; "
         f"evaluate_predictions({str(store)!r}, {str(path)!r}).format_table(); "
         "print(','.join(m for m in ('torch', 'open3d', 'pymeshlab', 'numba', 'trimesh') "
         "if m in sys.modules))"

@@ -2,32 +2,17 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import require_package
+from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.errors import InputError
-from vptoolkit.evaluate import evaluate_view_sets, score_view_sets
+from vptoolkit.evaluate.coverage import evaluate_view_sets, score_view_sets
 from vptoolkit.mesh import Mesh
-from vptoolkit.view_sets import FaceVisibility, best_view_set
-
-
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory) -> Path:
-    require_package("zarr")
-    from vptoolkit.synthetic import write_collection
-
-    root = tmp_path_factory.mktemp("tiny")
-    write_collection(root / "shapes", n_per_category=2, categories=("bottle", "table"), seed=0)
-    result = CliRunner().invoke(main, ["build-dataset", str(root / "shapes"), str(root / "out"),
-                                       "--views", "60", "--resolution", "64", "--points", "500",
-                                       "--no-clean"])
-    assert result.exit_code == 0, result.output
-    return root / "out"
+from vptoolkit.view_sets.search import best_view_set
+from vptoolkit.view_sets.visibility import FaceVisibility
 
 
 def greedy_directions(dataset, k: int) -> np.ndarray:
@@ -120,9 +105,9 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
     require_package("matplotlib")
     import re
 
-    from conftest import read_png
+    from fixtures.pictures import read_png
     from vptoolkit.data import open_dataset
-    from vptoolkit.evaluate import model_visibility
+    from vptoolkit.evaluate.coverage import model_visibility
     from vptoolkit.pictures.report import write_report
 
     index = write_report(tiny_dataset, tmp_path / "report", thumbnails=False, view_set=3)
@@ -162,7 +147,7 @@ def test_a_store_without_view_sets_still_loads_and_reports(tiny_dataset, tmp_pat
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.reader import open_store
     from vptoolkit.dataset.writer import write_dataset
-    from vptoolkit.evaluate import model_view_set
+    from vptoolkit.evaluate.coverage import model_view_set
 
     with open_store(next(tiny_dataset.glob("dataset.*"))) as reader:
         entries = [dataclasses.replace(reader.entry(i), view_set=None)

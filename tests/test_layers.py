@@ -146,3 +146,48 @@ def test_long_modules_say_why_they_are_not_split():
             unexplained.append(f"{path.relative_to(PACKAGE)} ({source.count(chr(10))} lines)")
     assert not unexplained, (f"over {MODULE_LINES} lines without a 'Size' paragraph in the "
                              f"docstring: {', '.join(unexplained)}")
+
+
+def test_names_are_exported_only_by_the_module_that_defines_them():
+    # docs/architecture.md, "Package faces": vptoolkit itself is the one face.
+    re_exported = []
+    for name, path in MODULES.items():
+        if name == "vptoolkit":
+            continue
+        tree = ast.parse(path.read_text())
+        imported = {alias.asname or alias.name for node in tree.body
+                    if isinstance(node, ast.ImportFrom) for alias in node.names}
+        for node in tree.body:
+            if (isinstance(node, ast.Assign)
+                    and any(isinstance(t, ast.Name) and t.id == "__all__" for t in node.targets)):
+                exported = [ast.literal_eval(element) for element in node.value.elts]
+                re_exported += [f"{name}.{item}" for item in exported if item in imported]
+    assert not re_exported, f"__all__ lists imported names: {', '.join(re_exported)}"
+
+
+def _defined_names(tree: ast.Module) -> set[str]:
+    """Names a module defines at import: functions, classes and assigned names."""
+    names = set()
+    for node in module_level_nodes(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, (ast.Assign, ast.AnnAssign)):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names.update(name.id for target in targets for name in ast.walk(target)
+                         if isinstance(name, ast.Name))
+    return names
+
+
+def test_names_are_imported_from_the_module_that_defines_them():
+    # No facade inside the package: a name comes from its owner, never through a module
+    # that imported it (a submodule of a package counts as the package's own).
+    defined = {name: _defined_names(ast.parse(path.read_text())) for name, path in MODULES.items()}
+    borrowed = []
+    for name, path in MODULES.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.ImportFrom) and node.module in MODULES):
+                continue
+            borrowed += [f"{name}: {alias.name} from {node.module}" for alias in node.names
+                         if alias.name not in defined[node.module]
+                         and f"{node.module}.{alias.name}" not in MODULES]
+    assert not borrowed, borrowed

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from conftest import one_torch_thread, require_package
+from fixtures.environment import require_package
 
 require_package("torch")
 
@@ -23,7 +23,7 @@ from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.rotations import fixed_rotations  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 MESHES = ("bunny", "mug", "Duck", "table")
 
 

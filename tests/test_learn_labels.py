@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
 
 require_package("torch")
 

@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import one_torch_thread, require_package
+from fixtures.networks import TINY_CONFIG
+from fixtures.environment import require_package
 
 require_package("torch")
 require_package("safetensors")
@@ -29,7 +30,7 @@ from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")
@@ -47,14 +48,6 @@ def network(one_thread: None) -> M.ViewpointNet:
     return M.ViewpointNet(seed=0).eval()
 
 
-SMALL = ModelConfig(
-    levels=(
-        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8, neighbourhood="cell"),
-        LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=16, channels=16),
-    ),
-    latent_channels=32, kernel_size=4, global_kernel_size=4, kernel_hidden=8, head_channels=(16,),
-    decoder_channels=(8, 4),
-)
 
 
 # ---------------------------------------------------------------- outputs
@@ -76,7 +69,7 @@ def test_output_shapes_and_unit_directions(head, clouds):
 
 
 def test_training_mode_outputs_have_gradients(clouds):
-    model = M.ViewpointNet(SMALL).train()
+    model = M.ViewpointNet(TINY_CONFIG).train()
     outputs = model(clouds)
     outputs["directions"].sum().backward()
     assert all(p.grad is not None for name, p in model.named_parameters() if "heads" in name or "encoder" in name)
@@ -205,20 +198,20 @@ def test_point_density_counts_points_per_cell(clouds):
 
 def test_initial_weights_come_from_the_seed_not_the_global_state():
     before = torch.get_rng_state()
-    first = M.ViewpointNet(SMALL, seed=5).state_dict()
-    second = M.ViewpointNet(SMALL, seed=5).state_dict()
-    other = M.ViewpointNet(SMALL, seed=6).state_dict()
+    first = M.ViewpointNet(TINY_CONFIG, seed=5).state_dict()
+    second = M.ViewpointNet(TINY_CONFIG, seed=5).state_dict()
+    other = M.ViewpointNet(TINY_CONFIG, seed=6).state_dict()
     assert torch.equal(torch.get_rng_state(), before)
     assert all(torch.equal(first[name], second[name]) for name in first)
     assert not all(torch.equal(first[name], other[name]) for name in first)
 
 
 def test_dropout_draws_from_its_generator(clouds):
-    model = M.ViewpointNet(SMALL).train()
+    model = M.ViewpointNet(TINY_CONFIG).train()
     before = torch.get_rng_state()
     results = []
     for seed in (1, 1, 2):
-        model.load_state_dict(M.ViewpointNet(SMALL).state_dict())
+        model.load_state_dict(M.ViewpointNet(TINY_CONFIG).state_dict())
         model.set_generator(torch.Generator().manual_seed(seed))
         results.append(model(clouds)["directions"].detach())
     assert torch.equal(torch.get_rng_state(), before)
@@ -261,10 +254,10 @@ def test_checkpoint_round_trip_gives_identical_outputs(head, tmp_path, clouds, m
 
 
 def test_checkpoint_folder_layout(tmp_path):
-    M.save_model(M.ViewpointNet(SMALL), tmp_path / "run")
+    M.save_model(M.ViewpointNet(TINY_CONFIG), tmp_path / "run")
     assert sorted(p.name for p in (tmp_path / "run").iterdir()) == ["model.json", "model.safetensors"]
     model, _ = M.load_model(tmp_path / "run")
-    assert model.config == SMALL
+    assert model.config == TINY_CONFIG
 
 
 def test_half_precision_checkpoint_is_half_the_size_and_predicts_the_same(tmp_path, clouds):
@@ -298,7 +291,7 @@ def test_default_is_the_bundled_pretrained_checkpoint(tmp_path, monkeypatch):
 def test_loading_bad_checkpoints_raises(tmp_path):
     with pytest.raises(InputError, match="not found"):
         M.load_model(tmp_path / "missing")
-    M.save_model(M.ViewpointNet(SMALL), tmp_path / "small.safetensors")
+    M.save_model(M.ViewpointNet(TINY_CONFIG), tmp_path / "small.safetensors")
     M.save_model(M.ViewpointNet(), tmp_path / "big.safetensors")
     (tmp_path / "big.safetensors").replace(tmp_path / "small.safetensors")
     with pytest.raises(CheckpointError, match="small.safetensors: weights do not match"):
@@ -313,7 +306,7 @@ def test_loading_bad_checkpoints_raises(tmp_path):
 
 
 def test_configuration_round_trips_and_validates():
-    assert ModelConfig.from_dict(json.loads(json.dumps(SMALL.to_dict()))) == SMALL
+    assert ModelConfig.from_dict(json.loads(json.dumps(TINY_CONFIG.to_dict()))) == TINY_CONFIG
     with pytest.raises(InputError, match="head: unknown head"):
         ModelConfig(head="mlp")
     with pytest.raises(InputError, match=r"levels\[1\].radius"):
@@ -321,7 +314,7 @@ def test_configuration_round_trips_and_validates():
     with pytest.raises(InputError, match="unknown keys"):
         ModelConfig.from_dict({"width": 3})
     with pytest.raises(InputError, match="points: expected shape"):
-        M.ViewpointNet(SMALL)(torch.zeros(5, 3))
+        M.ViewpointNet(TINY_CONFIG)(torch.zeros(5, 3))
 
 
 def test_importing_vptoolkit_learn_does_not_import_torch():

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import box_mesh, one_torch_thread, require_package
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
 
@@ -20,7 +21,7 @@ from vptoolkit.learn.octahedral import sphere_map_directions  # noqa: E402
 from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
 from vptoolkit.learn.prior import NetworkPrior, distinct_directions, map_modes  # noqa: E402
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

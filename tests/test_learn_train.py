@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import shutil
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from conftest import one_torch_thread, require_package
+from fixtures.builds import build_samples
+from fixtures.environment import require_package
+from fixtures.networks import TINY_CONFIG
 
 require_package("torch")
 require_package("safetensors")
@@ -23,7 +24,7 @@ from vptoolkit.data import open_dataset  # noqa: E402
 from vptoolkit.errors import ExistingRunError, InputError  # noqa: E402
 from vptoolkit.evaluate.protocol import random_view_scores, score_protocol  # noqa: E402
 from vptoolkit.learn import train as T  # noqa: E402
-from vptoolkit.learn.config import LevelConfig, ModelConfig  # noqa: E402
+from vptoolkit.learn.config import ModelConfig  # noqa: E402
 from vptoolkit.learn.model import load_model, resolve_device  # noqa: E402
 from vptoolkit.learn.predict import (  # noqa: E402
     CATEGORY_MODELS_FORMAT,
@@ -41,33 +42,18 @@ from vptoolkit.samples import sample_path  # noqa: E402
 
 SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus")
 FAST = {"n_points": 512, "n_fps": 128, "rotate": False, "val_split": "train", "device": "cpu"}
-TINY = ModelConfig(
-    levels=(
-        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8, neighbourhood="cell"),
-        LevelConfig(grid_level=2, radius=1 / 4, max_neighbours=16, channels=16),
-    ),
-    latent_channels=32, kernel_size=4, global_kernel_size=4, kernel_hidden=8, head_channels=(16,),
-    decoder_channels=(8, 4),
-)
 
 
-one_thread = pytest.fixture(autouse=True, scope="module")(one_torch_thread)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")
 def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
     """Eight sample meshes measured from 100 views at 64 px: six train, one val, one test."""
-    from vptoolkit.dataset.build import build_dataset
-
-    root = tmp_path_factory.mktemp("learn")
-    source = root / "src" / "shapes"
-    source.mkdir(parents=True)
-    for name in SHAPES:
-        path = sample_path(name)
-        shutil.copyfile(path, source / path.name)
-    build_dataset(root / "src", root / "out", n_views=100, resolution=64, n_points=2000, clean=False)
+    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes", n_views=100,
+                        resolution=64, n_points=2000, clean=False)
     torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
-    return root / "out"
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -127,7 +113,7 @@ def tiny_run(dataset_dir: Path, output: Path, **options: Any) -> T.TrainResult:
     arguments = {"labels": "ml+gl", "epochs": 4, "batch_size": 2, **FAST}
     arguments.update(options)
     head = {"sr": "sr", "dldl": "dldl"}.get(arguments["labels"], "direction")
-    arguments.setdefault("architecture", dataclasses.replace(TINY, head=head))
+    arguments.setdefault("architecture", dataclasses.replace(TINY_CONFIG, head=head))
     return T.train_model(dataset_dir, output, **arguments)
 
 
@@ -274,7 +260,7 @@ def test_training_options_are_checked(dataset_dir, tmp_path):
     with pytest.raises(InputError, match="batch_size"):
         T.train_model(dataset_dir, tmp_path / "x", batch_size=1)
     with pytest.raises(InputError, match="architecture: head 'direction' does not fit labels 'sr'"):
-        T.train_model(dataset_dir, tmp_path / "x", labels="sr", architecture=TINY)
+        T.train_model(dataset_dir, tmp_path / "x", labels="sr", architecture=TINY_CONFIG)
     with pytest.raises(InputError, match="split: unknown split"):
         T.train_model(dataset_dir, tmp_path / "x", val_split="holdout", epochs=1, **{
             k: v for k, v in FAST.items() if k != "val_split"})
@@ -348,7 +334,7 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")
         categories = dict(zip(train.names, train.categories))
-    options = {"labels": "ml", "epochs": 1, "batch_size": 2, "architecture": TINY, **FAST}
+    options = {"labels": "ml", "epochs": 1, "batch_size": 2, "architecture": TINY_CONFIG, **FAST}
     results = T.train_per_category(dataset_dir, tmp_path / "per", **options)
     assert sorted(results) == sorted(set(categories.values()))
     index = json.loads((tmp_path / "per" / "categories.json").read_text())

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from conftest import box_mesh
+from fixtures.meshes import box_mesh
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import MeasurementError
 from vptoolkit.geometry import face_areas

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from test_pack_integrity import build  # noqa: F401 - a small synthetic store
 from vptoolkit.cli import main
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, write_bytes_atomic
@@ -110,7 +109,7 @@ def test_names_up_to_255_bytes_can_be_written(tmp_path: Path, n_bytes: int) -> N
 
 
 def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
-    build: Path, tmp_path: Path  # noqa: F811
+    small_build: Path, tmp_path: Path
 ) -> None:
     from vptoolkit.dataset.release import pack_release
     from vptoolkit.dataset.reader import open_store
@@ -120,16 +119,16 @@ def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
     beside = tmp_path / ".release.k9x2ab.partial"
     beside.mkdir()
     (beside / "half.h5").write_bytes(b"half")
-    inside = build / ".dataset.zarr.q1w2e3.partial"
+    inside = small_build / ".dataset.zarr.q1w2e3.partial"
     inside.mkdir()
-    pack_release(build, tmp_path / "release")
+    pack_release(small_build, tmp_path / "release")
     assert not beside.exists()
-    with open_store(build / "dataset.zarr") as reader:
+    with open_store(small_build / "dataset.zarr") as reader:
         write_dataset(tmp_path / "copy.zarr", _ReaderEntries(reader), attrs=dict(reader.attrs),
                       views=reader.array("views")[:], failures=reader.failures())
     shutil.rmtree(tmp_path / "copy.zarr")
     (tmp_path / ".copy.zarr.zz.partial").mkdir()
-    with open_store(build / "dataset.zarr") as reader:
+    with open_store(small_build / "dataset.zarr") as reader:
         write_dataset(tmp_path / "copy.zarr", _ReaderEntries(reader), attrs=dict(reader.attrs),
                       views=reader.array("views")[:], failures=reader.failures())
     assert not (tmp_path / ".copy.zarr.zz.partial").exists()
@@ -142,11 +141,11 @@ def test_sphere_map_of_a_text_file_says_what_it_is(tmp_path: Path) -> None:
     assert code == 2 and "notes.npz: not an .npz archive" in text and "pickled" not in text
 
 
-def test_huge_direction_vectors_score_like_unit_ones(build: Path) -> None:  # noqa: F811
+def test_huge_direction_vectors_score_like_unit_ones(small_build: Path) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.evaluate import score_directions
+    from vptoolkit.evaluate.scores import score_directions
 
-    with open_dataset(build) as dataset:
+    with open_dataset(small_build) as dataset:
         directions = np.random.default_rng(0).normal(size=(len(dataset), 4, 3))
         unit = score_directions(dataset, directions).scores
         huge = score_directions(dataset, directions / np.abs(directions).max() * 1e308).scores

@@ -15,29 +15,11 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import require_package
-from test_release import FAILURES, N_VIEWS, _attrs, _entries
+from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.errors import VerificationError
 
 CHUNK = Path("dataset.zarr") / "quality" / "c" / "0" / "0" / "0"
-
-
-@pytest.fixture()
-def build(tmp_path: Path) -> Path:
-    """A build folder with a small synthetic ``dataset.zarr`` (9 models in one quality chunk)."""
-    require_package("zarr")
-    require_package("h5py")
-    from vptoolkit.dataset.writer import write_dataset
-
-    rng = np.random.default_rng(15)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    folder = tmp_path / "out"
-    folder.mkdir()
-    write_dataset(folder / "dataset.zarr", _entries(rng), attrs=_attrs(), views=views,
-                  failures=FAILURES)
-    return folder
 
 
 def _flip_one_byte(path: Path) -> None:
@@ -47,39 +29,39 @@ def _flip_one_byte(path: Path) -> None:
 
 
 @pytest.mark.parametrize("damage", ["flipped byte", "deleted chunk"])
-def test_pack_refuses_a_damaged_store_and_writes_nothing(build: Path, tmp_path: Path,
+def test_pack_refuses_a_damaged_store_and_writes_nothing(small_build: Path, tmp_path: Path,
                                                          damage: str) -> None:
     from vptoolkit.dataset.release import pack_release
 
     if damage == "flipped byte":
-        _flip_one_byte(build / CHUNK)
+        _flip_one_byte(small_build / CHUNK)
     else:
-        (build / CHUNK).unlink()
+        (small_build / CHUNK).unlink()
     release = tmp_path / "release"
     with pytest.raises(VerificationError, match=r"dataset\.zarr:quality.*nothing packed"):
-        pack_release(build, release)
+        pack_release(small_build, release)
     assert not release.exists()
     assert [p.name for p in tmp_path.iterdir()] == ["out"]  # no temporary folder left
 
-    outcome = CliRunner().invoke(main, ["pack", str(build), str(release)])
+    outcome = CliRunner().invoke(main, ["pack", str(small_build), str(release)])
     assert outcome.exit_code == 1
     assert outcome.output.count("\n") == 1 and "vptool: error:" in outcome.output
     assert not release.exists()
 
 
-def test_readers_refuse_a_missing_chunk_naming_array_and_models(build: Path) -> None:
+def test_readers_refuse_a_missing_chunk_naming_array_and_models(small_build: Path) -> None:
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.reader import open_store
 
-    (build / CHUNK).unlink()
+    (small_build / CHUNK).unlink()
     expected = re.escape("array 'quality' chunk c/0/0/0 is missing, models airplane_0000")
     with pytest.raises(VerificationError, match=expected):
-        open_store(build / "dataset.zarr")
+        open_store(small_build / "dataset.zarr")
     with pytest.raises(VerificationError, match=expected):
-        open_dataset(build)
-    predictions = build.parent / "p.npy"
+        open_dataset(small_build)
+    predictions = small_build.parent / "p.npy"
     np.save(predictions, np.tile([0.0, 0.0, 1.0], (9, 4, 1)))
-    outcome = CliRunner().invoke(main, ["evaluate", str(predictions), "--dataset", str(build),
+    outcome = CliRunner().invoke(main, ["evaluate", str(predictions), "--dataset", str(small_build),
                                         "--split", "all"])
     assert outcome.exit_code == 1
     assert "quality" in outcome.output and outcome.output.count("\n") == 1
@@ -95,22 +77,22 @@ def _garble(path: Path) -> None:
 
 @pytest.mark.parametrize("command", ["evaluate", "predict", "report"])
 def test_readers_name_array_and_models_of_a_chunk_that_does_not_decompress(
-    build: Path, tmp_path: Path, command: str
+    small_build: Path, tmp_path: Path, command: str
 ) -> None:
-    _garble(build / CHUNK)
+    _garble(small_build / CHUNK)
     predictions = tmp_path / "p.npy"
     np.save(predictions, np.tile([0.0, 0.0, 1.0], (9, 4, 1)))
     if command == "predict":
         require_package("torch")
-        points = build / "dataset.zarr" / "points" / "c" / "0" / "0" / "0"
+        points = small_build / "dataset.zarr" / "points" / "c" / "0" / "0" / "0"
         _garble(points)
-        arguments = ["predict", "--dataset", str(build), "--split", "all"]
+        arguments = ["predict", "--dataset", str(small_build), "--split", "all"]
         array = "points"
     elif command == "evaluate":
-        arguments = ["evaluate", str(predictions), "--dataset", str(build), "--split", "all"]
+        arguments = ["evaluate", str(predictions), "--dataset", str(small_build), "--split", "all"]
         array = "quality"
     else:
-        arguments = ["report", str(build), "-o", str(tmp_path / "report")]
+        arguments = ["report", str(small_build), "-o", str(tmp_path / "report")]
         array = "quality"
     outcome = CliRunner().invoke(main, arguments)
     assert outcome.exit_code == 1, outcome.output
@@ -120,16 +102,16 @@ def test_readers_name_array_and_models_of_a_chunk_that_does_not_decompress(
     assert "Traceback" not in outcome.output
 
 
-def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(build: Path) -> None:
+def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(small_build: Path) -> None:
     from vptoolkit.dataset.reader import open_store
 
-    (build / "dataset.zarr" / "mesh_faces" / "c" / "0" / "0").unlink()
+    (small_build / "dataset.zarr" / "mesh_faces" / "c" / "0" / "0").unlink()
     with pytest.raises(VerificationError, match=r"'mesh_faces' chunk c/0/0 .*airplane_0000, "):
-        open_store(build / "dataset.zarr")
+        open_store(small_build / "dataset.zarr")
 
 
 def test_every_chunk_is_written_even_all_zeros_and_an_old_empty_chunk_still_reads(
-    build: Path, tmp_path: Path
+    small_build: Path, tmp_path: Path
 ) -> None:
     import zarr
 
@@ -137,7 +119,7 @@ def test_every_chunk_is_written_even_all_zeros_and_an_old_empty_chunk_still_read
     from vptoolkit.dataset.schema import array_sha256
 
     # A chunk of zeros is stored (zarr would skip it by default) ...
-    source = build / "dataset.zarr"
+    source = small_build / "dataset.zarr"
     with open_store(source) as reader:
         assert reader.array("quality").nchunks_initialized == reader.array("quality").nchunks
     # ... and one that an older writer skipped reads as zeros, because the hash agrees.

@@ -41,6 +41,7 @@ def test_workers_are_other_processes_with_one_numba_thread():
     assert all(pid != os.getpid() and threads == 1 for pid, threads in results)
 
 
+@pytest.mark.slow
 def test_a_crashing_task_yields_what_the_caller_says_and_the_rest_go_on():
     results = list(run_tasks(_square_or_die, range(8), workers=2, crashed=lambda n: f"died {n}"))
     assert sorted(results, key=str) == sorted([0, 1, 4, "died 3", 16, 25, 36, 49], key=str)
@@ -54,6 +55,7 @@ def _square_or_die_late(number: int) -> int:
     return number * number
 
 
+@pytest.mark.slow
 def test_a_worker_dying_between_submissions_is_retried_not_raised():
     # The pool breaks while the caller holds a result; the next submission
     # then finds it broken, and that task is run again like the others.

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 from scipy.spatial import cKDTree
 
-from conftest import require_package
+from fixtures.environment import require_package
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import (

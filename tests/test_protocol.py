@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from conftest import require_package
+from fixtures.builds import build_samples
+from fixtures.environment import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.protocol import (
@@ -22,7 +22,6 @@ from vptoolkit.evaluate.protocol import (
     score_protocol,
 )
 from vptoolkit.rotations import fixed_rotations, model_key, random_rotation
-from vptoolkit.samples import sample_path
 from vptoolkit.sphere import nearest_view
 
 require_package("zarr")
@@ -33,16 +32,9 @@ MESHES = ("bunny", "mug", "table", "teapot")
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ViewpointDataset]:
     """Four bundled meshes measured from 1000 views at 48 px (enough for a fine random-view check)."""
-    from vptoolkit.dataset.build import build_dataset
-
-    root = tmp_path_factory.mktemp("protocol")
-    source = root / "src" / "things"
-    source.mkdir(parents=True)
-    for name in MESHES:
-        path = sample_path(name)
-        shutil.copyfile(path, source / path.name)
-    build_dataset(root / "src", root / "out", n_views=1000, resolution=48, n_points=3000, clean=False)
-    with open_dataset(root / "out") as opened:
+    out = build_samples(tmp_path_factory.mktemp("protocol"), MESHES, category="things",
+                        n_views=1000, resolution=48, n_points=3000, clean=False)
+    with open_dataset(out) as opened:
         yield opened
 
 

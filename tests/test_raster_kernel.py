@@ -208,7 +208,7 @@ def test_shared_edges_slivers_and_frame_borders_cover_each_pixel_centre_once(res
             np.testing.assert_array_equal(got, want_defined)
 
 
-@pytest.mark.parametrize("resolution", [16, 333])
+@pytest.mark.parametrize("resolution", [16, pytest.param(333, marks=pytest.mark.slow)])
 def test_overlapping_random_triangles_keep_the_defined_depths(resolution):
     # Depth ties, binade edges of the inverse depth (2**29 = depth 0.5) and tiny,
     # huge or degenerate triangles, all drawn over each other.

@@ -12,18 +12,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import require_package
+from fixtures.environment import require_package
+from fixtures.releases import CATEGORIES, FAILURES, forge_shard, write_release_build
+from fixtures.stores import N_POINTS, N_VIEWS
 from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, VerificationError
 
-N_POINTS = 200
-N_VIEWS = 50
-CATEGORIES = {"airplane": 5, "chair": 4}
-SPLIT_CYCLE = ("train", "train", "val", "test")
-FAILURES = [
-    {"source": "car/train/car_0007.off", "category": "car", "reason": "no faces"},
-    {"source": "car/test/car_0100.off", "category": "car", "reason": "no view sees the model"},
-]
 STEM = "vptoolkit-viewpoints"
 PARQUET_FILES = ["data/test-00000-of-00001.parquet", "data/train-00000-of-00001.parquet",
                  "data/validation-00000-of-00001.parquet", "views/views-00000-of-00001.parquet"]
@@ -33,69 +27,11 @@ DATASHEET_SECTIONS = (
 )
 
 
-def _entries(rng: np.random.Generator) -> list:
-    from vptoolkit.dataset.schema import ModelEntry
-
-    entries = []
-    for category, count in sorted(CATEGORIES.items()):
-        for i in range(count):
-            name = f"{category}_{i:04d}"
-            n_vertices = int(rng.integers(8, 40))
-            n_faces = int(rng.integers(4, 60))
-            quality_raw = rng.random((N_VIEWS, 4)).astype(np.float32)
-            quality_raw[i % N_VIEWS, 0] = np.nan  # a view that sees nothing
-            entries.append(ModelEntry(
-                name=name,
-                category=category,
-                split=SPLIT_CYCLE[i % len(SPLIT_CYCLE)],
-                source=f"{category}/train/{name}.off",
-                source_sha256=hashlib.sha256(name.encode()).hexdigest(),
-                points=rng.normal(size=(N_POINTS, 3)),
-                normals=rng.normal(size=(N_POINTS, 3)),
-                quality=rng.random((N_VIEWS, 4)),
-                quality_raw=quality_raw,
-                best_index=rng.integers(0, N_VIEWS, 4),
-                best_value=rng.random(4),
-                worst_index=rng.integers(0, N_VIEWS, 4),
-                worst_value=rng.random(4),
-                vertices=rng.normal(size=(n_vertices, 3)),
-                faces=rng.integers(0, n_vertices, (n_faces, 3)),
-                cleaning={"faces_before": 2 * n_faces, "faces_after": n_faces},
-            ))
-    return entries
-
-
-def _attrs() -> dict:
-    return {
-        "resolution": 64,
-        "backend": "raster",
-        "camera": {"fov_deg": 45.0, "distance_factor": 1.5, "up": [0.0, -1.0, 0.0],
-                   "fallback_up": [0.0, 0.0, 1.0], "cull_back_faces": True,
-                   "projection": "perspective", "target": "bounding-box centre",
-                   "distance_unit": "bounding-box diagonal"},
-        "cleaning": {"enabled": True, "max_faces": 10000},
-        "split_seed": 7,
-        "split_fractions": {"train": 0.8, "val": 0.1, "test": 0.1},
-        "source": "ModelNet40-mini",
-        "toolkit_version": "0.1.0",
-        "created": "2025-01-02T03:04:05Z",
-    }
-
-
 @pytest.fixture(scope="session")
 def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A build output folder holding a small synthetic ``dataset.zarr``."""
-    require_package("zarr")
     require_package("h5py")
-    from vptoolkit.dataset.writer import write_dataset
-
-    rng = np.random.default_rng(20210501)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    folder = tmp_path_factory.mktemp("build")
-    write_dataset(folder / "dataset.zarr", _entries(rng), attrs=_attrs(), views=views,
-                  failures=FAILURES)
-    return folder
+    return write_release_build(tmp_path_factory.mktemp("build"))
 
 
 @pytest.fixture(scope="session")
@@ -636,32 +572,6 @@ def test_a_name_too_long_for_a_file_name_names_the_release(build: Path,
     assert list(tmp_path.iterdir()) == []
 
 
-def _forge_shard(folder: Path, relative: str, column: str) -> str:
-    """Change one value of ``column`` in a shard, then re-hash SHA256SUMS and Croissant."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    from vptoolkit.dataset.manifest import sha256_file, write_sha256sums
-
-    table = pq.read_table(folder / relative)
-    rows = table.column(column).to_pylist()
-    if isinstance(rows[0], list):
-        rows[0][0][0] += 1.0
-    else:  # a scalar column such as label
-        rows[0] += 1
-    forged = table.set_column(table.column_names.index(column), column,
-                              pa.array(rows, table.schema.field(column).type))
-    pq.write_table(forged, folder / relative)
-    write_sha256sums(folder)
-    croissant = json.loads((folder / "croissant.json").read_text(encoding="utf-8"))
-    for item in croissant["distribution"]:
-        if item.get("contentUrl") == relative:
-            item["sha256"] = sha256_file(folder / relative)
-    (folder / "croissant.json").write_text(json.dumps(croissant), encoding="utf-8")
-    write_sha256sums(folder)
-    return str(table.column("name")[0])
-
-
 def test_verify_names_a_forged_parquet_shard_with_re_hashed_sums(release_copy: Path) -> None:
     require_package("pyarrow")
     from click.testing import CliRunner
@@ -669,7 +579,7 @@ def test_verify_names_a_forged_parquet_shard_with_re_hashed_sums(release_copy: P
     from vptoolkit.cli import main
 
     shard = "data/train-00000-of-00001.parquet"
-    name = _forge_shard(release_copy, shard, "points")
+    name = forge_shard(release_copy, shard, "points")
     result = CliRunner().invoke(main, ["verify", str(release_copy)])
     assert result.exit_code == 1, result.output
     assert f"{shard}:{name}:points: differs from the archive ({STEM}.h5)" in result.output

@@ -3,7 +3,6 @@ mlcroissant, reproducible bytes, per-mesh provenance, and verify's integrity row
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 import re
@@ -11,12 +10,14 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
-from conftest import require_package
-from test_release import CATEGORIES, FAILURES, N_POINTS, N_VIEWS, _attrs, _entries, _forge_shard
+from fixtures.environment import require_package
+from fixtures.releases import CATEGORIES, forge_shard, write_release_build
+from fixtures.stores import N_POINTS, N_VIEWS
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
@@ -24,23 +25,10 @@ CREATED = "2026-03-04T05:06:07Z"
 N_MODELS = sum(CATEGORIES.values())
 
 
-def _write_build(folder: Path, *, created: str = "2025-01-02T03:04:05Z",
-                 splits: dict[str, str] | None = None) -> Path:
-    """A build folder with the synthetic models; ``splits`` overrides some models' split."""
-    require_package("zarr")
+def _write_build(folder: Path, **options: Any) -> Path:
+    """A build folder with the synthetic models (``write_release_build``'s options)."""
     require_package("pyarrow")
-    from vptoolkit.dataset.writer import write_dataset
-
-    rng = np.random.default_rng(20210501)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    entries = _entries(rng)
-    if splits:
-        entries = [dataclasses.replace(e, split=splits.get(e.name, e.split)) for e in entries]
-    folder.mkdir(parents=True, exist_ok=True)
-    write_dataset(folder / "dataset.zarr", entries, attrs={**_attrs(), "created": created},
-                  views=views, failures=FAILURES)
-    return folder
+    return write_release_build(folder, **options)
 
 
 @pytest.fixture(scope="module")
@@ -221,8 +209,8 @@ def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None
     copy = Path(shutil.copytree(sharded.path, tmp_path / "release"))
     second = "data/train-00001-of-" + next(
         (copy / "data").glob("train-00001-of-*.parquet")).name.rsplit("-of-", 1)[1]
-    name = _forge_shard(copy, second, "quality")
-    _forge_shard(copy, second, "label")  # compared with the store's labels array
+    name = forge_shard(copy, second, "quality")
+    forge_shard(copy, second, "label")  # compared with the store's labels array
     report = verify(copy)
     assert [p.target for p in report.problems] == [f"{second}:{name}:label",
                                                    f"{second}:{name}:quality"]
@@ -252,6 +240,7 @@ def test_a_bad_shard_size_is_one_line_and_exit_2(tmp_path: Path) -> None:
 
 
 # rdflib and pandas, under mlcroissant, warn about their own APIs; not ours.
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:ConjunctiveGraph is deprecated:DeprecationWarning")
 @pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.reset_index")
 def test_mlcroissant_validates_and_loads_a_record_of_each_record_set(release) -> None:

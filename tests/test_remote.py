@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from conftest import require_package
-from test_release import FAILURES, N_VIEWS, _attrs, _entries
+from fixtures.environment import require_package
+from fixtures.releases import write_release_build
 from vptoolkit.cli import main
 from vptoolkit.data import open_dataset
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
@@ -27,15 +27,9 @@ def release(tmp_path_factory: pytest.TempPathFactory) -> Path:
     require_package("h5py")
     require_package("pyarrow")
     from vptoolkit.dataset.release import pack_release
-    from vptoolkit.dataset.writer import write_dataset
 
     base = tmp_path_factory.mktemp("remote")
-    (base / "build").mkdir()
-    rng = np.random.default_rng(20210501)
-    views = rng.normal(size=(N_VIEWS, 3))
-    views /= np.linalg.norm(views, axis=1, keepdims=True)
-    write_dataset(base / "build" / "dataset.h5", _entries(rng), attrs=_attrs(), views=views,
-                  failures=FAILURES)
+    write_release_build(base / "build")
     return pack_release(base / "build", base / "release", formats=["parquet", "hdf5"],
                         license="cc-by-4.0").path
 
@@ -172,7 +166,7 @@ def test_cli_evaluate_scores_against_a_release_url_as_against_the_folder(
         served: _Server, release: Path, tmp_path: Path) -> None:
     import json
 
-    from vptoolkit.evaluate import oracle_directions
+    from vptoolkit.evaluate.baselines import oracle_directions
 
     with open_dataset(release) as dataset:
         np.save(tmp_path / "oracle.npy", oracle_directions(dataset.split("test")))

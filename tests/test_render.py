@@ -16,7 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import box_mesh, decode_png, model_mask, require_package, started_renderer
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
+from fixtures.pictures import decode_png, model_mask, started_renderer
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError

@@ -27,15 +27,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from conftest import (
-    REQUIRE_ALL,
-    decode_png,
-    model_mask,
-    primitive_mesh,
-    read_png,
-    require_package,
-    started_renderer,
-)
+from fixtures.environment import REQUIRE_ALL, require_package
+from fixtures.meshes import primitive_mesh
+from fixtures.pictures import decode_png, model_mask, read_png, started_renderer
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
@@ -288,7 +282,7 @@ def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) 
 @pytest.fixture(scope="module")
 def predictions(store, tmp_path_factory) -> tuple[Path, np.ndarray]:
     """Predictions for the test split: box_b exactly right, capsule off; no VMI."""
-    from vptoolkit.evaluate import save_predictions
+    from vptoolkit.evaluate.scores import save_predictions
 
     views = fibonacci_sphere(N_VIEWS)
     directions = np.zeros((2, 3, 3))
@@ -369,7 +363,7 @@ def test_summary_table_counts_models_per_category_and_split(full_report: Path):
 
 @pytest.mark.renderer
 def test_report_with_predictions_shows_their_scores(test_report: Path, store, predictions):
-    from vptoolkit.evaluate import evaluate_predictions
+    from vptoolkit.evaluate.scores import evaluate_predictions
 
     page = test_report.read_text(encoding="utf-8")
     assert [card["name"] for card in cards(page)] == ["box_b", "capsule"]

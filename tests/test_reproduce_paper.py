@@ -11,7 +11,7 @@ from types import ModuleType
 
 import numpy as np
 import pytest
-from conftest import require_package
+from fixtures.environment import require_package
 
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
@@ -106,6 +106,7 @@ def _is_non_blank_png(path: Path) -> bool:
     return bool(pixels.ndim == 3 and float(pixels[..., :3].var()) > 1e-4)
 
 
+@pytest.mark.slow
 def test_tiny_run_writes_every_section_and_figure(tool: ModuleType, tmp_path: Path) -> None:
     results = tmp_path / "results.md"
     results.write_text("# Results\n\nkept text\n")

@@ -10,8 +10,7 @@ from types import ModuleType
 import numpy as np
 import pytest
 
-from conftest import require_package
-from test_pack_integrity import build  # noqa: F401 - a small synthetic store
+from fixtures.environment import require_package
 
 
 @pytest.fixture()
@@ -55,11 +54,11 @@ def test_bad_arguments_are_one_line_with_exit_2(tool: ModuleType, tmp_path: Path
     assert "Traceback" not in err
 
 
-def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, build: Path,  # noqa: F811
+def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, small_build: Path,
                                                      monkeypatch) -> None:
     from vptoolkit.data import open_dataset
 
-    with open_dataset(build) as dataset:
+    with open_dataset(small_build) as dataset:
         expected = dict(zip(dataset.names, dataset.categories))
     seen = {}
 
@@ -73,5 +72,5 @@ def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, build: Pa
         return predictor
 
     monkeypatch.setattr(tool, "network_predictor", network_predictor)
-    rows = tool.score(build, "per-category", rotations=1)
+    rows = tool.score(small_build, "per-category", rotations=1)
     assert seen == expected and len(rows["network"].names) == len(expected)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import box_mesh, model_mask, started_renderer
+from fixtures.meshes import box_mesh
+from fixtures.pictures import model_mask, started_renderer
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh

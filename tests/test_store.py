@@ -15,6 +15,17 @@ from typing import Any
 import numpy as np
 import pytest
 
+from fixtures.stores import (
+    BUILD,
+    FAILURES,
+    MODELS,
+    N_POINTS,
+    N_VIEWS,
+    STORE_NAMES,
+    synthetic_entries,
+    synthetic_entry,
+    write_synthetic,
+)
 from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.containers import find_store, store_kind
 from vptoolkit.dataset.reader import open_store
@@ -34,82 +45,7 @@ from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.sphere import fibonacci_sphere
 
-N_POINTS = 200
-N_VIEWS = 50
-SUFFIXES = {"zarr": "dataset.zarr", "zarr-zip": "dataset.zarr.zip", "hdf5": "dataset.h5"}
-KINDS = list(SUFFIXES)
-
-# (category, name, split), already in (category, name) order.
-MODELS = [
-    ("airplane", "airplane_0001", "train"),
-    ("airplane", "airplane_0002", "test"),
-    ("airplane", "airplane_0003", "val"),
-    ("chair", "chair_0001", "train"),
-    ("chair", "chair_0002", "train"),
-]
-
-BUILD = {
-    "resolution": 128,
-    "backend": "raster",
-    "camera": {"fov_deg": 45.0, "distance_factor": 1.4142, "up": [0.0, -1.0, 0.0]},
-    "cleaning": {"enabled": True, "max_faces": 10000},
-    "split_seed": 0,
-    "split_fractions": {"train": 0.8, "val": 0.1, "test": 0.1},
-    "source": "ModelNet40",
-    "toolkit_version": "0.1.0",
-    "created": "2024-05-01T12:00:00+00:00",
-}
-FAILURES = [{"source": "bench/train/bench_0009.off", "category": "bench", "reason": "no faces"}]
-
-
-def synthetic_entry(category: str, name: str, split: str, *, n_points: int = N_POINTS,
-                    n_views: int = N_VIEWS, seed: int = 0) -> ModelEntry:
-    """A model of random arrays with realistic shapes and float64/int64 inputs."""
-    rng = np.random.default_rng([seed, int(hashlib.sha256(name.encode()).hexdigest()[:8], 16)])
-    quality = rng.random((n_views, 4)) * 0.98 + 0.01
-    best_index = rng.choice(n_views, size=4, replace=False)
-    worst_index = (best_index + 1) % n_views
-    quality[best_index, np.arange(4)] = 1.0
-    quality[worst_index, np.arange(4)] = 0.0
-    quality_raw = rng.random((n_views, 4)) * 8.0
-    quality_raw[worst_index[0], [0, 2, 3]] = np.nan  # a view that sees nothing
-    normals = rng.normal(size=(n_points, 3))
-    n_vertices = int(rng.integers(4, 40))
-    return ModelEntry(
-        name=name,
-        category=category,
-        split=split,
-        source=f"{category}/{'test' if split == 'test' else 'train'}/{name}.off",
-        source_sha256=hashlib.sha256(f"file {name}".encode()).hexdigest(),
-        points=rng.normal(size=(n_points, 3)),
-        normals=normals / np.linalg.norm(normals, axis=1, keepdims=True),
-        quality=quality,
-        quality_raw=quality_raw,
-        best_index=best_index,
-        best_value=quality_raw[best_index, np.arange(4)],
-        worst_index=worst_index,
-        worst_value=quality_raw[worst_index, np.arange(4)],
-        vertices=rng.normal(size=(n_vertices, 3)),
-        faces=rng.integers(0, n_vertices, size=(int(rng.integers(1, 60)), 3)),
-        cleaning=(None if name.endswith("2")
-                  else {"enabled": True, "faces_in": 120, "steps": ["a", "b"]}),
-    )
-
-
-def synthetic_entries(models: Sequence[tuple[str, str, str]] = MODELS,
-                      **kwargs: Any) -> list[ModelEntry]:
-    return [synthetic_entry(category, name, split, **kwargs) for category, name, split in models]
-
-
-def write_synthetic(path: Path, entries: Sequence[ModelEntry] | None = None, **kwargs: Any) -> Path:
-    return write_dataset(
-        path,
-        synthetic_entries() if entries is None else entries,
-        attrs=kwargs.pop("attrs", BUILD),
-        views=kwargs.pop("views", fibonacci_sphere(N_VIEWS)),
-        failures=kwargs.pop("failures", FAILURES),
-        **kwargs,
-    )
+KINDS = list(STORE_NAMES)
 
 
 class LazyEntries(Sequence[ModelEntry]):
@@ -146,12 +82,6 @@ def expected_dtype(name: str) -> np.dtype[Any]:
 
 
 # --------------------------------------------------------------------------- round trip
-
-
-@pytest.fixture(scope="module")
-def stores(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
-    folder = tmp_path_factory.mktemp("stores")
-    return {kind: write_synthetic(folder / name) for kind, name in SUFFIXES.items()}
 
 
 @pytest.mark.parametrize("kind", KINDS)
@@ -349,7 +279,7 @@ def test_failed_write_leaves_no_target_and_no_leftovers(tmp_path: Path, kind: st
                                                         read: int) -> None:
     lazy = LazyEntries(synthetic_entries(), fail=lambda index, n: index == 3 and n == read)
     with pytest.raises(OSError, match="simulated failure"):
-        write_synthetic(tmp_path / SUFFIXES[kind], lazy)
+        write_synthetic(tmp_path / STORE_NAMES[kind], lazy)
     assert _listing(tmp_path) == []
 
 
@@ -389,7 +319,7 @@ def test_a_full_disk_waits_for_writes_in_flight_then_cleans_up(tmp_path: Path, m
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_failed_write_keeps_the_previous_store(tmp_path: Path, kind: str) -> None:
-    target = write_synthetic(tmp_path / SUFFIXES[kind], synthetic_entries(MODELS[:2]))
+    target = write_synthetic(tmp_path / STORE_NAMES[kind], synthetic_entries(MODELS[:2]))
     lazy = LazyEntries(synthetic_entries(), fail=lambda index, n: index == 4 and n == 2)
     with pytest.raises(OSError, match="simulated failure"):
         write_synthetic(target, lazy)
@@ -400,7 +330,7 @@ def test_failed_write_keeps_the_previous_store(tmp_path: Path, kind: str) -> Non
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_rewrite_replaces_the_store(tmp_path: Path, kind: str) -> None:
-    target = write_synthetic(tmp_path / SUFFIXES[kind])
+    target = write_synthetic(tmp_path / STORE_NAMES[kind])
     write_synthetic(target, synthetic_entries(MODELS[3:]), failures=[])
     assert _listing(tmp_path) == [target.name]
     with open_store(target) as reader:
@@ -425,7 +355,7 @@ def test_entry_that_changes_between_passes_is_rejected(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_zero_models(tmp_path: Path, kind: str) -> None:
-    target = write_synthetic(tmp_path / SUFFIXES[kind], [])
+    target = write_synthetic(tmp_path / STORE_NAMES[kind], [])
     with open_store(target) as reader:
         assert reader.attrs["n_models"] == 0 and reader.attrs["n_failures"] == 1
         assert reader.models() == [] and reader.failures() == FAILURES

@@ -8,7 +8,9 @@ from pathlib import Path
 
 import pytest
 
-from conftest import decode_png, model_mask, primitive_mesh, require_package, started_renderer
+from fixtures.environment import require_package
+from fixtures.meshes import primitive_mesh
+from fixtures.pictures import decode_png, model_mask, started_renderer
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.mesh import Mesh
 

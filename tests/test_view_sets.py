@@ -7,18 +7,14 @@ import itertools
 import numpy as np
 import pytest
 
-from conftest import box_mesh
+from fixtures.meshes import box_mesh
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality, quality_from_histograms
 from vptoolkit.samples import sample_path
-from vptoolkit.view_sets import (
-    FaceVisibility,
-    ViewSet,
-    best_view_set,
-    measure_view_set,
-    set_coverage,
-)
+from vptoolkit.view_sets.result import ViewSet
+from vptoolkit.view_sets.search import best_view_set, measure_view_set, set_coverage
+from vptoolkit.view_sets.visibility import FaceVisibility
 
 N_VIEWS, RESOLUTION = 40, 64
 

@@ -1,7 +1,8 @@
 import numpy as np
 import pytest
 
-from conftest import box_mesh, require_package
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_normals

@@ -12,7 +12,7 @@ error over meshes.
 Answers:
 
 * random view (an expectation: the mean quality over the 1000 views);
-* PCA axis (:func:`vptoolkit.evaluate.pca_directions` of 20000 surface points);
+* PCA axis (:func:`vptoolkit.evaluate.baselines.pca_directions` of 20000 surface points);
 * the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
 * plain search N @ R: :func:`vptoolkit.measures.compute_view_quality` on N
   Fibonacci views at R px, each measure's best view;
@@ -65,7 +65,7 @@ from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.sources import discover_models
 from vptoolkit.errors import VptoolkitError
-from vptoolkit.evaluate import pca_directions
+from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality

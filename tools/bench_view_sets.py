@@ -3,7 +3,7 @@
 For each mesh, in one run and with the same views and resolution:
 
 * ``quality s``: :func:`vptoolkit.measures.compute_view_quality` alone;
-* ``both s``: :func:`vptoolkit.view_sets.measure_view_set` (the measures and a
+* ``both s``: :func:`vptoolkit.view_sets.search.measure_view_set` (the measures and a
   4-view coverage set from one drawing of the views) and its extra time over
   ``quality s`` in percent (target: under 10 % at 1000 views);
 * the search alone, on pixel counts already drawn, per objective
@@ -29,7 +29,8 @@ from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.samples import sample_path
 from vptoolkit.synthetic import make_shape
-from vptoolkit.view_sets import OBJECTIVES, FaceVisibility, best_view_set, measure_view_set
+from vptoolkit.view_sets.search import OBJECTIVES, best_view_set, measure_view_set
+from vptoolkit.view_sets.visibility import FaceVisibility
 
 
 def best_seconds(work: Callable[[], Any], repeats: int) -> float:

@@ -272,13 +272,13 @@ def mesh_with_faces(mesh: Mesh, n_faces: int, *, name: str | None = None) -> Mes
     """A version of ``mesh`` with about ``n_faces`` faces and the same surface.
 
     Fewer faces than the mesh has: quadric decimation
-    (:func:`vptoolkit.clean.simplify_mesh`, at most ``n_faces``). More: whole
+    (:func:`vptoolkit.clean.simplify.simplify_mesh`, at most ``n_faces``). More: whole
     1-to-4 subdivisions while ``4 * faces <= n_faces``, then the
     ``ceil((n_faces - faces) / 3)`` largest faces are subdivided once more
     (the finished mesh has ``n_faces`` to ``n_faces + 2`` faces).
     """
     if mesh.n_faces > n_faces:
-        from vptoolkit.clean import simplify_mesh
+        from vptoolkit.clean.simplify import simplify_mesh
 
         mesh = simplify_mesh(mesh, max_faces=n_faces)
     while 4 * mesh.n_faces <= n_faces:
@@ -573,13 +573,13 @@ def section_robustness(options: RunOptions) -> Section:
 
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.build import build_dataset
-    from vptoolkit.evaluate import score_directions
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,
         random_view_scores,
         score_protocol,
     )
+    from vptoolkit.evaluate.scores import score_directions
     from vptoolkit.learn.predict import network_predictor
 
     started = time.perf_counter()

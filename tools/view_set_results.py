@@ -42,7 +42,8 @@ from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.samples import sample_names, sample_path
 from vptoolkit.sphere import angle_between_deg
 from vptoolkit.synthetic import CATEGORIES, make_shape
-from vptoolkit.view_sets import FaceVisibility, best_view_set, set_coverage
+from vptoolkit.view_sets.search import best_view_set, set_coverage
+from vptoolkit.view_sets.visibility import FaceVisibility
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "docs" / "results.md"
@@ -133,9 +134,10 @@ def main() -> None:
              "Cells: coverage, the area-weighted fraction of the surface seen by at least one of "
              "the first k views, mean over the meshes in %. Top-k: the k views of highest "
              "normalised quality of one measure. Greedy: `vptool views --objective ...` "
-             "(`vptoolkit.view_sets.best_view_set`); information and quality start at the best "
-             "VE view, coverage at the best VR view. Mean angle: between every pair of the 4 "
-             "picks; views to 95 %: greedy picks until the set sees 95 % of what all views see.",
+             "(`vptoolkit.view_sets.search.best_view_set`); information and quality start at "
+             "the best VE view, coverage at the best VR view. Mean angle: between every pair of "
+             "the 4 picks; views to 95 %: greedy picks until the set sees 95 % of what all "
+             "views see.",
              ""]
     for name, rows in results.items():
         lines += [f"**{name.capitalize()} meshes ({len(rows)})**", ""] + table(rows) + [""]

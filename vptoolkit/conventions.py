@@ -17,6 +17,11 @@ Views
     (:func:`vptoolkit.sphere.fibonacci_sphere`). A view direction ``v`` is a
     unit vector from the model's bounding-box centre towards the camera.
 
+Releases
+    ``DATASET_VERSION = "1.0.0"`` is the version a release gets unless it is
+    given one (:func:`vptoolkit.dataset.release.pack_release`, ``vptool pack
+    --version``), in its attributes, file names, card and Croissant.
+
 Camera (defaults of :class:`vptoolkit.camera.Camera`)
     Perspective, square image of ``RESOLUTION`` pixels a side, vertical field
     of view ``FOV_DEG`` degrees, looking at the bounding-box centre ``c`` from
@@ -39,6 +44,7 @@ __all__ = [
     "RESOLUTION",
     "SEED",
     "SPLITS",
+    "DATASET_VERSION",
     "FOV_DEG",
     "DISTANCE_FACTOR",
     "UP",
@@ -70,6 +76,9 @@ hub does. A store or build of schema 1 may record ``"val"``;
 :func:`vptoolkit.dataset.schema.published_split` maps it, and every API that
 takes a split accepts ``"val"`` as an alias.
 """
+
+DATASET_VERSION: Final = "1.0.0"
+"""Version ``MAJOR.MINOR.PATCH`` of a release packed without one."""
 
 FOV_DEG: Final = 45.0
 """Vertical (and, the image being square, horizontal) field of view in degrees."""

@@ -320,7 +320,7 @@ def compute_view_quality(
     histograms : sequence of ViewHistograms, optional
         Pixel counts already drawn for exactly these views with this
         ``resolution``, ``camera`` and ``backend`` (e.g. kept by
-        :func:`vptoolkit.view_sets.measure_view_set` for a view set); nothing
+        :func:`vptoolkit.view_sets.search.measure_view_set` for a view set); nothing
         is drawn then.
 
     Returns

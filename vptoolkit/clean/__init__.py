@@ -8,21 +8,25 @@ matches its potentially visible area, which changes ``A_t`` and ``A_z``).
 functions in order, so ``simplify_mesh(remove_hidden_faces(repair_mesh(mesh)))``
 (with the same options) gives the same mesh:
 
-1. :func:`repair_mesh` -- remove null and duplicate faces, merge duplicate
-   vertices, drop unreferenced vertices, repair non-manifold edges and
-   vertices, and resolve self-intersections (see its Notes for how and why).
-2. :func:`remove_hidden_faces` -- drop the faces seen in none of the 1000
-   views (:func:`hidden_faces`), e.g. passenger seats inside an airplane,
-   and turn each remaining face towards the side it is seen from.
-3. :func:`simplify_mesh` -- quadric edge-collapse decimation to at most
-   ``max_faces`` faces (the paper keeps models under 10k faces), optionally
-   followed by isotropic remeshing, then the removal of the intersections
-   decimation created.
+1. :func:`~vptoolkit.clean.repair.repair_mesh` -- remove null and duplicate
+   faces, merge duplicate vertices, drop unreferenced vertices, repair
+   non-manifold edges and vertices, and resolve self-intersections (see its
+   Notes for how and why).
+2. :func:`~vptoolkit.clean.hidden.remove_hidden_faces` -- drop the faces seen
+   in none of the 1000 views (:func:`~vptoolkit.clean.hidden.hidden_faces`),
+   e.g. passenger seats inside an airplane, and turn each remaining face
+   towards the side it is seen from.
+3. :func:`~vptoolkit.clean.simplify.simplify_mesh` -- quadric edge-collapse
+   decimation to at most ``max_faces`` faces (the paper keeps models under
+   10k faces), optionally followed by isotropic remeshing, then the removal
+   of the intersections decimation created.
 
 Each step returns a :class:`~vptoolkit.mesh.Mesh` that also says what the
-step did (:class:`RepairedMesh`, :class:`VisibleMesh`,
-:class:`SimplifiedMesh`); the repaired mesh carries what step 2 needs to see
-through the seams that removing intersecting faces opened.
+step did (:class:`~vptoolkit.clean.repair.RepairedMesh`,
+:class:`~vptoolkit.clean.hidden.VisibleMesh`,
+:class:`~vptoolkit.clean.simplify.SimplifiedMesh`); the repaired mesh carries
+what step 2 needs to see through the seams that removing intersecting faces
+opened.
 
 :class:`CleaningReport` records faces and vertices before and after each
 step, self-intersections before and after, the hidden area removed and the
@@ -31,9 +35,10 @@ seconds per step; :meth:`CleaningReport.to_dict` gives JSON types.
 The package is split along those steps: :mod:`~vptoolkit.clean.repair`,
 :mod:`~vptoolkit.clean.hidden` and :mod:`~vptoolkit.clean.simplify`, with the
 pure-numpy :mod:`~vptoolkit.clean.topology` and a private pymeshlab bridge
-(``_meshlab``). This module owns :func:`clean_mesh`, which chains the steps,
-and its report (:class:`CleaningReport`, :class:`StepReport`); it re-exports
-the public names of the step modules.
+(``_meshlab``). This module holds :func:`clean_mesh`, which chains the steps,
+and its report (:class:`CleaningReport`, :class:`StepReport`); each step's
+names are imported from its own module (``from vptoolkit.clean.repair import
+repair_mesh``).
 
 pymeshlab is imported lazily (``pip install 'vptoolkit[clean]'``). A mesh that
 cannot be cleaned raises :class:`~vptoolkit.errors.MeasurementError` whose
@@ -48,45 +53,15 @@ from typing import Any
 
 from vptoolkit.checks import check_bool, check_int
 from vptoolkit.clean._meshlab import load_pymeshlab
-from vptoolkit.clean.hidden import (
-    HIDDEN_RESOLUTION,
-    VisibleMesh,
-    hidden_faces,
-    remove_hidden_faces,
-    two_sided_pixel_totals,
-)
-from vptoolkit.clean.repair import (
-    MERGE_TOLERANCE,
-    RepairedMesh,
-    SelfIntersectionMethod,
-    check_method,
-    count_self_intersections,
-    repair_mesh,
-)
-from vptoolkit.clean.simplify import MAX_FACES, SimplifiedMesh, simplify_mesh
+from vptoolkit.clean.hidden import HIDDEN_RESOLUTION, remove_hidden_faces
+from vptoolkit.clean.repair import SelfIntersectionMethod, check_method, repair_mesh
+from vptoolkit.clean.simplify import MAX_FACES, simplify_mesh
 from vptoolkit.clean.topology import check_mesh
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 
-__all__ = [
-    "MAX_FACES",
-    "HIDDEN_RESOLUTION",
-    "MERGE_TOLERANCE",
-    "SelfIntersectionMethod",
-    "StepReport",
-    "CleaningReport",
-    "clean_mesh",
-    "repair_mesh",
-    "RepairedMesh",
-    "two_sided_pixel_totals",
-    "hidden_faces",
-    "remove_hidden_faces",
-    "VisibleMesh",
-    "simplify_mesh",
-    "SimplifiedMesh",
-    "count_self_intersections",
-]
+__all__ = ["StepReport", "CleaningReport", "clean_mesh"]
 
 _STEP_NAMES = ("repair", "remove_hidden", "simplify")
 
@@ -250,7 +225,7 @@ def clean_mesh(
         Face budget of the result, at least 4 (default: 10000).
     self_intersections : {"auto", "remove"}
         How step 1 resolves self-intersections (default: "auto"; see
-        :func:`repair_mesh`).
+        :func:`~vptoolkit.clean.repair.repair_mesh`).
     max_rounds : int
         Rounds of removing intersecting faces and closing holes (default: 5).
     n_views : int
@@ -259,7 +234,7 @@ def clean_mesh(
         Image side in pixels for the hidden-face test (default: 256).
     orient : bool
         In step 2, reverse the faces seen mostly from behind (default: True;
-        see :func:`remove_hidden_faces`).
+        see :func:`~vptoolkit.clean.hidden.remove_hidden_faces`).
     remesh : bool
         Also remesh isotropically in step 3 (default: False).
 

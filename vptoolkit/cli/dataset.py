@@ -14,14 +14,18 @@ from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE, options_named
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
+    MAX_RESOLUTION,
     ExistingPath,
     cache_dir_option,
     local_dataset,
+    max_faces_option,
+    points_option,
     resolution_option,
     views_option,
     workers_option,
 )
-from vptoolkit.conventions import SEED
+from vptoolkit.conventions import DATASET_VERSION, SEED
+from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
 from vptoolkit.errors import InputError
 
 
@@ -33,10 +37,8 @@ from vptoolkit.errors import InputError
 @click.option("--categories", help="Comma-separated categories to include (default: all).")
 @views_option("Fibonacci view directions per model.")
 @resolution_option("Triangle-ID image side in pixels.")
-@click.option("--points", "n_points", default=20000, show_default=True, type=click.IntRange(1),
-              help="Surface points per model.")
-@click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
-              help="Face budget of the cleaned meshes.")
+@points_option("Surface points per model.")
+@max_faces_option("Face budget of the cleaned meshes.")
 @click.option("--no-clean", is_flag=True, help="Measure the meshes as they are.")
 @click.option("--remesh", is_flag=True,
               help="Also remesh isotropically when cleaning (a tessellation-independent VE).")
@@ -130,7 +132,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
               "copy of the data).")
 @click.option("--shard-size", default="500MB", show_default=True,
               help="Largest size of one Parquet shard's rows (Arrow bytes), e.g. 200KB, 1GB.")
-@click.option("--version", "dataset_version", default="1.0.0", show_default=True,
+@click.option("--version", "dataset_version", default=DATASET_VERSION, show_default=True,
               help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant; "
               "never file names).")
 @click.option("--created", help="Release time, ISO 8601 (default: $SOURCE_DATE_EPOCH, else the "
@@ -267,8 +269,8 @@ def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
 @click.option("--check", "n_check", type=click.IntRange(1), help="Then measure N imported "
               "models with our pipeline and compare: rank correlation per measure and the "
               "angle between the best views.")
-@click.option("--check-resolution", default=1024, show_default=True,
-              type=click.IntRange(1, 16384), help="Image side in pixels of --check.")
+@click.option("--check-resolution", default=AUTHORS_RESOLUTION, show_default=True,
+              type=click.IntRange(1, MAX_RESOLUTION), help="Image side in pixels of --check.")
 def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: bool,
                    n_check: int | None, check_resolution: int) -> None:
     """Import the paper authors' released data set TREE (data/<set>) into OUT.

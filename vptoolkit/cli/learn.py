@@ -56,7 +56,8 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
       vptool evaluate predictions.npz --dataset release/ --split test
       vptool evaluate sets.npz --dataset release/ --view-sets
     """
-    from vptoolkit.evaluate import evaluate_predictions, evaluate_view_sets
+    from vptoolkit.evaluate.coverage import evaluate_view_sets
+    from vptoolkit.evaluate.scores import evaluate_predictions
 
     dataset_path = local_dataset(dataset_path, cache_dir)
     if view_sets:
@@ -113,7 +114,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     from vptoolkit.dataset.containers import find_store
     from vptoolkit.dataset.reader import open_store
     from vptoolkit.learn.train import train_model, train_per_category
-    from vptoolkit.points import N_FPS_POINTS
+    from vptoolkit.points import N_FPS_POINTS, N_SURFACE_POINTS
 
     most_threads = 8 * (os.cpu_count() or 1)
     if threads is not None and threads > most_threads:
@@ -125,7 +126,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
         raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
                          f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
-                         "or more; the paper uses 20000)")
+                         f"or more; the paper uses {N_SURFACE_POINTS})")
     options: dict[str, Any] = {
         "labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
         "resume": resume, "progress": True, "threads": threads, "val_split": val_split,

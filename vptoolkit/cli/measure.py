@@ -13,6 +13,8 @@ from vptoolkit.checks import check_suffix
 from vptoolkit.cli.options import (
     MEASURE_CHOICE,
     MESH,
+    max_faces_option,
+    points_option,
     resolution_option,
     seed_option,
     views_option,
@@ -108,7 +110,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
       vptool views chair.off --coverage 0.95 --objective quality
     """
     from vptoolkit.io import load_mesh
-    from vptoolkit.view_sets import measure_view_set
+    from vptoolkit.view_sets.search import measure_view_set
 
     if target is not None and not math.isfinite(target):
         raise InputError(f"--coverage: must lie in (0, 1], got {target}")
@@ -149,8 +151,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
 @click.command()
 @click.argument("source", type=MESH)
 @click.argument("target", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--max-faces", default=10000, show_default=True, type=click.IntRange(4),
-              help="Face budget after decimation.")
+@max_faces_option("Face budget after decimation.")
 @click.option("--remesh", is_flag=True, help="Also remesh isotropically after decimation.")
 @click.option("--report", "report_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Write the cleaning report as JSON to this file.")
@@ -187,8 +188,7 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
 @click.argument("mesh", type=MESH)
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="Write the points to this .npy file.")
-@click.option("--points", "n_points", default=20000, show_default=True,
-              type=click.IntRange(1, 100_000_000), help="Number of points.")
+@points_option()
 @seed_option(minimum=0)
 def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     """Sample points uniformly by area on MESH, with face normals.

@@ -2,8 +2,10 @@
 
 One definition per option, in the manner of rasterio's ``rio/options.py``: a
 command takes ``@views_option()`` instead of repeating the type, range and
-default. Defaults come from :mod:`vptoolkit.conventions`, so the command line
-and the library agree on ``N_VIEWS``, ``RESOLUTION``, ``SEED`` and the measure
+default. Defaults are the library's named constants (:mod:`vptoolkit.conventions`,
+``N_SURFACE_POINTS`` of :mod:`vptoolkit.points`, ``MAX_FACES`` of
+:mod:`vptoolkit.clean.simplify`), so the command line and the library agree on
+``N_VIEWS``, ``RESOLUTION``, ``SEED``, the points, the face budget and the measure
 order. An option whose help depends on the command takes it as an argument.
 """
 
@@ -31,8 +33,11 @@ __all__ = [
     "local_dataset",
     "MEASURE_CHOICE",
     "MODEL_HELP",
+    "MAX_RESOLUTION",
     "views_option",
     "resolution_option",
+    "points_option",
+    "max_faces_option",
     "budget_option",
     "search_resolution_option",
     "seed_option",
@@ -165,6 +170,23 @@ def resolution_option(help: str | None = "Side of the triangle-ID image in pixel
                         type=click.IntRange(1, MAX_RESOLUTION), help=help)
 
 
+def points_option(help: str | None = "Number of points.") -> Callable[[Decorated], Decorated]:
+    """``--points N``: surface points per mesh, 1 to ``MAX_SURFACE_POINTS`` (default
+    ``N_SURFACE_POINTS``)."""
+    from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
+
+    return click.option("--points", "n_points", default=N_SURFACE_POINTS, show_default=True,
+                        type=click.IntRange(1, MAX_SURFACE_POINTS), help=help)
+
+
+def max_faces_option(help: str | None) -> Callable[[Decorated], Decorated]:
+    """``--max-faces N``: the cleaning's face budget, at least 4 (default ``MAX_FACES``)."""
+    from vptoolkit.clean.simplify import MAX_FACES
+
+    return click.option("--max-faces", default=MAX_FACES, show_default=True,
+                        type=click.IntRange(4), help=help)
+
+
 def budget_option() -> Callable[[Decorated], Decorated]:
     """``--views N``: a best-view search's budget of drawn views (default ``BUDGET``)."""
     from vptoolkit.best_view import BUDGET, MAX_BUDGET
@@ -220,7 +242,11 @@ def device_option() -> Callable[[Decorated], Decorated]:
                         help="auto: CUDA when torch sees it, else the CPU.")
 
 
-def size_option(default: int) -> Callable[[Decorated], Decorated]:
-    """``--size PX``: the side of a picture, 16 to 4096 pixels."""
-    return click.option("--size", default=default, show_default=True,
-                        type=click.IntRange(16, 4096), help="Picture side in pixels.")
+def size_option(default: int | None = None) -> Callable[[Decorated], Decorated]:
+    """``--size PX``: the side of a picture, ``MIN_PICTURE_SIZE`` to ``MAX_PICTURE_SIZE``
+    pixels (default ``PICTURE_SIZE``)."""
+    from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, PICTURE_SIZE
+
+    return click.option("--size", default=PICTURE_SIZE if default is None else default,
+                        show_default=True, type=click.IntRange(MIN_PICTURE_SIZE, MAX_PICTURE_SIZE),
+                        help="Picture side in pixels.")

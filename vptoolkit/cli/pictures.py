@@ -29,6 +29,7 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_output_folder
+from vptoolkit.pictures.report import REPORT_SIZE
 
 Vector = tuple[float, float, float]
 
@@ -45,7 +46,7 @@ Vector = tuple[float, float, float]
               help="Draw the K-view coverage set as one contact sheet, --size per tile.")
 @click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
               help="Measure whose prediction --model draws.")
-@size_option(512)
+@size_option()
 @views_option("Views sampled for --best.")
 @resolution_option("Triangle-ID resolution of the measures for --best.")
 @up_option()
@@ -139,7 +140,7 @@ def sphere_map(quality: Path, output: Path, measure: str, predicted: Vector | No
               help="Report one split only (default: every model).")
 @click.option("--predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")
-@size_option(256)
+@size_option(REPORT_SIZE)
 @click.option("--no-pictures", is_flag=True, help="Maps and tables only; needs no renderer.")
 @click.option("--view-set", "view_set_k", default=4, show_default=True, type=click.IntRange(0),
               help="Views in each model's coverage view set (0 leaves it out).")
@@ -175,7 +176,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
 @click.option("--model", "model_path", help=MODEL_HELP + " Uses its predictions, measures nothing.")
 @click.option("--view-set", "view_set_k", type=click.IntRange(1),
               help="Draw each mesh's K-view coverage set as a contact sheet instead.")
-@size_option(512)
+@size_option()
 @workers_option("Measuring processes (default: CPUs).")
 @views_option(None)
 @resolution_option(None)

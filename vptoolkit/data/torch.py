@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
+from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 from vptoolkit.rotations import model_key, random_rotation
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="torch")
 
-__all__ = ["ViewpointTorchDataset", "random_rotation", "model_key"]
+__all__ = ["ViewpointTorchDataset"]
 
 
 _SEED_POOL = 5
@@ -119,8 +120,9 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     directly.
     """
 
-    def __init__(self, dataset: ViewpointDataset, *, n_points: int = 4096, n_fps: int = 1024,
-                 rotate: bool = True, seed: int = 0, fps_pool: int = 0, cache: bool = True,
+    def __init__(self, dataset: ViewpointDataset, *, n_points: int = N_NETWORK_POINTS,
+                 n_fps: int = N_FPS_POINTS, rotate: bool = True, seed: int = 0, fps_pool: int = 0,
+                 cache: bool = True,
                  transform: Callable[[dict[str, Any]], Any] | None = None) -> None:
         if not isinstance(dataset, ViewpointDataset):
             raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")

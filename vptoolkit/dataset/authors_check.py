@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.conventions import MEASURES
+from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import angle_between_deg
@@ -124,7 +125,7 @@ def rank_correlation(a: Any, b: Any) -> float | None:
 
 
 def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
-                   resolution: int = 1024, progress: bool = False) -> MeasureCheck:
+                   resolution: int = AUTHORS_RESOLUTION, progress: bool = False) -> MeasureCheck:
     """Measure ``n_models`` models of a store again with our pipeline and compare.
 
     Parameters

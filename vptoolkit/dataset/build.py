@@ -47,9 +47,10 @@ from typing import Any, Literal
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_bool, check_int
+from vptoolkit.clean.simplify import MAX_FACES
+from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED
 from vptoolkit.dataset.compute import (
     BACKEND,
-    VIEW_SET_VIEWS,
     FailedModel,
     ModelTask,
     cluster_lost,
@@ -60,7 +61,6 @@ from vptoolkit.dataset.schema import published_split
 from vptoolkit.dataset.sources import (
     SPLIT_FRACTIONS,
     SourceModel,
-    assign_split,
     discover_models,
     model_seed,
     models_outside,
@@ -70,7 +70,6 @@ from vptoolkit.dataset.sources import (
 )
 from vptoolkit.dataset.split_files import read_split_file
 from vptoolkit.dataset.staging import (
-    STAGING_DIR,
     StagedEntries,
     build_lock,
     prepare_out,
@@ -86,23 +85,17 @@ from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
+from vptoolkit.points import N_SURFACE_POINTS
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
 
 __all__ = [
-    "BACKEND",
     "COMPILE_NOTICE",
     "FORMATS",
-    "SPLIT_FRACTIONS",
     "STAGES",
-    "STAGING_DIR",
-    "VIEW_SET_VIEWS",
     "BuildResult",
     "SplitFileReport",
-    "SourceModel",
-    "assign_split",
     "build_dataset",
-    "discover_models",
 ]
 
 _log = logging.getLogger(__name__)
@@ -183,15 +176,15 @@ def build_dataset(
     *,
     format: Literal["zarr", "hdf5"] = "zarr",
     categories: Iterable[str] | None = None,
-    n_views: int = 1000,
-    resolution: int = 1024,
-    n_points: int = 20000,
-    max_faces: int = 10000,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    n_points: int = N_SURFACE_POINTS,
+    max_faces: int = MAX_FACES,
     clean: bool = True,
     remesh: bool = False,
     workers: int = 1,
     scheduler: str | None = None,
-    split_seed: int = 0,
+    split_seed: int = SEED,
     splits: str | os.PathLike[str] | None = None,
     max_models: int | None = None,
     progress: bool = False,

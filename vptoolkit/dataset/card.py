@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vptoolkit.conventions import DATASET_VERSION
 from vptoolkit.dataset.info import (
     CITATION,
     camera_sentence,
@@ -79,7 +80,7 @@ def render_card(
     pretty_name: str | None = None,
     file_sizes: Mapping[str, int] | None = None,
     shards: Sequence[ParquetShard] | None = None,
-    version: str = "1.0.0",
+    version: str = DATASET_VERSION,
     created: str | None = None,
     source_url: str | None = None,
     license_name: str | None = None,

@@ -192,7 +192,7 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
-    from vptoolkit.view_sets import measure_view_set
+    from vptoolkit.view_sets.search import measure_view_set
 
     path = Path(task.path)
     seconds: dict[str, float] = {}

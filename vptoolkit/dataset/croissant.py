@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from vptoolkit.conventions import SPLITS
+from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.info import CITATION, info_from_reader, plural, source_name
 from vptoolkit.dataset.parquet import (
     VIEWS_CONFIG,
@@ -115,7 +115,7 @@ def croissant_jsonld(
     file_sizes: Mapping[str, int] | None = None,
     shards: Sequence[ParquetShard] | None = None,
     card: str | None = None,
-    version: str = "1.0.0",
+    version: str = DATASET_VERSION,
     date_published: str | None = None,
     url: str | None = None,
     source_url: str | None = None,

@@ -22,6 +22,9 @@ from pathlib import Path
 from typing import Literal
 
 from vptoolkit.checks import as_path, check_int
+from vptoolkit.clean.simplify import MAX_FACES
+from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED
+from vptoolkit.points import N_SURFACE_POINTS
 
 __all__ = ["BuildPlan", "plan_build"]
 
@@ -106,13 +109,13 @@ def plan_build(
     *,
     format: Literal["zarr", "hdf5"] = "zarr",
     categories: Iterable[str] | None = None,
-    n_views: int = 1000,
-    resolution: int = 1024,
-    n_points: int = 20000,
-    max_faces: int = 10000,
+    n_views: int = N_VIEWS,
+    resolution: int = RESOLUTION,
+    n_points: int = N_SURFACE_POINTS,
+    max_faces: int = MAX_FACES,
     clean: bool = True,
     remesh: bool = False,
-    split_seed: int = 0,
+    split_seed: int = SEED,
     splits: str | os.PathLike[str] | None = None,
     max_models: int | None = None,
     calibrate: int = 3,

@@ -169,11 +169,11 @@ def model_visibility(dataset: ViewpointDataset, key: int | str, *,
     Returns
     -------
     FaceVisibility
-        See :class:`vptoolkit.view_sets.FaceVisibility`.
+        See :class:`vptoolkit.view_sets.visibility.FaceVisibility`.
     """
     from vptoolkit.camera import Camera
     from vptoolkit.mesh import Mesh
-    from vptoolkit.view_sets import FaceVisibility
+    from vptoolkit.view_sets.visibility import FaceVisibility
 
     attrs = dataset.attrs
     vertices, faces = dataset.mesh(key)
@@ -206,10 +206,10 @@ def model_view_set(dataset: ViewpointDataset, key: int | str, k: int) -> Any:
     Returns
     -------
     ViewSet
-        :func:`stored_view_set`, or :func:`vptoolkit.view_sets.best_view_set`
+        :func:`stored_view_set`, or :func:`vptoolkit.view_sets.search.best_view_set`
         over :func:`model_visibility`.
     """
-    from vptoolkit.view_sets import best_view_set
+    from vptoolkit.view_sets.search import best_view_set
 
     stored = stored_view_set(dataset, key, k)
     return stored if stored is not None else best_view_set(model_visibility(dataset, key), k)
@@ -227,8 +227,8 @@ def score_view_sets(
     Each predicted direction is snapped to its nearest sampled view (the
     authors' protocol), the model's stored mesh is drawn from every sampled
     view at the dataset's resolution and camera, and
-    :func:`vptoolkit.view_sets.set_coverage` gives the coverage of the
-    predicted set after 1..k views; :func:`vptoolkit.view_sets.best_view_set`
+    :func:`vptoolkit.view_sets.search.set_coverage` gives the coverage of the
+    predicted set after 1..k views; :func:`vptoolkit.view_sets.search.best_view_set`
     gives the greedy set's (within ``1 - 1/e`` of the best k-set, so a ratio
     above 100 % is possible but rare).
 
@@ -254,7 +254,7 @@ def score_view_sets(
         On an empty dataset or a wrong shape.
     """
     from vptoolkit.sphere import nearest_view
-    from vptoolkit.view_sets import best_view_set, set_coverage
+    from vptoolkit.view_sets.search import best_view_set, set_coverage
 
     n_models = len(dataset)
     if n_models == 0:

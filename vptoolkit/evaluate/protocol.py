@@ -27,7 +27,7 @@ Baselines under the same protocol
     tests). Rotations do not change it.
 
     :func:`pca_predictor`: the smallest principal axis
-    (:func:`vptoolkit.evaluate.pca_directions`), rotation-equivariant.
+    (:func:`vptoolkit.evaluate.baselines.pca_directions`), rotation-equivariant.
 
     :func:`best_constant_directions` and :func:`constant_predictor`: one fixed
     direction per measure, the sampled view with the best mean score over a
@@ -175,7 +175,7 @@ def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
 
 
 def pca_predictor(points: Sequence[NDArray[np.float64]], names: Sequence[str]) -> NDArray[np.float64]:
-    """The PCA heuristic as a :data:`Predictor` (:func:`vptoolkit.evaluate.pca_directions`)."""
+    """The PCA heuristic as a :data:`Predictor` (:func:`vptoolkit.evaluate.baselines.pca_directions`)."""
     return pca_directions(list(points))
 
 

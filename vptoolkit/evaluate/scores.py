@@ -47,7 +47,6 @@ from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
-    EVALUATION_SPLITS,
     check_directions,
     counted,
     quoted,
@@ -60,7 +59,6 @@ from vptoolkit.predictions import (
 )
 
 __all__ = [
-    "EVALUATION_SPLITS",
     "EvaluationReport",
     "load_predictions",
     "save_predictions",

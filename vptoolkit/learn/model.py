@@ -96,6 +96,7 @@ from vptoolkit.learn.labels import (
 )
 from vptoolkit.learn.layers import DirectionHead, GeneratorDropout, PointEncoder, SphereMapDecoder
 from vptoolkit.optional import require
+from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 
 if TYPE_CHECKING:
     import torch
@@ -379,7 +380,8 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         trained = config.get("input", {})
         if not isinstance(trained, Mapping):
             raise InputError(f"input: expected an object, got {type(trained).__name__}")
-        check_input_sizes(trained.get("n_points", 4096), trained.get("n_fps", 1024), prefix="input.")
+        check_input_sizes(trained.get("n_points", N_NETWORK_POINTS), trained.get("n_fps", N_FPS_POINTS),
+                          prefix="input.")
         if "architecture" not in config:
             raise InputError("architecture: missing; a checkpoint names its network's architecture")
         architecture = config["architecture"]

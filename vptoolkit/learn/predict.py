@@ -50,7 +50,7 @@ from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
-from vptoolkit.points import read_point_file
+from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS, read_point_file
 
 if TYPE_CHECKING:
     import torch
@@ -66,7 +66,6 @@ CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of per-category networks
 (:func:`vptoolkit.learn.train.train_per_category`)."""
 
-_SURFACE_POINTS = 20_000
 _SEED_INPUT = 3
 
 
@@ -240,7 +239,7 @@ def _mesh_points(path: Path, seed: int) -> NDArray[np.float64]:
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
 
-    return sample_surface(load_mesh(path), _SURFACE_POINTS, seed=seed).points
+    return sample_surface(load_mesh(path), N_SURFACE_POINTS, seed=seed).points
 
 
 Source = tuple[str, str | None, Callable[[], NDArray[Any]]]
@@ -332,8 +331,8 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
 def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
     """Input size and farthest-point part: the given values, else the checkpoint's training values."""
     trained = config.get("input", {})
-    n_points = trained.get("n_points", 4096) if n_points is None else n_points
-    n_fps = trained.get("n_fps", 1024) if n_fps is None else n_fps
+    n_points = trained.get("n_points", N_NETWORK_POINTS) if n_points is None else n_points
+    n_fps = trained.get("n_fps", N_FPS_POINTS) if n_fps is None else n_fps
     return check_input_sizes(n_points, n_fps)
 
 
@@ -439,7 +438,7 @@ class MeshPredictor:
         """The network input of a mesh, ``(n_points, 3) float32`` (the class docstring)."""
         from vptoolkit.points import sample_surface
 
-        surface = sample_surface(mesh, _SURFACE_POINTS, seed=self.seed).points
+        surface = sample_surface(mesh, N_SURFACE_POINTS, seed=self.seed).points
         return network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
                               seed=self.seed, name=mesh.name)
 

@@ -115,6 +115,7 @@ from vptoolkit.learn.state import (
 )
 from vptoolkit.learn.validation import validation_inputs, validation_scores
 from vptoolkit.optional import require
+from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 
 if TYPE_CHECKING:
     import torch
@@ -251,8 +252,8 @@ def train_model(
     val_split: str = "validation",
     max_models: int | None = None,
     categories: Sequence[str] | str | None = None,
-    n_points: int = 4096,
-    n_fps: int = 1024,
+    n_points: int = N_NETWORK_POINTS,
+    n_fps: int = N_FPS_POINTS,
     rotate: bool = True,
     fps_pool: int = 8,
     val_rotations: int = 3,

@@ -2,7 +2,7 @@
 
 :func:`contact_sheet` lays pictures out in a grid with a caption under each
 (text drawn by matplotlib's Agg canvas, no display); :func:`view_set_sheet`
-finds a mesh's view set (:func:`vptoolkit.view_sets.measure_view_set`) and
+finds a mesh's view set (:func:`vptoolkit.view_sets.search.measure_view_set`) and
 draws it, each tile through the measures' camera, captioned with the pick,
 the view, its direction and the coverage reached so far. The result is an
 ``(height, width, 3) uint8`` image for :func:`vptoolkit.pictures.png.save_png`;
@@ -23,9 +23,10 @@ from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine
-from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, RenderStyle
 from vptoolkit.pictures.views import render_views
-from vptoolkit.view_sets import ViewSet, measure_view_set
+from vptoolkit.view_sets.result import ViewSet
+from vptoolkit.view_sets.search import measure_view_set
 
 __all__ = ["contact_sheet", "view_set_captions", "view_set_sheet"]
 
@@ -142,7 +143,7 @@ def view_set_sheet(
     mesh : Mesh
         The model.
     k : int or None
-        Views in the set (default: 4); see :func:`vptoolkit.view_sets.best_view_set`.
+        Views in the set (default: 4); see :func:`vptoolkit.view_sets.search.best_view_set`.
     size : int
         Side of each tile in pixels (default: 256).
     view_set : ViewSet, optional
@@ -163,7 +164,7 @@ def view_set_sheet(
     view_set : ViewSet
         The set drawn.
     """
-    size = check_int(size, "size", minimum=16, maximum=4096)
+    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     if view_set is None:
         _, view_set = measure_view_set(mesh, k, n_views=n_views, resolution=resolution,
                                        camera=camera, **options)  # type: ignore[arg-type]

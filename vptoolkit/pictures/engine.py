@@ -21,6 +21,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from vptoolkit.errors import InputError
+from vptoolkit.pictures.shading import PICTURE_SIZE
 
 if TYPE_CHECKING:
     import numpy as np
@@ -108,8 +109,8 @@ class Engine(Protocol):
         ...
 
 
-def open_renderer(engine: str = "software", *, size: int = 512, camera: Camera | None = None,
-                  style: RenderStyle | None = None) -> Engine:
+def open_renderer(engine: str = "software", *, size: int = PICTURE_SIZE,
+                  camera: Camera | None = None, style: RenderStyle | None = None) -> Engine:
     """A renderer of the given engine (not started), for use as a context manager.
 
     Parameters

@@ -59,6 +59,9 @@ from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures._open3d_child import read_message, write_message
 from vptoolkit.pictures.shading import (
+    MAX_PICTURE_SIZE,
+    MIN_PICTURE_SIZE,
+    PICTURE_SIZE,
     CreaseNormals,
     RenderStyle,
     crease_normals,
@@ -255,14 +258,14 @@ class Renderer:
     def __init__(
         self,
         *,
-        size: int = 512,
+        size: int = PICTURE_SIZE,
         camera: Camera | None = None,
         style: RenderStyle | None = None,
         start_timeout: float = _START_TIMEOUT,
         frame_timeout: float = _FRAME_TIMEOUT,
         attempts: int = _ATTEMPTS,
     ) -> None:
-        self.size = check_int(size, "size", minimum=16, maximum=4096)
+        self.size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
         self.camera = camera or Camera()
         self.style = style or RenderStyle()
         for name, value in (("start_timeout", start_timeout), ("frame_timeout", frame_timeout)):

@@ -32,11 +32,12 @@ from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.engine import Engine, open_renderer
 from vptoolkit.pictures.png import save_png
-from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, RenderStyle
 
 __all__ = ["write_report"]
 
-_REPORT_SIZE = 256  # pixels of a report thumbnail
+REPORT_SIZE = 256
+"""Side in pixels of a report's pictures unless one is given."""
 
 
 _SAFE = re.compile(r"[^A-Za-z0-9._-]+")
@@ -76,7 +77,7 @@ def write_report(
     *,
     split: str | None = None,
     predictions: str | os.PathLike[str] | None = None,
-    size: int = _REPORT_SIZE,
+    size: int = REPORT_SIZE,
     thumbnails: bool = True,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
@@ -95,7 +96,7 @@ def write_report(
     with the best view starred and the prediction crossed, and, with
     predictions, the pictures from the predicted views and their scores (the
     normalised quality of the nearest sampled view, in percent, as
-    :func:`vptoolkit.evaluate.score_directions` computes them). The summary
+    :func:`vptoolkit.evaluate.scores.score_directions` computes them). The summary
     table counts the models per category and split and, with predictions,
     gives the mean score per category and the mean over categories (the
     paper's table 2). A model whose pictures cannot be drawn keeps its card,
@@ -112,7 +113,7 @@ def write_report(
         Report only ``"train"``, ``"val"`` or ``"test"`` (default: all models).
     predictions : path-like, optional
         A predictions ``.npz``/``.npy`` naming each reported model (see
-        :func:`vptoolkit.evaluate.load_predictions`).
+        :func:`vptoolkit.evaluate.scores.load_predictions`).
     size : int
         Picture side in pixels (default: 256).
     thumbnails : bool
@@ -159,13 +160,13 @@ def write_report(
                 thumbnails=thumbnails, camera=camera, style=style, renderer=renderer,
                 engine=engine, progress=progress, view_set=view_set,
             )
-    from vptoolkit.evaluate import load_predictions, score_directions
+    from vptoolkit.evaluate.scores import load_predictions, score_directions
     from vptoolkit.optional import require
     from vptoolkit.pictures.sphere_map import save_figure, sphere_maps
 
     require("matplotlib")
     target = as_path(out_dir, "out_dir")
-    size = check_int(size, "size", minimum=16, maximum=4096)
+    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     if view_set is not None:
         view_set = check_int(view_set, "view_set", minimum=1)
     selected = dataset if split is None else dataset.split(split)
@@ -232,7 +233,7 @@ def _find_view_set(dataset: Any, position: int, k: int, card: _Card) -> None:
     The set stored by the build is used when it has ``k`` views (or stopped
     because more add nothing); otherwise it is searched here.
     """
-    from vptoolkit.evaluate import model_view_set
+    from vptoolkit.evaluate.coverage import model_view_set
 
     try:
         chosen = model_view_set(dataset, position, k)

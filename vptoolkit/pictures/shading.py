@@ -28,6 +28,9 @@ from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 
 __all__ = [
+    "PICTURE_SIZE",
+    "MIN_PICTURE_SIZE",
+    "MAX_PICTURE_SIZE",
     "RenderStyle",
     "CreaseNormals",
     "crease_normals",
@@ -36,6 +39,15 @@ __all__ = [
     "srgb_to_linear",
     "linear_to_srgb",
 ]
+
+PICTURE_SIZE = 512
+"""Side of a picture in pixels unless one is given."""
+
+MIN_PICTURE_SIZE = 16
+"""Smallest picture side in pixels."""
+
+MAX_PICTURE_SIZE = 4096
+"""Largest picture side in pixels."""
 
 
 @dataclass(frozen=True)

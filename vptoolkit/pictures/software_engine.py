@@ -37,6 +37,9 @@ from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.shading import (
+    MAX_PICTURE_SIZE,
+    MIN_PICTURE_SIZE,
+    PICTURE_SIZE,
     RenderStyle,
     crease_normals,
     light_direction,
@@ -83,9 +86,9 @@ class SoftwareRenderer:
     ...     images = renderer.render(mesh, [[0, 0, 1], [1, 1, 1]])
     """
 
-    def __init__(self, *, size: int = 512, camera: Camera | None = None,
+    def __init__(self, *, size: int = PICTURE_SIZE, camera: Camera | None = None,
                  style: RenderStyle | None = None, supersampling: int = 2) -> None:
-        self.size = check_int(size, "size", minimum=16, maximum=4096)
+        self.size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
         self.camera = camera or Camera()
         self.style = style or RenderStyle()
         self.supersampling = check_int(supersampling, "supersampling", minimum=1, maximum=4)

@@ -32,7 +32,12 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import run_tasks
 from vptoolkit.pictures.engine import Engine, open_renderer
 from vptoolkit.pictures.png import save_png
-from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.shading import (
+    MAX_PICTURE_SIZE,
+    MIN_PICTURE_SIZE,
+    PICTURE_SIZE,
+    RenderStyle,
+)
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.progress import progress_bar
 
@@ -43,7 +48,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
 
-_THUMBNAIL_SIZE = 512
 _INDEX_NAME = "thumbnails.json"
 
 
@@ -128,7 +132,7 @@ def _best_direction_task(task: _MeasureTask) -> _Measured:
     try:
         mesh = load_mesh(task.path)
         if task.view_set:
-            from vptoolkit.view_sets import measure_view_set
+            from vptoolkit.view_sets.search import measure_view_set
 
             _, view_set = measure_view_set(mesh, task.view_set, n_views=task.n_views,
                                            resolution=task.resolution, camera=task.camera)
@@ -199,7 +203,7 @@ def render_thumbnails(
     *,
     measure: str = "VE",
     predictor: DirectionSource | None = None,
-    size: int = _THUMBNAIL_SIZE,
+    size: int = PICTURE_SIZE,
     workers: int | None = None,
     n_views: int = N_VIEWS,
     resolution: int = RESOLUTION,
@@ -253,7 +257,7 @@ def render_thumbnails(
         Show a progress bar on stderr (default: False).
     view_set : int, optional
         Draw each mesh's ``view_set``-view coverage set
-        (:func:`vptoolkit.view_sets.best_view_set`) as a captioned contact
+        (:func:`vptoolkit.view_sets.search.best_view_set`) as a captioned contact
         sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`), ``size``
         pixels per tile, instead of one view; its record lists every direction.
 
@@ -275,7 +279,7 @@ def render_thumbnails(
     target = as_path(out, "out")
     column = measure_index(measure)
     measure = MEASURES[column]
-    size = check_int(size, "size", minimum=16, maximum=4096)
+    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
     n_views = check_int(n_views, "n_views", minimum=1)
     resolution = check_int(resolution, "resolution", minimum=1)

@@ -36,7 +36,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.measures import ViewQuality
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.engine import Engine, open_renderer
-from vptoolkit.pictures.shading import RenderStyle
+from vptoolkit.pictures.shading import PICTURE_SIZE, RenderStyle
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -78,7 +78,7 @@ def render_views(
     mesh: Mesh,
     directions: ArrayLike,
     *,
-    size: int = 512,
+    size: int = PICTURE_SIZE,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
     renderer: Engine | None = None,
@@ -118,7 +118,7 @@ def render_view(
     mesh: Mesh,
     direction: ArrayLike,
     *,
-    size: int = 512,
+    size: int = PICTURE_SIZE,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
     renderer: Engine | None = None,
@@ -209,7 +209,7 @@ def render_best(
     mesh: Mesh,
     *,
     measure: str = "VE",
-    size: int = 512,
+    size: int = PICTURE_SIZE,
     quality: ViewQuality | None = None,
     n_views: int = N_VIEWS,
     resolution: int = RESOLUTION,
@@ -268,7 +268,7 @@ def render_predicted(
     source: DirectionSource,
     *,
     measure: str = "VE",
-    size: int = 512,
+    size: int = PICTURE_SIZE,
     camera: Camera | None = None,
     style: RenderStyle | None = None,
     renderer: Engine | None = None,

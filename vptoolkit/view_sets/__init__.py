@@ -69,18 +69,6 @@ face per view: 40 MB for 1000 views of a 10k-face mesh at 1024 px).
 Modules: :mod:`~vptoolkit.view_sets.visibility` (the input, every view drawn
 once), :mod:`~vptoolkit.view_sets.search` (the objectives and the greedy
 search), :mod:`~vptoolkit.view_sets.result` (the chosen set and its files).
+Import each name from its module (``from vptoolkit.view_sets.search import
+best_view_set``); this package imports nothing.
 """
-
-from vptoolkit.view_sets.result import ViewSet
-from vptoolkit.view_sets.search import OBJECTIVES, best_view_set, measure_view_set, set_coverage
-from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
-
-__all__ = [
-    "OBJECTIVES",
-    "MIN_PIXELS",
-    "FaceVisibility",
-    "ViewSet",
-    "best_view_set",
-    "measure_view_set",
-    "set_coverage",
-]
