@@ -86,6 +86,7 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
     left out.
     """
     from vptoolkit.learn import train as T
+    from vptoolkit.learn.options import TrainOptions
 
     seconds = []
     real_epoch = T._train_epoch
@@ -98,9 +99,9 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
 
     T._train_epoch = timed_epoch
     try:
-        result = T.train_model(dataset, out, labels="ml", epochs=epochs, threads=1, fps_pool=fps_pool,
-                               n_points=n_points, n_fps=n_fps, max_models=models, val_rotations=0,
-                               save_every=epochs, device="cpu", overwrite=True, val_split="train")
+        options = TrainOptions(labels="ml", epochs=epochs, fps_pool=fps_pool, n_points=n_points, n_fps=n_fps,
+                               max_models=models, val_rotations=0, val_split="train")
+        result = T.train_model(dataset, out, options, threads=1, save_every=epochs, device="cpu", overwrite=True)
     finally:
         T._train_epoch = real_epoch
     tail = seconds[-max(1, len(seconds) // 3):]
