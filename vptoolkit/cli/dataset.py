@@ -26,6 +26,13 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
+from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
+from vptoolkit.dataset.release_options import (
+    DEFAULT_FORMATS,
+    DEFAULT_LICENSE,
+    DEFAULT_NAME,
+    ReleaseOptions,
+)
 from vptoolkit.errors import InputError
 
 
@@ -123,14 +130,15 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 @click.command()
 @click.argument("dataset", type=EXISTING)
 @click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path), required=False)
-@click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
-@click.option("--license", "license_id", default="other", show_default=True,
+@click.option("--name", default=DEFAULT_NAME, show_default=True,
+              help="Base name of the archives.")
+@click.option("--license", "license_id", default=DEFAULT_LICENSE, show_default=True,
               help="Licence of the release and of every source mesh --licenses does not "
               "name: an SPDX identifier (CC-BY-4.0, MIT) or a URL; 'other' states none.")
-@click.option("--formats", default="parquet,hdf5", show_default=True,
+@click.option("--formats", default=",".join(DEFAULT_FORMATS), show_default=True,
               help="Containers to write, comma-separated: parquet, zarr, hdf5 (each a full "
               "copy of the data).")
-@click.option("--shard-size", default="500MB", show_default=True,
+@click.option("--shard-size", default=f"{DEFAULT_SHARD_BYTES // 1000**2}MB", show_default=True,
               help="Largest size of one Parquet shard's rows (Arrow bytes), e.g. 200KB, 1GB.")
 @click.option("--version", "dataset_version", default=DATASET_VERSION, show_default=True,
               help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant; "
@@ -149,7 +157,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 @click.option("--update-card", is_flag=True,
               help="DATASET is a release whose README.md was edited: rewrite croissant.json "
               "and SHA256SUMS to match it, leaving the archives as they are.")
-def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: str,
+def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
          formats: str, shard_size: str, dataset_version: str, created: str | None,
          pretty_name: str | None,
          source_url: str | None, url: str | None, creator: str | None,
@@ -182,20 +190,17 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
         return
     if release_dir is None:
         raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
-    from vptoolkit.dataset.licenses import check_license
     from vptoolkit.dataset.release import pack_release
 
-    if license_id != "other":
-        check_license(license_id, "--license")
-
     chosen = [part.strip() for part in formats.split(",") if part.strip()]
-    with options_named(shard_size="--shard-size"):
-        result = pack_release(
-            dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
-            version=dataset_version, created=created, pretty_name=pretty_name,
-            source_url=source_url, url=url, creator=creator, licenses=licenses,
-            license_name=license_name, license_link=license_link, shard_size=shard_size,
+    with options_named(shard_size="--shard-size", license="--license"):
+        options = ReleaseOptions(
+            name=name, license=license_id, formats=chosen, version=dataset_version,
+            created=created, pretty_name=pretty_name, source_url=source_url, url=url,
+            creator=creator, licenses=licenses, license_name=license_name,
+            license_link=license_link, shard_size=shard_size,
         )
+    result = pack_release(dataset, release_dir, options, progress=True)
     for line in result.warnings:
         click.echo(f"vptool: warning: {line}", err=True)
     top = sorted({name.split("/")[0] + ("/" if "/" in name else "") for name in result.files})
