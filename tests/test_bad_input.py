@@ -15,6 +15,7 @@ import subprocess
 import sys
 import textwrap
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from click.testing import CliRunner
 from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
 TETRAHEDRON = "0 0 0\n{s} 0 0\n0 {s} 0\n0 0 {s}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
 
@@ -422,8 +424,9 @@ def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) 
 
     teapot = load_mesh(sample_path("teapot"))
     scaled = Mesh(teapot.vertices * scale, teapot.faces, name="teapot")
-    raster = compute_view_quality(scaled, 20, 64, backend="raster").raw
-    raycast = compute_view_quality(scaled, 20, 64, backend="raycast").raw
+    settings = MeasureSettings(views=20, resolution=64)
+    raster = compute_view_quality(scaled, settings).raw
+    raycast = compute_view_quality(scaled, replace(settings, backend="raycast")).raw
     np.testing.assert_allclose(raycast, raster, rtol=0.01)
 
 

@@ -30,6 +30,7 @@ from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
 
 from fixtures.environment import DASK_DASHBOARD, require_package
@@ -250,7 +251,7 @@ def test_build_measures_what_the_pipeline_measures(src, reference):
     _, stored = reference
     row = GOOD.index("table")
     cleaned, _ = clean_mesh(load_mesh(src / "shape/train/table.obj"), max_faces=2000)
-    quality = compute_view_quality(cleaned, 60, 64)
+    quality = compute_view_quality(cleaned, MeasureSettings(views=60, resolution=64))
     assert np.array_equal(stored["arrays"]["quality_raw"][row], quality.raw.astype(np.float32),
                           equal_nan=True)
     assert np.array_equal(stored["arrays"]["best_index"][row], quality.best_index)

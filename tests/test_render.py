@@ -35,6 +35,7 @@ from vptoolkit.pictures.views import (
     render_views,
     resolve_direction,
 )
+from vptoolkit.settings import MeasureSettings
 
 SIZE = 128
 def pair_mesh() -> Mesh:
@@ -278,7 +279,7 @@ def test_documented_return_shapes(renderer, cube):
 def test_render_best_draws_the_best_view(renderer, cube):
     from vptoolkit.measures import compute_view_quality
 
-    quality = compute_view_quality(cube, n_views=60, resolution=48)
+    quality = compute_view_quality(cube, MeasureSettings(views=60, resolution=48))
     for column, measure in enumerate(MEASURES):
         view = render_best(cube, measure=measure, quality=quality, renderer=renderer)
         assert isinstance(view, RenderedView)

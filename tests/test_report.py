@@ -33,6 +33,7 @@ from fixtures.pictures import decode_png, model_mask, read_png, started_renderer
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
 N_VIEWS = 200
@@ -203,7 +204,7 @@ def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: 
     from vptoolkit.measures import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map_file
 
-    quality_path = compute_view_quality(cube, n_views=100, resolution=32).save_npz(
+    quality_path = compute_view_quality(cube, MeasureSettings(views=100, resolution=32)).save_npz(
         tmp_path / "cube.npz")
     written = sphere_map_file(quality_path, tmp_path / "cube.png", measure="vkl")
     assert read_png(written).shape[:2] == (540, 640)

@@ -73,6 +73,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
+from vptoolkit.settings import MeasureSettings
 
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
@@ -155,7 +156,8 @@ def answers(budgets: list[int], resolution: int,
         priors[label] = NetworkPrior(model)
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
-            lambda mesh, b=budget: compute_view_quality(mesh, b, resolution).best_views))
+            lambda mesh, b=budget: compute_view_quality(
+                mesh, MeasureSettings(views=b, resolution=resolution)).best_views))
         rows[f"coarse-to-fine {budget} @ {resolution}"] = (str(budget), (
             lambda mesh, b=budget: search_best_views(mesh, b, resolution).directions))
         for label, prior in priors.items():

@@ -40,6 +40,7 @@ from vptoolkit.pictures.contact_sheet import view_set_sheet
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.samples import sample_names, sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg
 from vptoolkit.synthetic import CATEGORIES, make_shape
 from vptoolkit.view_sets.search import best_view_set, set_coverage
@@ -67,7 +68,8 @@ def padded(values: np.ndarray) -> np.ndarray:
 
 
 def evaluate_mesh(mesh: Mesh, n_views: int, resolution: int) -> dict[str, object]:
-    visibility = FaceVisibility.from_mesh(mesh, n_views, resolution)
+    settings = MeasureSettings(views=n_views, resolution=resolution)
+    visibility = FaceVisibility.from_mesh(mesh, settings)
     quality = visibility.quality()
     rows: dict[str, np.ndarray] = {}
     spreads: dict[str, float] = {}

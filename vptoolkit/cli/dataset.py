@@ -14,7 +14,6 @@ from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE, options_named
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
-    MAX_RESOLUTION,
     ExistingPath,
     cache_dir_option,
     local_dataset,
@@ -34,6 +33,7 @@ from vptoolkit.dataset.release_options import (
     ReleaseOptions,
 )
 from vptoolkit.errors import InputError
+from vptoolkit.settings import MAX_RESOLUTION
 
 
 @click.command("build-dataset")

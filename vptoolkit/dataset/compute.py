@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.manifest import sha256_file
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
+from vptoolkit.settings import MeasureSettings
 
 __all__ = [
     "BACKEND",
@@ -207,8 +208,8 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
         cleaning = _without_timings(report.to_dict())
     seconds["clean"] = time.perf_counter() - started
     started = time.perf_counter()
-    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, n_views=task.n_views,
-                                         resolution=task.resolution, backend=BACKEND)
+    settings = MeasureSettings(views=task.n_views, resolution=task.resolution, backend=BACKEND)
+    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, settings=settings)
     seconds["measure"] = time.perf_counter() - started
     started = time.perf_counter()
     sample = sample_surface(mesh, task.n_points, seed=task.seed)

@@ -25,6 +25,7 @@ from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine
 from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, RenderStyle
 from vptoolkit.pictures.views import render_views
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.search import measure_view_set
 
@@ -166,8 +167,9 @@ def view_set_sheet(
     """
     size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     if view_set is None:
-        _, view_set = measure_view_set(mesh, k, n_views=n_views, resolution=resolution,
-                                       camera=camera, **options)  # type: ignore[arg-type]
+        settings = MeasureSettings(n_views, resolution, camera or Camera())
+        _, view_set = measure_view_set(mesh, k, settings=settings,
+                                       **options)  # type: ignore[arg-type]
     images = render_views(mesh, view_set.directions, size=size, camera=camera, style=style,
                           renderer=renderer, engine=engine)
     title = (f"{mesh.name}: {len(view_set)} views by {view_set.objective}, "

@@ -128,18 +128,19 @@ def _best_direction_task(task: _MeasureTask) -> _Measured:
     """Worker: load a mesh and find its best view or view set (top level, so a pool can run it)."""
     from vptoolkit.io import load_mesh
     from vptoolkit.measures import compute_view_quality
+    from vptoolkit.settings import MeasureSettings
 
     try:
+        settings = MeasureSettings(task.n_views, task.resolution, task.camera)
         mesh = load_mesh(task.path)
         if task.view_set:
             from vptoolkit.view_sets.search import measure_view_set
 
-            _, view_set = measure_view_set(mesh, task.view_set, n_views=task.n_views,
-                                           resolution=task.resolution, camera=task.camera)
+            _, view_set = measure_view_set(mesh, task.view_set, settings=settings)
             label = f"view set of {len(view_set)} ({100 * view_set.coverage[-1]:.1f} % seen)"
             return _Measured(task.source, mesh=mesh, direction=view_set.directions,
                              view_set=view_set, label=label)
-        quality = compute_view_quality(mesh, task.n_views, task.resolution, camera=task.camera)
+        quality = compute_view_quality(mesh, settings)
     except (VptoolkitError, OSError, MemoryError) as err:
         return _Measured(task.source, error=one_line(err))
     index = int(quality.best_index[MEASURES.index(task.measure)])

@@ -253,8 +253,10 @@ def render_best(
     column = measure_index(measure)
     if quality is None:
         from vptoolkit.measures import compute_view_quality
+        from vptoolkit.settings import MeasureSettings
 
-        quality = compute_view_quality(mesh, n_views, resolution, camera=camera)
+        quality = compute_view_quality(
+            mesh, MeasureSettings(n_views, resolution, camera or Camera()))
     index = int(quality.best_index[column])
     direction = quality.views[index]
     image = render_view(mesh, direction, size=size, camera=camera or quality.camera,
