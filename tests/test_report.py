@@ -276,8 +276,7 @@ def report_renderer():
 def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) -> Path:
     from vptoolkit.pictures.report import write_report
 
-    return write_report(store, tmp_path_factory.mktemp("report") / "all",
-                        renderer=report_renderer)
+    return write_report(store, tmp_path_factory.mktemp("report") / "all", engine=report_renderer)
 
 
 @pytest.fixture(scope="module")
@@ -301,7 +300,7 @@ def test_report(store, predictions, report_renderer, matplotlib_available,
     from vptoolkit.pictures.report import write_report
 
     return write_report(store, tmp_path_factory.mktemp("report") / "test", split="test",
-                        predictions=predictions[0], renderer=report_renderer)
+                        predictions=predictions[0], engine=report_renderer)
 
 
 def image_sources(page: str) -> list[str]:

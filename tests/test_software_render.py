@@ -61,7 +61,8 @@ def test_pictures_are_upright_and_antialiased():
     raised = box_mesh()
     both = Mesh(np.vstack([raised.vertices, raised.vertices * 0.5 + [0.0, 1.5, 0.0]]),
                 np.vstack([raised.faces, raised.faces + len(raised.vertices)]), "tower")
-    image = render_view(both, [0.2, 0.1, 1.0], size=SIZE)  # the default engine and roll
+    with open_renderer(size=SIZE) as engine:  # the default engine and roll
+        image = render_view(both, [0.2, 0.1, 1.0], engine=engine)
     rows = np.nonzero(model_mask(image))[0]
     top_half = model_mask(image)[: SIZE // 2].sum()
     assert rows.min() < SIZE * 0.25 and top_half < model_mask(image)[SIZE // 2:].sum()

@@ -66,7 +66,7 @@ class SoftwareRenderer:
 
     The ``"software"`` :class:`~vptoolkit.pictures.engine.Engine` (``size``,
     ``camera``, ``style``, :meth:`start`, :meth:`close`, :meth:`render`, use
-    as a context manager), so every function taking a ``renderer`` takes
+    as a context manager), so every picture function's ``engine`` may be
     it or the Open3D one.
 
     Parameters
