@@ -26,6 +26,7 @@ from vptoolkit.cli.options import (
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
 from vptoolkit.dataset.build_options import DEFAULT_FORMAT, FORMATS
+from vptoolkit.dataset.plan import CALIBRATION_MODELS
 from vptoolkit.errors import InputError
 from vptoolkit.settings import MAX_RESOLUTION
 
@@ -58,7 +59,8 @@ from vptoolkit.settings import MAX_RESOLUTION
               "category and split, and estimate hours and disk from a few models built "
               "in a temporary folder.")
 @click.option("--calibrate", type=click.IntRange(0),
-              help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
+              help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
+              "0: count only).")
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   categories: str | None, n_views: int, resolution: int, n_points: int,
                   max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
@@ -98,8 +100,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
     if dry_run:
         from vptoolkit.dataset.plan import plan_build
 
-        plan = plan_build(src, out, options, categories=chosen,
-                          calibrate=3 if calibrate is None else calibrate, progress=True)
+        plan = plan_build(src, out, options, categories=chosen, progress=True,
+                          calibrate=CALIBRATION_MODELS if calibrate is None else calibrate)
         for line in plan.lines():
             click.echo(line)
         return

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final, Literal
 
-from vptoolkit.checks import as_path, check_bool, check_int
+from vptoolkit.checks import as_path, check_bool, check_int, check_keys
 from vptoolkit.clean.simplify import MAX_FACES
 from vptoolkit.conventions import SEED
 from vptoolkit.errors import InputError
@@ -179,14 +179,7 @@ class BuildOptions:
     @classmethod
     def from_dict(cls, record: dict[str, Any]) -> BuildOptions:
         """The options of a :meth:`to_dict` record; a missing or unknown key is an InputError."""
-        if not isinstance(record, dict):
-            raise InputError(f"build options: expected a mapping, got {type(record).__name__}")
-        missing = [key for key in _KEYS if key not in record]
-        unknown = sorted(set(record) - set(_KEYS))
-        if missing or unknown:
-            problems = ([f"missing {', '.join(missing)}"] if missing else []) + (
-                [f"unknown {', '.join(unknown)}"] if unknown else [])
-            raise InputError(f"build options: {'; '.join(problems)}")
+        record = check_keys(record, _KEYS, "build options")
         digest = record["splits_sha256"]
         return cls(
             measure=MeasureSettings.from_dict(record["measure"]),

@@ -24,7 +24,10 @@ from pathlib import Path
 from vptoolkit.checks import as_path, check_int
 from vptoolkit.dataset.build_options import BuildOptions
 
-__all__ = ["BuildPlan", "plan_build"]
+__all__ = ["CALIBRATION_MODELS", "BuildPlan", "plan_build"]
+
+CALIBRATION_MODELS = 3
+"""Models :func:`plan_build` builds for its estimate unless told otherwise."""
 
 
 @dataclass(frozen=True)
@@ -107,7 +110,7 @@ def plan_build(
     options: BuildOptions = BuildOptions(),
     *,
     categories: Iterable[str] | None = None,
-    calibrate: int = 3,
+    calibrate: int = CALIBRATION_MODELS,
     progress: bool = False,
 ) -> BuildPlan:
     """List the models a build would take and estimate its hours and disk.
