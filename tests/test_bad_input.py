@@ -24,6 +24,7 @@ from click.testing import CliRunner
 
 from fixtures.environment import require_package
 from vptoolkit.cli import main
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 
@@ -77,8 +78,8 @@ def test_a_build_records_an_underflowing_mesh_as_a_failure(tmp_path: Path) -> No
     src.mkdir()
     (src / "tiny.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
     (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
-    result = build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100,
-                           clean=False)
+    options = BuildOptions(MeasureSettings(views=20, resolution=32), n_points=100, clean=False)
+    result = build_dataset(src, tmp_path / "out", options)
     assert result.n_models == 1
     (failure,) = result.failures
     assert failure["source"] == "tiny.off" and "underflow" in failure["reason"]
@@ -341,7 +342,8 @@ def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
     staging.mkdir(parents=True)
     (staging / "build.json").write_text("[" * 200_000)
     with pytest.raises(InputError, match="build.json: unreadable build record .*nested too deeply"):
-        build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100, clean=False)
+        build_dataset(src, tmp_path / "out",
+                      BuildOptions(MeasureSettings(views=20, resolution=32), clean=False))
 
 
 def test_option_errors_are_one_line_like_every_other_error() -> None:
@@ -472,11 +474,10 @@ def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
     code, text = _run("build-dataset", src, tmp_path / "out", "--remesh", "--no-clean")
     _assert_one_line_bad_input(code, text, "--remesh", "--no-clean")
     assert "clean=True" not in text and not (tmp_path / "out").exists()
-    from vptoolkit.dataset.build import build_dataset
     from vptoolkit.errors import InputError
 
     with pytest.raises(InputError, match="remesh: .* needs clean=True"):
-        build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
+        BuildOptions(clean=False, remesh=True)
 
 
 def test_train_names_its_options_not_the_python_arguments(small_build: Path, tmp_path: Path,

@@ -13,6 +13,8 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
 
 require_package("torch")
 require_package("safetensors")
@@ -51,8 +53,9 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 @pytest.fixture(scope="module")
 def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
     """Eight sample meshes measured from 100 views at 64 px: six train, one val, one test."""
-    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes", n_views=100,
-                        resolution=64, n_points=2000, clean=False)
+    options = BuildOptions(MeasureSettings(views=100, resolution=64), n_points=2000, clean=False)
+    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes",
+                        options=options)
     torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
     return out
 

@@ -44,11 +44,15 @@ def parse_args() -> argparse.Namespace:
 def build(folder: Path, per_category: int, quick: bool) -> Path:
     """A small procedural dataset with the paper's 20000 stored points."""
     from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build_options import BuildOptions
+    from vptoolkit.points import N_SURFACE_POINTS
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.synthetic import write_collection
 
     write_collection(folder / "shapes", n_per_category=per_category, seed=0)
-    result = build_dataset(folder / "shapes", folder / "dataset", n_views=100 if quick else 200,
-                           resolution=64, n_points=4000 if quick else 20000, clean=False, workers=1)
+    options = BuildOptions(MeasureSettings(views=100 if quick else 200, resolution=64),
+                           n_points=4000 if quick else N_SURFACE_POINTS, clean=False)
+    result = build_dataset(folder / "shapes", folder / "dataset", options, workers=1)
     return result.path
 
 

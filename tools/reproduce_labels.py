@@ -46,6 +46,8 @@ from pathlib import Path
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.labels import head_for_method
 from vptoolkit.learn.options import TrainOptions
@@ -121,7 +123,7 @@ class LabelSizes:
     method trains ``epochs`` epochs on ``train_points`` input points, the
     first ``train_fps`` of them by farthest point sampling. Test models are
     scored under ``rotations`` fixed rotations each. ``remesh`` remeshes the
-    shapes isotropically when cleaning them (``build_dataset(remesh=True)``).
+    shapes isotropically when cleaning them (``build_dataset(BuildOptions(remesh=True))``).
     """
 
     per_category: int = 50
@@ -227,10 +229,10 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     shapes, dataset_dir = out / "shapes", out / "dataset"
     if not shapes.exists():
         write_collection(shapes, n_per_category=sizes.per_category, seed=0)
-    built = build_dataset(shapes, dataset_dir, n_views=sizes.n_views,
-                          resolution=sizes.resolution, n_points=sizes.n_points,
-                          clean=sizes.clean, remesh=sizes.remesh, workers=workers, split_seed=0,
-                          progress=True)
+    options = BuildOptions(MeasureSettings(views=sizes.n_views, resolution=sizes.resolution),
+                           n_points=sizes.n_points, clean=sizes.clean, remesh=sizes.remesh,
+                           split_seed=0)
+    built = build_dataset(shapes, dataset_dir, options, workers=workers, progress=True)
     with open_dataset(built.path) as dataset:
         val_split = "validation" if len(dataset.split("validation")) else "train"
     trained = train_all(built.path, out, sizes, methods, val_split=val_split, jobs=jobs,

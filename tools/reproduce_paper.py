@@ -574,6 +574,7 @@ def section_robustness(options: RunOptions) -> Section:
 
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build_options import BuildOptions
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,
@@ -623,9 +624,11 @@ def section_robustness(options: RunOptions) -> Section:
             link = samples_source / file_name
             if not link.exists():
                 link.symlink_to(sample_path(file_name))
-    built = build_dataset(samples_source, options.out / "samples", n_views=labels_settings[0],
-                          resolution=labels_settings[1], n_points=n_surface, clean=is_cleaned,
-                          workers=options.workers, split_seed=0, progress=True)
+    build_options = BuildOptions(
+        MeasureSettings(views=labels_settings[0], resolution=labels_settings[1]),
+        n_points=n_surface, clean=is_cleaned, split_seed=0)
+    built = build_dataset(samples_source, options.out / "samples", build_options,
+                          workers=options.workers, progress=True)
     held_out: dict[str, ProtocolScores] = {}
     with open_dataset(built.path) as samples:
         held_out["network (ML+GL)"] = score_protocol(samples, network_predictor(checkpoint_path(options)),

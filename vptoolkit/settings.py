@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.camera import Camera
-from vptoolkit.checks import check_int
+from vptoolkit.checks import check_int, check_keys
 from vptoolkit.conventions import N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
@@ -90,14 +90,7 @@ class MeasureSettings:
     @classmethod
     def from_dict(cls, record: dict[str, Any]) -> MeasureSettings:
         """The settings of a :meth:`to_dict` record; a missing or unknown key is an InputError."""
-        if not isinstance(record, dict):
-            raise InputError(f"measure settings: expected a mapping, got {type(record).__name__}")
-        missing = [key for key in _KEYS if key not in record]
-        unknown = sorted(set(record) - set(_KEYS))
-        if missing or unknown:
-            problems = ([f"missing {', '.join(missing)}"] if missing else []) + (
-                [f"unknown {', '.join(unknown)}"] if unknown else [])
-            raise InputError(f"measure settings: {'; '.join(problems)}")
+        record = check_keys(record, _KEYS, "measure settings")
         camera = record["camera"]
         if not isinstance(camera, dict):
             raise InputError(f"camera: expected a mapping, got {type(camera).__name__}")

@@ -25,7 +25,9 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
+from vptoolkit.dataset.build_options import DEFAULT_FORMAT, FORMATS
 from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
+from vptoolkit.dataset.plan import CALIBRATION_MODELS
 from vptoolkit.dataset.release_options import (
     DEFAULT_FORMATS,
     DEFAULT_LICENSE,
@@ -39,8 +41,8 @@ from vptoolkit.settings import MAX_RESOLUTION
 @click.command("build-dataset")
 @click.argument("src", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--format", "store_format", type=click.Choice(["zarr", "hdf5"]), default="zarr",
-              show_default=True, help="Container of OUT/dataset.*.")
+@click.option("--format", "store_format", type=click.Choice(list(FORMATS)),
+              default=DEFAULT_FORMAT, show_default=True, help="Container of OUT/dataset.*.")
 @click.option("--categories", help="Comma-separated categories to include (default: all).")
 @views_option("Fibonacci view directions per model.")
 @resolution_option("Triangle-ID image side in pixels.")
@@ -64,7 +66,8 @@ from vptoolkit.settings import MAX_RESOLUTION
               "category and split, and estimate hours and disk from a few models built "
               "in a temporary folder.")
 @click.option("--calibrate", type=click.IntRange(0),
-              help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
+              help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
+              "0: count only).")
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   categories: str | None, n_views: int, resolution: int, n_points: int,
                   max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
@@ -88,28 +91,28 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
           --splits data/ModelNet40/small.txt
     """
     from vptoolkit.dataset.build import build_dataset as build
+    from vptoolkit.dataset.build_options import BuildOptions, SplitFile
+    from vptoolkit.settings import MeasureSettings
 
     if remesh and no_clean:
         raise InputError("--remesh: remeshing is a cleaning step; drop --no-clean or --remesh")
     chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
     if calibrate is not None and not dry_run:
         raise InputError("--calibrate: only with --dry-run")
+    options = BuildOptions(
+        measure=MeasureSettings(views=n_views, resolution=resolution), n_points=n_points,
+        max_faces=max_faces, clean=not no_clean, remesh=remesh, split_seed=split_seed,
+        splits=None if split_file is None else SplitFile.read(split_file),
+        max_models=max_models, format=store_format)
     if dry_run:
         from vptoolkit.dataset.plan import plan_build
 
-        plan = plan_build(src, out, format=store_format, categories=chosen, n_views=n_views,
-                          resolution=resolution, n_points=n_points, max_faces=max_faces,
-                          clean=not no_clean, remesh=remesh, split_seed=split_seed,
-                          splits=split_file, max_models=max_models,
-                          calibrate=3 if calibrate is None else calibrate,
-                          progress=True)
+        plan = plan_build(src, out, options, categories=chosen, progress=True,
+                          calibrate=CALIBRATION_MODELS if calibrate is None else calibrate)
         for line in plan.lines():
             click.echo(line)
         return
-    result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
-                   resolution=resolution, n_points=n_points, max_faces=max_faces,
-                   clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
-                   split_seed=split_seed, splits=split_file, max_models=max_models,
+    result = build(src, out, options, categories=chosen, workers=workers, scheduler=scheduler,
                    progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")
