@@ -11,11 +11,13 @@ import pytest
 from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.authors import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.authors_export import export_authors, order_for_paper_rule
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.split_files import paper_split, paper_splits, read_model_list
 from vptoolkit.errors import InputError
 from vptoolkit.measures import normalize_quality
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
 
 pytest.importorskip("zarr")
@@ -161,7 +163,8 @@ def built(tmp_path_factory):
         (src / category).mkdir()
         shutil.copy(sample_path(sample), src / category / sample)
     out = tmp_path_factory.mktemp("built")
-    result = build_dataset(src, out, n_views=1000, resolution=32, n_points=64, clean=False)
+    options = BuildOptions(MeasureSettings(views=1000, resolution=32), n_points=64, clean=False)
+    result = build_dataset(src, out, options)
     assert result.n_failures == 0
     return result.path
 
@@ -204,8 +207,9 @@ def test_export_refuses_a_store_without_the_authors_views(tmp_path):
     src = tmp_path / "src" / "mug"
     src.mkdir(parents=True)
     shutil.copy(sample_path("mug.obj"), src)
-    result = build_dataset(tmp_path / "src", tmp_path / "built", n_views=20, resolution=16,
-                           n_points=16, clean=False)
+    result = build_dataset(
+        tmp_path / "src", tmp_path / "built",
+        BuildOptions(MeasureSettings(views=20, resolution=16), n_points=16, clean=False))
     with pytest.raises(InputError, match="Fibonacci sphere of 1000"):
         export_authors(result.path, tmp_path / "ModelNet")
     assert not (tmp_path / "ModelNet").exists()

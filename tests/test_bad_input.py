@@ -15,6 +15,7 @@ import subprocess
 import sys
 import textwrap
 import zipfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,7 +24,9 @@ from click.testing import CliRunner
 
 from fixtures.environment import require_package
 from vptoolkit.cli import main
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
 TETRAHEDRON = "0 0 0\n{s} 0 0\n0 {s} 0\n0 0 {s}\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
 
@@ -75,8 +78,8 @@ def test_a_build_records_an_underflowing_mesh_as_a_failure(tmp_path: Path) -> No
     src.mkdir()
     (src / "tiny.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1e-46"))
     (src / "tet.off").write_text("OFF\n4 4 0\n" + TETRAHEDRON.format(s="1"))
-    result = build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100,
-                           clean=False)
+    options = BuildOptions(MeasureSettings(views=20, resolution=32), n_points=100, clean=False)
+    result = build_dataset(src, tmp_path / "out", options)
     assert result.n_models == 1
     (failure,) = result.failures
     assert failure["source"] == "tiny.off" and "underflow" in failure["reason"]
@@ -339,7 +342,8 @@ def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
     staging.mkdir(parents=True)
     (staging / "build.json").write_text("[" * 200_000)
     with pytest.raises(InputError, match="build.json: unreadable build record .*nested too deeply"):
-        build_dataset(src, tmp_path / "out", n_views=20, resolution=32, n_points=100, clean=False)
+        build_dataset(src, tmp_path / "out",
+                      BuildOptions(MeasureSettings(views=20, resolution=32), clean=False))
 
 
 def test_option_errors_are_one_line_like_every_other_error() -> None:
@@ -422,8 +426,9 @@ def test_raycast_measures_a_mesh_at_any_scale_like_the_rasteriser(scale: float) 
 
     teapot = load_mesh(sample_path("teapot"))
     scaled = Mesh(teapot.vertices * scale, teapot.faces, name="teapot")
-    raster = compute_view_quality(scaled, 20, 64, backend="raster").raw
-    raycast = compute_view_quality(scaled, 20, 64, backend="raycast").raw
+    settings = MeasureSettings(views=20, resolution=64)
+    raster = compute_view_quality(scaled, settings).raw
+    raycast = compute_view_quality(scaled, replace(settings, backend="raycast")).raw
     np.testing.assert_allclose(raycast, raster, rtol=0.01)
 
 
@@ -469,11 +474,10 @@ def test_build_dataset_refuses_remesh_without_cleaning(tmp_path: Path) -> None:
     code, text = _run("build-dataset", src, tmp_path / "out", "--remesh", "--no-clean")
     _assert_one_line_bad_input(code, text, "--remesh", "--no-clean")
     assert "clean=True" not in text and not (tmp_path / "out").exists()
-    from vptoolkit.dataset.build import build_dataset
     from vptoolkit.errors import InputError
 
     with pytest.raises(InputError, match="remesh: .* needs clean=True"):
-        build_dataset(src, tmp_path / "lib", clean=False, remesh=True)
+        BuildOptions(clean=False, remesh=True)
 
 
 def test_train_names_its_options_not_the_python_arguments(small_build: Path, tmp_path: Path,

@@ -23,6 +23,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import read_predictions
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
 
 @pytest.fixture(scope="module")
@@ -37,7 +38,8 @@ def teapot() -> Mesh:
 
 def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug):
     directions = coarse_directions(mug, 120)
-    exhaustive = compute_view_quality(mug, view_directions=directions, resolution=64)
+    exhaustive = compute_view_quality(mug, MeasureSettings(resolution=64),
+                                      view_directions=directions)
     found = search_best_views(mug, 120, 64, coarse_views=120, coarse_resolution=64)
     assert found.n_views == 120 and [s.name for s in found.stages] == ["coarse"]
     np.testing.assert_allclose(found.directions, exhaustive.best_views, rtol=0, atol=1e-12)
@@ -56,8 +58,8 @@ def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
     sphere = coarse_directions(teapot, coarse.n_views)
     renderer = _Renderer(teapot, Camera())
     coarse_raw = renderer.measure(sphere, coarse.resolution, estimate_face_probability=True)
-    coarse_best = compute_view_quality(teapot, view_directions=sphere,
-                                       resolution=coarse.resolution).best_views
+    coarse_best = compute_view_quality(teapot, MeasureSettings(resolution=coarse.resolution),
+                                       view_directions=sphere).best_views
     again = renderer.measure(coarse_best, 256)  # the coarse pass's best, drawn at 256 px
     assert np.isfinite(coarse_raw).any()
     assert all(_better_or_equal(found.raw, np.diagonal(again)))
@@ -89,7 +91,7 @@ def test_the_coarse_sphere_turns_with_the_mesh(teapot):
 
 def test_any_orientation_finds_views_as_good(teapot):
     """Under four rotations the answer, turned back, is nearly as good as the upright one's."""
-    labels = compute_view_quality(teapot, 500, 96)
+    labels = compute_view_quality(teapot, MeasureSettings(views=500, resolution=96))
     from vptoolkit.sphere import nearest_view
 
     def score(directions):

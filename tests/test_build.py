@@ -15,6 +15,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -24,18 +25,20 @@ import pytest
 from vptoolkit import parallel
 from vptoolkit.dataset import compute
 from vptoolkit.dataset.build import BuildResult, build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.sources import assign_split, discover_models
 from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
 
 from fixtures.environment import DASK_DASHBOARD, require_package
 
 MALFORMED = Path(__file__).parent / "data" / "malformed"
-SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000}
+SMALL = BuildOptions(MeasureSettings(views=60, resolution=64), n_points=300, max_faces=2000)
 
 # category/train|test/file: the ModelNet-style tree every build test starts from.
 TREE = {
@@ -96,7 +99,7 @@ def src(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def reference(src: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[BuildResult, dict[str, Any]]:
     """One uninterrupted single-process build with cleaning, the baseline of the comparisons."""
     require_package("pymeshlab")
-    result = build_dataset(src, tmp_path_factory.mktemp("reference") / "out", **SMALL)
+    result = build_dataset(src, tmp_path_factory.mktemp("reference") / "out", SMALL)
     return result, read_store(result.path)
 
 
@@ -250,7 +253,7 @@ def test_build_measures_what_the_pipeline_measures(src, reference):
     _, stored = reference
     row = GOOD.index("table")
     cleaned, _ = clean_mesh(load_mesh(src / "shape/train/table.obj"), max_faces=2000)
-    quality = compute_view_quality(cleaned, 60, 64)
+    quality = compute_view_quality(cleaned, MeasureSettings(views=60, resolution=64))
     assert np.array_equal(stored["arrays"]["quality_raw"][row], quality.raw.astype(np.float32),
                           equal_nan=True)
     assert np.array_equal(stored["arrays"]["best_index"][row], quality.best_index)
@@ -267,8 +270,11 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
     out = tmp_path / "out"
     staging = out / STAGING_DIR
     code = (
+        "import json\n"
         "from vptoolkit.dataset.build import build_dataset\n"
-        f"build_dataset({str(src)!r}, {str(out)!r}, **{SMALL!r})\n"
+        "from vptoolkit.dataset.build_options import BuildOptions\n"
+        f"options = BuildOptions.from_dict(json.loads({json.dumps(SMALL.to_dict())!r}))\n"
+        f"build_dataset({str(src)!r}, {str(out)!r}, options)\n"
     )
     process = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE)
     try:
@@ -291,7 +297,7 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
     # what a kill in the middle of a write leaves behind is never read
     (staging / ".m-cup__mug-0000.npz.0123abcd.partial").write_bytes(b"PK\x03\x04 half a zip")
 
-    result = build_dataset(src, out, **SMALL)
+    result = build_dataset(src, out, SMALL)
     assert result.n_resumed == n_staged and (result.n_models, result.n_failures) == (6, 2)
     assert not list(staging.glob(".*.partial"))
     resumed = read_store(result.path)
@@ -301,27 +307,30 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
 
 def test_resuming_with_other_options_is_refused(src, reference, tmp_path):
     out = reference[0].path.parent
-    for option, value in [("n_views", 30), ("resolution", 32), ("n_points", 200),
-                          ("max_faces", 1000), ("clean", False), ("split_seed", 1),
-                          ("format", "hdf5")]:
-        options = {**SMALL, option: value}
+    for option, options in [
+        ("measure.views", replace(SMALL, measure=replace(SMALL.measure, views=30))),
+        ("measure.resolution", replace(SMALL, measure=replace(SMALL.measure, resolution=32))),
+        ("n_points", replace(SMALL, n_points=200)), ("max_faces", replace(SMALL, max_faces=1000)),
+        ("clean", replace(SMALL, clean=False)), ("split_seed", replace(SMALL, split_seed=1)),
+        ("format", replace(SMALL, format="hdf5")),
+    ]:
         with pytest.raises(InputError, match=rf"{option}=.*use a new OUT folder or the same options"):
-            build_dataset(src, out, **options)
+            build_dataset(src, out, options)
     assert read_store(reference[0].path)["models"] == reference[1]["models"]
 
 
 def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_path):
     grown = tmp_path / "grown"
     shutil.copytree(src, grown)
-    options = {**SMALL, "clean": False}
-    first = build_dataset(src, tmp_path / "first", **options)
+    options = replace(SMALL, clean=False)
+    first = build_dataset(src, tmp_path / "first", options)
     before = read_store(first.path)
 
     out = tmp_path / "incremental"
-    build_dataset(grown, out, **options)
+    build_dataset(grown, out, options)
     shutil.copyfile(sample_path("torus"), grown / "shape/train/torus.STL")
     shutil.copyfile(sample_path("lego"), grown / "cup/test/lego.obj")
-    result = build_dataset(grown, out, **options)
+    result = build_dataset(grown, out, options)
     assert result.n_models == 8 and result.n_resumed == 8  # 6 models and 2 failures reused
     after = read_store(result.path)
     old = {m["name"]: m for m in before["models"]}
@@ -340,7 +349,7 @@ def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_pa
     os.utime(grown / "cup/train/mug.obj", ns=(1, 1))
     (staging,) = (out / STAGING_DIR).glob("m-shape__table-*.npz")
     staging.write_bytes(b"PK\x03\x04 not a zip")
-    again = build_dataset(grown, out, **options)
+    again = build_dataset(grown, out, options)
     assert again.n_resumed == 8
     assert_same_dataset(read_store(again.path), after, same_created=True)
 
@@ -357,7 +366,7 @@ def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monk
         return measure(task)
 
     monkeypatch.setattr(compute, "_measure_model", broken_on_mug)
-    result = build_dataset(src, tmp_path / "out", **{**SMALL, "clean": False})
+    result = build_dataset(src, tmp_path / "out", replace(SMALL, clean=False))
     assert result.n_models == 5 and result.n_failures == 3
     reasons = {f["source"]: f["reason"] for f in result.failures}
     assert reasons["cup/train/mug.obj"] == (
@@ -375,22 +384,22 @@ def test_a_missing_package_in_a_worker_is_retried_on_the_next_run(src, tmp_path,
         return measure(task)
 
     out = tmp_path / "out"
-    options = {**SMALL, "clean": False}
+    options = replace(SMALL, clean=False)
     monkeypatch.setattr(compute, "_measure_model", no_pymeshlab_for_teapot)
-    first = build_dataset(src, out, **options)
+    first = build_dataset(src, out, options)
     assert "cup/test/teapot.stl" in {f["source"] for f in first.failures}
     assert not list((out / STAGING_DIR).glob("*teapot*"))
     monkeypatch.setattr(compute, "_measure_model", measure)
-    second = build_dataset(src, out, **options)
+    second = build_dataset(src, out, options)
     assert (second.n_models, second.n_failures, second.n_resumed) == (6, 2, 7)
 
 
 def test_a_missing_package_stops_the_build_before_any_work(src, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "pymeshlab", None)  # makes the import fail
     with pytest.raises(MissingDependencyError, match="vptoolkit\\[clean\\]"):
-        build_dataset(src, tmp_path / "out", **SMALL)
+        build_dataset(src, tmp_path / "out", SMALL)
     assert not (tmp_path / "out").exists()
-    build_dataset(src, tmp_path / "out", **{**SMALL, "clean": False, "categories": ["cup"]})
+    build_dataset(src, tmp_path / "out", replace(SMALL, clean=False), categories=["cup"])
 
 
 def test_duplicate_names_are_failures_not_overwrites(tmp_path):
@@ -402,7 +411,7 @@ def test_duplicate_names_are_failures_not_overwrites(tmp_path):
         "plate/train/b.ply": sample_path("suzanne"),
         "plate/train/c.stl": sample_path("teapot"),
     })
-    result = build_dataset(root, tmp_path / "out", **{**SMALL, "clean": False})
+    result = build_dataset(root, tmp_path / "out", replace(SMALL, clean=False))
     assert result.n_models == 1 and result.n_failures == 5
     assert read_store(result.path)["models"][0]["name"] == "c"
     reasons = {f["source"]: f["reason"] for f in result.failures}
@@ -423,8 +432,9 @@ def _die_on_bottle(task):
 
 
 def test_a_dying_worker_process_fails_only_its_model(tmp_path):
-    tasks = [compute.ModelTask(f"/c/{name}.obj", f"c/{name}.obj", "c", name, 1, 1, 1, 4,
-                               False, False, 0, {})
+    options = BuildOptions(MeasureSettings(views=1, resolution=1), n_points=1, max_faces=4,
+                           clean=False)
+    tasks = [compute.ModelTask(f"/c/{name}.obj", f"c/{name}.obj", "c", name, options, 0, {})
              for name in ("apple", "bottle", "cherry", "date", "elder", "fig")]
     results = list(parallel.run_tasks(_die_on_bottle, tasks, workers=2,
                                       crashed=compute.worker_died))
@@ -442,9 +452,10 @@ def test_a_dying_worker_process_fails_only_its_model(tmp_path):
 
 
 def test_zarr_and_hdf5_hold_the_same_dataset(src, tmp_path):
-    options = {**SMALL, "clean": False, "categories": ["shape"]}
-    zarr_build = build_dataset(src, tmp_path / "zarr", **options)
-    hdf5_build = build_dataset(src, tmp_path / "hdf5", format="hdf5", **options)
+    options = replace(SMALL, clean=False)
+    zarr_build = build_dataset(src, tmp_path / "zarr", options, categories=["shape"])
+    hdf5_build = build_dataset(src, tmp_path / "hdf5", replace(options, format="hdf5"),
+                               categories=["shape"])
     assert zarr_build.path.name == "dataset.zarr" and hdf5_build.path.name == "dataset.h5"
     in_zarr, in_hdf5 = read_store(zarr_build.path), read_store(hdf5_build.path)
     assert [m["name"] for m in in_zarr["models"]] == ["angle_block", "suzanne", "table"]
@@ -455,7 +466,7 @@ def test_zarr_and_hdf5_hold_the_same_dataset(src, tmp_path):
 
 @pytest.mark.slow
 def test_two_workers_give_the_same_dataset_as_one(src, reference, tmp_path):
-    result = build_dataset(src, tmp_path / "out", workers=2, **SMALL)
+    result = build_dataset(src, tmp_path / "out", SMALL, workers=2)
     assert_same_dataset(read_store(result.path), reference[1])
 
 
@@ -471,7 +482,7 @@ def test_dask_cluster_gives_the_same_dataset(src, reference, tmp_path):
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=DASK_DASHBOARD) as cluster:
         assert cluster.scheduler_address.startswith("tcp://127.0.0.1:")
-        result = build_dataset(src, tmp_path / "out", scheduler=cluster.scheduler_address, **SMALL)
+        result = build_dataset(src, tmp_path / "out", SMALL, scheduler=cluster.scheduler_address)
     assert_same_dataset(read_store(result.path), reference[1])
 
 
@@ -479,7 +490,7 @@ def test_unreachable_scheduler_is_bad_input(src, tmp_path, monkeypatch):
     require_package("distributed")
     monkeypatch.setattr(parallel, "_CONNECT_TIMEOUT", "1s")
     with pytest.raises(InputError, match="scheduler: cannot connect to tcp://127.0.0.1:9"):
-        build_dataset(src, tmp_path / "out", scheduler="tcp://127.0.0.1:9", **SMALL)
+        build_dataset(src, tmp_path / "out", SMALL, scheduler="tcp://127.0.0.1:9")
 
 
 # --------------------------------------------------------------------------- options and folders
@@ -488,13 +499,6 @@ def test_unreachable_scheduler_is_bad_input(src, tmp_path, monkeypatch):
 @pytest.mark.parametrize(
     ("options", "message"),
     [
-        pytest.param({"n_views": 0}, "n_views: must be at least 1", id="no-views"),
-        pytest.param({"resolution": 0}, "resolution: must be at least 1", id="no-pixels"),
-        pytest.param({"n_points": 0}, "n_points: must be at least 1", id="no-points"),
-        pytest.param({"max_faces": 3}, "max_faces: must be at least 4", id="three-faces"),
-        pytest.param({"format": "npz"}, "format: expected one of zarr, hdf5", id="format-npz"),
-        pytest.param({"clean": "yes"}, "clean: expected True or False", id="clean-str"),
-        pytest.param({"split_seed": 1.5}, "split_seed: expected an integer", id="seed-float"),
         pytest.param({"workers": 0}, "workers: must be at least 1", id="no-workers"),
         pytest.param({"workers": 2, "scheduler": "tcp://127.0.0.1:8786"}, "workers: give either",
                      id="workers-and-scheduler"),
@@ -504,9 +508,9 @@ def test_unreachable_scheduler_is_bad_input(src, tmp_path, monkeypatch):
                      id="categories-str"),
     ],
 )
-def test_bad_options_name_the_option(src, tmp_path, options, message):
+def test_bad_arguments_name_the_argument(src, tmp_path, options, message):
     with pytest.raises(InputError, match=message):
-        build_dataset(src, tmp_path / "out", **options)
+        build_dataset(src, tmp_path / "out", SMALL, **options)
     assert not (tmp_path / "out").exists()
 
 
@@ -515,13 +519,13 @@ def test_an_output_folder_that_is_not_ours_is_left_alone(src, tmp_path):
     out.mkdir()
     (out / "thesis.tex").write_text("precious")
     with pytest.raises(InputError, match="not a vptoolkit build folder"):
-        build_dataset(src, out, **SMALL)
+        build_dataset(src, out, SMALL)
     assert sorted(p.name for p in out.iterdir()) == ["thesis.tex"]
     (tmp_path / "file").write_text("x")
     with pytest.raises(InputError, match="is not a folder"):
-        build_dataset(src, tmp_path / "file", **SMALL)
+        build_dataset(src, tmp_path / "file", SMALL)
     with pytest.raises(InputError, match="no mesh files"):
-        build_dataset(out, tmp_path / "new", **SMALL)
+        build_dataset(out, tmp_path / "new", SMALL)
 
 
 def test_a_second_build_in_the_same_folder_is_refused(src, tmp_path):
@@ -532,11 +536,11 @@ def test_a_second_build_in_the_same_folder_is_refused(src, tmp_path):
     with open(staging / "lock", "a+b") as lock:
         fcntl.flock(lock.fileno(), fcntl.LOCK_EX)
         with pytest.raises(InputError, match="another build is running"):
-            build_dataset(src, tmp_path / "out", **SMALL)
+            build_dataset(src, tmp_path / "out", SMALL)
 
 
 def test_progress_bar_shows_models_and_failures(src, tmp_path, capsys):
-    build_dataset(src, tmp_path / "out", **{**SMALL, "clean": False}, progress=True)
+    build_dataset(src, tmp_path / "out", replace(SMALL, clean=False), progress=True)
     captured = capsys.readouterr()
     assert captured.out == ""
     assert "models: 100%" in captured.err and "8/8" in captured.err and "failed=2" in captured.err
@@ -549,12 +553,12 @@ def test_remeshing_builds_a_finer_uniform_tessellation(tmp_path):
     from vptoolkit.synthetic import write_collection
 
     write_collection(tmp_path / "src", n_per_category=1, categories=("table",), layout="flat")
-    options = {"n_views": 40, "resolution": 48, "n_points": 500}
-    plain = build_dataset(tmp_path / "src", tmp_path / "plain", **options)
-    remeshed = build_dataset(tmp_path / "src", tmp_path / "remeshed", remesh=True, **options)
+    options = BuildOptions(MeasureSettings(views=40, resolution=48), n_points=500)
+    plain = build_dataset(tmp_path / "src", tmp_path / "plain", options)
+    remeshed = build_dataset(tmp_path / "src", tmp_path / "remeshed", replace(options, remesh=True))
     with open_dataset(plain.path) as first, open_dataset(remeshed.path) as second:
         assert first.attrs["cleaning"]["remesh"] is False and second.attrs["cleaning"]["remesh"] is True
         faces = [len(dataset.mesh(0)[1]) for dataset in (first, second)]
     assert faces[1] > 10 * faces[0]
     with pytest.raises(InputError, match="remesh"):
-        build_dataset(tmp_path / "src", tmp_path / "plain", remesh=True, **options)
+        build_dataset(tmp_path / "src", tmp_path / "plain", replace(options, remesh=True))

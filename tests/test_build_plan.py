@@ -10,6 +10,7 @@ import importlib.util
 import shutil
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -18,13 +19,15 @@ from click.testing import CliRunner
 from vptoolkit.cli import main
 from vptoolkit.dataset import build as build_module
 from vptoolkit.dataset.build import COMPILE_NOTICE, build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.plan import plan_build
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.sources import discover_models, split_of, spread_over_categories
 from vptoolkit.errors import InputError
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
-TINY = {"n_views": 40, "resolution": 48, "n_points": 200, "clean": False}
+TINY = BuildOptions(MeasureSettings(views=40, resolution=48), n_points=200, clean=False)
 TINY_ARGS = ["--views", "40", "--resolution", "48", "--points", "200", "--no-clean"]
 TREE = {
     "cup/train/mug.obj": "mug",
@@ -60,7 +63,7 @@ def test_spread_over_categories_takes_one_category_after_another(src):
 def test_max_models_builds_that_subset_with_the_full_splits_and_resumes_only_with_it(
         src, tmp_path):
     out = tmp_path / "out"
-    result = build_dataset(src, out, max_models=4, **TINY)
+    result = build_dataset(src, out, replace(TINY, max_models=4))
     assert result.n_models == 4 and result.n_failures == 0
     with open_store(result.path) as store:
         records = {record["name"]: record for record in store.models()}
@@ -68,10 +71,10 @@ def test_max_models_builds_that_subset_with_the_full_splits_and_resumes_only_wit
     splits = {m.name: split_of(m, 0) for m in discover_models(src)}
     assert {name: record["split"] for name, record in records.items()} == {
         name: splits[name] for name in records}
-    again = build_dataset(src, out, max_models=4, **TINY)
+    again = build_dataset(src, out, replace(TINY, max_models=4))
     assert again.n_resumed == 4 and again.n_computed == 0
     with pytest.raises(InputError, match=r"max_models=4 \(now None\)"):
-        build_dataset(src, out, **TINY)
+        build_dataset(src, out, TINY)
 
 
 def test_dry_run_counts_per_category_and_split_without_writing_out(src, tmp_path):
@@ -92,12 +95,12 @@ def test_dry_run_counts_per_category_and_split_without_writing_out(src, tmp_path
 
 
 def test_dry_run_estimates_hours_and_disk_from_the_calibration_models(src, tmp_path):
-    plan = plan_build(src, tmp_path / "out", calibrate=2, **TINY)
+    plan = plan_build(src, tmp_path / "out", TINY, calibrate=2)
     assert plan.n_models == 7 and plan.n_calibrated == 2 and plan.n_calibration_failures == 0
     assert plan.seconds_per_model is not None and plan.seconds_per_model > 0
     assert plan.estimated_seconds == pytest.approx(7 * plan.seconds_per_model)
     # the per-model bytes are those of a real build folder of two models
-    built = build_dataset(src, tmp_path / "two", max_models=2, **TINY)
+    built = build_dataset(src, tmp_path / "two", replace(TINY, max_models=2))
     n_bytes = sum(p.stat().st_size for p in built.path.parent.rglob("*") if p.is_file())
     assert plan.bytes_per_model == pytest.approx(n_bytes / 2, rel=0.2)
     assert plan.estimated_bytes == pytest.approx(7 * plan.bytes_per_model)
@@ -106,7 +109,7 @@ def test_dry_run_estimates_hours_and_disk_from_the_calibration_models(src, tmp_p
 
 
 def test_dry_run_of_a_subset_counts_the_subset(src, tmp_path):
-    plan = plan_build(src, tmp_path / "out", max_models=2, calibrate=0, **TINY)
+    plan = plan_build(src, tmp_path / "out", replace(TINY, max_models=2), calibrate=0)
     assert plan.n_models == 2 and plan.n_found == 7
     assert sum(sum(row.values()) for row in plan.counts.values()) == 2
     assert set(plan.counts) == {"cup", "shape"}
@@ -122,7 +125,7 @@ def test_bad_max_models_is_bad_input(src, tmp_path):
     assert result.exit_code == 2 and "--calibrate: only with --dry-run" in result.output
     assert not (tmp_path / "o").exists()
     with pytest.raises(InputError, match="max_models"):
-        build_dataset(src, tmp_path / "o", max_models=0, **TINY)
+        build_dataset(src, tmp_path / "o", replace(TINY, max_models=0))
 
 
 def test_the_compile_notice_is_printed_exactly_when_the_kernel_would_compile(
@@ -131,11 +134,11 @@ def test_the_compile_notice_is_printed_exactly_when_the_kernel_would_compile(
 
     for compiles in (True, False):
         monkeypatch.setattr(vptoolkit._numba, "will_compile", lambda _dispatcher: compiles)
-        build_dataset(src, tmp_path / f"out-{compiles}", max_models=1, progress=True, **TINY)
+        build_dataset(src, tmp_path / f"out-{compiles}", replace(TINY, max_models=1), progress=True)
         assert (COMPILE_NOTICE in capsys.readouterr().err) is compiles
     # nothing to compute (all resumed): no notice even with an empty cache
     monkeypatch.setattr(vptoolkit._numba, "will_compile", lambda _dispatcher: True)
-    build_dataset(src, tmp_path / "out-True", max_models=1, progress=True, **TINY)
+    build_dataset(src, tmp_path / "out-True", replace(TINY, max_models=1), progress=True)
     assert COMPILE_NOTICE not in capsys.readouterr().err
     assert build_module.COMPILE_NOTICE == COMPILE_NOTICE
 

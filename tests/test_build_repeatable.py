@@ -17,6 +17,8 @@ The meshes here are the ones that showed it; builds are tiny (100 views at 64 px
 
 from __future__ import annotations
 
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
 import hashlib
 import shutil
 import subprocess
@@ -36,7 +38,7 @@ from fixtures.environment import DASK_DASHBOARD, require_package
 REAL = Path(__file__).parent / "data" / "real"
 RABBIT = REAL / "rabbit.obj"
 TRUCK = REAL / "CesiumMilkTruck.glb"
-TINY = {"n_views": 100, "resolution": 64, "n_points": 2048, "max_faces": 2000}
+TINY = BuildOptions(MeasureSettings(views=100, resolution=64), n_points=2048, max_faces=2000)
 
 _CLEAN_AND_HASH = """
 import hashlib, sys
@@ -107,12 +109,11 @@ def test_one_worker_two_workers_and_dask_give_identical_arrays(src, tmp_path):
     require_package("distributed")
     from distributed import LocalCluster
 
-    one = _array_hashes(build_dataset(src, tmp_path / "one", **TINY).path)
-    two = _array_hashes(build_dataset(src, tmp_path / "two", workers=2, **TINY).path)
+    one = _array_hashes(build_dataset(src, tmp_path / "one", TINY).path)
+    two = _array_hashes(build_dataset(src, tmp_path / "two", TINY, workers=2).path)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=DASK_DASHBOARD) as cluster:
-        on_dask = build_dataset(src, tmp_path / "dask", scheduler=cluster.scheduler_address,
-                                **TINY)
+        on_dask = build_dataset(src, tmp_path / "dask", TINY, scheduler=cluster.scheduler_address)
     assert two == one
     assert _array_hashes(on_dask.path) == one
 

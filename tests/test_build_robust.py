@@ -18,14 +18,17 @@ import numpy as np
 import pytest
 
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.dataset.sources import discover_models
 from vptoolkit.dataset.staging import STAGING_DIR, scan_staging, source_signature
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
 TET = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n"
-SMALL = {"n_views": 60, "resolution": 64, "n_points": 300, "max_faces": 2000, "clean": False}
+SMALL = BuildOptions(MeasureSettings(views=60, resolution=64), n_points=300, max_faces=2000,
+                     clean=False)
 
 
 def _descendants(pid: int) -> list[int]:
@@ -92,7 +95,7 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
     for name in ("teapot", "suzanne"):
         shutil.copyfile(sample_path(name), src / sample_path(name).name)
     out = tmp_path / "out"
-    first = build_dataset(src, out, **SMALL)
+    first = build_dataset(src, out, SMALL)
     with open_store(first.path) as store:
         reference = {name: np.asarray(store.array(name)[...]) for name in ARRAY_NAMES}
     staged = sorted((out / STAGING_DIR).glob("m-*teapot*.npz"))[0]
@@ -101,7 +104,7 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
     staged.write_bytes(bytes(content))
 
     with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
-        again = build_dataset(src, out, **SMALL)
+        again = build_dataset(src, out, SMALL)
     warnings = [record.getMessage() for record in caplog.records if record.levelno >= logging.WARNING]
     assert len(warnings) == 1 and staged.name in warnings[0] and "\n" not in warnings[0]
     assert again.n_resumed == 1 and again.n_models == 2
@@ -118,7 +121,7 @@ def staged_tetrahedron(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, 
     src = root / "src"
     src.mkdir()
     (src / "tet.off").write_text(TET)
-    build_dataset(src, root / "out", **SMALL)
+    build_dataset(src, root / "out", SMALL)
     return src, root / "out" / STAGING_DIR
 
 
@@ -193,7 +196,7 @@ def test_a_named_pipe_in_the_source_is_a_failure_not_a_hang(tmp_path: Path) -> N
     previous = signal.signal(signal.SIGALRM, give_up)
     signal.alarm(60)
     try:
-        result = build_dataset(src, tmp_path / "out", **SMALL)
+        result = build_dataset(src, tmp_path / "out", SMALL)
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, previous)
@@ -208,11 +211,11 @@ def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> 
     src = tmp_path / "src"
     src.mkdir()
     shutil.copyfile(sample_path("teapot"), src / "teapot.stl")
-    result = build_dataset(src, tmp_path / "out", **SMALL)
+    result = build_dataset(src, tmp_path / "out", SMALL)
     assert set(result.stage_seconds) == set(STAGES) and result.n_computed == 1
     assert all(spent >= 0.0 for spent in result.stage_seconds.values())
     assert result.stage_seconds["measure"] > 0.0
-    again = build_dataset(src, tmp_path / "out", **SMALL)  # all resumed: nothing computed
+    again = build_dataset(src, tmp_path / "out", SMALL)  # all resumed: nothing computed
     assert again.n_computed == 0 and again.stage_seconds["measure"] == 0.0
 
 
@@ -221,7 +224,7 @@ def test_a_dangling_symlink_in_the_source_is_named_by_its_path_under_src(tmp_pat
     (src / "tets").mkdir(parents=True)
     (src / "tets" / "tet.off").write_text(TET)
     (src / "tets" / "gone.off").symlink_to(tmp_path / "nowhere" / "gone.off")
-    result = build_dataset(src, tmp_path / "out", **SMALL)
+    result = build_dataset(src, tmp_path / "out", SMALL)
     assert result.n_models == 1
     (failure,) = result.failures
     assert failure["source"] == "tets/gone.off"

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from vptoolkit.checks import check_suffix
+from vptoolkit.checks import check_keys, check_suffix
 from vptoolkit.errors import InputError
 
 
@@ -17,3 +17,11 @@ def test_check_suffix_accepts_any_case_and_names_the_file(tmp_path):
         check_suffix(tmp_path / "out.txt", ".npz")
     with pytest.raises(InputError, match=r"^x: predictions must end in \.npz$"):
         check_suffix("x", ".npz", what="predictions")
+
+
+def test_check_keys_names_the_missing_and_the_unknown_keys():
+    assert check_keys({"a": 1, "b": 2}, ("a", "b"), "record") == {"a": 1, "b": 2}
+    with pytest.raises(InputError, match="^record: missing b; unknown c, d$"):
+        check_keys({"a": 1, "d": 0, "c": 0}, ("a", "b"), "record")
+    with pytest.raises(InputError, match="^record: expected a mapping, got list$"):
+        check_keys([], ("a",), "record")

@@ -23,6 +23,7 @@ from vptoolkit.clean.hidden import (  # noqa: E402
 )
 from vptoolkit.clean.repair import count_self_intersections, repair_mesh  # noqa: E402
 from vptoolkit.clean.simplify import simplify_mesh  # noqa: E402
+from vptoolkit.settings import MeasureSettings
 
 # Few views keep the visibility passes fast; 200 Fibonacci views at 128 px
 # still see every face of the convex test shapes.
@@ -502,8 +503,8 @@ def test_measures_of_a_cleaned_real_mesh_stay_close() -> None:
     bunny = load_mesh(sample_path("bunny"))
     cleaned, _ = clean_mesh(bunny, max_faces=5000)
     assert cleaned.n_faces <= 5000
-    original = compute_view_quality(bunny, resolution=256)
-    after = compute_view_quality(cleaned, resolution=256)
+    original = compute_view_quality(bunny, MeasureSettings(resolution=256))
+    after = compute_view_quality(cleaned, MeasureSettings(resolution=256))
     best_before = original.views[original.best_index]
     best_after = after.views[after.best_index]
     angles = np.degrees(np.arccos(np.clip(np.sum(best_before * best_after, axis=1), -1.0, 1.0)))

@@ -11,6 +11,7 @@ from vptoolkit.cli import main
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.coverage import evaluate_view_sets, score_view_sets
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.search import best_view_set
 from vptoolkit.view_sets.visibility import FaceVisibility
 
@@ -21,7 +22,8 @@ def greedy_directions(dataset, k: int) -> np.ndarray:
         vertices, faces = dataset.mesh(model)
         visibility = FaceVisibility.from_mesh(
             Mesh(vertices.astype(float), faces.astype(np.int64), name),
-            view_directions=dataset.views, resolution=int(dataset.attrs["resolution"]))
+            MeasureSettings(resolution=int(dataset.attrs["resolution"])),
+            view_directions=dataset.views)
         chosen = best_view_set(visibility, k).directions  # fewer when k views add nothing
         sets.append(np.concatenate([chosen, np.repeat(chosen[-1:], k - len(chosen), axis=0)]))
     return np.stack(sets)

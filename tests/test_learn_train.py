@@ -13,6 +13,8 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
 
 require_package("torch")
 require_package("safetensors")
@@ -26,6 +28,7 @@ from vptoolkit.evaluate.protocol import random_view_scores, score_protocol  # no
 from vptoolkit.learn import train as T  # noqa: E402
 from vptoolkit.learn.config import ModelConfig  # noqa: E402
 from vptoolkit.learn.model import load_model, resolve_device  # noqa: E402
+from vptoolkit.learn.options import TrainOptions  # noqa: E402
 from vptoolkit.learn.predict import (  # noqa: E402
     CATEGORY_MODELS_FORMAT,
     Predictions,
@@ -41,7 +44,7 @@ from vptoolkit.learn.schedule import (  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
 
 SHAPES = ("bottle", "bunny", "lego", "mug", "suzanne", "table", "teapot", "torus")
-FAST = {"n_points": 512, "n_fps": 128, "rotate": False, "val_split": "train", "device": "cpu"}
+FAST = {"n_points": 512, "n_fps": 128, "rotate": False, "val_split": "train"}
 
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -50,8 +53,9 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 @pytest.fixture(scope="module")
 def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
     """Eight sample meshes measured from 100 views at 64 px: six train, one val, one test."""
-    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes", n_views=100,
-                        resolution=64, n_points=2000, clean=False)
+    options = BuildOptions(MeasureSettings(views=100, resolution=64), n_points=2000, clean=False)
+    out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes",
+                        options=options)
     torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
     return out
 
@@ -60,8 +64,9 @@ def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> P
 def trained(dataset_dir: Path, tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> T.TrainResult:
     """The paper's network and ML+GL labels, 60 one-batch epochs on the six training models, rotated."""
     output = tmp_path_factory.mktemp("run") / "net.safetensors"
-    return T.train_model(dataset_dir, output, labels="ml+gl", epochs=60, batch_size=6, lr=1e-3, lr_step=20,
-                         lr_decay=0.5, seed=0, **{**FAST, "rotate": True})
+    options = TrainOptions(labels="ml+gl", epochs=60, batch_size=6, lr=1e-3, lr_step=20, lr_decay=0.5, seed=0,
+                           **{**FAST, "rotate": True})
+    return T.train_model(dataset_dir, output, options, device="cpu")
 
 
 # ---------------------------------------------------------------- learning
@@ -95,6 +100,12 @@ def test_checkpoint_configuration_records_the_run(trained):
     training = config["training"]
     assert training["arguments"]["lr"] == 1e-3 and training["arguments"]["labels"] == "ml+gl"
     assert training["command"].startswith("vptoolkit.learn.train.train_model(")
+    assert "TrainOptions(labels='ml+gl', epochs=60, batch_size=6," in training["command"]
+    assert {"dataset_path", "output", "save_every", "workers", "device"} <= set(training["arguments"])
+    recorded = {key: value for key, value in training["arguments"].items()
+                if key in {item.name for item in dataclasses.fields(TrainOptions)}}
+    assert TrainOptions.from_dict(recorded) == TrainOptions(
+        labels="ml+gl", epochs=60, batch_size=6, lr_step=20, lr_decay=0.5, **{**FAST, "rotate": True})
     assert training["epochs"] == 60 and training["epochs_completed"] == 60
     assert training["best_epoch"] == trained.best_epoch and training["best_score"] == trained.best_score
     assert set(training["best_scores"]) == {"VE", "VR", "VKL", "VMI"}
@@ -109,12 +120,16 @@ def test_checkpoint_configuration_records_the_run(trained):
 # ---------------------------------------------------------------- resume and determinism
 
 
-def tiny_run(dataset_dir: Path, output: Path, **options: Any) -> T.TrainResult:
-    arguments = {"labels": "ml+gl", "epochs": 4, "batch_size": 2, **FAST}
-    arguments.update(options)
-    head = {"sr": "sr", "dldl": "dldl"}.get(arguments["labels"], "direction")
-    arguments.setdefault("architecture", dataclasses.replace(TINY_CONFIG, head=head))
-    return T.train_model(dataset_dir, output, **arguments)
+def tiny_options(**changes: Any) -> TrainOptions:
+    """Four epochs of the tiny network on 512 unrotated points, validated on the train split."""
+    values = {"labels": "ml+gl", "epochs": 4, "batch_size": 2, **FAST, **changes}
+    head = {"sr": "sr", "dldl": "dldl"}.get(values["labels"], "direction")
+    values.setdefault("architecture", dataclasses.replace(TINY_CONFIG, head=head))
+    return TrainOptions(**values)
+
+
+def tiny_run(dataset_dir: Path, output: Path, options: TrainOptions | None = None, **run: Any) -> T.TrainResult:
+    return T.train_model(dataset_dir, output, options or tiny_options(), device="cpu", **run)
 
 
 def weights(path: Path) -> dict[str, torch.Tensor]:
@@ -156,18 +171,18 @@ def test_resumed_run_equals_an_uninterrupted_one(dataset_dir, tmp_path, monkeypa
 
 
 def test_resume_can_extend_a_finished_run(dataset_dir, tmp_path):
-    tiny_run(dataset_dir, tmp_path / "run", labels="sl", epochs=2)
-    extended = tiny_run(dataset_dir, tmp_path / "run", labels="sl", epochs=3, resume=True)
+    tiny_run(dataset_dir, tmp_path / "run", tiny_options(labels="sl", epochs=2))
+    extended = tiny_run(dataset_dir, tmp_path / "run", tiny_options(labels="sl", epochs=3), resume=True)
     assert [entry["epoch"] for entry in extended.history] == [1, 2, 3]
 
 
 def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
-    tiny_run(dataset_dir, tmp_path / "run", epochs=1)
+    tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1))
     with pytest.raises(ExistingRunError, match="already holds a training run"):
-        tiny_run(dataset_dir, tmp_path / "run", epochs=1)
+        tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1))
     with pytest.raises(InputError, match=r"cannot resume with other options \(seed: 0 -> 1\)"):
-        tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, resume=True)
-    replaced = tiny_run(dataset_dir, tmp_path / "run", epochs=1, seed=1, overwrite=True)
+        tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1, seed=1), resume=True)
+    replaced = tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1, seed=1), overwrite=True)
     assert replaced.epochs == 1
 
 
@@ -176,7 +191,7 @@ def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
 
 @pytest.mark.parametrize("labels", ["sl", "ml", "gl", "sr", "dldl"])
 def test_every_label_method_trains_and_predicts(labels, dataset_dir, tmp_path):
-    result = tiny_run(dataset_dir, tmp_path / labels, labels=labels, epochs=2)
+    result = tiny_run(dataset_dir, tmp_path / labels, tiny_options(labels=labels, epochs=2))
     assert all(np.isfinite(entry["loss"]) for entry in result.history)
     model, config = load_model(result.checkpoint)
     assert config["labels"] == labels and model.config.head == {"sr": "sr", "dldl": "dldl"}.get(labels, "direction")
@@ -254,16 +269,61 @@ def test_predict_rejects_bad_inputs(trained, tmp_path):
         Predictions(("a",), np.zeros((1, 4, 3))).save_npz(tmp_path / "out.npy")
 
 
-def test_training_options_are_checked(dataset_dir, tmp_path):
-    with pytest.raises(InputError, match="labels: unknown label method"):
-        T.train_model(dataset_dir, tmp_path / "x", labels="best")
-    with pytest.raises(InputError, match="batch_size"):
-        T.train_model(dataset_dir, tmp_path / "x", batch_size=1)
-    with pytest.raises(InputError, match="architecture: head 'direction' does not fit labels 'sr'"):
-        T.train_model(dataset_dir, tmp_path / "x", labels="sr", architecture=TINY_CONFIG)
-    with pytest.raises(InputError, match="split: unknown split"):
-        T.train_model(dataset_dir, tmp_path / "x", val_split="holdout", epochs=1, **{
-            k: v for k, v in FAST.items() if k != "val_split"})
+@pytest.mark.parametrize(("changes", "message"), [
+    ({"labels": "best"}, "labels: unknown label method"),
+    ({"batch_size": 1}, "batch_size: must be at least 2"),
+    ({"epochs": 0}, "epochs: must be at least 1"),
+    ({"lr": float("nan")}, "lr: expected a positive finite number"),
+    ({"lr_decay": 0}, "lr_decay: expected a positive finite number"),
+    ({"lr_step": 0}, "lr_step: must be at least 1"),
+    ({"seed": -1}, "seed: must be at least 0"),
+    ({"val_split": "holdout"}, "val_split: unknown split 'holdout'"),
+    ({"max_models": 0}, "max_models: must be at least 1"),
+    ({"categories": []}, "categories: none given"),
+    ({"categories": [1]}, "categories: expected category names"),
+    ({"n_fps": 5000}, "n_fps: 5000 exceeds n_points=4096"),
+    ({"rotate": "yes"}, "rotate: expected True or False"),
+    ({"fps_pool": -1}, "fps_pool: must be at least 0"),
+    ({"val_rotations": 1.5}, "val_rotations: expected an integer"),
+    ({"labels": "sr", "architecture": TINY_CONFIG}, "architecture: head 'direction' does not fit labels 'sr'"),
+    ({"architecture": "big"}, "architecture: expected a ModelConfig or a mapping"),
+])
+def test_training_options_are_checked_when_made(changes, message):
+    with pytest.raises(InputError, match=message):
+        TrainOptions(**changes)
+
+
+def test_training_options_keep_their_checked_values_and_read_back():
+    options = TrainOptions(labels="SR", epochs=300, val_split="val", categories=("mug", "cup", "mug"),
+                           architecture={"head_channels": [32]})
+    assert options.labels == "sr" and options.val_split == "validation" and options.categories == ("cup", "mug")
+    assert options.lr_step == options.decay_step == scaled_lr_step(300) == 20
+    assert options.architecture == ModelConfig(head="sr", head_channels=(32,))
+    recorded = json.loads(json.dumps(options.to_dict()))
+    assert TrainOptions.from_dict(recorded) == options
+    assert TrainOptions() == TrainOptions(labels="ml+gl", epochs=PAPER_EPOCHS, batch_size=PAPER_BATCH_SIZE)
+    with pytest.raises(InputError, match=r"training options: unknown keys \['device'\]"):
+        TrainOptions.from_dict({**recorded, "device": "cpu"})
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        options.seed = 1  # type: ignore[misc]
+
+
+def test_resuming_may_only_grow_the_epochs():
+    options = TrainOptions(epochs=100, lr_step=10)
+    assert options.resume_conflicts(dataclasses.replace(options, epochs=50)) == {}
+    assert options.resume_conflicts(dataclasses.replace(options, seed=3, rotate=False)) == {
+        "seed": (3, 0), "rotate": (False, True)}
+    longer = dataclasses.replace(options, epochs=3000, lr_step=None)  # the paper's step for 3000 epochs
+    assert longer.resume_conflicts(options) == {"lr_step": (10, 200)}
+
+
+def test_train_model_checks_its_run_keywords(dataset_dir, tmp_path):
+    with pytest.raises(InputError, match="options: expected TrainOptions, got dict"):
+        T.train_model(dataset_dir, tmp_path / "x", {"epochs": 1})  # type: ignore[arg-type]
+    with pytest.raises(InputError, match="save_every: must be at least 1"):
+        T.train_model(dataset_dir, tmp_path / "x", tiny_options(), save_every=0)
+    with pytest.raises(InputError, match="workers: must be at least 0"):
+        T.train_model(dataset_dir, tmp_path / "x", tiny_options(), workers=-1)
     assert not (tmp_path / "x").exists()
 
 
@@ -312,21 +372,21 @@ def test_training_fewer_categories_keeps_the_others_in_the_index(tmp_path, monke
 
     trained = []
 
-    def fake_train(dataset_path, output, *, categories, **options):
+    def fake_train(dataset_path, output, options, **run):
         Path(output).mkdir(parents=True, exist_ok=True)
-        trained.append(categories[0])
-        return categories[0]
+        trained.append(options.categories[0])
+        return options.categories[0]
 
     monkeypatch.setattr(T, "train_model", fake_train)
     monkeypatch.setattr(T, "open_dataset", lambda path: contextlib.nullcontext(None))
     monkeypatch.setattr(T, "select_categories", lambda dataset, chosen: list(chosen))
-    T.train_per_category("ds", tmp_path / "per", categories=["a", "b"])
-    T.train_per_category("ds", tmp_path / "per", categories=["a"], resume=True)
+    T.train_per_category("ds", tmp_path / "per", TrainOptions(categories=["a", "b"]))
+    T.train_per_category("ds", tmp_path / "per", TrainOptions(categories=["a"]), resume=True)
     index = json.loads((tmp_path / "per" / "categories.json").read_text())
     assert index["categories"] == {"a": "a", "b": "b"} and trained == ["a", "b", "a"]
     (tmp_path / "per" / "categories.json").write_text('{"format": "other"}')
     with pytest.raises(InputError, match="categories.json: not a vptoolkit per-category index"):
-        T.train_per_category("ds", tmp_path / "per", categories=["a"], resume=True)
+        T.train_per_category("ds", tmp_path / "per", TrainOptions(categories=["a"]), resume=True)
     assert trained == ["a", "b", "a"]
 
 
@@ -334,8 +394,8 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")
         categories = dict(zip(train.names, train.categories))
-    options = {"labels": "ml", "epochs": 1, "batch_size": 2, "architecture": TINY_CONFIG, **FAST}
-    results = T.train_per_category(dataset_dir, tmp_path / "per", **options)
+    options = TrainOptions(labels="ml", epochs=1, batch_size=2, architecture=TINY_CONFIG, **FAST)
+    results = T.train_per_category(dataset_dir, tmp_path / "per", options, device="cpu")
     assert sorted(results) == sorted(set(categories.values()))
     index = json.loads((tmp_path / "per" / "categories.json").read_text())
     assert index["format"] == CATEGORY_MODELS_FORMAT and sorted(index["categories"]) == sorted(results)
@@ -351,23 +411,23 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     chosen = sorted(results)[0]
     assert predict(tmp_path / "per", [sample_path("Duck")], category=chosen).directions.shape == (1, 4, 3)
     with pytest.raises(InputError, match="categories:"):
-        T.train_model(dataset_dir, tmp_path / "x", categories=["no-such-category"], **options)
+        T.train_model(dataset_dir, tmp_path / "x", dataclasses.replace(options, categories=["no-such-category"]))
 
 
 @pytest.mark.parametrize("epoch", [10**12, -1, 1])
 def test_a_resumed_state_with_an_impossible_epoch_is_refused(dataset_dir, tmp_path, epoch):
-    tiny_run(dataset_dir, tmp_path / "run", epochs=2)
+    tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=2))
     state_path = tmp_path / "run" / "model.last.json"
     state = json.loads(state_path.read_text())
     state["epoch"] = epoch  # the history holds two epochs
     state_path.write_text(json.dumps(state))
     config_before = (tmp_path / "run" / "model.json").read_bytes()
     with pytest.raises(InputError, match=r"^model\.last\.json: epoch"):
-        tiny_run(dataset_dir, tmp_path / "run", epochs=3, resume=True)
+        tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=3), resume=True)
     assert (tmp_path / "run" / "model.json").read_bytes() == config_before
 
 
 def test_resuming_with_fewer_epochs_than_done_is_refused(dataset_dir, tmp_path):
-    tiny_run(dataset_dir, tmp_path / "run", epochs=2)
+    tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=2))
     with pytest.raises(InputError, match="at epoch 2, past the 1 epochs asked for"):
-        tiny_run(dataset_dir, tmp_path / "run", epochs=1, resume=True)
+        tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1), resume=True)

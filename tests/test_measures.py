@@ -11,6 +11,7 @@ from vptoolkit.measures import (
     quality_from_histograms,
 )
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
 from vptoolkit.visibility import face_pixel_counts, iter_view_histograms
 
@@ -34,9 +35,9 @@ def dense_measures(counts: np.ndarray, areas: np.ndarray) -> np.ndarray:
 
 def test_streaming_measures_equal_the_dense_formulas(bunny):
     views = fibonacci_sphere(40)
-    counts = face_pixel_counts(bunny, views, resolution=128)
+    counts = face_pixel_counts(bunny, MeasureSettings(resolution=128), view_directions=views)
     expected = dense_measures(counts, face_areas(bunny))
-    quality = compute_view_quality(bunny, view_directions=views, resolution=128)
+    quality = compute_view_quality(bunny, MeasureSettings(resolution=128), view_directions=views)
     np.testing.assert_allclose(quality.raw, expected, rtol=1e-10, atol=1e-12)
 
 
@@ -44,7 +45,7 @@ def test_vmi_second_pass_gives_the_same_result_when_histograms_do_not_fit(bunny)
     views = fibonacci_sphere(30)
 
     def runs():
-        return iter_view_histograms(bunny, views, resolution=96)
+        return iter_view_histograms(bunny, MeasureSettings(resolution=96), view_directions=views)
 
     areas = face_areas(bunny)
     kept = quality_from_histograms(runs(), areas, n_views=30)
@@ -53,16 +54,17 @@ def test_vmi_second_pass_gives_the_same_result_when_histograms_do_not_fit(bunny)
 
 
 def test_cube_visibility_ratio_spans_one_sixth_to_one_half(cube):
-    quality = compute_view_quality(cube, n_views=1000, resolution=128)
+    quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=128))
     vr = quality.raw[:, MEASURES.index("VR")]
     assert vr.min() == pytest.approx(1 / 6) and vr.max() == pytest.approx(1 / 2)
-    on_axis = compute_view_quality(cube, view_directions=[[0, 0, 1], [0, -1, 0]], resolution=64)
+    on_axis = compute_view_quality(cube, MeasureSettings(resolution=64),
+                                   view_directions=[[0, 0, 1], [0, -1, 0]])
     np.testing.assert_allclose(on_axis.raw[:, 1], 1 / 6)
 
 
 @pytest.mark.parametrize("measure", ["VE", "VKL"])
 def test_cube_entropy_and_kl_are_best_at_a_corner(cube, measure):
-    quality = compute_view_quality(cube, n_views=1000, resolution=256)
+    quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=256))
     best = quality.best_views[MEASURES.index(measure)]
     assert angle_between_deg(np.tile(best, (8, 1)), CORNERS).min() < 4.0
     worst = quality.views[quality.worst_index[MEASURES.index(measure)]]
@@ -105,8 +107,8 @@ def test_symmetric_box_gives_mirror_symmetric_quality():
     box = fan_box((1.0, 1.6, 2.3))
     views = fibonacci_sphere(300)
     mirrored = views * [-1.0, 1.0, 1.0]
-    a = compute_view_quality(box, view_directions=views, resolution=256).raw
-    b = compute_view_quality(box, view_directions=mirrored, resolution=256).raw
+    a = compute_view_quality(box, MeasureSettings(resolution=256), view_directions=views).raw
+    b = compute_view_quality(box, MeasureSettings(resolution=256), view_directions=mirrored).raw
     np.testing.assert_allclose(a, b, rtol=1e-3)
     np.testing.assert_array_equal(np.argmax(a, axis=0), np.argmax(b, axis=0))
 
@@ -134,8 +136,8 @@ def test_subdividing_part_of_a_mesh_moves_ve_but_not_vr_or_vmi():
     box = box_mesh((1.0, 1.3, 1.7))
     centroids = box.vertices[box.faces].mean(axis=1)
     finer = subdivide_faces(box, centroids[:, 0] > 0.49, levels=4)
-    before = compute_view_quality(box, n_views=500, resolution=256).normalized
-    after = compute_view_quality(finer, n_views=500, resolution=256).normalized
+    before = compute_view_quality(box, MeasureSettings(views=500, resolution=256)).normalized
+    after = compute_view_quality(finer, MeasureSettings(views=500, resolution=256)).normalized
     change = np.abs(after - before).mean(axis=0)
     assert change[MEASURES.index("VR")] < 0.01
     assert change[MEASURES.index("VMI")] < 0.03
@@ -146,8 +148,8 @@ def test_subdividing_part_of_a_mesh_moves_ve_but_not_vr_or_vmi():
 
 
 def test_empty_views_and_constant_measures_are_handled(triangle):
-    quality = compute_view_quality(triangle, view_directions=[[0, 0, 1], [0.3, 0.2, 1], [0, 0, -1]],
-                                   resolution=64)
+    quality = compute_view_quality(triangle, MeasureSettings(resolution=64),
+                                   view_directions=[[0, 0, 1], [0.3, 0.2, 1], [0, 0, -1]])
     front, back = quality.raw[:2], quality.raw[2]
     np.testing.assert_allclose(front[:, 1], 1.0)  # VR: the whole area is visible
     np.testing.assert_allclose(front[:, 0], 0.0)  # VE: one face, no uncertainty
@@ -158,7 +160,7 @@ def test_empty_views_and_constant_measures_are_handled(triangle):
 
 def test_a_model_no_view_sees_is_a_measurement_error(triangle):
     with pytest.raises(MeasurementError, match="^triangle: no face is visible"):
-        compute_view_quality(triangle, view_directions=[[0, 0, -1]], resolution=32)
+        compute_view_quality(triangle, MeasureSettings(resolution=32), view_directions=[[0, 0, -1]])
 
 
 def test_normalisation_direction_per_measure():
@@ -170,7 +172,7 @@ def test_normalisation_direction_per_measure():
 
 
 def test_real_mesh_result_is_complete_and_saves_without_pickle(bunny, tmp_path):
-    quality = compute_view_quality(bunny, n_views=200, resolution=128)
+    quality = compute_view_quality(bunny, MeasureSettings(views=200, resolution=128))
     assert quality.raw.shape == quality.normalized.shape == (200, 4)
     assert np.isfinite(quality.raw).all()
     assert ((quality.normalized >= 0) & (quality.normalized <= 1)).all()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
 import errno
 import io
 import logging
@@ -166,10 +168,10 @@ def test_a_rerun_with_fewer_categories_says_the_store_shrinks(tmp_path: Path, ca
     for relative in ("cup/teapot.stl", "shape/suzanne.ply"):
         (tmp_path / "src" / relative).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(sample_path(Path(relative).name), tmp_path / "src" / relative)
-    options = {"n_views": 20, "resolution": 32, "n_points": 50, "clean": False}
-    build_dataset(tmp_path / "src", tmp_path / "out", **options)
+    options = BuildOptions(MeasureSettings(views=20, resolution=32), n_points=50, clean=False)
+    build_dataset(tmp_path / "src", tmp_path / "out", options)
     with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
-        result = build_dataset(tmp_path / "src", tmp_path / "out", categories=["cup"], **options)
+        result = build_dataset(tmp_path / "src", tmp_path / "out", options, categories=["cup"])
     assert result.n_models == 1
     assert any("1 staged models are not part of this run" in r.getMessage()
                for r in caplog.records)

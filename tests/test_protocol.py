@@ -11,6 +11,7 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
@@ -22,6 +23,7 @@ from vptoolkit.evaluate.protocol import (
     score_protocol,
 )
 from vptoolkit.rotations import fixed_rotations, model_key, random_rotation
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import nearest_view
 
 require_package("zarr")
@@ -32,8 +34,10 @@ MESHES = ("bunny", "mug", "table", "teapot")
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ViewpointDataset]:
     """Four bundled meshes measured from 1000 views at 48 px (enough for a fine random-view check)."""
+    options = BuildOptions(MeasureSettings(views=1000, resolution=48), n_points=3000,
+                           clean=False)
     out = build_samples(tmp_path_factory.mktemp("protocol"), MESHES, category="things",
-                        n_views=1000, resolution=48, n_points=3000, clean=False)
+                        options=options)
     with open_dataset(out) as opened:
         yield opened
 

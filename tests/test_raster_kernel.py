@@ -20,6 +20,7 @@ import pytest
 from vptoolkit.camera import Camera
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import face_id_images, iter_view_histograms
 from vptoolkit.visibility._raster import (
@@ -39,7 +40,8 @@ FROZEN_VIEWS = {7: 12, 64: 12, 257: 12, 1024: 3}  # resolution: number of views
 
 
 def _histograms(mesh, views, resolution, camera):
-    runs = list(iter_view_histograms(mesh, views, resolution=resolution, camera=camera))
+    settings = MeasureSettings(resolution=resolution, camera=camera)
+    runs = list(iter_view_histograms(mesh, settings, view_directions=views))
     return [np.concatenate([getattr(run, name) for run in runs])
             for name in ("face_ids", "pixel_counts")], [run.offsets for run in runs]
 
@@ -71,7 +73,7 @@ def test_kernel_counts_equal_the_frozen_counts_bit_for_bit(name, resolution, cul
 
 def test_histograms_count_the_pixels_of_the_id_images(bunny):
     views = fibonacci_sphere(5)
-    images = face_id_images(bunny, views, resolution=200)
+    images = face_id_images(bunny, MeasureSettings(resolution=200), view_directions=views)
     (face_ids, pixel_counts), offsets = _histograms(bunny, views, 200, Camera())
     for view, (start, stop) in enumerate(zip(offsets[0][:-1], offsets[0][1:])):
         ids = images[view][images[view] >= 0]

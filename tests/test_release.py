@@ -15,6 +15,7 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.releases import CATEGORIES, FAILURES, forge_shard, write_release_build
 from fixtures.stores import N_POINTS, N_VIEWS
+from vptoolkit.dataset.release_options import ReleaseOptions
 from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, VerificationError
 
@@ -37,11 +38,12 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def release(build: Path, tmp_path_factory: pytest.TempPathFactory):
     """The release of ``build`` in every format, packed into an existing empty folder."""
-    from vptoolkit.dataset.release import FORMATS, pack_release
+    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release_options import FORMATS
 
     folder = tmp_path_factory.mktemp("release") / "out"
     folder.mkdir()
-    return pack_release(build, folder, formats=FORMATS)
+    return pack_release(build, folder, ReleaseOptions(formats=FORMATS))
 
 
 @pytest.fixture()
@@ -144,7 +146,7 @@ def test_pack_rejects_a_name_that_is_not_a_plain_file_name(build: Path, tmp_path
     from vptoolkit.dataset.release import pack_release
 
     with pytest.raises(InputError, match="name"):
-        pack_release(build, tmp_path / "release", name=name)
+        pack_release(build, tmp_path / "release", ReleaseOptions(name=name))
     assert list(tmp_path.iterdir()) == []
 
 
@@ -188,7 +190,7 @@ def test_pack_removes_only_its_own_stale_staging_folders(build: Path, tmp_path: 
         folder.mkdir()
         (folder / "part.h5").write_bytes(b"x")
     with held(live):
-        pack_release(build, tmp_path / "rel", formats=["hdf5"])
+        pack_release(build, tmp_path / "rel", ReleaseOptions(formats=["hdf5"]))
         assert not stale.exists()
         assert (other / "part.h5").exists() and (live / "part.h5").exists()
 
@@ -207,15 +209,15 @@ def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path
 
     monkeypatch.setattr(release_module, "write_sha256sums", meanwhile)
     with pytest.raises(InputError, match="rel: folder was filled while packing"):
-        release_module.pack_release(build, target, formats=["hdf5"])
+        release_module.pack_release(build, target, ReleaseOptions(formats=["hdf5"]))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rel"]
 
 
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
-    result = pack_release(build, tmp_path / "nested" / "rel", name="mini-v1", license="cc-by-4.0",
-                          version="2.3.4")
+    options = ReleaseOptions(name="mini-v1", license="cc-by-4.0", version="2.3.4")
+    result = pack_release(build, tmp_path / "nested" / "rel", options)
     assert result.zarr_zip is None  # by default Parquet and one archive, HDF5
     assert result.hdf5.name == "mini-v1.h5"  # the version is not in file names
     card = result.card.read_text(encoding="utf-8")

@@ -18,6 +18,7 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.releases import CATEGORIES, forge_shard, write_release_build
 from fixtures.stores import N_POINTS, N_VIEWS
+from vptoolkit.dataset.release_options import ReleaseOptions
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
@@ -43,14 +44,15 @@ def licenses_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def release(tmp_path_factory: pytest.TempPathFactory, licenses_csv: Path):
-    from vptoolkit.dataset.release import FORMATS, pack_release
+    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release_options import FORMATS
 
     base = tmp_path_factory.mktemp("eco")
     build = _write_build(base / "build")
-    return pack_release(build, base / "release", formats=FORMATS, created=CREATED,
-                        version="2.1.0",
-                        name="mini", pretty_name="Mini viewpoints", licenses=licenses_csv,
-                        source_url="https://example.org/src", creator="Tester")
+    options = ReleaseOptions(formats=FORMATS, created=CREATED, version="2.1.0", name="mini",
+                             pretty_name="Mini viewpoints", licenses=licenses_csv,
+                             source_url="https://example.org/src", creator="Tester")
+    return pack_release(build, base / "release", options)
 
 
 @pytest.fixture()
@@ -169,8 +171,8 @@ def sharded(tmp_path_factory: pytest.TempPathFactory):
     from vptoolkit.dataset.release import pack_release
 
     base = tmp_path_factory.mktemp("sharded")
-    return pack_release(_write_build(base / "build"), base / "release", created=CREATED,
-                        shard_size="30KB")
+    return pack_release(_write_build(base / "build"), base / "release",
+                        ReleaseOptions(created=CREATED, shard_size="30KB"))
 
 
 def test_a_small_shard_size_gives_several_hub_named_shards_that_datasets_loads(
@@ -332,8 +334,41 @@ def test_bad_release_options_are_input_errors(tmp_path: Path, bad: dict, message
 
     build = _write_build(tmp_path / "build")
     with pytest.raises(InputError, match=re.escape(message)):
-        pack_release(build, tmp_path / "release", **bad)
+        pack_release(build, tmp_path / "release", ReleaseOptions(**bad))
     assert not (tmp_path / "release").exists()
+
+
+@pytest.mark.parametrize("bad, message", [
+    ({"name": "../up"}, "name: '../up' must start with a letter or digit"),
+    ({"license": "my own"}, "license: 'my own' is not an SPDX licence identifier"),
+    ({"formats": "parquet"}, "formats: expected a sequence of format names"),
+    ({"formats": []}, "formats: expected one or more of parquet, zarr, hdf5, got none"),
+    ({"shard_size": "big"}, "shard_size:"),
+    ({"licenses": {"chair_0001": {"license": "mine"}}}, "licenses: chair_0001: 'mine' is not"),
+    ({"creator": 7}, "creator: expected text, got 7"),
+], ids=["name", "license", "formats-text", "no-formats", "shard-size", "table", "creator"])
+def test_release_options_are_checked_when_made(bad: dict, message: str) -> None:
+    with pytest.raises(InputError, match=re.escape(message)):
+        ReleaseOptions(**bad)
+
+
+def test_release_options_keep_their_checked_values() -> None:
+    from vptoolkit.conventions import DATASET_VERSION
+    from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
+    from vptoolkit.dataset.release_options import DEFAULT_FORMATS, DEFAULT_LICENSE, DEFAULT_NAME
+
+    default = ReleaseOptions()
+    assert (default.name, default.license, default.formats, default.version) == (
+        DEFAULT_NAME, DEFAULT_LICENSE, DEFAULT_FORMATS, DATASET_VERSION)
+    assert default.shard_bytes == DEFAULT_SHARD_BYTES and default.created is None
+    assert default.default_license is None and default.license_table() is None
+    given = ReleaseOptions(license=" CC-BY-4.0 ", formats=("zarr", "zarr", "hdf5"),
+                           shard_size="2KiB", created="2026-03-04T06:06:07+01:00",
+                           licenses="table.csv")
+    assert given.license == given.default_license == "CC-BY-4.0"
+    assert given.formats == ("zarr", "hdf5") and given.shard_bytes == 2048
+    assert given.created == "2026-03-04T05:06:07Z" and given.licenses == Path("table.csv")
+    assert ReleaseOptions(created=given.created) == ReleaseOptions(created="2026-03-04T05:06:07")
 
 
 def test_a_licence_table_without_its_columns_names_the_file(tmp_path: Path) -> None:
@@ -367,7 +402,7 @@ def test_parquet_only_release(tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
     build = _write_build(tmp_path / "build")
-    result = pack_release(build, tmp_path / "release", formats=["parquet"])
+    result = pack_release(build, tmp_path / "release", ReleaseOptions(formats=["parquet"]))
     assert result.zarr_zip is None and result.hdf5 is None
     names = sorted(p.name for p in result.path.iterdir())
     assert not [n for n in names if n.endswith((".h5", ".zip"))] and "data" in names
@@ -381,7 +416,7 @@ def test_hdf5_only_card_promises_no_datasets_loading(tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
     build = _write_build(tmp_path / "build")
-    result = pack_release(build, tmp_path / "release", formats=["hdf5"])
+    result = pack_release(build, tmp_path / "release", ReleaseOptions(formats=["hdf5"]))
     card = result.card.read_text(encoding="utf-8")
     header = yaml.safe_load(card.split("---\n")[1])
     assert "configs" not in header and "dataset_info" not in header
@@ -406,8 +441,8 @@ def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
 
     first = _write_build(tmp_path / "a" / "build", created="2025-01-01T00:00:00Z")
     second = _write_build(tmp_path / "b" / "build", created="2025-06-30T12:00:00Z")
-    one = pack_release(first, tmp_path / "a" / "release", created=CREATED)
-    two = pack_release(second, tmp_path / "b" / "release", created=CREATED)
+    one = pack_release(first, tmp_path / "a" / "release", ReleaseOptions(created=CREATED))
+    two = pack_release(second, tmp_path / "b" / "release", ReleaseOptions(created=CREATED))
     manifest = (one.path / "SHA256SUMS").read_text()
     assert manifest == (two.path / "SHA256SUMS").read_text()
     monkeypatch.setenv("SOURCE_DATE_EPOCH", "1772600767")  # 2026-03-04T05:06:07Z
@@ -425,7 +460,7 @@ def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
 ], ids=["after-9999", "before-year-1", "huge-epoch", "superscript-two", "5000-digits"])
 def test_release_times_beyond_the_calendar_are_one_line(monkeypatch, created, epoch,
                                                         needle) -> None:
-    from vptoolkit.dataset.release import release_created
+    from vptoolkit.dataset.release_options import release_created
 
     if epoch is None:
         monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
@@ -437,7 +472,7 @@ def test_release_times_beyond_the_calendar_are_one_line(monkeypatch, created, ep
 
 
 def test_release_times_before_the_year_1000_keep_four_digits(monkeypatch) -> None:
-    from vptoolkit.dataset.release import release_created
+    from vptoolkit.dataset.release_options import release_created
 
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
     assert release_created("1000-01-01T00:00:00+01:00", None) == "0999-12-31T23:00:00Z"
@@ -570,7 +605,8 @@ def parquet_release(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     base = tmp_path_factory.mktemp("parquet-only")
     build = _write_build(base / "build")
-    return pack_release(build, base / "release", created=CREATED, formats=["parquet"]).path
+    return pack_release(build, base / "release",
+                        ReleaseOptions(created=CREATED, formats=["parquet"])).path
 
 
 def test_a_parquet_only_release_verifies_by_its_hashes(parquet_release: Path,
@@ -994,8 +1030,8 @@ def test_a_licence_given_by_url_is_other_on_the_hub_with_its_link(tmp_path: Path
     from vptoolkit.dataset.release import pack_release
 
     url = "https://example.org/terms"
-    result = pack_release(_write_build(tmp_path / "build"), tmp_path / "release", license=url,
-                          formats=["hdf5"])
+    result = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
+                          ReleaseOptions(license=url, formats=["hdf5"]))
     header = result.card.read_text(encoding="utf-8").split("\n---\n")[0]
     assert 'license: "other"\nlicense_name: "custom"\nlicense_link: "https://example.org/terms"' \
         in header
@@ -1006,5 +1042,5 @@ def test_the_same_build_and_shard_size_pack_to_the_same_bytes(sharded, tmp_path:
     from vptoolkit.dataset.release import pack_release
 
     again = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
-                         created=CREATED, shard_size="30KB")
+                         ReleaseOptions(created=CREATED, shard_size="30KB"))
     assert again.files == sharded.files

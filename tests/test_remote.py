@@ -18,6 +18,7 @@ from fixtures.releases import write_release_build
 from vptoolkit.cli import main
 from vptoolkit.data import open_dataset
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
+from vptoolkit.dataset.release_options import ReleaseOptions
 from vptoolkit.errors import InputError, VerificationError
 
 
@@ -30,8 +31,8 @@ def release(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
     base = tmp_path_factory.mktemp("remote")
     write_release_build(base / "build")
-    return pack_release(base / "build", base / "release", formats=["parquet", "hdf5"],
-                        license="cc-by-4.0").path
+    return pack_release(base / "build", base / "release",
+                        ReleaseOptions(formats=["parquet", "hdf5"], license="cc-by-4.0")).path
 
 
 class _Server:

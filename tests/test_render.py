@@ -24,6 +24,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh
+from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.open3d_engine import Renderer
 from vptoolkit.pictures.png import png_bytes, save_png
 from vptoolkit.pictures.shading import RenderStyle, crease_normals
@@ -35,6 +36,7 @@ from vptoolkit.pictures.views import (
     render_views,
     resolve_direction,
 )
+from vptoolkit.settings import MeasureSettings
 
 SIZE = 128
 def pair_mesh() -> Mesh:
@@ -267,9 +269,9 @@ def test_back_faces_are_culled_like_the_measures(renderer, triangle):
 
 @pytest.mark.renderer
 def test_documented_return_shapes(renderer, cube):
-    images = render_views(cube, np.eye(3), renderer=renderer)
+    images = render_views(cube, np.eye(3), engine=renderer)
     assert images.shape == (3, SIZE, SIZE, 3) and images.dtype == np.uint8
-    image = render_view(cube, [0.0, 0.0, 1.0], renderer=renderer)
+    image = render_view(cube, [0.0, 0.0, 1.0], engine=renderer)
     assert image.shape == (SIZE, SIZE, 3)
     np.testing.assert_array_equal(image, images[2])  # same camera, same picture
 
@@ -278,9 +280,9 @@ def test_documented_return_shapes(renderer, cube):
 def test_render_best_draws_the_best_view(renderer, cube):
     from vptoolkit.measures import compute_view_quality
 
-    quality = compute_view_quality(cube, n_views=60, resolution=48)
+    quality = compute_view_quality(cube, MeasureSettings(views=60, resolution=48))
     for column, measure in enumerate(MEASURES):
-        view = render_best(cube, measure=measure, quality=quality, renderer=renderer)
+        view = render_best(cube, measure=measure, quality=quality, engine=renderer)
         assert isinstance(view, RenderedView)
         index = int(quality.best_index[column])
         np.testing.assert_array_equal(view.direction, quality.views[index])
@@ -296,9 +298,9 @@ def test_render_predicted_calls_the_hook(renderer, cube):
         seen.append(mesh.name)
         return np.tile([0.0, 0.0, 1.0], (4, 1))
 
-    view = render_predicted(cube, predict, measure="VKL", renderer=renderer)
+    view = render_predicted(cube, predict, measure="VKL", engine=renderer)
     assert seen == ["box"] and view.label == "predicted VKL"
-    np.testing.assert_array_equal(view.image, render_view(cube, [0, 0, 1], renderer=renderer))
+    np.testing.assert_array_equal(view.image, render_view(cube, [0, 0, 1], engine=renderer))
 
 
 @pytest.mark.renderer
@@ -330,8 +332,9 @@ def test_no_vulkan_driver_is_a_one_line_missing_dependency(monkeypatch, cube):
     require_package("open3d")
     for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
-    with pytest.raises(MissingDependencyError) as caught:
-        render_view(cube, [0.0, 0.0, 1.0], size=32, engine="open3d")
+    with pytest.raises(MissingDependencyError) as caught, \
+            open_renderer("open3d", size=32) as engine:
+        render_view(cube, [0.0, 0.0, 1.0], engine=engine)
     message = str(caught.value)
     assert message.startswith("renderer: Open3D's offscreen renderer could not start "
                               "(no Vulkan driver?): ")

@@ -33,6 +33,7 @@ from fixtures.pictures import decode_png, model_mask, read_png, started_renderer
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
 N_VIEWS = 200
@@ -203,7 +204,7 @@ def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: 
     from vptoolkit.measures import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map_file
 
-    quality_path = compute_view_quality(cube, n_views=100, resolution=32).save_npz(
+    quality_path = compute_view_quality(cube, MeasureSettings(views=100, resolution=32)).save_npz(
         tmp_path / "cube.npz")
     written = sphere_map_file(quality_path, tmp_path / "cube.png", measure="vkl")
     assert read_png(written).shape[:2] == (540, 640)
@@ -275,8 +276,7 @@ def report_renderer():
 def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) -> Path:
     from vptoolkit.pictures.report import write_report
 
-    return write_report(store, tmp_path_factory.mktemp("report") / "all",
-                        renderer=report_renderer)
+    return write_report(store, tmp_path_factory.mktemp("report") / "all", engine=report_renderer)
 
 
 @pytest.fixture(scope="module")
@@ -300,7 +300,7 @@ def test_report(store, predictions, report_renderer, matplotlib_available,
     from vptoolkit.pictures.report import write_report
 
     return write_report(store, tmp_path_factory.mktemp("report") / "test", split="test",
-                        predictions=predictions[0], renderer=report_renderer)
+                        predictions=predictions[0], engine=report_renderer)
 
 
 def image_sources(page: str) -> list[str]:

@@ -14,6 +14,7 @@ from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.pictures.views import render_view
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_id_images, face_pixel_counts
 
 SIZE = 96
@@ -22,8 +23,8 @@ MEASURES_ROLL = RenderStyle(up=Camera().up)
 
 def test_face_id_images_are_what_the_measures_count(bunny):
     directions = np.array([[0.3, 0.2, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
-    images = face_id_images(bunny, directions, resolution=80)
-    counts = face_pixel_counts(bunny, directions, resolution=80)
+    images = face_id_images(bunny, MeasureSettings(resolution=80), view_directions=directions)
+    counts = face_pixel_counts(bunny, MeasureSettings(resolution=80), view_directions=directions)
     assert images.shape == (3, 80, 80) and images.dtype == np.int32 and images.min() == -1
     for view in range(3):
         seen = np.bincount(images[view][images[view] >= 0], minlength=bunny.n_faces)
@@ -35,7 +36,7 @@ def test_silhouette_is_the_triangle_id_image(bunny):
     with SoftwareRenderer(size=SIZE, style=MEASURES_ROLL, supersampling=1) as renderer:
         image = renderer.render(bunny, direction)[0]
     background = (image == 255).all(axis=2)
-    ids = face_id_images(bunny, [direction], resolution=SIZE)[0]
+    ids = face_id_images(bunny, MeasureSettings(resolution=SIZE), view_directions=[direction])[0]
     np.testing.assert_array_equal(~background, ids >= 0)
 
 
@@ -60,7 +61,8 @@ def test_pictures_are_upright_and_antialiased():
     raised = box_mesh()
     both = Mesh(np.vstack([raised.vertices, raised.vertices * 0.5 + [0.0, 1.5, 0.0]]),
                 np.vstack([raised.faces, raised.faces + len(raised.vertices)]), "tower")
-    image = render_view(both, [0.2, 0.1, 1.0], size=SIZE)  # the default engine and roll
+    with open_renderer(size=SIZE) as engine:  # the default engine and roll
+        image = render_view(both, [0.2, 0.1, 1.0], engine=engine)
     rows = np.nonzero(model_mask(image))[0]
     top_half = model_mask(image)[: SIZE // 2].sum()
     assert rows.min() < SIZE * 0.25 and top_half < model_mask(image)[SIZE // 2:].sum()

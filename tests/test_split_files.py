@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -10,14 +11,16 @@ from click.testing import CliRunner
 
 from vptoolkit.cli import main
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions, SplitFile
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.split_files import read_split_file
 from vptoolkit.errors import InputError
 from vptoolkit.samples import SAMPLE_SPLITS, sample_names, sample_path
+from vptoolkit.settings import MeasureSettings
 
 pytest.importorskip("zarr")
 
-TINY = {"n_views": 20, "resolution": 16, "n_points": 16, "clean": False}
+TINY = BuildOptions(MeasureSettings(views=20, resolution=16), n_points=16, clean=False)
 
 
 def source(root: Path) -> Path:
@@ -65,7 +68,7 @@ def test_build_takes_its_split_from_a_csv(tmp_path):
     src = source(tmp_path / "src")
     csv = tmp_path / "splits.csv"
     csv.write_text("name,split\nmug,test\nbottle,val\ntable,train\nlego,train\nchair_9,test\n")
-    result = build_dataset(src, tmp_path / "out", splits=csv, **TINY)
+    result = build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(csv)))
     assert stored_splits(result.path) == {"mug": "test", "bottle": "val", "table": "train",
                                           "lego": "train"}
     assert result.split_file.n_placed == 4 and result.split_file.not_in_source == ("chair_9",)
@@ -80,7 +83,8 @@ def test_build_applies_the_papers_rule_to_small_txt(tmp_path):
     lines = [f"objfiles/kitchen/train/{name}.obj\n" for name in names]
     lines.insert(3, "objfiles/furniture/test/table.obj\n")  # another category: no index
     small.write_text("".join(lines))
-    result = build_dataset(src, tmp_path / "out", splits=small, categories=["kitchen"], **TINY)
+    result = build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(small)),
+                           categories=["kitchen"])
     assert stored_splits(result.path) == {"mug": "val", "bottle": "test"}
     assert result.split_file.n_placed == 2 and len(result.split_file.not_in_source) == 8
 
@@ -91,7 +95,7 @@ def test_a_model_the_file_does_not_place_is_refused_before_any_work(tmp_path):
     csv.write_text("name,split\nmug,train\nbottle,train\n")
     with pytest.raises(InputError, match=r"does not place 2 of the 4 models .*lego\.obj") \
             as caught:
-        build_dataset(src, tmp_path / "out", splits=csv, **TINY)
+        build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(csv)))
     assert "\n" not in str(caught.value) and not (tmp_path / "out").exists()
 
 
@@ -100,14 +104,14 @@ def test_resume_refuses_an_edited_split_file(tmp_path):
     csv = tmp_path / "splits.csv"
     csv.write_text("name,split\nmug,test\nbottle,val\ntable,train\nlego,train\n")
     out = tmp_path / "out"
-    build_dataset(src, out, splits=csv, **TINY)
-    again = build_dataset(src, out, splits=csv, **TINY)
+    build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
+    again = build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
     assert again.n_resumed == 4
     csv.write_text("name,split\nmug,train\nbottle,val\ntable,train\nlego,train\n")
     with pytest.raises(InputError, match="splits_sha256="):
-        build_dataset(src, out, splits=csv, **TINY)
+        build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
     with pytest.raises(InputError, match="splits_sha256="):
-        build_dataset(src, out, **TINY)
+        build_dataset(src, out, TINY)
 
 
 def test_build_dataset_says_how_many_the_file_placed(tmp_path):
@@ -132,7 +136,8 @@ def test_the_samples_split_file_places_every_sample_in_all_three_splits(tmp_path
     splits = read_split_file(SAMPLE_SPLITS)
     assert sorted(splits) == sorted(Path(name).stem for name in sample_names())
     assert sorted(splits.values()).count("test") == 2
-    plan = plan_build(SAMPLE_SPLITS.parent, tmp_path / "out", splits=SAMPLE_SPLITS, calibrate=0)
+    options = BuildOptions(splits=SplitFile.read(SAMPLE_SPLITS))
+    plan = plan_build(SAMPLE_SPLITS.parent, tmp_path / "out", options, calibrate=0)
     assert plan.counts == {"samples": {"train": 8, "val": 2, "test": 2}}
     script = (Path(__file__).resolve().parents[1] / "tools" / "run_sample.sh").read_text()
     assert "build-dataset vptoolkit/samples" in script

@@ -11,8 +11,11 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.meshes import primitive_mesh
 from fixtures.pictures import decode_png, model_mask, started_renderer
+from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.mesh import Mesh
+from vptoolkit.pictures.engine import open_renderer
+from vptoolkit.settings import MeasureSettings
 
 SIZE = 96
 
@@ -44,8 +47,8 @@ def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp
     from vptoolkit.pictures.thumbnails import ThumbnailResult, render_thumbnails
 
     out = tmp_path / "thumbs"
-    result = render_thumbnails(mesh_folder, out, measure="VR", workers=2, n_views=40,
-                               resolution=48, renderer=renderer)
+    result = render_thumbnails(mesh_folder, out, measure="VR", workers=2,
+                               settings=MeasureSettings(views=40, resolution=48), engine=renderer)
     assert isinstance(result, ThumbnailResult)
     assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
     for path in result.done:
@@ -57,6 +60,8 @@ def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp
     assert reasons["bad.off"].startswith("bad.off: ")
     index = json.loads(result.index.read_text())
     assert index["measure"] == "VR" and index["direction_from"] == "measures"
+    assert index["settings"] == MeasureSettings(views=40, resolution=48).to_dict()
+    assert index["size"] == SIZE
     assert [r["source"] for r in index["thumbnails"]] == ["cube.obj", "nested/ball.stl"]
     assert index["thumbnails"][0]["label"].startswith("best VR (view ")
     assert [f["source"] for f in index["failures"]] == ["bad.off", "cube.off", "empty.obj"]
@@ -73,7 +78,7 @@ def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, re
         return [0.0, 0.0, 2.0]
 
     result = render_thumbnails(mesh_folder / "nested", tmp_path / "out", predictor=predict,
-                               renderer=renderer)
+                               engine=renderer)
     assert seen == ["ball"] and result.done == [tmp_path / "out" / "ball.png"]
     index = json.loads(result.index.read_text())
     assert index["thumbnails"] == [{"source": "ball.stl", "image": "ball.png",
@@ -89,7 +94,8 @@ def test_thumbnails_without_a_renderer_stop_before_any_work(mesh_folder: Path, t
         monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
     with pytest.raises(MissingDependencyError, match="^renderer: Open3D's offscreen renderer "
                                                      "could not start"):
-        render_thumbnails(mesh_folder, tmp_path / "out", size=32, engine="open3d")
+        with open_renderer("open3d", size=32) as engine:
+            render_thumbnails(mesh_folder, tmp_path / "out", engine=engine)
     assert not list((tmp_path / "out").rglob("*.png"))
 
 
@@ -102,6 +108,13 @@ def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
         render_thumbnails(tmp_path / "missing", tmp_path / "out")
     with pytest.raises(InputError, match="workers"):
         render_thumbnails(mesh_folder, tmp_path / "out", workers=0)
+    with pytest.raises(InputError, match="engine: expected an Engine"):
+        render_thumbnails(mesh_folder, tmp_path / "out", engine="software")  # type: ignore[arg-type]
+    mirrored = MeasureSettings(camera=Camera(cull_back_faces=False))
+    with pytest.raises(InputError, match="engine: its camera differs from the camera"), \
+            open_renderer(size=32) as engine:
+        render_thumbnails(mesh_folder, tmp_path / "out", settings=mirrored, engine=engine)
+    assert not list((tmp_path / "out").rglob("*.png"))
 
 
 def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):

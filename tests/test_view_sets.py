@@ -12,16 +12,18 @@ from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality, quality_from_histograms
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.search import best_view_set, measure_view_set, set_coverage
 from vptoolkit.view_sets.visibility import FaceVisibility
 
 N_VIEWS, RESOLUTION = 40, 64
+SETTINGS = MeasureSettings(views=N_VIEWS, resolution=RESOLUTION)
 
 
 @pytest.fixture(scope="module", params=["suzanne.ply", "teapot.stl", "table.obj"])
 def visibility(request) -> FaceVisibility:
-    return FaceVisibility.from_mesh(load_mesh(sample_path(request.param)), N_VIEWS, RESOLUTION)
+    return FaceVisibility.from_mesh(load_mesh(sample_path(request.param)), SETTINGS)
 
 
 def best_k_set_coverage(visibility: FaceVisibility, k: int) -> float:
@@ -50,8 +52,8 @@ def test_greedy_coverage_is_within_its_guarantee_of_exhaustive_search(visibility
 
 def test_coverage_of_one_view_is_its_visibility_ratio():
     mesh = load_mesh(sample_path("suzanne.ply"))
-    quality = compute_view_quality(mesh, N_VIEWS, RESOLUTION)
-    visibility = FaceVisibility.from_mesh(mesh, N_VIEWS, RESOLUTION)
+    quality = compute_view_quality(mesh, SETTINGS)
+    visibility = FaceVisibility.from_mesh(mesh, SETTINGS)
     single = np.array([set_coverage(visibility, [view])[0] for view in range(N_VIEWS)])
     np.testing.assert_allclose(single, quality.raw[:, 1], rtol=1e-12)
 
@@ -94,7 +96,7 @@ def test_greedy_information_picks_the_best_entropy_at_every_step(visibility):
 
 
 def test_a_cube_is_covered_by_two_opposite_corner_views():
-    view_set = best_view_set(box_mesh(), 4, n_views=200, resolution=64)
+    view_set = best_view_set(box_mesh(), 4, settings=MeasureSettings(views=200, resolution=64))
     assert len(view_set) == 2  # a third view adds nothing, so the search stops
     np.testing.assert_allclose(view_set.coverage, [0.5, 1.0], atol=1e-12)
     assert view_set.reachable == pytest.approx(1.0)
@@ -121,8 +123,8 @@ def test_same_inputs_give_the_same_set(visibility):
 
 def test_measure_view_set_draws_once_and_matches_compute_view_quality():
     mesh = load_mesh(sample_path("teapot.stl"))
-    quality, view_set = measure_view_set(mesh, 3, n_views=N_VIEWS, resolution=RESOLUTION)
-    alone = compute_view_quality(mesh, N_VIEWS, RESOLUTION)
+    quality, view_set = measure_view_set(mesh, 3, settings=SETTINGS)
+    alone = compute_view_quality(mesh, SETTINGS)
     np.testing.assert_array_equal(quality.raw, alone.raw)
     np.testing.assert_array_equal(quality.best_index, alone.best_index)
     assert isinstance(view_set, ViewSet) and view_set.indices.shape == (3,)

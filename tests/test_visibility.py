@@ -1,3 +1,5 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -9,12 +11,14 @@ from vptoolkit.geometry import face_normals
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
-from vptoolkit.sphere import fibonacci_sphere
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_pixel_counts, face_pixel_totals, iter_view_histograms
+
+FRONT, BACK = [[0, 0, 1]], [[0, 0, -1]]
 
 
 def test_axis_view_of_a_cube_sees_only_the_front_side(cube):
-    counts = face_pixel_counts(cube, [[0, 0, 1]], resolution=128)[0]
+    counts = face_pixel_counts(cube, MeasureSettings(resolution=128), view_directions=FRONT)[0]
     seen = np.flatnonzero(counts)
     np.testing.assert_array_less(0.99, face_normals(cube)[seen] @ [0, 0, 1])
     assert len(seen) == 2
@@ -28,16 +32,17 @@ def test_projected_area_matches_the_pinhole_model(cube):
     distance = camera.distance_factor * np.sqrt(3.0)
     focal = (resolution / 2) / np.tan(np.radians(camera.fov_deg) / 2)
     side_px = focal / (distance - 0.5)
-    counts = face_pixel_counts(cube, [[0, 0, 1]], resolution=resolution)
+    counts = face_pixel_counts(cube, MeasureSettings(resolution=resolution), view_directions=FRONT)
     assert counts.sum() == pytest.approx(side_px**2, rel=0.01)
 
 
 def test_back_faces_are_culled_and_reveal_what_lies_behind(triangle):
     # Seen from behind, a lone triangle shows nothing at all.
-    assert face_pixel_counts(triangle, [[0, 0, -1]], resolution=64).sum() == 0
-    assert face_pixel_counts(triangle, [[0, 0, 1]], resolution=64).sum() > 0
-    no_culling = Camera(cull_back_faces=False)
-    assert face_pixel_counts(triangle, [[0, 0, -1]], resolution=64, camera=no_culling).sum() > 0
+    settings = MeasureSettings(resolution=64)
+    assert face_pixel_counts(triangle, settings, view_directions=BACK).sum() == 0
+    assert face_pixel_counts(triangle, settings, view_directions=FRONT).sum() > 0
+    no_culling = replace(settings, camera=Camera(cull_back_faces=False))
+    assert face_pixel_counts(triangle, no_culling, view_directions=BACK).sum() > 0
 
 
 def test_inner_shell_facing_inwards_is_invisible_and_outward_is_hidden():
@@ -46,7 +51,7 @@ def test_inner_shell_facing_inwards_is_invisible_and_outward_is_hidden():
     vertices = np.vstack([outer.vertices, inner.vertices])
     faces = np.vstack([outer.faces, inner.faces + outer.n_vertices])
     nested = Mesh(vertices, faces, "nested")
-    totals = face_pixel_totals(nested, fibonacci_sphere(100), resolution=64)
+    totals = face_pixel_totals(nested, MeasureSettings(views=100, resolution=64))
     assert (totals[: outer.n_faces] > 0).all()
     assert (totals[outer.n_faces:] == 0).all()
 
@@ -60,15 +65,15 @@ def test_every_pixel_centre_is_counted_once_on_a_closed_mesh():
     coarse = trimesh.creation.icosphere(subdivisions=3)
     fine = trimesh.creation.icosphere(subdivisions=5)
     view = [[0.2, 0.7, 0.4]]
-    a = face_pixel_counts(Mesh(coarse.vertices, coarse.faces), view, resolution=256).sum()
-    b = face_pixel_counts(Mesh(fine.vertices, fine.faces), view, resolution=256).sum()
+    settings = MeasureSettings(resolution=256)
+    a = face_pixel_counts(Mesh(coarse.vertices, coarse.faces), settings, view_directions=view).sum()
+    b = face_pixel_counts(Mesh(fine.vertices, fine.faces), settings, view_directions=view).sum()
     # the fine sphere's silhouette is rounder but the same size to within 1 %
     assert b == pytest.approx(a, rel=0.01)
 
 
 def test_histograms_cover_all_views_in_order(bunny):
-    views = fibonacci_sphere(150)
-    runs = list(iter_view_histograms(bunny, views, resolution=64))
+    runs = list(iter_view_histograms(bunny, MeasureSettings(views=150, resolution=64)))
     assert sum(run.n_views for run in runs) == 150
     assert [run.first_view for run in runs] == list(np.cumsum([0] + [r.n_views for r in runs[:-1]]))
     for run in runs:
@@ -80,9 +85,9 @@ def test_histograms_cover_all_views_in_order(bunny):
 def test_raster_agrees_with_open3d_raycasting(name):
     require_package("open3d")
     mesh = load_mesh(sample_path(name))
-    views = fibonacci_sphere(12)
-    raster = face_pixel_counts(mesh, views, resolution=384, backend="raster")
-    raycast = face_pixel_counts(mesh, views, resolution=384, backend="raycast")
+    settings = MeasureSettings(views=12, resolution=384)
+    raster = face_pixel_counts(mesh, settings)
+    raycast = face_pixel_counts(mesh, replace(settings, backend="raycast"))
     covered_raster, covered_raycast = raster.sum(axis=1), raycast.sum(axis=1)
     # covered pixels per view agree to 0.2 %, per-face counts to 0.5 % in L1
     np.testing.assert_allclose(covered_raster, covered_raycast, rtol=2e-3)
@@ -92,8 +97,8 @@ def test_raster_agrees_with_open3d_raycasting(name):
 
 def test_bad_arguments_name_themselves(cube):
     with pytest.raises(InputError, match="^resolution"):
-        face_pixel_counts(cube, [[0, 0, 1]], resolution=0)
+        face_pixel_counts(cube, MeasureSettings(resolution=0), view_directions=FRONT)
     with pytest.raises(InputError, match="^backend"):
-        face_pixel_counts(cube, [[0, 0, 1]], backend="opengl")  # type: ignore[arg-type]
+        face_pixel_counts(cube, MeasureSettings(backend="opengl"))  # type: ignore[arg-type]
     with pytest.raises(InputError, match="^view_directions"):
-        face_pixel_counts(cube, [[0, 0, 0]])
+        face_pixel_counts(cube, MeasureSettings(), view_directions=[[0, 0, 0]])

@@ -63,6 +63,7 @@ from results_doc import machine, markdown_table, score_cells, write_section
 from vptoolkit.best_view import SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.sources import discover_models
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
@@ -70,9 +71,10 @@ from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
-from vptoolkit.points import sample_surface
+from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
+from vptoolkit.settings import MeasureSettings
 
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
@@ -132,9 +134,9 @@ def labels(mesh_dir: Path, cache: Path, *, quick: bool) -> Path:
         src.mkdir(parents=True)
         for source in sources:
             (src / source.path.name).symlink_to(source.path.resolve())
-    build_dataset(src, out / "build", n_views=100 if quick else 1000,
-                  resolution=64 if quick else 256, n_points=2000 if quick else 20000,
-                  workers=2, progress=True)
+    measure = MeasureSettings(views=100 if quick else 1000, resolution=64 if quick else 256)
+    options = BuildOptions(measure, n_points=2000 if quick else N_SURFACE_POINTS)
+    build_dataset(src, out / "build", options, workers=2, progress=True)
     return out
 
 
@@ -155,7 +157,8 @@ def answers(budgets: list[int], resolution: int,
         priors[label] = NetworkPrior(model)
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
-            lambda mesh, b=budget: compute_view_quality(mesh, b, resolution).best_views))
+            lambda mesh, b=budget: compute_view_quality(
+                mesh, MeasureSettings(views=b, resolution=resolution)).best_views))
         rows[f"coarse-to-fine {budget} @ {resolution}"] = (str(budget), (
             lambda mesh, b=budget: search_best_views(mesh, b, resolution).directions))
         for label, prior in priors.items():

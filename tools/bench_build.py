@@ -55,13 +55,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build import BuildResult, build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.reader import StoreReader, open_store
 from vptoolkit.dataset.schema import ModelEntry
 from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
+from vptoolkit.settings import MeasureSettings
 
 FULL = {"n_views": 1000, "resolution": 1024, "n_points": 20000, "max_faces": 10000}
 QUICK = {"n_views": 100, "resolution": 128, "n_points": 2000, "max_faces": 2000}
@@ -89,6 +91,14 @@ def make_tree(root: Path, copies: int, sources: Sequence[Path]) -> int:
     return n_files
 
 
+def build_with(src: Path, out: Path, options: dict[str, Any]) -> BuildResult:
+    """``build_dataset`` with the bench's flat options (sizes, ``clean`` and ``workers``)."""
+    rest = dict(options)
+    workers = rest.pop("workers")
+    measure = MeasureSettings(views=rest.pop("n_views"), resolution=rest.pop("resolution"))
+    return build_dataset(src, out, BuildOptions(measure, **rest), workers=workers)
+
+
 def cpu_seconds() -> float:
     """User and system seconds of this process (all its threads) and of its waited-for children."""
     own = resource.getrusage(resource.RUSAGE_SELF)
@@ -106,7 +116,16 @@ def cpu_seconds():
     return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
 options = json.loads(sys.argv[3])
 started, cpu_started = time.perf_counter(), cpu_seconds()
-result = build_dataset(sys.argv[1], sys.argv[2], **options)
+try:
+    from vptoolkit.dataset.build_options import BuildOptions
+    from vptoolkit.settings import MeasureSettings
+except ImportError:  # a baseline whose build_dataset takes the options as keywords
+    result = build_dataset(sys.argv[1], sys.argv[2], **options)
+else:
+    workers = options.pop("workers")
+    measure = MeasureSettings(views=options.pop("n_views"), resolution=options.pop("resolution"))
+    result = build_dataset(sys.argv[1], sys.argv[2], BuildOptions(measure, **options),
+                           workers=workers)
 seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
 print(json.dumps({"seconds": seconds, "cpu_seconds": cpu, "n_models": result.n_models,
                   "n_failures": result.n_failures, "code": vptoolkit.__file__,
@@ -144,7 +163,7 @@ def warm_up(root: Path, code: Path | None, sizes: dict[str, Any], clean: bool) -
     options = {**sizes, "n_views": 8, "workers": 1, "clean": clean}
     out = root / f"warm_up_{'baseline' if code else 'this'}"
     if code is None:
-        build_dataset(src, out, **options)
+        build_with(src, out, options)
     else:
         baseline_build(code, src, out, options)
     shutil.rmtree(out)
@@ -275,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
                     _print_stages(baseline["stage_seconds"], baseline["n_computed"])
                 out = root / f"out_{suffix}"
                 started, cpu_started = time.perf_counter(), cpu_seconds()
-                result = build_dataset(root / "samples", out, **options)
+                result = build_with(root / "samples", out, options)
                 seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
                 per_hour = 3600.0 * result.n_models / seconds
                 if baseline is not None:

@@ -98,11 +98,11 @@ def toy_airplane(n_faces: int) -> Mesh:
 
 def baseline_seconds(mesh: Mesh, resolution: int) -> float:
     """Seconds of one plain visibility pass over ``mesh``: 1000 views, no cleaning."""
-    from vptoolkit.sphere import fibonacci_sphere
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.visibility import face_pixel_totals
 
     start = time.perf_counter()
-    face_pixel_totals(mesh, fibonacci_sphere(1000), resolution=resolution)
+    face_pixel_totals(mesh, MeasureSettings(resolution=resolution))
     return time.perf_counter() - start
 
 

@@ -45,6 +45,7 @@ from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
 from vptoolkit.visibility import iter_view_histograms
 
@@ -61,7 +62,8 @@ def subdivide(mesh: Mesh, times: int) -> Mesh:
 
 def time_views(mesh: Mesh, views: np.ndarray, resolution: int, backend: str) -> float:
     started = time.perf_counter()
-    for _ in iter_view_histograms(mesh, views, resolution=resolution, backend=backend):  # type: ignore[arg-type]
+    settings = MeasureSettings(resolution=resolution, backend=backend)  # type: ignore[arg-type]
+    for _ in iter_view_histograms(mesh, settings, view_directions=views):
         pass
     return time.perf_counter() - started
 
@@ -71,14 +73,15 @@ import json, sys, time
 import numpy as np
 import vptoolkit
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import iter_view_histograms
 data = np.load(sys.argv[1])
 mesh = Mesh(data["vertices"], data["faces"], name="baseline")
 views, resolution = data["views"], int(sys.argv[2])
-for _ in iter_view_histograms(mesh, views[:2], resolution=16):  # numba's cached kernels
+for _ in iter_view_histograms(mesh, MeasureSettings(views=2, resolution=16)):  # numba's cached kernels
     pass
 started = time.perf_counter()
-for _ in iter_view_histograms(mesh, views, resolution=resolution):
+for _ in iter_view_histograms(mesh, MeasureSettings(resolution=resolution), view_directions=views):
     pass
 print(json.dumps({"seconds": time.perf_counter() - started, "code": vptoolkit.__file__}))
 """
@@ -107,7 +110,9 @@ def jit_seconds() -> tuple[float, float]:
     code = (
         "import time, numpy as np; t = time.perf_counter();"
         "from vptoolkit.mesh import Mesh; from vptoolkit.visibility import face_pixel_counts;"
-        "face_pixel_counts(Mesh(np.eye(3), [[0, 1, 2]]), [[1, 1, 1]], resolution=8);"
+        "from vptoolkit.settings import MeasureSettings;"
+        "face_pixel_counts(Mesh(np.eye(3), [[0, 1, 2]]), MeasureSettings(views=1, resolution=8),"
+        " view_directions=[[1, 1, 1]]);"
         "print(time.perf_counter() - t)"
     )
     with tempfile.TemporaryDirectory() as cache:
@@ -187,8 +192,8 @@ def main() -> None:
                     record["raster_baseline_s"] = baseline
                 print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{cells}"
                       f"{raycast:>11.1f}{raycast / raster:>8.1f}")
-                qualities[resolution] = compute_view_quality(mesh, view_directions=views,
-                                                             resolution=resolution)
+                qualities[resolution] = compute_view_quality(
+                    mesh, MeasureSettings(resolution=resolution), view_directions=views)
                 results.append(record)
             reference = qualities[finest]
             for resolution in resolutions[:-1]:

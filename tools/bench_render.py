@@ -36,6 +36,7 @@ from vptoolkit.measures import compute_view_quality
 from vptoolkit.pictures.open3d_engine import Renderer
 from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
 
 MESHES = ("bunny.ply", "teapot.stl", "Duck.glb")
@@ -49,14 +50,14 @@ def main() -> None:
     meshes = [load_mesh(sample_path(name)) for name in (MESHES[:1] if args.quick else MESHES)]
     directions = fibonacci_sphere(5 if args.quick else 8)
     load_before = os.getloadavg()[0]
-    compute_view_quality(meshes[0], n_views=2, resolution=64)  # compile the rasteriser first
+    compute_view_quality(meshes[0], MeasureSettings(views=2, resolution=64))  # compile it first
 
     print(f"{'engine':<9} {'mesh':<10} {'faces':>7} {'measures':>10} "
           + " ".join(f"{f'{size} px median/max':>22}" for size in sizes) + "  frame/measures")
     startups = []
     for mesh in meshes:
         started = time.perf_counter()
-        compute_view_quality(mesh, n_views=1000, resolution=1024)
+        compute_view_quality(mesh, MeasureSettings(views=1000, resolution=1024))
         measures_seconds = time.perf_counter() - started
         for engine in ("software", "open3d"):
             cells, medians = [], []

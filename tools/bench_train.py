@@ -44,11 +44,15 @@ def parse_args() -> argparse.Namespace:
 def build(folder: Path, per_category: int, quick: bool) -> Path:
     """A small procedural dataset with the paper's 20000 stored points."""
     from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build_options import BuildOptions
+    from vptoolkit.points import N_SURFACE_POINTS
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.synthetic import write_collection
 
     write_collection(folder / "shapes", n_per_category=per_category, seed=0)
-    result = build_dataset(folder / "shapes", folder / "dataset", n_views=100 if quick else 200,
-                           resolution=64, n_points=4000 if quick else 20000, clean=False, workers=1)
+    options = BuildOptions(MeasureSettings(views=100 if quick else 200, resolution=64),
+                           n_points=4000 if quick else N_SURFACE_POINTS, clean=False)
+    result = build_dataset(folder / "shapes", folder / "dataset", options, workers=1)
     return result.path
 
 
@@ -86,6 +90,7 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
     left out.
     """
     from vptoolkit.learn import train as T
+    from vptoolkit.learn.options import TrainOptions
 
     seconds = []
     real_epoch = T._train_epoch
@@ -98,9 +103,9 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
 
     T._train_epoch = timed_epoch
     try:
-        result = T.train_model(dataset, out, labels="ml", epochs=epochs, threads=1, fps_pool=fps_pool,
-                               n_points=n_points, n_fps=n_fps, max_models=models, val_rotations=0,
-                               save_every=epochs, device="cpu", overwrite=True, val_split="train")
+        options = TrainOptions(labels="ml", epochs=epochs, fps_pool=fps_pool, n_points=n_points, n_fps=n_fps,
+                               max_models=models, val_rotations=0, val_split="train")
+        result = T.train_model(dataset, out, options, threads=1, save_every=epochs, device="cpu", overwrite=True)
     finally:
         T._train_epoch = real_epoch
     tail = seconds[-max(1, len(seconds) // 3):]

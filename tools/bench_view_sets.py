@@ -28,6 +28,7 @@ from typing import Any
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.synthetic import make_shape
 from vptoolkit.view_sets.search import OBJECTIVES, best_view_set, measure_view_set
 from vptoolkit.view_sets.visibility import FaceVisibility
@@ -56,18 +57,18 @@ def main() -> None:
         n_views, resolution, repeats = 1000, 1024, args.repeats
         meshes = [make_shape("airplane", seed=0), load_mesh(sample_path("torus.STL")),
                   load_mesh(sample_path("bunny.ply"))]
-    compute_view_quality(meshes[0], 8, 16)  # load the rasteriser before timing
+    compute_view_quality(meshes[0], MeasureSettings(views=8, resolution=16))  # load the rasteriser
     print(f"{n_views} views at {resolution} px, k = {args.k}, best of {repeats} runs\n")
     header = (f"{'mesh':<12}{'faces':>8}{'quality s':>11}{'both s':>9}{'extra':>8}"
               + "".join(f"{name + ' ms':>16}" for name in OBJECTIVES))
     print(header)
     print("-" * len(header))
     results = []
+    settings = MeasureSettings(views=n_views, resolution=resolution)
     for mesh in meshes:
-        alone = best_seconds(lambda: compute_view_quality(mesh, n_views, resolution), repeats)
-        both = best_seconds(lambda: measure_view_set(mesh, args.k, n_views=n_views,
-                                                     resolution=resolution), repeats)
-        visibility = FaceVisibility.from_mesh(mesh, n_views, resolution)
+        alone = best_seconds(lambda: compute_view_quality(mesh, settings), repeats)
+        both = best_seconds(lambda: measure_view_set(mesh, args.k, settings=settings), repeats)
+        visibility = FaceVisibility.from_mesh(mesh, settings)
         search = {name: best_seconds(lambda: best_view_set(visibility, args.k, objective=name),
                                      repeats) for name in OBJECTIVES}
         extra = 100.0 * (both - alone) / alone

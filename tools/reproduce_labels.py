@@ -46,7 +46,11 @@ from pathlib import Path
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.settings import MeasureSettings
+from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.labels import head_for_method
+from vptoolkit.learn.options import TrainOptions
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.learn.schedule import scaled_lr_step
 from vptoolkit.learn.train import train_model, train_per_category
@@ -73,6 +77,8 @@ PAPER = {
     "ML": (70.1, 72.1, 82.6, 82.1), "GL": (74.2, 75.1, 89.3, 87.7),
 }
 BASELINES = ("random view (expectation)", "PCA axis", "best constant direction")
+# Every training resumes a stopped run and takes one torch thread (jobs run side by side).
+TRAIN_RUN = {"resume": True, "threads": 1}
 
 
 def parse_args() -> argparse.Namespace:
@@ -117,7 +123,7 @@ class LabelSizes:
     method trains ``epochs`` epochs on ``train_points`` input points, the
     first ``train_fps`` of them by farthest point sampling. Test models are
     scored under ``rotations`` fixed rotations each. ``remesh`` remeshes the
-    shapes isotropically when cleaning them (``build_dataset(remesh=True)``).
+    shapes isotropically when cleaning them (``build_dataset(BuildOptions(remesh=True))``).
     """
 
     per_category: int = 50
@@ -152,11 +158,11 @@ def main() -> None:
         method, epochs = args.pretrained_method, args.pretrained_epochs or sizes.epochs
         head = [int(width) for width in args.pretrained_head.split(",")]
         folder = f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
-        checkpoint = train_model(
-            args.out / "dataset", args.out / "models" / folder, labels=method, epochs=epochs, seed=0,
-            resume=True, progress=True, threads=1, n_points=sizes.train_points, n_fps=sizes.train_fps,
-            architecture={"head": head_for_method(method), "head_channels": head},
-        ).checkpoint
+        options = TrainOptions(labels=method, epochs=epochs, seed=0, n_points=sizes.train_points,
+                               n_fps=sizes.train_fps,
+                               architecture=ModelConfig(head=head_for_method(method), head_channels=tuple(head)))
+        checkpoint = train_model(args.out / "dataset", args.out / "models" / folder, options,
+                                 resume=True, progress=True, threads=1).checkpoint
         export_pretrained(checkpoint, args.export_pretrained, command.strip(), sizes)
 
 
@@ -178,27 +184,26 @@ def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: Label
 
 def _train_job(job: dict) -> tuple[str, Path, float]:
     """One training in a process of its own (one torch thread): (row label, checkpoint, train seconds)."""
-    options = dict(job["options"])
     if job["per_category"]:
-        results = train_per_category(job["dataset"], job["output"], **options)
+        results = train_per_category(job["dataset"], job["output"], job["options"], **TRAIN_RUN)
         return job["label"], Path(job["output"]), sum(
             entry["seconds"] for result in results.values() for entry in result.history)
-    result = train_model(job["dataset"], job["output"], **options)
+    result = train_model(job["dataset"], job["output"], job["options"], **TRAIN_RUN)
     return job["label"], result.checkpoint, sum(entry["seconds"] for entry in result.history)
 
 
 def train_all(dataset: Path, out: Path, sizes: LabelSizes, methods: Sequence[str], *, val_split: str,
               jobs: int, category_networks: bool) -> dict[str, tuple[Path, float]]:
     """Train every method (and optionally per-category ML+GL) side by side; resumes."""
-    common = {"epochs": sizes.epochs, "seed": 0, "resume": True, "threads": 1, "n_points": sizes.train_points,
-              "n_fps": sizes.train_fps, "val_split": val_split}
+    common = {"epochs": sizes.epochs, "seed": 0, "n_points": sizes.train_points, "n_fps": sizes.train_fps,
+              "val_split": val_split}
     work = [{"label": LABELS[method], "dataset": dataset, "output": out / "models" / method.replace("+", "_"),
-             "per_category": False, "options": {**common, "labels": method}} for method in methods]
+             "per_category": False, "options": TrainOptions(**common, labels=method)} for method in methods]
     if category_networks:
         work.append({"label": PER_CATEGORY, "dataset": dataset, "output": out / "models" / "ml_gl_per_category",
-                     "per_category": True, "options": {**common, "labels": "ml+gl"}})
+                     "per_category": True, "options": TrainOptions(**common, labels="ml+gl")})
     # The longest runs (ML+GL, the per-category networks) start first; rows keep the table's order.
-    order = sorted(range(len(work)), key=lambda i: (work[i]["options"]["labels"] != "ml+gl", i))
+    order = sorted(range(len(work)), key=lambda i: (work[i]["options"].labels != "ml+gl", i))
     if jobs <= 1:
         done = [_train_job(work[i]) for i in order]
     else:
@@ -224,10 +229,10 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     shapes, dataset_dir = out / "shapes", out / "dataset"
     if not shapes.exists():
         write_collection(shapes, n_per_category=sizes.per_category, seed=0)
-    built = build_dataset(shapes, dataset_dir, n_views=sizes.n_views,
-                          resolution=sizes.resolution, n_points=sizes.n_points,
-                          clean=sizes.clean, remesh=sizes.remesh, workers=workers, split_seed=0,
-                          progress=True)
+    options = BuildOptions(MeasureSettings(views=sizes.n_views, resolution=sizes.resolution),
+                           n_points=sizes.n_points, clean=sizes.clean, remesh=sizes.remesh,
+                           split_seed=0)
+    built = build_dataset(shapes, dataset_dir, options, workers=workers, progress=True)
     with open_dataset(built.path) as dataset:
         val_split = "validation" if len(dataset.split("validation")) else "train"
     trained = train_all(built.path, out, sizes, methods, val_split=val_split, jobs=jobs,

@@ -81,6 +81,7 @@ from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import poisson_disk_points, sample_surface
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg
 
 SECTIONS = ("labels", "timings", "robustness", "subdivision", "resolution")
@@ -476,7 +477,7 @@ def section_timings(options: RunOptions) -> Section:
     load_before = os.getloadavg()[0]
     base = load_mesh(sample_path("bunny.ply"))
     meshes = [mesh_with_faces(base, target, name=f"bunny_{target}") for target in sizes.timing_faces]
-    compute_view_quality(base, n_views=2, resolution=64)  # compile (or load) the rasteriser
+    compute_view_quality(base, MeasureSettings(views=2, resolution=64))  # compile or load it
     model = ViewpointNet(ModelConfig()).eval()
     brute: list[list[float]] = [[] for _ in meshes]  # [mesh][views] seconds
     network: list[list[float]] = [[] for _ in meshes]  # [mesh][batch] seconds per model
@@ -484,7 +485,7 @@ def section_timings(options: RunOptions) -> Section:
     for i, views in tqdm(cells, desc="timings: measures", unit="run"):
         seconds = _median_seconds(
             lambda mesh=meshes[i], views=views: compute_view_quality(
-                mesh, n_views=views, resolution=sizes.timing_resolution),
+                mesh, MeasureSettings(views=views, resolution=sizes.timing_resolution)),
             sizes.measure_repeats)
         brute[i].append(seconds)
     for i, mesh in enumerate(tqdm(meshes, desc="timings: network", unit="mesh")):
@@ -573,6 +574,7 @@ def section_robustness(options: RunOptions) -> Section:
 
     from vptoolkit.data import open_dataset
     from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build_options import BuildOptions
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,
@@ -622,9 +624,11 @@ def section_robustness(options: RunOptions) -> Section:
             link = samples_source / file_name
             if not link.exists():
                 link.symlink_to(sample_path(file_name))
-    built = build_dataset(samples_source, options.out / "samples", n_views=labels_settings[0],
-                          resolution=labels_settings[1], n_points=n_surface, clean=is_cleaned,
-                          workers=options.workers, split_seed=0, progress=True)
+    build_options = BuildOptions(
+        MeasureSettings(views=labels_settings[0], resolution=labels_settings[1]),
+        n_points=n_surface, clean=is_cleaned, split_seed=0)
+    built = build_dataset(samples_source, options.out / "samples", build_options,
+                          workers=options.workers, progress=True)
     held_out: dict[str, ProtocolScores] = {}
     with open_dataset(built.path) as samples:
         held_out["network (ML+GL)"] = score_protocol(samples, network_predictor(checkpoint_path(options)),
@@ -713,8 +717,8 @@ def section_subdivision(options: RunOptions) -> Section:
     for level in tqdm(range(sizes.subdivision_levels + 1), desc="subdivision levels", unit="level"):
         if level > 0:
             mesh, is_seat = subdivide(mesh, is_seat)
-        quality = compute_view_quality(mesh, n_views=sizes.subdivision_views,
-                                       resolution=sizes.subdivision_resolution)
+        quality = compute_view_quality(mesh, MeasureSettings(
+            views=sizes.subdivision_views, resolution=sizes.subdivision_resolution))
         best_views.append(quality.best_views)
         surface = sample_surface(mesh, SURFACE_POINTS, seed=0).points
         predicted.append(network.directions({mesh.name: surface})[0])
@@ -813,8 +817,8 @@ def section_resolution(options: RunOptions) -> Section:
         qualities = []
         for j, resolution in enumerate(resolutions):
             begin = time.perf_counter()
-            qualities.append(compute_view_quality(mesh, n_views=sizes.resolution_views,
-                                                  resolution=resolution))
+            qualities.append(compute_view_quality(mesh, MeasureSettings(
+                views=sizes.resolution_views, resolution=resolution)))
             times[i, j] = time.perf_counter() - begin
         reference = qualities[-1]
         for j, quality in enumerate(qualities):

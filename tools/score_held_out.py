@@ -34,6 +34,9 @@ from vptoolkit.cli.group import exit_code, one_line_error
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.points import N_SURFACE_POINTS
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.evaluate.protocol import (
@@ -145,8 +148,9 @@ def main(argv: Sequence[str] | None = None) -> None:
 
 def run(args: argparse.Namespace) -> None:
     out = args.out or Path("reproduction/held_out") / args.meshes.resolve().name
-    built = build_dataset(args.meshes, out, n_views=args.views, resolution=args.resolution, n_points=20000,
-                          clean=True, workers=args.workers, split_seed=0, progress=True)
+    options = BuildOptions(MeasureSettings(views=args.views, resolution=args.resolution),
+                           n_points=N_SURFACE_POINTS, clean=True, split_seed=0)
+    built = build_dataset(args.meshes, out, options, workers=args.workers, progress=True)
     rows = score(built.path, args.model, rotations=args.rotations, train=args.train)
     heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes ({built.n_failures} failed "
                f"to build), cleaned, {args.views} views at {args.resolution} px, each under {args.rotations} "

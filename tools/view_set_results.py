@@ -37,9 +37,11 @@ from results_doc import format_seconds, machine, markdown_table, write_section
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.contact_sheet import view_set_sheet
+from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.samples import sample_names, sample_path
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg
 from vptoolkit.synthetic import CATEGORIES, make_shape
 from vptoolkit.view_sets.search import best_view_set, set_coverage
@@ -67,7 +69,8 @@ def padded(values: np.ndarray) -> np.ndarray:
 
 
 def evaluate_mesh(mesh: Mesh, n_views: int, resolution: int) -> dict[str, object]:
-    visibility = FaceVisibility.from_mesh(mesh, n_views, resolution)
+    settings = MeasureSettings(views=n_views, resolution=resolution)
+    visibility = FaceVisibility.from_mesh(mesh, settings)
     quality = visibility.quality()
     rows: dict[str, np.ndarray] = {}
     spreads: dict[str, float] = {}
@@ -163,10 +166,13 @@ def main() -> None:
     if args.quick:
         return
     FIGURES.mkdir(parents=True, exist_ok=True)
-    sheets = [view_set_sheet(load_mesh(sample_path("bunny.ply")), K, size=200, n_views=n_views,
-                             resolution=resolution)[0],
-              view_set_sheet(make_shape("chair", seed=0), K, size=200, n_views=n_views,
-                             resolution=resolution, style=RenderStyle(up=(0.0, 0.0, 1.0)))[0]]
+    settings = MeasureSettings(views=n_views, resolution=resolution)
+    with open_renderer(size=200) as plain, \
+            open_renderer(size=200, style=RenderStyle(up=(0.0, 0.0, 1.0))) as z_up:
+        sheets = [view_set_sheet(load_mesh(sample_path("bunny.ply")), K, settings=settings,
+                                 engine=plain)[0],
+                  view_set_sheet(make_shape("chair", seed=0), K, settings=settings,
+                                 engine=z_up)[0]]
     width = max(sheet.shape[1] for sheet in sheets)
     stacked = np.concatenate([np.pad(s, ((0, 0), (0, width - s.shape[1]), (0, 0)),
                                      constant_values=255) for s in sheets])

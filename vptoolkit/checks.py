@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -20,6 +21,7 @@ __all__ = [
     "as_path",
     "check_bool",
     "check_int",
+    "check_keys",
     "check_npy_header",
     "check_suffix",
     "one_line",
@@ -40,6 +42,22 @@ def check_int(
     if maximum is not None and value > maximum:
         raise InputError(f"{argument}: must be at most {maximum}, got {value}")
     return int(value)
+
+
+def check_keys(record: object, keys: Sequence[str], what: str) -> dict[str, Any]:
+    """Return ``record``, a mapping with exactly ``keys``; else name what is missing or unknown.
+
+    E.g. ``measure settings: missing backend; unknown n_views``.
+    """
+    if not isinstance(record, dict):
+        raise InputError(f"{what}: expected a mapping, got {type(record).__name__}")
+    missing = [key for key in keys if key not in record]
+    unknown = sorted(set(record) - set(keys))
+    if missing or unknown:
+        problems = ([f"missing {', '.join(missing)}"] if missing else []) + (
+            [f"unknown {', '.join(unknown)}"] if unknown else [])
+        raise InputError(f"{what}: {'; '.join(problems)}")
+    return record
 
 
 def check_bool(value: object, argument: str) -> bool:

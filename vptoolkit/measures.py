@@ -42,14 +42,15 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_suffix
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, N_VIEWS, RESOLUTION
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
 from vptoolkit.progress import progress_bar
-from vptoolkit.sphere import as_directions, fibonacci_sphere
-from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
+from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import as_directions
+from vptoolkit.visibility import ViewHistograms, iter_view_histograms
 
 __all__ = ["ViewQuality", "compute_view_quality", "normalize_quality", "quality_from_histograms"]
 
@@ -289,12 +290,9 @@ def quality_from_histograms(
 
 def compute_view_quality(
     mesh: Mesh,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
+    settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
     progress: bool = False,
     histograms: Sequence[ViewHistograms] | None = None,
 ) -> ViewQuality:
@@ -304,22 +302,18 @@ def compute_view_quality(
     ----------
     mesh : Mesh
         The model.
-    n_views : int
-        Number of Fibonacci-sphere views (default: 1000); ignored when
-        ``view_directions`` is given.
-    resolution : int
-        Side of the triangle-ID image in pixels (default: 1024).
+    settings : MeasureSettings
+        The number of Fibonacci-sphere views, the triangle-ID image side, the
+        camera and the pixel counting backend (default: ``MeasureSettings()``,
+        1000 views at 1024 px).
     view_directions : (n_views, 3) array_like, optional
-        Explicit view directions instead of the Fibonacci sphere.
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``).
-    backend : {"raster", "raycast"}
-        Pixel counting backend (default: "raster").
+        Explicit view directions, measured instead of the ``settings.views``
+        Fibonacci-sphere directions.
     progress : bool
         Show a progress bar over the views on stderr (default: False).
     histograms : sequence of ViewHistograms, optional
-        Pixel counts already drawn for exactly these views with this
-        ``resolution``, ``camera`` and ``backend`` (e.g. kept by
+        Pixel counts already drawn for exactly these views with these
+        ``settings`` (e.g. kept by
         :func:`vptoolkit.view_sets.search.measure_view_set` for a view set); nothing
         is drawn then.
 
@@ -332,13 +326,13 @@ def compute_view_quality(
     --------
     >>> import trimesh
     >>> box = trimesh.creation.box()
-    >>> quality = compute_view_quality(Mesh(box.vertices, box.faces), n_views=100, resolution=64)
+    >>> settings = MeasureSettings(views=100, resolution=64)
+    >>> quality = compute_view_quality(Mesh(box.vertices, box.faces), settings)
     >>> quality.raw.shape, quality.measures
     ((100, 4), ('VE', 'VR', 'VKL', 'VMI'))
     """
-    camera = camera or Camera()
     if view_directions is None:
-        directions = fibonacci_sphere(n_views)
+        directions = settings.directions()
     else:
         directions = as_directions(view_directions, name="view_directions")
     areas = face_areas(mesh)
@@ -346,9 +340,7 @@ def compute_view_quality(
     def draw() -> Iterable[ViewHistograms]:
         if histograms is not None:
             return histograms
-        return iter_view_histograms(
-            mesh, directions, resolution=resolution, camera=camera, backend=backend
-        )
+        return iter_view_histograms(mesh, settings, view_directions=directions)
 
     first_pass: Iterable[ViewHistograms] = draw()
     if progress:
@@ -370,9 +362,9 @@ def compute_view_quality(
         worst_index=np.argmin(normalized, axis=0).astype(np.int64),
         name=mesh.name,
         n_faces=mesh.n_faces,
-        resolution=int(resolution),
-        backend=backend,
-        camera=camera,
+        resolution=settings.resolution,
+        backend=settings.backend,
+        camera=settings.camera,
     )
 
 

@@ -23,7 +23,7 @@ from vptoolkit.clean.topology import check_mesh, coherent_patches, submesh, undi
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.geometry import bounding_frame, face_areas, face_normals
 from vptoolkit.mesh import Mesh
-from vptoolkit.sphere import fibonacci_sphere
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_pixel_totals
 
 HIDDEN_RESOLUTION = 256
@@ -103,7 +103,7 @@ def two_sided_pixel_totals(
         np.vstack([mesh.faces, back_faces]),
         name=mesh.name,
     )
-    totals = face_pixel_totals(two_sided, fibonacci_sphere(n_views), resolution=resolution)
+    totals = face_pixel_totals(two_sided, MeasureSettings(views=n_views, resolution=resolution))
     return np.stack([totals[:n_faces], totals[n_faces:]], axis=1).astype(np.int64)
 
 

@@ -14,7 +14,6 @@ from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE, options_named
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
-    MAX_RESOLUTION,
     ExistingPath,
     cache_dir_option,
     local_dataset,
@@ -26,14 +25,24 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
+from vptoolkit.dataset.build_options import DEFAULT_FORMAT, FORMATS
+from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
+from vptoolkit.dataset.plan import CALIBRATION_MODELS
+from vptoolkit.dataset.release_options import (
+    DEFAULT_FORMATS,
+    DEFAULT_LICENSE,
+    DEFAULT_NAME,
+    ReleaseOptions,
+)
 from vptoolkit.errors import InputError
+from vptoolkit.settings import MAX_RESOLUTION
 
 
 @click.command("build-dataset")
 @click.argument("src", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--format", "store_format", type=click.Choice(["zarr", "hdf5"]), default="zarr",
-              show_default=True, help="Container of OUT/dataset.*.")
+@click.option("--format", "store_format", type=click.Choice(list(FORMATS)),
+              default=DEFAULT_FORMAT, show_default=True, help="Container of OUT/dataset.*.")
 @click.option("--categories", help="Comma-separated categories to include (default: all).")
 @views_option("Fibonacci view directions per model.")
 @resolution_option("Triangle-ID image side in pixels.")
@@ -57,7 +66,8 @@ from vptoolkit.errors import InputError
               "category and split, and estimate hours and disk from a few models built "
               "in a temporary folder.")
 @click.option("--calibrate", type=click.IntRange(0),
-              help="Models --dry-run builds for its estimate (default: 3; 0: count only).")
+              help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
+              "0: count only).")
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   categories: str | None, n_views: int, resolution: int, n_points: int,
                   max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
@@ -81,28 +91,28 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
           --splits data/ModelNet40/small.txt
     """
     from vptoolkit.dataset.build import build_dataset as build
+    from vptoolkit.dataset.build_options import BuildOptions, SplitFile
+    from vptoolkit.settings import MeasureSettings
 
     if remesh and no_clean:
         raise InputError("--remesh: remeshing is a cleaning step; drop --no-clean or --remesh")
     chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
     if calibrate is not None and not dry_run:
         raise InputError("--calibrate: only with --dry-run")
+    options = BuildOptions(
+        measure=MeasureSettings(views=n_views, resolution=resolution), n_points=n_points,
+        max_faces=max_faces, clean=not no_clean, remesh=remesh, split_seed=split_seed,
+        splits=None if split_file is None else SplitFile.read(split_file),
+        max_models=max_models, format=store_format)
     if dry_run:
         from vptoolkit.dataset.plan import plan_build
 
-        plan = plan_build(src, out, format=store_format, categories=chosen, n_views=n_views,
-                          resolution=resolution, n_points=n_points, max_faces=max_faces,
-                          clean=not no_clean, remesh=remesh, split_seed=split_seed,
-                          splits=split_file, max_models=max_models,
-                          calibrate=3 if calibrate is None else calibrate,
-                          progress=True)
+        plan = plan_build(src, out, options, categories=chosen, progress=True,
+                          calibrate=CALIBRATION_MODELS if calibrate is None else calibrate)
         for line in plan.lines():
             click.echo(line)
         return
-    result = build(src, out, format=store_format, categories=chosen, n_views=n_views,
-                   resolution=resolution, n_points=n_points, max_faces=max_faces,
-                   clean=not no_clean, remesh=remesh, workers=workers, scheduler=scheduler,
-                   split_seed=split_seed, splits=split_file, max_models=max_models,
+    result = build(src, out, options, categories=chosen, workers=workers, scheduler=scheduler,
                    progress=True)
     click.echo(f"built {result.path}: {result.n_models} models, {result.n_failures} failures "
                f"({result.seconds:.1f} s)")
@@ -123,14 +133,15 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 @click.command()
 @click.argument("dataset", type=EXISTING)
 @click.argument("release_dir", type=click.Path(file_okay=False, path_type=Path), required=False)
-@click.option("--name", help="Base name of the archives (default: vptoolkit-viewpoints).")
-@click.option("--license", "license_id", default="other", show_default=True,
+@click.option("--name", default=DEFAULT_NAME, show_default=True,
+              help="Base name of the archives.")
+@click.option("--license", "license_id", default=DEFAULT_LICENSE, show_default=True,
               help="Licence of the release and of every source mesh --licenses does not "
               "name: an SPDX identifier (CC-BY-4.0, MIT) or a URL; 'other' states none.")
-@click.option("--formats", default="parquet,hdf5", show_default=True,
+@click.option("--formats", default=",".join(DEFAULT_FORMATS), show_default=True,
               help="Containers to write, comma-separated: parquet, zarr, hdf5 (each a full "
               "copy of the data).")
-@click.option("--shard-size", default="500MB", show_default=True,
+@click.option("--shard-size", default=f"{DEFAULT_SHARD_BYTES // 1000**2}MB", show_default=True,
               help="Largest size of one Parquet shard's rows (Arrow bytes), e.g. 200KB, 1GB.")
 @click.option("--version", "dataset_version", default=DATASET_VERSION, show_default=True,
               help="Dataset version MAJOR.MINOR.PATCH (attributes, card, Croissant; "
@@ -149,7 +160,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 @click.option("--update-card", is_flag=True,
               help="DATASET is a release whose README.md was edited: rewrite croissant.json "
               "and SHA256SUMS to match it, leaving the archives as they are.")
-def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: str,
+def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
          formats: str, shard_size: str, dataset_version: str, created: str | None,
          pretty_name: str | None,
          source_url: str | None, url: str | None, creator: str | None,
@@ -182,20 +193,17 @@ def pack(dataset: Path, release_dir: Path | None, name: str | None, license_id: 
         return
     if release_dir is None:
         raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
-    from vptoolkit.dataset.licenses import check_license
     from vptoolkit.dataset.release import pack_release
 
-    if license_id != "other":
-        check_license(license_id, "--license")
-
     chosen = [part.strip() for part in formats.split(",") if part.strip()]
-    with options_named(shard_size="--shard-size"):
-        result = pack_release(
-            dataset, release_dir, name=name, license=license_id, progress=True, formats=chosen,
-            version=dataset_version, created=created, pretty_name=pretty_name,
-            source_url=source_url, url=url, creator=creator, licenses=licenses,
-            license_name=license_name, license_link=license_link, shard_size=shard_size,
+    with options_named(shard_size="--shard-size", license="--license"):
+        options = ReleaseOptions(
+            name=name, license=license_id, formats=chosen, version=dataset_version,
+            created=created, pretty_name=pretty_name, source_url=source_url, url=url,
+            creator=creator, licenses=licenses, license_name=license_name,
+            license_link=license_link, shard_size=shard_size,
         )
+    result = pack_release(dataset, release_dir, options, progress=True)
     for line in result.warnings:
         click.echo(f"vptool: warning: {line}", err=True)
     top = sorted({name.split("/")[0] + ("/" if "/" in name else "") for name in result.files})

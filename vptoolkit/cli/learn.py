@@ -25,6 +25,8 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_output_folder
+from vptoolkit.learn.options import DEFAULT_FPS_POOL, DEFAULT_LABELS, DEFAULT_VAL_SPLIT
+from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 
 @click.command()
@@ -73,21 +75,23 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
 @click.option("-o", "--output", required=True, type=click.Path(path_type=Path),
               help="Checkpoint: a folder, or a path ending in .safetensors.")
 @click.option("--labels", type=click.Choice(["sl", "ml", "gl", "ml+gl", "sr", "dldl"]),
-              default="ml+gl", show_default=True, help="Label method.")
-@click.option("--epochs", default=3000, show_default=True, type=click.IntRange(1),
+              default=DEFAULT_LABELS, show_default=True, help="Label method.")
+@click.option("--epochs", default=PAPER_EPOCHS, show_default=True, type=click.IntRange(1),
               help="Total epochs (the paper's 3000; far fewer already help).")
-@click.option("--batch-size", default=8, show_default=True, type=click.IntRange(2))
-@click.option("--lr", default=1e-3, show_default=True, type=click.FloatRange(min=0, min_open=True),
+@click.option("--batch-size", default=PAPER_BATCH_SIZE, show_default=True,
+              type=click.IntRange(2))
+@click.option("--lr", default=PAPER_LR, show_default=True,
+              type=click.FloatRange(min=0, min_open=True),
               help="Initial learning rate (x0.75 fifteen times over the run, as the paper's "
                    "schedule).")
 @seed_option(None)
-@click.option("--val-split", default="validation", show_default=True,
+@click.option("--val-split", default=DEFAULT_VAL_SPLIT, show_default=True,
               type=click.Choice(["train", "validation", "val", "test"]),
               help="Split that picks the best epoch.")
 @click.option("--per-category", is_flag=True,
               help="One network per category (the paper's set-up) in OUTPUT/<category>/.")
 @click.option("--categories", help="Comma-separated categories to train on (default: all).")
-@click.option("--fps-pool", default=8, show_default=True, type=click.IntRange(0),
+@click.option("--fps-pool", default=DEFAULT_FPS_POOL, show_default=True, type=click.IntRange(0),
               help="Farthest-point subsets kept per model (0: sample anew for every input, "
                    "slower).")
 @device_option()
@@ -113,6 +117,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     """
     from vptoolkit.dataset.containers import find_store
     from vptoolkit.dataset.reader import open_store
+    from vptoolkit.learn.options import TrainOptions
     from vptoolkit.learn.train import train_model, train_per_category
     from vptoolkit.points import N_FPS_POINTS, N_SURFACE_POINTS
 
@@ -127,18 +132,21 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
         raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
                          f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
                          f"or more; the paper uses {N_SURFACE_POINTS})")
-    options: dict[str, Any] = {
-        "labels": labels, "epochs": epochs, "batch_size": batch_size, "lr": lr, "seed": seed,
-        "resume": resume, "progress": True, "threads": threads, "val_split": val_split,
-        "fps_pool": fps_pool, "device": device, "command": " ".join(["vptool", *sys.argv[1:]]),
+    run: dict[str, Any] = {
+        "resume": resume, "progress": True, "threads": threads, "device": device,
+        "command": " ".join(["vptool", *sys.argv[1:]]),
     }
     chosen = [name.strip() for name in categories.split(",")] if categories else None
     try:
-        with options_named(val_split="--val-split", dataset_path="DATASET"):
+        with options_named(val_split="--val-split", dataset_path="DATASET",
+                           categories="--categories"):
+            options = TrainOptions(labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
+                                   seed=seed, val_split=val_split, categories=chosen,
+                                   fps_pool=fps_pool)
             if per_category:
-                results = train_per_category(dataset, output, categories=chosen, **options)
+                results = train_per_category(dataset, output, options, **run)
             else:
-                results = {"": train_model(dataset, output, categories=chosen, **options)}
+                results = {"": train_model(dataset, output, options, **run)}
     except ExistingRunError as error:
         how = ("it has nothing to resume from" if resume
                else "add --resume to continue it")

@@ -45,16 +45,16 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
     """
     from vptoolkit.io import load_mesh
     from vptoolkit.measures import compute_view_quality
+    from vptoolkit.settings import MeasureSettings
 
+    settings = MeasureSettings(views=n_views, resolution=resolution,
+                               backend=backend)  # type: ignore[arg-type]
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before the work, not after
     loaded = load_mesh(mesh)
     started = time.perf_counter()
-    quality = compute_view_quality(
-        loaded, n_views=n_views, resolution=resolution, backend=backend,  # type: ignore[arg-type]
-        progress=True,
-    )
+    quality = compute_view_quality(loaded, settings, progress=True)
     seconds = time.perf_counter() - started
     if output is not None:
         quality.save_npz(output)
@@ -110,8 +110,10 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
       vptool views chair.off --coverage 0.95 --objective quality
     """
     from vptoolkit.io import load_mesh
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.search import measure_view_set
 
+    settings = MeasureSettings(views=n_views, resolution=resolution)
     if target is not None and not math.isfinite(target):
         raise InputError(f"--coverage: must lie in (0, 1], got {target}")
     if output is not None:
@@ -120,8 +122,8 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     loaded = load_mesh(mesh)
     started = time.perf_counter()
     _, view_set = measure_view_set(
-        loaded, 4 if k is None and target is None else k, n_views=n_views,
-        resolution=resolution, progress=True, objective=objective, until_coverage=target,
+        loaded, 4 if k is None and target is None else k, settings=settings,
+        progress=True, objective=objective, until_coverage=target,
         measure=measure, min_pixels=min_pixels)
     seconds = time.perf_counter() - started
     if view_set.reachable == 0:

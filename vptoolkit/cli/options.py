@@ -21,6 +21,7 @@ import click
 
 from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
 from vptoolkit.errors import InputError
+from vptoolkit.settings import MAX_RESOLUTION
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -33,7 +34,6 @@ __all__ = [
     "local_dataset",
     "MEASURE_CHOICE",
     "MODEL_HELP",
-    "MAX_RESOLUTION",
     "views_option",
     "resolution_option",
     "points_option",
@@ -49,9 +49,6 @@ __all__ = [
 ]
 
 Decorated = TypeVar("Decorated", bound=Callable[..., Any])
-
-MAX_RESOLUTION = 16384
-"""Largest triangle-ID image side the command line accepts, in pixels."""
 
 
 class ExistingPath(click.Path):

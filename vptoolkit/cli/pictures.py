@@ -69,39 +69,40 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
     from vptoolkit.io import load_mesh
+    from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.png import save_png
     from vptoolkit.pictures.shading import RenderStyle
     from vptoolkit.pictures.views import RenderedView, render_best, render_predicted, render_view
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.sphere import as_directions
 
     if sum(choice is not None for choice in (view, best, model_path, view_set_k)) != 1:
         raise InputError("render: give exactly one of --view, --best, --model or --view-set")
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
-    style = RenderStyle(up=up)
+    settings = MeasureSettings(views=n_views, resolution=resolution)
     loaded = load_mesh(mesh)
-    if view_set_k is not None:
-        from vptoolkit.pictures.contact_sheet import view_set_sheet
+    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+        if view_set_k is not None:
+            from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-        sheet, chosen = view_set_sheet(loaded, view_set_k, size=size, n_views=n_views,
-                                       resolution=resolution, style=style, engine=engine)
-        save_png(sheet, output)
-        click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
-                   f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
-        return
-    if best is not None:
-        picture = render_best(loaded, measure=best, size=size, n_views=n_views,
-                              resolution=resolution, style=style, engine=engine)
-    elif model_path is not None:
-        from vptoolkit.learn.predict import MeshPredictor
+            sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing)
+            save_png(sheet, output)
+            click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
+                       f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+            return
+        if best is not None:
+            picture = render_best(loaded, measure=best, settings=settings, engine=drawing)
+        elif model_path is not None:
+            from vptoolkit.learn.predict import MeshPredictor
 
-        picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure, size=size,
-                                   style=style, engine=engine)
-    else:
-        assert view is not None  # exactly one choice, checked above
-        direction = as_directions(view, name="--view")[0]
-        picture = RenderedView(render_view(loaded, direction, size=size, style=style,
-                                           engine=engine), direction, "--view")
+            picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure,
+                                       engine=drawing)
+        else:
+            assert view is not None  # exactly one choice, checked above
+            direction = as_directions(view, name="--view")[0]
+            picture = RenderedView(render_view(loaded, direction, engine=drawing), direction,
+                                   "--view")
     save_png(picture.image, output)
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
@@ -159,12 +160,14 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
       vptool predict --model default --dataset release/ -o test.npz
       vptool report release/ --split test --predictions test.npz -o report/
     """
+    from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.report import write_report
     from vptoolkit.pictures.shading import RenderStyle
 
-    index = write_report(dataset, output, split=split, predictions=predictions, size=size,
-                         thumbnails=not no_pictures, style=RenderStyle(up=up), engine=engine,
-                         progress=True, view_set=view_set_k or None)
+    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+        index = write_report(dataset, output, split=split, predictions=predictions,
+                             thumbnails=not no_pictures, engine=drawing, progress=True,
+                             view_set=view_set_k or None)
     click.echo(f"wrote {index}")
 
 
@@ -196,20 +199,23 @@ def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ thumbs/ --model default
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
     """
+    from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.shading import RenderStyle
     from vptoolkit.pictures.thumbnails import render_thumbnails
+    from vptoolkit.settings import MeasureSettings
 
     if model_path is not None and view_set_k is not None:
         raise InputError("--view-set: --model gives one view per mesh; drop one of them")
+    settings = MeasureSettings(views=n_views, resolution=resolution)
     predictor = None
     if model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor
 
         predictor = MeshPredictor(model_path)
-    result = render_thumbnails(src, out, measure=measure, predictor=predictor, size=size,
-                               workers=workers, n_views=n_views, resolution=resolution,
-                               style=RenderStyle(up=up), engine=engine, progress=True,
-                               view_set=view_set_k)
+    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+        result = render_thumbnails(src, out, measure=measure, predictor=predictor,
+                                   workers=workers, settings=settings, engine=drawing,
+                                   progress=True, view_set=view_set_k)
     click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)

@@ -15,7 +15,8 @@ Modules, one concept each (import them directly, e.g.
 - ``info``, ``card``, ``croissant``: the summary of a store, the dataset
   card and the Croissant metadata, all computed from the store.
 - ``release``: packing a build into release files, with ``parquet``,
-  ``licenses`` and ``descriptions``.
+  ``licenses`` and ``descriptions``; ``release_options``: ``ReleaseOptions``,
+  what a publisher says about a release, checked when made.
 
 Nothing is imported here, so ``import vptoolkit.dataset`` stays cheap.
 """

@@ -157,9 +157,11 @@ def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
     from vptoolkit.dataset.reader import open_store
     from vptoolkit.measures import compute_view_quality
     from vptoolkit.mesh import Mesh
+    from vptoolkit.settings import MeasureSettings
 
     n_models = check_int(n_models, "n_models", minimum=1)
-    resolution = check_int(resolution, "resolution", minimum=1, maximum=16384)
+    settings = MeasureSettings(resolution=resolution)  # the stored views are drawn
+    resolution = settings.resolution
     progress = check_bool(progress, "progress")
     checked: list[ModelCheck] = []
     failures: list[str] = []
@@ -180,8 +182,7 @@ def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
                 try:
                     mesh = Mesh(np.asarray(entry.vertices, dtype=np.float64),
                                 np.asarray(entry.faces, dtype=np.int64), name=entry.name)
-                    ours = compute_view_quality(mesh, view_directions=views,
-                                                resolution=resolution)
+                    ours = compute_view_quality(mesh, settings, view_directions=views)
                 except VptoolkitError as err:
                     failures.append(f"{entry.name}: {one_line(err)}")
                     continue

@@ -1,10 +1,12 @@
 """Build a viewpoint-quality dataset from a folder of meshes, resumably.
 
 :func:`build_dataset` turns a source tree into one store (see
-``vptoolkit/dataset_card/SCHEMA.md``). Per model it loads the mesh, cleans it (unless
-``clean=False``), samples ``n_points`` surface points with their normals,
-computes VE, VR, VKL and VMI over ``n_views`` Fibonacci views and keeps the
-result; then it writes ``OUT/dataset.zarr`` or ``OUT/dataset.h5`` with
+``vptoolkit/dataset_card/SCHEMA.md``) as one
+:class:`~vptoolkit.dataset.build_options.BuildOptions` value says. Per model
+it loads the mesh, cleans it (unless ``options.clean`` is False), samples
+``options.n_points`` surface points with their normals, computes VE, VR,
+VKL and VMI over the ``options.measure`` views and keeps the result; then
+it writes ``OUT/dataset.zarr`` or ``OUT/dataset.h5`` with
 :func:`vptoolkit.dataset.writer.write_dataset`. This module is the
 orchestration; its parts live beside it:
 
@@ -35,22 +37,18 @@ Parallelism
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import os
 import sys
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_bool, check_int
-from vptoolkit.clean.simplify import MAX_FACES
-from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED
+from vptoolkit.dataset.build_options import BuildOptions, SplitFile
 from vptoolkit.dataset.compute import (
-    BACKEND,
     FailedModel,
     ModelTask,
     cluster_lost,
@@ -85,13 +83,10 @@ from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
-from vptoolkit.points import N_SURFACE_POINTS
 from vptoolkit.progress import progress_bar
-from vptoolkit.sphere import fibonacci_sphere
 
 __all__ = [
     "COMPILE_NOTICE",
-    "FORMATS",
     "STAGES",
     "BuildResult",
     "SplitFileReport",
@@ -99,9 +94,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger(__name__)
-
-FORMATS: dict[str, str] = {"zarr": "dataset.zarr", "hdf5": "dataset.h5"}
-"""Store file name inside OUT for each ``format``."""
 
 STAGES = ("load", "clean", "sample", "measure", "write")
 """Stages of a model whose seconds :class:`BuildResult` reports."""
@@ -173,20 +165,11 @@ class SplitFileReport:
 def build_dataset(
     src: str | os.PathLike[str],
     out: str | os.PathLike[str],
+    options: BuildOptions = BuildOptions(),
     *,
-    format: Literal["zarr", "hdf5"] = "zarr",
     categories: Iterable[str] | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    n_points: int = N_SURFACE_POINTS,
-    max_faces: int = MAX_FACES,
-    clean: bool = True,
-    remesh: bool = False,
     workers: int = 1,
     scheduler: str | None = None,
-    split_seed: int = SEED,
-    splits: str | os.PathLike[str] | None = None,
-    max_models: int | None = None,
     progress: bool = False,
     compile_notice: bool | None = None,
 ) -> BuildResult:
@@ -200,49 +183,20 @@ def build_dataset(
         Build folder: new, empty, or one a previous build of the same options
         left (it is resumed). Gets ``dataset.zarr`` or ``dataset.h5`` and the
         ``.staging`` folder.
-    format : {"zarr", "hdf5"}
-        Store format (default: "zarr").
+    options : BuildOptions
+        What defines the dataset: the measure settings, points, cleaning,
+        split seed or split file, ``max_models`` and the store format
+        (default: ``BuildOptions()``). A build folder is resumed only with
+        equal options.
     categories : iterable of str, optional
-        Build only these categories (default: all).
-    n_views : int
-        Fibonacci views per model (default: 1000).
-    resolution : int
-        Side of the triangle-ID image in pixels (default: 1024).
-    n_points : int
-        Surface points per model (default: 20000).
-    max_faces : int
-        Face budget of the cleaned meshes (default: 10000).
-    clean : bool
-        Clean each mesh before measuring (default: True).
-    remesh : bool
-        Also remesh isotropically in the last cleaning step (needs ``clean``)
-        (:func:`vptoolkit.clean.clean_mesh`; default: False). Viewpoint
-        entropy depends on the tessellation: shapes assembled from a few
-        large faces (``vptoolkit.synthetic``) reward views that scanned or
-        decimated real meshes do not, and remeshing removes that difference
-        (on 16 procedural shapes the PCA view scores 41 % VE against 64 % for
-        a random view as assembled, 79 % against 78 % remeshed).
+        Build only these categories (default: all); with a split file in the
+        authors' ``small.txt`` layout, also the categories its rule counts.
     workers : int
         Local worker processes (default: 1, in this process).
     scheduler : str, optional
         Address of a running Dask distributed scheduler, e.g.
         ``"tcp://127.0.0.1:8786"``; its workers must see ``src`` under the
         same path (default: None, run locally).
-    split_seed : int
-        Seed of the split and of every model's point sample (default: 0).
-    splits : str or os.PathLike, optional
-        A published split to use instead of the seeded one
-        (:func:`~vptoolkit.dataset.split_files.read_split_file`): a
-        ``name,split`` CSV, or the paper authors' ``small.txt`` with their
-        rule over the lines of ``categories``. Every model of the source must
-        be in it; names in it that the source lacks are reported in
-        :attr:`BuildResult.split_file` (default: None, the seeded split).
-    max_models : int, optional
-        Build only this many models, taken in turn from each category
-        (:func:`~vptoolkit.dataset.sources.spread_over_categories`); their
-        splits are those of the whole source, and models with duplicate names
-        are left out instead of recorded as failures. A build folder is
-        resumed only with the same value (default: None, every model).
     progress : bool
         Show a progress bar (models, failures, ETA) on stderr (default: False).
     compile_notice : bool, optional
@@ -254,7 +208,9 @@ def build_dataset(
     Returns
     -------
     BuildResult
-        The store's path, counts, failures and seconds.
+        The store's path, counts, failures and seconds; with a split file,
+        how many models it placed and which of its names the source lacks
+        (:attr:`BuildResult.split_file`).
 
     Raises
     ------
@@ -279,18 +235,7 @@ def build_dataset(
     staged, so the next run tries it again.
     """
     started = time.perf_counter()
-    options = _check_options(
-        format=format,
-        n_views=n_views,
-        resolution=resolution,
-        n_points=n_points,
-        max_faces=max_faces,
-        clean=clean,
-        remesh=remesh,
-        split_seed=split_seed,
-        splits=splits,
-        max_models=max_models,
-    )
+    options = _check_build_options(options)
     workers = check_int(workers, "workers", minimum=1)
     if scheduler is not None:
         scheduler = check_scheduler_address(scheduler)
@@ -307,9 +252,7 @@ def build_dataset(
                          "created") from err
     _check_dependencies(options, scheduler)
 
-    selection = select_models(src, out_dir, categories=categories, splits=splits,
-                              max_models=options["max_models"],
-                              split_seed=options["split_seed"])
+    selection = select_models(src, out_dir, options, categories=categories)
     root, unique, duplicate_failures = selection.root, selection.models, selection.duplicates
     split_report = selection.split_file
 
@@ -369,14 +312,13 @@ def build_dataset(
             [*duplicate_failures, *staged_failures.values(), *run_failures.values()],
             key=lambda failure: (failure["source"], failure["reason"]),
         )
-        store_path = out_dir / FORMATS[options["format"]]
+        store_path = out_dir / options.store_name
         started_store = time.perf_counter()
         write_dataset(
             store_path,
             entries,
-            attrs=_store_attrs(options, source=root.name, created=created,
-                               split_file=split_report),
-            views=fibonacci_sphere(options["n_views"]),
+            attrs=_store_attrs(options, source=root.name, created=created),
+            views=options.measure.directions(),
             failures=failures,
             progress=progress,
         )
@@ -427,33 +369,35 @@ class ModelSelection:
 
 
 def select_models(
-    src: str | os.PathLike[str], out_dir: Path, *, categories: Iterable[str] | None,
-    splits: str | os.PathLike[str] | None, max_models: int | None, split_seed: int,
+    src: str | os.PathLike[str], out_dir: Path, options: BuildOptions, *,
+    categories: Iterable[str] | None,
 ) -> ModelSelection:
     """Discover the models of ``src`` and choose those a build with these options takes."""
     models = discover_models(src, categories)
     root = as_path(src, "src").resolve()
     models = models_outside(models, out_dir)
     unique, duplicates = split_duplicates(models)
-    chosen_splits, split_report = _file_splits(splits, categories, models, unique)
+    chosen_splits, split_report = _file_splits(options.splits, categories, models, unique)
     n_found = len(unique) + len(duplicates)
-    if max_models is not None:
-        unique = spread_over_categories(unique, max_models)
+    if options.max_models is not None:
+        unique = spread_over_categories(unique, options.max_models)
         duplicates = []
     by_id = {model.model_id: chosen_splits[model.name] if chosen_splits is not None
-             else split_of(model, split_seed) for model in unique}
+             else split_of(model, options.split_seed) for model in unique}
     return ModelSelection(root=root, models=unique, duplicates=duplicates, splits=by_id,
                           split_file=split_report, n_found=n_found)
 
 
 def _file_splits(
-    splits: str | os.PathLike[str] | None, categories: Iterable[str] | None,
+    splits: SplitFile | None, categories: Iterable[str] | None,
     models: list[SourceModel], unique: list[SourceModel],
 ) -> tuple[dict[str, str] | None, SplitFileReport | None]:
     """The split of each unique model from the split file, and how the file matched."""
     if splits is None:
         return None, None
-    path = as_path(splits, "splits")
+    if splits.path is None:
+        raise InputError("splits: a split file rebuilt from a record has no path to read")
+    path = splits.path
     listed = read_split_file(path, None if categories is None else list(categories))
     unplaced = [model.source for model in unique if model.name not in listed]
     if unplaced:
@@ -470,55 +414,19 @@ def _file_splits(
     return chosen, report
 
 
-def _check_options(
-    *,
-    format: str,
-    n_views: int,
-    resolution: int,
-    n_points: int,
-    max_faces: int,
-    clean: bool,
-    remesh: bool,
-    split_seed: int,
-    splits: str | os.PathLike[str] | None = None,
-    max_models: int | None = None,
-) -> dict[str, Any]:
-    """Validate the options that define the result; return them as JSON types.
-
-    A split file enters as the SHA-256 of its bytes (``splits_sha256``), so a
-    resumed build with an edited file is refused like one with another seed.
-    """
-    if format not in FORMATS:
-        raise InputError(f"format: expected one of {', '.join(FORMATS)}, got {format!r}")
-    import vptoolkit
-
-    if remesh and not clean:
-        raise InputError("remesh: remeshing is a cleaning step; it needs clean=True")
-    return {
-        "format": format,
-        "n_views": check_int(n_views, "n_views", minimum=1),
-        "resolution": check_int(resolution, "resolution", minimum=1, maximum=16384),
-        "n_points": check_int(n_points, "n_points", minimum=1),
-        "max_faces": check_int(max_faces, "max_faces", minimum=4),
-        "clean": check_bool(clean, "clean"),
-        "remesh": check_bool(remesh, "remesh"),
-        "split_seed": check_int(split_seed, "split_seed", minimum=None),
-        "splits_sha256": None if splits is None else _file_sha256(as_path(splits, "splits")),
-        "max_models": None if max_models is None else check_int(max_models, "max_models",
-                                                                minimum=1),
-        "backend": BACKEND,
-        "camera": Camera().to_dict(),
-        "toolkit_version": vptoolkit.__version__,
-    }
+def _check_build_options(options: BuildOptions) -> BuildOptions:
+    if not isinstance(options, BuildOptions):
+        raise InputError(f"options: expected BuildOptions, got {type(options).__name__}")
+    return options
 
 
-def _check_dependencies(options: Mapping[str, Any], scheduler: str | None) -> None:
+def _check_dependencies(options: BuildOptions, scheduler: str | None) -> None:
     """Fail before any work when a needed package is missing, instead of failing every model."""
     # h5py is a core dependency (plain `pip install vptoolkit`); zarr comes with [dataset].
     needed: list[tuple[str, str | None]] = [
-        ("zarr", "dataset") if options["format"] == "zarr" else ("h5py", None)
+        ("zarr", "dataset") if options.format == "zarr" else ("h5py", None)
     ]
-    if options["clean"]:
+    if options.clean:
         needed.append(("pymeshlab", "clean"))
     if scheduler is not None:
         needed.append(("distributed", "cluster"))
@@ -540,47 +448,30 @@ def _say_if_compiling() -> None:
         print(COMPILE_NOTICE, file=sys.stderr, flush=True)
 
 
-def _file_sha256(path: Path) -> str:
-    try:
-        return hashlib.sha256(path.read_bytes()).hexdigest()
-    except OSError as err:
-        raise InputError(f"{path}: cannot read the split file ({err.strerror or err})") from err
-
-
-def _store_attrs(options: Mapping[str, Any], *, source: str, created: str,
-                 split_file: SplitFileReport | None = None) -> dict[str, Any]:
-    extra: dict[str, Any] = {}
-    if split_file is not None:
-        extra["split_file"] = {"name": split_file.path.name,
-                               "sha256": options["splits_sha256"]}
+def _store_attrs(options: BuildOptions, *, source: str, created: str) -> dict[str, Any]:
     return {
-        "resolution": options["resolution"],
-        "backend": options["backend"],
-        "camera": options["camera"],
-        "cleaning": {"enabled": options["clean"], "max_faces": options["max_faces"],
-                     "remesh": options["remesh"]},
-        "split_seed": options["split_seed"],
+        **options.store_attrs(),
         "split_fractions": dict(SPLIT_FRACTIONS),
         "source": source,
-        "toolkit_version": options["toolkit_version"],
+        "toolkit_version": _toolkit_version(),
         "created": created,
-        **extra,
     }
 
 
-def _task(model: SourceModel, options: Mapping[str, Any]) -> ModelTask:
-    """The plain, picklable arguments of one model's work."""
+def _toolkit_version() -> str:
+    import vptoolkit
+
+    return vptoolkit.__version__
+
+
+def _task(model: SourceModel, options: BuildOptions) -> ModelTask:
+    """The picklable arguments of one model's work."""
     return ModelTask(
         path=str(model.path),
         source=model.source,
         category=model.category,
         name=model.name,
-        n_views=options["n_views"],
-        resolution=options["resolution"],
-        n_points=options["n_points"],
-        max_faces=options["max_faces"],
-        clean=options["clean"],
-        remesh=options["remesh"],
-        seed=model_seed(options["split_seed"], model.model_id),
+        options=options,
+        seed=model_seed(options.split_seed, model.model_id),
         signature=source_signature(model),
     )

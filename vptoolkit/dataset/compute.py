@@ -2,7 +2,7 @@
 
 :func:`process_model` is the function a build runs for every model, in this
 process, in a worker process or on a Dask worker
-(:mod:`vptoolkit.parallel`). It gets a :class:`ModelTask` of plain values and
+(:mod:`vptoolkit.parallel`). It gets a picklable :class:`ModelTask` and
 returns a :class:`MeasuredModel` (the arrays of one
 :class:`~vptoolkit.dataset.schema.ModelEntry` in schema dtypes, its record
 and the seconds per stage) or a :class:`FailedModel` with a one-line reason;
@@ -22,17 +22,17 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Final
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.manifest import sha256_file
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
 
 __all__ = [
-    "BACKEND",
     "VIEW_SET_VIEWS",
     "FailedModel",
     "MeasuredModel",
@@ -43,16 +43,13 @@ __all__ = [
     "worker_died",
 ]
 
-BACKEND: Final = "raster"
-"""Pixel-counting backend of every build (:mod:`vptoolkit.visibility`)."""
-
 VIEW_SET_VIEWS = 6
 """Most views in each model's stored coverage view set (SCHEMA.md, "Model record")."""
 
 
 @dataclass(frozen=True)
 class ModelTask:
-    """The plain, picklable arguments of one model's work.
+    """The picklable arguments of one model's work.
 
     Attributes
     ----------
@@ -62,10 +59,8 @@ class ModelTask:
         Path relative to the source folder, with ``/`` separators.
     category, name : str
         The model's category and name.
-    n_views, resolution, n_points, max_faces : int
-        Views, triangle-ID image side in pixels, surface points, face budget.
-    clean, remesh : bool
-        Clean the mesh first; with ``clean``, also remesh.
+    options : BuildOptions
+        The build's options: measure settings, surface points, cleaning.
     seed : int
         Seed of the point sample.
     signature : dict
@@ -77,12 +72,7 @@ class ModelTask:
     source: str
     category: str
     name: str
-    n_views: int
-    resolution: int
-    n_points: int
-    max_faces: int
-    clean: bool
-    remesh: bool
+    options: BuildOptions
     seed: int
     signature: dict[str, Any]
 
@@ -202,16 +192,16 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     seconds["load"] = time.perf_counter() - started
     cleaning = None
     started = time.perf_counter()
-    if task.clean:
-        mesh, report = clean_mesh(mesh, max_faces=task.max_faces, remesh=task.remesh)
+    options = task.options
+    if options.clean:
+        mesh, report = clean_mesh(mesh, max_faces=options.max_faces, remesh=options.remesh)
         cleaning = _without_timings(report.to_dict())
     seconds["clean"] = time.perf_counter() - started
     started = time.perf_counter()
-    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, n_views=task.n_views,
-                                         resolution=task.resolution, backend=BACKEND)
+    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, settings=options.measure)
     seconds["measure"] = time.perf_counter() - started
     started = time.perf_counter()
-    sample = sample_surface(mesh, task.n_points, seed=task.seed)
+    sample = sample_surface(mesh, options.n_points, seed=task.seed)
     seconds["sample"] = time.perf_counter() - started
     columns = np.arange(quality.raw.shape[1])
     raw = quality.raw.astype(np.float32)

@@ -6,9 +6,9 @@ card (``README.md``) and then ``croissant.json`` from it
 go into the JSON-LD). A person may edit the card of a packed release later;
 :func:`update_card` then rewrites ``croissant.json`` and ``SHA256SUMS`` to
 match, after checking that nothing else changed, nothing was added and no
-file is a symbolic link. The options a publisher
-gave at packing are kept in ``croissant.json`` (:class:`ReleaseOptions`) so
-the rewrite says the same.
+file is a symbolic link. What a publisher gave at packing
+(:class:`~vptoolkit.dataset.release_options.ReleaseOptions`) stays in
+``croissant.json``, so the rewrite says the same.
 """
 
 from __future__ import annotations
@@ -17,7 +17,6 @@ import hashlib
 import json
 import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,43 +27,20 @@ from vptoolkit.dataset.manifest import (
     read_sha256sums,
     sha256_file,
 )
-from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import parse_json, write_bytes_atomic, write_text_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
     from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.release_options import ReleaseOptions
 
-__all__ = ["CARD_NAME", "CROISSANT_NAME", "INFO_NAME", "ReleaseOptions", "update_card",
-           "write_descriptions", "write_json"]
+__all__ = ["CARD_NAME", "CROISSANT_NAME", "INFO_NAME", "update_card", "write_descriptions",
+           "write_json"]
 
 CARD_NAME = "README.md"
 CROISSANT_NAME = "croissant.json"
 INFO_NAME = "dataset_info.json"
-
-
-@dataclass(frozen=True)
-class ReleaseOptions:
-    """What a publisher said about a release, kept in ``croissant.json`` for later rewrites."""
-
-    license: str
-    version: str
-    created: str
-    pretty_name: str | None = None
-    source_url: str | None = None
-    url: str | None = None
-    creator: str | None = None
-    license_name: str | None = None
-    license_link: str | None = None
-    shard_bytes: int = DEFAULT_SHARD_BYTES
-    """Largest Arrow size of the rows of one Parquet shard."""
-
-    def card_arguments(self) -> dict[str, Any]:
-        return {"license": self.license, "pretty_name": self.pretty_name,
-                "version": self.version, "created": self.created,
-                "source_url": self.source_url, "license_name": self.license_name,
-                "license_link": self.license_link, "creator": self.creator, "url": self.url}
 
 
 def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],

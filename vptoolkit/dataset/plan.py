@@ -1,9 +1,10 @@
 """Size a build before it runs: its models per category and split, and an estimate.
 
 :func:`plan_build` finds the models a :func:`~vptoolkit.dataset.build.build_dataset`
-call with the same options would take, counts them per category and split,
-and builds a few of them (``calibrate``, spread over the categories as
-``max_models`` spreads them) into a temporary folder with the same options.
+call with the same :class:`~vptoolkit.dataset.build_options.BuildOptions` would
+take, counts them per category and split, and builds a few of them
+(``calibrate``, spread over the categories as ``max_models`` spreads them)
+into a temporary folder with the same options.
 The seconds and bytes of those models, scaled to all the models, are the
 estimate: the seconds of one process (as ``workers=1``), and the bytes of
 the build folder (its staging files plus the store). It is an estimate from
@@ -17,16 +18,16 @@ from __future__ import annotations
 import os
 import tempfile
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Literal
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.clean.simplify import MAX_FACES
-from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED
-from vptoolkit.points import N_SURFACE_POINTS
+from vptoolkit.dataset.build_options import BuildOptions
 
-__all__ = ["BuildPlan", "plan_build"]
+__all__ = ["CALIBRATION_MODELS", "BuildPlan", "plan_build"]
+
+CALIBRATION_MODELS = 3
+"""Models :func:`plan_build` builds for its estimate unless told otherwise."""
 
 
 @dataclass(frozen=True)
@@ -106,27 +107,19 @@ class BuildPlan:
 def plan_build(
     src: str | os.PathLike[str],
     out: str | os.PathLike[str],
+    options: BuildOptions = BuildOptions(),
     *,
-    format: Literal["zarr", "hdf5"] = "zarr",
     categories: Iterable[str] | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    n_points: int = N_SURFACE_POINTS,
-    max_faces: int = MAX_FACES,
-    clean: bool = True,
-    remesh: bool = False,
-    split_seed: int = SEED,
-    splits: str | os.PathLike[str] | None = None,
-    max_models: int | None = None,
-    calibrate: int = 3,
+    calibrate: int = CALIBRATION_MODELS,
     progress: bool = False,
 ) -> BuildPlan:
     """List the models a build would take and estimate its hours and disk.
 
-    The options are those of :func:`~vptoolkit.dataset.build.build_dataset`;
-    ``out`` is only read (models inside it are left out, as the build leaves
-    them out). ``calibrate`` models are built into a temporary folder that is
-    deleted afterwards (0: count only).
+    ``options`` and ``categories`` are those of
+    :func:`~vptoolkit.dataset.build.build_dataset`; ``out`` is only read
+    (models inside it are left out, as the build leaves them out).
+    ``calibrate`` models are built into a temporary folder that is deleted
+    afterwards (0: count only).
 
     Returns
     -------
@@ -139,16 +132,11 @@ def plan_build(
         As :func:`~vptoolkit.dataset.build.build_dataset` for bad options or
         sources.
     """
-    from vptoolkit.dataset.build import _check_options, build_dataset, select_models
+    from vptoolkit.dataset.build import _check_build_options, build_dataset, select_models
 
-    options = _check_options(format=format, n_views=n_views, resolution=resolution,
-                             n_points=n_points, max_faces=max_faces, clean=clean,
-                             remesh=remesh, split_seed=split_seed, splits=splits,
-                             max_models=max_models)
+    options = _check_build_options(options)
     calibrate = check_int(calibrate, "calibrate", minimum=0)
-    selection = select_models(src, as_path(out, "out"), categories=categories, splits=splits,
-                              max_models=options["max_models"],
-                              split_seed=options["split_seed"])
+    selection = select_models(src, as_path(out, "out"), options, categories=categories)
     counts: dict[str, dict[str, int]] = {}
     for model in selection.models:
         row = counts.setdefault(model.category, {"train": 0, "val": 0, "test": 0})
@@ -160,21 +148,16 @@ def plan_build(
         return plan
     with tempfile.TemporaryDirectory(prefix="vptoolkit-plan-") as folder:
         # The same code paths on a small problem: numba compiles (or loads) its kernels here.
-        build_dataset(
-            selection.root, Path(folder) / "warm-up", format=options["format"],
-            categories=categories, n_views=min(n_views, 8), resolution=min(resolution, 16),
-            n_points=min(n_points, 50), max_faces=max_faces, clean=clean, remesh=remesh,
-            split_seed=split_seed, splits=splits, max_models=1, progress=False,
-            compile_notice=progress,
-        )
+        measure = options.measure
+        tiny = replace(options, measure=replace(measure, views=min(measure.views, 8),
+                                                resolution=min(measure.resolution, 16)),
+                       n_points=min(options.n_points, 50), max_models=1)
+        build_dataset(selection.root, Path(folder) / "warm-up", tiny, categories=categories,
+                      progress=False, compile_notice=progress)
         trial = Path(folder) / "build"
         # max_models=n takes the first n of the models max_models chose: the same spread.
-        result = build_dataset(
-            selection.root, trial, format=options["format"], categories=categories,
-            n_views=n_views, resolution=resolution, n_points=n_points, max_faces=max_faces,
-            clean=clean, remesh=remesh, split_seed=split_seed, splits=splits,
-            max_models=n_calibrate, progress=progress,
-        )
+        result = build_dataset(selection.root, trial, replace(options, max_models=n_calibrate),
+                               categories=categories, progress=progress)
         n_bytes = sum(path.stat().st_size for path in trial.rglob("*") if path.is_file())
     n_built = result.n_computed
     if n_built == 0:
@@ -185,8 +168,6 @@ def plan_build(
 
 def _with(plan: BuildPlan, n_calibrated: int, n_failed: int, seconds: float | None,
           n_bytes: float | None) -> BuildPlan:
-    from dataclasses import replace
-
     return replace(plan, n_calibrated=n_calibrated, n_calibration_failures=n_failed,
                    seconds_per_model=seconds, bytes_per_model=n_bytes)
 

@@ -16,7 +16,7 @@ A release folder holds, for ``name = "vptoolkit-viewpoints"``::
 The file names hold no version (it is in the card, ``croissant.json``,
 ``dataset_info.json`` and the archives' attributes), so a loader's paths
 stay valid from one release to the next. The default formats are
-:data:`DEFAULT_FORMATS`, Parquet and HDF5: Parquet for the hub, ``datasets``
+:data:`~vptoolkit.dataset.release_options.DEFAULT_FORMATS`, Parquet and HDF5: Parquet for the hub, ``datasets``
 and ``mlcroissant``, one archive for :mod:`vptoolkit.data` and ``h5py`` on
 the light install; a Zarr zip would be a third full copy of the data.
 
@@ -34,9 +34,10 @@ checks a release; :func:`~vptoolkit.dataset.info.dataset_info` and
 holds :func:`~vptoolkit.dataset.descriptions.update_card`.
 
 Size
-    About 620 lines for one concept, the packing transaction: checking every
-    option before anything is written, the staging folder and its lock, each
-    format's writer call and the final rename. The writers themselves live
+    About 460 lines for one concept, the packing transaction: checking the
+    source and the folder before anything is written, the staging folder and
+    its lock, each format's writer call and the final rename (the options are
+    checked when made, in :mod:`vptoolkit.dataset.release_options`). The writers themselves live
     in their own modules; what is left here shares the staging folder and
     its cleanup, which a split would have to pass around.
 """
@@ -47,12 +48,10 @@ import dataclasses
 import errno
 import importlib.resources
 import os
-import re
 import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
@@ -63,18 +62,12 @@ from vptoolkit.dataset.descriptions import (
     CARD_NAME,
     CROISSANT_NAME,
     INFO_NAME,
-    ReleaseOptions,
     write_descriptions,
     write_json,
 )
-from vptoolkit.dataset.licenses import (
-    LICENSES_NAME,
-    check_license,
-    read_licenses,
-    write_licenses,
-)
+from vptoolkit.dataset.licenses import LICENSES_NAME, write_licenses
 from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
-from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES, parse_size
+from vptoolkit.dataset.release_options import ReleaseOptions, release_created
 from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
@@ -85,29 +78,11 @@ if TYPE_CHECKING:
     from vptoolkit.dataset.reader import StoreReader
 
 __all__ = [
-    "DEFAULT_FORMATS",
-    "DEFAULT_NAME",
-    "FORMATS",
-    "release_created",
     "ReleaseResult",
     "pack_release",
 ]
 
-DEFAULT_NAME = "vptoolkit-viewpoints"
-"""Base name of the archives when :func:`pack_release` is given no ``name``."""
-
 SCHEMA_NAME = "SCHEMA.md"
-
-FORMATS = ("parquet", "zarr", "hdf5")
-"""Containers :func:`pack_release` can write."""
-
-DEFAULT_FORMATS = ("parquet", "hdf5")
-"""What :func:`pack_release` writes by default: the Parquet shards and one archive, HDF5,
-which the light install (numpy, h5py) reads; each format is a full copy of the data."""
-
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
-_VERSION = re.compile(r"(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)\.(0|[1-9][0-9]*)")
-_EPOCH_SECONDS = re.compile(r"[0-9]+")  # ASCII digits: str.isdigit also passes "²", which int() refuses
 
 
 @dataclass(frozen=True)
@@ -220,14 +195,6 @@ class _ReaderEntries(Sequence["ModelEntry"]):
         return _ReleaseEntry(**fields)
 
 
-def _check_name(name: str) -> None:
-    if not isinstance(name, str) or not _NAME.fullmatch(name):
-        raise InputError(
-            f"name: {name!r} must start with a letter or digit and hold only letters, "
-            "digits, '.', '_' and '-'"
-        )
-
-
 def _check_source_intact(source: Path) -> None:
     """Re-hash every array of the store to pack against its ``sha256``, before writing anything.
 
@@ -294,15 +261,6 @@ def _publish(staging: Path, release_dir: Path) -> None:
         raise
 
 
-def _check_formats(formats: Sequence[str]) -> tuple[str, ...]:
-    chosen = tuple(dict.fromkeys(formats))
-    unknown = [f for f in chosen if f not in FORMATS]
-    if unknown or not chosen:
-        raise InputError(f"formats: expected one or more of {', '.join(FORMATS)}, got "
-                         f"{', '.join(formats) or 'none'}")
-    return chosen
-
-
 def _require_formats(formats: Sequence[str]) -> None:
     """Fail before any work when a chosen format's library is missing."""
     from vptoolkit.dataset.containers import require_zarr
@@ -312,70 +270,6 @@ def _require_formats(formats: Sequence[str]) -> None:
         require_zarr()
     if "parquet" in formats:
         require("pyarrow", extra="dataset")
-
-
-def _check_version(version: str) -> str:
-    if not isinstance(version, str) or not _VERSION.fullmatch(version):
-        raise InputError(f"version: {version!r} is not MAJOR.MINOR.PATCH (e.g. 1.0.0)")
-    return version
-
-
-def release_created(created: str | None, default: str | None) -> str:
-    """The release time to write, ISO 8601 UTC (``2026-01-02T03:04:05Z``).
-
-    Parameters
-    ----------
-    created : str, optional
-        An ISO 8601 time; one without a zone is taken as UTC.
-    default : str, optional
-        Used when ``created`` is None and ``SOURCE_DATE_EPOCH`` is unset
-        (the build's own ``created`` attribute).
-
-    Returns
-    -------
-    str
-        ``created``, else ``$SOURCE_DATE_EPOCH`` (seconds since 1970, the
-        reproducible-builds convention), else ``default``, else now.
-
-    Raises
-    ------
-    InputError
-        If ``created`` or ``SOURCE_DATE_EPOCH`` cannot be read.
-    """
-    if created is not None:
-        try:
-            moment = datetime.fromisoformat(created.replace("Z", "+00:00"))
-        except ValueError as err:
-            raise InputError(f"created: {short_repr(created)} is not an ISO 8601 time") from err
-        if moment.tzinfo is None:
-            moment = moment.replace(tzinfo=timezone.utc)
-        try:
-            return _utc_text(moment.astimezone(timezone.utc))
-        except OverflowError as err:
-            raise InputError(
-                f"created: {short_repr(created)} is outside the years 1 to 9999 in UTC"
-            ) from err
-    epoch = os.environ.get("SOURCE_DATE_EPOCH")
-    if epoch:
-        if not _EPOCH_SECONDS.fullmatch(epoch):
-            raise InputError(
-                f"SOURCE_DATE_EPOCH: {short_repr(epoch)} is not a whole number of seconds"
-            )
-        try:
-            return _utc_text(datetime.fromtimestamp(int(epoch), timezone.utc))
-        except (OverflowError, OSError, ValueError) as err:
-            raise InputError(
-                f"SOURCE_DATE_EPOCH: {short_repr(epoch)[1:-1]} seconds is beyond the year 9999"
-            ) from err
-    if default:
-        return default
-    return _utc_text(datetime.now(timezone.utc))
-
-
-def _utc_text(moment: datetime) -> str:
-    """``2026-01-02T03:04:05Z``, the year always four digits (``0999``, which strftime drops)."""
-    return (f"{moment.year:04d}-{moment.month:02d}-{moment.day:02d}"
-            f"T{moment.hour:02d}:{moment.minute:02d}:{moment.second:02d}Z")
 
 
 def _copy_schema(target: Path) -> None:
@@ -409,21 +303,9 @@ def _release_warnings(records: Sequence[Mapping[str, Any]], has_licenses: bool) 
 def pack_release(
     dataset: Path | str,
     release_dir: Path | str,
+    options: ReleaseOptions | None = None,
     *,
-    name: str | None = None,
-    license: str = "other",  # noqa: A002 - the dataset-hub field is called license
     progress: bool = False,
-    formats: Sequence[str] = DEFAULT_FORMATS,
-    version: str = DATASET_VERSION,
-    created: str | None = None,
-    pretty_name: str | None = None,
-    source_url: str | None = None,
-    url: str | None = None,
-    creator: str | None = None,
-    licenses: Path | str | Mapping[str, dict[str, str]] | None = None,
-    license_name: str | None = None,
-    license_link: str | None = None,
-    shard_size: int | str = DEFAULT_SHARD_BYTES,
 ) -> ReleaseResult:
     """Pack a built dataset into a release folder.
 
@@ -443,49 +325,14 @@ def pack_release(
     release_dir : Path or str
         Output folder; must not exist or be empty. Its parent folders are
         created.
-    name : str, optional
-        Base name of the archives (default: ``"vptoolkit-viewpoints"``); the
-        files are called ``<name>.h5`` and ``<name>.zarr.zip``.
-    license : str
-        Licence of the release: an SPDX identifier (``CC-BY-4.0``) or the
-        URL of the licence, for the card and Croissant metadata; it is also
-        the licence of every source mesh the ``licenses`` table does not name.
-        The default ``"other"`` says nothing: the source meshes' licences
-        apply, and ``warnings`` says none was given.
+    options : ReleaseOptions, optional
+        Name, formats, version, release time, licences, card and Croissant
+        fields and shard size (default: ``ReleaseOptions()``: Parquet and
+        HDF5, version :data:`~vptoolkit.conventions.DATASET_VERSION`, no
+        licence stated). Without ``created``, the release time is
+        ``$SOURCE_DATE_EPOCH``, else the build's ``created``.
     progress : bool
         Show progress bars while the archives are written (default: False).
-    formats : sequence of str
-        Containers to write, from :data:`FORMATS` (default:
-        :data:`DEFAULT_FORMATS`, Parquet and HDF5).
-    version : str
-        Dataset version ``MAJOR.MINOR.PATCH`` (default: ``"1.0.0"``), written
-        into the attributes (``dataset_version``), card and Croissant; never
-        into file names.
-    created : str, optional
-        Release time, ISO 8601 (default: ``$SOURCE_DATE_EPOCH``, else the
-        build's ``created``); written into the archives' ``created``
-        attribute, the card and Croissant. The same build, options and
-        ``created`` give byte-identical files.
-    pretty_name : str, optional
-        Title of the card and Croissant name (default: from the source name).
-    source_url : str, optional
-        Where the source meshes come from.
-    url : str, optional
-        Where the release is published (Croissant ``url``).
-    creator : str, optional
-        Who made the release (Croissant ``creator``; default ``"vptoolkit"``).
-    licenses : Path, str or mapping, optional
-        A per-mesh licence table (:func:`read_licenses`) or its parsed
-        mapping; each model's record then carries ``provenance``, the card
-        tables it and the release ships it as ``LICENSES.csv``.
-    license_name, license_link : str, optional
-        The hub's ``license_name`` / ``license_link`` for ``license="other"``
-        (default: ``"source-mesh-licenses"`` and ``LICENSES.csv`` or
-        ``README.md``).
-    shard_size : int or str
-        Largest Arrow size of the rows of one Parquet shard, in bytes or as
-        text (``"500MB"``, the default; ``"200KB"``; see
-        :func:`~vptoolkit.dataset.parquet.parse_size`).
 
     Returns
     -------
@@ -497,10 +344,10 @@ def pack_release(
     Raises
     ------
     InputError
-        If ``release_dir`` exists and is not an empty folder, ``name``,
-        ``version``, ``created``, ``formats`` or ``shard_size`` is malformed,
-        ``license`` or a licence in the table is neither an SPDX identifier
-        nor a URL, the licence table is bad, or ``dataset`` holds no readable store.
+        If ``release_dir`` exists and is not an empty folder,
+        ``SOURCE_DATE_EPOCH`` is malformed, the licence table file is bad,
+        or ``dataset`` holds no readable store (the options themselves are
+        checked when made).
     MissingDependencyError
         If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
         install 'vptoolkit[dataset]'``).
@@ -512,19 +359,14 @@ def pack_release(
     from vptoolkit.dataset.reader import open_store
     from vptoolkit.dataset.writer import write_dataset
 
-    base = DEFAULT_NAME if name is None else name
-    _check_name(base)
-    chosen = _check_formats(formats)
-    _check_version(version)
-    shard_bytes = parse_size(shard_size, "shard_size")
-    default_license = None if license == "other" else check_license(license, "license")
+    if options is None:
+        options = ReleaseOptions()
+    elif not isinstance(options, ReleaseOptions):
+        raise InputError(f"options: expected ReleaseOptions, got {type(options).__name__}")
+    base, chosen = options.name, options.formats
     target = Path(release_dir)
     _check_release_dir(target)
-    provenance = (read_licenses(licenses) if isinstance(licenses, (str, Path))
-                  else dict(licenses) if licenses is not None else None)
-    if provenance is not None and not isinstance(licenses, (str, Path)):
-        for model, row in provenance.items():  # a parsed table, checked as a file's rows are
-            check_license(str(row.get("license", "")), f"licenses: {model}")
+    provenance = options.license_table()
     source = find_store(dataset)
     _require_formats(chosen)
     _check_source_intact(source)
@@ -549,20 +391,15 @@ def pack_release(
         with held(staging):  # a concurrent pack's cleanup leaves it alone
             with open_store(source) as reader:
                 attrs = dict(reader.attrs)
-                when = release_created(created, attrs.get("created"))
+                when = release_created(options.created, attrs.get("created"))
                 attrs["created"] = when
-                attrs["dataset_version"] = version
-                options = ReleaseOptions(
-                    license=license, version=version, created=when, pretty_name=pretty_name,
-                    source_url=source_url, url=url, creator=creator,
-                    license_name=license_name or ("source-mesh-licenses" if license == "other"
-                                                  else None),
-                    license_link=license_link or (
-                        (LICENSES_NAME if provenance is not None else CARD_NAME)
-                        if license == "other" else None),
-                    shard_bytes=shard_bytes,
-                )
-                entries = _ReaderEntries(reader, provenance, default_license)
+                attrs["dataset_version"] = options.version
+                hub = ({"license_name": options.license_name or "source-mesh-licenses",
+                        "license_link": options.license_link or (
+                            LICENSES_NAME if provenance is not None else CARD_NAME)}
+                       if options.default_license is None else {})
+                options = dataclasses.replace(options, created=when, **hub)
+                entries = _ReaderEntries(reader, provenance, options.default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
                 for archive in dict.fromkeys([*written, described_name]):
@@ -619,7 +456,7 @@ def pack_release(
         files=files,
         n_models=int(info["n_models"]),
         n_failures=int(info["n_failures"]),
-        version=version,
+        version=options.version,
         created=when,
         parquet=tuple(target / s.path for s in shards),
         warnings=tuple(found) + ((_NO_LICENCE,) if unlicensed else ()),

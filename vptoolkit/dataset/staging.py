@@ -4,7 +4,9 @@ Each finished model is first written to ``OUT/.staging/`` as one ``.npz``
 file (arrays plus a JSON ``meta`` member as ``uint8``; nothing pickled),
 and each failed one as one ``.failed.json``, both atomically (temporary
 file in the same folder, fsync, :func:`os.replace`). ``build.json`` there
-holds the options and the time the build was first started, and ``lock``
+holds the options (:meth:`BuildOptions.to_dict
+<vptoolkit.dataset.build_options.BuildOptions.to_dict>`), the toolkit version
+and the time the build was first started, and ``lock``
 keeps a second build out. A build killed at any point (even ``kill -9``) is
 resumed by running the same command again (:func:`scan_staging`): staged
 models whose source file is unchanged (same size and modification time,
@@ -34,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.compute import FailedModel, MeasuredModel
 from vptoolkit.dataset.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
 from vptoolkit.dataset.sources import SourceModel
@@ -59,7 +62,7 @@ _log = logging.getLogger(__name__)
 STAGING_DIR = ".staging"
 """Folder inside OUT that holds the finished models of a build in progress."""
 
-_STAGING_VERSION = 1
+_STAGING_VERSION = 2
 _BUILD_FILE = "build.json"
 _LOCK_FILE = "lock"
 _TEMP_SUFFIX = ".partial"  # temporary files of vptoolkit.files.atomic_write
@@ -79,23 +82,6 @@ _ARRAY_NAMES = (
 )
 # Fields of a staged meta's record that StagedEntries reads.
 _RECORD_KEYS = ("name", "category", "source", "source_sha256", "cleaning")
-# Options a resumed build must share with the staged one; anything else would
-# mix models computed two ways in one store.
-_RESUME_OPTIONS = (
-    "format",
-    "n_views",
-    "resolution",
-    "n_points",
-    "max_faces",
-    "clean",
-    "remesh",
-    "split_seed",
-    "splits_sha256",
-    "max_models",
-    "backend",
-    "camera",
-    "toolkit_version",
-)
 
 
 def prepare_out(out_dir: Path) -> Path:
@@ -133,22 +119,31 @@ def build_lock(staging: Path) -> Iterator[None]:
             fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
-def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> str:
-    """Check the staged options against ``options`` or record them; return the creation time."""
+def resume_or_start(staging: Path, options: BuildOptions, root: Path) -> str:
+    """Check the staged options against ``options`` or record them; return the creation time.
+
+    A build resumes only with equal options made by the same toolkit version
+    (``BuildOptions.from_dict(recorded) == options``); anything else would
+    mix models computed two ways in one store.
+    """
+    import vptoolkit
+
     build_file = staging / _BUILD_FILE
+    version = vptoolkit.__version__
     if build_file.exists():
         try:
             recorded = read_json_file(build_file, str(build_file))
-            # a record without the option is of a build that did not remesh
-            staged_options = {"remesh": False, **recorded["options"]}
+            if recorded.get("staging_version") != _STAGING_VERSION:
+                raise ValueError(f"staging_version {recorded.get('staging_version')!r}, "
+                                 f"expected {_STAGING_VERSION}")
+            staged = BuildOptions.from_dict(recorded["options"])
+            staged_version = recorded["toolkit_version"]
             created = str(recorded["created"])
-        except (ValueError, KeyError, TypeError) as err:
+        except (ValueError, KeyError, TypeError, AttributeError, InputError) as err:
             raise InputError(f"{build_file}: unreadable build record ({one_line(err)})") from err
-        changed = [
-            f"{key}={staged_options.get(key)!r} (now {options[key]!r})"
-            for key in _RESUME_OPTIONS
-            if staged_options.get(key) != options[key]
-        ]
+        changed = _differences(staged.to_dict(), options.to_dict())
+        if staged_version != version:
+            changed.append(f"toolkit_version={staged_version!r} (now {version!r})")
         if changed:
             raise InputError(
                 f"{staging.parent}: holds a build made with {'; '.join(changed)}; "
@@ -160,10 +155,24 @@ def resume_or_start(staging: Path, options: Mapping[str, Any], root: Path) -> st
         "staging_version": _STAGING_VERSION,
         "created": created,
         "source": str(root),
-        "options": dict(options),
+        "toolkit_version": version,
+        "options": options.to_dict(),
     }
     _write_atomic(build_file, json.dumps(record, indent=2, sort_keys=True).encode("utf-8"))
     return created
+
+
+def _differences(staged: Mapping[str, Any], now: Mapping[str, Any],
+                 prefix: str = "") -> list[str]:
+    """``key=staged (now value)`` for each option that differs, nested records by their keys."""
+    changed = []
+    for key, value in now.items():
+        before = staged.get(key)
+        if isinstance(value, dict) and isinstance(before, dict):
+            changed.extend(_differences(before, value, f"{prefix}{key}."))
+        elif before != value:
+            changed.append(f"{prefix}{key}={before!r} (now {value!r})")
+    return changed
 
 
 def stage_key(model_id: str) -> str:

@@ -173,6 +173,7 @@ def model_visibility(dataset: ViewpointDataset, key: int | str, *,
     """
     from vptoolkit.camera import Camera
     from vptoolkit.mesh import Mesh
+    from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.visibility import FaceVisibility
 
     attrs = dataset.attrs
@@ -180,9 +181,9 @@ def model_visibility(dataset: ViewpointDataset, key: int | str, *,
     name = dataset.record(key)["name"]
     mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name)
     chosen = dataset.views if views is None else dataset.views[np.asarray(views, dtype=np.int64)]
-    return FaceVisibility.from_mesh(mesh, view_directions=chosen,
-                                    resolution=int(attrs["resolution"]),
-                                    camera=Camera.from_dict(attrs.get("camera") or {}))
+    settings = MeasureSettings(views=len(chosen), resolution=int(attrs["resolution"]),
+                               camera=Camera.from_dict(attrs.get("camera") or {}))
+    return FaceVisibility.from_mesh(mesh, settings, view_directions=chosen)
 
 
 def stored_view_set(dataset: ViewpointDataset, key: int | str, k: int) -> Any:

@@ -12,6 +12,8 @@ nothing, so ``import vptoolkit.learn`` never loads torch):
   label (SL), multiple labels (ML), Gaussian labels (GL), ML+GL, spherical
   regression (SR) and label distribution learning (DLDL), plus the
   nearest-view quality used to score predictions.
+- ``vptoolkit.learn.options``: :class:`~vptoolkit.learn.options.TrainOptions`,
+  what defines a training run, as one checked value.
 - ``vptoolkit.learn.train``: :func:`~vptoolkit.learn.train.train_model`, the
   training loop (Adam, step decay, validation, best checkpoint, resume).
 - ``vptoolkit.learn.predict``: :func:`~vptoolkit.learn.predict.predict` on

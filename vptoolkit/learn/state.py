@@ -3,21 +3,22 @@
 A run writes ``<stem>.last.safetensors`` (the network's ``state_dict`` as
 ``model.*`` and every Adam tensor as ``optimizer.<index>.<key>``) and
 ``<stem>.last.json`` (``format``, the epoch, the run's arguments, Adam's
-parameter groups, the history and the best score so far). :func:`load_state`
-refuses a state whose arguments differ from the resumed run's in any of the
-keys that define the result.
+parameter groups, the history and the best score so far). The arguments are
+the run's :class:`~vptoolkit.learn.options.TrainOptions` (``to_dict``) with
+its paths and machine settings; :func:`load_state` refuses a state whose
+options differ from the resumed run's in anything but ``epochs``.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
+from dataclasses import fields
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
 from vptoolkit.checks import check_int, short_repr
-from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.learn.checkpoint import (
     checkpoint_paths,
@@ -26,8 +27,8 @@ from vptoolkit.learn.checkpoint import (
     write_json_atomic,
     write_safetensors_atomic,
 )
-from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.model import ViewpointNet
+from vptoolkit.learn.options import TrainOptions
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -37,7 +38,7 @@ else:
     torch = require("torch", extra="learn")
     Tensor = torch.Tensor
 
-__all__ = ["TRAINING_STATE_FORMAT", "state_paths", "save_state", "load_state", "json_value", "toolkit_version"]
+__all__ = ["TRAINING_STATE_FORMAT", "state_paths", "save_state", "load_state", "toolkit_version"]
 
 TRAINING_STATE_FORMAT: Final = "vptoolkit-training-state"
 """``format`` entry of ``*.last.json``."""
@@ -75,18 +76,6 @@ def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tens
     optimizer.load_state_dict({"state": state, "param_groups": param_groups})
 
 
-def json_value(value: Any) -> Any:
-    if isinstance(value, Path):
-        return str(value)
-    if isinstance(value, ModelConfig):
-        return value.to_dict()
-    if isinstance(value, Mapping):
-        return {str(key): json_value(item) for key, item in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_value(item) for item in value]
-    return value
-
-
 def toolkit_version() -> str:
     from vptoolkit import __version__
 
@@ -104,7 +93,7 @@ def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
         "format": TRAINING_STATE_FORMAT,
         "format_version": 1,
         "epoch": epoch,
-        "arguments": json_value(arguments),
+        "arguments": dict(arguments),
         "optimizer_param_groups": groups,
         "history": history,
         "best": {"epoch": best["epoch"], "score": best["score"], "scores": best["scores"]},
@@ -113,15 +102,15 @@ def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
 
 
 def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
-               arguments: Mapping[str, Any], keys: Sequence[str]) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
+               options: TrainOptions) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
     """Load a saved state into ``model`` and ``optimizer``; return (epoch, history, best).
 
     Raises
     ------
     InputError
         If the file is not a training state, its epoch is not that of its
-        history or beyond ``arguments["epochs"]``, or its arguments differ
-        from ``arguments`` in any of ``keys``.
+        history or beyond ``options.epochs``, or its recorded options differ
+        from ``options`` in anything but ``epochs``.
     CheckpointError
         If the weights or Adam state do not fit the network.
     """
@@ -135,16 +124,20 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     if epoch != len(history):
         raise InputError(f"{json_path.name}: epoch {epoch} does not match the {len(history)} "
                          "epochs of its history")
-    epochs = arguments.get("epochs")
-    if isinstance(epochs, int) and epoch > epochs:
-        raise InputError(f"{json_path.name}: the run is at epoch {epoch}, past the {epochs} "
-                         "epochs asked for")
-    stored = dict(state.get("arguments", {}))
-    stored["val_split"] = published_split(str(stored.get("val_split")))  # a run may record "val"
-    current = json_value(arguments)
-    differing = [key for key in keys if stored.get(key) != current.get(key)]
+    if epoch > options.epochs:
+        raise InputError(f"{json_path.name}: the run is at epoch {epoch}, past the "
+                         f"{options.epochs} epochs asked for")
+    arguments = state.get("arguments")
+    if not isinstance(arguments, Mapping):
+        raise InputError(f"{json_path.name}: arguments: expected an object, got {short_repr(arguments)}")
+    names = {item.name for item in fields(TrainOptions)}  # beside the run's paths and machine
+    try:
+        recorded = TrainOptions.from_dict({key: value for key, value in arguments.items() if key in names})
+    except InputError as err:
+        raise InputError(f"{json_path.name}: {err}") from err
+    differing = options.resume_conflicts(recorded)
     if differing:
-        details = ", ".join(f"{key}: {stored.get(key)!r} -> {current.get(key)!r}" for key in differing)
+        details = ", ".join(f"{key}: {old!r} -> {new!r}" for key, (old, new) in differing.items())
         raise InputError(f"{json_path.name}: cannot resume with other options ({details})")
     tensors = read_safetensors(weights)
     model_state = {name[len("model."):]: tensor for name, tensor in tensors.items() if name.startswith("model.")}

@@ -25,7 +25,12 @@ prediction scores the normalised quality of its nearest sampled view
 (:func:`vptoolkit.learn.labels.nearest_view_quality`). The checkpoint with
 the best mean over the four measures is kept.
 
-``categories`` restricts a run to some categories; :func:`train_per_category`
+The options that define a run are one value,
+:class:`vptoolkit.learn.options.TrainOptions`, recorded in the files below;
+how a call runs (device, threads, workers, ``save_every``, progress) are
+keywords of :func:`train_model`.
+
+The options' ``categories`` restrict a run to some categories; :func:`train_per_category`
 trains the paper's set-up, one network per category, into one folder that
 :func:`vptoolkit.learn.predict.predict` routes by category.
 
@@ -35,13 +40,13 @@ Files (``OUT`` a folder, or ``OUT.safetensors`` naming the weights file)
 ``model.safetensors``           best weights (safetensors)
 ``model.json``                  its configuration: architecture, label
                                 method, measures, input size, training
-                                arguments and command, epochs, best score,
+                                options and command, epochs, best score,
                                 toolkit and torch versions
 ``model.last.safetensors``      the state after the last saved epoch
                                 (every ``save_every`` and the last):
                                 weights and Adam moments
 ``model.last.json``             epoch, Adam hyper-parameters, history,
-                                best score so far, arguments
+                                best score so far, options
 ==============================  ===========================================
 
 (``<stem>.json``, ``<stem>.last.*`` beside ``OUT.safetensors``.) Nothing is
@@ -57,8 +62,8 @@ Determinism
     from its last saved epoch exactly as an uninterrupted run would.
 
 The paper's settings and the learning-rate schedule are in
-:mod:`vptoolkit.learn.schedule`, the choice of models in
-:mod:`vptoolkit.learn.splits` and the validation in
+:mod:`vptoolkit.learn.schedule`, the options in :mod:`vptoolkit.learn.options`,
+the choice of models in :mod:`vptoolkit.learn.splits` and the validation in
 :mod:`vptoolkit.learn.validation`.
 """
 
@@ -70,25 +75,18 @@ import os
 import platform
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Final
 
 import numpy as np
 
 from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import ExistingRunError, InputError, VerificationError
 from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
-from vptoolkit.learn.config import ModelConfig, check_input_sizes
-from vptoolkit.learn.labels import (
-    check_label_method,
-    head_for_method,
-    label_loss,
-    label_phase,
-)
+from vptoolkit.learn.labels import label_loss, label_phase
 from vptoolkit.learn.model import (
     ViewpointNet,
     count_parameters,
@@ -96,16 +94,10 @@ from vptoolkit.learn.model import (
     save_model,
     torch_threads,
 )
+from vptoolkit.learn.options import TrainOptions
 from vptoolkit.learn.predict import CATEGORY_MODELS_FORMAT
 from vptoolkit.learn.record import training_record, update_best_record
-from vptoolkit.learn.schedule import (
-    PAPER_BATCH_SIZE,
-    PAPER_EPOCHS,
-    PAPER_LR,
-    PAPER_LR_DECAY,
-    learning_rate,
-    scaled_lr_step,
-)
+from vptoolkit.learn.schedule import learning_rate
 from vptoolkit.learn.splits import select_categories, select_models
 from vptoolkit.learn.state import (
     load_state,
@@ -115,7 +107,6 @@ from vptoolkit.learn.state import (
 )
 from vptoolkit.learn.validation import validation_inputs, validation_scores
 from vptoolkit.optional import require
-from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 
 if TYPE_CHECKING:
     import torch
@@ -125,6 +116,7 @@ else:
     Tensor = torch.Tensor
 
 __all__ = [
+    "DEFAULT_SAVE_EVERY",
     "TrainResult",
     "train_model",
     "train_per_category",
@@ -134,11 +126,9 @@ _log = logging.getLogger(__name__)
 
 _SEED_SHUFFLE = 1
 _SEED_DROPOUT = 2
-# Options a resumed run must share with the stopped one (``epochs`` may grow).
-_RESUME_KEYS = (
-    "labels", "batch_size", "lr", "lr_decay", "lr_step", "seed", "val_split", "max_models",
-    "n_points", "n_fps", "rotate", "architecture", "fps_pool", "val_rotations", "categories",
-)
+
+DEFAULT_SAVE_EVERY: Final = 10
+"""Epochs between two writes of the resumable state (the last epoch is always written)."""
 
 
 @dataclass(frozen=True)
@@ -200,26 +190,6 @@ def _generator(*keys: int, device: torch.device | str = "cpu") -> torch.Generato
     return torch.Generator(device=device).manual_seed(_seed(*keys))
 
 
-def _check_positive(value: Any, name: str) -> float:
-    """Return ``value`` as a float after checking it is a finite number above 0."""
-    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not is_number or not math.isfinite(value) or value <= 0:
-        raise InputError(f"{name}: expected a positive finite number, got {value!r}")
-    return float(value)
-
-
-def _architecture(architecture: ModelConfig | Mapping[str, Any] | None,
-                  labels: str) -> ModelConfig:
-    head = head_for_method(labels)
-    if architecture is None:
-        return ModelConfig(head=head)
-    values = architecture.to_dict() if isinstance(architecture, ModelConfig) else dict(architecture)
-    if values.setdefault("head", head) != head:
-        raise InputError(f"architecture: head {values['head']!r} does not fit labels "
-                         f"{labels!r} (needs {head!r})")
-    return ModelConfig.from_dict(values)
-
-
 def _collate(items: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     batch: dict[str, Any] = {"name": [item["name"] for item in items]}
     for key in ("points", "views", "quality", "best_views"):
@@ -238,33 +208,22 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
 def train_model(
     dataset_path: str | os.PathLike[str],
     output: str | os.PathLike[str],
+    options: TrainOptions | None = None,
     *,
-    labels: str = "ml+gl",
-    epochs: int = PAPER_EPOCHS,
-    batch_size: int = PAPER_BATCH_SIZE,
-    lr: float = PAPER_LR,
-    lr_decay: float = PAPER_LR_DECAY,
-    lr_step: int | None = None,
-    seed: int = 0,
     resume: bool = False,
     overwrite: bool = False,
     progress: bool = False,
-    val_split: str = "validation",
-    max_models: int | None = None,
-    categories: Sequence[str] | str | None = None,
-    n_points: int = N_NETWORK_POINTS,
-    n_fps: int = N_FPS_POINTS,
-    rotate: bool = True,
-    fps_pool: int = 8,
-    val_rotations: int = 3,
-    save_every: int = 10,
-    architecture: ModelConfig | Mapping[str, Any] | None = None,
+    save_every: int = DEFAULT_SAVE_EVERY,
     workers: int = 0,
     threads: int | None = None,
     device: str = "auto",
     command: str | None = None,
 ) -> TrainResult:
     """Train a viewpoint network and keep the checkpoint with the best validation score.
+
+    ``options`` say what the run learns, and are recorded; the keywords say
+    how this call runs (where, on how many threads, how often it saves),
+    which does not change the result, so a run may resume with others.
 
     Parameters
     ----------
@@ -274,52 +233,20 @@ def train_model(
     output : path-like
         Folder for ``model.safetensors`` and friends, or a ``*.safetensors``
         path (see the module docstring).
-    labels : {"ml+gl", "sl", "ml", "gl", "sr", "dldl"}
-        Label method (default: "ml+gl", the paper's).
-    epochs : int
-        Total epochs (default: 3000, the paper's); with ``resume`` the run
-        continues up to this number (``ml+gl`` switches to GL after half of it).
-    batch_size : int
-        Models per step, at least 2 for batch norm (default: 8).
-    lr, lr_decay : float
-        Adam's learning rate ``lr * lr_decay ** (epoch // lr_step)``
-        (defaults: 0.001, 0.75).
-    lr_step : int, optional
-        Epochs per decay step (default: :func:`scaled_lr_step`, the paper's
-        200 of 3000 scaled to ``epochs``).
-    seed : int
-        Seed of weights, shuffling, dropout and augmentation (default: 0).
+    options : TrainOptions, optional
+        Label method, schedule, seed, models, inputs and architecture
+        (default: ``TrainOptions()``, the paper's recipe).
     resume : bool
         Continue from ``<stem>.last.*`` if present, else start afresh
-        (default: False).
+        (default: False). The recorded options must equal ``options`` but
+        for ``epochs``, which may grow.
     overwrite : bool
         Replace an existing run in ``output`` instead of refusing (default: False).
     progress : bool
         Show a tqdm bar with the loss and validation score (default: False).
-    val_split : str
-        Split that picks the best checkpoint (default: "validation", alias
-        "val"; "train" for tiny datasets).
-    max_models : int, optional
-        Use at most this many models of each split, in store order (default: all).
-    categories : str or sequence of str, optional
-        Train and validate on these categories only (default: all).
-    n_points, n_fps : int
-        Input points per model and how many of them farthest point sampling
-        picks (defaults: 4096 and 1024).
-    rotate : bool
-        Random rotation augmentation (default: True).
-    fps_pool : int
-        Farthest-point subsets kept per model (default: 8; 0 runs farthest
-        point sampling for every input, the slow way).
-    val_rotations : int
-        Fixed rotations per validation model (default: 3; 0 validates in the
-        stored orientation).
     save_every : int
         Write the resumable state every this many epochs, and after the
-        last (default: 10).
-    architecture : ModelConfig or mapping, optional
-        Network configuration (default: ``ModelConfig(head=...)`` for the
-        label method).
+        last (default: :data:`DEFAULT_SAVE_EVERY`).
     workers : int
         Data-loading worker processes (default: 0, in this process).
     threads : int, optional
@@ -340,7 +267,7 @@ def train_model(
     Raises
     ------
     InputError
-        On invalid options, an empty split or a resumed run with other options.
+        On invalid keywords, an empty split or a resumed run with other options.
     ExistingRunError
         If ``output`` holds a run and neither ``resume`` (with a state to
         resume from) nor ``overwrite`` is given.
@@ -349,63 +276,44 @@ def train_model(
     VerificationError
         If the dataset's measure order differs from ``MEASURES``.
     """
-    with torch_threads(threads):
-        return _train(
-            dataset_path, output, labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
-            lr_decay=lr_decay, lr_step=lr_step, seed=seed, resume=resume, overwrite=overwrite,
-            progress=progress, val_split=val_split, max_models=max_models, categories=categories,
-            n_points=n_points, n_fps=n_fps, rotate=rotate, fps_pool=fps_pool,
-            val_rotations=val_rotations, save_every=save_every, architecture=architecture,
-            workers=workers, device=device, command=command,
-        )
-
-
-def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str], *, labels: str,
-           epochs: int, batch_size: int, lr: float, lr_decay: float, lr_step: int | None,
-           seed: int, resume: bool, overwrite: bool, progress: bool, val_split: str,
-           max_models: int | None, categories: Sequence[str] | str | None, n_points: int,
-           n_fps: int, rotate: bool, fps_pool: int, val_rotations: int, save_every: int,
-           architecture: ModelConfig | Mapping[str, Any] | None, workers: int, device: str,
-           command: str | None) -> TrainResult:
-    started = time.perf_counter()
-    labels = check_label_method(labels)
-    epochs = check_int(epochs, "epochs", minimum=1)
-    batch_size = check_int(batch_size, "batch_size", minimum=2)
-    lr = _check_positive(lr, "lr")
-    lr_decay = _check_positive(lr_decay, "lr_decay")
-    lr_step = (scaled_lr_step(epochs) if lr_step is None
-               else check_int(lr_step, "lr_step", minimum=1))
-    seed = check_int(seed, "seed", minimum=0)
-    n_points, n_fps = check_input_sizes(n_points, n_fps)
-    fps_pool = check_int(fps_pool, "fps_pool", minimum=0)
-    val_rotations = check_int(val_rotations, "val_rotations", minimum=0)
+    if options is None:
+        options = TrainOptions()
+    elif not isinstance(options, TrainOptions):
+        raise InputError(f"options: expected TrainOptions, got {type(options).__name__}")
     save_every = check_int(save_every, "save_every", minimum=1)
     workers = check_int(workers, "workers", minimum=0)
-    if max_models is not None:
-        max_models = check_int(max_models, "max_models", minimum=1)
     where = resolve_device(device)
-    config = _architecture(architecture, labels)
+    with torch_threads(threads):
+        return _train(dataset_path, output, options, resume=resume, overwrite=overwrite,
+                      progress=progress, save_every=save_every, workers=workers, device=where,
+                      command=command)
+
+
+def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
+           options: TrainOptions, *, resume: bool, overwrite: bool, progress: bool,
+           save_every: int, workers: int, device: torch.device,
+           command: str | None) -> TrainResult:
+    started = time.perf_counter()
+    config = options.model_config
+    epochs, labels, seed = options.epochs, options.labels, options.seed
     weights_path, config_path = checkpoint_paths(output)
     last_weights, last_json = state_paths(output)
     from vptoolkit.data.torch import ViewpointTorchDataset
 
     dataset = open_dataset(dataset_path)
     try:
-        chosen = select_categories(dataset, categories)
+        chosen = select_categories(dataset, options.categories)
         arguments = {
-            "dataset_path": str(dataset_path), "output": str(output), "labels": labels,
-            "epochs": epochs, "batch_size": batch_size, "lr": lr, "lr_decay": lr_decay,
-            "lr_step": lr_step, "seed": seed, "val_split": published_split(val_split),
-            "max_models": max_models, "categories": chosen, "n_points": n_points,
-            "n_fps": n_fps, "rotate": bool(rotate), "fps_pool": fps_pool,
-            "val_rotations": val_rotations, "save_every": save_every,
-            "architecture": config.to_dict(), "workers": workers, "device": str(where),
+            "dataset_path": str(dataset_path), "output": str(output), **options.to_dict(),
+            "save_every": save_every, "workers": workers, "device": str(device),
         }
         if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
             raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ "
                                     f"from {MEASURES}")
-        train_set, n_train = select_models(dataset, "train", chosen, max_models, "dataset_path")
-        val_set, n_val = select_models(dataset, val_split, chosen, max_models, "val_split")
+        train_set, n_train = select_models(dataset, "train", chosen, options.max_models,
+                                           "dataset_path")
+        val_set, n_val = select_models(dataset, options.val_split, chosen, options.max_models,
+                                       "val_split")
         if n_train < 2:
             raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; "
                              "need at least 2")
@@ -416,22 +324,24 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                     else "pass resume=True to continue it or overwrite=True to replace it")
             raise ExistingRunError(f"{weights_path.parent}: already holds a training run "
                                    f"({weights_path.name}); {hint}")
-        train_data = ViewpointTorchDataset(train_set, n_points=n_points, n_fps=n_fps,
-                                           rotate=rotate, seed=seed, fps_pool=fps_pool)
-        validation = validation_inputs(val_set, n_val, n_points=n_points, n_fps=n_fps, seed=seed,
-                                     rotations=val_rotations, device=where)
+        train_data = ViewpointTorchDataset(train_set, n_points=options.n_points,
+                                           n_fps=options.n_fps, rotate=options.rotate, seed=seed,
+                                           fps_pool=options.fps_pool)
+        validation = validation_inputs(val_set, n_val, n_points=options.n_points,
+                                       n_fps=options.n_fps, seed=seed,
+                                       rotations=options.val_rotations, device=device)
 
-        model = ViewpointNet(config, seed=_seed(seed, 0)).to(where)
-        optimizer = torch.optim.Adam(model.parameters(), lr=lr, fused=True)
+        model = ViewpointNet(config, seed=_seed(seed, 0)).to(device)
+        optimizer = torch.optim.Adam(model.parameters(), lr=options.lr, fused=True)
         history: list[dict[str, Any]] = []
         best: dict[str, Any] = {"epoch": 0, "score": -math.inf, "scores": {}}
         start_epoch = 0
         if is_resuming:
             start_epoch, history, best = load_state(model, optimizer, last_weights, last_json,
-                                                    arguments, _RESUME_KEYS)
+                                                    options)
         metadata_base = {
             "labels": labels,
-            "input": {"n_points": n_points, "n_fps": n_fps},
+            "input": {"n_points": options.n_points, "n_fps": options.n_fps},
             "categories": chosen,
             "toolkit_version": toolkit_version(),
             "torch_version": torch.__version__,
@@ -445,12 +355,13 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             for epoch in range(start_epoch, epochs):
                 epoch_started = time.perf_counter()
                 phase = label_phase(labels, epoch, epochs)
-                rate = learning_rate(epoch, lr=lr, lr_decay=lr_decay, lr_step=lr_step)
+                rate = learning_rate(epoch, lr=options.lr, lr_decay=options.lr_decay,
+                                     lr_step=options.decay_step)
                 for group in optimizer.param_groups:
                     group["lr"] = rate
                 loss = _train_epoch(model, optimizer, train_data, n_train, phase=phase,
-                                    epoch=epoch, seed=seed, batch_size=batch_size,
-                                    workers=workers, device=where)
+                                    epoch=epoch, seed=seed, batch_size=options.batch_size,
+                                    workers=workers, device=device)
                 scores = validation_scores(model, validation)
                 score = float(scores.mean())
                 entry = {
@@ -492,48 +403,50 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
 def train_per_category(
     dataset_path: str | os.PathLike[str],
     output: str | os.PathLike[str],
-    *,
-    categories: Sequence[str] | None = None,
-    progress: bool = False,
-    **options: Any,
+    options: TrainOptions | None = None,
+    **run: Any,
 ) -> dict[str, TrainResult]:
     """Train one network per category, the paper's set-up, into one folder.
 
-    Each category's run is :func:`train_model` with ``categories=[name]``
-    into ``output/<category>/``; ``output/categories.json`` indexes them
-    (``format``, ``categories``: name to checkpoint folder); categories an
-    earlier run into the same folder listed stay listed. Give that folder
-    to :func:`vptoolkit.learn.predict.predict`, which routes each model to
-    its category's network.
+    Each category's run is :func:`train_model` with the options restricted
+    to that category (``categories=(name,)``) into ``output/<category>/``;
+    ``output/categories.json`` indexes them (``format``, ``categories``:
+    name to checkpoint folder); categories an earlier run into the same
+    folder listed stay listed. Give that folder to
+    :func:`vptoolkit.learn.predict.predict`, which routes each model to its
+    category's network.
 
     Parameters
     ----------
     dataset_path, output : path-like
         As for :func:`train_model`; ``output`` is a folder.
-    categories : sequence of str, optional
-        Categories to train (default: every category with training models).
-    progress : bool
-        Progress bars (default: False).
-    **options
-        Any other :func:`train_model` option, the same for every category.
+    options : TrainOptions, optional
+        The options of every category's run (default: ``TrainOptions()``);
+        their ``categories`` are the categories to train (default: every
+        category with training models).
+    **run
+        :func:`train_model`'s keywords (``resume``, ``progress``,
+        ``device``...), the same for every category.
 
     Returns
     -------
     results : dict of str to TrainResult
         By category, sorted.
     """
+    if options is None:
+        options = TrainOptions()
     folder = Path(output)
     if folder.suffix == ".safetensors":
         raise InputError(f"{folder}: per-category training writes a folder, not one "
                          ".safetensors file")
     with open_dataset(dataset_path) as dataset:
-        chosen = select_categories(dataset, categories)
+        chosen = select_categories(dataset, options.categories)
         names = chosen if chosen is not None else sorted(set(dataset.split("train").categories))
     index = _category_index(folder)
     results = {}
     for name in names:
-        results[name] = train_model(dataset_path, folder / name, categories=[name],
-                                    progress=progress, **options)
+        results[name] = train_model(dataset_path, folder / name,
+                                    replace(options, categories=(name,)), **run)
         index[name] = name
         write_json_atomic(folder / "categories.json", {
             "format": CATEGORY_MODELS_FORMAT,

@@ -4,8 +4,9 @@ One concept per module:
 
 * :mod:`~vptoolkit.pictures.shading`: what both engines share: ``RenderStyle``,
   crease-aware normals, the picture camera, the light and sRGB;
-* :mod:`~vptoolkit.pictures.engine`: the ``Engine`` protocol and
-  ``open_renderer`` (engine by name);
+* :mod:`~vptoolkit.pictures.engine`: the ``Engine`` protocol,
+  ``open_renderer`` (engine by name) and ``drawing_engine`` (the one engine
+  every picture function takes, or the default made for the call);
 * :mod:`~vptoolkit.pictures.software_engine`: ``SoftwareRenderer``, the
   measures' rasteriser with numpy shading (the default engine);
 * :mod:`~vptoolkit.pictures.open3d_engine`: ``Renderer``, Open3D's Filament

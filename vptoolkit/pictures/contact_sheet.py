@@ -12,23 +12,24 @@ the same inputs give the same bytes.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from typing import Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
-from vptoolkit.pictures.engine import Engine
-from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, RenderStyle
-from vptoolkit.pictures.views import render_views
+from vptoolkit.pictures.engine import Engine, drawing_engine
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.search import measure_view_set
 
-__all__ = ["contact_sheet", "view_set_captions", "view_set_sheet"]
+__all__ = ["TILE_SIZE", "contact_sheet", "view_set_captions", "view_set_sheet"]
+
+TILE_SIZE: Final = 256
+"""Side in pixels of a view-set sheet's tiles when no engine is given."""
 
 _CAPTION_PX = 34  # caption strip under a tile, room for two lines of 9 px text
 _TITLE_PX = 26
@@ -126,14 +127,9 @@ def view_set_sheet(
     mesh: Mesh,
     k: int | None = 4,
     *,
-    size: int = 256,
     view_set: ViewSet | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
+    settings: MeasureSettings | None = None,
+    engine: Engine | None = None,
     **options: object,
 ) -> tuple[NDArray[np.uint8], ViewSet]:
     """Find a mesh's view set and draw it as a contact sheet.
@@ -144,14 +140,15 @@ def view_set_sheet(
         The model.
     k : int or None
         Views in the set (default: 4); see :func:`vptoolkit.view_sets.search.best_view_set`.
-    size : int
-        Side of each tile in pixels (default: 256).
     view_set : ViewSet, optional
         A set already found for this mesh; nothing is measured then.
-    n_views, resolution, camera
-        How the views are measured (defaults: 1000 views, 1024 px, ``Camera()``).
-    style, renderer, engine
-        How the tiles are drawn (see :func:`vptoolkit.pictures.views.render_views`).
+    settings : MeasureSettings, optional
+        How the views are measured (default: ``MeasureSettings()``: 1000
+        views, 1024 px, ``Camera()``).
+    engine : Engine, optional
+        The engine that draws the tiles, its size the tiles' side; its
+        camera must be that of ``settings`` (default: a software engine of
+        :data:`TILE_SIZE` pixels with that camera, made for this call).
     **options
         ``objective``, ``until_coverage``, ``measure``, ``tolerance``,
         ``min_pixels`` of the search.
@@ -164,12 +161,12 @@ def view_set_sheet(
     view_set : ViewSet
         The set drawn.
     """
-    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
-    if view_set is None:
-        _, view_set = measure_view_set(mesh, k, n_views=n_views, resolution=resolution,
-                                       camera=camera, **options)  # type: ignore[arg-type]
-    images = render_views(mesh, view_set.directions, size=size, camera=camera, style=style,
-                          renderer=renderer, engine=engine)
+    settings = settings or MeasureSettings()
+    with drawing_engine(engine, size=TILE_SIZE, camera=settings.camera) as active:
+        if view_set is None:
+            _, view_set = measure_view_set(mesh, k, settings=settings,
+                                           **options)  # type: ignore[arg-type]
+        images = active.render(mesh, view_set.directions)
     title = (f"{mesh.name}: {len(view_set)} views by {view_set.objective}, "
              f"{100 * view_set.coverage[-1]:.1f} % of the surface seen "
              f"({100 * view_set.reachable:.1f} % reachable)")

@@ -12,12 +12,16 @@ in a :class:`~vptoolkit.pictures.shading.RenderStyle`. Two satisfy
   time depends on the view, from 0.1 s to minutes, which is why it is not
   the default.
 
-:func:`open_renderer` makes either. ``tests/test_engine_contract.py`` checks
-what every engine must do.
+:func:`open_renderer` makes either. Every picture function takes one
+``engine`` (its size, camera and style apply) and leaves it open for its
+owner, or makes the default engine for the call (:func:`drawing_engine`).
+``tests/test_engine_contract.py`` checks what every engine must do.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from vptoolkit.errors import InputError
@@ -31,7 +35,7 @@ if TYPE_CHECKING:
     from vptoolkit.mesh import Mesh
     from vptoolkit.pictures.shading import RenderStyle
 
-__all__ = ["ENGINES", "Engine", "open_renderer"]
+__all__ = ["ENGINES", "Engine", "drawing_engine", "open_renderer"]
 
 ENGINES = ("software", "open3d")
 """Picture engines, the default first: ``"software"``
@@ -147,3 +151,40 @@ def open_renderer(engine: str = "software", *, size: int = PICTURE_SIZE,
 
         return SoftwareRenderer(size=size, camera=camera, style=style)
     raise InputError(f"engine: expected one of {', '.join(ENGINES)}, got {engine!r}")
+
+
+@contextmanager
+def drawing_engine(engine: Engine | None, *, size: int = PICTURE_SIZE,
+                   camera: Camera | None = None) -> Iterator[Engine]:
+    """The engine a picture function draws with, as a context manager.
+
+    Parameters
+    ----------
+    engine : Engine, optional
+        The caller's engine, used as it is and left open for its owner; None
+        makes a software engine of ``size`` and ``camera`` for the ``with``
+        block and closes it after.
+    size : int
+        Picture side of the engine made when ``engine`` is None (default: 512).
+    camera : Camera, optional
+        The camera the pictures must use: the measures' camera where a
+        picture shows a measured view (default: ``Camera()``).
+
+    Raises
+    ------
+    InputError
+        If ``engine`` is not an engine (e.g. a name: make one with
+        :func:`open_renderer`), or its camera is not ``camera``, so its
+        pictures would not show the views the measures scored.
+    """
+    if engine is None:
+        with open_renderer(size=size, camera=camera) as own:
+            yield own
+        return
+    if not isinstance(engine, Engine):
+        raise InputError(f"engine: expected an Engine (see open_renderer), got "
+                         f"{type(engine).__name__}")
+    if camera is not None and engine.camera != camera:
+        raise InputError("engine: its camera differs from the camera of the measures, so its "
+                         "pictures would not show the views they scored")
+    yield engine

@@ -16,6 +16,7 @@ import os
 import re
 from collections import Counter
 from collections.abc import Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,9 +31,8 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
-from vptoolkit.pictures.engine import Engine, open_renderer
+from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
-from vptoolkit.pictures.shading import MAX_PICTURE_SIZE, MIN_PICTURE_SIZE, RenderStyle
 
 __all__ = ["write_report"]
 
@@ -77,12 +77,8 @@ def write_report(
     *,
     split: str | None = None,
     predictions: str | os.PathLike[str] | None = None,
-    size: int = REPORT_SIZE,
     thumbnails: bool = True,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
+    engine: Engine | None = None,
     progress: bool = False,
     view_set: int | None = 4,
 ) -> Path:
@@ -114,20 +110,14 @@ def write_report(
     predictions : path-like, optional
         A predictions ``.npz``/``.npy`` naming each reported model (see
         :func:`vptoolkit.evaluate.scores.load_predictions`).
-    size : int
-        Picture side in pixels (default: 256).
     thumbnails : bool
         Draw the pictures (default: True); False writes maps and tables
-        only and needs no renderer.
-    camera : Camera, optional
-        Camera of the pictures (default: ``Camera()``, the measures' own).
-    style : RenderStyle, optional
-        Shading.
-    renderer : Engine, optional
-        An open renderer to use (its size, camera and style apply).
-    engine : {"software", "open3d"}
-        Engine of the renderer made when ``renderer`` is not given (default:
-        "software"; see :func:`vptoolkit.pictures.engine.open_renderer`).
+        only and needs no engine.
+    engine : Engine, optional
+        The engine that draws the pictures (its size, camera and style
+        apply), left open; default: a software engine of
+        :data:`REPORT_SIZE` pixels with the measures' camera, made for this
+        call.
     progress : bool
         Show a progress bar on stderr (default: False).
     view_set : int or None
@@ -148,16 +138,15 @@ def write_report(
         For an unknown split, a split without models, or a predictions file
         that does not fit the reported models.
     MissingDependencyError
-        If matplotlib is missing, or ``thumbnails`` is set and no renderer
-        can start here (checked before any work).
+        If matplotlib is missing, or ``thumbnails`` is set and the engine
+        cannot start here (checked before any work).
     """
     from vptoolkit.data import ViewpointDataset, open_dataset
 
     if not isinstance(dataset, ViewpointDataset):
         with open_dataset(dataset) as opened:
             return write_report(
-                opened, out_dir, split=split, predictions=predictions, size=size,
-                thumbnails=thumbnails, camera=camera, style=style, renderer=renderer,
+                opened, out_dir, split=split, predictions=predictions, thumbnails=thumbnails,
                 engine=engine, progress=progress, view_set=view_set,
             )
     from vptoolkit.evaluate.scores import load_predictions, score_directions
@@ -166,7 +155,6 @@ def write_report(
 
     require("matplotlib")
     target = as_path(out_dir, "out_dir")
-    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     if view_set is not None:
         view_set = check_int(view_set, "view_set", minimum=1)
     selected = dataset if split is None else dataset.split(split)
@@ -187,42 +175,39 @@ def write_report(
     categories = selected.categories
     splits = selected.splits
     records = selected.records
-    own_renderer = thumbnails and renderer is None
-    active = renderer if renderer is not None else (
-        open_renderer(engine, size=size, camera=camera, style=style) if thumbnails else None
-    )
     cards: list[_Card] = []
-    bar = tqdm(total=len(selected), desc="report", unit="model", disable=not progress)
-    try:
-        if active is not None:
-            active.start()  # fail fast, in one line, when no renderer can run here
-        for position, name in enumerate(names):
-            item = selected[position]
-            slug = _slug(position, name)
-            best_index = [int(i) for i in item["best_index"]]
-            card = _Card(name=name, category=categories[position], split=splits[position],
-                         slug=slug, n_faces=int(records[position].get("n_faces", 0)),
-                         best_index=best_index, best_images=[None] * len(MEASURES),
-                         sphere_map=f"maps/{slug}.png")
-            rows = None if predicted is None else predicted[position]
-            if evaluation is not None:
-                card.scores = [float(v) for v in evaluation.scores[position]]
-            if view_set is not None:
-                _find_view_set(selected, position, view_set, card)
+    with ExitStack() as stack:
+        active = (stack.enter_context(drawing_engine(engine, size=REPORT_SIZE)) if thumbnails
+                  else None)
+        bar = tqdm(total=len(selected), desc="report", unit="model", disable=not progress)
+        try:
             if active is not None:
-                _draw_card_pictures(active, selected, position, card, views, rows, target)
-            figure = sphere_maps(views, item["quality"], predicted=rows,
-                                 title=f"{name} ({card.category}, {card.split})",
-                                 view_set=views[card.view_set] if card.view_set else None)
-            save_figure(figure, target / card.sphere_map, dpi=80)
-            cards.append(card)
-            bar.update(1)
-    finally:
-        bar.close()
-        if own_renderer and active is not None:
-            active.close()
-    page = _page(selected, cards, evaluation, has_pictures=active is not None,
-                 camera=(active.camera if active is not None else camera or Camera()))
+                active.start()  # fail fast, in one line, when no engine can run here
+            for position, name in enumerate(names):
+                item = selected[position]
+                slug = _slug(position, name)
+                best_index = [int(i) for i in item["best_index"]]
+                card = _Card(name=name, category=categories[position], split=splits[position],
+                             slug=slug, n_faces=int(records[position].get("n_faces", 0)),
+                             best_index=best_index, best_images=[None] * len(MEASURES),
+                             sphere_map=f"maps/{slug}.png")
+                rows = None if predicted is None else predicted[position]
+                if evaluation is not None:
+                    card.scores = [float(v) for v in evaluation.scores[position]]
+                if view_set is not None:
+                    _find_view_set(selected, position, view_set, card)
+                if active is not None:
+                    _draw_card_pictures(active, selected, position, card, views, rows, target)
+                figure = sphere_maps(views, item["quality"], predicted=rows,
+                                     title=f"{name} ({card.category}, {card.split})",
+                                     view_set=views[card.view_set] if card.view_set else None)
+                save_figure(figure, target / card.sphere_map, dpi=80)
+                cards.append(card)
+                bar.update(1)
+        finally:
+            bar.close()
+        camera = active.camera if active is not None else Camera()
+    page = _page(selected, cards, evaluation, has_pictures=active is not None, camera=camera)
     index = target / "index.html"
     return write_text_atomic(index, page)
 

@@ -47,6 +47,7 @@ from vptoolkit.pictures.shading import (
     picture_camera,
     srgb_to_linear,
 )
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import face_id_images
 
@@ -65,7 +66,7 @@ class SoftwareRenderer:
 
     The ``"software"`` :class:`~vptoolkit.pictures.engine.Engine` (``size``,
     ``camera``, ``style``, :meth:`start`, :meth:`close`, :meth:`render`, use
-    as a context manager), so every function taking a ``renderer`` takes
+    as a context manager), so every picture function's ``engine`` may be
     it or the Open3D one.
 
     Parameters
@@ -145,9 +146,10 @@ class SoftwareRenderer:
         fine = self.size * factor
         centre, diagonal = bounding_frame(mesh)
         poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
+        settings = MeasureSettings(views=1, resolution=fine, camera=camera)
         images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for view in range(len(unit)):
-            ids = face_id_images(mesh, unit[view], resolution=fine, camera=camera)[0].reshape(-1)
+            ids = face_id_images(mesh, settings, view_directions=unit[view])[0].reshape(-1)
             linear = self._background_image(len(ids))
             hit = np.flatnonzero(ids >= 0)
             for start in range(0, len(hit), _CHUNK):  # bounded memory at any size

@@ -5,8 +5,8 @@ the measures (:func:`vptoolkit.measures.compute_view_quality`) run in
 parallel worker processes while one renderer (an
 :class:`~vptoolkit.pictures.engine.Engine`) draws, so a start-up such as
 that of Open3D's render child is paid once. The picture of ``SRC/a/b.off``
-is ``OUT/a/b.png``; ``OUT/thumbnails.json`` records the measure, camera,
-size, every picture's direction and the files that were skipped with their
+is ``OUT/a/b.png``; ``OUT/thumbnails.json`` records the measure, the
+measure settings, the size, every picture's direction and the files that were skipped with their
 one-line reasons (unreadable, unmeasurable or undrawable files never stop
 the batch). The measuring runs in :func:`vptoolkit.parallel.run_tasks`, one
 frozen :class:`_MeasureTask` per file, each giving a :class:`_Measured`.
@@ -23,23 +23,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_int, one_line
-from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
+from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import run_tasks
-from vptoolkit.pictures.engine import Engine, open_renderer
+from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
-from vptoolkit.pictures.shading import (
-    MAX_PICTURE_SIZE,
-    MIN_PICTURE_SIZE,
-    PICTURE_SIZE,
-    RenderStyle,
-)
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.progress import progress_bar
+from vptoolkit.settings import MeasureSettings
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -78,7 +72,8 @@ class ThumbnailResult:
     failures : list of ThumbnailFailure
         The skipped files with their reasons, sorted by source.
     index : Path
-        ``thumbnails.json`` in the output folder: measure, size, camera and
+        ``thumbnails.json`` in the output folder: measure, measure settings
+        (:meth:`~vptoolkit.settings.MeasureSettings.to_dict`), size and
         one ``{"source", "image", "direction", "label"}`` record per picture,
         plus the failures.
     """
@@ -106,9 +101,7 @@ class _MeasureTask:
     path: str
     source: str
     measure: str
-    n_views: int
-    resolution: int
-    camera: Camera
+    settings: MeasureSettings
     view_set: int | None
 
 
@@ -134,12 +127,11 @@ def _best_direction_task(task: _MeasureTask) -> _Measured:
         if task.view_set:
             from vptoolkit.view_sets.search import measure_view_set
 
-            _, view_set = measure_view_set(mesh, task.view_set, n_views=task.n_views,
-                                           resolution=task.resolution, camera=task.camera)
+            _, view_set = measure_view_set(mesh, task.view_set, settings=task.settings)
             label = f"view set of {len(view_set)} ({100 * view_set.coverage[-1]:.1f} % seen)"
             return _Measured(task.source, mesh=mesh, direction=view_set.directions,
                              view_set=view_set, label=label)
-        quality = compute_view_quality(mesh, task.n_views, task.resolution, camera=task.camera)
+        quality = compute_view_quality(mesh, task.settings)
     except (VptoolkitError, OSError, MemoryError) as err:
         return _Measured(task.source, error=one_line(err))
     index = int(quality.best_index[MEASURES.index(task.measure)])
@@ -174,7 +166,7 @@ def _predicted_results(tasks: list[_MeasureTask], predictor: DirectionSource,
         yield _Measured(task.source, mesh=mesh, direction=direction, label=f"predicted {measure}")
 
 
-def _draw(result: _Measured, renderer: Engine, output_of: dict[str, Path], target: Path,
+def _draw(result: _Measured, engine: Engine, output_of: dict[str, Path], target: Path,
           done: list[Path], failures: list[ThumbnailFailure]) -> dict[str, Any] | None:
     """Draw and save one measured mesh; its index record, or None after recording a failure."""
     if result.error is not None or result.mesh is None or result.direction is None:
@@ -185,9 +177,9 @@ def _draw(result: _Measured, renderer: Engine, output_of: dict[str, Path], targe
         if result.view_set is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-            image, _ = view_set_sheet(result.mesh, view_set=result.view_set, renderer=renderer)
+            image, _ = view_set_sheet(result.mesh, view_set=result.view_set, engine=engine)
         else:
-            image = renderer.render(result.mesh, result.direction)[0]
+            image = engine.render(result.mesh, result.direction)[0]
         image_path.parent.mkdir(parents=True, exist_ok=True)
         done.append(save_png(image, image_path))
     except (VptoolkitError, OSError) as err:
@@ -203,14 +195,9 @@ def render_thumbnails(
     *,
     measure: str = "VE",
     predictor: DirectionSource | None = None,
-    size: int = PICTURE_SIZE,
     workers: int | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
+    settings: MeasureSettings | None = None,
+    engine: Engine | None = None,
     progress: bool = False,
     view_set: int | None = None,
 ) -> ThumbnailResult:
@@ -222,8 +209,8 @@ def render_thumbnails(
     and drawn from its best view for ``measure``; with ``predictor`` the
     direction comes from it instead and nothing is measured. The picture of
     ``src/a/b.off`` is ``out/a/b.png``. Measuring runs in ``workers``
-    processes (numba limited to one thread each); drawing runs in one
-    render child that is started once.
+    processes (numba limited to one thread each); one engine draws, started
+    once.
 
     Parameters
     ----------
@@ -237,29 +224,24 @@ def render_thumbnails(
         Direction source (see :func:`vptoolkit.pictures.views.resolve_direction`);
         a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
         network's prediction.
-    size : int
-        Thumbnail side in pixels (default: 512).
     workers : int, optional
         Measuring processes (default: the number of CPUs; 1 measures in this
         process with every numba thread).
-    n_views, resolution : int
-        Views and triangle-ID resolution of the measures (defaults: 1000, 1024).
-    camera : Camera, optional
-        Camera of measures and pictures (default: ``Camera()``).
-    style : RenderStyle, optional
-        Shading.
-    renderer : Engine, optional
-        An open renderer to use (its size, camera and style apply).
-    engine : {"software", "open3d"}
-        Engine of the renderer made when ``renderer`` is not given (default:
-        "software"; see :func:`vptoolkit.pictures.engine.open_renderer`).
+    settings : MeasureSettings, optional
+        How the measures draw each mesh (default: ``MeasureSettings()``:
+        1000 views, 1024 px, ``Camera()``).
+    engine : Engine, optional
+        The engine that draws, its size the thumbnails' side; its camera
+        must be that of ``settings`` (default: a software engine of 512
+        pixels with that camera, made for this call).
     progress : bool
         Show a progress bar on stderr (default: False).
     view_set : int, optional
         Draw each mesh's ``view_set``-view coverage set
         (:func:`vptoolkit.view_sets.search.best_view_set`) as a captioned contact
-        sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`), ``size``
-        pixels per tile, instead of one view; its record lists every direction.
+        sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`), a tile
+        of the engine's size per view, instead of one view; its record lists
+        every direction.
 
     Returns
     -------
@@ -269,25 +251,23 @@ def render_thumbnails(
     Raises
     ------
     InputError
-        If ``src`` does not exist, an argument is invalid, or two sources
-        would write the same picture (``a.off`` and ``a.obj``: the second is
+        If ``src`` does not exist, an argument is invalid, the engine's
+        camera is not that of ``settings``, or two sources would write the
+        same picture (``a.off`` and ``a.obj``: the second is
         reported as a failure instead).
     MissingDependencyError
-        If no renderer can start here (checked before any work).
+        If the engine cannot start here (checked before any work).
     """
     source = as_path(src, "src")
     target = as_path(out, "out")
     column = measure_index(measure)
     measure = MEASURES[column]
-    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
     workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
-    n_views = check_int(n_views, "n_views", minimum=1)
-    resolution = check_int(resolution, "resolution", minimum=1)
+    settings = settings or MeasureSettings()
     if view_set is not None:
         view_set = check_int(view_set, "view_set", minimum=1)
         if predictor is not None:
             raise InputError("view_set: a predictor gives one view per mesh; drop one of them")
-    camera = camera or (renderer.camera if renderer is not None else Camera())
     files = _mesh_files(source)
     root = source if source.is_dir() else source.parent
     target.mkdir(parents=True, exist_ok=True)
@@ -305,15 +285,12 @@ def render_thumbnails(
             continue
         claimed[image_path] = relative
         output_of[relative] = image_path
-        tasks.append(_MeasureTask(str(path), relative, measure, n_views, resolution, camera,
-                                  view_set))
+        tasks.append(_MeasureTask(str(path), relative, measure, settings, view_set))
 
-    own_renderer = renderer is None
-    active = renderer or open_renderer(engine, size=size, camera=camera, style=style)
     records: list[dict[str, Any]] = []
     done: list[Path] = []
-    try:
-        active.start()  # fail fast, in one line, when no renderer can run here
+    with drawing_engine(engine, camera=settings.camera) as active:
+        active.start()  # fail fast, in one line, when no engine can run here
         results = (run_tasks(_best_direction_task, tasks, workers=workers, crashed=_worker_died)
                    if predictor is None else _predicted_results(tasks, predictor, measure))
         with progress_bar(total=len(tasks), description="thumbnails", unit="model",
@@ -323,9 +300,7 @@ def render_thumbnails(
                 record = _draw(result, active, output_of, target, done, failures)
                 if record is not None:
                     records.append(record)
-    finally:
-        if own_renderer:
-            active.close()
+        size = active.size
     failures.sort(key=lambda failure: failure.source)
     records.sort(key=lambda record: record["source"])
     index = target / _INDEX_NAME
@@ -333,10 +308,8 @@ def render_thumbnails(
         "source": str(source),
         "measure": measure,
         "direction_from": "measures" if predictor is None else "predictor",
-        "n_views": n_views,
-        "resolution": resolution,
-        "size": active.size,
-        "camera": camera.to_dict(),
+        "settings": settings.to_dict(),
+        "size": size,
         "thumbnails": records,
         "failures": [{"source": f.source, "reason": f.reason} for f in failures],
     }, indent=2) + "\n")

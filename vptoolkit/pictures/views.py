@@ -17,9 +17,11 @@ inscribed in the image. With ``RenderStyle(up=Camera().up)`` pixel ``(x,
 y)`` of a picture ``size`` pixels wide is pixel ``(x, y)`` of the measures'
 triangle-ID image at resolution ``size``.
 
-Every function takes an open ``renderer`` (any :class:`~vptoolkit.pictures.engine.Engine`)
-to reuse, or makes one of ``engine`` for the call
-(:func:`~vptoolkit.pictures.engine.open_renderer`; default ``"software"``).
+Every function takes an ``engine`` (any :class:`~vptoolkit.pictures.engine.Engine`,
+made with :func:`~vptoolkit.pictures.engine.open_renderer`; its size, camera
+and style apply) and leaves it open, or draws with a software engine made for
+the call; the measured views' functions take a
+:class:`~vptoolkit.settings.MeasureSettings`.
 """
 
 from __future__ import annotations
@@ -30,13 +32,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera
-from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
+from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.measures import ViewQuality
 from vptoolkit.mesh import Mesh
-from vptoolkit.pictures.engine import Engine, open_renderer
-from vptoolkit.pictures.shading import PICTURE_SIZE, RenderStyle
+from vptoolkit.pictures.engine import Engine, drawing_engine
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -74,17 +75,9 @@ class RenderedView:
     label: str
 
 
-def render_views(
-    mesh: Mesh,
-    directions: ArrayLike,
-    *,
-    size: int = PICTURE_SIZE,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
-) -> NDArray[np.uint8]:
-    """Draw a mesh from several view directions with one renderer.
+def render_views(mesh: Mesh, directions: ArrayLike, *,
+                 engine: Engine | None = None) -> NDArray[np.uint8]:
+    """Draw a mesh from several view directions with one engine.
 
     Parameters
     ----------
@@ -92,38 +85,21 @@ def render_views(
         The model.
     directions : (n, 3) or (3,) array_like
         View directions from the model centre towards the camera.
-    size : int
-        Picture side in pixels (default: 512); ignored when ``renderer`` is given.
-    camera : Camera, optional
-        Camera conventions (default: those of the measures).
-    style : RenderStyle, optional
-        Shading.
-    renderer : Engine, optional
-        An open renderer to reuse (its size, camera and style apply).
-    engine : {"software", "open3d"}
-        Engine of a renderer made for this call (default: "software"; see
-        :func:`open_renderer`).
+    engine : Engine, optional
+        The engine to draw with (its size, camera and style apply), left
+        open; default: a software engine of the default size, the measures'
+        camera and the default style, made for this call.
 
     Returns
     -------
     images : (n, size, size, 3) uint8
     """
-    if renderer is not None:
-        return renderer.render(mesh, directions)
-    with open_renderer(engine, size=size, camera=camera, style=style) as own:
-        return own.render(mesh, directions)
+    with drawing_engine(engine) as active:
+        return active.render(mesh, directions)
 
 
-def render_view(
-    mesh: Mesh,
-    direction: ArrayLike,
-    *,
-    size: int = PICTURE_SIZE,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
-) -> NDArray[np.uint8]:
+def render_view(mesh: Mesh, direction: ArrayLike, *,
+                engine: Engine | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from one view direction.
 
     Parameters
@@ -132,16 +108,8 @@ def render_view(
         The model.
     direction : (3,) array_like
         View direction from the model centre towards the camera.
-    size : int
-        Picture side in pixels (default: 512); ignored when ``renderer`` is given.
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``, those of the measures).
-    style : RenderStyle, optional
-        Shading.
-    renderer : Engine, optional
-        An open renderer to reuse.
-    engine : {"software", "open3d"}
-        Engine of a renderer made for this call (default: "software").
+    engine : Engine, optional
+        As for :func:`render_views`.
 
     Returns
     -------
@@ -153,15 +121,14 @@ def render_view(
     InputError
         On a bad direction.
     MissingDependencyError
-        If no renderer can start here (e.g. no Vulkan driver).
+        If the engine cannot start here (e.g. no Vulkan driver).
     MeasurementError
         If the frame failed in every attempt.
     """
     unit = as_directions(direction, name="direction")
     if len(unit) != 1:
         raise InputError(f"direction: expected one direction, got {len(unit)}")
-    return render_views(mesh, unit, size=size, camera=camera, style=style,
-                        renderer=renderer, engine=engine)[0]
+    return render_views(mesh, unit, engine=engine)[0]
 
 
 def resolve_direction(mesh: Mesh, source: DirectionSource, *,
@@ -209,20 +176,14 @@ def render_best(
     mesh: Mesh,
     *,
     measure: str = "VE",
-    size: int = PICTURE_SIZE,
     quality: ViewQuality | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
+    settings: MeasureSettings | None = None,
+    engine: Engine | None = None,
 ) -> RenderedView:
     """Draw a mesh from its best view for one measure.
 
     The measures are computed first (:func:`vptoolkit.measures.compute_view_quality`
-    with ``n_views`` and ``resolution``) unless ``quality`` is given; the
-    picture uses the same camera conventions.
+    with ``settings``) unless ``quality`` is given; the picture uses their camera.
 
     Parameters
     ----------
@@ -230,35 +191,34 @@ def render_best(
         The model.
     measure : str
         ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
-    size : int
-        Picture side in pixels (default: 512).
     quality : ViewQuality, optional
         Measures already computed for this mesh.
-    n_views, resolution : int
-        Views and triangle-ID resolution of the measures (defaults: 1000, 1024).
-    camera : Camera, optional
-        Camera conventions for both measures and picture (default: ``Camera()``).
-    style : RenderStyle, optional
-        Shading.
-    renderer : Engine, optional
-        An open renderer to reuse.
-    engine : {"software", "open3d"}
-        Engine of a renderer made for this call (default: "software").
+    settings : MeasureSettings, optional
+        How to measure when ``quality`` is not given (default:
+        ``MeasureSettings()``: 1000 views at 1024 px, ``Camera()``).
+    engine : Engine, optional
+        The engine to draw with, whose camera must be the measures'
+        (default: a software engine with their camera, made for this call).
 
     Returns
     -------
     RenderedView
         ``label`` reads e.g. ``"best VE (view 17 of 1000)"``.
+
+    Raises
+    ------
+    InputError
+        On an unknown measure, or an engine whose camera is not the measures'.
     """
     column = measure_index(measure)
     if quality is None:
         from vptoolkit.measures import compute_view_quality
 
-        quality = compute_view_quality(mesh, n_views, resolution, camera=camera)
+        quality = compute_view_quality(mesh, settings or MeasureSettings())
     index = int(quality.best_index[column])
     direction = quality.views[index]
-    image = render_view(mesh, direction, size=size, camera=camera or quality.camera,
-                        style=style, renderer=renderer, engine=engine)
+    with drawing_engine(engine, camera=quality.camera) as active:
+        image = render_view(mesh, direction, engine=active)
     return RenderedView(image, direction.copy(),
                         f"best {MEASURES[column]} (view {index} of {len(quality.views)})")
 
@@ -268,11 +228,7 @@ def render_predicted(
     source: DirectionSource,
     *,
     measure: str = "VE",
-    size: int = PICTURE_SIZE,
-    camera: Camera | None = None,
-    style: RenderStyle | None = None,
-    renderer: Engine | None = None,
-    engine: str = "software",
+    engine: Engine | None = None,
 ) -> RenderedView:
     """Draw a mesh from a predicted view direction.
 
@@ -285,10 +241,8 @@ def render_predicted(
         the prediction (the hook for ``vptool render --model``).
     measure : str
         Measure whose prediction to draw (default: "VE").
-    size : int
-        Picture side in pixels (default: 512).
-    camera, style, renderer, engine
-        As for :func:`render_view`.
+    engine : Engine, optional
+        As for :func:`render_views`.
 
     Returns
     -------
@@ -296,7 +250,5 @@ def render_predicted(
         ``label`` reads e.g. ``"predicted VE"``.
     """
     direction = resolve_direction(mesh, source, measure=measure)
-    image = render_view(mesh, direction, size=size, camera=camera, style=style,
-                        renderer=renderer, engine=engine)
+    image = render_view(mesh, direction, engine=engine)
     return RenderedView(image, direction, f"predicted {MEASURES[measure_index(measure)]}")
-

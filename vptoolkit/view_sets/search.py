@@ -14,18 +14,17 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, measure_index
+from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.measures import (
     ViewQuality,
     compute_view_quality,
 )
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
-from vptoolkit.visibility import Backend
 
 __all__ = ["OBJECTIVES", "best_view_set", "measure_view_set", "set_coverage"]
 
@@ -256,18 +255,15 @@ def best_view_set(
     tolerance: float = _TOLERANCE,
     min_pixels: int = MIN_PIXELS,
     quality: ArrayLike | None = None,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
+    settings: MeasureSettings = MeasureSettings(),
 ) -> ViewSet:
     """Choose views that together show the model, greedily (see the module docstring).
 
     Parameters
     ----------
     source : Mesh or FaceVisibility
-        A mesh (its views are drawn here with ``n_views``, ``resolution``,
-        ``camera`` and ``backend``) or pixel counts already drawn.
+        A mesh (its views are drawn here with ``settings``) or pixel counts
+        already drawn.
     k : int or None
         Number of views (default: 4); with ``until_coverage`` the most views.
         Fewer come back when ``k`` exceeds the sampled views, or when no
@@ -285,8 +281,9 @@ def best_view_set(
         Pixels a face needs in a view to count as seen (default: 1).
     quality : (n_views, 4) array_like, optional
         Normalised quality of the views, if already computed (``"quality"`` only).
-    n_views, resolution, camera, backend
-        How a mesh is drawn (defaults: 1000 views, 1024 px, ``Camera()``, raster).
+    settings : MeasureSettings
+        How a mesh is drawn (default: ``MeasureSettings()``, 1000 views at 1024 px);
+        not read for a FaceVisibility.
 
     Returns
     -------
@@ -303,8 +300,9 @@ def best_view_set(
     --------
     >>> from vptoolkit.io import load_mesh
     >>> from vptoolkit.samples import sample_path
-    >>> views = best_view_set(load_mesh(sample_path("teapot.stl")), 3, n_views=200,
-    ...                       resolution=128)
+    >>> from vptoolkit.settings import MeasureSettings
+    >>> views = best_view_set(load_mesh(sample_path("teapot.stl")), 3,
+    ...                       settings=MeasureSettings(views=200, resolution=128))
     >>> len(views), bool(views.coverage[-1] > views.coverage[0])
     (3, True)
     """
@@ -315,8 +313,7 @@ def best_view_set(
     if not 0.0 <= float(tolerance) < 1.0:
         raise InputError(f"tolerance: must lie in [0, 1), got {tolerance}")
     if isinstance(source, Mesh):
-        visibility = FaceVisibility.from_mesh(source, n_views, resolution, camera=camera,
-                                              backend=backend)
+        visibility = FaceVisibility.from_mesh(source, settings)
     elif isinstance(source, FaceVisibility):
         visibility = source
     else:
@@ -373,10 +370,7 @@ def measure_view_set(
     mesh: Mesh,
     k: int | None = 4,
     *,
-    n_views: int = N_VIEWS,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
+    settings: MeasureSettings = MeasureSettings(),
     progress: bool = False,
     **options: Any,
 ) -> tuple[ViewQuality, ViewSet]:
@@ -388,7 +382,7 @@ def measure_view_set(
         The model.
     k : int or None
         As for :func:`best_view_set`.
-    n_views, resolution, camera, backend
+    settings : MeasureSettings
         As for :func:`vptoolkit.measures.compute_view_quality`.
     progress : bool
         Show a progress bar while the views are drawn (default: False).
@@ -403,10 +397,8 @@ def measure_view_set(
     view_set : ViewSet
         The set, searched over the same views.
     """
-    visibility = FaceVisibility.from_mesh(mesh, n_views, resolution, camera=camera,
-                                          backend=backend, progress=progress)
-    quality = compute_view_quality(mesh, resolution=resolution, view_directions=visibility.views,
-                                   camera=camera, backend=backend,
+    visibility = FaceVisibility.from_mesh(mesh, settings, progress=progress)
+    quality = compute_view_quality(mesh, settings, view_directions=visibility.views,
                                    histograms=list(visibility.runs))
     view_set = best_view_set(visibility, k, quality=quality.normalized, **options)
     return quality, view_set

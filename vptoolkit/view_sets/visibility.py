@@ -14,9 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas
 from vptoolkit.measures import (
@@ -25,8 +23,9 @@ from vptoolkit.measures import (
     quality_from_histograms,
 )
 from vptoolkit.mesh import Mesh
-from vptoolkit.sphere import as_directions, fibonacci_sphere
-from vptoolkit.visibility import Backend, ViewHistograms, iter_view_histograms
+from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import as_directions
+from vptoolkit.visibility import ViewHistograms, iter_view_histograms
 
 __all__ = ["MIN_PIXELS", "FaceVisibility"]
 
@@ -81,23 +80,19 @@ class FaceVisibility:
     def from_mesh(
         cls,
         mesh: Mesh,
-        n_views: int = N_VIEWS,
-        resolution: int = RESOLUTION,
+        settings: MeasureSettings = MeasureSettings(),
         *,
         view_directions: ArrayLike | None = None,
-        camera: Camera | None = None,
-        backend: Backend = "raster",
         progress: bool = False,
     ) -> FaceVisibility:
         """Draw every view of a mesh once and keep its pixel counts.
 
         Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
         """
-        directions = (fibonacci_sphere(check_int(n_views, "n_views", minimum=1))
-                      if view_directions is None
+        directions = (settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))
         runs: Iterable[ViewHistograms] = iter_view_histograms(
-            mesh, directions, resolution=resolution, camera=camera, backend=backend)
+            mesh, settings, view_directions=directions)
         if progress:
             runs = progress_runs(runs, len(directions), mesh.name)
         return cls(directions, face_areas(mesh), tuple(runs), mesh.name)

@@ -19,21 +19,21 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, ViewPoses
+from vptoolkit.checks import check_int
 from vptoolkit.conventions import RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_cross_products
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions
 
 __all__ = [
-    "BACKENDS",
-    "Backend",
     "RasterScene",
     "ViewHistograms",
     "iter_view_histograms",
@@ -41,9 +41,6 @@ __all__ = [
     "face_pixel_totals",
     "face_id_images",
 ]
-
-Backend = Literal["raster", "raycast"]
-BACKENDS: tuple[str, ...] = ("raster", "raycast")
 
 _BATCH_BYTES = 256 * 2**20  # output buffers of one raster batch
 
@@ -93,13 +90,15 @@ class ViewHistograms:
         return dense
 
 
+def _directions(settings: MeasureSettings, view_directions: ArrayLike | None) -> ArrayLike:
+    return settings.directions() if view_directions is None else view_directions
+
+
 def iter_view_histograms(
     mesh: Mesh,
-    view_directions: ArrayLike,
+    settings: MeasureSettings = MeasureSettings(),
     *,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
+    view_directions: ArrayLike | None = None,
 ) -> Iterator[ViewHistograms]:
     """Yield the per-face pixel histograms of the views, a batch at a time.
 
@@ -107,43 +106,32 @@ def iter_view_histograms(
     ----------
     mesh : Mesh
         The model; faces of zero area are never drawn.
-    view_directions : (n_views, 3) array_like
-        Directions from the model centre to the camera.
-    resolution : int
-        Image side in pixels (default: 1024).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``).
-    backend : {"raster", "raycast"}
-        Which renderer counts the pixels (default: "raster").
+    settings : MeasureSettings
+        The views, image side, camera and the backend that counts the pixels
+        (default: ``MeasureSettings()``).
+    view_directions : (n_views, 3) array_like, optional
+        Directions from the model centre to the camera, drawn instead of the
+        ``settings.views`` Fibonacci-sphere directions.
 
     Yields
     ------
     ViewHistograms
-        Consecutive runs of views covering all of ``view_directions`` in order.
+        Consecutive runs of views covering all of the views in order.
     """
-    if backend not in BACKENDS:
-        raise InputError(f"backend: must be one of {', '.join(BACKENDS)}, got {backend!r}")
-    if backend == "raycast":
+    directions = _directions(settings, view_directions)
+    resolution, camera = settings.resolution, settings.camera
+    if settings.backend == "raycast":
         # Open3D casts in float32 with absolute epsilons: a model scaled by 1e30 or
         # 1e-12 fails there. Pixel counts do not depend on the scale (the camera
         # stands at a multiple of the diagonal), so cast on the unit-diagonal copy.
         centre, diagonal = bounding_frame(mesh)
         if diagonal > 0.0:
             mesh = Mesh((mesh.vertices - centre) / diagonal, mesh.faces, name=mesh.name)
-    if backend == "raster":
-        yield from RasterScene(mesh, camera).histograms(view_directions, resolution)
+    if settings.backend == "raster":
+        yield from RasterScene(mesh, camera).histograms(directions, resolution)
         return
-    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
-        mesh, view_directions, resolution, camera)
+    poses, normals, offsets, is_drawable, diagonal = _setup(mesh, directions, resolution, camera)
     yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
-
-
-def _check_resolution(resolution: int) -> int:
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-        raise InputError(f"resolution: must be an integer number of pixels, got {resolution!r}")
-    if not 1 <= resolution <= 16384:
-        raise InputError(f"resolution: must be between 1 and 16384 pixels, got {resolution}")
-    return int(resolution)
 
 
 def _face_planes(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
@@ -155,19 +143,17 @@ def _face_planes(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64], 
 
 
 def _setup(
-    mesh: Mesh, view_directions: ArrayLike, resolution: int, camera: Camera | None
-) -> tuple[Camera, ViewPoses, NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], float]:
-    """Check the arguments; return the camera, poses, face planes ``n . x = offset``,
+    mesh: Mesh, view_directions: ArrayLike, resolution: int, camera: Camera
+) -> tuple[ViewPoses, NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], float]:
+    """Check the directions; return the poses, face planes ``n . x = offset``,
     which faces can be drawn (non-zero area) and the bounding-box diagonal."""
-    camera = camera or Camera()
-    resolution = _check_resolution(resolution)
     directions = as_directions(view_directions, name="view_directions")
     centre, diagonal = bounding_frame(mesh)
     if diagonal <= 0.0:
         raise InputError(f"{mesh.name}: all vertices coincide, the model has no extent")
     poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=resolution)
     normals, offsets, is_drawable = _face_planes(mesh)
-    return camera, poses, normals, offsets, is_drawable, diagonal
+    return poses, normals, offsets, is_drawable, diagonal
 
 
 class RasterScene:
@@ -214,7 +200,7 @@ class RasterScene:
         from vptoolkit.visibility._raster import rasterize_batch
         from vptoolkit.visibility._workspace import RasterWorkspace, histogram_capacity
 
-        resolution = _check_resolution(resolution)
+        resolution = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
         directions = as_directions(view_directions, name="view_directions")
         camera, mesh = self.camera, self.mesh
         poses = camera.poses(directions, centre=self.centre, diagonal=self.diagonal,
@@ -258,10 +244,9 @@ class RasterScene:
 
 def face_id_images(
     mesh: Mesh,
-    view_directions: ArrayLike,
+    settings: MeasureSettings = MeasureSettings(),
     *,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
+    view_directions: ArrayLike | None = None,
 ) -> NDArray[np.int32]:
     """The triangle-ID images the ``"raster"`` backend counts, one per view.
 
@@ -269,12 +254,12 @@ def face_id_images(
     ----------
     mesh : Mesh
         The model; faces of zero area are never drawn.
-    view_directions : (n_views, 3) array_like
-        Directions from the model centre to the camera.
-    resolution : int
-        Image side in pixels (default: 1024).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``); its ``up`` is the image up.
+    settings : MeasureSettings
+        The views, image side and camera (its ``up`` is the image up); the
+        images are the raster backend's whatever ``settings.backend`` says.
+    view_directions : (n_views, 3) array_like, optional
+        Directions from the model centre to the camera, drawn instead of the
+        ``settings.views`` Fibonacci-sphere directions.
 
     Returns
     -------
@@ -284,8 +269,9 @@ def face_id_images(
     """
     from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
 
-    camera, poses, normals, offsets, is_drawable, diagonal = _setup(
-        mesh, view_directions, resolution, camera)
+    resolution, camera = settings.resolution, settings.camera
+    poses, normals, offsets, is_drawable, diagonal = _setup(
+        mesh, _directions(settings, view_directions), resolution, camera)
     distance = camera.distance_factor * diagonal
     near, far = distance - diagonal / 2.0, distance + diagonal / 2.0
     faces = mesh.faces.astype(np.int32)
@@ -340,13 +326,13 @@ def _raycast_views(
 
 def face_pixel_counts(
     mesh: Mesh,
-    view_directions: ArrayLike,
+    settings: MeasureSettings = MeasureSettings(),
     *,
-    resolution: int = RESOLUTION,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
+    view_directions: ArrayLike | None = None,
 ) -> NDArray[np.int64]:
     """Dense pixel counts ``a_z(v)`` for a few views.
+
+    The views and how they are drawn are :func:`iter_view_histograms`'s.
 
     Returns
     -------
@@ -356,22 +342,20 @@ def face_pixel_counts(
     """
     parts = [
         h.to_dense()
-        for h in iter_view_histograms(
-            mesh, view_directions, resolution=resolution, camera=camera, backend=backend
-        )
+        for h in iter_view_histograms(mesh, settings, view_directions=view_directions)
     ]
     return np.concatenate(parts, axis=0)
 
 
 def face_pixel_totals(
     mesh: Mesh,
-    view_directions: ArrayLike,
+    settings: MeasureSettings = MeasureSettings(),
     *,
-    resolution: int = 256,
-    camera: Camera | None = None,
-    backend: Backend = "raster",
+    view_directions: ArrayLike | None = None,
 ) -> NDArray[np.int64]:
     """Pixels of each face summed over all views.
+
+    The views and how they are drawn are :func:`iter_view_histograms`'s.
 
     A face whose total is zero is seen in none of the views (hidden inside
     the model or always behind other faces).
@@ -382,9 +366,7 @@ def face_pixel_totals(
         ``sum_v a_z(v)``.
     """
     totals = np.zeros(mesh.n_faces, dtype=np.int64)
-    for histograms in iter_view_histograms(
-        mesh, view_directions, resolution=resolution, camera=camera, backend=backend
-    ):
+    for histograms in iter_view_histograms(mesh, settings, view_directions=view_directions):
         totals += np.bincount(
             histograms.face_ids, weights=histograms.pixel_counts, minlength=mesh.n_faces
         ).astype(np.int64)
