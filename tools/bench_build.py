@@ -38,6 +38,7 @@ Usage::
     python tools/bench_build.py --copies 4 --workers 1 2 --json results.json
     python tools/bench_build.py --workers 2 --baseline /tmp/base --rounds 2
     python tools/bench_build.py --meshes ~/modelnet/airplane --baseline /tmp/base
+    python tools/bench_build.py --results docs/benchmarks.md            # and its section ``build``
 """
 
 from __future__ import annotations
@@ -54,6 +55,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+from results_doc import add_results_option, printed_section
 
 from vptoolkit.dataset.build import BuildResult, build_dataset
 from vptoolkit.dataset.build_options import BuildOptions
@@ -241,6 +244,7 @@ def main(argv: list[str] | None = None) -> int:
         "--rounds", type=int, default=1,
         help="times to repeat the builds; each code's fastest counts (default: 1)",
     )
+    add_results_option(parser, "build")
     args = parser.parse_args(argv)
     sizes = dict(QUICK if args.quick else FULL)
     clean = not args.no_clean
@@ -252,103 +256,104 @@ def main(argv: list[str] | None = None) -> int:
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
-    with tempfile.TemporaryDirectory(prefix="bench_build_") as scratch:
-        root = Path(scratch)
-        n_files = make_tree(root / "samples", args.copies, sources)
-        what = "sample meshes" if args.meshes is None else f"meshes under {args.meshes}"
-        print(
-            f"{n_files} files from {len(sources)} {what}; {sizes['n_views']} views at "
-            f"{sizes['resolution']} px, {sizes['n_points']} points, "
-            + ("no cleaning" if args.no_clean else f"cleaning to <= {sizes['max_faces']} faces")
-        )
-        print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the start "
-              "(times are only comparable on an otherwise idle machine)")
-        if args.baseline is not None:
-            print(f"baseline: the code in {args.baseline}, built before each build of this code")
-            warm_up(root, args.baseline, sizes, clean)
-            warm_up(root, None, sizes, clean)
-        header = (f"{'code':>8} {'workers':>7} {'models':>6} {'failed':>6} {'seconds':>8} "
-                  f"{'cpu s':>7} {'models/hour':>12} {'speed-up':>9}")
-        print(header)
-        print("-" * len(header))
-        runs: list[dict[str, Any]] = []
-        baselines: list[dict[str, Any]] = []
-        for round_index in range(args.rounds):
-            for workers in args.workers:
-                options = {**sizes, "workers": workers, "clean": clean}
-                suffix = f"{workers}_{round_index}"
-                baseline = None
-                if args.baseline is not None:
-                    baseline = baseline_build(
-                        args.baseline, root / "samples", root / f"base_{suffix}", options)
-                    shutil.rmtree(root / f"base_{suffix}")
-                    baseline.update(workers=workers, round=round_index,
-                                    models_per_hour=3600.0 * baseline["n_models"] / baseline["seconds"],
-                                    load_average=os.getloadavg()[0])
-                    baselines.append(baseline)
-                    print(f"{'baseline':>8} {workers:>7} {baseline['n_models']:>6} "
-                          f"{baseline['n_failures']:>6} {baseline['seconds']:>8.1f} "
-                          f"{_cpu_cell(baseline['cpu_seconds'], workers)} "
-                          f"{baseline['models_per_hour']:>12.0f} {'':>9}  "
-                          f"load {baseline['load_average']:.1f}", flush=True)
-                    _print_stages(baseline["stage_seconds"], baseline["n_computed"])
-                out = root / f"out_{suffix}"
-                started, cpu_started = time.perf_counter(), cpu_seconds()
-                result = build_with(root / "samples", out, options)
-                seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
-                per_hour = 3600.0 * result.n_models / seconds
-                if baseline is not None:
-                    speed_up = baseline["seconds"] / seconds
-                else:
-                    speed_up = runs[0]["seconds"] / seconds if runs else 1.0
-                load = os.getloadavg()[0]
-                runs.append({"workers": workers, "round": round_index, "n_models": result.n_models,
-                             "n_failures": result.n_failures, "seconds": seconds,
-                             "cpu_seconds": cpu,
-                             "models_per_hour": per_hour, "speed_up": speed_up,
-                             "load_average": load})
-                print(f"{'this':>8} {workers:>7} {result.n_models:>6} {result.n_failures:>6} "
-                      f"{seconds:>8.1f} {_cpu_cell(cpu, workers)} {per_hour:>12.0f} "
-                      f"{speed_up:>8.2f}x  load {load:.1f}", flush=True)
-                runs[-1]["stage_seconds"] = dict(result.stage_seconds)
-                _print_stages(result.stage_seconds, result.n_computed)
-                for failure in result.failures:
-                    print(f"        failed: {failure['reason']}")
-        if args.rounds > 1 or baselines:
-            print("\nfastest per code and workers:")
-            for workers in args.workers:
-                best = min((run for run in runs if run["workers"] == workers),
-                           key=lambda run: run["seconds"])
-                line = f"  {workers} workers: this {best['models_per_hour']:.0f} models/hour"
-                if baselines:
-                    base = min((run for run in baselines if run["workers"] == workers),
+    with printed_section(args.results, args.section):
+        with tempfile.TemporaryDirectory(prefix="bench_build_") as scratch:
+            root = Path(scratch)
+            n_files = make_tree(root / "samples", args.copies, sources)
+            what = "sample meshes" if args.meshes is None else f"meshes under {args.meshes}"
+            print(
+                f"{n_files} files from {len(sources)} {what}; {sizes['n_views']} views at "
+                f"{sizes['resolution']} px, {sizes['n_points']} points, "
+                + ("no cleaning" if args.no_clean else f"cleaning to <= {sizes['max_faces']} faces")
+            )
+            print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the start "
+                  "(times are only comparable on an otherwise idle machine)")
+            if args.baseline is not None:
+                print(f"baseline: the code in {args.baseline}, built before each build of this code")
+                warm_up(root, args.baseline, sizes, clean)
+                warm_up(root, None, sizes, clean)
+            header = (f"{'code':>8} {'workers':>7} {'models':>6} {'failed':>6} {'seconds':>8} "
+                      f"{'cpu s':>7} {'models/hour':>12} {'speed-up':>9}")
+            print(header)
+            print("-" * len(header))
+            runs: list[dict[str, Any]] = []
+            baselines: list[dict[str, Any]] = []
+            for round_index in range(args.rounds):
+                for workers in args.workers:
+                    options = {**sizes, "workers": workers, "clean": clean}
+                    suffix = f"{workers}_{round_index}"
+                    baseline = None
+                    if args.baseline is not None:
+                        baseline = baseline_build(
+                            args.baseline, root / "samples", root / f"base_{suffix}", options)
+                        shutil.rmtree(root / f"base_{suffix}")
+                        baseline.update(workers=workers, round=round_index,
+                                        models_per_hour=3600.0 * baseline["n_models"] / baseline["seconds"],
+                                        load_average=os.getloadavg()[0])
+                        baselines.append(baseline)
+                        print(f"{'baseline':>8} {workers:>7} {baseline['n_models']:>6} "
+                              f"{baseline['n_failures']:>6} {baseline['seconds']:>8.1f} "
+                              f"{_cpu_cell(baseline['cpu_seconds'], workers)} "
+                              f"{baseline['models_per_hour']:>12.0f} {'':>9}  "
+                              f"load {baseline['load_average']:.1f}", flush=True)
+                        _print_stages(baseline["stage_seconds"], baseline["n_computed"])
+                    out = root / f"out_{suffix}"
+                    started, cpu_started = time.perf_counter(), cpu_seconds()
+                    result = build_with(root / "samples", out, options)
+                    seconds, cpu = time.perf_counter() - started, cpu_seconds() - cpu_started
+                    per_hour = 3600.0 * result.n_models / seconds
+                    if baseline is not None:
+                        speed_up = baseline["seconds"] / seconds
+                    else:
+                        speed_up = runs[0]["seconds"] / seconds if runs else 1.0
+                    load = os.getloadavg()[0]
+                    runs.append({"workers": workers, "round": round_index, "n_models": result.n_models,
+                                 "n_failures": result.n_failures, "seconds": seconds,
+                                 "cpu_seconds": cpu,
+                                 "models_per_hour": per_hour, "speed_up": speed_up,
+                                 "load_average": load})
+                    print(f"{'this':>8} {workers:>7} {result.n_models:>6} {result.n_failures:>6} "
+                          f"{seconds:>8.1f} {_cpu_cell(cpu, workers)} {per_hour:>12.0f} "
+                          f"{speed_up:>8.2f}x  load {load:.1f}", flush=True)
+                    runs[-1]["stage_seconds"] = dict(result.stage_seconds)
+                    _print_stages(result.stage_seconds, result.n_computed)
+                    for failure in result.failures:
+                        print(f"        failed: {failure['reason']}")
+            if args.rounds > 1 or baselines:
+                print("\nfastest per code and workers:")
+                for workers in args.workers:
+                    best = min((run for run in runs if run["workers"] == workers),
                                key=lambda run: run["seconds"])
-                    line += (f", baseline {base['models_per_hour']:.0f}: "
-                             f"{base['seconds'] / best['seconds']:.2f}x")
-                    if workers == 1:
-                        this_cpu = min(run["cpu_seconds"] for run in runs if run["workers"] == 1)
-                        base_cpu = min(run["cpu_seconds"] for run in baselines
-                                       if run["workers"] == 1)
-                        line += (f"; CPU seconds per model {base_cpu / best['n_models']:.2f} -> "
-                                 f"{this_cpu / best['n_models']:.2f}: {base_cpu / this_cpu:.2f}x")
-                print(line)
+                    line = f"  {workers} workers: this {best['models_per_hour']:.0f} models/hour"
+                    if baselines:
+                        base = min((run for run in baselines if run["workers"] == workers),
+                                   key=lambda run: run["seconds"])
+                        line += (f", baseline {base['models_per_hour']:.0f}: "
+                                 f"{base['seconds'] / best['seconds']:.2f}x")
+                        if workers == 1:
+                            this_cpu = min(run["cpu_seconds"] for run in runs if run["workers"] == 1)
+                            base_cpu = min(run["cpu_seconds"] for run in baselines
+                                           if run["workers"] == 1)
+                            line += (f"; CPU seconds per model {base_cpu / best['n_models']:.2f} -> "
+                                     f"{this_cpu / best['n_models']:.2f}: {base_cpu / this_cpu:.2f}x")
+                    print(line)
 
-        out = root / f"out_{args.workers[0]}_0"
-        n_models = max(1, runs[0]["n_models"])
-        sizes_per_model = {
-            "zarr": folder_bytes(out / "dataset.zarr") / n_models,
-            "hdf5": hdf5_bytes(out / "dataset.zarr", root / "dataset.h5") / n_models,
-            "staging": folder_bytes(out / STAGING_DIR) / n_models,
-        }
-        print("\nbytes per model: " + ", ".join(
-            f"{kind} {value / 1024:.0f} KiB" for kind, value in sizes_per_model.items()
-        ))
-        print("(staging: the .staging folder a build keeps for resuming and incremental rebuilds)")
-    if args.json:
-        args.json.write_text(json.dumps(
-            {"sizes": sizes, "clean": clean, "n_files": n_files, "runs": runs,
-             "baseline": str(args.baseline) if args.baseline else None,
-             "baseline_runs": baselines, "bytes_per_model": sizes_per_model}, indent=2))
+            out = root / f"out_{args.workers[0]}_0"
+            n_models = max(1, runs[0]["n_models"])
+            sizes_per_model = {
+                "zarr": folder_bytes(out / "dataset.zarr") / n_models,
+                "hdf5": hdf5_bytes(out / "dataset.zarr", root / "dataset.h5") / n_models,
+                "staging": folder_bytes(out / STAGING_DIR) / n_models,
+            }
+            print("\nbytes per model: " + ", ".join(
+                f"{kind} {value / 1024:.0f} KiB" for kind, value in sizes_per_model.items()
+            ))
+            print("(staging: the .staging folder a build keeps for resuming and incremental rebuilds)")
+        if args.json:
+            args.json.write_text(json.dumps(
+                {"sizes": sizes, "clean": clean, "n_files": n_files, "runs": runs,
+                 "baseline": str(args.baseline) if args.baseline else None,
+                 "baseline_runs": baselines, "bytes_per_model": sizes_per_model}, indent=2))
     return 0
 
 

@@ -24,6 +24,7 @@ Usage::
     python tools/bench_clean.py --sizes 10000 --mesh path/to/airplane_0001.off
     python tools/bench_clean.py --sizes --mesh airplane_0001.off --baseline /tmp/base --repeat 3
     python tools/bench_clean.py --json results.json
+    python tools/bench_clean.py --results docs/benchmarks.md   # and its section ``clean``
 """
 
 from __future__ import annotations
@@ -40,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from results_doc import add_results_option, printed_section
 
 from vptoolkit.clean import clean_mesh
 from vptoolkit.mesh import Mesh
@@ -199,45 +201,47 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--repeat", type=int, default=1, help="cleanings per mesh and code; the fastest counts"
     )
+    add_results_option(parser, "clean")
     args = parser.parse_args(argv)
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
-    meshes = [toy_airplane(size) for size in args.sizes]
-    if args.mesh:
-        from vptoolkit.io import load_mesh
+    with printed_section(args.results, args.section):
+        meshes = [toy_airplane(size) for size in args.sizes]
+        if args.mesh:
+            from vptoolkit.io import load_mesh
 
-        meshes += [load_mesh(path) for path in sorted(args.mesh)]
+            meshes += [load_mesh(path) for path in sorted(args.mesh)]
 
-    header = (
-        f"{'mesh':<22} {'faces':>7} | {'repair':>15} | {'remove_hidden':>15} | "
-        f"{'simplify':>15} | {'total':>8} {'/base':>7} {'self-intersections':>20}"
-    )
-    print(header)
-    print("-" * len(header))
-    records = []
-    for mesh in meshes:
-        if args.baseline is not None:
-            base = bench_baseline(args.baseline, mesh, max_faces=args.max_faces,
-                                  resolution=args.resolution, repeat=args.repeat)
-            print(_format(base, "base "), flush=True)
-        record = bench_one(
-            mesh, max_faces=args.max_faces, resolution=args.resolution, repeat=args.repeat
+        header = (
+            f"{'mesh':<22} {'faces':>7} | {'repair':>15} | {'remove_hidden':>15} | "
+            f"{'simplify':>15} | {'total':>8} {'/base':>7} {'self-intersections':>20}"
         )
-        if args.baseline is not None:
-            record["baseline_code"] = base
-            record["speed_up_over_baseline_code"] = float(base["seconds"]) / record["seconds"]
-        records.append(record)
-        print(_format(record), flush=True)
-        if args.baseline is not None:
-            print(f"{'':<22} this code is {record['speed_up_over_baseline_code']:.2f}x "
-                  "as fast as the baseline code", flush=True)
-    print(
-        "\ncolumns: faces after each step and its seconds; total seconds and ratio to one plain\n"
-        "visibility pass; self-intersections before -> after repair / after simplify."
-    )
-    if args.json:
-        args.json.write_text(json.dumps(records, indent=2))
+        print(header)
+        print("-" * len(header))
+        records = []
+        for mesh in meshes:
+            if args.baseline is not None:
+                base = bench_baseline(args.baseline, mesh, max_faces=args.max_faces,
+                                      resolution=args.resolution, repeat=args.repeat)
+                print(_format(base, "base "), flush=True)
+            record = bench_one(
+                mesh, max_faces=args.max_faces, resolution=args.resolution, repeat=args.repeat
+            )
+            if args.baseline is not None:
+                record["baseline_code"] = base
+                record["speed_up_over_baseline_code"] = float(base["seconds"]) / record["seconds"]
+            records.append(record)
+            print(_format(record), flush=True)
+            if args.baseline is not None:
+                print(f"{'':<22} this code is {record['speed_up_over_baseline_code']:.2f}x "
+                      "as fast as the baseline code", flush=True)
+        print(
+            "\ncolumns: faces after each step and its seconds; total seconds and ratio to one\n"
+            "plain visibility pass; self-intersections before -> after repair / after simplify."
+        )
+        if args.json:
+            args.json.write_text(json.dumps(records, indent=2))
     return 0
 
 

@@ -22,6 +22,7 @@ Usage::
     python tools/bench_inference.py            # a minute or two
     python tools/bench_inference.py --quick    # batch 1 and 64, fewer repeats
     python tools/bench_inference.py --json results.json
+    python tools/bench_inference.py --results docs/benchmarks.md   # and its section ``inference``
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from typing import Any
 
 import numpy as np
 import torch
+from results_doc import add_results_option, printed_section
 
 from vptoolkit.io import load_mesh
 from vptoolkit.learn.config import ModelConfig
@@ -109,48 +111,50 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="batch 1 and 64 only, fewer repeats")
     parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
+    add_results_option(parser, "inference")
     args = parser.parse_args()
 
-    load_before = os.getloadavg()[0]
-    batches = (1, 64) if args.quick else (1, 64, 256)
-    clouds = inputs_of_samples()
-    model = ViewpointNet(ModelConfig()).eval()
-    results: dict[str, Any] = {"cpu_count": os.cpu_count(), "torch": torch.__version__, "network_ms": {}}
-    print(f"torch {torch.__version__}, {os.cpu_count()} CPUs, load average {load_before:.2f}")
-    print(f"{'threads':>7} {'batch':>5} {'ms/model':>9} {'hierarchy':>9}  paper (GTX 1080)")
-    default_threads = torch.get_num_threads()
-    for threads in (1, 2):
-        torch.set_num_threads(threads)
-        for batch in batches:
-            repeats = max(3, (20 if args.quick else 40) // batch)
-            timing = bench_network(model, clouds, batch, repeats)
-            results["network_ms"][f"{threads}x{batch}"] = timing
-            print(f"{threads:>7} {batch:>5} {timing['total']:>9.2f} {timing['hierarchy']:>9.2f}  "
-                  f"{PAPER_MS[batch]} ms")
-    torch.set_num_threads(default_threads)
-
-    with tempfile.TemporaryDirectory() as folder:
-        checkpoint, _ = save_model(model, Path(folder) / "model.safetensors")
-        repeats = 3 if args.quick else 5
-        torch.set_num_threads(1)
-        end_to_end = bench_end_to_end(checkpoint, repeats)
-        stages = bench_stages(checkpoint, "bunny", repeats)
+    with printed_section(args.results, args.section):
+        load_before = os.getloadavg()[0]
+        batches = (1, 64) if args.quick else (1, 64, 256)
+        clouds = inputs_of_samples()
+        model = ViewpointNet(ModelConfig()).eval()
+        results: dict[str, Any] = {"cpu_count": os.cpu_count(), "torch": torch.__version__, "network_ms": {}}
+        print(f"torch {torch.__version__}, {os.cpu_count()} CPUs, load average {load_before:.2f}")
+        print(f"{'threads':>7} {'batch':>5} {'ms/model':>9} {'hierarchy':>9}  paper (GTX 1080)")
+        default_threads = torch.get_num_threads()
+        for threads in (1, 2):
+            torch.set_num_threads(threads)
+            for batch in batches:
+                repeats = max(3, (20 if args.quick else 40) // batch)
+                timing = bench_network(model, clouds, batch, repeats)
+                results["network_ms"][f"{threads}x{batch}"] = timing
+                print(f"{threads:>7} {batch:>5} {timing['total']:>9.2f} {timing['hierarchy']:>9.2f}  "
+                      f"{PAPER_MS[batch]} ms")
         torch.set_num_threads(default_threads)
-    results["end_to_end_ms"] = end_to_end
-    results["bunny_stages_ms"] = stages
-    print("\nmesh to four views (1 thread; load, sample, pick inputs, load checkpoint, predict):")
-    for name, ms in end_to_end.items():
-        faces = load_mesh(sample_path(name)).n_faces
-        print(f"  {name:<10} {faces:>7} faces {ms:8.1f} ms")
-    print("bunny, by stage:")
-    for stage, ms in stages.items():
-        print(f"  {stage:<20} {ms:8.1f} ms")
-    load_after = os.getloadavg()[0]
-    results["load_average"] = [load_before, load_after]
-    print(f"\nload average {load_before:.2f} before, {load_after:.2f} after "
-          "(timings mean little on a busy machine)")
-    if args.json:
-        args.json.write_text(json.dumps(results, indent=2) + "\n")
+
+        with tempfile.TemporaryDirectory() as folder:
+            checkpoint, _ = save_model(model, Path(folder) / "model.safetensors")
+            repeats = 3 if args.quick else 5
+            torch.set_num_threads(1)
+            end_to_end = bench_end_to_end(checkpoint, repeats)
+            stages = bench_stages(checkpoint, "bunny", repeats)
+            torch.set_num_threads(default_threads)
+        results["end_to_end_ms"] = end_to_end
+        results["bunny_stages_ms"] = stages
+        print("\nmesh to four views (1 thread; load, sample, pick inputs, load checkpoint, predict):")
+        for name, ms in end_to_end.items():
+            faces = load_mesh(sample_path(name)).n_faces
+            print(f"  {name:<10} {faces:>7} faces {ms:8.1f} ms")
+        print("bunny, by stage:")
+        for stage, ms in stages.items():
+            print(f"  {stage:<20} {ms:8.1f} ms")
+        load_after = os.getloadavg()[0]
+        results["load_average"] = [load_before, load_after]
+        print(f"\nload average {load_before:.2f} before, {load_after:.2f} after "
+              "(timings mean little on a busy machine)")
+        if args.json:
+            args.json.write_text(json.dumps(results, indent=2) + "\n")
 
 
 if __name__ == "__main__":

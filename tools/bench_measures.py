@@ -24,6 +24,7 @@ Usage::
     python tools/bench_measures.py --quick    # small sizes, seconds
     python tools/bench_measures.py --max-faces 200000   # without the 1M-face mesh
     python tools/bench_measures.py --max-faces 200000 --baseline /tmp/base --repeat 2
+    python tools/bench_measures.py --max-faces 200000 --results docs/benchmarks.md   # section ``measures``
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from results_doc import add_results_option, printed_section
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.io import load_mesh
@@ -136,82 +138,84 @@ def main() -> None:
     parser.add_argument("--baseline", type=Path,
                         help="a checkout of other vptoolkit code to time beside this one")
     parser.add_argument("--json", help="also write the results to this JSON file")
+    add_results_option(parser, "measures")
     args = parser.parse_args()
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
-    torus = load_mesh(sample_path("torus.STL"))
-    bunny = load_mesh(sample_path("bunny.ply"))
-    if args.quick:
-        meshes = [torus, subdivide(torus, 1)]
-        resolutions = [128, 256]
-        n_views, raycast_views = 100, 8
-    else:
-        meshes = [torus, bunny, subdivide(torus, 2), subdivide(bunny, 3)]
-        resolutions = [256, 512, 1024]
-        n_views, raycast_views = args.views, args.raycast_views
-    if args.max_faces is not None:
-        meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
-    views = fibonacci_sphere(n_views)
-    cold, warm = jit_seconds()
-    for backend in ("raster", "raycast"):  # imports and JIT load happen here, not in the timings
-        time_views(torus, views[:2], 16, backend)
-    print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
-    print(f"{n_views} views; raycast timed on {raycast_views} views and scaled")
-    print(f"raster: best of {args.repeat}" + (
-        f"; baseline: the code in {args.baseline}, alternately in the same run\n"
-        if args.baseline is not None else "\n"))
-    baseline_cells = f"{'baseline s':>11}{'speed-up':>10}" if args.baseline is not None else ""
-    header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{baseline_cells}"
-              f"{'raycast s':>11}{'ratio':>8}")
-    print(header)
-    print("-" * len(header))
-    results = []
-    finest = resolutions[-1]
-    with tempfile.TemporaryDirectory(prefix="bench_measures_") as scratch:
-        mesh_file = Path(scratch) / "mesh.npz"
-        for mesh in meshes:
-            np.savez(mesh_file, vertices=mesh.vertices, faces=mesh.faces, views=views)
-            qualities = {}
-            for resolution in resolutions:
-                runs: list[float] = []
-                baseline_runs: list[float] = []
-                for _ in range(args.repeat):  # alternately, so both see the same machine load
-                    runs.append(time_views(mesh, views, resolution, "raster"))
-                    if args.baseline is not None:
-                        baseline_runs.append(time_baseline(args.baseline, mesh_file, resolution))
-                raster = min(runs)
-                raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
-                raycast *= n_views / raycast_views
-                record = {"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution,
-                          "raster_s": raster, "raycast_s": raycast}
-                cells = ""
-                if baseline_runs:
-                    baseline = min(baseline_runs)
-                    cells = f"{baseline:>11.2f}{baseline / raster:>10.2f}"
-                    record["raster_baseline_s"] = baseline
-                print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{cells}"
-                      f"{raycast:>11.1f}{raycast / raster:>8.1f}")
-                qualities[resolution] = compute_view_quality(
-                    mesh, MeasureSettings(resolution=resolution), view_directions=views)
-                results.append(record)
-            reference = qualities[finest]
-            for resolution in resolutions[:-1]:
-                coarse = qualities[resolution]
-                angles = angle_between_deg(coarse.best_views, reference.best_views)
-                lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
-                cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}"
-                                  for m, a, q in zip(MEASURES, angles, lost))
-                print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
-                results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
-                                "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    print(f"\npeak resident memory of this process: {peak_mb:.0f} MB")
-    if args.json:
-        with open(args.json, "w") as handle:
-            json.dump({"jit_cold_s": cold, "jit_warm_s": warm, "peak_mb": peak_mb,
-                       "baseline": str(args.baseline) if args.baseline else None,
-                       "results": results}, handle, indent=2)
+    with printed_section(args.results, args.section):
+        torus = load_mesh(sample_path("torus.STL"))
+        bunny = load_mesh(sample_path("bunny.ply"))
+        if args.quick:
+            meshes = [torus, subdivide(torus, 1)]
+            resolutions = [128, 256]
+            n_views, raycast_views = 100, 8
+        else:
+            meshes = [torus, bunny, subdivide(torus, 2), subdivide(bunny, 3)]
+            resolutions = [256, 512, 1024]
+            n_views, raycast_views = args.views, args.raycast_views
+        if args.max_faces is not None:
+            meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
+        views = fibonacci_sphere(n_views)
+        cold, warm = jit_seconds()
+        for backend in ("raster", "raycast"):  # imports and JIT load happen here, not in the timings
+            time_views(torus, views[:2], 16, backend)
+        print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
+        print(f"{n_views} views; raycast timed on {raycast_views} views and scaled")
+        print(f"raster: best of {args.repeat}" + (
+            f"; baseline: the code in {args.baseline}, alternately in the same run\n"
+            if args.baseline is not None else "\n"))
+        baseline_cells = f"{'baseline s':>11}{'speed-up':>10}" if args.baseline is not None else ""
+        header = (f"{'mesh':<14}{'faces':>9}{'px':>6}{'raster s':>10}{baseline_cells}"
+                  f"{'raycast s':>11}{'ratio':>8}")
+        print(header)
+        print("-" * len(header))
+        results = []
+        finest = resolutions[-1]
+        with tempfile.TemporaryDirectory(prefix="bench_measures_") as scratch:
+            mesh_file = Path(scratch) / "mesh.npz"
+            for mesh in meshes:
+                np.savez(mesh_file, vertices=mesh.vertices, faces=mesh.faces, views=views)
+                qualities = {}
+                for resolution in resolutions:
+                    runs: list[float] = []
+                    baseline_runs: list[float] = []
+                    for _ in range(args.repeat):  # alternately, so both see the same machine load
+                        runs.append(time_views(mesh, views, resolution, "raster"))
+                        if args.baseline is not None:
+                            baseline_runs.append(time_baseline(args.baseline, mesh_file, resolution))
+                    raster = min(runs)
+                    raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
+                    raycast *= n_views / raycast_views
+                    record = {"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution,
+                              "raster_s": raster, "raycast_s": raycast}
+                    cells = ""
+                    if baseline_runs:
+                        baseline = min(baseline_runs)
+                        cells = f"{baseline:>11.2f}{baseline / raster:>10.2f}"
+                        record["raster_baseline_s"] = baseline
+                    print(f"{mesh.name:<14}{mesh.n_faces:>9}{resolution:>6}{raster:>10.2f}{cells}"
+                          f"{raycast:>11.1f}{raycast / raster:>8.1f}")
+                    qualities[resolution] = compute_view_quality(
+                        mesh, MeasureSettings(resolution=resolution), view_directions=views)
+                    results.append(record)
+                reference = qualities[finest]
+                for resolution in resolutions[:-1]:
+                    coarse = qualities[resolution]
+                    angles = angle_between_deg(coarse.best_views, reference.best_views)
+                    lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
+                    cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}"
+                                      for m, a, q in zip(MEASURES, angles, lost))
+                    print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
+                    results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
+                                    "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})
+        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+        print(f"\npeak resident memory of this process: {peak_mb:.0f} MB")
+        if args.json:
+            with open(args.json, "w") as handle:
+                json.dump({"jit_cold_s": cold, "jit_warm_s": warm, "peak_mb": peak_mb,
+                           "baseline": str(args.baseline) if args.baseline else None,
+                           "results": results}, handle, indent=2)
 
 
 if __name__ == "__main__":

@@ -6,7 +6,7 @@ ratios hold on a noisy machine:
 * **bare step**: forward, backward and Adam on a batch that is already in
   memory, once with plain Adam and once with the fused one: the ceiling;
 * **per-item sampling** (``fps_pool=0``): farthest point sampling for every
-  input, as training did before the pool;
+  input, as ``train_model`` does with ``fps_pool=0``;
 * **FPS pool** (``fps_pool=8``, the default): farthest-point subsets made
   once per model, fresh random points and rotations every epoch.
 
@@ -21,6 +21,7 @@ Usage::
     python tools/bench_train.py                         # 40 procedural shapes, 30 epochs per set-up
     python tools/bench_train.py --quick                 # a smoke run
     python tools/bench_train.py --dataset reproduction/labels/dataset
+    python tools/bench_train.py --results docs/benchmarks.md  # and its section ``train``
 """
 
 from __future__ import annotations
@@ -30,6 +31,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from results_doc import add_results_option, printed_section
+
 
 
 def parse_args() -> argparse.Namespace:
@@ -38,6 +41,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--epochs", type=int, default=30, help="epochs per set-up")
     parser.add_argument("--models", type=int, default=40, help="training models to use")
     parser.add_argument("--quick", action="store_true", help="tiny sizes, seconds")
+    add_results_option(parser, "train")
     return parser.parse_args()
 
 
@@ -114,28 +118,29 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
 
 def main() -> None:
     args = parse_args()
-    import torch
+    with printed_section(args.results, args.section):
+        import torch
 
-    torch.set_num_threads(1)
-    n_points, n_fps = (1024, 256) if args.quick else (4096, 1024)
-    epochs = 3 if args.quick else max(3, args.epochs)
-    with tempfile.TemporaryDirectory() as scratch:
-        root = Path(scratch)
-        dataset = args.dataset or build(root, 2 if args.quick else 6, args.quick)
-        steps = 3 if args.quick else 20
-        plain = bare_steps(dataset, n_points, n_fps, steps, fused=False)
-        fused = bare_steps(dataset, n_points, n_fps, steps, fused=True)
-        before = epochs_per_second(dataset, root / "before", fps_pool=0, epochs=epochs, models=args.models,
-                                   n_points=n_points, n_fps=n_fps)
-        after = epochs_per_second(dataset, root / "after", fps_pool=8, epochs=epochs, models=args.models,
-                                  n_points=n_points, n_fps=n_fps)
-    print(f"training throughput, one thread, {n_points} points ({n_fps} by FPS), batch 8, samples/s:")
-    print(f"  bare step, plain Adam            {plain:8.1f}")
-    print(f"  bare step, fused Adam            {fused:8.1f}   ({fused / plain:.2f}x plain)")
-    print(f"  train_model, FPS per item        {before[0]:8.1f}   ({before[0] / fused:.2f} of the bare step)")
-    print(f"  train_model, FPS pool, {epochs} epochs {after[0]:8.1f}   ({after[0] / before[0]:.1f}x FPS per item)")
-    print(f"  train_model, FPS pool, last third {after[1]:7.1f}   ({after[1] / fused:.2f} of the bare step, "
-          f"{after[1] / before[1]:.1f}x FPS per item)")
+        torch.set_num_threads(1)
+        n_points, n_fps = (1024, 256) if args.quick else (4096, 1024)
+        epochs = 3 if args.quick else max(3, args.epochs)
+        with tempfile.TemporaryDirectory() as scratch:
+            root = Path(scratch)
+            dataset = args.dataset or build(root, 2 if args.quick else 6, args.quick)
+            steps = 3 if args.quick else 20
+            plain = bare_steps(dataset, n_points, n_fps, steps, fused=False)
+            fused = bare_steps(dataset, n_points, n_fps, steps, fused=True)
+            before = epochs_per_second(dataset, root / "before", fps_pool=0, epochs=epochs, models=args.models,
+                                       n_points=n_points, n_fps=n_fps)
+            after = epochs_per_second(dataset, root / "after", fps_pool=8, epochs=epochs, models=args.models,
+                                      n_points=n_points, n_fps=n_fps)
+        print(f"training throughput, one thread, {n_points} points ({n_fps} by FPS), batch 8, samples/s:")
+        print(f"  bare step, plain Adam            {plain:8.1f}")
+        print(f"  bare step, fused Adam            {fused:8.1f}   ({fused / plain:.2f}x plain)")
+        print(f"  train_model, FPS per item        {before[0]:8.1f}   ({before[0] / fused:.2f} of the bare step)")
+        print(f"  train_model, FPS pool, {epochs} epochs {after[0]:8.1f}   ({after[0] / before[0]:.1f}x FPS per item)")
+        print(f"  train_model, FPS pool, last third {after[1]:7.1f}   ({after[1] / fused:.2f} of the bare step, "
+              f"{after[1] / before[1]:.1f}x FPS per item)")
 
 
 if __name__ == "__main__":

@@ -6,7 +6,10 @@ between its markers ``<!-- NAME:start -->`` and ``<!-- NAME:end -->``
 a score cell is ``mean ± standard error`` (:func:`score_cells`), and a
 comparison is the paired difference of one row against the others, starred
 beyond two standard errors (:func:`comparison_table`). A heading names the
-machine (:func:`machine`) and the wall time (:func:`format_seconds`).
+machine (:func:`machine`) and the wall time (:func:`format_seconds`). A
+benchmark that prints its table as plain text adds ``--results FILE`` and
+``--section NAME`` (:func:`add_results_option`) and writes what it printed into
+its section of ``docs/benchmarks.md`` (:func:`printed_section`).
 
 The scripts import this module as a sibling (``import results_doc``): Python
 puts a script's own folder first on ``sys.path``, and the tests put
@@ -15,9 +18,14 @@ puts a script's own folder first on ``sys.path``, and the tests put
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import io
 import os
 import platform
-from collections.abc import Iterable, Mapping, Sequence
+import shlex
+import sys
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 from vptoolkit.conventions import MEASURES
@@ -94,3 +102,41 @@ def comparison_table(rows: Mapping[str, ProtocolScores], reference: str) -> list
         lines.append([label, *(f"{d:+.1f} ± {e:.1f}{' *' if abs(d) > 2 * e else ''}"
                                for d, e in zip(delta, sem))])
     return markdown_table([f"{reference} minus", *MEASURES], lines)
+
+
+def add_results_option(parser: argparse.ArgumentParser, section: str) -> None:
+    """Add ``--results FILE`` and ``--section NAME`` (default ``section``) to ``parser``."""
+    parser.add_argument("--results", type=Path,
+                        help="also write the printed table into this markdown file "
+                             "(docs/benchmarks.md)")
+    parser.add_argument("--section", default=section,
+                        help=f"the section of --results to replace (default: {section})")
+
+
+@contextlib.contextmanager
+def printed_section(path: Path | None, section: str) -> Iterator[None]:
+    """Print as usual; with ``path``, also write what was printed into ``section`` of it.
+
+    The section holds the command that ran (the script and its arguments), the
+    machine (:func:`machine`) and the printed text as a code block. Nothing is
+    written if the block raises.
+    """
+    if path is None:
+        yield
+        return
+    captured, original = io.StringIO(), sys.stdout
+
+    class Tee(io.TextIOBase):
+        def write(self, text: str) -> int:
+            captured.write(text)
+            return original.write(text)
+
+        def flush(self) -> None:
+            original.flush()
+
+    script = Path(sys.argv[0]).name
+    with contextlib.redirect_stdout(Tee()):
+        yield
+    command = shlex.join(["python", f"tools/{script}", *sys.argv[1:]])
+    write_section(path, section, f"`{command}`, {machine()}:\n\n```text\n"
+                                 f"{captured.getvalue().strip()}\n```")
