@@ -1,4 +1,5 @@
-"""tools/bench_build.py --meshes: the benchmark builds a folder of the user's meshes."""
+"""tools/bench_build.py --meshes: the benchmark builds a folder of the user's meshes
+and writes its table into its section of a results file."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import shutil
 from pathlib import Path
 
 from fixtures.environment import require_package
-from fixtures.scripts import RunTool
+from fixtures.scripts import RunTool, assert_section_holds
 from vptoolkit.samples import sample_path
 
 require_package("pymeshlab")
@@ -23,8 +24,10 @@ def test_meshes_folder_is_built_instead_of_the_samples(tmp_path: Path,
         shutil.copyfile(sample_path(name), meshes / sample_path(name).name)
     (meshes / "notes.txt").write_text("not a mesh")
     result = run_tool(TOOL, "--quick", "--workers", "1", "--meshes", str(tmp_path / "meshes"),
-                    "--json", str(tmp_path / "bench.json"))
+                    "--json", str(tmp_path / "bench.json"),
+                    "--results", str(tmp_path / "benchmarks.md"))
     assert result.returncode == 0, result.stderr[-2000:]
+    assert_section_holds(tmp_path / "benchmarks.md", "build", result.stdout)
     assert f"2 files from 2 meshes under {tmp_path / 'meshes'}" in result.stdout
     record = json.loads((tmp_path / "bench.json").read_text())
     assert record["n_files"] == 2

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import argparse
+import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 import results_doc
 
 from vptoolkit.evaluate.protocol import ProtocolScores
@@ -27,6 +30,33 @@ def test_write_section_replaces_only_its_own_markers(tmp_path: Path) -> None:
     assert "<!-- beta:start -->\nsecond\n<!-- beta:end -->" in text
     assert "first" not in text
     assert text.index("alpha") < text.index("beta")
+
+
+def test_printed_section_writes_what_was_printed_and_keeps_the_rest(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    path = tmp_path / "benchmarks.md"
+    path.write_text("# Benchmarks\n\n<!-- speed:start -->\nold\n<!-- speed:end -->\n\nafter\n")
+    parser = argparse.ArgumentParser()
+    results_doc.add_results_option(parser, "speed")
+    args = parser.parse_args(["--results", str(path)])
+    monkeypatch.setattr(sys, "argv", ["/x/tools/bench_x.py", "--results", str(path)])
+    with results_doc.printed_section(args.results, args.section):
+        print("mesh  seconds")
+        print("torus    0.14")
+    assert capsys.readouterr().out == "mesh  seconds\ntorus    0.14\n"
+    text = path.read_text(encoding="utf-8")
+    assert f"`python tools/bench_x.py --results {path}`" in text
+    assert "```text\nmesh  seconds\ntorus    0.14\n```\n<!-- speed:end -->\n\nafter\n" in text
+    assert "old" not in text
+
+
+def test_printed_section_writes_nothing_when_the_run_fails(tmp_path: Path) -> None:
+    path = tmp_path / "benchmarks.md"
+    with pytest.raises(RuntimeError), results_doc.printed_section(path, "speed"):
+        print("half a table")
+        raise RuntimeError("failed")
+    assert not path.exists()
 
 
 def test_markdown_table_aligns_labels_left_and_numbers_right() -> None:
