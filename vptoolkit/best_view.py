@@ -24,12 +24,8 @@ of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
    :data:`MIN_STEP_DEG`.
 
 Budgets below :data:`FLAT_BELOW` views are one coarse sphere at
-``resolution``: there, more directions beat refining a few. These choices were
-tuned on 29 licensed real meshes under rotation: a coarse sphere at 32 px lost
-more quality than it saved time (a small image's cost is mostly the per-face
-work), and larger prior shares lost. On the bundled meshes (``docs/results.md``)
-the search at 64 views scores like a flat sphere of 256; on the reference check
-set it ties a flat sphere of its own budget.
+``resolution``: there, more directions beat refining a few. Why these
+choices: ``docs/design/best-view.md``.
 
 Only views drawn at ``resolution`` compete for the answer, so every answer's
 measured value is at that resolution, and the answer is never worse there than
