@@ -22,20 +22,19 @@ from typing import Any
 import numpy as np
 import pytest
 
+from fixtures.environment import DASK_DASHBOARD, require_package
 from vptoolkit import parallel
 from vptoolkit.dataset import compute
 from vptoolkit.dataset.build import BuildResult, build_dataset
 from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.sources import assign_split, discover_models
-from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
+from vptoolkit.dataset.sources import assign_split, discover_models
+from vptoolkit.dataset.staging import STAGING_DIR
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
-
-from fixtures.environment import DASK_DASHBOARD, require_package
 
 MALFORMED = Path(__file__).parent / "data" / "malformed"
 SMALL = BuildOptions(MeasureSettings(views=60, resolution=64), n_points=300, max_faces=2000)
@@ -76,7 +75,8 @@ def read_store(path: Path) -> dict[str, Any]:
         }
 
 
-def assert_same_dataset(first: dict[str, Any], second: dict[str, Any], *, same_created: bool = False) -> None:
+def assert_same_dataset(first: dict[str, Any], second: dict[str, Any], *,
+                        same_created: bool = False) -> None:
     skip = set() if same_created else {"created"}
     attrs_a = {k: v for k, v in first["attrs"].items() if k not in skip}
     attrs_b = {k: v for k, v in second["attrs"].items() if k not in skip}
@@ -96,14 +96,15 @@ def src(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def reference(src: Path, tmp_path_factory: pytest.TempPathFactory) -> tuple[BuildResult, dict[str, Any]]:
+def reference(src: Path,
+              tmp_path_factory: pytest.TempPathFactory) -> tuple[BuildResult, dict[str, Any]]:
     """One uninterrupted single-process build with cleaning, the baseline of the comparisons."""
     require_package("pymeshlab")
     result = build_dataset(src, tmp_path_factory.mktemp("reference") / "out", SMALL)
     return result, read_store(result.path)
 
 
-# --------------------------------------------------------------------------- discovery and splits
+# ---------------------------------------------------------------------- discovery and splits
 
 
 def test_discover_models_reads_a_modelnet_tree_and_a_flat_folder(tmp_path):
@@ -175,7 +176,7 @@ def test_assign_split_keeps_modelnet_test_and_draws_val_from_train():
         assign_split("desk", "desk_0001", seed="0")  # type: ignore[arg-type]
 
 
-# --------------------------------------------------------------------------- one full build
+# ---------------------------------------------------------------------- one full build
 
 
 def test_build_stores_every_model_with_records_splits_and_failures(src, reference):
@@ -199,7 +200,8 @@ def test_build_stores_every_model_with_records_splits_and_failures(src, referenc
         else:
             assert record["split"] in ("train", "val")
         cleaning = record["cleaning"]
-        assert [step["name"] for step in cleaning["steps"]] == ["repair", "remove_hidden", "simplify"]
+        assert ([step["name"] for step in cleaning["steps"]]
+                == ["repair", "remove_hidden", "simplify"])
         assert "seconds" not in cleaning and all("seconds" not in s for s in cleaning["steps"])
         assert cleaning["faces_after"] == record["n_faces"] <= 2000
 
@@ -235,12 +237,15 @@ def test_build_arrays_have_schema_shapes_and_agree_with_the_records(reference):
     assert ((arrays["quality"] >= 0) & (arrays["quality"] <= 1)).all()
     rows = np.arange(6)[:, None]
     columns = np.arange(4)[None, :]
-    assert np.array_equal(arrays["best_value"], arrays["quality_raw"][rows, arrays["best_index"], columns])
-    assert np.array_equal(arrays["worst_value"], arrays["quality_raw"][rows, arrays["worst_index"], columns])
+    assert np.array_equal(arrays["best_value"],
+                          arrays["quality_raw"][rows, arrays["best_index"], columns])
+    assert np.array_equal(arrays["worst_value"],
+                          arrays["quality_raw"][rows, arrays["worst_index"], columns])
     assert (arrays["quality"][rows, arrays["best_index"], columns] == 1).all()
     n_vertices = [m["n_vertices"] for m in stored["models"]]
     n_faces = [m["n_faces"] for m in stored["models"]]
-    assert np.array_equal(arrays["mesh_vertex_offsets"], np.concatenate([[0], np.cumsum(n_vertices)]))
+    assert np.array_equal(arrays["mesh_vertex_offsets"],
+                          np.concatenate([[0], np.cumsum(n_vertices)]))
     assert np.array_equal(arrays["mesh_face_offsets"], np.concatenate([[0], np.cumsum(n_faces)]))
 
 
@@ -262,7 +267,7 @@ def test_build_measures_what_the_pipeline_measures(src, reference):
                           cleaned.vertices.astype(np.float32))
 
 
-# --------------------------------------------------------------------------- resume
+# ---------------------------------------------------------------------- resume
 
 
 @pytest.mark.slow
@@ -314,7 +319,8 @@ def test_resuming_with_other_options_is_refused(src, reference, tmp_path):
         ("clean", replace(SMALL, clean=False)), ("split_seed", replace(SMALL, split_seed=1)),
         ("format", replace(SMALL, format="hdf5")),
     ]:
-        with pytest.raises(InputError, match=rf"{option}=.*use a new OUT folder or the same options"):
+        with pytest.raises(InputError,
+                           match=rf"{option}=.*use a new OUT folder or the same options"):
             build_dataset(src, out, options)
     assert read_store(reference[0].path)["models"] == reference[1]["models"]
 
@@ -354,7 +360,7 @@ def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_pa
     assert_same_dataset(read_store(again.path), after, same_created=True)
 
 
-# --------------------------------------------------------------------------- failures
+# ---------------------------------------------------------------------- failures
 
 
 def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monkeypatch):
@@ -421,7 +427,8 @@ def test_duplicate_names_are_failures_not_overwrites(tmp_path):
         "cup/train/a.off: duplicate model name 'a' (2 files: cup/train/a.obj, cup/train/a.off); "
         "names must be unique, rename all but one"
     )
-    assert "3 files: cup/test/b.obj, cup/train/b.obj, plate/train/b.ply" in reasons["plate/train/b.ply"]
+    assert ("3 files: cup/test/b.obj, cup/train/b.obj, plate/train/b.ply"
+            in reasons["plate/train/b.ply"])
 
 
 def _die_on_bottle(task):
@@ -448,7 +455,7 @@ def test_a_dying_worker_process_fails_only_its_model(tmp_path):
                for name, r in by_name.items() if name != "c/bottle")
 
 
-# --------------------------------------------------------------------------- formats and parallelism
+# ---------------------------------------------------------------------- formats and parallelism
 
 
 def test_zarr_and_hdf5_hold_the_same_dataset(src, tmp_path):
@@ -493,7 +500,7 @@ def test_unreachable_scheduler_is_bad_input(src, tmp_path, monkeypatch):
         build_dataset(src, tmp_path / "out", SMALL, scheduler="tcp://127.0.0.1:9")
 
 
-# --------------------------------------------------------------------------- options and folders
+# ---------------------------------------------------------------------- options and folders
 
 
 @pytest.mark.parametrize(
@@ -547,7 +554,7 @@ def test_progress_bar_shows_models_and_failures(src, tmp_path, capsys):
 
 
 def test_remeshing_builds_a_finer_uniform_tessellation(tmp_path):
-    """remesh=True cleans, then remeshes isotropically: many more, similar-sized faces, recorded in attrs."""
+    """remesh=True cleans, then remeshes isotropically: more, similar-sized faces, in attrs."""
     require_package("pymeshlab")
     from vptoolkit.data import open_dataset
     from vptoolkit.synthetic import write_collection
@@ -557,7 +564,8 @@ def test_remeshing_builds_a_finer_uniform_tessellation(tmp_path):
     plain = build_dataset(tmp_path / "src", tmp_path / "plain", options)
     remeshed = build_dataset(tmp_path / "src", tmp_path / "remeshed", replace(options, remesh=True))
     with open_dataset(plain.path) as first, open_dataset(remeshed.path) as second:
-        assert first.attrs["cleaning"]["remesh"] is False and second.attrs["cleaning"]["remesh"] is True
+        assert first.attrs["cleaning"]["remesh"] is False
+        assert second.attrs["cleaning"]["remesh"] is True
         faces = [len(dataset.mesh(0)[1]) for dataset in (first, second)]
     assert faces[1] > 10 * faces[0]
     with pytest.raises(InputError, match="remesh"):

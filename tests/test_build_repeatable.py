@@ -17,8 +17,6 @@ The meshes here are the ones that showed it; builds are tiny (100 views at 64 px
 
 from __future__ import annotations
 
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.settings import MeasureSettings
 import hashlib
 import shutil
 import subprocess
@@ -28,12 +26,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fixtures.environment import DASK_DASHBOARD, require_package
 from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.reader import open_store
 from vptoolkit.dataset.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
-
-from fixtures.environment import DASK_DASHBOARD, require_package
+from vptoolkit.settings import MeasureSettings
 
 REAL = Path(__file__).parent / "data" / "real"
 RABBIT = REAL / "rabbit.obj"

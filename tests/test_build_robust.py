@@ -105,7 +105,8 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
 
     with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.staging"):
         again = build_dataset(src, out, SMALL)
-    warnings = [record.getMessage() for record in caplog.records if record.levelno >= logging.WARNING]
+    warnings = [record.getMessage() for record in caplog.records
+                if record.levelno >= logging.WARNING]
     assert len(warnings) == 1 and staged.name in warnings[0] and "\n" not in warnings[0]
     assert again.n_resumed == 1 and again.n_models == 2
     with open_store(again.path) as store:
@@ -130,8 +131,9 @@ def _break_deflate(staged: Path, src: Path) -> None:
     content = bytearray(staged.read_bytes())
     with zipfile.ZipFile(staged) as archive:
         info = archive.getinfo("points.npy")
-    name_length = int.from_bytes(content[info.header_offset + 26 : info.header_offset + 28], "little")
-    extra_length = int.from_bytes(content[info.header_offset + 28 : info.header_offset + 30], "little")
+    start = info.header_offset
+    name_length = int.from_bytes(content[start + 26 : start + 28], "little")
+    extra_length = int.from_bytes(content[start + 28 : start + 30], "little")
     content[info.header_offset + 30 + name_length + extra_length] = 0xFF
     staged.write_bytes(bytes(content))
 
@@ -161,9 +163,11 @@ def _failure_instead(staged: Path, failure: str, src: Path) -> None:
     pytest.param(lambda staged, src: _replace_meta(staged, b"[1, 2]"), id="meta-a-list"),
     pytest.param(lambda staged, src: _replace_meta(staged, None), id="meta-without-record"),
     pytest.param(lambda staged, src: _replace_meta(staged, b"[" * 200_000), id="meta-nested"),
-    pytest.param(lambda staged, src: _failure_instead(staged, '{"signature": SIGNATURE, "failure": 3}', src),
+    pytest.param(lambda staged, src: _failure_instead(
+                     staged, '{"signature": SIGNATURE, "failure": 3}', src),
                  id="failure-a-number"),
-    pytest.param(lambda staged, src: _failure_instead(staged, "[" * 200_000, src), id="failure-nested"),
+    pytest.param(lambda staged, src: _failure_instead(staged, "[" * 200_000, src),
+                 id="failure-nested"),
 ])
 def test_a_staged_file_that_decodes_wrong_is_computed_again(
     staged_tetrahedron: tuple[Path, Path], tmp_path: Path, caplog: pytest.LogCaptureFixture, damage
@@ -179,7 +183,8 @@ def test_a_staged_file_that_decodes_wrong_is_computed_again(
         done, failed, todo = scan_staging(staging, models)
     assert (done, failed, todo) == ({}, {}, models)
     assert not list(staging.glob("m-*")), "the unreadable staged file is deleted"
-    warnings = [record.getMessage() for record in caplog.records if record.levelno >= logging.WARNING]
+    warnings = [record.getMessage() for record in caplog.records
+                if record.levelno >= logging.WARNING]
     assert len(warnings) <= 1 and all("\n" not in warning for warning in warnings)
 
 

@@ -119,7 +119,6 @@ def test_pack_verify_info_on_a_small_store(runner, tmp_path):
 
 def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_path):
     from fixtures.stores import write_synthetic
-
     from vptoolkit.data import open_dataset
     from vptoolkit.evaluate.baselines import oracle_directions
 
@@ -173,8 +172,8 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
     assert trained.exit_code == 0, trained.output
     assert model.exists() and model.with_suffix(".json").exists()
     predictions = tmp_path / "predictions.npz"
-    predicted = runner.invoke(main, ["predict", "--model", str(model), "--dataset", str(out), "--split", "all",
-                                     "-o", str(predictions)])
+    predicted = runner.invoke(main, ["predict", "--model", str(model), "--dataset", str(out),
+                                     "--split", "all", "-o", str(predictions)])
     assert predicted.exit_code == 0, predicted.output
     with np.load(predictions, allow_pickle=False) as stored:
         assert stored["directions"].shape == (6, 4, 3)
@@ -182,22 +181,26 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
                                   "--split", "all", "--json"])
     assert scored.exit_code == 0, scored.output
     assert set(json.loads(scored.stdout)["mean"]) == {"VE", "VR", "VKL", "VMI"}
-    mesh_prediction = runner.invoke(main, ["predict", "--model", str(model), str(sample_path("teapot.stl")),
+    mesh_prediction = runner.invoke(main, ["predict", "--model", str(model),
+                                           str(sample_path("teapot.stl")),
                                            "-o", str(tmp_path / "teapot.npz"), "--device", "cpu"])
     assert mesh_prediction.exit_code == 0, mesh_prediction.output
 
     per_category = tmp_path / "per_category"
-    trained = runner.invoke(main, ["train", str(out), "-o", str(per_category), "--per-category", "--epochs", "1",
-                                   "--batch-size", "2", "--threads", "1", "--val-split", "train",
+    trained = runner.invoke(main, ["train", str(out), "-o", str(per_category), "--per-category",
+                                   "--epochs", "1", "--batch-size", "2", "--threads", "1",
+                                   "--val-split", "train",
                                    "--device", "cpu"])
     assert trained.exit_code == 0, trained.output
-    assert trained.stdout.startswith("bottle: best epoch 1 of 1") and "table: best epoch" in trained.stdout
+    assert trained.stdout.startswith("bottle: best epoch 1 of 1")
+    assert "table: best epoch" in trained.stdout
     routed = runner.invoke(main, ["predict", "--model", str(per_category), "--dataset", str(out),
                                   "--split", "all"])
     assert routed.exit_code == 0, routed.output
-    unrouted = runner.invoke(main, ["predict", "--model", str(per_category), str(sample_path("teapot.stl"))])
+    unrouted = runner.invoke(main, ["predict", "--model", str(per_category),
+                                    str(sample_path("teapot.stl"))])
     assert unrouted.exit_code == 2 and "one network per category" in unrouted.stderr
-    chosen = runner.invoke(main, ["predict", "--model", str(per_category), str(sample_path("teapot.stl")),
-                                  "--category", "table"])
+    chosen = runner.invoke(main, ["predict", "--model", str(per_category),
+                                  str(sample_path("teapot.stl")), "--category", "table"])
     assert chosen.exit_code == 0, chosen.output
     shutil.rmtree(out)

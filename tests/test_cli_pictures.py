@@ -48,7 +48,8 @@ def one_error_line(result) -> str:
                          ids=["view", "best"])
 def test_render_writes_a_picture_of_the_mesh(renderer_available, runner, cube_file, tmp_path, how):
     output = tmp_path / "cube.png"
-    result = runner.invoke(main, ["render", str(cube_file), *how, "--size", "64", "-o", str(output)])
+    result = runner.invoke(main, ["render", str(cube_file), *how, "--size", "64",
+                                  "-o", str(output)])
     assert result.exit_code == 0, result.output
     image = decode_png(output.read_bytes())
     assert image.shape == (64, 64, 3) and model_mask(image).any() and not model_mask(image).all()
@@ -73,7 +74,8 @@ def test_render_from_the_bundled_network(renderer_available, runner, tmp_path):
     (["--view", "0,0,0"], "--view"),
 ], ids=["none", "two", "short-view", "zero-view"])
 def test_render_rejects_bad_choices_in_one_line(runner, cube_file, tmp_path, arguments, message):
-    result = runner.invoke(main, ["render", str(cube_file), *arguments, "-o", str(tmp_path / "x.png")])
+    result = runner.invoke(main, ["render", str(cube_file), *arguments,
+                                  "-o", str(tmp_path / "x.png")])
     assert result.exit_code == 2
     assert message in one_error_line(result)
     assert not (tmp_path / "x.png").exists()
@@ -139,7 +141,8 @@ def test_thumbnails_skip_bad_files_and_exit_1(renderer_available, runner, cube_f
     result = runner.invoke(main, ["thumbnails", str(cube_file.parent), str(out), "--size", "48",
                                   "--views", "40", "--resolution", "48", "--workers", "1"])
     assert result.exit_code == 1, result.output
-    assert "wrote 1 thumbnails" in result.stdout and "skipped broken.off: broken.off: " in result.stderr
+    assert "wrote 1 thumbnails" in result.stdout
+    assert "skipped broken.off: broken.off: " in result.stderr
     assert model_mask(decode_png((out / "cube.png").read_bytes())).any()
     index = json.loads((out / "thumbnails.json").read_text())
     assert [failure["source"] for failure in index["failures"]] == ["broken.off"]

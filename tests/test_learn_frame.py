@@ -1,4 +1,4 @@
-"""The canonical input frame: principal axes signed by third moments, and the network's equivariance."""
+"""The canonical input frame: principal axes signed by third moments; the network's equivariance."""
 
 from __future__ import annotations
 
@@ -45,9 +45,11 @@ def angles(first: np.ndarray, second: np.ndarray) -> np.ndarray:
 def test_frame_is_orthogonal_sorted_by_variance_and_skewed_positive(clouds):
     points = torch.tensor(np.stack(list(clouds.values())))
     frame, centre = canonical_frame(points)
-    assert torch.allclose(frame @ frame.transpose(1, 2), torch.eye(3, dtype=frame.dtype).expand_as(frame), atol=1e-10)
+    assert torch.allclose(frame @ frame.transpose(1, 2),
+                          torch.eye(3, dtype=frame.dtype).expand_as(frame), atol=1e-10)
     canonical = to_frame(points, frame, centre)
-    assert torch.allclose(canonical.mean(dim=1), torch.zeros(len(clouds), 3, dtype=frame.dtype), atol=1e-10)
+    assert torch.allclose(canonical.mean(dim=1), torch.zeros(len(clouds), 3, dtype=frame.dtype),
+                          atol=1e-10)
     variance = canonical.pow(2).mean(dim=1)
     assert bool((variance[:, :-1] >= variance[:, 1:]).all())
     assert bool((canonical.pow(3).mean(dim=1) >= 0).all())
@@ -80,12 +82,14 @@ def test_ambiguous_signs_are_drawn_in_training_and_fixed_in_evaluation():
     box = torch.tensor(np.concatenate([box, -box])[None])
     fixed = [canonical_frame(box)[0] for _ in range(2)]
     assert torch.equal(fixed[0], fixed[1])
-    drawn = {tuple(np.sign(np.diagonal(canonical_frame(box, generator=torch.Generator().manual_seed(seed))[0][0]
-                                       .numpy())).astype(int)) for seed in range(12)}
+    drawn = {tuple(np.sign(np.diagonal(
+                 canonical_frame(box, generator=torch.Generator().manual_seed(seed))[0][0].numpy()
+             )).astype(int)) for seed in range(12)}
     assert len(drawn) > 2  # several sign patterns over the ambiguous axes
     # a clearly skewed cloud keeps its signs whatever the generator
     skewed = torch.tensor(rng.exponential(size=(1, 4000, 3)) * np.array([3.0, 2.0, 1.0]))
-    frames = [canonical_frame(skewed, generator=torch.Generator().manual_seed(seed))[0] for seed in range(4)]
+    frames = [canonical_frame(skewed, generator=torch.Generator().manual_seed(seed))[0]
+              for seed in range(4)]
     assert all(torch.equal(frames[0], other) for other in frames[1:])
 
 
@@ -109,7 +113,8 @@ def test_rotating_the_input_rotates_the_prediction(head, clouds):
     with torch.no_grad():
         for name, cloud in clouds.items():
             for net, sink in ((network, errors), (plain, plain_errors)):
-                reference = net(torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
+                reference = net(
+                    torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
                 for rotation in fixed_rotations(name, 3, seed=1):
                     turned = torch.tensor((cloud @ rotation.T)[None], dtype=torch.float32)
                     back = net(turned)["directions"][0].numpy() @ rotation
@@ -118,9 +123,10 @@ def test_rotating_the_input_rotates_the_prediction(head, clouds):
     assert np.median(plain_errors) > 30.0
 
 
-@pytest.mark.parametrize("head,phase", [("direction", "sl"), ("direction", "gl"), ("sr", "sr"), ("dldl", "dldl")])
+@pytest.mark.parametrize("head,phase", [("direction", "sl"), ("direction", "gl"), ("sr", "sr"),
+                                        ("dldl", "dldl")])
 def test_losses_do_not_depend_on_the_orientation(head, phase, clouds):
-    """Labels rotate with the input, and heads that answer in the canonical frame get theirs mapped there."""
+    """Labels rotate with the input; canonical-frame heads get theirs mapped into that frame."""
     network = M.ViewpointNet(ModelConfig(head=head), seed=0).eval()
     cloud = clouds["bunny"]
     rng = np.random.default_rng(3)
@@ -135,19 +141,23 @@ def test_losses_do_not_depend_on_the_orientation(head, phase, clouds):
             batch = {
                 "views": torch.tensor(turned_views[None], dtype=torch.float32),
                 "quality": torch.tensor(quality[None], dtype=torch.float32),
-                "best_views": torch.tensor(turned_views[quality.argmax(axis=0)][None], dtype=torch.float32),
+                "best_views": torch.tensor(turned_views[quality.argmax(axis=0)][None],
+                                           dtype=torch.float32),
             }
             outputs = network(torch.tensor((cloud @ rotation.T)[None], dtype=torch.float32))
             losses.append(label_loss(phase, outputs, batch).numpy())
-    assert np.allclose(losses[0], losses[1], atol=2e-3) and np.allclose(losses[0], losses[2], atol=2e-3), losses
+    assert np.allclose(losses[0], losses[1], atol=2e-3), losses
+    assert np.allclose(losses[0], losses[2], atol=2e-3), losses
 
 
 def test_a_checkpoint_without_an_input_frame_sees_raw_inputs(tmp_path):
     values = ModelConfig().to_dict()
     assert values["input_frame"] == "pca"
     del values["input_frame"]
-    assert ModelConfig.from_dict(values).input_frame == "pca"  # a partial architecture gets the default
-    weights, config_path = M.save_model(M.ViewpointNet(ModelConfig(input_frame="none")), tmp_path / "old")
+    # a partial architecture gets the default
+    assert ModelConfig.from_dict(values).input_frame == "pca"
+    weights, config_path = M.save_model(M.ViewpointNet(ModelConfig(input_frame="none")),
+                                        tmp_path / "old")
     config = json.loads(config_path.read_text())
     del config["architecture"]["input_frame"]
     config_path.write_text(json.dumps(config))
@@ -162,7 +172,8 @@ def test_the_shipped_network_turns_with_its_input(clouds):
     errors = []
     with torch.no_grad():
         for name, cloud in clouds.items():
-            reference = network(torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
+            reference = network(
+                torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
             for rotation in fixed_rotations(name, 3, seed=2):
                 turned = network(torch.tensor((cloud @ rotation.T)[None], dtype=torch.float32))
                 errors.extend(angles(turned["directions"][0].numpy() @ rotation, reference))

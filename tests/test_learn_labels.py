@@ -69,7 +69,8 @@ def test_multiple_labels_ignore_views_below_the_threshold():
     near_minus_x = unit((-1, 0.1, 0))[None]
     loss = L.multiple_labels_loss(near_minus_x, VIEWS, quality)
     assert loss.item() == pytest.approx(1 - near_minus_x[0, 0, 0].item())  # only +x is a label
-    assert L.multiple_labels_loss(near_minus_x, VIEWS, quality, threshold=0.97).item() == pytest.approx(
+    assert L.multiple_labels_loss(near_minus_x, VIEWS, quality,
+                                  threshold=0.97).item() == pytest.approx(
         1 - near_minus_x[0, 0] @ VIEWS[3]
     )
 
@@ -112,8 +113,10 @@ def test_gaussian_weight_uses_the_distance_not_its_square():
     weight_far = math.exp(-distance / 8) + 1
     # a near view (distance 0) of quality q ties with the far one when 2 q = weight_far
     tie = weight_far / 2
-    assert L.gaussian_label_index(prediction, VIEWS, one_measure([1.0, tie + 1e-6, 0, 0])).item() == 1
-    assert L.gaussian_label_index(prediction, VIEWS, one_measure([1.0, tie - 1e-6, 0, 0])).item() == 0
+    above = one_measure([1.0, tie + 1e-6, 0, 0])
+    below = one_measure([1.0, tie - 1e-6, 0, 0])
+    assert L.gaussian_label_index(prediction, VIEWS, above).item() == 1
+    assert L.gaussian_label_index(prediction, VIEWS, below).item() == 0
     assert far @ prediction[0, 0] == pytest.approx(0.0)
 
 
@@ -141,7 +144,8 @@ def test_unknown_label_method_names_the_argument():
 
 
 def test_sign_categories_round_trip_through_the_patterns():
-    vectors = torch.tensor([[sx * 0.3, sy * 0.5, sz * 0.8] for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)])
+    vectors = torch.tensor([[sx * 0.3, sy * 0.5, sz * 0.8]
+                            for sx in (1, -1) for sy in (1, -1) for sz in (1, -1)])
     categories = L.sign_category(vectors)
     assert sorted(categories.tolist()) == list(range(8))
     assert torch.equal(L.SIGN_PATTERNS[categories], torch.sign(vectors))
@@ -182,7 +186,8 @@ def cell_diameter_deg(resolution: int) -> float:
 
 
 def test_octahedral_map_round_trip():
-    directions = torch.randn(2000, 3, dtype=torch.float64, generator=torch.Generator().manual_seed(1))
+    directions = torch.randn(2000, 3, dtype=torch.float64,
+                             generator=torch.Generator().manual_seed(1))
     directions /= directions.norm(dim=-1, keepdim=True)
     assert torch.allclose(octahedral_decode(octahedral_encode(directions)), directions, atol=1e-12)
     centres = sphere_map_directions(32, dtype=torch.float64)
@@ -217,8 +222,10 @@ def test_distribution_loss_is_the_mean_squared_error():
 
 
 def test_nearest_view_quality_scores_the_nearest_sampled_view():
-    quality = torch.tensor([[1.0, 0.1], [0.5, 0.2], [0.0, 1.0], [0.3, 0.3]], dtype=torch.float64)[None]
-    predictions = unit((0.9, 0.2, 0.0), (0.1, 0.0, 2.0))[None]  # near +x for measure 0, +z for measure 1
+    quality = torch.tensor([[1.0, 0.1], [0.5, 0.2], [0.0, 1.0], [0.3, 0.3]],
+                           dtype=torch.float64)[None]
+    # near +x for measure 0, +z for measure 1
+    predictions = unit((0.9, 0.2, 0.0), (0.1, 0.0, 2.0))[None]
     scores = L.nearest_view_quality(predictions, VIEWS, quality)
     assert scores.tolist() == [[1.0, 1.0]]
 
@@ -242,14 +249,17 @@ def test_label_loss_dispatches_every_phase():
         assert loss.shape == (2, 4) and torch.isfinite(loss).all(), phase
     outputs["directions"] = best
     for phase in ("sl", "ml", "gl"):
-        assert torch.allclose(L.label_loss(phase, outputs, batch), torch.zeros(2, 4), atol=1e-6), phase
+        assert torch.allclose(L.label_loss(phase, outputs, batch), torch.zeros(2, 4),
+                              atol=1e-6), phase
     with pytest.raises(InputError, match="label_phase"):
         L.label_loss("ml+gl", outputs, batch)
 
 
 def test_wrong_shapes_raise_input_errors():
     with pytest.raises(InputError, match="quality"):
-        L.multiple_labels_loss(unit((1, 0, 0))[None], VIEWS, torch.ones(1, 3, 1, dtype=torch.float64))
+        L.multiple_labels_loss(unit((1, 0, 0))[None], VIEWS,
+                               torch.ones(1, 3, 1, dtype=torch.float64))
     with pytest.raises(InputError, match="best_views"):
         L.single_label_loss(torch.zeros(2, 4, 3), torch.zeros(2, 3, 3))
-    assert np.isclose(L.GL_SIGMA, 2.0) and np.isclose(L.GL_SHIFT, 1.0) and np.isclose(L.ML_THRESHOLD, 0.99)
+    assert np.isclose(L.GL_SIGMA, 2.0) and np.isclose(L.GL_SHIFT, 1.0)
+    assert np.isclose(L.ML_THRESHOLD, 0.99)

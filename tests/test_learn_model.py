@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fixtures.networks import TINY_CONFIG
 from fixtures.environment import require_package
+from fixtures.networks import TINY_CONFIG
 
 require_package("torch")
 require_package("safetensors")
@@ -25,10 +25,15 @@ from vptoolkit.io import load_mesh  # noqa: E402
 from vptoolkit.learn import model as M  # noqa: E402
 from vptoolkit.learn.checkpoint import MODEL_FORMAT, PRETRAINED, checkpoint_paths  # noqa: E402
 from vptoolkit.learn.config import DEFAULT_LEVELS, HEADS, LevelConfig, ModelConfig  # noqa: E402
-from vptoolkit.learn.hierarchy import ball_query, cell_neighbourhood, grid_subsample, input_level, point_density  # noqa: E402
+from vptoolkit.learn.hierarchy import (  # noqa: E402
+    ball_query,
+    cell_neighbourhood,
+    grid_subsample,
+    input_level,
+    point_density,
+)
 from vptoolkit.points import network_input, sample_surface  # noqa: E402
 from vptoolkit.samples import sample_path  # noqa: E402
-
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -62,7 +67,8 @@ def test_output_shapes_and_unit_directions(head, clouds):
     assert directions.shape == (2, 4, 3)
     assert torch.allclose(directions.norm(dim=-1), torch.ones(2, 4), atol=1e-5)
     if head == "sr":
-        assert outputs["abs_directions"].shape == (2, 4, 3) and outputs["sign_logits"].shape == (2, 4, 8)
+        assert outputs["abs_directions"].shape == (2, 4, 3)
+        assert outputs["sign_logits"].shape == (2, 4, 8)
         assert (outputs["abs_directions"] > 0).all()
     if head == "dldl":
         assert outputs["maps"].shape == (2, 4, 32, 32)
@@ -72,14 +78,17 @@ def test_training_mode_outputs_have_gradients(clouds):
     model = M.ViewpointNet(TINY_CONFIG).train()
     outputs = model(clouds)
     outputs["directions"].sum().backward()
-    assert all(p.grad is not None for name, p in model.named_parameters() if "heads" in name or "encoder" in name)
+    assert all(p.grad is not None for name, p in model.named_parameters()
+               if "heads" in name or "encoder" in name)
 
 
 def test_documented_parameter_counts_match(network):
-    table = dict(re.findall(r"^\s+(direction|sr|dldl)\s+([\d,]+)\s*$", M.__doc__, flags=re.MULTILINE))
+    table = dict(re.findall(r"^\s+(direction|sr|dldl)\s+([\d,]+)\s*$", M.__doc__,
+                            flags=re.MULTILINE))
     assert set(table) == set(HEADS)
     for head, documented in table.items():
-        assert M.count_parameters(M.ViewpointNet(ModelConfig(head=head))) == int(documented.replace(",", ""))
+        assert (M.count_parameters(M.ViewpointNet(ModelConfig(head=head)))
+                == int(documented.replace(",", "")))
     encoder = M.count_parameters(network.encoder)
     assert f"{encoder:,} parameters" in M.__doc__
     for conv in network.encoder.convs:
@@ -228,7 +237,8 @@ def test_checkpoint_round_trip_gives_identical_outputs(head, tmp_path, clouds, m
     model.train()
     model(clouds)  # move the batch-norm statistics away from their initial values
     model.eval()
-    weights, config_path = M.save_model(model, tmp_path / "net.safetensors", metadata={"labels": "test"})
+    weights, config_path = M.save_model(model, tmp_path / "net.safetensors",
+                                        metadata={"labels": "test"})
     assert (weights.name, config_path.name) == ("net.safetensors", "net.json")
     config = json.loads(config_path.read_text())
     assert config["format"] == MODEL_FORMAT and config["architecture"]["head"] == head
@@ -255,7 +265,8 @@ def test_checkpoint_round_trip_gives_identical_outputs(head, tmp_path, clouds, m
 
 def test_checkpoint_folder_layout(tmp_path):
     M.save_model(M.ViewpointNet(TINY_CONFIG), tmp_path / "run")
-    assert sorted(p.name for p in (tmp_path / "run").iterdir()) == ["model.json", "model.safetensors"]
+    assert (sorted(p.name for p in (tmp_path / "run").iterdir())
+            == ["model.json", "model.safetensors"])
     model, _ = M.load_model(tmp_path / "run")
     assert model.config == TINY_CONFIG
 
@@ -319,7 +330,8 @@ def test_configuration_round_trips_and_validates():
 
 def test_importing_vptoolkit_learn_does_not_import_torch():
     code = "import sys, vptoolkit, vptoolkit.learn; print('torch' in sys.modules)"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                            check=True)
     assert result.stdout.strip() == "False"
 
 

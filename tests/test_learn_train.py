@@ -56,16 +56,17 @@ def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> P
     options = BuildOptions(MeasureSettings(views=100, resolution=64), n_points=2000, clean=False)
     out = build_samples(tmp_path_factory.mktemp("learn"), SHAPES, category="shapes",
                         options=options)
-    torch.set_num_threads(1)  # numba.set_num_threads in the build changes torch's OpenMP threads too
+    torch.set_num_threads(1)  # numba.set_num_threads in the build sets torch's OpenMP threads too
     return out
 
 
 @pytest.fixture(scope="module")
-def trained(dataset_dir: Path, tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> T.TrainResult:
-    """The paper's network and ML+GL labels, 60 one-batch epochs on the six training models, rotated."""
+def trained(dataset_dir: Path, tmp_path_factory: pytest.TempPathFactory,
+            one_thread: None) -> T.TrainResult:
+    """The paper's network and ML+GL labels, 60 one-batch epochs on six training models, rotated."""
     output = tmp_path_factory.mktemp("run") / "net.safetensors"
-    options = TrainOptions(labels="ml+gl", epochs=60, batch_size=6, lr=1e-3, lr_step=20, lr_decay=0.5, seed=0,
-                           **{**FAST, "rotate": True})
+    options = TrainOptions(labels="ml+gl", epochs=60, batch_size=6, lr=1e-3, lr_step=20,
+                           lr_decay=0.5, seed=0, **{**FAST, "rotate": True})
     return T.train_model(dataset_dir, output, options, device="cpu")
 
 
@@ -76,19 +77,22 @@ def test_tiny_run_lowers_the_loss_and_beats_a_random_view(trained, dataset_dir):
     losses = [entry["loss"] for entry in trained.history]
     assert trained.epochs == 60 and trained.n_train == 6 and trained.n_val == 6
     assert [entry["phase"] for entry in trained.history] == ["ml"] * 30 + ["gl"] * 30
-    assert np.mean(losses[25:30]) < 0.8 * np.mean(losses[:3])  # ML's loss falls under random rotations
-    assert trained.history[0]["lr"] == 1e-3 and trained.history[-1]["lr"] == pytest.approx(1e-3 / 4)
+    assert np.mean(losses[25:30]) < 0.8 * np.mean(losses[:3])  # ML's loss falls under rotations
+    assert trained.history[0]["lr"] == 1e-3
+    assert trained.history[-1]["lr"] == pytest.approx(1e-3 / 4)
 
     # The kept checkpoint on fresh inputs (another point selection than training and validation)
     # under rotations it never saw: it must beat a random view on the models it learned.
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")
-        scores = score_protocol(train, network_predictor(trained.checkpoint, seed=7), n_rotations=3, seed=11)
+        scores = score_protocol(train, network_predictor(trained.checkpoint, seed=7), n_rotations=3,
+                                seed=11)
         random = random_view_scores(train)
     assert scores.mean.mean() > random.mean.mean() + 5.0, (scores.mean, random.mean)
     assert (scores.mean > random.mean).sum() >= 3, (scores.mean, random.mean)
     best = trained.history[trained.best_epoch - 1]
-    assert best["val_score"] == trained.best_score == max(entry["val_score"] for entry in trained.history)
+    assert (best["val_score"] == trained.best_score
+            == max(entry["val_score"] for entry in trained.history))
 
 
 def test_checkpoint_configuration_records_the_run(trained):
@@ -101,13 +105,16 @@ def test_checkpoint_configuration_records_the_run(trained):
     assert training["arguments"]["lr"] == 1e-3 and training["arguments"]["labels"] == "ml+gl"
     assert training["command"].startswith("vptoolkit.learn.train.train_model(")
     assert "TrainOptions(labels='ml+gl', epochs=60, batch_size=6," in training["command"]
-    assert {"dataset_path", "output", "save_every", "workers", "device"} <= set(training["arguments"])
+    assert ({"dataset_path", "output", "save_every", "workers", "device"}
+            <= set(training["arguments"]))
     recorded = {key: value for key, value in training["arguments"].items()
                 if key in {item.name for item in dataclasses.fields(TrainOptions)}}
     assert TrainOptions.from_dict(recorded) == TrainOptions(
-        labels="ml+gl", epochs=60, batch_size=6, lr_step=20, lr_decay=0.5, **{**FAST, "rotate": True})
+        labels="ml+gl", epochs=60, batch_size=6, lr_step=20, lr_decay=0.5,
+        **{**FAST, "rotate": True})
     assert training["epochs"] == 60 and training["epochs_completed"] == 60
-    assert training["best_epoch"] == trained.best_epoch and training["best_score"] == trained.best_score
+    assert training["best_epoch"] == trained.best_epoch
+    assert training["best_score"] == trained.best_score
     assert set(training["best_scores"]) == {"VE", "VR", "VKL", "VMI"}
     assert len(training["history"]) == 60
     assert config["toolkit_version"] and config["torch_version"] == torch.__version__
@@ -128,7 +135,8 @@ def tiny_options(**changes: Any) -> TrainOptions:
     return TrainOptions(**values)
 
 
-def tiny_run(dataset_dir: Path, output: Path, options: TrainOptions | None = None, **run: Any) -> T.TrainResult:
+def tiny_run(dataset_dir: Path, output: Path, options: TrainOptions | None = None,
+             **run: Any) -> T.TrainResult:
     return T.train_model(dataset_dir, output, options or tiny_options(), device="cpu", **run)
 
 
@@ -172,7 +180,8 @@ def test_resumed_run_equals_an_uninterrupted_one(dataset_dir, tmp_path, monkeypa
 
 def test_resume_can_extend_a_finished_run(dataset_dir, tmp_path):
     tiny_run(dataset_dir, tmp_path / "run", tiny_options(labels="sl", epochs=2))
-    extended = tiny_run(dataset_dir, tmp_path / "run", tiny_options(labels="sl", epochs=3), resume=True)
+    extended = tiny_run(dataset_dir, tmp_path / "run", tiny_options(labels="sl", epochs=3),
+                        resume=True)
     assert [entry["epoch"] for entry in extended.history] == [1, 2, 3]
 
 
@@ -182,7 +191,8 @@ def test_existing_runs_are_not_overwritten_by_accident(dataset_dir, tmp_path):
         tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1))
     with pytest.raises(InputError, match=r"cannot resume with other options \(seed: 0 -> 1\)"):
         tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1, seed=1), resume=True)
-    replaced = tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1, seed=1), overwrite=True)
+    replaced = tiny_run(dataset_dir, tmp_path / "run", tiny_options(epochs=1, seed=1),
+                        overwrite=True)
     assert replaced.epochs == 1
 
 
@@ -194,7 +204,8 @@ def test_every_label_method_trains_and_predicts(labels, dataset_dir, tmp_path):
     result = tiny_run(dataset_dir, tmp_path / labels, tiny_options(labels=labels, epochs=2))
     assert all(np.isfinite(entry["loss"]) for entry in result.history)
     model, config = load_model(result.checkpoint)
-    assert config["labels"] == labels and model.config.head == {"sr": "sr", "dldl": "dldl"}.get(labels, "direction")
+    assert config["labels"] == labels
+    assert model.config.head == {"sr": "sr", "dldl": "dldl"}.get(labels, "direction")
     predictions = predict(result.checkpoint, dataset_dir, split="test")
     assert predictions.directions.shape == (1, 4, 3)
     assert np.allclose(np.linalg.norm(predictions.directions, axis=-1), 1.0)
@@ -211,7 +222,8 @@ def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path)
     surface = sample_surface(load_mesh(duck), 3000, seed=0)
     (tmp_path / "six").mkdir()
     (tmp_path / "three").mkdir()
-    np.save(tmp_path / "six" / "duck.npy", np.hstack([surface.points, surface.normals]).astype(np.float32))
+    np.save(tmp_path / "six" / "duck.npy",
+            np.hstack([surface.points, surface.normals]).astype(np.float32))
     np.save(tmp_path / "three" / "duck.npy", surface.points.astype(np.float32))
     predictions = predict(trained.checkpoint, [dataset_dir, duck, tmp_path / "six" / "duck.npy"],
                           split=None, batch_size=3)
@@ -233,7 +245,8 @@ def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path)
         assert archive["directions"].dtype == np.float64
         assert archive["names"].tolist() == list(predictions.names)
     loaded = Predictions.load_npz(path)
-    assert loaded.names == predictions.names and np.array_equal(loaded.directions, predictions.directions)
+    assert loaded.names == predictions.names
+    assert np.array_equal(loaded.directions, predictions.directions)
     assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
 
 
@@ -285,7 +298,8 @@ def test_predict_rejects_bad_inputs(trained, tmp_path):
     ({"rotate": "yes"}, "rotate: expected True or False"),
     ({"fps_pool": -1}, "fps_pool: must be at least 0"),
     ({"val_rotations": 1.5}, "val_rotations: expected an integer"),
-    ({"labels": "sr", "architecture": TINY_CONFIG}, "architecture: head 'direction' does not fit labels 'sr'"),
+    ({"labels": "sr", "architecture": TINY_CONFIG},
+     "architecture: head 'direction' does not fit labels 'sr'"),
     ({"architecture": "big"}, "architecture: expected a ModelConfig or a mapping"),
 ])
 def test_training_options_are_checked_when_made(changes, message):
@@ -294,14 +308,16 @@ def test_training_options_are_checked_when_made(changes, message):
 
 
 def test_training_options_keep_their_checked_values_and_read_back():
-    options = TrainOptions(labels="SR", epochs=300, val_split="val", categories=("mug", "cup", "mug"),
-                           architecture={"head_channels": [32]})
-    assert options.labels == "sr" and options.val_split == "validation" and options.categories == ("cup", "mug")
+    options = TrainOptions(labels="SR", epochs=300, val_split="val",
+                           categories=("mug", "cup", "mug"), architecture={"head_channels": [32]})
+    assert options.labels == "sr" and options.val_split == "validation"
+    assert options.categories == ("cup", "mug")
     assert options.lr_step == options.decay_step == scaled_lr_step(300) == 20
     assert options.architecture == ModelConfig(head="sr", head_channels=(32,))
     recorded = json.loads(json.dumps(options.to_dict()))
     assert TrainOptions.from_dict(recorded) == options
-    assert TrainOptions() == TrainOptions(labels="ml+gl", epochs=PAPER_EPOCHS, batch_size=PAPER_BATCH_SIZE)
+    assert TrainOptions() == TrainOptions(labels="ml+gl", epochs=PAPER_EPOCHS,
+                                          batch_size=PAPER_BATCH_SIZE)
     with pytest.raises(InputError, match=r"training options: unknown keys \['device'\]"):
         TrainOptions.from_dict({**recorded, "device": "cpu"})
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -313,7 +329,8 @@ def test_resuming_may_only_grow_the_epochs():
     assert options.resume_conflicts(dataclasses.replace(options, epochs=50)) == {}
     assert options.resume_conflicts(dataclasses.replace(options, seed=3, rotate=False)) == {
         "seed": (3, 0), "rotate": (False, True)}
-    longer = dataclasses.replace(options, epochs=3000, lr_step=None)  # the paper's step for 3000 epochs
+    # the paper's step for 3000 epochs
+    longer = dataclasses.replace(options, epochs=3000, lr_step=None)
     assert longer.resume_conflicts(options) == {"lr_step": (10, 200)}
 
 
@@ -329,7 +346,8 @@ def test_train_model_checks_its_run_keywords(dataset_dir, tmp_path):
 
 def test_learning_rate_follows_the_papers_step_decay():
     assert learning_rate(0) == 1e-3 and learning_rate(199) == 1e-3
-    assert learning_rate(200) == pytest.approx(7.5e-4) and learning_rate(2999) == pytest.approx(1e-3 * 0.75**14)
+    assert learning_rate(200) == pytest.approx(7.5e-4)
+    assert learning_rate(2999) == pytest.approx(1e-3 * 0.75**14)
     assert (PAPER_EPOCHS, PAPER_BATCH_SIZE) == (3000, 8)
 
 
@@ -353,8 +371,10 @@ def test_the_farthest_point_pool_keeps_a_few_subsets_per_model(dataset_dir):
     from vptoolkit.data.torch import ViewpointTorchDataset
 
     with open_dataset(dataset_dir) as dataset:
-        pooled = ViewpointTorchDataset(dataset.split("train"), n_points=300, n_fps=100, fps_pool=3, rotate=False)
-        again = ViewpointTorchDataset(dataset.split("train"), n_points=300, n_fps=100, fps_pool=3, rotate=False)
+        pooled = ViewpointTorchDataset(dataset.split("train"), n_points=300, n_fps=100, fps_pool=3,
+                                       rotate=False)
+        again = ViewpointTorchDataset(dataset.split("train"), n_points=300, n_fps=100, fps_pool=3,
+                                      rotate=False)
         subsets, items = set(), []
         for epoch in range(12):
             pooled.set_epoch(epoch)
@@ -362,7 +382,8 @@ def test_the_farthest_point_pool_keeps_a_few_subsets_per_model(dataset_dir):
             items.append(item["points"])
             subsets.add(item["points"][:100].numpy().tobytes())
         assert len(subsets) <= 3  # farthest-point parts come from the pool
-        assert len({points[100:].numpy().tobytes() for points in items}) == 12  # random parts stay fresh
+        # random parts stay fresh
+        assert len({points[100:].numpy().tobytes() for points in items}) == 12
         again.set_epoch(11)  # the same item whatever was drawn before
         assert torch.equal(again[0]["points"], items[-1])
 
@@ -398,10 +419,12 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     results = T.train_per_category(dataset_dir, tmp_path / "per", options, device="cpu")
     assert sorted(results) == sorted(set(categories.values()))
     index = json.loads((tmp_path / "per" / "categories.json").read_text())
-    assert index["format"] == CATEGORY_MODELS_FORMAT and sorted(index["categories"]) == sorted(results)
+    assert index["format"] == CATEGORY_MODELS_FORMAT
+    assert sorted(index["categories"]) == sorted(results)
     for name, result in results.items():
         config = json.loads(result.config_path.read_text())
-        assert config["categories"] == [name] and result.n_train == list(categories.values()).count(name)
+        assert config["categories"] == [name]
+        assert result.n_train == list(categories.values()).count(name)
     predictions = predict(tmp_path / "per", dataset_dir, split="train")
     for name, directions in zip(predictions.names, predictions.directions):
         alone = predict(tmp_path / "per" / categories[name], dataset_dir, split="train")
@@ -409,9 +432,11 @@ def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     with pytest.raises(InputError, match="one network per category"):
         predict(tmp_path / "per", [sample_path("Duck")])
     chosen = sorted(results)[0]
-    assert predict(tmp_path / "per", [sample_path("Duck")], category=chosen).directions.shape == (1, 4, 3)
+    chosen_predictions = predict(tmp_path / "per", [sample_path("Duck")], category=chosen)
+    assert chosen_predictions.directions.shape == (1, 4, 3)
     with pytest.raises(InputError, match="categories:"):
-        T.train_model(dataset_dir, tmp_path / "x", dataclasses.replace(options, categories=["no-such-category"]))
+        T.train_model(dataset_dir, tmp_path / "x",
+                      dataclasses.replace(options, categories=["no-such-category"]))
 
 
 @pytest.mark.parametrize("epoch", [10**12, -1, 1])

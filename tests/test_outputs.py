@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.settings import MeasureSettings
 import errno
 import io
 import logging
@@ -16,9 +14,11 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
+from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, write_bytes_atomic
 from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
 
 
 def _run(*args: object) -> tuple[int, str]:
@@ -113,10 +113,9 @@ def test_names_up_to_255_bytes_can_be_written(tmp_path: Path, n_bytes: int) -> N
 def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
     small_build: Path, tmp_path: Path
 ) -> None:
-    from vptoolkit.dataset.release import pack_release
     from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.release import _ReaderEntries, pack_release
     from vptoolkit.dataset.writer import write_dataset
-    from vptoolkit.dataset.release import _ReaderEntries
 
     beside = tmp_path / ".release.k9x2ab.partial"
     beside.mkdir()

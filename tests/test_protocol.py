@@ -1,4 +1,4 @@
-"""The evaluation protocol: fixed rotations, scoring under rotation, baselines and standard errors."""
+"""The evaluation protocol: fixed rotations, scoring under rotation, baselines, standard errors."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ MESHES = ("bunny", "mug", "table", "teapot")
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory: pytest.TempPathFactory) -> Iterator[ViewpointDataset]:
-    """Four bundled meshes measured from 1000 views at 48 px (enough for a fine random-view check)."""
+    """Four bundled meshes measured from 1000 views at 48 px (enough for a random-view check)."""
     options = BuildOptions(MeasureSettings(views=1000, resolution=48), n_points=3000,
                            clean=False)
     out = build_samples(tmp_path_factory.mktemp("protocol"), MESHES, category="things",
@@ -58,7 +58,7 @@ def test_fixed_rotations_are_proper_seeded_by_name_and_prefix_stable():
 
 
 def test_an_equivariant_predictor_scores_alike_rotated_or_not(dataset):
-    """The PCA axis turns with the model, so rotations cannot change its score; a constant does not."""
+    """The PCA axis turns with the model, so rotations keep its score; a constant's changes."""
     rotated = score_protocol(dataset, pca_predictor, n_rotations=3)
     stored = score_protocol(dataset, pca_predictor, rotate=False)
     assert rotated.n_rotations == 3 and stored.n_rotations == 0
@@ -69,7 +69,7 @@ def test_an_equivariant_predictor_scores_alike_rotated_or_not(dataset):
 
 
 def test_predictions_are_rotated_back_before_scoring(dataset):
-    """A predictor that knows each rotation and answers the best view in the rotated frame scores 100 %."""
+    """A predictor answering the best view in each known rotated frame scores 100 %."""
     best = {name: dataset.views[dataset[i]["best_index"]] for i, name in enumerate(dataset.names)}
     turns = {name: fixed_rotations(name, 2) for name in dataset.names}
     calls = {"n": 0}

@@ -11,17 +11,17 @@ from types import ModuleType
 
 import numpy as np
 import pytest
-from fixtures.environment import require_package
 
+from fixtures.environment import require_package
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
-
 
 
 @pytest.fixture(scope="module")
 def tool() -> ModuleType:
     """``tools/reproduce_paper.py`` (tools/ is on the tests' path, see pyproject.toml)."""
-    for module in ("torch", "safetensors", "matplotlib", "open3d", "pymeshlab", "zarr", "scipy", "trimesh"):
+    for module in ("torch", "safetensors", "matplotlib", "open3d", "pymeshlab", "zarr", "scipy",
+                   "trimesh"):
         require_package(module)
     return importlib.import_module("reproduce_paper")
 
@@ -38,7 +38,8 @@ def test_subdivide_keeps_surface_and_shares_midpoints(tool: ModuleType) -> None:
     assert once.n_vertices == 4 + 5  # four outer edges and the shared diagonal
     assert math.isclose(face_areas(once).sum(), 1.0)
     assert np.allclose(face_areas(once), 1.0 / 8.0)
-    normals = np.cross(*(once.vertices[once.faces[:, 1:]] - once.vertices[once.faces[:, :1]]).transpose(1, 0, 2))
+    edges = once.vertices[once.faces[:, 1:]] - once.vertices[once.faces[:, :1]]
+    normals = np.cross(*edges.transpose(1, 0, 2))
     assert (normals[:, 2] > 0).all()  # winding kept
 
 

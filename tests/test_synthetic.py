@@ -1,4 +1,4 @@
-"""Procedural category shapes: valid closed outward meshes, deterministic, symmetric, category-like."""
+"""Procedural category shapes: closed outward meshes, deterministic, symmetric, category-like."""
 
 from __future__ import annotations
 
@@ -9,7 +9,13 @@ import trimesh
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
-from vptoolkit.synthetic import CATEGORIES, MAX_FACES, MIRROR_SYMMETRIC, make_shape, write_collection
+from vptoolkit.synthetic import (
+    CATEGORIES,
+    MAX_FACES,
+    MIRROR_SYMMETRIC,
+    make_shape,
+    write_collection,
+)
 
 SEEDS = (0, 1, 2, 3)
 PAPER_CATEGORIES = ("airplane", "bench", "bottle", "car", "chair", "sofa", "table", "toilet")
@@ -21,7 +27,7 @@ def extents(mesh: Mesh) -> np.ndarray:
 
 
 def max_distance_to_set(points: np.ndarray, targets: np.ndarray) -> float:
-    """Largest distance from a point of ``points`` (n, 3) to its nearest point of ``targets`` (m, 3)."""
+    """Largest distance from a point of ``points`` (n, 3) to its nearest of ``targets`` (m, 3)."""
     nearest = [np.min(np.linalg.norm(targets[None] - chunk[:, None], axis=2), axis=1)
                for chunk in np.array_split(points, max(1, len(points) // 256))]
     return float(np.max(np.concatenate(nearest)))
@@ -47,7 +53,8 @@ def test_shape_is_a_valid_closed_outward_mesh(category, seed):
     np.testing.assert_allclose((low + high) / 2, 0.0, atol=1e-12 * diagonal)  # centred
 
     corners = mesh.vertices[mesh.faces]
-    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    areas = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                          corners[:, 2] - corners[:, 0]), axis=1)
     assert areas.min() > 1e-9 * diagonal**2, "degenerate face"
 
     whole = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
@@ -88,7 +95,8 @@ def test_mirror_symmetric_categories_map_onto_themselves_across_y0(category, see
 @pytest.mark.parametrize("seed", range(4), ids=[f"seed{s}" for s in range(4)])
 def test_bottle_body_is_rotationally_symmetric_about_z(seed):
     bottle = make_shape("bottle", seed=seed)
-    parts = trimesh.Trimesh(bottle.vertices, bottle.faces, process=False).split(only_watertight=False)
+    parts = trimesh.Trimesh(bottle.vertices, bottle.faces,
+                            process=False).split(only_watertight=False)
     body = max(parts, key=lambda part: len(part.faces)).vertices
     axis = (body.min(axis=0) + body.max(axis=0)) / 2
     quarter_turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
@@ -98,7 +106,7 @@ def test_bottle_body_is_rotationally_symmetric_about_z(seed):
 
 # Bounding-box proportions (x front, y left-right, z up) that tell the categories apart.
 SILHOUETTES = {
-    "airplane": lambda x, y, z: y > 2.0 * z and x > 2.0 * z and 0.7 * x < y < 1.5 * x,  # wide and flat
+    "airplane": lambda x, y, z: y > 2.0 * z and x > 2.0 * z and 0.7 * x < y < 1.5 * x,  # wide, flat
     "bench": lambda x, y, z: y > 1.3 * z and y > 2.0 * x,  # long and low
     "bottle": lambda x, y, z: z > 1.5 * max(x, y),  # tall and narrow
     "car": lambda x, y, z: x > 2.0 * z and x > 1.5 * y,  # long and low, along x
@@ -113,11 +121,12 @@ SILHOUETTES = {
 def test_category_silhouettes_differ(category):
     for seed in range(8):
         x, y, z = extents(make_shape(category, seed=seed))
-        assert SILHOUETTES[category](x, y, z), f"{category}_{seed:04d} extents {x:.3f} {y:.3f} {z:.3f}"
+        assert SILHOUETTES[category](x, y, z), (
+            f"{category}_{seed:04d} extents {x:.3f} {y:.3f} {z:.3f}")
 
 
 def test_categories_are_recognised_from_bounding_box_proportions_alone():
-    """A nearest-centroid rule on log aspect ratios, fitted on other seeds, mostly finds the category."""
+    """Nearest-centroid on log aspect ratios, fitted on other seeds, mostly finds the category."""
 
     def aspects(mesh: Mesh) -> np.ndarray:
         x, y, z = extents(mesh)
@@ -161,7 +170,8 @@ def test_write_collection_writes_a_modelnet_tree(tmp_path):
     assert relative == [f"{category}/{split}/{category}_{number:04d}.off"
                         for category in ("chair", "bottle")
                         for number, split in zip(range(1, 6), expected_splits)]
-    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.off")) == sorted(relative)
+    assert (sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*.off"))
+            == sorted(relative))
     mesh = load_mesh(paths[0])
     assert mesh.name == "chair_0001" and mesh.n_faces <= MAX_FACES
 
@@ -181,8 +191,10 @@ def test_write_collection_is_deterministic_and_stable_when_grown(tmp_path):
 
 
 def test_write_collection_flat_layout_and_other_formats(tmp_path):
-    paths = write_collection(tmp_path, n_per_category=2, categories=["table"], layout="flat", file_format=".ply")
-    assert [p.relative_to(tmp_path).as_posix() for p in paths] == ["table/table_0001.ply", "table/table_0002.ply"]
+    paths = write_collection(tmp_path, n_per_category=2, categories=["table"], layout="flat",
+                             file_format=".ply")
+    assert ([p.relative_to(tmp_path).as_posix() for p in paths]
+            == ["table/table_0001.ply", "table/table_0002.ply"])
     assert load_mesh(paths[1]).name == "table_0002"
 
 

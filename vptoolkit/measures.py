@@ -266,7 +266,8 @@ def quality_from_histograms(
         )
         if kept is None:
             if recompute is None:
-                raise InputError("recompute: histograms exceed store_bytes and no second pass was given")
+                raise InputError("recompute: histograms exceed store_bytes "
+                                 "and no second pass was given")
             second_pass: Iterable[ViewHistograms] = recompute
         else:
             second_pass = kept

@@ -91,5 +91,6 @@ def fixed_rotations(name: str, count: int, *, seed: int = 0) -> NDArray[np.float
     """
     count = check_int(count, "count", minimum=1)
     seed = check_int(seed, "seed", minimum=0)
-    rng = np.random.default_rng(np.random.SeedSequence([seed, _SEED_PROTOCOL, model_key(str(name))]))
+    rng = np.random.default_rng(
+        np.random.SeedSequence([seed, _SEED_PROTOCOL, model_key(str(name))]))
     return np.stack([random_rotation(rng) for _ in range(count)])

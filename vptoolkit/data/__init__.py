@@ -262,7 +262,8 @@ class ViewpointDataset:
         missing = sorted(wanted - set(self._position_of_name))
         if missing:
             raise KeyError(f"{missing[0]}: no such model in {self.path.name}")
-        rows = np.array([row for row, name in zip(self._rows, self.names) if name in wanted], np.int64)
+        rows = np.array([row for row, name in zip(self._rows, self.names) if name in wanted],
+                        np.int64)
         return ViewpointDataset(self._shared, rows, split_name=self._split_name)
 
     # ------------------------------------------------------------------ items
@@ -334,7 +335,8 @@ class ViewpointDataset:
                 rows = self._rows[index]
             else:
                 raise InputError(f"key: expected integer indices or a boolean mask, got {key!r}")
-        return ViewpointDataset(self._shared, np.asarray(rows, np.int64), split_name=self._split_name)
+        return ViewpointDataset(self._shared, np.asarray(rows, np.int64),
+                                split_name=self._split_name)
 
     def array(self, key: str) -> NDArray[Any]:
         """One key of every item, stacked: e.g. ``array("quality")`` is ``(n, n_views, 4)``.
@@ -364,7 +366,8 @@ class ViewpointDataset:
         if key == "label":
             return self.labels
         if key not in _STACKED:
-            raise InputError(f"key: expected one of {['name', 'category', 'split', 'label', *_STACKED]}, "
+            raise InputError("key: expected one of "
+                             f"{['name', 'category', 'split', 'label', *_STACKED]}, "
                              f"got {key!r}")
         return _take_rows(self._shared.reader().array(key), self._rows, _STACKED[key])
 

@@ -169,18 +169,21 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
             return self._items[index]
         item = self.dataset[index]
         kept = {key: item[key]
-                for key in ("points", "quality", "best_index", "name", "category", "label", "views")}
+                for key in ("points", "quality", "best_index", "name", "category", "label",
+                            "views")}
         if self.cache:
             self._items[index] = kept
         return kept
 
-    def _fps_subset(self, index: int, member: int, points: NDArray[np.float32]) -> NDArray[np.int64]:
+    def _fps_subset(self, index: int, member: int,
+                    points: NDArray[np.float32]) -> NDArray[np.int64]:
         key = (index, member)
         if key not in self._pool:
             from vptoolkit.points import farthest_point_sampling
 
             name = self._item(index)["name"]
-            rng = np.random.default_rng(np.random.SeedSequence([self.seed, _SEED_POOL, model_key(name), member]))
+            rng = np.random.default_rng(
+                np.random.SeedSequence([self.seed, _SEED_POOL, model_key(name), member]))
             self._pool[key] = farthest_point_sampling(points, self.n_fps, rng=rng)
         return self._pool[key]
 
@@ -194,7 +197,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         if self.fps_pool and self.n_fps:
             member = int(points_rng.integers(self.fps_pool))
             fps = self._fps_subset(index, member, item["points"])
-        chosen = network_input_indices(item["points"], self.n_points, self.n_fps, rng=points_rng, fps_indices=fps)
+        chosen = network_input_indices(item["points"], self.n_points, self.n_fps, rng=points_rng,
+                                       fps_indices=fps)
         points = item["points"][chosen]
         views = item["views"] @ rotation.T
         best_index = item["best_index"]

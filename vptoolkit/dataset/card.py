@@ -150,7 +150,8 @@ def render_card(
     count_header, count_rows = split_count_rows(info)
     measure_rows = [
         [m, measures["names"][m], "higher" if hi else "lower", measures["units"][m],
-         format_number(stats["best_value"][m]["mean"]), format_number(stats["best_value"][m]["min"]),
+         format_number(stats["best_value"][m]["mean"]),
+         format_number(stats["best_value"][m]["min"]),
          format_number(stats["best_value"][m]["max"])]
         for m, hi in zip(measures["order"], measures["higher_is_better"])
     ]
@@ -159,7 +160,8 @@ def render_card(
     failure_rows = [[f"`{r.get('source')}`", r.get("category") or "-", r.get("reason") or "-"]
                     for r in info["failures"]]
     reasons = Counter(str(r.get("reason")) for r in info["failures"])
-    split_sentence = ", ".join(f"{name} {format_number(value)}" for name, value in fractions.items())
+    split_sentence = ", ".join(f"{name} {format_number(value)}"
+                               for name, value in fractions.items())
     splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
         info, split_sentence, cleaning)
 
@@ -369,7 +371,8 @@ def _raw_example(hdf5_name: str | None, zarr_zip_name: str | None) -> str:
     """Python lines reading model 0's quality and the model names with h5py and/or zarr alone."""
     lines = []
     if hdf5_name or not zarr_zip_name:
-        lines += ["import h5py", "", f'with h5py.File("{hdf5_name or "dataset.h5"}", "r") as handle:',
+        lines += ["import h5py", "",
+                  f'with h5py.File("{hdf5_name or "dataset.h5"}", "r") as handle:',
                   '    quality = handle["quality"][0]',
                   '    names = handle["names"].asstr()[...]  # also categories, splits, labels']
     if zarr_zip_name:
@@ -497,7 +500,8 @@ def _array_rows(reader: StoreReader) -> list[list[str]]:
     rows = []
     for name in sorted(reader.array_names()):
         array = reader.array(name)
-        shape = "(" + ", ".join(str(int(n)) for n in array.shape) + ("," if len(array.shape) == 1 else "") + ")"
+        shape = ("(" + ", ".join(str(int(n)) for n in array.shape)
+                 + ("," if len(array.shape) == 1 else "") + ")")
         dtype = "string" if np.dtype(array.dtype).kind in "OT" else str(np.dtype(array.dtype))
         rows.append([f"`{name}`", shape, dtype,
                      _ARRAY_MEANINGS.get(name, "")])

@@ -16,9 +16,10 @@ A release folder holds, for ``name = "vptoolkit-viewpoints"``::
 The file names hold no version (it is in the card, ``croissant.json``,
 ``dataset_info.json`` and the archives' attributes), so a loader's paths
 stay valid from one release to the next. The default formats are
-:data:`~vptoolkit.dataset.release_options.DEFAULT_FORMATS`, Parquet and HDF5: Parquet for the hub, ``datasets``
-and ``mlcroissant``, one archive for :mod:`vptoolkit.data` and ``h5py`` on
-the light install; a Zarr zip would be a third full copy of the data.
+:data:`~vptoolkit.dataset.release_options.DEFAULT_FORMATS`, Parquet and
+HDF5: Parquet for the hub, ``datasets`` and ``mlcroissant``, one archive
+for :mod:`vptoolkit.data` and ``h5py`` on the light install; a Zarr zip
+would be a third full copy of the data.
 
 Packing is reproducible: the same build, options and ``created`` time give
 the same bytes in every file, so a third party can rebuild a release and
@@ -56,8 +57,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, overload
 
 from vptoolkit.checks import short_repr
+from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.card import render_card
-from vptoolkit.dataset.info import info_from_reader
 from vptoolkit.dataset.descriptions import (
     CARD_NAME,
     CROISSANT_NAME,
@@ -65,10 +66,10 @@ from vptoolkit.dataset.descriptions import (
     write_descriptions,
     write_json,
 )
+from vptoolkit.dataset.info import info_from_reader
 from vptoolkit.dataset.licenses import LICENSES_NAME, write_licenses
 from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
 from vptoolkit.dataset.release_options import ReleaseOptions, release_created
-from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import held, named_os_error, remove_stale_partials, temporary_prefix

@@ -107,7 +107,8 @@ class ProtocolScores:
     def category_means(self) -> dict[str, NDArray[np.float64]]:
         """Mean over each category's models, categories sorted."""
         categories = np.array(self.categories)
-        return {name: self.scores[categories == name].mean(axis=0) for name in sorted(set(self.categories))}
+        return {name: self.scores[categories == name].mean(axis=0)
+                for name in sorted(set(self.categories))}
 
 
 def _check_dataset(dataset: ViewpointDataset) -> None:
@@ -117,10 +118,12 @@ def _check_dataset(dataset: ViewpointDataset) -> None:
         raise InputError(f"{dataset.path.name}: no models to score")
 
 
-def _directions(predictor: Predictor, clouds: list[NDArray[np.float64]], names: list[str]) -> NDArray[np.float64]:
+def _directions(predictor: Predictor, clouds: list[NDArray[np.float64]],
+                names: list[str]) -> NDArray[np.float64]:
     directions = np.asarray(predictor(clouds, names), dtype=np.float64)
     if directions.shape != (len(clouds), len(MEASURES), 3):
-        raise InputError(f"predictor: expected directions of shape ({len(clouds)}, {len(MEASURES)}, 3), "
+        raise InputError("predictor: expected directions of shape "
+                         f"({len(clouds)}, {len(MEASURES)}, 3), "
                          f"got {directions.shape}")
     return directions
 
@@ -167,15 +170,22 @@ def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotatio
 
 
 def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
-    """The expected score of a uniformly random direction: the mean quality over the sampled views."""
+    """The expected score of a uniformly random direction.
+
+    That is the mean quality over the sampled views.
+    """
     _check_dataset(dataset)
     scores = np.stack([100.0 * np.asarray(dataset[i]["quality"], dtype=np.float64).mean(axis=0)
                        for i in range(len(dataset))])
     return ProtocolScores(tuple(dataset.names), tuple(dataset.categories), scores, 0)
 
 
-def pca_predictor(points: Sequence[NDArray[np.float64]], names: Sequence[str]) -> NDArray[np.float64]:
-    """The PCA heuristic as a :data:`Predictor` (:func:`vptoolkit.evaluate.baselines.pca_directions`)."""
+def pca_predictor(points: Sequence[NDArray[np.float64]],
+                  names: Sequence[str]) -> NDArray[np.float64]:
+    """The PCA heuristic as a :data:`Predictor`.
+
+    See :func:`vptoolkit.evaluate.baselines.pca_directions`.
+    """
     return pca_directions(list(points))
 
 
@@ -211,7 +221,9 @@ def constant_predictor(directions: NDArray[np.float64]) -> Predictor:
     return predict
 
 
-def paired_difference(first: ProtocolScores, second: ProtocolScores) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def paired_difference(
+    first: ProtocolScores, second: ProtocolScores,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Mean and standard error of ``first - second`` over the same models, per measure.
 
     Returns

@@ -88,7 +88,8 @@ def write_json_atomic(path: Path, values: Mapping[str, Any]) -> None:
     write_bytes_atomic(path, (json.dumps(values, indent=2, sort_keys=True) + "\n").encode("utf-8"))
 
 
-def write_safetensors_atomic(path: Path, tensors: Mapping[str, Tensor], metadata: Mapping[str, str] | None = None) -> None:
+def write_safetensors_atomic(path: Path, tensors: Mapping[str, Tensor],
+                             metadata: Mapping[str, str] | None = None) -> None:
     """Write tensors as one safetensors file, atomically."""
     safetensors_torch = require("safetensors.torch", extra="learn")
     contiguous = {name: tensor.detach().contiguous().cpu() for name, tensor in tensors.items()}

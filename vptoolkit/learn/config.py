@@ -18,8 +18,9 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
 
-__all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL", "MAX_LAYERS",
-           "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig", "ModelConfig",
+__all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL",
+           "MAX_LAYERS", "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig",
+           "ModelConfig",
            "ball_level", "check_input_sizes", "check_positive_int"]
 
 HEADS: Final = ("direction", "sr", "dldl")
@@ -84,17 +85,26 @@ class LevelConfig:
 
     @property
     def ball_level(self) -> int:
-        """Level ``k`` of the cells searched by the ball query: the finest with ``2^-k >= radius``."""
+        """Level ``k`` of the cells searched by the ball query.
+
+        The finest level with ``2^-k >= radius``.
+        """
         return ball_level(self.radius)
 
     @property
     def search_level(self) -> int:
-        """Grid level of the neighbourhood search: :attr:`ball_level` or, for cells, :attr:`grid_level`."""
+        """Grid level of the neighbourhood search.
+
+        It is :attr:`ball_level`, or :attr:`grid_level` for cells.
+        """
         return self.grid_level if self.neighbourhood == "cell" else self.ball_level
 
 
 def ball_level(radius: float) -> int:
-    """Level ``k`` of the grid cells a ball of ``radius`` is searched in: the finest with ``2^-k >= radius``."""
+    """Level ``k`` of the grid cells a ball of ``radius`` is searched in.
+
+    The finest level with ``2^-k >= radius``.
+    """
     return max(0, min(MAX_GRID_LEVEL, math.floor(-math.log2(radius) + 1e-9)))
 
 
@@ -154,7 +164,8 @@ class ModelConfig:
 
     def __post_init__(self) -> None:
         if self.input_frame not in INPUT_FRAMES:
-            raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, got {self.input_frame!r}")
+            raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, "
+                             f"got {self.input_frame!r}")
         if self.head not in HEADS:
             raise InputError(f"head: unknown head {self.head!r}, expected one of {list(HEADS)}")
         check_positive_int(self.n_measures, "n_measures", maximum=len(MEASURES))
@@ -164,11 +175,13 @@ class ModelConfig:
         if not self.levels:
             raise InputError("levels: expected at least one level")
         if len(self.levels) > MAX_LAYERS:
-            raise InputError(f"levels: expected at most {MAX_LAYERS} levels, got {len(self.levels)}")
+            raise InputError(f"levels: expected at most {MAX_LAYERS} levels, "
+                             f"got {len(self.levels)}")
         source_level = MAX_GRID_LEVEL
         for position, level in enumerate(self.levels):
             if not isinstance(level, LevelConfig):
-                raise InputError(f"levels[{position}]: expected a LevelConfig, got {type(level).__name__}")
+                raise InputError(f"levels[{position}]: expected a LevelConfig, "
+                                 f"got {type(level).__name__}")
             check_positive_int(level.max_neighbours, f"levels[{position}].max_neighbours",
                                maximum=MAX_NEIGHBOURS)
             check_positive_int(level.channels, f"levels[{position}].channels", maximum=MAX_CHANNELS)
@@ -178,23 +191,28 @@ class ModelConfig:
                     f"(no finer than the level before), got {level.grid_level!r}"
                 )
             if not (_is_number(level.radius) and 2.0**-MAX_GRID_LEVEL <= level.radius <= 1.0):
-                raise InputError(f"levels[{position}].radius: expected a number in [2^-16, 1], got {level.radius!r}")
+                raise InputError(f"levels[{position}].radius: expected a number in [2^-16, 1], "
+                                 f"got {level.radius!r}")
             if level.neighbourhood not in ("ball", "cell"):
                 raise InputError(
-                    f"levels[{position}].neighbourhood: expected 'ball' or 'cell', got {level.neighbourhood!r}"
+                    f"levels[{position}].neighbourhood: expected 'ball' or 'cell', "
+                    f"got {level.neighbourhood!r}"
                 )
             if level.neighbourhood == "ball" and level.ball_level > source_level:
                 raise InputError(
-                    f"levels[{position}].radius: {level.radius} needs cells of side 2^-{level.ball_level}, "
+                    f"levels[{position}].radius: {level.radius} needs cells of side "
+                    f"2^-{level.ball_level}, "
                     f"finer than the previous level's 2^-{source_level}"
                 )
             source_level = level.grid_level
         if len(self.head_channels) > MAX_LAYERS:
-            raise InputError(f"head_channels: expected at most {MAX_LAYERS} layers, got {len(self.head_channels)}")
+            raise InputError(f"head_channels: expected at most {MAX_LAYERS} layers, "
+                             f"got {len(self.head_channels)}")
         for position, width in enumerate(self.head_channels):
             check_positive_int(width, f"head_channels[{position}]", maximum=MAX_CHANNELS)
         if len(self.decoder_channels) != 2:
-            raise InputError(f"decoder_channels: expected two widths, got {self.decoder_channels!r}")
+            raise InputError("decoder_channels: expected two widths, "
+                             f"got {self.decoder_channels!r}")
         for position, width in enumerate(self.decoder_channels):
             check_positive_int(width, f"decoder_channels[{position}]", maximum=MAX_CHANNELS)
         if not (_is_number(self.dropout) and 0.0 <= self.dropout < 1.0):
@@ -228,8 +246,10 @@ class ModelConfig:
         kwargs = dict(values)
         if "levels" in kwargs:
             levels = kwargs["levels"]
-            if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping) for level in levels):
-                raise InputError(f"levels: expected a list of level objects, got {short_repr(levels)}")
+            if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping)
+                                                                for level in levels):
+                raise InputError("levels: expected a list of level objects, "
+                                 f"got {short_repr(levels)}")
             if len(levels) > MAX_LAYERS:
                 raise InputError(f"levels: expected at most {MAX_LAYERS} levels, got {len(levels)}")
             try:
@@ -239,13 +259,14 @@ class ModelConfig:
         for key in ("head_channels", "decoder_channels"):
             if key in kwargs:
                 if not isinstance(kwargs[key], (list, tuple)):
-                    raise InputError(f"{key}: expected a list of widths, got {short_repr(kwargs[key])}")
+                    raise InputError(f"{key}: expected a list of widths, "
+                                     f"got {short_repr(kwargs[key])}")
                 kwargs[key] = tuple(kwargs[key])
         return cls(**kwargs)
 
 
 def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> None:
-    """Raise an :class:`InputError` naming ``name`` unless ``value`` is an int in ``[1, maximum]``."""
+    """Raise :class:`InputError` naming ``name`` unless ``value`` is an int in ``[1, maximum]``."""
     if not _is_int(value) or value < 1:
         raise InputError(f"{name}: expected a positive integer, got {short_repr(value)}")
     if maximum is not None and value > maximum:

@@ -58,7 +58,10 @@ else:
 __all__ = ["INPUT_FRAMES", "SIGN_AMBIGUITY", "canonical_frame", "to_frame", "from_frame"]
 
 INPUT_FRAMES: Final = ("pca", "none")
-"""Input frames of :class:`vptoolkit.learn.model.ModelConfig`: principal axes, or the input's own."""
+"""Input frames of :class:`vptoolkit.learn.model.ModelConfig`.
+
+Either the principal axes or the input's own.
+"""
 
 SIGN_AMBIGUITY: Final = 0.05
 """``|mu_3| / sigma^3`` below which an axis's sign counts as ambiguous in training."""

@@ -63,10 +63,14 @@ CODE_BITS: Final = 21
 """Bits per axis of the Morton codes (cells down to ``2^-21`` of the diagonal)."""
 
 GLOBAL_RADIUS: Final = 0.5
-"""Radius of the last, global convolution: half the diagonal, the whole bounding box around its centre."""
+"""Radius of the last, global convolution.
+
+Half the diagonal: the whole bounding box around its centre.
+"""
 
 _GLOBAL_BALL_LEVEL = 1  # cells of side 1/2
-_NEIGHBOUR_CELLS: Final = [(dx, dy, dz) for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)]
+_NEIGHBOUR_CELLS: Final = [(dx, dy, dz)
+                            for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)]
 
 class PointLevel(NamedTuple):
     """The points of one hierarchy level, for a whole batch, flat.
@@ -152,11 +156,15 @@ def normalize_points(points: Tensor) -> Tensor:
 
 
 def check_clouds(points: Tensor) -> None:
-    """Raise :class:`InputError` unless ``points`` is a floating ``(B, N, 3)`` tensor with ``B, N >= 1``."""
+    """Raise :class:`InputError` unless ``points`` is a floating ``(B, N, 3)`` tensor.
+
+    ``B`` and ``N`` must be at least 1.
+    """
     if not isinstance(points, torch.Tensor):
         raise InputError(f"points: expected a torch.Tensor, got {type(points).__name__}")
     if points.ndim != 3 or points.shape[-1] != 3 or points.shape[0] < 1 or points.shape[1] < 1:
-        raise InputError(f"points: expected shape (B, N, 3) with B, N >= 1, got {tuple(points.shape)}")
+        raise InputError("points: expected shape (B, N, 3) with B, N >= 1, "
+                         f"got {tuple(points.shape)}")
     if not points.is_floating_point():
         raise InputError(f"points: expected a floating dtype, got {points.dtype}")
 
@@ -173,13 +181,14 @@ def _spread_bits(values: Tensor) -> Tensor:
 
 
 def _grid_coordinates(points: Tensor, level: int = CODE_BITS) -> Tensor:
-    """Integer cell coordinates ``(..., 3)`` of normalised points on the grid of side ``2^-level``."""
+    """Integer cell coordinates ``(..., 3)`` of normalised points, grid of side ``2^-level``."""
     scaled = torch.floor((points.to(torch.float64) + 0.5) * float(1 << level))
     return scaled.clamp(0, (1 << level) - 1).to(torch.int64)
 
 
 def _interleave(cells: Tensor) -> Tensor:
-    return (_spread_bits(cells[..., 0]) << 2) | (_spread_bits(cells[..., 1]) << 1) | _spread_bits(cells[..., 2])
+    return ((_spread_bits(cells[..., 0]) << 2) | (_spread_bits(cells[..., 1]) << 1)
+            | _spread_bits(cells[..., 2]))
 
 
 def morton_codes(points: Tensor) -> Tensor:
@@ -251,8 +260,8 @@ def grid_subsample(level: PointLevel, grid_level: int) -> PointLevel:
     """
     keys = _cell_keys(level, grid_level)
     cells, inverse, counts = torch.unique_consecutive(keys, return_inverse=True, return_counts=True)
-    sums = torch.zeros(len(cells), 3, dtype=level.points.dtype, device=level.points.device).index_add_(
-        0, inverse, level.points)
+    sums = torch.zeros(len(cells), 3, dtype=level.points.dtype,
+                       device=level.points.device).index_add_(0, inverse, level.points)
     points = sums / counts.unsqueeze(-1).to(sums.dtype)
     batch = cells >> (3 * grid_level)
     codes = (cells & ((1 << (3 * grid_level)) - 1)) << (3 * (CODE_BITS - grid_level))
@@ -278,7 +287,8 @@ def _pad_ragged(first: Tensor, count: Tensor, width: int) -> tuple[Tensor, Tenso
     return torch.where(mask, first.unsqueeze(-1) + offset, torch.zeros_like(offset)), mask
 
 
-def ball_query(source: PointLevel, centres: PointLevel, radius: float, max_neighbours: int) -> Neighbourhood:
+def ball_query(source: PointLevel, centres: PointLevel, radius: float,
+               max_neighbours: int) -> Neighbourhood:
     """The source points within ``radius`` of each centre, through the Morton grid.
 
     The 27 cells of side ``2^-k >= radius`` (the finest such ``k``) around a
@@ -310,20 +320,25 @@ def ball_query(source: PointLevel, centres: PointLevel, radius: float, max_neigh
     offsets = torch.tensor(_NEIGHBOUR_CELLS, dtype=torch.int64, device=centres.points.device)
     neighbours = cells.unsqueeze(1) + offsets  # (M, 27, 3)
     # Skip cells outside the grid and cells whose nearest corner is beyond the radius.
-    fraction = ((centres.points.to(torch.float64) + 0.5) * float(1 << k) - cells).unsqueeze(1)  # (M, 1, 3)
-    gap = torch.where(offsets < 0, fraction, torch.where(offsets > 0, 1.0 - fraction, 0.0)).clamp_min(0.0)
+    fraction = ((centres.points.to(torch.float64) + 0.5) * float(1 << k)
+                - cells).unsqueeze(1)  # (M, 1, 3)
+    gap = torch.where(offsets < 0, fraction,
+                      torch.where(offsets > 0, 1.0 - fraction, 0.0)).clamp_min(0.0)
     reach = (radius * (1 << k)) ** 2 * (1.0 + 1e-9)
-    is_inside = ((neighbours >= 0) & (neighbours < (1 << k))).all(dim=-1) & (gap.square().sum(dim=-1) <= reach)
+    is_inside = (((neighbours >= 0) & (neighbours < (1 << k))).all(dim=-1)
+                 & (gap.square().sum(dim=-1) <= reach))
     keys = (centres.batch.unsqueeze(-1) << (3 * k)) | _interleave(neighbours.clamp(0, (1 << k) - 1))
     start = torch.searchsorted(source_keys, keys, side="left")
     stop = torch.searchsorted(source_keys, keys, side="right")
     run_length = torch.where(is_inside, stop - start, torch.zeros_like(start)).reshape(-1)
     # Expand the 27 runs of every centre into one flat candidate list, centre by centre.
-    run = torch.repeat_interleave(torch.arange(len(run_length), device=run_length.device), run_length)
+    run = torch.repeat_interleave(torch.arange(len(run_length), device=run_length.device),
+                                  run_length)
     run_shift = start.reshape(-1) - (torch.cumsum(run_length, 0) - run_length)
     candidate = gather_rows(run_shift, run) + torch.arange(len(run), device=run.device)
     centre = torch.div(run, len(_NEIGHBOUR_CELLS), rounding_mode="floor")
-    distance2 = (gather_rows(source.points, candidate) - gather_rows(centres.points, centre)).square().sum(dim=-1)
+    distance2 = (gather_rows(source.points, candidate)
+                 - gather_rows(centres.points, centre)).square().sum(dim=-1)
     near = torch.nonzero(distance2 <= radius * radius).squeeze(-1)
     candidate, centre = gather_rows(candidate, near), gather_rows(centre, near)
     count = torch.bincount(centre, minlength=len(centres.points))
@@ -420,7 +435,8 @@ def build_hierarchy(points: Tensor, config: ModelConfig) -> Hierarchy:
             source = levels[-1]
             target = grid_subsample(source, spec.grid_level)
             if spec.neighbourhood == "cell":
-                neighbourhoods.append(cell_neighbourhood(source, spec.grid_level, spec.max_neighbours))
+                neighbourhoods.append(
+                    cell_neighbourhood(source, spec.grid_level, spec.max_neighbours))
             else:
                 neighbourhoods.append(ball_query(source, target, spec.radius, spec.max_neighbours))
             densities.append(point_density(source, min(spec.search_level + 1, source_level)))

@@ -86,7 +86,12 @@ from vptoolkit.learn.checkpoint import (
     write_json_atomic,
     write_safetensors_atomic,
 )
-from vptoolkit.learn.config import MAX_PARAMETERS, ModelConfig, check_input_sizes, check_positive_int
+from vptoolkit.learn.config import (
+    MAX_PARAMETERS,
+    ModelConfig,
+    check_input_sizes,
+    check_positive_int,
+)
 from vptoolkit.learn.frame import canonical_frame, from_frame, to_frame
 from vptoolkit.learn.hierarchy import check_clouds
 from vptoolkit.learn.labels import (
@@ -155,19 +160,23 @@ class ViewpointNet(nn.Module):
             width = config.head_channels
             if config.head == "direction":
                 self.heads = nn.ModuleList(
-                    DirectionHead(latent, width, 3, config.dropout) for _ in range(config.n_measures))
+                    DirectionHead(latent, width, 3, config.dropout)
+                    for _ in range(config.n_measures))
             elif config.head == "sr":
                 self.heads = nn.ModuleList(
-                    DirectionHead(latent, width, 3, config.dropout) for _ in range(config.n_measures))
+                    DirectionHead(latent, width, 3, config.dropout)
+                    for _ in range(config.n_measures))
                 self.sign_heads = nn.ModuleList(
-                    DirectionHead(latent, width, 8, config.dropout) for _ in range(config.n_measures))
+                    DirectionHead(latent, width, 8, config.dropout)
+                    for _ in range(config.n_measures))
             else:
                 self.heads = nn.ModuleList(
-                    SphereMapDecoder(latent, config.decoder_channels) for _ in range(config.n_measures))
+                    SphereMapDecoder(latent, config.decoder_channels)
+                    for _ in range(config.n_measures))
         n_parameters = count_parameters(self)  # counted on the meta device, before any allocation
         if n_parameters > MAX_PARAMETERS:
-            raise InputError(f"architecture: {n_parameters:,} parameters exceed the {MAX_PARAMETERS:,} "
-                             "a network may have")
+            raise InputError(f"architecture: {n_parameters:,} parameters exceed the "
+                             f"{MAX_PARAMETERS:,} a network may have")
         self.to_empty(device="cpu")
         self.reset_parameters(seed=seed)
         self._generator: torch.Generator | None = None
@@ -201,7 +210,8 @@ class ViewpointNet(nn.Module):
         frame = None
         if self.config.input_frame == "pca":
             check_clouds(points)
-            frame, centre = canonical_frame(points, generator=self._generator if self.training else None)
+            frame, centre = canonical_frame(
+                points, generator=self._generator if self.training else None)
             points = to_frame(points, frame, centre)
         outputs = self._heads(self.encoder(points))
         if frame is not None:
@@ -209,7 +219,8 @@ class ViewpointNet(nn.Module):
             outputs["frame"] = frame
         return outputs
 
-    def forward_in_frames(self, points: Tensor, frames: Tensor, centre: Tensor) -> dict[str, Tensor]:
+    def forward_in_frames(self, points: Tensor, frames: Tensor,
+                          centre: Tensor) -> dict[str, Tensor]:
         """The heads' outputs for one cloud ``(N, 3)`` put in each of ``frames`` ``(F, 3, 3)``.
 
         The network sees ``(x - centre) C_f^T`` for every frame ``C_f``;
@@ -230,10 +241,12 @@ class ViewpointNet(nn.Module):
             raw = torch.stack([mlp(latent) for mlp in self.heads], dim=1)
             return {"directions": raw / raw.norm(dim=-1, keepdim=True).clamp_min(1e-12)}
         if head == "sr":
-            abs_directions = spherical_exponential(torch.stack([mlp(latent) for mlp in self.heads], dim=1))
+            abs_directions = spherical_exponential(
+                torch.stack([mlp(latent) for mlp in self.heads], dim=1))
             sign_logits = torch.stack([mlp(latent) for mlp in self.sign_heads], dim=1)
             return {
-                "directions": decode_spherical_regression(abs_directions.detach(), sign_logits.detach()),
+                "directions": decode_spherical_regression(abs_directions.detach(),
+                                                          sign_logits.detach()),
                 "abs_directions": abs_directions,
                 "sign_logits": sign_logits,
             }
@@ -286,7 +299,8 @@ def resolve_device(device: str) -> torch.device:
         return torch.device("cpu")
     if isinstance(device, str) and (device == "cuda" or device.startswith("cuda:")):
         if not torch.cuda.is_available():
-            raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} sees no CUDA device")
+            raise InputError(f"device: {device!r} asked for, but torch {torch.__version__} "
+                             "sees no CUDA device")
         return torch.device(device)
     raise InputError(f"device: expected 'auto', 'cpu' or 'cuda', got {device!r}")
 
@@ -367,20 +381,25 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
     if config.get("format") != MODEL_FORMAT:
-        raise InputError(f"{config_path.name}: not a vptoolkit model configuration (format {config.get('format')!r})")
+        raise InputError(f"{config_path.name}: not a vptoolkit model configuration "
+                         f"(format {config.get('format')!r})")
     if config.get("format_version", 1) != 1:
-        raise InputError(f"{config_path.name}: format_version {config.get('format_version')!r} is not 1, "
+        raise InputError(f"{config_path.name}: format_version "
+                         f"{config.get('format_version')!r} is not 1, "
                          "the only one this vptoolkit reads")
     measures = config.get("measures", [])
     if not isinstance(measures, list) or len(measures) > len(MEASURES):
-        raise InputError(f"{config_path.name}: measures: expected a list of at most {len(MEASURES)} names")
+        raise InputError(f"{config_path.name}: measures: expected a list of at most "
+                         f"{len(MEASURES)} names")
     if measures != list(MEASURES[: len(measures)]):
-        raise InputError(f"{config_path.name}: measure order {measures} differs from {list(MEASURES)}")
+        raise InputError(f"{config_path.name}: measure order {measures} "
+                         f"differs from {list(MEASURES)}")
     try:
         trained = config.get("input", {})
         if not isinstance(trained, Mapping):
             raise InputError(f"input: expected an object, got {type(trained).__name__}")
-        check_input_sizes(trained.get("n_points", N_NETWORK_POINTS), trained.get("n_fps", N_FPS_POINTS),
+        check_input_sizes(trained.get("n_points", N_NETWORK_POINTS),
+                          trained.get("n_fps", N_FPS_POINTS),
                           prefix="input.")
         if "architecture" not in config:
             raise InputError("architecture: missing; a checkpoint names its network's architecture")
@@ -400,6 +419,7 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     try:
         model.load_state_dict(state, strict=True)
     except RuntimeError as err:
-        raise CheckpointError(f"{weights_path.name}: weights do not match the architecture ({err})") from err
+        raise CheckpointError(f"{weights_path.name}: weights do not match the architecture "
+                              f"({err})") from err
     model.eval()
     return model, config

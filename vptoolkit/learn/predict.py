@@ -91,7 +91,8 @@ class Predictions:
         directions = np.asarray(self.directions, dtype=np.float64)
         if directions.shape != (len(self.names), len(self.measures), 3):
             raise InputError(
-                f"directions: expected shape ({len(self.names)}, {len(self.measures)}, 3), got {directions.shape}"
+                f"directions: expected shape ({len(self.names)}, {len(self.measures)}, 3), "
+                f"got {directions.shape}"
             )
         if len(set(self.names)) != len(self.names):
             raise InputError("names: model names must be unique")
@@ -127,7 +128,9 @@ class Predictions:
 
     @classmethod
     def load_npz(cls, path: str | os.PathLike[str]) -> Predictions:
-        """Read predictions written by :meth:`save_npz` (:func:`vptoolkit.predictions.read_predictions`).
+        """Read predictions written by :meth:`save_npz`.
+
+        See :func:`vptoolkit.predictions.read_predictions`.
 
         Raises
         ------
@@ -199,10 +202,12 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
 
     if isinstance(batch_size, bool) or not isinstance(batch_size, int) or batch_size < 1:
         raise InputError(f"batch_size: expected a positive integer, got {batch_size!r}")
-    inputs = torch.as_tensor(np.asarray(points, dtype=np.float32) if not isinstance(points, torch.Tensor)
+    inputs = torch.as_tensor(np.asarray(points, dtype=np.float32)
+                             if not isinstance(points, torch.Tensor)
                              else points.to(torch.float32))
     if inputs.ndim != 3 or inputs.shape[-1] != 3:
-        raise InputError(f"points: expected shape (n_models, n_points, 3), got {tuple(inputs.shape)}")
+        raise InputError("points: expected shape (n_models, n_points, 3), "
+                         f"got {tuple(inputs.shape)}")
     where = resolve_device(device)
     model.to(where).eval()
     parts = []
@@ -217,7 +222,8 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     is_bad = ~(np.isfinite(lengths) & (lengths > 0.0)).all(axis=(1, 2))
     if is_bad.any():
         raise InputError(
-            f"{checkpoint}: the network answers a zero or non-finite vector for {int(is_bad.sum())} "
+            f"{checkpoint}: the network answers a zero or non-finite vector "
+            f"for {int(is_bad.sum())} "
             f"of {len(directions)} inputs, not a direction; its weights are broken"
         )
     return directions / lengths
@@ -246,7 +252,7 @@ Source = tuple[str, str | None, Callable[[], NDArray[Any]]]
 
 
 def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
-    """(name, category or None, loader of surface points) for every model of the inputs, in order."""
+    """(name, category or None, loader of surface points) of every input model, in order."""
     from vptoolkit.data import ViewpointDataset, open_dataset
     from vptoolkit.io import SUPPORTED_SUFFIXES
 
@@ -257,7 +263,8 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
             yield from _dataset_sources(source, split)
             continue
         if not isinstance(source, (str, os.PathLike)):
-            raise InputError(f"inputs: expected paths or a ViewpointDataset, got {type(source).__name__}")
+            raise InputError("inputs: expected paths or a ViewpointDataset, "
+                             f"got {type(source).__name__}")
         path = Path(source)
         suffix = path.suffix.lower()
         if suffix == ".npy":
@@ -276,7 +283,8 @@ def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
                 dataset.close()
         else:
             raise InputError(
-                f"{path.name}: not a mesh ({', '.join(SUPPORTED_SUFFIXES)}), point file (.npy) or dataset"
+                f"{path.name}: not a mesh ({', '.join(SUPPORTED_SUFFIXES)}), "
+                "point file (.npy) or dataset"
             )
 
 
@@ -290,8 +298,10 @@ def _row_points(dataset: ViewpointDataset, position: int) -> NDArray[np.float64]
     return np.asarray(dataset[position]["points"], dtype=np.float64)
 
 
-def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[ViewpointNet, dict[str, Any]]]:
-    """One checkpoint as ``{None: (model, config)}``, or a per-category folder as ``{category: ...}``.
+def load_networks(
+    model_path: str | os.PathLike[str],
+) -> dict[str | None, tuple[ViewpointNet, dict[str, Any]]]:
+    """One checkpoint as ``{None: (model, config)}``; a per-category folder as ``{category: ...}``.
 
     Raises
     ------
@@ -305,8 +315,10 @@ def load_networks(model_path: str | os.PathLike[str]) -> dict[str | None, tuple[
     if is_default_model(model_path) or not index.is_file():
         return {None: load_model(model_path)}
     entries = read_json(index, "per-category index")
-    if entries.get("format") != CATEGORY_MODELS_FORMAT or not isinstance(entries.get("categories"), dict):
-        raise InputError(f"{index}: not a vptoolkit per-category index (format {entries.get('format')!r})")
+    if (entries.get("format") != CATEGORY_MODELS_FORMAT
+            or not isinstance(entries.get("categories"), dict)):
+        raise InputError(f"{index}: not a vptoolkit per-category index "
+                         f"(format {entries.get('format')!r})")
     for name, folder in entries["categories"].items():
         if not isinstance(folder, str) or not is_inside_folder(folder):
             raise InputError(f"{index}: category {short_repr(name)} names {short_repr(folder)}, "
@@ -321,25 +333,31 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
     if None in networks:
         return None
     if category is None:
-        raise InputError(f"{name}: the model folder holds one network per category ({', '.join(map(str, networks))}); "
+        raise InputError(f"{name}: the model folder holds one network per category "
+                         f"({', '.join(map(str, networks))}); "
                          "pass category= for meshes and point files")
     if category not in networks:
-        raise InputError(f"{name}: no network for category {category!r} (have {', '.join(map(str, networks))})")
+        raise InputError(f"{name}: no network for category {category!r} "
+                         f"(have {', '.join(map(str, networks))})")
     return category
 
 
-def _input_sizes(config: dict[str, Any], n_points: int | None, n_fps: int | None) -> tuple[int, int]:
-    """Input size and farthest-point part: the given values, else the checkpoint's training values."""
+def _input_sizes(config: dict[str, Any], n_points: int | None,
+                 n_fps: int | None) -> tuple[int, int]:
+    """Input size and farthest-point part: as given, else the checkpoint's training values."""
     trained = config.get("input", {})
     n_points = trained.get("n_points", N_NETWORK_POINTS) if n_points is None else n_points
     n_fps = trained.get("n_fps", N_FPS_POINTS) if n_fps is None else n_fps
     return check_input_sizes(n_points, n_fps)
 
 
-def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
-                      seed: int = 0, batch_size: int = 64,
-                      device: str = "auto") -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
-    """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`: surface points and names to directions.
+def network_predictor(
+    model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
+    seed: int = 0, batch_size: int = 64, device: str = "auto",
+) -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
+    """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`.
+
+    It turns surface points and names into directions.
 
     Each cloud becomes a network input as in :func:`predict` (the
     checkpoint's input size, seeded from ``seed`` and the model's name).
@@ -366,7 +384,8 @@ def network_predictor(model_path: str | os.PathLike[str], *, categories: Mapping
         prepared = []
         for cloud, name, route in zip(points, names, routes):
             n_points, n_fps = _input_sizes(networks[route][1], None, None)
-            prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed, name=name))
+            prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
+                                           name=name))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
@@ -380,7 +399,8 @@ def _checkpoint_name(model_path: str | os.PathLike[str], route: str | None) -> s
 
 def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]],
                     prepared: Sequence[NDArray[np.float32]], routes: Sequence[str | None], *,
-                    batch_size: int, device: str, model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
+                    batch_size: int, device: str,
+                    model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
     """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
     first_model = next(iter(networks.values()))[0]
     directions = np.zeros((len(prepared), first_model.config.n_measures, 3))
@@ -451,7 +471,8 @@ class MeshPredictor:
 
 def predict(
     model_path: str | os.PathLike[str],
-    inputs: str | os.PathLike[str] | ViewpointDataset | Sequence[str | os.PathLike[str] | ViewpointDataset],
+    inputs: (str | os.PathLike[str] | ViewpointDataset
+             | Sequence[str | os.PathLike[str] | ViewpointDataset]),
     *,
     split: str | None = "test",
     batch_size: int = 64,
@@ -519,8 +540,8 @@ def predict(
     names: list[str] = []
     routes: list[str | None] = []
     prepared: list[NDArray[np.float32]] = []
-    for name, source_category, load in tqdm(_sources(inputs, split, seed), disable=not progress, desc="inputs",
-                                            unit="model"):
+    for name, source_category, load in tqdm(_sources(inputs, split, seed), disable=not progress,
+                                            desc="inputs", unit="model"):
         if name in names:
             raise InputError(f"inputs: two models are named {name!r}; model names must be unique")
         route = _route(networks, name, source_category if source_category is not None else category)
@@ -531,6 +552,6 @@ def predict(
     first_model, first_config = next(iter(networks.values()))
     measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
     with torch_threads(threads):
-        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
-                                     model_path=model_path)
+        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size,
+                                     device=device, model_path=model_path)
     return Predictions(tuple(names), directions.reshape(len(names), len(measures), 3), measures)

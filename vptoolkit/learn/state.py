@@ -51,7 +51,9 @@ def state_paths(output: str | os.PathLike[str]) -> tuple[Path, Path]:
     return stem.with_name(stem.name + ".last.safetensors"), stem.with_name(stem.name + ".last.json")
 
 
-def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
+def _optimizer_tensors(
+    optimizer: torch.optim.Optimizer,
+) -> tuple[dict[str, Tensor], list[dict[str, Any]]]:
     state = optimizer.state_dict()
     tensors = {}
     for index, values in state["state"].items():
@@ -59,7 +61,8 @@ def _optimizer_tensors(optimizer: torch.optim.Optimizer) -> tuple[dict[str, Tens
             tensors[f"optimizer.{index}.{key}"] = torch.as_tensor(value)
     groups = []
     for group in state["param_groups"]:
-        groups.append({key: (list(value) if isinstance(value, tuple) else value) for key, value in group.items()})
+        groups.append({key: (list(value) if isinstance(value, tuple) else value)
+                       for key, value in group.items()})
     return tensors, groups
 
 
@@ -72,7 +75,8 @@ def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tens
             state.setdefault(int(index), {})[key] = tensor
     param_groups = []
     for group in groups:
-        param_groups.append({key: (tuple(value) if key == "betas" else value) for key, value in group.items()})
+        param_groups.append({key: (tuple(value) if key == "betas" else value)
+                             for key, value in group.items()})
     optimizer.load_state_dict({"state": state, "param_groups": param_groups})
 
 
@@ -82,9 +86,9 @@ def toolkit_version() -> str:
     return __version__
 
 
-def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path, *,
-                arguments: Mapping[str, Any], epoch: int, history: list[dict[str, Any]],
-                best: Mapping[str, Any]) -> None:
+def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path,
+               json_path: Path, *, arguments: Mapping[str, Any], epoch: int,
+               history: list[dict[str, Any]], best: Mapping[str, Any]) -> None:
     tensors = {f"model.{name}": tensor for name, tensor in model.state_dict().items()}
     optimizer_tensors, groups = _optimizer_tensors(optimizer)
     tensors.update(optimizer_tensors)
@@ -101,8 +105,10 @@ def save_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     })
 
 
-def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
-               options: TrainOptions) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
+def load_state(
+    model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: Path, json_path: Path,
+    options: TrainOptions,
+) -> tuple[int, list[dict[str, Any]], dict[str, Any]]:
     """Load a saved state into ``model`` and ``optimizer``; return (epoch, history, best).
 
     Raises
@@ -116,7 +122,8 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
     """
     state = read_json(json_path, "training state")
     if state.get("format") != TRAINING_STATE_FORMAT:
-        raise InputError(f"{json_path.name}: not a vptoolkit training state (format {state.get('format')!r})")
+        raise InputError(f"{json_path.name}: not a vptoolkit training state "
+                         f"(format {state.get('format')!r})")
     history = state.get("history")
     if not isinstance(history, list):
         raise InputError(f"{json_path.name}: history: expected a list, got {short_repr(history)}")
@@ -129,10 +136,12 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
                          f"{options.epochs} epochs asked for")
     arguments = state.get("arguments")
     if not isinstance(arguments, Mapping):
-        raise InputError(f"{json_path.name}: arguments: expected an object, got {short_repr(arguments)}")
+        raise InputError(f"{json_path.name}: arguments: expected an object, "
+                         f"got {short_repr(arguments)}")
     names = {item.name for item in fields(TrainOptions)}  # beside the run's paths and machine
     try:
-        recorded = TrainOptions.from_dict({key: value for key, value in arguments.items() if key in names})
+        recorded = TrainOptions.from_dict({key: value for key, value in arguments.items()
+                                           if key in names})
     except InputError as err:
         raise InputError(f"{json_path.name}: {err}") from err
     differing = options.resume_conflicts(recorded)
@@ -140,12 +149,14 @@ def load_state(model: ViewpointNet, optimizer: torch.optim.Optimizer, weights: P
         details = ", ".join(f"{key}: {old!r} -> {new!r}" for key, (old, new) in differing.items())
         raise InputError(f"{json_path.name}: cannot resume with other options ({details})")
     tensors = read_safetensors(weights)
-    model_state = {name[len("model."):]: tensor for name, tensor in tensors.items() if name.startswith("model.")}
+    model_state = {name[len("model."):]: tensor for name, tensor in tensors.items()
+                   if name.startswith("model.")}
     try:
         model.load_state_dict(model_state, strict=True)
         _load_optimizer(optimizer, tensors, state["optimizer_param_groups"])
     except (RuntimeError, ValueError, KeyError) as err:
-        raise CheckpointError(f"{weights.name}: training state does not match the network ({err})") from err
+        raise CheckpointError(f"{weights.name}: training state does not match the network "
+                              f"({err})") from err
     best = dict(state["best"])
     if best["score"] is None:
         best["score"] = -math.inf

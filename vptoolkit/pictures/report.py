@@ -493,8 +493,10 @@ def _page(dataset: Any, cards: list[_Card], evaluation: Any, *, has_pictures: bo
 {failure_html}
 </header>
 <form id="filters" onsubmit="return false">
-<label>Category <select id="filter-category"><option value="">all</option>{_options(categories)}</select></label>
-<label>Split <select id="filter-split"><option value="">all</option>{_options(splits)}</select></label>
+<label>Category <select id="filter-category"><option value="">all</option>\
+{_options(categories)}</select></label>
+<label>Split <select id="filter-split"><option value="">all</option>\
+{_options(splits)}</select></label>
 <span id="shown-count">{len(cards)} of {len(cards)} models shown</span>
 </form>
 <main id="cards">
