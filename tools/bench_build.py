@@ -86,7 +86,8 @@ def make_tree(root: Path, copies: int, sources: Sequence[Path]) -> int:
     for index, source in enumerate(sources):
         for copy in range(copies):
             number = index * copies + copy
-            folder = root / CATEGORIES[number % len(CATEGORIES)] / ("test" if number % 5 == 4 else "train")
+            folder = (root / CATEGORIES[number % len(CATEGORIES)]
+                      / ("test" if number % 5 == 4 else "train"))
             folder.mkdir(parents=True, exist_ok=True)
             # ``number`` is unique, so meshes of the same name in different folders stay apart.
             shutil.copyfile(source, folder / f"{source.stem.lower()}_{number:03d}{source.suffix}")
@@ -141,7 +142,8 @@ def baseline_build(code: Path, src: Path, out: Path, options: dict[str, Any]) ->
     """Build ``src`` into ``out`` with the vptoolkit checked out at ``code``, in a child process.
 
     Returns the child's record: ``seconds`` (around ``build_dataset`` only),
-    ``cpu_seconds`` (the same span, see :func:`cpu_seconds`), ``n_models``, ``n_failures``, ``code`` (the imported package's path), and
+    ``cpu_seconds`` (the same span, see :func:`cpu_seconds`), ``n_models``,
+    ``n_failures``, ``code`` (the imported package's path), and
     ``stage_seconds`` and ``n_computed`` (empty and ``n_models`` for code
     older than the per-stage timings).
     """
@@ -269,7 +271,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the start "
                   "(times are only comparable on an otherwise idle machine)")
             if args.baseline is not None:
-                print(f"baseline: the code in {args.baseline}, built before each build of this code")
+                print(f"baseline: the code in {args.baseline}, "
+                      "built before each build of this code")
                 warm_up(root, args.baseline, sizes, clean)
                 warm_up(root, None, sizes, clean)
             header = (f"{'code':>8} {'workers':>7} {'models':>6} {'failed':>6} {'seconds':>8} "
@@ -288,7 +291,8 @@ def main(argv: list[str] | None = None) -> int:
                             args.baseline, root / "samples", root / f"base_{suffix}", options)
                         shutil.rmtree(root / f"base_{suffix}")
                         baseline.update(workers=workers, round=round_index,
-                                        models_per_hour=3600.0 * baseline["n_models"] / baseline["seconds"],
+                                        models_per_hour=(3600.0 * baseline["n_models"]
+                                                         / baseline["seconds"]),
                                         load_average=os.getloadavg()[0])
                         baselines.append(baseline)
                         print(f"{'baseline':>8} {workers:>7} {baseline['n_models']:>6} "
@@ -307,7 +311,8 @@ def main(argv: list[str] | None = None) -> int:
                     else:
                         speed_up = runs[0]["seconds"] / seconds if runs else 1.0
                     load = os.getloadavg()[0]
-                    runs.append({"workers": workers, "round": round_index, "n_models": result.n_models,
+                    runs.append({"workers": workers, "round": round_index,
+                                 "n_models": result.n_models,
                                  "n_failures": result.n_failures, "seconds": seconds,
                                  "cpu_seconds": cpu,
                                  "models_per_hour": per_hour, "speed_up": speed_up,
@@ -331,11 +336,14 @@ def main(argv: list[str] | None = None) -> int:
                         line += (f", baseline {base['models_per_hour']:.0f}: "
                                  f"{base['seconds'] / best['seconds']:.2f}x")
                         if workers == 1:
-                            this_cpu = min(run["cpu_seconds"] for run in runs if run["workers"] == 1)
+                            this_cpu = min(run["cpu_seconds"] for run in runs
+                                           if run["workers"] == 1)
                             base_cpu = min(run["cpu_seconds"] for run in baselines
                                            if run["workers"] == 1)
-                            line += (f"; CPU seconds per model {base_cpu / best['n_models']:.2f} -> "
-                                     f"{this_cpu / best['n_models']:.2f}: {base_cpu / this_cpu:.2f}x")
+                            line += (f"; CPU seconds per model "
+                                     f"{base_cpu / best['n_models']:.2f} -> "
+                                     f"{this_cpu / best['n_models']:.2f}: "
+                                     f"{base_cpu / this_cpu:.2f}x")
                     print(line)
 
             out = root / f"out_{args.workers[0]}_0"
@@ -348,7 +356,8 @@ def main(argv: list[str] | None = None) -> int:
             print("\nbytes per model: " + ", ".join(
                 f"{kind} {value / 1024:.0f} KiB" for kind, value in sizes_per_model.items()
             ))
-            print("(staging: the .staging folder a build keeps for resuming and incremental rebuilds)")
+            print("(staging: the .staging folder a build keeps for resuming "
+                  "and incremental rebuilds)")
         if args.json:
             args.json.write_text(json.dumps(
                 {"sizes": sizes, "clean": clean, "n_files": n_files, "runs": runs,

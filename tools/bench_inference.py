@@ -71,7 +71,9 @@ def inputs_of_samples() -> torch.Tensor:
     return torch.from_numpy(np.stack(clouds))
 
 
-def bench_network(model: ViewpointNet, clouds: torch.Tensor, batch: int, repeats: int) -> dict[str, float]:
+def bench_network(
+    model: ViewpointNet, clouds: torch.Tensor, batch: int, repeats: int
+) -> dict[str, float]:
     points = clouds[torch.arange(batch) % len(clouds)]
     with torch.inference_mode():
         total = median_ms(lambda: model(points), repeats)
@@ -83,7 +85,8 @@ def bench_end_to_end(checkpoint: Path, repeats: int) -> dict[str, float]:
     result = {}
     for name in MESHES:
         path = sample_path(name)
-        result[name] = median_ms(lambda path=path: predict(checkpoint, [path], batch_size=1), repeats)
+        result[name] = median_ms(
+            lambda path=path: predict(checkpoint, [path], batch_size=1), repeats)
     return result
 
 
@@ -95,14 +98,16 @@ def bench_stages(checkpoint: Path, name: str, repeats: int) -> dict[str, float]:
     mesh = load_mesh(path)
     surface = sample_surface(mesh, 20000, seed=0).points
     model, _ = load_model(checkpoint)
-    points = torch.from_numpy(network_points(surface, n_points=4096, n_fps=1024, seed=0, name=name))[None]
+    points = torch.from_numpy(
+        network_points(surface, n_points=4096, n_fps=1024, seed=0, name=name))[None]
     with torch.inference_mode():
         return {
             "load checkpoint": median_ms(lambda: load_model(checkpoint), repeats),
             "load mesh": median_ms(lambda: load_mesh(path), repeats),
             "sample 20000 points": median_ms(lambda: sample_surface(mesh, 20000, seed=0), repeats),
             "pick 4096 inputs": median_ms(
-                lambda: network_points(surface, n_points=4096, n_fps=1024, seed=0, name=name), repeats),
+                lambda: network_points(surface, n_points=4096, n_fps=1024, seed=0, name=name),
+                repeats),
             "network": median_ms(lambda: model(points), repeats),
         }
 
@@ -119,7 +124,8 @@ def main() -> None:
         batches = (1, 64) if args.quick else (1, 64, 256)
         clouds = inputs_of_samples()
         model = ViewpointNet(ModelConfig()).eval()
-        results: dict[str, Any] = {"cpu_count": os.cpu_count(), "torch": torch.__version__, "network_ms": {}}
+        results: dict[str, Any] = {
+            "cpu_count": os.cpu_count(), "torch": torch.__version__, "network_ms": {}}
         print(f"torch {torch.__version__}, {os.cpu_count()} CPUs, load average {load_before:.2f}")
         print(f"{'threads':>7} {'batch':>5} {'ms/model':>9} {'hierarchy':>9}  paper (GTX 1080)")
         default_threads = torch.get_num_threads()
@@ -129,8 +135,8 @@ def main() -> None:
                 repeats = max(3, (20 if args.quick else 40) // batch)
                 timing = bench_network(model, clouds, batch, repeats)
                 results["network_ms"][f"{threads}x{batch}"] = timing
-                print(f"{threads:>7} {batch:>5} {timing['total']:>9.2f} {timing['hierarchy']:>9.2f}  "
-                      f"{PAPER_MS[batch]} ms")
+                print(f"{threads:>7} {batch:>5} {timing['total']:>9.2f} "
+                      f"{timing['hierarchy']:>9.2f}  {PAPER_MS[batch]} ms")
         torch.set_num_threads(default_threads)
 
         with tempfile.TemporaryDirectory() as folder:
@@ -142,7 +148,8 @@ def main() -> None:
             torch.set_num_threads(default_threads)
         results["end_to_end_ms"] = end_to_end
         results["bunny_stages_ms"] = stages
-        print("\nmesh to four views (1 thread; load, sample, pick inputs, load checkpoint, predict):")
+        print("\nmesh to four views "
+              "(1 thread; load, sample, pick inputs, load checkpoint, predict):")
         for name, ms in end_to_end.items():
             faces = load_mesh(sample_path(name)).n_faces
             print(f"  {name:<10} {faces:>7} faces {ms:8.1f} ms")

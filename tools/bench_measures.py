@@ -24,7 +24,8 @@ Usage::
     python tools/bench_measures.py --quick    # small sizes, seconds
     python tools/bench_measures.py --max-faces 200000   # without the 1M-face mesh
     python tools/bench_measures.py --max-faces 200000 --baseline /tmp/base --repeat 2
-    python tools/bench_measures.py --max-faces 200000 --results docs/benchmarks.md   # section ``measures``
+    # write section ``measures``:
+    python tools/bench_measures.py --max-faces 200000 --results docs/benchmarks.md
 """
 
 from __future__ import annotations
@@ -80,7 +81,8 @@ from vptoolkit.visibility import iter_view_histograms
 data = np.load(sys.argv[1])
 mesh = Mesh(data["vertices"], data["faces"], name="baseline")
 views, resolution = data["views"], int(sys.argv[2])
-for _ in iter_view_histograms(mesh, MeasureSettings(views=2, resolution=16)):  # numba's cached kernels
+# load numba's cached kernels
+for _ in iter_view_histograms(mesh, MeasureSettings(views=2, resolution=16)):
     pass
 started = time.perf_counter()
 for _ in iter_view_histograms(mesh, MeasureSettings(resolution=resolution), view_directions=views):
@@ -103,7 +105,8 @@ def time_baseline(code: Path, mesh_file: Path, resolution: int) -> float:
         raise SystemExit(f"bench_measures: the baseline raster failed:\n{done.stderr.strip()}")
     record = json.loads(done.stdout.strip().splitlines()[-1])
     if not Path(record["code"]).resolve().is_relative_to(code.resolve()):
-        raise SystemExit(f"bench_measures: the baseline child imported {record['code']}, not {code}")
+        raise SystemExit(f"bench_measures: the baseline child imported {record['code']}, "
+                         f"not {code}")
     return float(record["seconds"])
 
 
@@ -158,7 +161,8 @@ def main() -> None:
             meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
         views = fibonacci_sphere(n_views)
         cold, warm = jit_seconds()
-        for backend in ("raster", "raycast"):  # imports and JIT load happen here, not in the timings
+        # imports and JIT load happen here, not in the timings
+        for backend in ("raster", "raycast"):
             time_views(torus, views[:2], 16, backend)
         print(f"JIT: {cold:.2f} s cold (compile), {warm:.2f} s with numba's on-disk cache")
         print(f"{n_views} views; raycast timed on {raycast_views} views and scaled")
@@ -183,7 +187,8 @@ def main() -> None:
                     for _ in range(args.repeat):  # alternately, so both see the same machine load
                         runs.append(time_views(mesh, views, resolution, "raster"))
                         if args.baseline is not None:
-                            baseline_runs.append(time_baseline(args.baseline, mesh_file, resolution))
+                            baseline_runs.append(
+                                time_baseline(args.baseline, mesh_file, resolution))
                     raster = min(runs)
                     raycast = time_views(mesh, views[:raycast_views], resolution, "raycast")
                     raycast *= n_views / raycast_views

@@ -34,10 +34,10 @@ from pathlib import Path
 from results_doc import add_results_option, printed_section
 
 
-
 def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dataset", type=Path, help="a dataset store or build folder (default: build one)")
+    parser.add_argument("--dataset", type=Path,
+                        help="a dataset store or build folder (default: build one)")
     parser.add_argument("--epochs", type=int, default=30, help="epochs per set-up")
     parser.add_argument("--models", type=int, default=40, help="training models to use")
     parser.add_argument("--quick", action="store_true", help="tiny sizes, seconds")
@@ -85,8 +85,8 @@ def bare_steps(dataset: Path, n_points: int, n_fps: int, steps: int, fused: bool
     return 8 * steps / (time.perf_counter() - started)
 
 
-def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, models: int, n_points: int,
-                      n_fps: int) -> tuple[float, float]:
+def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, models: int,
+                      n_points: int, n_fps: int) -> tuple[float, float]:
     """(whole run, last third) training samples per second of ``train_model``.
 
     Each epoch's training pass (loading, stepping) is timed on its own;
@@ -107,9 +107,11 @@ def epochs_per_second(dataset: Path, out: Path, *, fps_pool: int, epochs: int, m
 
     T._train_epoch = timed_epoch
     try:
-        options = TrainOptions(labels="ml", epochs=epochs, fps_pool=fps_pool, n_points=n_points, n_fps=n_fps,
-                               max_models=models, val_rotations=0, val_split="train")
-        result = T.train_model(dataset, out, options, threads=1, save_every=epochs, device="cpu", overwrite=True)
+        options = TrainOptions(labels="ml", epochs=epochs, fps_pool=fps_pool, n_points=n_points,
+                               n_fps=n_fps, max_models=models, val_rotations=0,
+                               val_split="train")
+        result = T.train_model(dataset, out, options, threads=1, save_every=epochs, device="cpu",
+                               overwrite=True)
     finally:
         T._train_epoch = real_epoch
     tail = seconds[-max(1, len(seconds) // 3):]
@@ -130,16 +132,20 @@ def main() -> None:
             steps = 3 if args.quick else 20
             plain = bare_steps(dataset, n_points, n_fps, steps, fused=False)
             fused = bare_steps(dataset, n_points, n_fps, steps, fused=True)
-            before = epochs_per_second(dataset, root / "before", fps_pool=0, epochs=epochs, models=args.models,
-                                       n_points=n_points, n_fps=n_fps)
-            after = epochs_per_second(dataset, root / "after", fps_pool=8, epochs=epochs, models=args.models,
-                                      n_points=n_points, n_fps=n_fps)
-        print(f"training throughput, one thread, {n_points} points ({n_fps} by FPS), batch 8, samples/s:")
+            before = epochs_per_second(dataset, root / "before", fps_pool=0, epochs=epochs,
+                                       models=args.models, n_points=n_points, n_fps=n_fps)
+            after = epochs_per_second(dataset, root / "after", fps_pool=8, epochs=epochs,
+                                      models=args.models, n_points=n_points, n_fps=n_fps)
+        print(f"training throughput, one thread, {n_points} points ({n_fps} by FPS), "
+              "batch 8, samples/s:")
         print(f"  bare step, plain Adam            {plain:8.1f}")
         print(f"  bare step, fused Adam            {fused:8.1f}   ({fused / plain:.2f}x plain)")
-        print(f"  train_model, FPS per item        {before[0]:8.1f}   ({before[0] / fused:.2f} of the bare step)")
-        print(f"  train_model, FPS pool, {epochs} epochs {after[0]:8.1f}   ({after[0] / before[0]:.1f}x FPS per item)")
-        print(f"  train_model, FPS pool, last third {after[1]:7.1f}   ({after[1] / fused:.2f} of the bare step, "
+        print(f"  train_model, FPS per item        {before[0]:8.1f}   "
+              f"({before[0] / fused:.2f} of the bare step)")
+        print(f"  train_model, FPS pool, {epochs} epochs {after[0]:8.1f}   "
+              f"({after[0] / before[0]:.1f}x FPS per item)")
+        print(f"  train_model, FPS pool, last third {after[1]:7.1f}   "
+              f"({after[1] / fused:.2f} of the bare step, "
               f"{after[1] / before[1]:.1f}x FPS per item)")
 
 

@@ -22,10 +22,12 @@ that is how ``vptoolkit/learn/pretrained`` (``--model default``) is made.
 
 Usage::
 
-    python tools/reproduce_labels.py --category-networks   # the default budget (about 1 h on 2 cores)
-    python tools/reproduce_labels.py --quick         # tiny sizes, minutes; writes nothing to docs/
+    # the default budget (about 1 h on 2 cores)
+    python tools/reproduce_labels.py --category-networks
+    python tools/reproduce_labels.py --quick  # tiny sizes, minutes; writes nothing to docs/
     python tools/reproduce_labels.py --out reproduction/labels_remeshed --remesh --methods sr \\
-        --export-pretrained vptoolkit/learn/pretrained --pretrained-method sr --pretrained-head 128,64
+        --export-pretrained vptoolkit/learn/pretrained --pretrained-method sr \\
+        --pretrained-head 128,64
 """
 
 from __future__ import annotations
@@ -42,18 +44,19 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
+from results_doc import (
+    comparison_table,
+    format_seconds,
+    machine,
+    markdown_table,
+    score_cells,
+    write_section,
+)
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.settings import MeasureSettings
-from vptoolkit.learn.config import ModelConfig
-from vptoolkit.learn.labels import head_for_method
-from vptoolkit.learn.options import TrainOptions
-from vptoolkit.learn.predict import network_predictor
-from vptoolkit.learn.schedule import scaled_lr_step
-from vptoolkit.learn.train import train_model, train_per_category
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -63,9 +66,14 @@ from vptoolkit.evaluate.protocol import (
     random_view_scores,
     score_protocol,
 )
+from vptoolkit.learn.config import ModelConfig
+from vptoolkit.learn.labels import head_for_method
+from vptoolkit.learn.options import TrainOptions
+from vptoolkit.learn.predict import network_predictor
+from vptoolkit.learn.schedule import scaled_lr_step
+from vptoolkit.learn.train import train_model, train_per_category
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.synthetic import CATEGORIES, write_collection
-
-from results_doc import comparison_table, format_seconds, machine, markdown_table, score_cells, write_section
 
 METHODS = ("sl", "ml", "gl", "ml+gl", "sr", "dldl")
 LABELS = {"sl": "SL", "ml": "ML", "gl": "GL", "ml+gl": "ML+GL (ours)", "sr": "SR", "dldl": "DLDL"}
@@ -149,8 +157,9 @@ def main() -> None:
         per_category=args.per_category, epochs=args.epochs, resolution=args.resolution,
         rotations=args.rotations, remesh=args.remesh)
     command = "python tools/reproduce_labels.py " + shlex.join(sys.argv[1:])
-    table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers, jobs=args.jobs,
-                category_networks=args.category_networks, command=command.strip())
+    table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers,
+                jobs=args.jobs, category_networks=args.category_networks,
+                command=command.strip())
     print(table)
     if not args.quick:
         write_section(args.results, args.section, table)
@@ -160,7 +169,8 @@ def main() -> None:
         folder = f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
         options = TrainOptions(labels=method, epochs=epochs, seed=0, n_points=sizes.train_points,
                                n_fps=sizes.train_fps,
-                               architecture=ModelConfig(head=head_for_method(method), head_channels=tuple(head)))
+                               architecture=ModelConfig(head=head_for_method(method),
+                                                        head_channels=tuple(head)))
         checkpoint = train_model(args.out / "dataset", args.out / "models" / folder, options,
                                  resume=True, progress=True, threads=1).checkpoint
         export_pretrained(checkpoint, args.export_pretrained, command.strip(), sizes)
@@ -174,7 +184,8 @@ def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: Label
     config["pretrained"] = {
         "command": command,
         "data": f"vptoolkit.synthetic, {len(CATEGORIES)} categories x {sizes.per_category} "
-                f"shapes (seed 0{', remeshed' if sizes.remesh else ''}), {sizes.n_views} views at {sizes.resolution} px, "
+                f"shapes (seed 0{', remeshed' if sizes.remesh else ''}), "
+                f"{sizes.n_views} views at {sizes.resolution} px, "
                 f"{'cleaned' if sizes.clean else 'not cleaned'}",
         "results": "docs/results.md",
     }
@@ -183,7 +194,10 @@ def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: Label
 
 
 def _train_job(job: dict) -> tuple[str, Path, float]:
-    """One training in a process of its own (one torch thread): (row label, checkpoint, train seconds)."""
+    """One training in a process of its own (one torch thread).
+
+    Returns (row label, checkpoint, train seconds).
+    """
     if job["per_category"]:
         results = train_per_category(job["dataset"], job["output"], job["options"], **TRAIN_RUN)
         return job["label"], Path(job["output"]), sum(
@@ -192,17 +206,22 @@ def _train_job(job: dict) -> tuple[str, Path, float]:
     return job["label"], result.checkpoint, sum(entry["seconds"] for entry in result.history)
 
 
-def train_all(dataset: Path, out: Path, sizes: LabelSizes, methods: Sequence[str], *, val_split: str,
-              jobs: int, category_networks: bool) -> dict[str, tuple[Path, float]]:
+def train_all(dataset: Path, out: Path, sizes: LabelSizes, methods: Sequence[str], *,
+              val_split: str, jobs: int,
+              category_networks: bool) -> dict[str, tuple[Path, float]]:
     """Train every method (and optionally per-category ML+GL) side by side; resumes."""
-    common = {"epochs": sizes.epochs, "seed": 0, "n_points": sizes.train_points, "n_fps": sizes.train_fps,
-              "val_split": val_split}
-    work = [{"label": LABELS[method], "dataset": dataset, "output": out / "models" / method.replace("+", "_"),
-             "per_category": False, "options": TrainOptions(**common, labels=method)} for method in methods]
+    common = {"epochs": sizes.epochs, "seed": 0, "n_points": sizes.train_points,
+              "n_fps": sizes.train_fps, "val_split": val_split}
+    work = [{"label": LABELS[method], "dataset": dataset,
+             "output": out / "models" / method.replace("+", "_"),
+             "per_category": False, "options": TrainOptions(**common, labels=method)}
+            for method in methods]
     if category_networks:
-        work.append({"label": PER_CATEGORY, "dataset": dataset, "output": out / "models" / "ml_gl_per_category",
+        work.append({"label": PER_CATEGORY, "dataset": dataset,
+                     "output": out / "models" / "ml_gl_per_category",
                      "per_category": True, "options": TrainOptions(**common, labels="ml+gl")})
-    # The longest runs (ML+GL, the per-category networks) start first; rows keep the table's order.
+    # The longest runs (ML+GL, the per-category networks) start first;
+    # rows keep the table's order.
     order = sorted(range(len(work)), key=lambda i: (work[i]["options"].labels != "ml+gl", i))
     if jobs <= 1:
         done = [_train_job(work[i]) for i in order]
@@ -249,14 +268,16 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
         for orientation, rotate in (("rotated", True), ("stored", False)):
             tables[orientation]["random view (expectation)"] = random_view_scores(test)
             for label, predictor in predictors.items():
-                tables[orientation][label] = score_protocol(test, predictor, n_rotations=sizes.rotations,
-                                                            rotate=rotate)
-        split_sizes = {split: len(dataset.split(split)) for split in ("train", "validation", "test")}
+                tables[orientation][label] = score_protocol(
+                    test, predictor, n_rotations=sizes.rotations, rotate=rotate)
+        split_sizes = {split: len(dataset.split(split))
+                       for split in ("train", "validation", "test")}
     seconds = time.perf_counter() - started
     table = render(tables, timings, split_sizes, sizes, command, seconds)
     (out / "table2.json").write_text(json.dumps({
         orientation: {label: {"mean": scores.mean.tolist(), "sem": scores.sem.tolist(),
-                              "per_model": scores.scores.tolist()} for label, scores in rows.items()}
+                              "per_model": scores.scores.tolist()}
+                      for label, scores in rows.items()}
         for orientation, rows in tables.items()
     } | {"train_seconds": timings, "sizes": split_sizes, "seconds": seconds}, indent=2))
     return table
@@ -273,7 +294,10 @@ def _score_table(rows: dict[str, ProtocolScores], timings: dict[str, float]) -> 
 
 
 def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -> str:
-    """Which rows ``reference`` beats, ties and loses to, per measure, at two paired standard errors."""
+    """Which rows ``reference`` beats, ties and loses to.
+
+    Per measure, at two paired standard errors.
+    """
     if reference not in rows:
         return ""
     beats, ties, loses = [], [], []
@@ -302,32 +326,36 @@ def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -
     return ", ".join(parts) + "."
 
 
-def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, float], split_sizes: dict[str, int],
-           sizes: LabelSizes, command: str, seconds: float) -> str:
+def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, float],
+           split_sizes: dict[str, int], sizes: LabelSizes, command: str, seconds: float) -> str:
     rotated, stored = tables["rotated"], tables["stored"]
     lines = [
-        f"## Table 2{'b' if sizes.remesh else ''}: label methods on procedural shapes{', remeshed' if sizes.remesh else ''}",
+        f"## Table 2{'b' if sizes.remesh else ''}: label methods on procedural shapes"
+        f"{', remeshed' if sizes.remesh else ''}",
         "",
         f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
         f"{machine()}; wall time {format_seconds(seconds)}.",
         "",
         f"Dataset: `vptoolkit.synthetic`, 8 categories x {sizes.per_category} shapes"
         f"{' remeshed isotropically' if sizes.remesh else ''} "
-        f"(train {split_sizes['train']}, validation {split_sizes['validation']}, test {split_sizes['test']}), "
+        f"(train {split_sizes['train']}, validation {split_sizes['validation']}, "
+        f"test {split_sizes['test']}), "
         f"{'cleaned' if sizes.clean else 'not cleaned'}, {sizes.n_points} points, "
         f"{sizes.n_views} views, measures at {sizes.resolution} px. Every method trains "
         f"{sizes.epochs} epochs with the paper's other settings (Adam, batch 8, lr 0.001, "
-        f"x0.75 every {scaled_lr_step(sizes.epochs)} epochs, i.e. the paper's schedule scaled to the run, "
-        f"ML+GL switching at half, {sizes.train_points} input points, random rotations), in the "
-        "canonical principal-axis input frame; the paper trains 3000 epochs on ModelNet40. "
-        "Each method keeps its best validation epoch (validation under 3 fixed rotations per model).",
+        f"x0.75 every {scaled_lr_step(sizes.epochs)} epochs, i.e. the paper's schedule scaled "
+        f"to the run, ML+GL switching at half, {sizes.train_points} input points, "
+        "random rotations), in the canonical principal-axis input frame; the paper trains "
+        "3000 epochs on ModelNet40. Each method keeps its best validation epoch "
+        "(validation under 3 fixed rotations per model).",
         "",
-        f"**Rotated test inputs (the primary protocol):** every test model under {sizes.rotations} fixed "
-        "random rotations seeded by its name, the prediction rotated back before scoring "
-        "(`vptoolkit.evaluate.protocol`). Scores: normalised quality of the nearest sampled view, in %, mean over "
-        "models ± standard error over models. Random view: the expectation over uniform directions; "
-        "best constant direction: the view with the best mean quality over the training split in its "
-        "stored (upright) orientation.",
+        "**Rotated test inputs (the primary protocol):** every test model under "
+        f"{sizes.rotations} fixed random rotations seeded by its name, the prediction rotated "
+        "back before scoring (`vptoolkit.evaluate.protocol`). Scores: normalised quality of "
+        "the nearest sampled view, in %, mean over models ± standard error over models. "
+        "Random view: the expectation over uniform directions; best constant direction: the "
+        "view with the best mean quality over the training split in its stored (upright) "
+        "orientation.",
         "",
         *_score_table(rotated, timings),
         "",
@@ -337,8 +365,9 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         "",
         *(comparison_table(rotated, LABELS["ml+gl"]) if LABELS["ml+gl"] in rotated else []),
         "",
-        "**Stored orientation (the paper's protocol, a second table):** the procedural shapes stand upright "
-        "with their parts along fixed axes, so a constant direction is a strong rival here.",
+        "**Stored orientation (the paper's protocol, a second table):** the procedural shapes "
+        "stand upright with their parts along fixed axes, so a constant direction is a strong "
+        "rival here.",
         "",
         *_score_table(stored, timings),
         "",

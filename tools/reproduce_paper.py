@@ -235,7 +235,9 @@ class RunOptions:
 # ============================================================================ geometry helpers
 
 
-def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Mesh, NDArray[np.bool_]]:
+def subdivide(
+    mesh: Mesh, selected: NDArray[np.bool_] | None = None
+) -> tuple[Mesh, NDArray[np.bool_]]:
     """Midpoint 1-to-4 subdivision of some (default: all) faces (``trimesh.remesh.subdivide``).
 
     Each selected face ``(a, b, c)`` becomes four with the edge midpoints
@@ -262,11 +264,14 @@ def subdivide(mesh: Mesh, selected: NDArray[np.bool_] | None = None) -> tuple[Me
     """
     import trimesh
 
-    is_selected = np.ones(mesh.n_faces, dtype=bool) if selected is None else np.asarray(selected, dtype=bool)
-    vertices, faces = trimesh.remesh.subdivide(mesh.vertices, mesh.faces, face_index=np.flatnonzero(is_selected))
+    is_selected = (np.ones(mesh.n_faces, dtype=bool) if selected is None
+                   else np.asarray(selected, dtype=bool))
+    vertices, faces = trimesh.remesh.subdivide(mesh.vertices, mesh.faces,
+                                               face_index=np.flatnonzero(is_selected))
     is_new = np.zeros(len(faces), dtype=bool)
     is_new[mesh.n_faces - int(is_selected.sum()):] = True
-    return Mesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64), mesh.name), is_new
+    return Mesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64),
+                mesh.name), is_new
 
 
 def mesh_with_faces(mesh: Mesh, n_faces: int, *, name: str | None = None) -> Mesh:
@@ -355,7 +360,9 @@ class Network:
         trained = config.get("input", {})
         return cls(model, int(trained.get("n_points", 4096)), int(trained.get("n_fps", 1024)))
 
-    def directions(self, clouds: Mapping[str, NDArray[Any]], *, seed: int = 0) -> NDArray[np.float64]:
+    def directions(
+        self, clouds: Mapping[str, NDArray[Any]], *, seed: int = 0
+    ) -> NDArray[np.float64]:
         """Predicted directions of named surface samples.
 
         Each cloud becomes one input as :func:`vptoolkit.learn.predict.predict`
@@ -476,7 +483,8 @@ def section_timings(options: RunOptions) -> Section:
     started = time.perf_counter()
     load_before = os.getloadavg()[0]
     base = load_mesh(sample_path("bunny.ply"))
-    meshes = [mesh_with_faces(base, target, name=f"bunny_{target}") for target in sizes.timing_faces]
+    meshes = [mesh_with_faces(base, target, name=f"bunny_{target}")
+              for target in sizes.timing_faces]
     compute_view_quality(base, MeasureSettings(views=2, resolution=64))  # compile or load it
     model = ViewpointNet(ModelConfig()).eval()
     brute: list[list[float]] = [[] for _ in meshes]  # [mesh][views] seconds
@@ -496,13 +504,15 @@ def section_timings(options: RunOptions) -> Section:
             inputs = cloud.expand(batch, -1, -1).contiguous()
             with torch.inference_mode():
                 model(inputs)  # warm-up
-                seconds = _median_seconds(lambda inputs=inputs: model(inputs), sizes.network_repeats,
+                seconds = _median_seconds(lambda inputs=inputs: model(inputs),
+                                          sizes.network_repeats,
                                           budget_seconds=NETWORK_BUDGET_SECONDS)
             network[i].append(seconds / batch)
     load_after = os.getloadavg()[0]
     seconds = time.perf_counter() - started
 
-    columns = [f"{v} views" for v in sizes.timing_views] + [f"batch {b}" for b in sizes.timing_batches]
+    columns = ([f"{v} views" for v in sizes.timing_views]
+               + [f"batch {b}" for b in sizes.timing_batches])
     paper_columns = {250: 0, 500: 1, 1000: 2}
     paper_batches = {1: 3, 64: 4, 256: 5}
     lines = _header(
@@ -519,7 +529,8 @@ def section_timings(options: RunOptions) -> Section:
         f"({sizes.timing_fps} by farthest point sampling) of each mesh's surface, batch "
         f"{' / '.join(map(str, sizes.timing_batches))}, median of up to {sizes.network_repeats} "
         f"forward passes (a cell stops once its passes took {NETWORK_BUDGET_SECONDS:.0f} s, "
-        f"after at least {min(3, sizes.network_repeats)}), seconds per model, torch {torch.__version__} with "
+        f"after at least {min(3, sizes.network_repeats)}), seconds per model, "
+        f"torch {torch.__version__} with "
         f"{torch.get_num_threads()} threads on the CPU. As in the paper, loading, cleaning, "
         "point sampling and weight loading are not timed. Load average "
         f"{load_before:.2f} before and {load_after:.2f} after (other jobs shared the machine "
@@ -598,7 +609,8 @@ def section_robustness(options: RunOptions) -> Section:
             source = options.labels_out / "shapes" / test.record(position)["source"]
             raw[name] = sample_surface(load_mesh(source), n_surface, seed=0).points
             cleaned = Mesh(*test.mesh(position), name=name)
-            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0, oversampling=POISSON_INIT_FACTOR)
+            poisson[name] = poisson_disk_points(cleaned, n_surface, seed=0,
+                                                oversampling=POISSON_INIT_FACTOR)
             vertices[name] = np.asarray(cleaned.vertices)
         inputs = {
             "(a) dataset points (cleaned meshes)": stored,
@@ -608,8 +620,8 @@ def section_robustness(options: RunOptions) -> Section:
         }
         for label, clouds in inputs.items():
             rows[label] = score_directions(test, network.directions(clouds)).mean
-        rows["random view (expectation)"] = np.mean(list(random_view_scores(test).category_means().values()),
-                                                    axis=0)
+        rows["random view (expectation)"] = np.mean(
+            list(random_view_scores(test).category_means().values()), axis=0)
         n_vertices = [len(cloud) for cloud in vertices.values()]
         n_test, n_categories = len(test), len(set(test.categories))
         labels_settings = (int(attrs["n_views"]), int(attrs["resolution"]))
@@ -631,18 +643,21 @@ def section_robustness(options: RunOptions) -> Section:
                           workers=options.workers, progress=True)
     held_out: dict[str, ProtocolScores] = {}
     with open_dataset(built.path) as samples:
-        held_out["network (ML+GL)"] = score_protocol(samples, network_predictor(checkpoint_path(options)),
-                                                     n_rotations=HELD_OUT_ROTATIONS)
+        held_out["network (ML+GL)"] = score_protocol(
+            samples, network_predictor(checkpoint_path(options)), n_rotations=HELD_OUT_ROTATIONS)
         held_out["random view (expectation)"] = random_view_scores(samples)
-        held_out["PCA axis"] = score_protocol(samples, pca_predictor, n_rotations=HELD_OUT_ROTATIONS)
+        held_out["PCA axis"] = score_protocol(samples, pca_predictor,
+                                              n_rotations=HELD_OUT_ROTATIONS)
         per_model = dict(zip(samples.names, held_out["network (ML+GL)"].scores.tolist()))
         sample_faces = {record["name"]: record["n_faces"] for record in samples.records}
     n_failed = built.n_failures
     seconds = time.perf_counter() - started
 
     paper_rows = {"(a) dataset points (cleaned meshes)": "preprocessed meshes",
-                  "(b) raw source meshes": "raw meshes", "(c) Poisson-disk sampling": "surface sampling"}
-    cleaning = "cleaned" if is_cleaned else "not cleaned (quick run: rows a and b see the same meshes)"
+                  "(b) raw source meshes": "raw meshes",
+                  "(c) Poisson-disk sampling": "surface sampling"}
+    cleaning = ("cleaned" if is_cleaned
+                else "not cleaned (quick run: rows a and b see the same meshes)")
     lines = _header(
         "Table 4: robustness to meshing and point sampling", options, seconds,
         f"test split of the table-2 benchmark ({n_test} models, {n_categories} categories, "
@@ -657,14 +672,16 @@ def section_robustness(options: RunOptions) -> Section:
         f"{POISSON_INIT_FACTOR}x as many uniform points) and (d) the cleaned meshes' vertices "
         f"only ({min(n_vertices)} to {max(n_vertices)} per model; drawn again where fewer than "
         f"{network.n_points}). "
-        "Scores: mean over categories of the normalised quality of the nearest sampled view, in %. "
-        "The paper's rows (ModelNet40; its different sampling is Qi et al.'s points) in the last column.",
+        "Scores: mean over categories of the normalised quality of the nearest sampled view, "
+        "in %. The paper's rows (ModelNet40; its different sampling is Qi et al.'s points) "
+        "in the last column.",
         "",
     ]
     table = []
     for label, scores in rows.items():
         paper = PAPER_ROBUSTNESS.get(paper_rows.get(label, ""))
-        table.append([label, *_one_decimal(scores), " / ".join(_one_decimal(paper)) if paper else ""])
+        table.append([label, *_one_decimal(scores),
+                      " / ".join(_one_decimal(paper)) if paper else ""])
     lines += markdown_table(["input", *MEASURES, "paper (ModelNet40)"], table,
                             align="l" + "r" * len(MEASURES) + "l")
     ours = rows["(a) dataset points (cleaned meshes)"] - np.vstack(
@@ -677,13 +694,16 @@ def section_robustness(options: RunOptions) -> Section:
         "",
         f"Held-out real meshes (`vptoolkit/samples`, {len(per_model)} meshes, "
         f"{'cleaned' if is_cleaned else 'not cleaned'}, {n_surface} points, quality from "
-        f"{labels_settings[0]} views at {labels_settings[1]} px; {n_failed} failed to build), each under "
-        f"{HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.evaluate.protocol`), mean over meshes ± standard error:",
+        f"{labels_settings[0]} views at {labels_settings[1]} px; {n_failed} failed to build), "
+        f"each under {HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.evaluate.protocol`), "
+        "mean over meshes ± standard error:",
         "",
-        *markdown_table(["method", *MEASURES], [[label, *score_cells(scores)] for label, scores in held_out.items()]),
+        *markdown_table(["method", *MEASURES],
+                        [[label, *score_cells(scores)] for label, scores in held_out.items()]),
         "", "Network per mesh:", "",
         *markdown_table(["mesh", "faces", *MEASURES],
-                        [[name, str(sample_faces[name]), *_one_decimal(scores)] for name, scores in per_model.items()]),
+                        [[name, str(sample_faces[name]), *_one_decimal(scores)]
+                         for name, scores in per_model.items()]),
     ]
     numbers = {
         "test": {label: scores.tolist() for label, scores in rows.items()},
@@ -725,8 +745,9 @@ def section_subdivision(options: RunOptions) -> Section:
         n_faces.append(mesh.n_faces)
         ve_elevation.append(math.degrees(math.asin(float(quality.best_views[0, 2]))))
     base = make_shape("chair", seed=sizes.chair_seed)
-    reseeded = [network.directions({base.name: sample_surface(base, SURFACE_POINTS, seed=s).points})[0]
-                for s in (1, 2, 3)]
+    reseeded = [
+        network.directions({base.name: sample_surface(base, SURFACE_POINTS, seed=s).points})[0]
+        for s in (1, 2, 3)]
     noise = np.max([angle_between_deg(predicted[0], other) for other in reseeded], axis=0)
     measure_angles = np.array([angle_between_deg(views, best_views[0]) for views in best_views])
     network_angles = np.array([angle_between_deg(views, predicted[0]) for views in predicted])
@@ -737,9 +758,10 @@ def section_subdivision(options: RunOptions) -> Section:
     fig, axes = plt.subplots(figsize=(6.4, 4.0))
     levels = np.arange(len(n_faces))
     for column, measure in enumerate(MEASURES):
-        line, = axes.plot(levels, measure_angles[:, column], marker="o", label=f"{measure} best view")
-        axes.plot(levels, network_angles[:, column], linestyle="--", marker="x", color=line.get_color(),
-                  label=f"network ({measure} head)")
+        line, = axes.plot(levels, measure_angles[:, column], marker="o",
+                          label=f"{measure} best view")
+        axes.plot(levels, network_angles[:, column], linestyle="--", marker="x",
+                  color=line.get_color(), label=f"network ({measure} head)")
     axes.set_xlabel("subdivision level of the seat (seat triangles = 2 x 4^level)")
     axes.set_ylabel("angle to level 0 (degrees)")
     axes.set_title(f"Seat subdivision of chair seed {sizes.chair_seed}")
@@ -757,8 +779,9 @@ def section_subdivision(options: RunOptions) -> Section:
         f"split 1-to-4 at every level up to {sizes.subdivision_levels} ({n_faces[-1]} faces).")
     lines += [
         f"Measures from {sizes.subdivision_views} views at {sizes.subdivision_resolution} px; the "
-        f"network is the ML+GL checkpoint `{checkpoint_path(options)}` on {network.n_points} points picked from "
-        f"{SURFACE_POINTS} area-uniform surface points (seed 0). Angles in degrees between each "
+        f"network is the ML+GL checkpoint `{checkpoint_path(options)}` on {network.n_points} "
+        f"points picked from {SURFACE_POINTS} area-uniform surface points (seed 0). "
+        "Angles in degrees between each "
         "level's best view (or prediction) and level 0's; VE elevation is the angle of VE's best "
         "view above the horizontal seat plane (90 = straight from the top, negative = from "
         "below). The network's noise "
@@ -768,7 +791,8 @@ def section_subdivision(options: RunOptions) -> Section:
         *markdown_table(
             ["level", "faces", *MEASURES, "VE elevation", *(f"net {m}" for m in MEASURES)],
             [[str(level), str(n_faces[level]), *_one_decimal(measure_angles[level]),
-              f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])] for level in levels],
+              f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])]
+             for level in levels],
             align="r" * (2 * len(MEASURES) + 3)),
     ]
     drift = measure_angles.max(axis=0)
@@ -823,14 +847,17 @@ def section_resolution(options: RunOptions) -> Section:
         reference = qualities[-1]
         for j, quality in enumerate(qualities):
             angles[i, j] = angle_between_deg(quality.best_views, reference.best_views)
-            losses[i, j] = 100.0 * (1.0 - reference.normalized[quality.best_index, np.arange(len(MEASURES))])
-            rhos[i, j] = [spearman(quality.raw[:, m], reference.raw[:, m]) for m in range(len(MEASURES))]
+            losses[i, j] = 100.0 * (
+                1.0 - reference.normalized[quality.best_index, np.arange(len(MEASURES))])
+            rhos[i, j] = [spearman(quality.raw[:, m], reference.raw[:, m])
+                          for m in range(len(MEASURES))]
     worst_angle, worst_loss, worst_rho = angles.max(axis=0), losses.max(axis=0), rhos.min(axis=0)
     spacing = math.degrees(math.sqrt(4 * math.pi / sizes.resolution_views))
     seconds = time.perf_counter() - started
 
     passing = [r for j, r in enumerate(resolutions[:-1])
-               if (worst_loss[j] <= LOSS_THRESHOLD).all() and (worst_rho[j] >= SPEARMAN_THRESHOLD).all()]
+               if (worst_loss[j] <= LOSS_THRESHOLD).all()
+               and (worst_rho[j] >= SPEARMAN_THRESHOLD).all()]
     if passing:
         j = resolutions.index(passing[0])
         recommendation = (
@@ -860,8 +887,8 @@ def section_resolution(options: RunOptions) -> Section:
         axis.set_xlabel("resolution (px)")
         axis.set_title(title, fontsize=10)
     axes[0].legend(fontsize=8)
-    fig.suptitle(f"Against {finest} px, worst over {n_meshes} meshes, {sizes.resolution_views} views",
-                 fontsize=10)
+    fig.suptitle(f"Against {finest} px, worst over {n_meshes} meshes, "
+                 f"{sizes.resolution_views} views", fontsize=10)
     fig.tight_layout()
     figure.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(figure, dpi=120)
@@ -869,24 +896,28 @@ def section_resolution(options: RunOptions) -> Section:
 
     lines = _header(
         "Resolution study (figure 3, every measure)", options, seconds,
-        "bundled meshes " + ", ".join(f"{name} ({n} faces)" for name, n in zip(sizes.resolution_meshes, faces))
+        "bundled meshes "
+        + ", ".join(f"{name} ({n} faces)" for name, n in zip(sizes.resolution_meshes, faces))
         + f"; {sizes.resolution_views} Fibonacci views at " + ", ".join(map(str, resolutions))
         + " px (raster backend).")
     lines += [
         f"Per measure, against {finest} px and worst over the meshes: angle between the best views "
         "(degrees) / normalised quality at the finest resolution lost by taking this "
-        "resolution's best view (%) / Spearman's rank correlation of the raw values over the views. "
-        "Time: total seconds for all meshes.",
+        "resolution's best view (%) / Spearman's rank correlation of the raw values over the "
+        "views. Time: total seconds for all meshes.",
         "",
         *markdown_table(
             ["resolution", *MEASURES, "time"],
-            [[str(resolution), *(f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
-                                 for m in range(len(MEASURES))), f"{times[:, j].sum():.1f} s"]
+            [[str(resolution),
+              *(f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
+                for m in range(len(MEASURES))),
+              f"{times[:, j].sum():.1f} s"]
              for j, resolution in enumerate(resolutions)],
             align="r" * (len(MEASURES) + 2)),
     ]
     lines += ["", recommendation, "",
-              _figure_link(options, figure, "Best-view angle, quality lost and rank correlation against resolution")]
+              _figure_link(options, figure, "Best-view angle, quality lost and rank correlation "
+                                            "against resolution")]
     numbers = {
         "meshes": list(sizes.resolution_meshes), "resolutions": resolutions,
         "angles_deg": angles.tolist(), "quality_lost_percent": losses.tolist(),
@@ -917,7 +948,8 @@ def run(options: RunOptions) -> dict[str, Section]:
     """
     unknown = set(options.sections) - set(SECTIONS)
     if unknown:
-        raise SystemExit(f"--sections: unknown {', '.join(sorted(unknown))}; choose from {', '.join(SECTIONS)}")
+        raise SystemExit(f"--sections: unknown {', '.join(sorted(unknown))}; "
+                         f"choose from {', '.join(SECTIONS)}")
     options.out.mkdir(parents=True, exist_ok=True)
     numbers_path = options.out / "paper.json"
     done: dict[str, Section] = {}
@@ -938,7 +970,8 @@ def parse_args(argv: Sequence[str] | None = None) -> RunOptions:
     """Command-line options as :class:`RunOptions`."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true",
-                        help="tiny sizes (minutes); writes under --out unless --results/--figures are given")
+                        help="tiny sizes (minutes); writes under --out unless "
+                             "--results/--figures are given")
     parser.add_argument("--out", type=Path, default=None,
                         help="working folder (default: reproduction/paper, with --quick "
                              "reproduction/paper-quick)")
@@ -950,10 +983,13 @@ def parse_args(argv: Sequence[str] | None = None) -> RunOptions:
     parser.add_argument("--sections", default=",".join(SECTIONS),
                         help=f"comma-separated subset of {','.join(SECTIONS)}")
     parser.add_argument("--results", type=Path, default=None,
-                        help="markdown file to update (default: docs/results.md, with --quick OUT/results.md)")
+                        help="markdown file to update (default: docs/results.md, "
+                             "with --quick OUT/results.md)")
     parser.add_argument("--figures", type=Path, default=None,
-                        help="folder of the PNG figures (default: docs/figures, with --quick OUT/figures)")
-    parser.add_argument("--workers", type=int, default=2, help="dataset build processes (default: 2)")
+                        help="folder of the PNG figures (default: docs/figures, "
+                             "with --quick OUT/figures)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="dataset build processes (default: 2)")
     parser.add_argument("--network", type=Path,
                         help="checkpoint of table 4 and figure 8, e.g. vptoolkit/learn/pretrained "
                              "(default: table 2's ML+GL checkpoint in --labels-out)")
@@ -963,11 +999,14 @@ def parse_args(argv: Sequence[str] | None = None) -> RunOptions:
     sections = tuple(name.strip() for name in args.sections.split(",") if name.strip())
     if args.skip_labels:
         sections = tuple(name for name in sections if name != "labels")
-    quick_default = (lambda path: args.out / path) if args.quick else (lambda path: Path("docs") / path)
-    command = "python tools/reproduce_paper.py " + shlex.join(sys.argv[1:] if argv is None else argv)
+    quick_default = ((lambda path: args.out / path) if args.quick
+                     else (lambda path: Path("docs") / path))
+    command = ("python tools/reproduce_paper.py "
+               + shlex.join(sys.argv[1:] if argv is None else argv))
     return RunOptions(
         out=args.out,
-        labels_out=args.labels_out or (args.out / "labels" if args.quick else Path("reproduction/labels")),
+        labels_out=args.labels_out or (args.out / "labels" if args.quick
+                                       else Path("reproduction/labels")),
         results=args.results or quick_default("results.md"),
         figures=args.figures or quick_default("figures"),
         sizes=QUICK if args.quick else FULL,

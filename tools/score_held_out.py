@@ -11,7 +11,8 @@ baseline.
 Usage::
 
     python tools/score_held_out.py vptoolkit/samples --model default
-    python tools/score_held_out.py MESH_FOLDER --model runs/ml_gl --out reproduction/held_out/mine --json scores.json
+    python tools/score_held_out.py MESH_FOLDER --model runs/ml_gl \\
+        --out reproduction/held_out/mine --json scores.json
 
 The bundled samples are the check that ships; keep any other held-out folder
 out of training and tuning.
@@ -29,16 +30,14 @@ from pathlib import Path
 from typing import NoReturn
 
 import numpy as np
+from results_doc import comparison_table, machine, markdown_table, score_cells, write_section
 
 from vptoolkit.cli.group import exit_code, one_line_error
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build import build_dataset
 from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.points import N_SURFACE_POINTS
-from vptoolkit.settings import MeasureSettings
 from vptoolkit.errors import VptoolkitError
-from vptoolkit.learn.predict import network_predictor
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -47,8 +46,9 @@ from vptoolkit.evaluate.protocol import (
     random_view_scores,
     score_protocol,
 )
-
-from results_doc import comparison_table, machine, markdown_table, score_cells, write_section
+from vptoolkit.learn.predict import network_predictor
+from vptoolkit.points import N_SURFACE_POINTS
+from vptoolkit.settings import MeasureSettings
 
 
 class _Parser(argparse.ArgumentParser):
@@ -67,17 +67,21 @@ def fail(message: str) -> NoReturn:
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = _Parser(description=__doc__.splitlines()[0])
     parser.add_argument("meshes", type=Path, help="folder of mesh files (category = parent folder)")
-    parser.add_argument("--model", default="default", help="checkpoint, per-category folder or 'default'")
+    parser.add_argument("--model", default="default",
+                        help="checkpoint, per-category folder or 'default'")
     parser.add_argument("--out", type=Path, help="dataset folder, new or a build to resume "
                         "(default: reproduction/held_out/<folder name>)")
-    parser.add_argument("--train", type=Path, help="a dataset whose train split gives the best constant direction")
+    parser.add_argument("--train", type=Path,
+                        help="a dataset whose train split gives the best constant direction")
     parser.add_argument("--rotations", type=int, default=8, help="fixed rotations per mesh")
     parser.add_argument("--views", type=int, default=1000)
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--json", type=Path, help="also write the scores here")
-    parser.add_argument("--results", type=Path, help="also write the table into this markdown file ...")
-    parser.add_argument("--section", default="held_out", help="... between <!-- SECTION:start/end --> markers")
+    parser.add_argument("--results", type=Path,
+                        help="also write the table into this markdown file ...")
+    parser.add_argument("--section", default="held_out",
+                        help="... between <!-- SECTION:start/end --> markers")
     args = parser.parse_args(argv)
     check_args(args)
     return args
@@ -109,7 +113,9 @@ def check_args(args: argparse.Namespace) -> None:
                 fail(f"--{name}: {path}: folder {path.parent} does not exist")
 
 
-def score(dataset_path: Path, model: str, *, rotations: int, train: Path | None = None) -> dict[str, ProtocolScores]:
+def score(
+    dataset_path: Path, model: str, *, rotations: int, train: Path | None = None
+) -> dict[str, ProtocolScores]:
     """Every row under the rotated protocol on all models of ``dataset_path``."""
     rows: dict[str, ProtocolScores] = {}
     with open_dataset(dataset_path) as dataset:
@@ -128,8 +134,12 @@ def score(dataset_path: Path, model: str, *, rotations: int, train: Path | None 
 
 
 def table(rows: dict[str, ProtocolScores]) -> str:
-    """Markdown: every row ± standard error, then the network minus each baseline (* beyond 2 s.e.)."""
-    scores = markdown_table(["method", *MEASURES], [[label, *score_cells(row)] for label, row in rows.items()])
+    """Markdown: every row ± standard error, then the network minus each baseline.
+
+    ``*`` marks a difference beyond two standard errors.
+    """
+    scores = markdown_table(["method", *MEASURES],
+                            [[label, *score_cells(row)] for label, row in rows.items()])
     return "\n".join([*scores, "", *comparison_table(rows, "network")])
 
 
@@ -152,24 +162,28 @@ def run(args: argparse.Namespace) -> None:
                            n_points=N_SURFACE_POINTS, clean=True, split_seed=0)
     built = build_dataset(args.meshes, out, options, workers=args.workers, progress=True)
     rows = score(built.path, args.model, rotations=args.rotations, train=args.train)
-    heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes ({built.n_failures} failed "
-               f"to build), cleaned, {args.views} views at {args.resolution} px, each under {args.rotations} "
-               "fixed rotations; normalised quality of the nearest sampled view in %, mean over meshes ± "
+    heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes "
+               f"({built.n_failures} failed to build), cleaned, {args.views} views at "
+               f"{args.resolution} px, each under {args.rotations} fixed rotations; "
+               "normalised quality of the nearest sampled view in %, mean over meshes ± "
                "standard error; * marks a paired difference beyond two standard errors.")
     print(heading)
     print(table(rows))
     if args.results is not None:
         command = "python tools/score_held_out.py " + shlex.join(sys.argv[1:])
         write_section(args.results, args.section,
-                      f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
+                      f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
+                      f"{machine()}.\n\n"
                       f"{heading}\n\n{table(rows)}")
     if args.json is not None:
-        args.json.write_text(json.dumps({label: {"names": list(s.names), "per_model": s.scores.tolist(),
+        args.json.write_text(json.dumps({label: {"names": list(s.names),
+                                                 "per_model": s.scores.tolist(),
                                                  "mean": s.mean.tolist(), "sem": s.sem.tolist()}
                                          for label, s in rows.items()}, indent=2))
     per_model = rows["network"].scores - rows["PCA axis"].scores
     print("network minus PCA per mesh (mean over measures):",
-          ", ".join(f"{n} {v:+.0f}" for n, v in zip(rows["network"].names, np.mean(per_model, axis=1))))
+          ", ".join(f"{n} {v:+.0f}"
+                    for n, v in zip(rows["network"].names, np.mean(per_model, axis=1))))
 
 
 if __name__ == "__main__":
