@@ -7,6 +7,7 @@ Builds run the real pipeline on the bundled sample meshes at tiny sizes
 from __future__ import annotations
 
 import importlib.util
+import os
 import shutil
 import subprocess
 import sys
@@ -106,6 +107,18 @@ def test_dry_run_estimates_hours_and_disk_from_the_calibration_models(src, tmp_p
     assert plan.estimated_bytes == pytest.approx(7 * plan.bytes_per_model)
     assert "estimate from 2 calibration models" in plan.lines()[-1]
     assert not list(Path(tmp_path).glob("out*"))
+
+
+def test_the_estimate_shares_the_hours_among_the_workers_one_per_cpu(src, tmp_path):
+    plan = plan_build(src, tmp_path / "out", TINY, calibrate=1, workers=64)
+    # one process per CPU at most, and never more processes than models
+    assert plan.workers == min(64, os.cpu_count() or 1, plan.n_models)
+    assert plan.estimated_wall_seconds == pytest.approx(plan.estimated_seconds / plan.workers)
+    hour_each = replace(plan, seconds_per_model=3600.0)  # 7 models
+    assert "about 7.0 h in one process" in replace(hour_each, workers=1).lines()[-1]
+    assert "worker processes" not in replace(hour_each, workers=1).lines()[-1]
+    assert "about 3.5 h with 2 worker processes" in replace(hour_each, workers=2).lines()[-1]
+    assert replace(plan, seconds_per_model=None).estimated_wall_seconds is None
 
 
 def test_dry_run_of_a_subset_counts_the_subset(src, tmp_path):

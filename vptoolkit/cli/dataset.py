@@ -108,7 +108,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
         from vptoolkit.dataset.plan import plan_build
 
         plan = plan_build(src, out, options, categories=chosen, progress=True,
-                          calibrate=CALIBRATION_MODELS if calibrate is None else calibrate)
+                          calibrate=CALIBRATION_MODELS if calibrate is None else calibrate,
+                          workers=workers)
         for line in plan.lines():
             click.echo(line)
         return

@@ -6,8 +6,10 @@ take, counts them per category and split, and builds a few of them
 (``calibrate``, spread over the categories as ``max_models`` spreads them)
 into a temporary folder with the same options.
 The seconds and bytes of those models, scaled to all the models, are the
-estimate: the seconds of one process (as ``workers=1``), and the bytes of
-the build folder (its staging files plus the store). It is an estimate from
+estimate: the seconds of one process (as ``workers=1``), those seconds
+shared among ``workers`` processes (at most one per CPU and per model: the
+work of a model is not split, and two processes on one core take turns), and
+the bytes of the build folder (its staging files plus the store). It is an estimate from
 a few models: sizes vary from mesh to mesh. Before the timed models, the
 first of them is built once at a tiny resolution and point count, so the
 compilation of the numba kernels on a first run is not counted.
@@ -51,6 +53,9 @@ class BuildPlan:
     seconds_per_model, bytes_per_model : float or None
         Mean seconds (load, clean, sample, measure, write) and build-folder
         bytes of a calibrated model; None when none was built.
+    workers : int
+        Processes the estimate shares the work among: the build's
+        ``workers``, at most the CPU count and the model count (at least 1).
     """
 
     counts: dict[str, dict[str, int]]
@@ -61,6 +66,7 @@ class BuildPlan:
     n_calibration_failures: int = 0
     seconds_per_model: float | None = None
     bytes_per_model: float | None = None
+    workers: int = 1
 
     @property
     def estimated_seconds(self) -> float | None:
@@ -68,6 +74,14 @@ class BuildPlan:
         if self.seconds_per_model is None:
             return None
         return self.seconds_per_model * self.n_models
+
+    @property
+    def estimated_wall_seconds(self) -> float | None:
+        """Seconds of the whole build with :attr:`workers` processes, or None without
+        calibration."""
+        if self.estimated_seconds is None:
+            return None
+        return self.estimated_seconds / self.workers
 
     @property
     def estimated_bytes(self) -> float | None:
@@ -98,8 +112,11 @@ class BuildPlan:
         rows.append(
             f"estimate from {self.n_calibrated - self.n_calibration_failures} calibration "
             f"models: about {_hours(self.estimated_seconds)} in one process "
-            f"({self.seconds_per_model:.1f} s a model) and {_size(self.estimated_bytes)} "
-            f"on disk ({_size(self.bytes_per_model)} a model)"
+            f"({self.seconds_per_model:.1f} s a model)"
+            + (f", about {_hours(self.estimated_wall_seconds)} with {self.workers} worker "
+               "processes" if self.workers > 1 else "")
+            + f", and {_size(self.estimated_bytes)} on disk ({_size(self.bytes_per_model)} "
+            "a model)"
         )
         return rows
 
@@ -111,6 +128,7 @@ def plan_build(
     *,
     categories: Iterable[str] | None = None,
     calibrate: int = CALIBRATION_MODELS,
+    workers: int = 1,
     progress: bool = False,
 ) -> BuildPlan:
     """List the models a build would take and estimate its hours and disk.
@@ -119,7 +137,8 @@ def plan_build(
     :func:`~vptoolkit.dataset.build.build_dataset`; ``out`` is only read
     (models inside it are left out, as the build leaves them out).
     ``calibrate`` models are built into a temporary folder that is deleted
-    afterwards (0: count only).
+    afterwards (0: count only). ``workers`` is the build's process count,
+    for the wall-time estimate (:attr:`BuildPlan.workers`).
 
     Returns
     -------
@@ -136,13 +155,15 @@ def plan_build(
 
     options = _check_build_options(options)
     calibrate = check_int(calibrate, "calibrate", minimum=0)
+    workers = check_int(workers, "workers", minimum=1)
     selection = select_models(src, as_path(out, "out"), options, categories=categories)
     counts: dict[str, dict[str, int]] = {}
     for model in selection.models:
         row = counts.setdefault(model.category, {"train": 0, "val": 0, "test": 0})
         row[selection.splits[model.model_id]] += 1
     plan = BuildPlan(counts=dict(sorted(counts.items())), n_models=len(selection.models),
-                     n_duplicates=len(selection.duplicates), n_found=selection.n_found)
+                     n_duplicates=len(selection.duplicates), n_found=selection.n_found,
+                     workers=max(1, min(workers, os.cpu_count() or 1, len(selection.models))))
     n_calibrate = min(calibrate, len(selection.models))
     if n_calibrate == 0:
         return plan
