@@ -117,6 +117,19 @@ def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
     assert not list((tmp_path / "out").rglob("*.png"))
 
 
+def test_view_set_thumbnails_draw_with_the_camera_of_the_settings(mesh_folder: Path,
+                                                                  tmp_path: Path):
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    camera = Camera(fov_deg=30.0, distance_factor=2.0)
+    settings = MeasureSettings(views=40, resolution=48, camera=camera)
+    out = tmp_path / "out"
+    with open_renderer(size=32, camera=camera) as engine:
+        result = render_thumbnails(mesh_folder, out, settings=settings, engine=engine,
+                                   view_set=2)
+    assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
+
+
 def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):
     from vptoolkit.pictures.thumbnails import _mesh_files
 

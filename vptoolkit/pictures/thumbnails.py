@@ -166,8 +166,9 @@ def _predicted_results(tasks: list[_MeasureTask], predictor: DirectionSource,
         yield _Measured(task.source, mesh=mesh, direction=direction, label=f"predicted {measure}")
 
 
-def _draw(result: _Measured, engine: Engine, output_of: dict[str, Path], target: Path,
-          done: list[Path], failures: list[ThumbnailFailure]) -> dict[str, Any] | None:
+def _draw(result: _Measured, engine: Engine, settings: MeasureSettings,
+          output_of: dict[str, Path], target: Path, done: list[Path],
+          failures: list[ThumbnailFailure]) -> dict[str, Any] | None:
     """Draw and save one measured mesh; its index record, or None after recording a failure."""
     if result.error is not None or result.mesh is None or result.direction is None:
         failures.append(ThumbnailFailure(result.source, result.error or "nothing to draw"))
@@ -177,7 +178,8 @@ def _draw(result: _Measured, engine: Engine, output_of: dict[str, Path], target:
         if result.view_set is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-            image, _ = view_set_sheet(result.mesh, view_set=result.view_set, engine=engine)
+            image, _ = view_set_sheet(result.mesh, view_set=result.view_set,
+                                      settings=settings, engine=engine)
         else:
             image = engine.render(result.mesh, result.direction)[0]
         image_path.parent.mkdir(parents=True, exist_ok=True)
@@ -297,7 +299,7 @@ def render_thumbnails(
                           enabled=progress) as bar:
             for result in results:
                 bar.update(1)
-                record = _draw(result, active, output_of, target, done, failures)
+                record = _draw(result, active, settings, output_of, target, done, failures)
                 if record is not None:
                     records.append(record)
         size = active.size
