@@ -24,7 +24,7 @@ from vptoolkit.checks import as_path, check_bool, check_int, check_keys
 from vptoolkit.clean.simplify import MAX_FACES
 from vptoolkit.conventions import SEED
 from vptoolkit.errors import InputError
-from vptoolkit.points import N_SURFACE_POINTS
+from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
 from vptoolkit.settings import MeasureSettings
 
 __all__ = ["DEFAULT_FORMAT", "FORMATS", "BuildOptions", "SplitFile", "StoreFormat"]
@@ -88,7 +88,8 @@ class BuildOptions:
         Views, triangle-ID image side, camera and backend of the measures
         (default: ``MeasureSettings()``: 1000 views at 1024 px, raster).
     n_points : int
-        Surface points per model, at least 1 (default: ``N_SURFACE_POINTS`` = 20000).
+        Surface points per model, 1 to ``MAX_SURFACE_POINTS`` (default:
+        ``N_SURFACE_POINTS`` = 20000).
     max_faces : int
         Face budget of the cleaned meshes, at least 4 (default: ``MAX_FACES`` = 10000).
     clean : bool
@@ -138,7 +139,8 @@ class BuildOptions:
             raise InputError(
                 f"measure: expected MeasureSettings, got {type(self.measure).__name__}")
         checked: dict[str, Any] = {
-            "n_points": check_int(self.n_points, "n_points", minimum=1),
+            "n_points": check_int(self.n_points, "n_points", minimum=1,
+                                  maximum=MAX_SURFACE_POINTS),
             "max_faces": check_int(self.max_faces, "max_faces", minimum=4),
             "clean": check_bool(self.clean, "clean"),
             "remesh": check_bool(self.remesh, "remesh"),
