@@ -449,19 +449,15 @@ def _say_if_compiling() -> None:
 
 
 def _store_attrs(options: BuildOptions, *, source: str, created: str) -> dict[str, Any]:
+    import vptoolkit  # the package imports this module: its version is read at call time
+
     return {
         **options.store_attrs(),
         "split_fractions": dict(SPLIT_FRACTIONS),
         "source": source,
-        "toolkit_version": _toolkit_version(),
+        "toolkit_version": vptoolkit.__version__,
         "created": created,
     }
-
-
-def _toolkit_version() -> str:
-    import vptoolkit
-
-    return vptoolkit.__version__
 
 
 def _task(model: SourceModel, options: BuildOptions) -> ModelTask:
