@@ -140,21 +140,25 @@ def labels(mesh_dir: Path, cache: Path, *, quick: bool) -> Path:
     return out
 
 
-def answers(budgets: list[int], resolution: int,
-            models: list[str]) -> dict[str, tuple[str, Answer]]:
-    """Row label -> (views drawn, answer), in table order."""
-    from vptoolkit.learn.predict import MeshPredictor
+def network_priors(models: list[str]) -> dict[str, Any]:
+    """Row label of each network -> its :class:`~vptoolkit.learn.prior.NetworkPrior`,
+    loaded once for the answers and the ceilings."""
     from vptoolkit.learn.prior import NetworkPrior
+
+    return {"network" if model == "default" else f"network {Path(model).name}":
+            NetworkPrior(model) for model in models}
+
+
+def answers(budgets: list[int], resolution: int,
+            priors: dict[str, Any]) -> dict[str, tuple[str, Answer]]:
+    """Row label -> (views drawn, answer), in table order."""
 
     def pca(mesh: Mesh) -> np.ndarray:
         return pca_directions(sample_surface(mesh, 20000, seed=0).points[None])[0]
 
     rows: dict[str, tuple[str, Answer]] = {"PCA axis": ("–", pca)}
-    priors = {}
-    for model in models:
-        label = "network" if model == "default" else f"network {Path(model).name}"
-        rows[f"{label} alone"] = ("–", MeshPredictor(model))
-        priors[label] = NetworkPrior(model)
+    for label, prior in priors.items():  # the prior's predictor is the network alone
+        rows[f"{label} alone"] = ("–", prior.predictor)
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
             lambda mesh, b=budget: compute_view_quality(
@@ -220,16 +224,13 @@ def ceilings(dataset: Any, meshes: dict[str, Mesh], rotations: int,
             for label in proposers}
 
 
-def candidate_sets(sphere_views: int, models: list[str]) -> dict[str, Answer]:
+def candidate_sets(sphere_views: int, priors: dict[str, Any]) -> dict[str, Answer]:
     """Row label -> candidate directions of a mesh, for :func:`ceilings`."""
-    from vptoolkit.learn.prior import NetworkPrior
-
     sets: dict[str, Answer] = {
         f"ceiling: best of the {sphere_views}-view sphere": (
             lambda mesh: coarse_directions(mesh, sphere_views))}
-    for model in models:
-        label = "network" if model == "default" else f"network {Path(model).name}"
-        sets[f"ceiling: best of the {label}'s prior candidates"] = NetworkPrior(model)
+    for label, prior in priors.items():
+        sets[f"ceiling: best of the {label}'s prior candidates"] = prior
     return sets
 
 
@@ -253,7 +254,8 @@ def main(argv: list[str] | None = None) -> int:
         dataset = open_dataset(folder / "build")
         sources = {source.name: source.path for source in discover_models(folder / "meshes")}
         meshes = {name: load_mesh(sources[name]) for name in dataset.names}
-        rows = answers(args.budget_list, args.resolution, args.models)
+        priors = network_priors(args.models)
+        rows = answers(args.budget_list, args.resolution, priors)
         scored = score(dataset, meshes, args.rotations, {label: answer for label, (_, answer)
                                                          in rows.items()})
         random_scores = random_view_scores(dataset)
@@ -264,7 +266,7 @@ def main(argv: list[str] | None = None) -> int:
             scores, ms = scored[label]
             results[label] = {"views": views, "scores": scores, "ms": ms,
                               "mean": float(scores.mean.mean())}
-        sets = candidate_sets(args.ceiling_views, args.models)
+        sets = candidate_sets(args.ceiling_views, priors)
         for label, (scores, count) in ceilings(dataset, meshes, args.rotations, sets).items():
             results[label] = {"views": f"{count:.1f}".removesuffix(".0"), "scores": scores,
                               "ms": None, "mean": float(scores.mean.mean())}
