@@ -32,7 +32,6 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-import tempfile
 import urllib.parse
 from collections.abc import Iterable
 from contextlib import AbstractContextManager
@@ -42,7 +41,7 @@ from typing import IO
 from vptoolkit.dataset.containers import archive_preference, store_kind
 from vptoolkit.dataset.manifest import BLOCK_SIZE, MANIFEST_NAME, parse_sha256sums
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import temporary_prefix, write_bytes_atomic
+from vptoolkit.files import atomic_write, write_bytes_atomic
 from vptoolkit.optional import require
 
 __all__ = ["REMOTE_EXTRA", "default_cache_dir", "fetch_release", "is_remote"]
@@ -162,32 +161,25 @@ def _needed(sums: Iterable[str], archive: str | None, url: str) -> list[str]:
 
 def _download(source: _HttpSource | _FsspecSource, relative: str, expected: str,
               target: Path) -> None:
-    """Fetch one file to a hidden temporary sibling of ``target``; rename it there if it matches."""
+    """Fetch one file to ``target`` through a hidden temporary sibling, kept only if it matches."""
     target.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(target.name),
-                                         suffix=".partial", dir=target.parent)
     url = source.url_of(relative)
-    try:
-        digest = hashlib.sha256()
-        with os.fdopen(handle, "wb") as out, source.open(relative) as stream:
-            while True:
-                try:
-                    block = stream.read(BLOCK_SIZE)
-                except OSError as err:
-                    raise InputError(f"{url}: download broke off ({err})") from err
-                if not block:
-                    break
-                digest.update(block)
-                out.write(block)
+    digest = hashlib.sha256()
+    with atomic_write(target) as out, source.open(relative) as stream:
+        while True:
+            try:
+                block = stream.read(BLOCK_SIZE)
+            except OSError as err:
+                raise InputError(f"{url}: download broke off ({err})") from err
+            if not block:
+                break
+            digest.update(block)
+            out.write(block)
         if digest.hexdigest() != expected:
             raise VerificationError(
                 f"{url}: SHA-256 {digest.hexdigest()[:12]}... differs from SHA256SUMS "
                 f"({expected[:12]}...); download refused, nothing cached"
             )
-        os.replace(temporary, target)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
