@@ -307,10 +307,17 @@ def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[
                 block = [reader.array("mesh_faces")[face_offsets[r] : face_offsets[r + 1]]
                          for r in chunk]
             else:
-                stored = reader.array(_STORED_AS.get(column.name, column.name))
+                stored = _per_model(reader, column)
                 block = [stored[r] for r in chunk]
             arrays.append(_nested(pa, block, column))
         yield arrays
+
+
+def _per_model(reader: StoreReader, column: Column) -> Any:
+    """The store's array behind a column; one read whole when it holds one value a model
+    (``labels``: a chunk of it would be decoded again for every row)."""
+    stored = reader.array(_STORED_AS.get(column.name, column.name))
+    return np.asarray(stored[...]) if len(stored.shape) == 1 else stored
 
 
 def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[int],
@@ -542,6 +549,8 @@ def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Col
         if column.name in ("mesh_vertices", "mesh_faces"):
             offsets = vertex_offsets if column.name == "mesh_vertices" else face_offsets
             stored = reader.array(column.name)
+        elif column.dtype != "string":
+            stored = _per_model(reader, column)
         for position, row in enumerate(rows):
             if column.dtype == "string":
                 expected: Any = records[row].get(column.name)
@@ -551,7 +560,7 @@ def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Col
             elif column.name in ("mesh_vertices", "mesh_faces"):
                 expected = stored[offsets[row] : offsets[row + 1]]
             else:
-                expected = reader.array(_STORED_AS.get(column.name, column.name))[row]
+                expected = stored[row]
             if not _same(expected, values[position], column.dtype):
                 found.append((f"{where[position]}:{records[row]['name']}:{column.name}",
                               "differs from the archive"))
