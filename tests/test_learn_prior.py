@@ -19,7 +19,8 @@ from vptoolkit.cli import main  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame  # noqa: E402
 from vptoolkit.learn.octahedral import sphere_map_directions  # noqa: E402
 from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
-from vptoolkit.learn.prior import NetworkPrior, distinct_directions, map_modes  # noqa: E402
+from vptoolkit.learn.prior import NetworkPrior, map_modes  # noqa: E402
+from vptoolkit.sphere import distinct_directions  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

@@ -15,7 +15,7 @@ from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
 
 __all__ = ["fibonacci_sphere", "nearest_view", "as_directions", "angle_between_deg",
-           "is_zero_length"]
+           "is_zero_length", "distinct_directions"]
 
 
 def fibonacci_sphere(n: int = N_VIEWS) -> NDArray[np.float64]:
@@ -165,3 +165,26 @@ def angle_between_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     unit_b = as_directions(b, name="b")
     cosine = np.clip(np.sum(unit_a * unit_b, axis=1), -1.0, 1.0)
     return np.degrees(np.arccos(cosine))
+
+
+def distinct_directions(directions: NDArray[np.float64],
+                        min_angle_deg: float) -> NDArray[np.float64]:
+    """The directions in order, without any closer than ``min_angle_deg`` to an earlier one.
+
+    Parameters
+    ----------
+    directions : (n, 3) float64
+        Unit vectors.
+    min_angle_deg : float
+        Smallest angle between two kept directions, in degrees.
+
+    Returns
+    -------
+    kept : (k, 3) float64
+    """
+    limit = math.cos(math.radians(min_angle_deg))
+    kept: list[NDArray[np.float64]] = []
+    for direction in directions:
+        if all(float(direction @ other) < limit for other in kept):
+            kept.append(direction)
+    return np.array(kept).reshape(-1, 3)

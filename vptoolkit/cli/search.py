@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -19,13 +21,19 @@ from vptoolkit.cli.options import (
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import check_output_folder
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from vptoolkit.mesh import Mesh
+
 
 @click.command("best-view")
 @click.argument("meshes", nargs=-1, type=MESH)
 @budget_option()
 @search_resolution_option()
 @click.option("--prior", default="none", show_default=True,
-              help="none, default (the bundled network) or a checkpoint: the network "
+              help="none; unoccluded (the occlusion-free estimate from face normals, "
+                   "no image drawn); default (the bundled network) or a checkpoint: "
                    "proposes the first candidates.")
 @click.option("--dataset", "dataset_path", type=DATASET,
               help="Search the stored meshes of a dataset split (a path or a release's URL).")
@@ -56,6 +64,7 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     Example:
       vptool best-view bunny.ply
       vptool best-view *.off --views 256 --resolution 256 -o best.npz
+      vptool best-view scan.ply --views 8 --prior unoccluded
       vptool best-view --dataset release/ --split test --prior default -o test.npz
     """
     from vptoolkit.best_view import search_inputs
@@ -67,8 +76,12 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         raise InputError("inputs: give mesh files or --dataset")
     if dataset_path is not None:
         dataset_path = local_dataset(dataset_path, cache_dir)
-    propose = None
-    if prior != "none":
+    propose: Callable[[Mesh], ArrayLike] | None = None
+    if prior == "unoccluded":
+        from vptoolkit.unoccluded import UnoccludedPrior
+
+        propose = UnoccludedPrior()
+    elif prior != "none":
         from vptoolkit.learn.prior import NetworkPrior
 
         propose = NetworkPrior(prior)

@@ -40,36 +40,14 @@ from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
+from vptoolkit.sphere import distinct_directions
 
 if TYPE_CHECKING:
     import torch
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["NetworkPrior", "distinct_directions", "map_modes"]
-
-
-def distinct_directions(directions: NDArray[np.float64],
-                        min_angle_deg: float) -> NDArray[np.float64]:
-    """The directions in order, without any closer than ``min_angle_deg`` to an earlier one.
-
-    Parameters
-    ----------
-    directions : (n, 3) float64
-        Unit vectors.
-    min_angle_deg : float
-        Smallest angle between two kept directions, in degrees.
-
-    Returns
-    -------
-    kept : (k, 3) float64
-    """
-    limit = math.cos(math.radians(min_angle_deg))
-    kept: list[NDArray[np.float64]] = []
-    for direction in directions:
-        if all(float(direction @ other) < limit for other in kept):
-            kept.append(direction)
-    return np.array(kept).reshape(-1, 3)
+__all__ = ["NetworkPrior", "map_modes"]
 
 
 class NetworkPrior:
