@@ -84,7 +84,9 @@ class TrainOptions:
         Epochs per decay step; None gives
         :func:`~vptoolkit.learn.schedule.scaled_lr_step` of ``epochs``, fixed
         when the options are made (``dataclasses.replace`` with other
-        ``epochs`` keeps it unless ``lr_step=None`` is given again).
+        ``epochs`` keeps it unless ``lr_step=None`` is given again). A run
+        resumed with more epochs and the default step takes the step of
+        its new length.
     seed : int
         Seed of weights, shuffling, dropout and augmentation, at least 0
         (default: :data:`~vptoolkit.conventions.SEED`).
@@ -213,13 +215,21 @@ class TrainOptions:
     def resume_conflicts(self, recorded: TrainOptions) -> dict[str, tuple[Any, Any]]:
         """The options a run resumed with these would change: name to (recorded, these).
 
-        Every option but ``epochs``, which may grow, must be the recorded one.
-        A differing architecture is named by its field, e.g.
-        ``architecture.head_channels``.
+        Every option but ``epochs``, which may grow, must be the recorded one;
+        so must ``lr_step`` unless both are the default of their ``epochs``
+        (a default step grows with the run). A differing architecture is
+        named by its field, e.g. ``architecture.head_channels``.
         """
         conflicts = changed_values(recorded.to_dict(), self.to_dict())
         conflicts.pop("epochs", None)
+        if _default_step(self) and _default_step(recorded):
+            conflicts.pop("lr_step", None)
         return conflicts
+
+
+def _default_step(options: TrainOptions) -> bool:
+    """Whether ``options.lr_step`` is the default, :func:`scaled_lr_step` of its ``epochs``."""
+    return options.lr_step == scaled_lr_step(options.epochs)
 
 
 def _positive(value: Any, name: str) -> float:
