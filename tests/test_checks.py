@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from vptoolkit.checks import check_keys, check_suffix
+from vptoolkit.checks import changed_values, check_keys, check_suffix
 from vptoolkit.errors import InputError
 
 
@@ -25,3 +25,19 @@ def test_check_keys_names_the_missing_and_the_unknown_keys():
         check_keys({"a": 1, "d": 0, "c": 0}, ("a", "b"), "record")
     with pytest.raises(InputError, match="^record: expected a mapping, got list$"):
         check_keys([], ("a",), "record")
+
+
+def test_check_keys_may_let_keys_take_their_defaults():
+    record = {"a": 1}
+    checked = check_keys(record, ("a", "b"), "options", missing_ok=True)
+    assert checked == record and checked is not record
+    with pytest.raises(InputError, match="^options: unknown c$"):
+        check_keys({"a": 1, "c": 0}, ("a", "b"), "options", missing_ok=True)
+
+
+def test_changed_values_names_each_differing_key_nested_ones_by_their_path():
+    before = {"seed": 0, "epochs": 4, "gone": 1, "measure": {"views": 1000, "resolution": 64}}
+    now = {"seed": 0, "epochs": 5, "new": 2, "measure": {"views": 500, "resolution": 64}}
+    assert changed_values(before, now) == {
+        "epochs": (4, 5), "new": (None, 2), "measure.views": (1000, 500)}
+    assert changed_values(now, now) == {}

@@ -322,7 +322,7 @@ def test_configuration_round_trips_and_validates():
         ModelConfig(head="mlp")
     with pytest.raises(InputError, match=r"levels\[1\].radius"):
         ModelConfig(levels=(LevelConfig(2, 0.25, 16, 8), LevelConfig(2, 0.05, 16, 8)))
-    with pytest.raises(InputError, match="unknown keys"):
+    with pytest.raises(InputError, match="^architecture: unknown width$"):
         ModelConfig.from_dict({"width": 3})
     with pytest.raises(InputError, match="points: expected shape"):
         M.ViewpointNet(TINY_CONFIG)(torch.zeros(5, 3))

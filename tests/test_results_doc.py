@@ -51,6 +51,35 @@ def test_printed_section_writes_what_was_printed_and_keeps_the_rest(
     assert "old" not in text
 
 
+def test_command_line_records_the_tool_and_its_quoted_arguments(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    tool = "/any/where/tools/bench_x.py"
+    assert results_doc.command_line(tool, ["--quick", "my meshes"]) == (
+        "python tools/bench_x.py --quick 'my meshes'")
+    assert results_doc.command_line(tool, []) == "python tools/bench_x.py"
+    monkeypatch.setattr(sys, "argv", [tool, "--results", "docs/results.md"])
+    assert results_doc.command_line(tool) == "python tools/bench_x.py --results docs/results.md"
+
+
+def test_results_option_may_name_a_file_written_by_default() -> None:
+    parser = argparse.ArgumentParser()
+    results_doc.add_results_option(parser, "labels", default=Path("docs/results.md"))
+    args = parser.parse_args([])
+    assert (args.results, args.section) == (Path("docs/results.md"), "labels")
+    assert parser.parse_args(["--section", "x"]).section == "x"
+
+
+TOOLS = Path(results_doc.__file__).parent
+
+
+@pytest.mark.parametrize("tool", sorted(path.name for path in TOOLS.glob("*.py")
+                                        if path.name != "results_doc.py"))
+def test_every_tool_takes_its_section_and_command_line_from_results_doc(tool: str) -> None:
+    source = (TOOLS / tool).read_text(encoding="utf-8")
+    assert 'add_argument("--section"' not in source
+    assert "shlex.join(" not in source and "sys.argv[1:]" not in source
+
+
 def test_printed_section_writes_nothing_when_the_run_fails(tmp_path: Path) -> None:
     path = tmp_path / "benchmarks.md"
     with pytest.raises(RuntimeError), results_doc.printed_section(path, "speed"):

@@ -58,7 +58,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from results_doc import machine, markdown_table, score_cells, write_section
+from results_doc import (
+    add_results_option,
+    command_line,
+    machine,
+    markdown_table,
+    score_cells,
+    write_section,
+)
 
 from vptoolkit.best_view import SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
@@ -92,8 +99,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--rotations", type=int, default=4, help="fixed rotations per mesh")
     parser.add_argument("--model", action="append", default=None,
                         help="network checkpoint, repeatable (default: the bundled one)")
-    parser.add_argument("--results", type=Path, help="write the table into this markdown file")
-    parser.add_argument("--section", default="best_view", help="its section name")
+    add_results_option(parser, "best_view")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
     parser.add_argument("--ceiling-views", type=int, default=8,
                         help="directions of the sphere whose ceiling is shown (default: 8)")
@@ -278,13 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     lines = [
         f"## Best views: quality against cost, {where}",
         "",
-        "Command: `python tools/bench_best_view.py"
-        f"{' ' + str(args.mesh_dir) if args.mesh_dir != SAMPLES else ''}"
-        f" --budgets {','.join(map(str, args.budget_list))} --rotations {args.rotations}"
-        f" --ceiling-views {args.ceiling_views}"
-        f"{''.join(f' --model {model}' for model in args.model or [])}`; "
-        f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}; "
-        f"wall time {time.perf_counter() - started:.0f} s.",
+        f"Command: `{command_line(__file__, argv)}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
+        f"{machine()}; wall time {time.perf_counter() - started:.0f} s.",
         "",
         f"{len(dataset)} meshes, {args.rotations} fixed rotations each; labels: cleaned mesh, "
         f"{len(dataset.views)} views at {dataset.attrs.get('resolution', '?')} px. Scores in %, "

@@ -35,8 +35,6 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
-import shlex
-import sys
 import time
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -45,6 +43,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from results_doc import (
+    add_results_option,
+    command_line,
     comparison_table,
     format_seconds,
     machine,
@@ -105,9 +105,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--workers", type=int, default=2, help="dataset build processes")
     parser.add_argument("--jobs", type=int, default=2,
                         help="trainings run side by side, one torch thread each")
-    parser.add_argument("--results", type=Path, default=Path("docs/results.md"))
-    parser.add_argument("--section", default="labels",
-                        help="the table goes between <!-- SECTION:start/end --> in --results")
+    add_results_option(parser, "labels", default=Path("docs/results.md"))
     parser.add_argument("--quick", action="store_true", help="tiny sizes for a smoke test")
     parser.add_argument("--export-pretrained", type=Path,
                         help="also train a network for shipping and save it here in float16 "
@@ -156,10 +154,10 @@ def main() -> None:
     sizes = QUICK if args.quick else LabelSizes(
         per_category=args.per_category, epochs=args.epochs, resolution=args.resolution,
         rotations=args.rotations, remesh=args.remesh)
-    command = "python tools/reproduce_labels.py " + shlex.join(sys.argv[1:])
+    command = command_line(__file__)
     table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers,
                 jobs=args.jobs, category_networks=args.category_networks,
-                command=command.strip())
+                command=command)
     print(table)
     if not args.quick:
         write_section(args.results, args.section, table)
@@ -173,7 +171,7 @@ def main() -> None:
                                                         head_channels=tuple(head)))
         checkpoint = train_model(args.out / "dataset", args.out / "models" / folder, options,
                                  resume=True, progress=True, threads=1).checkpoint
-        export_pretrained(checkpoint, args.export_pretrained, command.strip(), sizes)
+        export_pretrained(checkpoint, args.export_pretrained, command, sizes)
 
 
 def export_pretrained(checkpoint: Path, target: Path, command: str, sizes: LabelSizes) -> None:

@@ -59,9 +59,7 @@ import argparse
 import json
 import math
 import os
-import shlex
 import statistics
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -72,7 +70,14 @@ from typing import Any
 import numpy as np
 import reproduce_labels
 from numpy.typing import NDArray
-from results_doc import format_seconds, machine, markdown_table, score_cells, write_section
+from results_doc import (
+    command_line,
+    format_seconds,
+    machine,
+    markdown_table,
+    score_cells,
+    write_section,
+)
 
 from vptoolkit.conventions import MEASURES, RESOLUTION
 from vptoolkit.geometry import face_areas, face_normals
@@ -1001,8 +1006,6 @@ def parse_args(argv: Sequence[str] | None = None) -> RunOptions:
         sections = tuple(name for name in sections if name != "labels")
     quick_default = ((lambda path: args.out / path) if args.quick
                      else (lambda path: Path("docs") / path))
-    command = ("python tools/reproduce_paper.py "
-               + shlex.join(sys.argv[1:] if argv is None else argv))
     return RunOptions(
         out=args.out,
         labels_out=args.labels_out or (args.out / "labels" if args.quick
@@ -1012,7 +1015,7 @@ def parse_args(argv: Sequence[str] | None = None) -> RunOptions:
         sizes=QUICK if args.quick else FULL,
         sections=sections,
         workers=args.workers,
-        command=command.strip(),
+        command=command_line(__file__, argv),
         network=args.network,
     )
 

@@ -6,9 +6,10 @@ between its markers ``<!-- NAME:start -->`` and ``<!-- NAME:end -->``
 a score cell is ``mean ± standard error`` (:func:`score_cells`), and a
 comparison is the paired difference of one row against the others, starred
 beyond two standard errors (:func:`comparison_table`). A heading names the
-machine (:func:`machine`) and the wall time (:func:`format_seconds`). A
-benchmark that prints its table as plain text adds ``--results FILE`` and
-``--section NAME`` (:func:`add_results_option`) and writes what it printed into
+machine (:func:`machine`), the command that ran (:func:`command_line`) and
+the wall time (:func:`format_seconds`). Every script that writes a section
+takes ``--results FILE`` and ``--section NAME`` (:func:`add_results_option`);
+a benchmark that prints its table as plain text writes what it printed into
 its section of ``docs/benchmarks.md`` (:func:`printed_section`).
 
 The scripts import this module as a sibling (``import results_doc``): Python
@@ -104,13 +105,30 @@ def comparison_table(rows: Mapping[str, ProtocolScores], reference: str) -> list
     return markdown_table([f"{reference} minus", *MEASURES], lines)
 
 
-def add_results_option(parser: argparse.ArgumentParser, section: str) -> None:
-    """Add ``--results FILE`` and ``--section NAME`` (default ``section``) to ``parser``."""
-    parser.add_argument("--results", type=Path,
-                        help="also write the printed table into this markdown file "
-                             "(docs/benchmarks.md)")
+def add_results_option(parser: argparse.ArgumentParser, section: str, *,
+                       default: Path | None = None) -> None:
+    """Add ``--results FILE`` and ``--section NAME`` (default ``section``) to ``parser``.
+
+    ``default`` is the file written without ``--results`` (default: None, the
+    table is only printed).
+    """
+    parser.add_argument("--results", type=Path, default=default,
+                        help="also write the table into this markdown file, e.g. "
+                             "docs/benchmarks.md" if default is None
+                        else f"write the table into this markdown file (default: {default})")
     parser.add_argument("--section", default=section,
-                        help=f"the section of --results to replace (default: {section})")
+                        help=f"the section of --results to replace, between its "
+                             f"<!-- NAME:start/end --> markers (default: {section})")
+
+
+def command_line(script: str | os.PathLike[str], argv: Sequence[str] | None = None) -> str:
+    """The command that ran, as a section records it: ``python tools/SCRIPT ARGUMENTS``.
+
+    ``script`` is the tool's path (its ``__file__``), ``argv`` its arguments
+    (default: ``sys.argv[1:]``), quoted for a POSIX shell.
+    """
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    return shlex.join(["python", f"tools/{Path(script).name}", *arguments])
 
 
 @contextlib.contextmanager
@@ -134,9 +152,8 @@ def printed_section(path: Path | None, section: str) -> Iterator[None]:
         def flush(self) -> None:
             original.flush()
 
-    script = Path(sys.argv[0]).name
+    command = command_line(sys.argv[0])
     with contextlib.redirect_stdout(Tee()):
         yield
-    command = shlex.join(["python", f"tools/{script}", *sys.argv[1:]])
     write_section(path, section, f"`{command}`, {machine()}:\n\n```text\n"
                                  f"{captured.getvalue().strip()}\n```")

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import sys
 from collections.abc import Sequence
 from datetime import datetime, timezone
@@ -30,7 +29,15 @@ from pathlib import Path
 from typing import NoReturn
 
 import numpy as np
-from results_doc import comparison_table, machine, markdown_table, score_cells, write_section
+from results_doc import (
+    add_results_option,
+    command_line,
+    comparison_table,
+    machine,
+    markdown_table,
+    score_cells,
+    write_section,
+)
 
 from vptoolkit.cli.group import exit_code, one_line_error
 from vptoolkit.conventions import MEASURES
@@ -78,10 +85,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--json", type=Path, help="also write the scores here")
-    parser.add_argument("--results", type=Path,
-                        help="also write the table into this markdown file ...")
-    parser.add_argument("--section", default="held_out",
-                        help="... between <!-- SECTION:start/end --> markers")
+    add_results_option(parser, "held_out")
     args = parser.parse_args(argv)
     check_args(args)
     return args
@@ -170,10 +174,9 @@ def run(args: argparse.Namespace) -> None:
     print(heading)
     print(table(rows))
     if args.results is not None:
-        command = "python tools/score_held_out.py " + shlex.join(sys.argv[1:])
         write_section(args.results, args.section,
-                      f"Command: `{command}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
-                      f"{machine()}.\n\n"
+                      f"Command: `{command_line(__file__)}`; "
+                      f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
                       f"{heading}\n\n{table(rows)}")
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"names": list(s.names),

@@ -32,7 +32,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
-from results_doc import format_seconds, machine, markdown_table, write_section
+from results_doc import command_line, format_seconds, machine, markdown_table, write_section
 
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
@@ -126,7 +126,7 @@ def main() -> None:
     seconds = time.perf_counter() - started
 
     lines = ["## Complementary view sets (the paper's future work)", "",
-             f"Command: `python tools/view_set_results.py`; {date.today().isoformat()}, "
+             f"Command: `{command_line(__file__)}`; {date.today().isoformat()}, "
              f"{machine()}; wall time {format_seconds(seconds)}.", "",
              f"Meshes: the {len(bundled)} bundled samples "
              f"({', '.join(sorted(m.name for m in bundled))}) and {len(procedural)} procedural "

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -19,6 +19,7 @@ from vptoolkit.errors import InputError
 
 __all__ = [
     "as_path",
+    "changed_values",
     "check_bool",
     "check_int",
     "check_keys",
@@ -44,20 +45,41 @@ def check_int(
     return int(value)
 
 
-def check_keys(record: object, keys: Sequence[str], what: str) -> dict[str, Any]:
-    """Return ``record``, a mapping with exactly ``keys``; else name what is missing or unknown.
+def check_keys(record: object, keys: Sequence[str], what: str, *,
+               missing_ok: bool = False) -> dict[str, Any]:
+    """Return ``record`` as a new dict if it is a mapping with exactly ``keys``.
 
-    E.g. ``measure settings: missing backend; unknown n_views``.
+    Else name what is missing or unknown, e.g. ``measure settings: missing
+    backend; unknown n_views``. With ``missing_ok`` only unknown keys are
+    refused (a record whose absent keys take their defaults).
     """
-    if not isinstance(record, dict):
+    if not isinstance(record, Mapping):
         raise InputError(f"{what}: expected a mapping, got {type(record).__name__}")
-    missing = [key for key in keys if key not in record]
+    missing = [] if missing_ok else [key for key in keys if key not in record]
     unknown = sorted(set(record) - set(keys))
     if missing or unknown:
         problems = ([f"missing {', '.join(missing)}"] if missing else []) + (
             [f"unknown {', '.join(unknown)}"] if unknown else [])
         raise InputError(f"{what}: {'; '.join(problems)}")
-    return record
+    return dict(record)
+
+
+def changed_values(before: Mapping[str, Any], now: Mapping[str, Any]) -> dict[str, tuple[Any, Any]]:
+    """Each key of ``now`` whose value is not that of ``before``: key to ``(before, now)``.
+
+    Nested mappings are compared key by key, named ``outer.inner``; a key
+    ``before`` lacks compares as None, and keys only ``before`` has are not
+    listed. E.g. ``{"measure.views": (1000, 500)}`` for two option records.
+    """
+    changed: dict[str, tuple[Any, Any]] = {}
+    for key, value in now.items():
+        old = before.get(key)
+        if isinstance(value, Mapping) and isinstance(old, Mapping):
+            changed.update({f"{key}.{inner}": pair
+                            for inner, pair in changed_values(old, value).items()})
+        elif old != value:
+            changed[key] = (old, value)
+    return changed
 
 
 def check_bool(value: object, argument: str) -> bool:

@@ -48,7 +48,7 @@ from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import Mesh
 from vptoolkit.progress import progress_bar
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import ViewHistograms, iter_view_histograms
 
@@ -332,6 +332,7 @@ def compute_view_quality(
     >>> quality.raw.shape, quality.measures
     ((100, 4), ('VE', 'VR', 'VKL', 'VMI'))
     """
+    settings = check_settings(settings)
     if view_directions is None:
         directions = settings.directions()
     else:

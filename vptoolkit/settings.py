@@ -4,6 +4,8 @@ The views, the triangle-ID image side, the camera and the pixel counting
 backend travel together from the command line to the rasteriser; every range
 check on them is here, in :meth:`MeasureSettings.__post_init__`, and the value
 is stored beside results as a JSON record (:meth:`MeasureSettings.to_dict`).
+Every public function that takes the value checks it with
+:func:`check_settings`, so anything else is refused in one line.
 Defaults come from :mod:`vptoolkit.conventions` (``N_VIEWS`` views,
 ``RESOLUTION`` pixels, ``Camera()``) and ``"raster"``.
 """
@@ -22,7 +24,7 @@ from vptoolkit.conventions import N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
 
-__all__ = ["BACKENDS", "Backend", "MAX_RESOLUTION", "MeasureSettings"]
+__all__ = ["BACKENDS", "Backend", "MAX_RESOLUTION", "MeasureSettings", "check_settings"]
 
 Backend = Literal["raster", "raycast"]
 BACKENDS: Final[tuple[str, ...]] = ("raster", "raycast")
@@ -96,3 +98,18 @@ class MeasureSettings:
             raise InputError(f"camera: expected a mapping, got {type(camera).__name__}")
         return cls(views=record["views"], resolution=record["resolution"],
                    camera=Camera.from_dict(camera), backend=record["backend"])
+
+
+def check_settings(value: object, name: str = "settings") -> MeasureSettings:
+    """Return ``value`` if it is a :class:`MeasureSettings`, else raise a one-line InputError.
+
+    An integer is the old positional number of views, so its message says
+    what to pass instead, e.g. ``settings: expected MeasureSettings, got int
+    100 (pass MeasureSettings(views=100))``.
+    """
+    if isinstance(value, MeasureSettings):
+        return value
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        raise InputError(f"{name}: expected MeasureSettings, got int {value} "
+                         f"(pass MeasureSettings(views={value}))")
+    raise InputError(f"{name}: expected MeasureSettings, got {type(value).__name__}")

@@ -25,7 +25,7 @@ from vptoolkit.clean.simplify import MAX_FACES
 from vptoolkit.conventions import SEED
 from vptoolkit.errors import InputError
 from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 
 __all__ = ["DEFAULT_FORMAT", "FORMATS", "BuildOptions", "SplitFile", "StoreFormat"]
 
@@ -135,10 +135,8 @@ class BuildOptions:
     format: StoreFormat = DEFAULT_FORMAT
 
     def __post_init__(self) -> None:
-        if not isinstance(self.measure, MeasureSettings):
-            raise InputError(
-                f"measure: expected MeasureSettings, got {type(self.measure).__name__}")
         checked: dict[str, Any] = {
+            "measure": check_settings(self.measure, "measure"),
             "n_points": check_int(self.n_points, "n_points", minimum=1,
                                   maximum=MAX_SURFACE_POINTS),
             "max_faces": check_int(self.max_faces, "max_faces", minimum=4),

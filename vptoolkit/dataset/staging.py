@@ -35,7 +35,7 @@ from typing import Any, overload
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.checks import one_line
+from vptoolkit.checks import changed_values, one_line
 from vptoolkit.dataset.build_options import BuildOptions
 from vptoolkit.dataset.compute import FailedModel, MeasuredModel
 from vptoolkit.dataset.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
@@ -141,7 +141,8 @@ def resume_or_start(staging: Path, options: BuildOptions, root: Path) -> str:
             created = str(recorded["created"])
         except (ValueError, KeyError, TypeError, AttributeError, InputError) as err:
             raise InputError(f"{build_file}: unreadable build record ({one_line(err)})") from err
-        changed = _differences(staged.to_dict(), options.to_dict())
+        changed = [f"{key}={old!r} (now {new!r})" for key, (old, new)
+                   in changed_values(staged.to_dict(), options.to_dict()).items()]
         if staged_version != version:
             changed.append(f"toolkit_version={staged_version!r} (now {version!r})")
         if changed:
@@ -160,19 +161,6 @@ def resume_or_start(staging: Path, options: BuildOptions, root: Path) -> str:
     }
     _write_atomic(build_file, json.dumps(record, indent=2, sort_keys=True).encode("utf-8"))
     return created
-
-
-def _differences(staged: Mapping[str, Any], now: Mapping[str, Any],
-                 prefix: str = "") -> list[str]:
-    """``key=staged (now value)`` for each option that differs, nested records by their keys."""
-    changed = []
-    for key, value in now.items():
-        before = staged.get(key)
-        if isinstance(value, dict) and isinstance(before, dict):
-            changed.extend(_differences(before, value, f"{prefix}{key}."))
-        elif before != value:
-            changed.append(f"{prefix}{key}={before!r} (now {value!r})")
-    return changed
 
 
 def stage_key(model_id: str) -> str:

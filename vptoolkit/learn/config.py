@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Final
 
-from vptoolkit.checks import check_int, short_repr
+from vptoolkit.checks import check_int, check_keys, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
@@ -237,13 +237,8 @@ class ModelConfig:
             (``MAX_CHANNELS``, ``MAX_KERNEL``, ``MAX_NEIGHBOURS``, ``MAX_LAYERS``),
             naming the field.
         """
-        if not isinstance(values, Mapping):
-            raise InputError(f"architecture: expected a mapping, got {type(values).__name__}")
-        known = set(cls.__dataclass_fields__)
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise InputError(f"architecture: unknown keys {unknown}")
-        kwargs = dict(values)
+        kwargs = check_keys(values, tuple(cls.__dataclass_fields__), "architecture",
+                            missing_ok=True)
         if "levels" in kwargs:
             levels = kwargs["levels"]
             if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping)

@@ -25,7 +25,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, Final
 
-from vptoolkit.checks import check_bool, check_int, short_repr
+from vptoolkit.checks import changed_values, check_bool, check_int, check_keys, short_repr
 from vptoolkit.conventions import SEED, SPLITS
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
@@ -84,7 +84,9 @@ class TrainOptions:
         Epochs per decay step; None gives
         :func:`~vptoolkit.learn.schedule.scaled_lr_step` of ``epochs``, fixed
         when the options are made (``dataclasses.replace`` with other
-        ``epochs`` keeps it unless ``lr_step=None`` is given again).
+        ``epochs`` keeps it unless ``lr_step=None`` is given again). A run
+        resumed with more epochs and the default step takes the step of
+        its new length.
     seed : int
         Seed of weights, shuffling, dropout and augmentation, at least 0
         (default: :data:`~vptoolkit.conventions.SEED`).
@@ -207,21 +209,27 @@ class TrainOptions:
         InputError
             On unknown keys or invalid values, naming the key.
         """
-        if not isinstance(values, Mapping):
-            raise InputError(f"training options: expected a mapping, got {short_repr(values)}")
-        unknown = sorted(set(values) - {item.name for item in fields(cls)})
-        if unknown:
-            raise InputError(f"training options: unknown keys {unknown}")
-        return cls(**values)
+        return cls(**check_keys(values, [item.name for item in fields(cls)],
+                                "training options", missing_ok=True))
 
     def resume_conflicts(self, recorded: TrainOptions) -> dict[str, tuple[Any, Any]]:
         """The options a run resumed with these would change: name to (recorded, these).
 
-        Every option but ``epochs``, which may grow, must be the recorded one.
+        Every option but ``epochs``, which may grow, must be the recorded one;
+        so must ``lr_step`` unless both are the default of their ``epochs``
+        (a default step grows with the run). A differing architecture is
+        named by its field, e.g. ``architecture.head_channels``.
         """
-        mine, theirs = self.to_dict(), recorded.to_dict()
-        return {name: (theirs[name], mine[name]) for name in mine
-                if name != "epochs" and mine[name] != theirs[name]}
+        conflicts = changed_values(recorded.to_dict(), self.to_dict())
+        conflicts.pop("epochs", None)
+        if _default_step(self) and _default_step(recorded):
+            conflicts.pop("lr_step", None)
+        return conflicts
+
+
+def _default_step(options: TrainOptions) -> bool:
+    """Whether ``options.lr_step`` is the default, :func:`scaled_lr_step` of its ``epochs``."""
+    return options.lr_step == scaled_lr_step(options.epochs)
 
 
 def _positive(value: Any, name: str) -> float:

@@ -116,7 +116,8 @@ def load_state(
     InputError
         If the file is not a training state, its epoch is not that of its
         history or beyond ``options.epochs``, or its recorded options differ
-        from ``options`` in anything but ``epochs``.
+        from ``options`` in anything but ``epochs`` (and a default ``lr_step``:
+        :meth:`~vptoolkit.learn.options.TrainOptions.resume_conflicts`).
     CheckpointError
         If the weights or Adam state do not fit the network.
     """

@@ -22,7 +22,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.search import measure_view_set
 
@@ -161,7 +161,7 @@ def view_set_sheet(
     view_set : ViewSet
         The set drawn.
     """
-    settings = settings or MeasureSettings()
+    settings = MeasureSettings() if settings is None else check_settings(settings)
     with drawing_engine(engine, size=TILE_SIZE, camera=settings.camera) as active:
         if view_set is None:
             _, view_set = measure_view_set(mesh, k, settings=settings,

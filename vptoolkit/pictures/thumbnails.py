@@ -33,7 +33,7 @@ from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.progress import progress_bar
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -265,7 +265,7 @@ def render_thumbnails(
     column = measure_index(measure)
     measure = MEASURES[column]
     workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
-    settings = settings or MeasureSettings()
+    settings = MeasureSettings() if settings is None else check_settings(settings)
     if view_set is not None:
         view_set = check_int(view_set, "view_set", minimum=1)
         if predictor is not None:

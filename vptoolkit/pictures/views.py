@@ -37,7 +37,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.measures import ViewQuality
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.engine import Engine, drawing_engine
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -211,10 +211,11 @@ def render_best(
         On an unknown measure, or an engine whose camera is not the measures'.
     """
     column = measure_index(measure)
+    settings = MeasureSettings() if settings is None else check_settings(settings)
     if quality is None:
         from vptoolkit.measures import compute_view_quality
 
-        quality = compute_view_quality(mesh, settings or MeasureSettings())
+        quality = compute_view_quality(mesh, settings)
     index = int(quality.best_index[column])
     direction = quality.views[index]
     with drawing_engine(engine, camera=quality.camera) as active:

@@ -22,7 +22,7 @@ from vptoolkit.measures import (
     compute_view_quality,
 )
 from vptoolkit.mesh import Mesh
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
 
@@ -310,6 +310,7 @@ def best_view_set(
         raise InputError(f"objective: expected one of {', '.join(OBJECTIVES)}, got {objective!r}")
     column = measure_index(measure)
     min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
+    settings = check_settings(settings)
     if not 0.0 <= float(tolerance) < 1.0:
         raise InputError(f"tolerance: must lie in [0, 1), got {tolerance}")
     if isinstance(source, Mesh):
@@ -397,6 +398,7 @@ def measure_view_set(
     view_set : ViewSet
         The set, searched over the same views.
     """
+    settings = check_settings(settings)
     visibility = FaceVisibility.from_mesh(mesh, settings, progress=progress)
     quality = compute_view_quality(mesh, settings, view_directions=visibility.views,
                                    histograms=list(visibility.runs))

@@ -23,7 +23,7 @@ from vptoolkit.measures import (
     quality_from_histograms,
 )
 from vptoolkit.mesh import Mesh
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import ViewHistograms, iter_view_histograms
 
@@ -89,6 +89,7 @@ class FaceVisibility:
 
         Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
         """
+        settings = check_settings(settings)
         directions = (settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))
         runs: Iterable[ViewHistograms] = iter_view_histograms(

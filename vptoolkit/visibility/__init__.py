@@ -30,7 +30,7 @@ from vptoolkit.conventions import RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_cross_products
 from vptoolkit.mesh import Mesh
-from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
+from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 
 __all__ = [
@@ -118,6 +118,7 @@ def iter_view_histograms(
     ViewHistograms
         Consecutive runs of views covering all of the views in order.
     """
+    settings = check_settings(settings)
     directions = _directions(settings, view_directions)
     resolution, camera = settings.resolution, settings.camera
     if settings.backend == "raycast":
@@ -269,6 +270,7 @@ def face_id_images(
     """
     from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
 
+    settings = check_settings(settings)
     resolution, camera = settings.resolution, settings.camera
     poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, _directions(settings, view_directions), resolution, camera)
@@ -340,6 +342,7 @@ def face_pixel_counts(
         Pixels of face ``z`` in view ``v``. Dense: use
         :func:`iter_view_histograms` for many views of a big mesh.
     """
+    settings = check_settings(settings)
     parts = [
         h.to_dense()
         for h in iter_view_histograms(mesh, settings, view_directions=view_directions)
@@ -365,6 +368,7 @@ def face_pixel_totals(
     totals : (n_faces,) int64
         ``sum_v a_z(v)``.
     """
+    settings = check_settings(settings)
     totals = np.zeros(mesh.n_faces, dtype=np.int64)
     for histograms in iter_view_histograms(mesh, settings, view_directions=view_directions):
         totals += np.bincount(
