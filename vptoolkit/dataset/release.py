@@ -395,11 +395,7 @@ def pack_release(
                 when = release_created(options.created, attrs.get("created"))
                 attrs["created"] = when
                 attrs["dataset_version"] = options.version
-                hub = ({"license_name": options.license_name or "source-mesh-licenses",
-                        "license_link": options.license_link or (
-                            LICENSES_NAME if provenance is not None else CARD_NAME)}
-                       if options.default_license is None else {})
-                options = dataclasses.replace(options, created=when, **hub)
+                options = dataclasses.replace(options, created=when)
                 entries = _ReaderEntries(reader, provenance, options.default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
