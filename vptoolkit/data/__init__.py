@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.camera import Camera
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data.remote import fetch_release, is_remote
 from vptoolkit.dataset.containers import find_store
@@ -209,6 +210,11 @@ class ViewpointDataset:
     def views(self) -> NDArray[np.float64]:
         """View directions, ``(n_views, 3) float64``, read-only."""
         return self._shared.views
+
+    @property
+    def camera(self) -> Camera:
+        """The camera of the measures: the root attribute ``camera`` (``Camera()`` without one)."""
+        return Camera.from_dict(self._shared.attrs.get("camera") or {})
 
     @property
     def attrs(self) -> dict[str, Any]:
