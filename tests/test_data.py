@@ -139,6 +139,26 @@ def test_a_store_without_class_names_and_string_arrays_still_loads(tmp_path: Pat
         assert older.labels.tolist() == [0, 0, 0, 1, 1] and older[3]["label"] == 1
 
 
+@pytest.mark.parametrize(("stored", "message"), [([0, 0, 0, 0, 1], None),
+                                                  ([0, 0, 0, 1, 2], "labels does not hold"),
+                                                  ([0, 1], "labels does not hold")])
+def test_labels_are_the_stored_array(tmp_path: Path, stored: list[int],
+                                     message: str | None) -> None:
+    import h5py
+
+    store = write_synthetic(tmp_path / "dataset.h5")
+    with h5py.File(store, "r+") as handle:
+        del handle["labels"]
+        handle["labels"] = np.array(stored, np.int64)
+    if message is not None:
+        with pytest.raises(InputError, match=f"dataset.h5: {message} a class label"):
+            open_dataset(store)
+        return
+    with open_dataset(store) as dataset:
+        assert dataset.labels.tolist() == stored and dataset[3]["label"] == 0
+        assert dataset.class_names == ["airplane", "chair"]
+
+
 def test_slices_and_index_lists_give_datasets(dataset: ViewpointDataset) -> None:
     head = dataset[0:3]
     assert isinstance(head, ViewpointDataset)

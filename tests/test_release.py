@@ -117,6 +117,28 @@ def test_sha256sums_match_hashlib(release) -> None:
     assert listed == release.files
 
 
+def test_pack_reads_each_file_once_to_hash_it(build: Path, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    from vptoolkit.dataset import descriptions, manifest
+    from vptoolkit.dataset import release as release_module
+    from vptoolkit.dataset.release_options import FORMATS
+
+    hashed: Counter[str] = Counter()
+    real = manifest.sha256_file
+
+    def counted(path, **kwargs) -> str:
+        hashed[Path(path).name] += 1
+        return real(path, **kwargs)
+
+    for module in (manifest, descriptions, release_module):
+        monkeypatch.setattr(module, "sha256_file", counted)
+    result = release_module.pack_release(build, tmp_path / "rel", ReleaseOptions(formats=FORMATS))
+    released = [Path(name).name for name in result.files]
+    assert {name: hashed[name] for name in released} == dict.fromkeys(released, 1)
+    listed = (result.path / "SHA256SUMS").read_text(encoding="utf-8")
+    assert listed == manifest.format_sha256sums(manifest.hash_folder(result.path))
+
+
 def test_pack_into_a_non_empty_folder_is_an_input_error(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
@@ -169,7 +191,7 @@ def test_a_full_disk_while_packing_names_the_release(build: Path, tmp_path: Path
 
     from vptoolkit.dataset import release as release_module
 
-    def full(folder: Path) -> dict:
+    def full(folder: Path, known: dict) -> dict:
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(release_module, "write_sha256sums", full)
@@ -202,10 +224,10 @@ def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path
     target = tmp_path / "rel"
     real = release_module.write_sha256sums
 
-    def meanwhile(folder: Path) -> dict:
+    def meanwhile(folder: Path, known: dict) -> dict:
         target.mkdir(exist_ok=True)
         (target / "README.md").write_text("another pack's card\n")
-        return real(folder)
+        return real(folder, known)
 
     monkeypatch.setattr(release_module, "write_sha256sums", meanwhile)
     with pytest.raises(InputError, match="rel: folder was filled while packing"):

@@ -345,11 +345,31 @@ def test_bad_release_options_are_input_errors(tmp_path: Path, bad: dict, message
     ({"formats": []}, "formats: expected one or more of parquet, zarr, hdf5, got none"),
     ({"shard_size": "big"}, "shard_size:"),
     ({"licenses": {"chair_0001": {"license": "mine"}}}, "licenses: chair_0001: 'mine' is not"),
+    ({"licenses": {"chair_0001": {"license": "MIT", "author": "Ada\x1b[2J"}}},
+     "licenses: chair_0001: the author cell holds the control character U+001B; remove it"),
+    ({"licenses": {"chair_0001": {"license": " "}}},
+     "licenses: chair_0001 needs a name and a license"),
+    ({"licenses": {"chair_0001": {"license": "MIT", "url": 7}}},
+     "licenses: chair_0001: the url cell: expected text, got int"),
+    ({"licenses": {"chair_0001": {"license": "MIT"}, " chair_0001": {"license": "MIT"}}},
+     "licenses:  chair_0001 repeats the model 'chair_0001'"),
     ({"creator": 7}, "creator: expected text, got 7"),
-], ids=["name", "license", "formats-text", "no-formats", "shard-size", "table", "creator"])
+], ids=["name", "license", "formats-text", "no-formats", "shard-size", "table", "table-control",
+        "table-empty", "table-cell-type", "table-repeat", "creator"])
 def test_release_options_are_checked_when_made(bad: dict, message: str) -> None:
     with pytest.raises(InputError, match=re.escape(message)):
         ReleaseOptions(**bad)
+
+
+def test_a_licence_table_given_as_a_mapping_is_read_as_its_csv_file(tmp_path: Path) -> None:
+    from vptoolkit.dataset.licenses import read_licenses
+
+    table = tmp_path / "table.csv"
+    table.write_text("name,license,author,url,note\n airplane_0000 , MIT , Ada ,,x\n",
+                     encoding="utf-8")
+    given = {" airplane_0000 ": {"license": " MIT ", "author": " Ada ", "url": "", "note": "x"}}
+    assert ReleaseOptions(licenses=given).license_table() == read_licenses(table) == {
+        "airplane_0000": {"license": "MIT", "author": "Ada"}}
 
 
 def test_release_options_keep_their_checked_values() -> None:

@@ -236,8 +236,7 @@ def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message)
 # --------------------------------------------------------------------------- dataset and report
 
 
-@pytest.fixture(scope="module")
-def store(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def write_store(path: Path, build: dict[str, Any] = BUILD) -> Path:
     """A small dataset store of trimesh primitives with made-up smooth quality."""
     require_package("zarr")
     from vptoolkit.dataset.schema import ModelEntry
@@ -263,13 +262,19 @@ def store(tmp_path_factory: pytest.TempPathFactory) -> Path:
             vertices=mesh.vertices, faces=mesh.faces,
         ))
     failures = [{"source": "box/broken <b>.off", "category": "box", "reason": "no faces"}]
-    path = tmp_path_factory.mktemp("store") / "dataset.zarr"
-    return write_dataset(path, entries, attrs=BUILD, views=views, failures=failures)
+    return write_dataset(path, entries, attrs=build, views=views, failures=failures)
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_store(tmp_path_factory.mktemp("store") / "dataset.zarr")
 
 
 @pytest.fixture(scope="module")
 def report_renderer():
-    yield from started_renderer(SIZE)
+    from vptoolkit.camera import Camera
+
+    yield from started_renderer(SIZE, camera=Camera.from_dict(BUILD["camera"]))
 
 
 @pytest.fixture(scope="module")
@@ -392,6 +397,36 @@ def test_report_without_pictures_needs_no_renderer(store, matplotlib_available, 
     assert image_sources(page) == ["maps/00000-mug_co_1_.png", "maps/00001-cone.png"]
     assert not (tmp_path / "maps" / "thumbs").exists() or not any(
         (tmp_path / "maps" / "thumbs").iterdir())
+
+
+def test_report_draws_through_the_camera_of_the_dataset(matplotlib_available,
+                                                       tmp_path: Path) -> None:
+    from vptoolkit.camera import Camera
+    from vptoolkit.data import open_dataset
+    from vptoolkit.pictures.engine import open_renderer
+    from vptoolkit.pictures.report import REPORT_SIZE, write_report
+
+    camera = Camera(fov_deg=60.0, distance_factor=1.2, up=(0.0, 0.0, 1.0),
+                    fallback_up=(0.0, 1.0, 0.0))
+    store = write_store(tmp_path / "dataset.zarr", {**BUILD, "camera": camera.to_dict()})
+    index = write_report(store, tmp_path / "report", split="val", view_set=None)
+    page = index.read_text(encoding="utf-8")
+    assert "field of view 60°, distance 1.200 bounding-box diagonals, image up (0.0, 0.0, 1.0)" \
+        in page
+    with open_dataset(store) as dataset:
+        assert dataset.camera == camera
+        vertices, faces = dataset.mesh("cone")
+        view = int(dataset["cone"]["best_index"][0])
+        direction = dataset.views[view]
+    mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), "cone")
+    drawn = decode_png((tmp_path / "report" / f"thumbs/00001-cone-v{view}.png").read_bytes())
+    with open_renderer(size=REPORT_SIZE, camera=camera) as through_it, \
+            open_renderer(size=REPORT_SIZE) as through_the_default:
+        np.testing.assert_array_equal(drawn, through_it.render(mesh, direction)[0])
+        assert not np.array_equal(drawn, through_the_default.render(mesh, direction)[0])
+        with pytest.raises(InputError, match="camera differs from the camera of the measures"):
+            write_report(store, tmp_path / "other", split="val", view_set=None,
+                         engine=through_the_default)
 
 
 def test_report_rejects_an_unknown_split_and_unfit_predictions(store, predictions, tmp_path):

@@ -160,12 +160,14 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
       vptool predict --model default --dataset release/ -o test.npz
       vptool report release/ --split test --predictions test.npz -o report/
     """
+    from vptoolkit.data import open_dataset
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.report import write_report
     from vptoolkit.pictures.shading import RenderStyle
 
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
-        index = write_report(dataset, output, split=split, predictions=predictions,
+    with open_dataset(dataset) as opened, open_renderer(
+            engine, size=size, camera=opened.camera, style=RenderStyle(up=up)) as drawing:
+        index = write_report(opened, output, split=split, predictions=predictions,
                              thumbnails=not no_pictures, engine=drawing, progress=True,
                              view_set=view_set_k or None)
     click.echo(f"wrote {index}")

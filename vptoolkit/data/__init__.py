@@ -34,11 +34,12 @@ from typing import TYPE_CHECKING, Any, overload
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.camera import Camera
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data.remote import fetch_release, is_remote
 from vptoolkit.dataset.containers import find_store
 from vptoolkit.dataset.reader import StoreReader, open_store
-from vptoolkit.dataset.schema import class_names, published_split
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -72,8 +73,7 @@ class _SharedStore:
             self.failures: list[dict[str, Any]] = reader.failures()
             views = np.asarray(reader.array("views")[...], dtype=np.float64)
             best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
-            self.class_names: list[str] = class_names(
-                (record["category"] for record in self.records), self.attrs.get("class_names"))
+            names, labels = reader.class_labels()
             is_read = True
         finally:
             if not is_read:
@@ -82,8 +82,8 @@ class _SharedStore:
         self.views: NDArray[np.float64] = views
         self.best_index: NDArray[np.int64] = best_index
         self.row_of_name = {record["name"]: row for row, record in enumerate(self.records)}
-        label_of = {name: label for label, name in enumerate(self.class_names)}
-        self.labels = np.array([label_of[record["category"]] for record in self.records], np.int64)
+        self.class_names: list[str] = names
+        self.labels: NDArray[np.int64] = labels
         self._vertex_offsets: NDArray[np.int64] | None = None
         self._face_offsets: NDArray[np.int64] | None = None
 
@@ -210,6 +210,11 @@ class ViewpointDataset:
     def views(self) -> NDArray[np.float64]:
         """View directions, ``(n_views, 3) float64``, read-only."""
         return self._shared.views
+
+    @property
+    def camera(self) -> Camera:
+        """The camera of the measures: the root attribute ``camera`` (``Camera()`` without one)."""
+        return Camera.from_dict(self._shared.attrs.get("camera") or {})
 
     @property
     def attrs(self) -> dict[str, Any]:

@@ -32,6 +32,7 @@ from vptoolkit.dataset.info import (
     source_name,
     split_count_rows,
 )
+from vptoolkit.dataset.licenses import LICENSES_NAME, hub_license
 from vptoolkit.dataset.parquet import (
     VIEWS_CONFIG,
     Column,
@@ -98,10 +99,11 @@ def render_card(
     files : mapping of str to str
         Release file name -> SHA-256 hex digest, listed in the card.
     license : str
-        Licence identifier for the YAML header (default: ``"other"``; the
-        toolkit cannot know the source meshes' licences, which apply). A
-        licence given as a URL is ``other`` there, with that URL as
-        ``license_link`` (and ``license_name`` ``"custom"``) unless given.
+        Licence of the release, an identifier or a URL (default: ``"other"``;
+        the toolkit cannot know the source meshes' licences, which apply).
+        The YAML header carries the hub's fields of it
+        (:func:`~vptoolkit.dataset.licenses.hub_license`: ``other`` with a
+        name and a link, ``LICENSES.csv`` when ``files`` lists it).
     pretty_name : str, optional
         Human-readable title (default: derived from the source folder name).
     file_sizes : mapping of str to int, optional
@@ -116,7 +118,8 @@ def render_card(
     source_url : str, optional
         Where the source meshes come from.
     license_name, license_link : str, optional
-        The hub's fields for a licence ``other``.
+        The hub's fields for a licence ``other`` or a URL (default: as
+        :func:`~vptoolkit.dataset.licenses.hub_license` fills them).
     warnings : sequence of str
         Lines shown in a warning block at the top (an empty split, say).
     creator : str, optional
@@ -165,17 +168,9 @@ def render_card(
     splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
         info, split_sentence, cleaning)
 
-    # The hub's `license` takes an identifier; a licence given by its URL is `other` there.
-    by_url = license.startswith(("http://", "https://"))
-    yaml_license = "other" if by_url else license
-    if by_url:
-        license_name = license_name or "custom"
-        license_link = license_link or license
-    license_extra = "".join(
-        f"\n{key}: {_yaml_str(value)}"
-        for key, value in (("license_name", license_name), ("license_link", license_link))
-        if value
-    )
+    hub = hub_license(license, license_name, license_link, table=LICENSES_NAME in files)
+    yaml_license = hub.pop("license")
+    license_extra = "".join(f"\n{key}: {_yaml_str(value)}" for key, value in hub.items())
     records = reader.models()
     licensed = [r for r in records if r.get("provenance")]
     provenance_rows = [

@@ -45,8 +45,14 @@ INFO_NAME = "dataset_info.json"
 
 def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],
                         sizes: Mapping[str, int], shards: Sequence[ParquetShard],
-                        options: ReleaseOptions) -> None:
-    """Write croissant.json from the card in ``folder`` (which it lists with its digest)."""
+                        options: ReleaseOptions) -> str:
+    """Write croissant.json from the card in ``folder`` (which it lists with its digest).
+
+    Returns
+    -------
+    str
+        The SHA-256 of the card, so that the manifest need not read it again.
+    """
     card = (folder / CARD_NAME).read_text(encoding="utf-8")
     described = dict(digests)
     described[CARD_NAME] = sha256_file(folder / CARD_NAME)
@@ -59,6 +65,7 @@ def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, 
         source_url=options.source_url, creator=options.creator,
     )
     write_json(folder / CROISSANT_NAME, croissant)
+    return described[CARD_NAME]
 
 
 def _json_text(value: Any) -> str:

@@ -155,7 +155,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "split_seed": attrs.get("split_seed"),
         "split_fractions": attrs.get("split_fractions"),
         "categories": categories,
-        "class_names": list(attrs.get("class_names") or categories),
+        "class_names": reader.class_labels()[0],
         "splits": splits,
         "counts": counts,
         "split_totals": split_totals,

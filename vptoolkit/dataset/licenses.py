@@ -6,7 +6,9 @@ row per model name with its licence, author and URL);
 ``provenance``, in model order, so the same records give the same bytes.
 :func:`check_license` accepts a licence only as an SPDX identifier (from the
 common ones of :data:`SPDX_IDS`, or a ``LicenseRef-`` of one's own) or as
-the URL of its text, so that a release's licences can be read by machines.
+the URL of its text, so that a release's licences can be read by machines;
+:func:`check_licenses` checks a table given as a mapping as a file's rows are
+checked, and :func:`hub_license` gives the hub's licence fields of a release.
 """
 
 from __future__ import annotations
@@ -19,10 +21,11 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from vptoolkit.dataset.descriptions import CARD_NAME
 from vptoolkit.errors import InputError
 
-__all__ = ["LICENSES_NAME", "LICENSE_COLUMNS", "SPDX_IDS", "check_license", "read_licenses",
-           "write_licenses"]
+__all__ = ["LICENSES_NAME", "LICENSE_COLUMNS", "SPDX_IDS", "check_license", "check_licenses",
+           "hub_license", "read_licenses", "write_licenses"]
 
 LICENSES_NAME = "LICENSES.csv"
 """File name of the table in a release folder."""
@@ -108,21 +111,98 @@ def _licence_rows(source: Path, rows: csv.DictReader[str]) -> dict[str, dict[str
         raise InputError(f"{source.name}: header lacks the column(s) {', '.join(missing)}")
     table: dict[str, dict[str, str]] = {}
     for line, row in enumerate(rows, start=2):
-        name = (row.get("name") or "").strip()
-        licence = (row.get("license") or "").strip()
-        if not name or not licence:
-            raise InputError(f"{source.name}: line {line} needs a name and a license")
-        if name in table:
-            raise InputError(f"{source.name}: line {line} repeats the model {name!r}")
-        for key in LICENSE_COLUMNS:
-            control = next((c for c in row.get(key) or "" if unicodedata.category(c) == "Cc"), None)
-            if control is not None:
-                raise InputError(f"{source.name}: line {line}: the {key} cell holds the control "
-                                 f"character U+{ord(control):04X}; remove it")
-        check_license(licence, f"{source.name}: line {line}")
-        table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
-                       if (row.get(key) or "").strip()}
+        _add_row(table, row, f"{source.name}: line {line}")
     return table
+
+
+def check_licenses(table: Mapping[str, Mapping[str, str]],
+                   label: str = "licenses") -> dict[str, dict[str, str]]:
+    """Check a parsed per-mesh licence table as :func:`read_licenses` checks a file's rows.
+
+    Parameters
+    ----------
+    table : mapping
+        Model name -> ``{"license", "author", "url"}`` (other keys are
+        ignored, as a file's other columns are).
+    label : str
+        What the messages name (default: ``"licenses"``).
+
+    Returns
+    -------
+    dict
+        Model name -> ``{"license", "author", "url"}``, cells stripped and
+        empty ones dropped, as :func:`read_licenses` returns them.
+
+    Raises
+    ------
+    InputError
+        ``<label>: <model>: ...`` for a row that is not a mapping, a cell
+        that is not text, and whatever :func:`read_licenses` refuses in a row.
+    """
+    checked: dict[str, dict[str, str]] = {}
+    for model, row in table.items():
+        where = f"{label}: {model}"
+        if not isinstance(row, Mapping):
+            raise InputError(f"{where}: expected a mapping, got {type(row).__name__}")
+        cells = {"name": model, **{key: row.get(key) for key in LICENSE_COLUMNS[1:]}}
+        for key, value in cells.items():
+            if value is not None and not isinstance(value, str):
+                raise InputError(f"{where}: the {key} cell: expected text, got "
+                                 f"{type(value).__name__}")
+        _add_row(checked, cells, where)
+    return checked
+
+
+def _add_row(table: dict[str, dict[str, str]], row: Mapping[str, str | None], where: str) -> None:
+    """Check one row of a licence table (cells named by :data:`LICENSE_COLUMNS`) and add it."""
+    name = (row.get("name") or "").strip()
+    licence = (row.get("license") or "").strip()
+    if not name or not licence:
+        raise InputError(f"{where} needs a name and a license")
+    if name in table:
+        raise InputError(f"{where} repeats the model {name!r}")
+    for key in LICENSE_COLUMNS:
+        control = next((c for c in row.get(key) or "" if unicodedata.category(c) == "Cc"), None)
+        if control is not None:
+            raise InputError(f"{where}: the {key} cell holds the control "
+                             f"character U+{ord(control):04X}; remove it")
+    check_license(licence, where)
+    table[name] = {key: (row.get(key) or "").strip() for key in LICENSE_COLUMNS[1:]
+                   if (row.get(key) or "").strip()}
+
+
+def hub_license(license: str, license_name: str | None = None,  # noqa: A002 - the hub's field
+                license_link: str | None = None, *, table: bool = False) -> dict[str, str]:
+    """The dataset hub's ``license``, ``license_name`` and ``license_link`` of a release.
+
+    The hub's ``license`` takes an identifier. A licence given by its URL is
+    ``other`` there, named ``"custom"`` and linked to that URL; ``other``
+    itself (the release states no licence, the source meshes' apply) is
+    named ``"source-mesh-licenses"`` and linked to :data:`LICENSES_NAME`
+    with a per-mesh ``table``, else to the card (``README.md``), whose
+    licence note says so. A given ``license_name`` or ``license_link`` is
+    kept; an identifier has neither unless given.
+
+    Returns
+    -------
+    dict
+        ``license``, and ``license_name`` and ``license_link`` where they have a value.
+
+    Examples
+    --------
+    >>> hub_license("https://example.org/terms")
+    {'license': 'other', 'license_name': 'custom', 'license_link': 'https://example.org/terms'}
+    >>> hub_license("other", table=True)["license_link"]
+    'LICENSES.csv'
+    """
+    if license == "other":
+        license_name = license_name or "source-mesh-licenses"
+        license_link = license_link or (LICENSES_NAME if table else CARD_NAME)
+    elif _URL.fullmatch(license):
+        license_name = license_name or "custom"
+        license_link, license = license_link or license, "other"
+    fields = {"license": license, "license_name": license_name, "license_link": license_link}
+    return {key: value for key, value in fields.items() if value}
 
 
 def write_licenses(path: Path, records: Sequence[Mapping[str, Any]]) -> None:

@@ -247,7 +247,8 @@ def _check_listable(relative: str) -> None:
         raise InputError(f"{relative!r}: file names with newlines or backslashes cannot be listed")
 
 
-def hash_folder(folder: Path | str, *, exclude: Iterable[str] = (MANIFEST_NAME,)) -> dict[str, str]:
+def hash_folder(folder: Path | str, *, exclude: Iterable[str] = (MANIFEST_NAME,),
+                known: Mapping[str, str] | None = None) -> dict[str, str]:
     """Return the SHA-256 of every file below ``folder``.
 
     Parameters
@@ -256,6 +257,10 @@ def hash_folder(folder: Path | str, *, exclude: Iterable[str] = (MANIFEST_NAME,)
         The folder; files in subfolders are included.
     exclude : iterable of str
         Relative POSIX paths to leave out (default: the manifest itself).
+    known : mapping of str to str, optional
+        Relative POSIX path -> SHA-256 of files already hashed (as they were
+        written): those digests are taken as they are, the files not read
+        again. A path that is not a file below ``folder`` is ignored.
 
     Returns
     -------
@@ -266,12 +271,13 @@ def hash_folder(folder: Path | str, *, exclude: Iterable[str] = (MANIFEST_NAME,)
     if not folder.is_dir():
         raise InputError(f"{folder}: not a folder")
     skipped = set(exclude)
+    given = known or {}
     sums = {}
     for relative in _list_files(folder):
         if relative in skipped:
             continue
         _check_listable(relative)
-        sums[relative] = sha256_file(folder / relative)
+        sums[relative] = given.get(relative) or sha256_file(folder / relative)
     return sums
 
 
@@ -293,8 +299,16 @@ def format_sha256sums(sums: Mapping[str, str]) -> str:
     return "".join(lines)
 
 
-def write_sha256sums(folder: Path | str) -> dict[str, str]:
+def write_sha256sums(folder: Path | str, known: Mapping[str, str] | None = None) -> dict[str, str]:
     """Hash every file below ``folder`` and write ``folder/SHA256SUMS``.
+
+    Parameters
+    ----------
+    folder : Path or str
+        The folder to list.
+    known : mapping of str to str, optional
+        Digests of files already hashed, listed without reading them again
+        (see :func:`hash_folder`).
 
     Returns
     -------
@@ -302,7 +316,7 @@ def write_sha256sums(folder: Path | str) -> dict[str, str]:
         Relative POSIX path -> SHA-256 of every file listed.
     """
     folder = Path(folder)
-    sums = hash_folder(folder)
+    sums = hash_folder(folder, known=known)
     write_text_atomic(folder / MANIFEST_NAME, format_sha256sums(sums))
     return sums
 

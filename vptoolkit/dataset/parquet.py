@@ -322,7 +322,13 @@ def _per_model(reader: StoreReader, column: Column) -> Any:
 
 def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[int],
                lengths: Mapping[str, NDArray[Any]]) -> list[int]:
-    """The Arrow size of each row: values plus the 4-byte offsets of every list."""
+    """The Arrow size of each row as read back from Parquet, at most.
+
+    Values, the 4-byte offsets of every list and a validity bit per element
+    at every level of a column (a table read from Parquet has a validity
+    bitmap at each level, nulls or not), with a byte per level for the
+    rounding of a bitmap.
+    """
     fixed = 0
     for column in columns:
         dims = [d for d in column.shape if d is not None]
@@ -334,6 +340,7 @@ def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[
     sizes = []
     for row in rows:
         size = fixed
+        validity_bits = 0
         for column in columns:
             if column.dtype == "string":
                 value = records[row].get(column.name)
@@ -342,7 +349,12 @@ def _row_bytes(columns: list[Column], records: list[dict[str, Any]], rows: list[
                 n = int(lengths[column.name][row])
                 size += n * int(column.shape[-1] or 1) * np.dtype(column.dtype).itemsize
                 size += 4 * (n + 1)
-        sizes.append(size)
+            elements = 1  # the row, then every element of each list level
+            validity_bits += elements + 8  # + 8: a byte of rounding per level
+            for dim in column.shape:
+                elements *= int(lengths[column.name][row]) if dim is None else dim
+                validity_bits += elements + 8
+        sizes.append(size + -(-validity_bits // 8))
     return sizes
 
 

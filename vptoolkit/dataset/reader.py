@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
@@ -25,6 +26,8 @@ from vptoolkit.dataset.schema import (
     SCHEMA_VERSION,
     STRING_ARRAYS,
     ModelEntry,
+    class_labels,
+    class_names,
     from_json_bytes,
 )
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
@@ -134,6 +137,36 @@ class StoreReader:
                 )
             self._models = decoded
         return [dict(record) for record in self._models]
+
+    def class_labels(self) -> tuple[list[str], NDArray[np.int64]]:
+        """The class names and each model's class label.
+
+        Returns
+        -------
+        names : list of str
+            The root attribute ``class_names``, checked against the models'
+            categories; for a store without it, the sorted categories.
+        labels : (n_models,) int64
+            The stored ``labels`` array, in row order; worked out from the
+            records' categories (:func:`~vptoolkit.dataset.schema.class_labels`)
+            for a store without one.
+
+        Raises
+        ------
+        InputError
+            If ``class_names`` lacks a category or is not sorted and unique,
+            or ``labels`` does not hold one label of ``names`` per model.
+        """
+        categories = [str(record["category"]) for record in self.models()]
+        given = self.attrs.get("class_names")
+        if "labels" not in self.array_names():
+            return class_labels(categories, given)
+        names = class_names(categories, given)
+        labels = np.asarray(self.array("labels")[...], dtype=np.int64)
+        if labels.shape != (self.n_models,) or not np.all((labels >= 0) & (labels < len(names))):
+            raise InputError(f"{self.path.name}: labels does not hold a class label (0 to "
+                             f"{len(names) - 1}) per model")
+        return names, labels
 
     def failures(self) -> list[dict[str, Any]]:
         """The decoded ``failures_json``: one record per failed input."""

@@ -395,11 +395,7 @@ def pack_release(
                 when = release_created(options.created, attrs.get("created"))
                 attrs["created"] = when
                 attrs["dataset_version"] = options.version
-                hub = ({"license_name": options.license_name or "source-mesh-licenses",
-                        "license_link": options.license_link or (
-                            LICENSES_NAME if provenance is not None else CARD_NAME)}
-                       if options.default_license is None else {})
-                options = dataclasses.replace(options, created=when, **hub)
+                options = dataclasses.replace(options, created=when)
                 entries = _ReaderEntries(reader, provenance, options.default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
@@ -428,12 +424,13 @@ def pack_release(
                 card = render_card(packed, digests, file_sizes=sizes, shards=shards,
                                    **options.card_arguments(), warnings=found)
                 (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
-                write_descriptions(staging, packed, digests, sizes, shards, options)
+                digests[CARD_NAME] = write_descriptions(staging, packed, digests, sizes, shards,
+                                                        options)
                 info = info_from_reader(packed)
             if described_name not in written:
                 (staging / described_name).unlink()
             write_json(staging / INFO_NAME, info)
-            files = write_sha256sums(staging)
+            files = write_sha256sums(staging, known=digests)  # each file hashed once
             _check_still_empty(target)
             _publish(staging, target)
             remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack

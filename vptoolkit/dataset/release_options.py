@@ -20,7 +20,7 @@ from typing import Any, Final
 
 from vptoolkit.checks import short_repr
 from vptoolkit.conventions import DATASET_VERSION
-from vptoolkit.dataset.licenses import check_license, read_licenses
+from vptoolkit.dataset.licenses import check_license, check_licenses, read_licenses
 from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES, parse_size
 from vptoolkit.errors import InputError
 
@@ -94,8 +94,9 @@ class ReleaseOptions:
     licenses : Path or mapping, optional
         A per-mesh licence table, a CSV file read when the release is packed
         (:func:`~vptoolkit.dataset.licenses.read_licenses`), or its parsed
-        mapping (model name to ``license``, ``author``, ``url``), whose
-        licences are checked here; each model's record then carries
+        mapping (model name to ``license``, ``author``, ``url``), checked
+        here as a file's rows are
+        (:func:`~vptoolkit.dataset.licenses.check_licenses`); each model's record then carries
         ``provenance``, the card tables it and the release ships it as
         ``LICENSES.csv``.
     license_name, license_link : str, optional
@@ -212,13 +213,7 @@ def _licenses(licenses: Any) -> Path | dict[str, dict[str, str]] | None:
         return Path(licenses)
     if not isinstance(licenses, Mapping):
         raise InputError(f"licenses: expected a CSV path or a mapping, got {short_repr(licenses)}")
-    table = {}
-    for model, row in licenses.items():  # a parsed table, checked as a file's rows are
-        if not isinstance(row, Mapping):
-            raise InputError(f"licenses: {model}: expected a mapping, got {short_repr(row)}")
-        check_license(str(row.get("license", "")), f"licenses: {model}")
-        table[str(model)] = dict(row)
-    return table
+    return check_licenses(licenses)
 
 
 def release_created(created: str | None, default: str | None) -> str:

@@ -37,6 +37,7 @@ __all__ = [
     "WRITER_ATTRS",
     "SPLIT_ALIASES",
     "published_split",
+    "class_labels",
     "class_names",
     "FAILURE_KEYS",
     "HDF5_JSON_KEY",
@@ -160,6 +161,40 @@ def class_names(categories: Iterable[str], given: Sequence[str] | None = None) -
     if missing:
         raise InputError(f"class_names: category {missing[0]!r} has no label")
     return names
+
+
+def class_labels(categories: Sequence[str],
+                 given: Sequence[str] | None = None) -> tuple[list[str], NDArray[np.int64]]:
+    """The class names of a dataset and the class label of each model.
+
+    Parameters
+    ----------
+    categories : sequence of str
+        The category of every model, in row order.
+    given : sequence of str, optional
+        A map to keep (see :func:`class_names`).
+
+    Returns
+    -------
+    names : list of str
+        :func:`class_names` of ``categories`` and ``given``.
+    labels : (n_models,) int64
+        Label of each model: ``names[labels[i]] == categories[i]``.
+
+    Raises
+    ------
+    InputError
+        As :func:`class_names`.
+
+    Examples
+    --------
+    >>> names, labels = class_labels(["mug", "bottle", "mug"])
+    >>> names, labels.tolist()
+    (['bottle', 'mug'], [1, 0, 1])
+    """
+    names = class_names(categories, given)
+    label_of = {name: label for label, name in enumerate(names)}
+    return names, np.array([label_of[str(category)] for category in categories], np.int64)
 
 
 FAILURE_KEYS = ("source", "category", "reason")

@@ -38,7 +38,7 @@ from vptoolkit.dataset.schema import (
     STRING_ARRAYS,
     ModelEntry,
     array_sha256,
-    class_names,
+    class_labels,
     json_bytes,
     le_bytes,
     published_split,
@@ -467,12 +467,11 @@ def write_dataset(
                       enabled=progress) as bar:
         plan = _first_pass(entries, n_views, bar)
     categories = [record["category"] for record in plan.records]
-    labels = class_names(categories, attrs.get("class_names"))
+    names, labels = class_labels(categories, attrs.get("class_names"))
     root_attrs = _root_attrs(
         attrs, n_models=n_models, n_views=n_views, n_points=plan.n_points,
-        n_failures=len(failure_records), labels=labels,
+        n_failures=len(failure_records), labels=names,
     )
-    label_of = {name: label for label, name in enumerate(labels)}
     whole: dict[str, NDArray[Any]] = {
         "views": view_directions,
         "mesh_vertex_offsets": plan.vertex_offsets,
@@ -482,7 +481,7 @@ def write_dataset(
         "names": _strings(record["name"] for record in plan.records),
         "categories": _strings(categories),
         "splits": _strings(published_split(record["split"]) for record in plan.records),
-        "labels": np.array([label_of[category] for category in categories], np.int64),
+        "labels": labels,
     }
     n_points = plan.n_points
     layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {

@@ -171,7 +171,6 @@ def model_visibility(dataset: ViewpointDataset, key: int | str, *,
     FaceVisibility
         See :class:`vptoolkit.view_sets.visibility.FaceVisibility`.
     """
-    from vptoolkit.camera import Camera
     from vptoolkit.mesh import Mesh
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.visibility import FaceVisibility
@@ -182,7 +181,7 @@ def model_visibility(dataset: ViewpointDataset, key: int | str, *,
     mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name)
     chosen = dataset.views if views is None else dataset.views[np.asarray(views, dtype=np.int64)]
     settings = MeasureSettings(views=len(chosen), resolution=int(attrs["resolution"]),
-                               camera=Camera.from_dict(attrs.get("camera") or {}))
+                               camera=dataset.camera)
     return FaceVisibility.from_mesh(mesh, settings, view_directions=chosen)
 
 

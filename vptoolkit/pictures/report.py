@@ -114,10 +114,11 @@ def write_report(
         Draw the pictures (default: True); False writes maps and tables
         only and needs no engine.
     engine : Engine, optional
-        The engine that draws the pictures (its size, camera and style
-        apply), left open; default: a software engine of
-        :data:`REPORT_SIZE` pixels with the measures' camera, made for this
-        call.
+        The engine that draws the pictures (its size and style apply), left
+        open; its camera must be the dataset's (:attr:`ViewpointDataset.camera
+        <vptoolkit.data.ViewpointDataset.camera>`, the camera the measures
+        used). Default: a software engine of :data:`REPORT_SIZE` pixels with
+        that camera, made for this call.
     progress : bool
         Show a progress bar on stderr (default: False).
     view_set : int or None
@@ -135,8 +136,9 @@ def write_report(
     Raises
     ------
     InputError
-        For an unknown split, a split without models, or a predictions file
-        that does not fit the reported models.
+        For an unknown split, a split without models, a predictions file
+        that does not fit the reported models, or an engine whose camera is
+        not the dataset's.
     MissingDependencyError
         If matplotlib is missing, or ``thumbnails`` is set and the engine
         cannot start here (checked before any work).
@@ -175,10 +177,11 @@ def write_report(
     categories = selected.categories
     splits = selected.splits
     records = selected.records
+    camera = selected.camera
     cards: list[_Card] = []
     with ExitStack() as stack:
-        active = (stack.enter_context(drawing_engine(engine, size=REPORT_SIZE)) if thumbnails
-                  else None)
+        active = (stack.enter_context(drawing_engine(engine, size=REPORT_SIZE, camera=camera))
+                  if thumbnails else None)
         bar = tqdm(total=len(selected), desc="report", unit="model", disable=not progress)
         try:
             if active is not None:
@@ -206,7 +209,6 @@ def write_report(
                 bar.update(1)
         finally:
             bar.close()
-        camera = active.camera if active is not None else Camera()
     page = _page(selected, cards, evaluation, has_pictures=active is not None, camera=camera)
     index = target / "index.html"
     return write_text_atomic(index, page)
