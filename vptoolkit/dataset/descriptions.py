@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from vptoolkit.dataset.croissant import croissant_jsonld, rai_field_sources, rai_fields
 from vptoolkit.dataset.manifest import (
+    CARD_NAME,
     MANIFEST_NAME,
     format_sha256sums,
     read_sha256sums,
@@ -35,10 +36,8 @@ if TYPE_CHECKING:
     from vptoolkit.dataset.reader import StoreReader
     from vptoolkit.dataset.release_options import ReleaseOptions
 
-__all__ = ["CARD_NAME", "CROISSANT_NAME", "INFO_NAME", "update_card", "write_descriptions",
-           "write_json"]
+__all__ = ["CROISSANT_NAME", "INFO_NAME", "update_card", "write_descriptions", "write_json"]
 
-CARD_NAME = "README.md"
 CROISSANT_NAME = "croissant.json"
 INFO_NAME = "dataset_info.json"
 

@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from vptoolkit.dataset.descriptions import CARD_NAME
+from vptoolkit.dataset.manifest import CARD_NAME
 from vptoolkit.errors import InputError
 
 __all__ = ["LICENSES_NAME", "LICENSE_COLUMNS", "SPDX_IDS", "check_license", "check_licenses",

@@ -28,6 +28,7 @@ from vptoolkit.files import is_inside_folder, read_json_file, write_text_atomic
 
 __all__ = [
     "MANIFEST_NAME",
+    "CARD_NAME",
     "BLOCK_SIZE",
     "Problem",
     "VerifyReport",
@@ -42,6 +43,9 @@ __all__ = [
 
 MANIFEST_NAME = "SHA256SUMS"
 """File name of the manifest inside a release folder."""
+
+CARD_NAME = "README.md"
+"""File name of the dataset card inside a release folder (the hub reads it there)."""
 
 BLOCK_SIZE = 1 << 20
 """Bytes read per step while hashing a file (1 MiB)."""

@@ -60,7 +60,6 @@ from vptoolkit.checks import short_repr
 from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.card import render_card
 from vptoolkit.dataset.descriptions import (
-    CARD_NAME,
     CROISSANT_NAME,
     INFO_NAME,
     write_descriptions,
@@ -68,7 +67,13 @@ from vptoolkit.dataset.descriptions import (
 )
 from vptoolkit.dataset.info import info_from_reader
 from vptoolkit.dataset.licenses import LICENSES_NAME, write_licenses
-from vptoolkit.dataset.manifest import MANIFEST_NAME, sha256_file, verify, write_sha256sums
+from vptoolkit.dataset.manifest import (
+    CARD_NAME,
+    MANIFEST_NAME,
+    sha256_file,
+    verify,
+    write_sha256sums,
+)
 from vptoolkit.dataset.release_options import ReleaseOptions, release_created
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
