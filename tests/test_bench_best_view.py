@@ -31,9 +31,11 @@ def test_quick_run_scores_every_answer_and_marks_the_front(tmp_path: Path,
     assert result.returncode == 0, result.stderr[-2000:]
     rows = json.loads((tmp_path / "rows.json").read_text())
     assert {"random view (expectation)", "PCA axis", "network alone", "plain search 4 @ 128",
+            "unoccluded estimate, faces", "unoccluded estimate, 2000 points with normals",
             "coarse-to-fine 16 @ 128", "network prior + search 16 @ 128",
-            "ceiling: best of the 4-view sphere",
-            "ceiling: best of the network's prior candidates"} <= set(rows)
+            "unoccluded prior + search 16 @ 128", "ceiling: best of the 4-view sphere",
+            "ceiling: best of the network prior's candidates",
+            "ceiling: best of the unoccluded prior's candidates"} <= set(rows)
     assert all(len(row["mean"]) == 4 for row in rows.values())
     # a ceiling is the best of its candidates by the labels: a 4-view search draws exactly
     # the 4-view sphere and picks by its own measurement, so it never beats that ceiling

@@ -13,12 +13,16 @@ Answers:
 
 * random view (an expectation: the mean quality over the 1000 views);
 * PCA axis (:func:`vptoolkit.evaluate.baselines.pca_directions` of 20000 surface points);
+* the unoccluded estimate (:mod:`vptoolkit.unoccluded`), no image drawn: from
+  the mesh's faces, and from 2000 surface points with their normals (what a
+  scan gives);
 * the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
 * plain search N @ R: :func:`vptoolkit.measures.compute_view_quality` on N
   Fibonacci views at R px, each measure's best view;
 * coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search_best_views`;
-* prior-guided search N @ R: the same with :class:`vptoolkit.learn.prior.NetworkPrior`
-  (per ``--model``);
+* prior-guided search N @ R: the same with the candidates of
+  :class:`vptoolkit.unoccluded.UnoccludedPrior` and of
+  :class:`vptoolkit.learn.prior.NetworkPrior` (per ``--model``);
 
 at every budget of ``--budgets``. Two more rows are ceilings, not answers: the
 best of a set of candidate directions as the labels score them (an oracle
@@ -27,8 +31,8 @@ choice), which no search that draws those candidates can beat:
 * a sphere of ``--ceiling-views`` directions in the principal frame
   (:func:`vptoolkit.best_view.coarse_directions`), what a search of that
   budget draws;
-* the candidates of each network's prior (:class:`vptoolkit.learn.prior.NetworkPrior`),
-  all of them, however many it proposes (their mean count is the row's views).
+* the candidates of each prior, all of them, however many it proposes (their
+  mean count is the row's views).
 
 A prior helps only where its candidates' ceiling beats the sphere's at the
 same number of views. Cost: views drawn, and the median wall time
@@ -82,9 +86,16 @@ from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.unoccluded import (
+    UNOCCLUDED_DIRECTIONS,
+    UnoccludedPrior,
+    mesh_elements,
+    unoccluded_best_views,
+)
 
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
+SCAN_POINTS = 2000  # surface points of the unoccluded estimate's scan stand-in
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -155,16 +166,34 @@ def network_priors(models: list[str]) -> dict[str, Any]:
             NetworkPrior(model) for model in models}
 
 
-def answers(budgets: list[int], resolution: int,
-            priors: dict[str, Any]) -> dict[str, tuple[str, Answer]]:
-    """Row label -> (views drawn, answer), in table order."""
+def drawless_answers(networks: dict[str, Any]) -> dict[str, Answer]:
+    """Row label -> an answer that draws no image: PCA, the unoccluded estimate, the networks."""
 
     def pca(mesh: Mesh) -> np.ndarray:
         return pca_directions(sample_surface(mesh, 20000, seed=0).points[None])[0]
 
-    rows: dict[str, tuple[str, Answer]] = {"PCA axis": ("–", pca)}
-    for label, prior in priors.items():  # the prior's predictor is the network alone
-        rows[f"{label} alone"] = ("–", prior.predictor)
+    def unoccluded_faces(mesh: Mesh) -> np.ndarray:
+        return unoccluded_best_views(*mesh_elements(mesh),
+                                     directions=coarse_directions(mesh, UNOCCLUDED_DIRECTIONS))
+
+    def unoccluded_points(mesh: Mesh) -> np.ndarray:  # a scan's stand-in: points and normals
+        return unoccluded_best_views(sample_surface(mesh, SCAN_POINTS, seed=0).normals)
+
+    rows: dict[str, Answer] = {
+        "PCA axis": pca,
+        "unoccluded estimate, faces": unoccluded_faces,
+        f"unoccluded estimate, {SCAN_POINTS} points with normals": unoccluded_points,
+    }
+    for label, prior in networks.items():  # the prior's predictor is the network alone
+        rows[f"{label} alone"] = prior.predictor
+    return rows
+
+
+def answers(budgets: list[int], resolution: int, drawless: dict[str, Answer],
+            priors: dict[str, Any]) -> dict[str, tuple[str, Answer]]:
+    """Row label -> (views drawn, answer), in table order."""
+    rows: dict[str, tuple[str, Answer]] = {label: ("–", answer)
+                                           for label, answer in drawless.items()}
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
             lambda mesh, b=budget: compute_view_quality(
@@ -236,7 +265,7 @@ def candidate_sets(sphere_views: int, priors: dict[str, Any]) -> dict[str, Answe
         f"ceiling: best of the {sphere_views}-view sphere": (
             lambda mesh: coarse_directions(mesh, sphere_views))}
     for label, prior in priors.items():
-        sets[f"ceiling: best of the {label}'s prior candidates"] = prior
+        sets[f"ceiling: best of the {label} prior's candidates"] = prior
     return sets
 
 
@@ -260,8 +289,9 @@ def main(argv: list[str] | None = None) -> int:
         dataset = open_dataset(folder / "build")
         sources = {source.name: source.path for source in discover_models(folder / "meshes")}
         meshes = {name: load_mesh(sources[name]) for name in dataset.names}
-        priors = network_priors(args.models)
-        rows = answers(args.budget_list, args.resolution, priors)
+        networks = network_priors(args.models)
+        priors = {"unoccluded": UnoccludedPrior(), **networks}
+        rows = answers(args.budget_list, args.resolution, drawless_answers(networks), priors)
         scored = score(dataset, meshes, args.rotations, {label: answer for label, (_, answer)
                                                          in rows.items()})
         random_scores = random_view_scores(dataset)
