@@ -50,6 +50,23 @@ def test_on_a_convex_mesh_it_agrees_with_the_drawn_measures(shape, columns):
         assert np.corrcoef(estimate[:, column], drawn[:, column])[0, 1] > 0.9
 
 
+def test_pooling_normals_keeps_the_estimate(teapot):
+    directions = fibonacci_sphere(200)
+    elements = mesh_elements(teapot)
+    pooled = unoccluded_quality(*elements, directions)
+    exact = unoccluded_quality(*elements, directions, cells=None)
+    for column in range(3):
+        assert np.corrcoef(pooled[:, column], exact[:, column])[0, 1] > 0.99
+    np.testing.assert_allclose(pooled[:, 1], exact[:, 1], rtol=0.02)  # the projected share
+
+
+def test_normals_are_made_unit_length(teapot):
+    normals, areas = mesh_elements(teapot)
+    directions = fibonacci_sphere(20)
+    np.testing.assert_allclose(unoccluded_quality(3.0 * normals, areas, directions),
+                               unoccluded_quality(normals, areas, directions), rtol=1e-9)
+
+
 def test_vmi_equals_vkl_and_a_uniform_sample_weighs_points_alike(teapot):
     normals, areas = mesh_elements(teapot)
     raw = unoccluded_quality(normals, areas, fibonacci_sphere(40))
@@ -100,6 +117,7 @@ def test_as_a_search_prior_its_first_candidate_is_drawn_at_full_resolution(teapo
     (np.full((3, 3), np.nan), np.ones(3), "finite"),
     (np.eye(3), -np.ones(3), "areas >= 0"),
     (np.eye(3), np.zeros(3), "zero area"),
+    (np.zeros((3, 3)), np.ones(3), "3 of zero length"),
 ])
 def test_bad_elements_are_one_line_errors(normals, areas, message):
     with pytest.raises(InputError, match=message):
@@ -109,6 +127,8 @@ def test_bad_elements_are_one_line_errors(normals, areas, message):
 def test_bad_prior_options_and_a_flat_mesh_are_one_line_errors():
     with pytest.raises(InputError, match="n_directions"):
         UnoccludedPrior(0)
+    with pytest.raises(InputError, match="cells"):
+        unoccluded_quality(np.eye(3), np.ones(3), fibonacci_sphere(4), cells=0)
     with pytest.raises(InputError, match="min_angle_deg"):
         UnoccludedPrior(min_angle_deg=180.0)
     line = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]),

@@ -19,7 +19,19 @@ in bits, with ``p_z = a_z / a_t`` and ``A_t = sum_z A_z``:
   ``A_z / A_t`` when nothing is hidden, because the mean of
   ``max(0, n . d)`` over uniform ``d`` is 1/4 for every ``n``.
 
-The estimate needs one ``(elements x directions)`` product, no image: it is
+With ``W_z = A_z`` and ``c_z(d) = max(0, n_z . d)`` these are
+
+    VE  = log2 a_t - (sum_z c_z A_z log2 A_z + sum_z W_z c_z log2 c_z) / a_t,
+    VKL = (sum_z W_z c_z log2 c_z) / a_t - log2 a_t + log2 A_t,
+
+so the elements enter only through their normals, ``W_z`` and ``A_z log2 A_z``,
+and elements of nearly the same normal can be pooled: by default they are
+summed per cell of a ``32 x 32`` octahedral grid of normals (cells of about 6
+degrees; :data:`NORMAL_CELLS`), each cell at its area-weighted mean normal,
+which turns a million faces into at most 1024 terms. ``cells=None`` keeps
+every element.
+
+The estimate needs no image: it is
 the zero-view answer of :func:`unoccluded_best_views` (points with normals
 suffice, so a scan without a mesh has one) and the candidate proposer of
 :class:`UnoccludedPrior` for :func:`vptoolkit.best_view.search_best_views`.
@@ -31,6 +43,7 @@ model's own coordinates. Numpy only.
 
 from __future__ import annotations
 
+import math
 from typing import Final
 
 import numpy as np
@@ -38,11 +51,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.geometry import face_areas, face_normals
+from vptoolkit.geometry import face_cross_products
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import as_directions, distinct_directions
 
 __all__ = [
+    "NORMAL_CELLS",
     "UNOCCLUDED_DIRECTIONS",
     "UnoccludedPrior",
     "mesh_elements",
@@ -53,8 +67,11 @@ __all__ = [
 UNOCCLUDED_DIRECTIONS: Final = 128
 """Default number of directions the estimate is evaluated at (about 18 degrees apart)."""
 
-_CHUNK_ENTRIES = 1 << 22  # elements x directions per block of the product (16 MiB of float32)
-_TINY = np.finfo(np.float32).tiny
+NORMAL_CELLS: Final = 32
+"""Side of the octahedral grid the elements' normals are pooled on (1024 cells)."""
+
+_CHUNK_ENTRIES = 1 << 21  # elements x directions per block of the product (16 MiB of float64)
+_TINY = np.finfo(np.float64).tiny
 _RANKED = 32  # best directions per measure looked through for distinct candidates
 
 
@@ -68,12 +85,13 @@ def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     -------
     normals : (k, 3) float64, areas : (k,) float64
     """
-    areas = face_areas(mesh)
-    keep = areas > 0
+    cross = face_cross_products(mesh)
+    double_areas = np.linalg.norm(cross, axis=1)
+    keep = double_areas > 0
     if not keep.any():
         raise InputError(f"{mesh.name}: the mesh has zero surface area")
-    normals = face_normals(mesh)[keep]
-    areas = areas[keep]
+    normals = cross[keep] / double_areas[keep, None]
+    areas = 0.5 * double_areas[keep]
     corners = mesh.vertices[mesh.faces[keep]]
     centroids = corners.mean(axis=1) - corners.reshape(-1, 3).mean(axis=0)
     if float(np.sum(areas * np.einsum("ij,ij->i", centroids, normals))) < 0.0:
@@ -81,54 +99,87 @@ def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     return normals, areas
 
 
-def unoccluded_quality(normals: ArrayLike, areas: ArrayLike,
-                       directions: ArrayLike) -> NDArray[np.float64]:
+def _pool(normals: NDArray[np.float64], areas: NDArray[np.float64], cells: int,
+          ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Elements summed per cell of a ``cells x cells`` octahedral grid of their normals.
+
+    Returns the cells' area-weighted mean unit normals, ``W = sum A_z`` and
+    ``sum A_z log2 A_z``, for the cells of positive area.
+    """
+    folded = normals / np.abs(normals).sum(axis=1, keepdims=True)
+    u, w, lower = folded[:, 0], folded[:, 1], folded[:, 2] < 0
+    u, w = (np.where(lower, (1.0 - np.abs(w)) * np.where(u >= 0, 1.0, -1.0), u),
+            np.where(lower, (1.0 - np.abs(u)) * np.where(w >= 0, 1.0, -1.0), w))
+    column = np.clip(((u + 1.0) * (cells / 2.0)).astype(np.intp), 0, cells - 1)
+    row = np.clip(((w + 1.0) * (cells / 2.0)).astype(np.intp), 0, cells - 1)
+    cell = row * cells + column
+    weights = np.bincount(cell, weights=areas, minlength=cells * cells)
+    summed = np.stack([np.bincount(cell, weights=areas * normals[:, axis],
+                                   minlength=cells * cells) for axis in range(3)], axis=1)
+    a_log_a = np.bincount(cell, weights=_x_log2_x(areas), minlength=cells * cells)
+    lengths = np.linalg.norm(summed, axis=1)
+    used = (weights > 0) & (lengths > 0)
+    return summed[used] / lengths[used, None], weights[used], a_log_a[used]
+
+
+def _x_log2_x(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x log2 x`` elementwise, 0 at 0."""
+    return np.asarray(values * np.log2(np.maximum(values, _TINY)))
+
+
+def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLike, *,
+                       cells: int | None = NORMAL_CELLS) -> NDArray[np.float64]:
     """Raw VE, VR, VKL and VMI with occlusion ignored (module docstring).
 
     Parameters
     ----------
     normals : (k, 3) array_like
-        Unit outward normals of the surface elements.
+        Outward normals of the surface elements (made unit length here).
     areas : (k,) array_like
         Their areas (any common unit; equal for a uniform point sample).
     directions : (n, 3) array_like
         Unit view directions.
+    cells : int or None
+        Pool the elements on a ``cells x cells`` octahedral grid of normals
+        (default: 32); None keeps every element (exact, and slower on big meshes).
 
     Returns
     -------
     raw : (n, 4) float64
         In ``MEASURES`` order; NaN where no element faces the direction.
     """
-    normals = np.asarray(normals, dtype=np.float64)
-    areas = np.asarray(areas, dtype=np.float64)
-    directions = as_directions(directions)
-    if normals.ndim != 2 or normals.shape[1] != 3 or areas.shape != normals.shape[:1]:
+    vectors = np.asarray(normals, dtype=np.float64)
+    element_areas = np.asarray(areas, dtype=np.float64)
+    views = as_directions(directions)
+    if normals.ndim != 2 or vectors.shape[1] != 3 or element_areas.shape != vectors.shape[:1]:
         raise InputError(f"normals, areas: expected shapes (k, 3) and (k,), "
-                         f"got {normals.shape} and {areas.shape}")
-    if not (np.isfinite(normals).all() and np.isfinite(areas).all()) or (areas < 0).any():
+                         f"got {vectors.shape} and {element_areas.shape}")
+    if not (np.isfinite(vectors).all() and np.isfinite(element_areas).all()) or (element_areas < 0).any():
         raise InputError("normals, areas: expected finite values and areas >= 0")
-    total = float(areas.sum())
+    lengths = np.linalg.norm(vectors, axis=1)
+    if not (lengths > 0).all():
+        raise InputError(f"normals: {int(np.sum(lengths == 0))} of zero length")
+    unit = vectors / lengths[:, None]
+    total = float(element_areas.sum())
     if not total > 0.0:
         raise InputError("areas: the surface has zero area")
-    share = areas / total
-    log_share = np.log2(share, out=np.zeros_like(share), where=share > 0)
-    normals32, share32 = normals.astype(np.float32), share.astype(np.float32)
-    raw = np.full((len(directions), len(MEASURES)), np.nan)
-    step = max(1, _CHUNK_ENTRIES // max(1, len(areas)))
-    for start in range(0, len(directions), step):
-        block = directions[start:start + step]
-        # a_z(d) / A_t in float32, with its sums in float64: ranks, not bits, are what count
-        projected = normals32 @ block.T.astype(np.float32)
-        np.maximum(projected, 0.0, out=projected)
-        projected *= share32[:, None]
-        log_projected = np.log2(np.maximum(projected, _TINY))  # 0 log 0 = 0 in the sums below
-        a_t = projected.sum(axis=0, dtype=np.float64)
+    if cells is not None:
+        if isinstance(cells, bool) or not isinstance(cells, (int, np.integer)) or cells < 1:
+            raise InputError(f"cells: expected a positive integer or None, got {cells!r}")
+        unit, weights, a_log_a = _pool(unit, element_areas, int(cells))
+    else:
+        weights, a_log_a = element_areas, _x_log2_x(element_areas)
+    raw = np.full((len(views), len(MEASURES)), np.nan)
+    step = max(1, _CHUNK_ENTRIES // len(weights))
+    for start in range(0, len(views), step):
+        facing = np.maximum(unit @ views[start:start + step].T, 0.0)  # c_z(d)
+        a_t = weights @ facing
         seen = a_t > 0
-        a_t_seen = np.where(seen, a_t, 1.0)
-        sum_a_log_a = np.einsum("zd,zd->d", projected, log_projected, dtype=np.float64)
-        sum_p_log_p = sum_a_log_a / a_t_seen - np.log2(a_t_seen)
-        kl = sum_p_log_p - (log_share.astype(np.float32) @ projected).astype(np.float64) / a_t_seen
-        rows = np.stack([-sum_p_log_p, a_t, kl, kl], axis=1)
+        a_t = np.where(seen, a_t, 1.0)
+        spread = weights @ _x_log2_x(facing)  # sum_z W_z c_z log2 c_z
+        ve = np.log2(a_t) - (a_log_a @ facing + spread) / a_t
+        kl = spread / a_t - np.log2(a_t) + math.log2(total)
+        rows = np.stack([ve, a_t / total, kl, kl], axis=1)
         raw[start:start + step] = np.where(seen[:, None], rows, np.nan)
     return raw
 
