@@ -151,10 +151,11 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
     vectors = np.asarray(normals, dtype=np.float64)
     element_areas = np.asarray(areas, dtype=np.float64)
     views = as_directions(directions)
-    if normals.ndim != 2 or vectors.shape[1] != 3 or element_areas.shape != vectors.shape[:1]:
+    if vectors.ndim != 2 or vectors.shape[1] != 3 or element_areas.shape != vectors.shape[:1]:
         raise InputError(f"normals, areas: expected shapes (k, 3) and (k,), "
                          f"got {vectors.shape} and {element_areas.shape}")
-    if not (np.isfinite(vectors).all() and np.isfinite(element_areas).all()) or (element_areas < 0).any():
+    finite = np.isfinite(vectors).all() and np.isfinite(element_areas).all()
+    if not finite or (element_areas < 0).any():
         raise InputError("normals, areas: expected finite values and areas >= 0")
     lengths = np.linalg.norm(vectors, axis=1)
     if not (lengths > 0).all():
