@@ -31,11 +31,11 @@ degrees; :data:`NORMAL_CELLS`), each cell at its area-weighted mean normal,
 which turns a million faces into at most 1024 terms. ``cells=None`` keeps
 every element.
 
-The estimate needs no image: it is
-the zero-view answer of :func:`unoccluded_best_views` (points with normals
-suffice, so a scan without a mesh has one) and the candidate proposer of
-:class:`UnoccludedPrior` for :func:`vptoolkit.best_view.search_best_views`.
-It is exact for a convex surface and misleads where parts hide each other.
+The estimate needs no image: it is the zero-view answer of
+:func:`unoccluded_best_views` (points with normals suffice, so a scan without a
+mesh has one) and the candidate proposer of :class:`UnoccludedPrior` for
+:func:`vptoolkit.best_view.search_best_views`. It is exact for a convex surface
+seen from afar (orthographically) and misleads where parts hide each other.
 
 Directions are unit vectors from the model's centre towards the camera, in the
 model's own coordinates. Numpy only.
@@ -240,7 +240,8 @@ class UnoccludedPrior:
     so it turns with the mesh); the candidates are each of VE, VR and VKL's
     best ``per_measure`` directions at least ``min_angle_deg`` apart, rank by
     rank in ``MEASURES`` order (VMI's estimate is VKL's), duplicates dropped.
-    No image is drawn; the cost is one ``(faces x n_directions)`` product.
+    No image is drawn; the cost is a pass over the faces and one product of at
+    most 1024 pooled normals with ``n_directions`` directions.
 
     Parameters
     ----------
