@@ -78,25 +78,29 @@ _RANKED = 32  # best directions per measure looked through for distinct candidat
 def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Unit normals and areas of the faces of positive area, wound outwards.
 
-    A mesh whose signed volume ``sum_z A_z (c_z . n_z) / 3`` (``c_z`` the face
-    centroid) is negative is wound inside out; its normals are flipped.
+    A mesh whose signed volume ``sum_z (a_z - o) . ((b_z - a_z) x (c_z - a_z)) / 6``
+    (``o`` the mean vertex) is negative is wound inside out; its normals are flipped.
 
     Returns
     -------
     normals : (k, 3) float64, areas : (k,) float64
     """
+    normals, areas, _ = _face_elements(mesh)
+    return normals, areas
+
+
+def _face_elements(mesh: Mesh,
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`mesh_elements`, and the area of every face (zero for degenerate ones)."""
     cross = face_cross_products(mesh)
-    double_areas = np.linalg.norm(cross, axis=1)
+    double_areas = np.sqrt(np.einsum("ij,ij->i", cross, cross))
     keep = double_areas > 0
     if not keep.any():
         raise InputError(f"{mesh.name}: the mesh has zero surface area")
-    normals = cross[keep] / double_areas[keep, None]
-    areas = 0.5 * double_areas[keep]
-    corners = mesh.vertices[mesh.faces[keep]]
-    centroids = corners.mean(axis=1) - corners.reshape(-1, 3).mean(axis=0)
-    if float(np.sum(areas * np.einsum("ij,ij->i", centroids, normals))) < 0.0:
-        normals = -normals
-    return normals, areas
+    first = mesh.vertices[mesh.faces[:, 0]] - mesh.vertices.mean(axis=0)
+    outward = 1.0 if float(np.einsum("ij,ij->", first, cross)) >= 0.0 else -1.0
+    normals = cross[keep] * (outward / double_areas[keep, None])
+    return normals, 0.5 * double_areas[keep], 0.5 * double_areas
 
 
 def _pool(normals: NDArray[np.float64], areas: NDArray[np.float64], cells: int,
@@ -272,8 +276,8 @@ class UnoccludedPrior:
         """Candidate unit directions ``(k, 3)``, most promising first."""
         from vptoolkit.best_view import coarse_directions
 
-        normals, areas = mesh_elements(mesh)
-        directions = coarse_directions(mesh, self.n_directions)
+        normals, areas, face_areas = _face_elements(mesh)
+        directions = coarse_directions(mesh, self.n_directions, face_areas)
         raw = unoccluded_quality(normals, areas, directions)
         measures = [MEASURES.index(name) for name in ("VE", "VR", "VKL")]
         per_measure = [distinct_directions(directions[_ranked(raw, column)[:_RANKED]],
