@@ -11,7 +11,8 @@ of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
    the axis of least spread), so the pattern turns with the model and any
    input orientation is searched alike;
 2. **prior** (optional): the first candidate directions proposed by someone
-   else, e.g. a network (:mod:`vptoolkit.learn.prior`), drawn at
+   else, e.g. the occlusion-free estimate (:class:`vptoolkit.unoccluded.UnoccludedPrior`)
+   or a network (:mod:`vptoolkit.learn.prior`), drawn at
    ``resolution``: at most an eighth of the budget (one view at least), since
    on real meshes a larger share cost the sphere more than the network's
    candidates gave back;
@@ -343,6 +344,7 @@ def search_best_views(
     prior : (k, 3) array_like, optional
         Candidate directions, most promising first, drawn first at
         ``resolution`` (an eighth of the budget, at least one view; e.g. from
+        :class:`vptoolkit.unoccluded.UnoccludedPrior` or
         :class:`vptoolkit.learn.prior.NetworkPrior`).
     coarse_views : int, optional
         Directions of the coarse sphere (default: half of what the prior
@@ -507,7 +509,8 @@ def search_inputs(
         As for :func:`search_best_views`.
     prior : callable, optional
         ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
-        e.g. :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
+        e.g. :class:`vptoolkit.unoccluded.UnoccludedPrior` or
+        :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
 
