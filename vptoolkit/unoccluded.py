@@ -79,7 +79,10 @@ def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     """Unit normals and areas of the faces of positive area, wound outwards.
 
     A mesh whose signed volume ``sum_z (a_z - o) . ((b_z - a_z) x (c_z - a_z)) / 6``
-    (``o`` the mean vertex) is negative is wound inside out; its normals are flipped.
+    is negative is wound inside out; its normals are flipped. The origin ``o``
+    is the mean corner of the faces: on a closed mesh any origin gives the
+    volume, on an open one (a raw scan or CAD export) this one keeps the test
+    from depending on where the file puts its vertices.
 
     Returns
     -------
@@ -97,7 +100,9 @@ def _face_elements(mesh: Mesh,
     keep = double_areas > 0
     if not keep.any():
         raise InputError(f"{mesh.name}: the mesh has zero surface area")
-    first = mesh.vertices[mesh.faces[:, 0]] - mesh.vertices.mean(axis=0)
+    incidence = np.bincount(mesh.faces[keep].ravel(), minlength=len(mesh.vertices))
+    origin = incidence @ mesh.vertices / incidence.sum()  # the mean corner of the faces
+    first = mesh.vertices[mesh.faces[:, 0]] - origin
     outward = 1.0 if float(np.einsum("ij,ij->", first, cross)) >= 0.0 else -1.0
     normals = cross[keep] * (outward / double_areas[keep, None])
     return normals, 0.5 * double_areas[keep], 0.5 * double_areas
