@@ -9,11 +9,13 @@ from click.testing import CliRunner
 
 from vptoolkit.best_view import coarse_directions, search_best_views
 from vptoolkit.cli import main
+from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
+from vptoolkit.predictions import read_predictions
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -152,3 +154,35 @@ def test_the_sphere_of_the_prior_is_the_search_sphere(teapot):
     prior = UnoccludedPrior(n_directions=64, per_measure=1)
     assert all(np.isclose(np.abs(coarse_directions(teapot, 64) @ c).max(), 1.0)
                for c in prior(teapot))
+
+
+def test_predict_unoccluded_of_a_mesh_a_scan_and_a_dataset(tmp_path, tiny_dataset, teapot):
+    sample = sample_surface(teapot, 3000, seed=0)
+    scan = tmp_path / "scan.npy"
+    np.save(scan, np.hstack([sample.points, sample.normals]))
+    out = tmp_path / "best.npz"
+    result = CliRunner().invoke(main, ["predict", "--model", "unoccluded",
+                                       str(sample_path("teapot.stl")), str(scan), "--dataset",
+                                       str(tiny_dataset), "--split", "all", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    names, directions, measures = read_predictions(out)
+    assert list(names[:2]) == ["teapot", "scan"] and len(names) == 6
+    assert directions.shape == (6, 4, 3) and list(measures) == list(MEASURES)
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=2), 1.0)
+    np.testing.assert_array_equal(directions[1], unoccluded_best_views(sample.normals))
+    only_dataset = tmp_path / "dataset.npz"
+    assert CliRunner().invoke(main, ["predict", "-m", "unoccluded", "--dataset",
+                                     str(tiny_dataset), "--split", "all",
+                                     "-o", str(only_dataset)]).exit_code == 0
+    scored = CliRunner().invoke(main, ["evaluate", str(only_dataset), "--dataset",
+                                       str(tiny_dataset), "--split", "all"])
+    assert scored.exit_code == 0, scored.output
+
+
+def test_predict_unoccluded_of_points_without_normals_exits_2(tmp_path, teapot):
+    scan = tmp_path / "bare.npy"
+    np.save(scan, sample_surface(teapot, 500, seed=0).points)
+    result = CliRunner().invoke(main, ["predict", "--model", "unoccluded", str(scan)])
+    assert result.exit_code == 2
+    assert result.stderr.count("\n") == 1 and "bare.npy: has no normals" in result.stderr
+    assert "Traceback" not in result.output

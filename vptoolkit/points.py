@@ -17,7 +17,7 @@ global random state.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,6 +38,7 @@ __all__ = [
     "network_input",
     "poisson_disk_points",
     "read_point_file",
+    "read_point_normals",
 ]
 
 N_SURFACE_POINTS = 20_000
@@ -432,6 +433,34 @@ def read_point_file(path: Path) -> NDArray[np.float64]:
         (:func:`vptoolkit.mesh.check_coordinate_range`), or the points lie
         on one line (two points, or all at one point) and so span no surface.
     """
+    return _read_point_table(path)[0]
+
+
+def read_point_normals(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Read the points and normals of an ``(N, 6)`` ``.npy`` point file (``x y z nx ny nz``).
+
+    Returns
+    -------
+    points, normals : (N, 3) float64
+
+    Raises
+    ------
+    InputError
+        Naming the file, as :func:`read_point_file` does, and if the file has
+        no normal columns or a normal is NaN, infinite or of zero length.
+    """
+    points, table = _read_point_table(path)
+    if table.shape[1] != 6:
+        raise InputError(f"{path.name}: has no normals; expected an (N, 6) point array "
+                         "(x y z nx ny nz, as vptool sample writes)")
+    normals = np.asarray(table[:, 3:], dtype=np.float64)
+    if not np.isfinite(normals).all() or not (np.linalg.norm(normals, axis=1) > 0).all():
+        raise InputError(f"{path.name}: a normal is NaN, infinite or of zero length")
+    return points, normals
+
+
+def _read_point_table(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
+    """The checked points of a point file (:func:`read_point_file`) and its whole table."""
     try:
         with open(path, "rb") as stream:
             check_npy_header(stream, path.name, path.stat().st_size)
@@ -453,7 +482,7 @@ def read_point_file(path: Path) -> NDArray[np.float64]:
             f"{path.name}: its {len(points)} point(s) lie on one line, without the extent of "
             "a surface; a view can only be predicted for a shape (points not all on a line)"
         )
-    return points
+    return points, table
 
 
 def _on_one_line(points: NDArray[np.float64]) -> bool:

@@ -44,6 +44,9 @@ model's own coordinates. Numpy only.
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
 from typing import Final
 
 import numpy as np
@@ -60,6 +63,7 @@ __all__ = [
     "UNOCCLUDED_DIRECTIONS",
     "UnoccludedPrior",
     "mesh_elements",
+    "predict_unoccluded",
     "unoccluded_best_views",
     "unoccluded_quality",
 ]
@@ -291,3 +295,70 @@ class UnoccludedPrior:
         ranked = [found[rank] for rank in range(self.per_measure)
                   for found in per_measure if rank < len(found)]
         return distinct_directions(np.array(ranked).reshape(-1, 3), 1.0)
+
+
+def predict_unoccluded(
+    inputs: Sequence[str | os.PathLike[str]],
+    *,
+    split: str | None = "test",
+    n_directions: int = UNOCCLUDED_DIRECTIONS,
+) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+    """:func:`unoccluded_best_views` of mesh files, point files with normals and dataset splits.
+
+    Parameters
+    ----------
+    inputs : sequence of path-like
+        Mesh files (their faces, on the mesh's principal-frame sphere of
+        ``n_directions``, :func:`vptoolkit.best_view.coarse_directions`),
+        ``(N, 6)`` ``.npy`` point files (``x y z nx ny nz``; on the Fibonacci
+        sphere of ``n_directions``) and datasets (their stored points' normals,
+        likewise), in any mix. Names: file stems, or the dataset's.
+    split : str, optional
+        Split of dataset inputs, or None for every model (default: "test").
+    n_directions : int
+        Directions the estimate is evaluated at (default: 128).
+
+    Returns
+    -------
+    names : tuple of str
+    directions : (n_models, 4, 3) float64
+        Unit directions in ``MEASURES`` order, each in its input's own frame.
+
+    Raises
+    ------
+    InputError
+        Naming the input, on an unreadable file, a point file without normals,
+        an unknown file type or split, or two models of one name.
+    """
+    from vptoolkit.best_view import coarse_directions
+    from vptoolkit.data import open_dataset
+    from vptoolkit.io import SUPPORTED_SUFFIXES, load_mesh
+    from vptoolkit.points import read_point_normals
+
+    names: list[str] = []
+    answers: list[NDArray[np.float64]] = []
+
+    def add(name: str, answer: NDArray[np.float64]) -> None:
+        if name in names:
+            raise InputError(f"inputs: two models are named {name!r}; model names must be unique")
+        names.append(name)
+        answers.append(answer)
+
+    for source in inputs:
+        path = Path(source)
+        suffix = path.suffix.lower()
+        if suffix == ".npy":
+            add(path.stem, unoccluded_best_views(read_point_normals(path)[1],
+                                                 directions=n_directions))
+        elif suffix in SUPPORTED_SUFFIXES:
+            mesh = load_mesh(path)
+            normals, areas, face_areas = _face_elements(mesh)
+            add(path.stem, unoccluded_best_views(
+                normals, areas, directions=coarse_directions(mesh, n_directions, face_areas)))
+        else:
+            with open_dataset(path) as dataset:
+                subset = dataset.split(split) if split is not None else dataset
+                for position, name in enumerate(subset.names):
+                    add(name, unoccluded_best_views(subset[position]["normals"],
+                                                    directions=n_directions))
+    return tuple(names), np.array(answers).reshape(-1, len(MEASURES), 3)

@@ -34,6 +34,7 @@ __all__ = [
     "local_dataset",
     "MEASURE_CHOICE",
     "MODEL_HELP",
+    "PREDICT_MODEL_HELP",
     "views_option",
     "resolution_option",
     "points_option",
@@ -145,6 +146,8 @@ MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
 
 MODEL_HELP = ("Checkpoint (folder or .safetensors), or 'default' for the bundled network "
               "(./default for a checkpoint of that name).")
+PREDICT_MODEL_HELP = (MODEL_HELP[:-1] + "; 'unoccluded' for the closed form from normals, "
+                      "no network.")
 
 _ENGINE_HELP = ("software: the measures' rasteriser, fast on any CPU; open3d: Filament's "
                 "shading via Vulkan (erratic frame times on software Vulkan).")
