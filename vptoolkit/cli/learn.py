@@ -211,7 +211,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
         from vptoolkit.unoccluded import predict_unoccluded
 
         names, directions = predict_unoccluded(sources, split=chosen)
-        measures = MEASURES
+        measures: tuple[str, ...] = MEASURES
     else:
         names, directions, measures = _network_predictions(model, sources, chosen, seed,
                                                            category, device)
