@@ -63,7 +63,7 @@ from vptoolkit.checks import one_line
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures import quality_from_histograms
+from vptoolkit.measures import quality_from_histograms, ranked_views
 from vptoolkit.mesh import Mesh
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import as_directions, fibonacci_sphere
@@ -305,11 +305,7 @@ class _Renderer:
 def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
                         per_measure: int) -> NDArray[np.float64]:
     """The best ``per_measure`` coarse directions of each measure, distinct, rank by rank."""
-    orders = []
-    for column, higher in enumerate(HIGHER_IS_BETTER):
-        worst = -np.inf if higher else np.inf
-        values = np.where(np.isfinite(raw[:, column]), raw[:, column], worst)
-        orders.append(np.argsort(-values if higher else values, kind="stable"))
+    orders = [ranked_views(raw, column) for column in range(len(MEASURES))]
     chosen: list[int] = []
     for rank in range(min(per_measure, len(directions))):
         for order in orders:

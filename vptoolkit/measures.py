@@ -52,7 +52,13 @@ from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import ViewHistograms, iter_view_histograms
 
-__all__ = ["ViewQuality", "compute_view_quality", "normalize_quality", "quality_from_histograms"]
+__all__ = [
+    "ViewQuality",
+    "compute_view_quality",
+    "normalize_quality",
+    "quality_from_histograms",
+    "ranked_views",
+]
 
 _STORE_BYTES = 1 << 29  # keep histograms for the VMI pass up to this size, else recompute
 
@@ -147,6 +153,20 @@ class ViewQuality:
                 camera=np.str_(json.dumps(self.camera.to_dict(), sort_keys=True)),
             )
         return target
+
+
+def ranked_views(raw: NDArray[np.float64], column: int) -> NDArray[np.intp]:
+    """Row indices of ``raw`` from the best to the worst value of one measure.
+
+    Best is the largest value for VE and VR and the smallest for VKL and VMI
+    (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`); NaN rows come last, and
+    equal values keep their order (a stable sort).
+    """
+    if HIGHER_IS_BETTER[column]:
+        return np.argsort(-np.where(np.isfinite(raw[:, column]), raw[:, column], -np.inf),
+                          kind="stable")
+    return np.argsort(np.where(np.isfinite(raw[:, column]), raw[:, column], np.inf),
+                      kind="stable")
 
 
 def normalize_quality(raw: ArrayLike) -> NDArray[np.float64]:

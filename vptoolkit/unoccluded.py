@@ -52,11 +52,12 @@ from typing import Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
+from vptoolkit.measures import ranked_views
 from vptoolkit.mesh import Mesh
-from vptoolkit.sphere import as_directions, distinct_directions
+from vptoolkit.sphere import as_directions, distinct_directions, fibonacci_sphere
 
 __all__ = [
     "NORMAL_CELLS",
@@ -198,12 +199,6 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
     return raw
 
 
-def _ranked(raw: NDArray[np.float64], column: int) -> NDArray[np.intp]:
-    """Direction indices from best to worst for one measure, NaN last (stable order)."""
-    values = raw[:, column] if HIGHER_IS_BETTER[column] else -raw[:, column]
-    return np.argsort(-np.where(np.isfinite(values), values, -np.inf), kind="stable")
-
-
 def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
                           directions: ArrayLike | int = UNOCCLUDED_DIRECTIONS,
                           ) -> NDArray[np.float64]:
@@ -233,8 +228,6 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
     >>> unoccluded_best_views(normals, areas).shape
     (4, 3)
     """
-    from vptoolkit.sphere import fibonacci_sphere
-
     normals = np.asarray(normals, dtype=np.float64)
     if isinstance(directions, (int, np.integer)) and not isinstance(directions, bool):
         candidates = fibonacci_sphere(int(directions))
@@ -242,7 +235,7 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
         candidates = as_directions(directions)
     weights = np.ones(len(normals)) if areas is None else areas
     raw = unoccluded_quality(normals, weights, candidates)
-    return np.stack([candidates[_ranked(raw, column)[0]] for column in range(len(MEASURES))])
+    return np.stack([candidates[ranked_views(raw, column)[0]] for column in range(len(MEASURES))])
 
 
 class UnoccludedPrior:
@@ -289,7 +282,7 @@ class UnoccludedPrior:
         directions = coarse_directions(mesh, self.n_directions, face_areas)
         raw = unoccluded_quality(normals, areas, directions)
         measures = [MEASURES.index(name) for name in ("VE", "VR", "VKL")]
-        per_measure = [distinct_directions(directions[_ranked(raw, column)[:_RANKED]],
+        per_measure = [distinct_directions(directions[ranked_views(raw, column)[:_RANKED]],
                                            self.min_angle_deg)[:self.per_measure]
                        for column in measures]
         ranked = [found[rank] for rank in range(self.per_measure)
