@@ -178,3 +178,16 @@ def test_will_compile_reads_numbas_cache_of_a_function(tmp_path):
     stale = subprocess.run([sys.executable, "-c", check, str(tmp_path)], capture_output=True,
                            text=True, check=True, timeout=120)
     assert stale.stdout.strip() == "True"  # the source changed: numba compiles again
+
+
+def test_calibration_models_are_spread_over_the_file_sizes(src, tmp_path):
+    from vptoolkit.dataset.plan import size_strata
+
+    models = discover_models(src)
+    by_size = sorted(models, key=lambda model: model.path.stat().st_size)
+    chosen = size_strata(models, 3)  # midpoints of 3 strata of 7: indices 1, 3 and 5
+    assert [model.name for model in chosen] == [by_size[i].name for i in (1, 3, 5)]
+    assert size_strata(models, 10) == by_size and size_strata([], 2) == []
+    # A collection sorted small-first is not judged by its first, smallest models.
+    plan = plan_build(src, tmp_path / "out", TINY, calibrate=3)
+    assert plan.n_calibrated == 3 and plan.n_calibration_failures == 0

@@ -20,6 +20,7 @@ from vptoolkit.evaluate.protocol import (
     paired_difference,
     pca_predictor,
     random_view_scores,
+    score_mesh_protocol,
     score_protocol,
 )
 from vptoolkit.rotations import fixed_rotations, model_key, random_rotation
@@ -81,6 +82,27 @@ def test_predictions_are_rotated_back_before_scoring(dataset):
 
     scores = score_protocol(dataset, oracle, n_rotations=2)
     assert calls["n"] == 2 and np.allclose(scores.scores, 100.0)
+
+
+def test_mesh_answers_see_the_stored_mesh_under_the_same_rotations(dataset):
+    """An answer that draws the mesh is scored like a point predictor: same rotations, same
+    rotation back; the PCA axis of the rotated mesh's vertices turns with it."""
+    constant = np.tile([0.0, 0.0, 1.0], (4, 1))
+    by_mesh = score_mesh_protocol(dataset, lambda mesh: constant, n_rotations=3)
+    by_points = score_protocol(dataset, constant_predictor(constant), n_rotations=3)
+    assert by_mesh.n_rotations == 3 and np.allclose(by_mesh.scores, by_points.scores)
+    seen = []
+
+    def answer(mesh):
+        seen.append(mesh.vertices.copy())
+        return np.tile(pca_predictor([mesh.vertices], [mesh.name])[0][0], (4, 1))
+
+    score_mesh_protocol(dataset, answer, n_rotations=2)
+    vertices, _ = dataset.mesh(0)
+    first = fixed_rotations(dataset.names[0], 2)[0]
+    assert np.allclose(seen[0], np.asarray(vertices, dtype=np.float64) @ first.T)
+    with pytest.raises(InputError, match="answer: expected directions"):
+        score_mesh_protocol(dataset, lambda mesh: np.zeros(3))
 
 
 def test_random_view_expectation_matches_many_random_directions(dataset):

@@ -142,3 +142,38 @@ def test_the_samples_split_file_places_every_sample_in_all_three_splits(tmp_path
     script = (Path(__file__).resolve().parents[1] / "tools" / "run_sample.sh").read_text()
     assert "build-dataset vptoolkit/samples" in script
     assert "--splits vptoolkit/samples/splits.csv" in script
+
+
+def test_class_split_is_stratified_and_ignores_order():
+    from vptoolkit.dataset.split_files import class_split
+
+    models = [(category, f"{category}{i}") for category, n in (("jet", 40), ("cup", 5),
+                                                               ("hat", 2), ("one", 1))
+              for i in range(n)]
+    split = class_split(models, fraction=0.1, seed=3)
+    by = {category: [split[name] for c, name in models if c == category]
+          for category in ("jet", "cup", "hat", "one")}
+    assert by["jet"].count("validation") == 4  # round(0.1 * 40)
+    assert by["cup"].count("validation") == 1 and by["hat"].count("validation") == 1
+    assert by["one"] == ["train"]  # a single model stays in train
+    assert class_split(models[::-1], fraction=0.1, seed=3) == split  # order does not matter
+    assert class_split(models, fraction=0.1, seed=4) != split
+    with pytest.raises(InputError, match="occurs twice"):
+        class_split([("a", "x"), ("b", "x")])
+    with pytest.raises(InputError, match="fraction"):
+        class_split(models, fraction=1.0)
+
+
+def test_split_command_writes_a_file_build_dataset_reads(tmp_path):
+    src = source(tmp_path / "src")
+    result = CliRunner().invoke(main, ["split", str(src), "-o", str(tmp_path / "splits.csv"),
+                                       "--validation", "0.1"])
+    assert result.exit_code == 0, result.output
+    assert "2 train, 2 validation models in 2 categories" in result.output
+    written = read_split_file(tmp_path / "splits.csv")
+    assert sorted(written) == ["bottle", "lego", "mug", "table"]
+    assert sorted(written.values()) == ["train", "train", "validation", "validation"]
+    built = build_dataset(src, tmp_path / "out",
+                          replace(TINY, splits=SplitFile.read(tmp_path / "splits.csv")))
+    assert {name: ("validation" if split == "val" else split)
+            for name, split in stored_splits(built.path).items()} == written

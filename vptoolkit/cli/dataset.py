@@ -1,4 +1,4 @@
-"""Commands over whole datasets: ``build-dataset``, ``pack``, ``verify``, ``info``,
+"""Commands over whole datasets: ``build-dataset``, ``split``, ``pack``, ``verify``, ``info``,
 ``import-authors`` and ``export-authors``."""
 
 from __future__ import annotations
@@ -354,5 +354,42 @@ def export_authors(dataset: Path, out: Path) -> None:
                    "nothing were written as their measure's worst value", err=True)
 
 
-COMMANDS = (build_dataset, pack, verify, info, import_authors, export_authors)
+@click.command("split")
+@click.argument("src", type=ExistingPath(exists=True, file_okay=False, path_type=Path))
+@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path), required=True,
+              help="The name,split CSV to write.")
+@click.option("--validation", "fraction", type=click.FloatRange(0, 1, min_open=True,
+              max_open=True), default=0.1, show_default=True,
+              help="Share of each category that goes to validation.")
+@click.option("--seed", default=SEED, show_default=True, type=int,
+              help="Seed of the order within each category.")
+@click.option("--categories", help="Comma-separated categories to include (default: all).")
+def split(src: Path, output: Path, fraction: float, seed: int, categories: str | None) -> None:
+    """Write a train/validation split of the meshes under SRC, stratified by category.
+
+    Within each category (folder) a seeded hash orders the models and the
+    first --validation share (at least one, when the category has two or
+    more models) goes to validation. The file is what build-dataset --splits
+    reads; publish it beside your results so the split can be rebuilt.
+
+    \b
+    Example:
+      vptool split meshes/ -o splits.csv --validation 0.1
+      vptool build-dataset meshes/ out/ --splits splits.csv --workers 2
+    """
+    from vptoolkit.dataset.sources import discover_models
+    from vptoolkit.dataset.split_files import class_split, write_split_file
+
+    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    models = discover_models(src, chosen)
+    splits = class_split([(model.category, model.name) for model in models],
+                         fraction=fraction, seed=seed)
+    write_split_file(output, splits)
+    n_val = sum(1 for value in splits.values() if value == "validation")
+    n_categories = len({model.category for model in models})
+    click.echo(f"wrote {output}: {len(splits) - n_val} train, {n_val} validation "
+               f"models in {n_categories} categories")
+
+
+COMMANDS = (build_dataset, split, pack, verify, info, import_authors, export_authors)
 """The commands this module adds to ``vptool``."""

@@ -3,10 +3,13 @@
 :func:`plan_build` finds the models a :func:`~vptoolkit.dataset.build.build_dataset`
 call with the same :class:`~vptoolkit.dataset.build_options.BuildOptions` would
 take, counts them per category and split, and builds a few of them
-(``calibrate``, spread over the categories as ``max_models`` spreads them)
-into a temporary folder with the same options.
-The seconds and bytes of those models, scaled to all the models, are the
-estimate: the seconds of one process (as ``workers=1``), those seconds
+(``calibrate``) into a temporary folder with the same options. The
+calibration models are spread over the file sizes: with the ``n`` models
+sorted by size, the ``k`` chosen sit at ``floor((i + 1/2) n / k)``, the
+midpoints of ``k`` equal-count size strata, so a collection whose first
+models are small (or large) is not misjudged. The wall seconds of that
+calibration build per model and its bytes per model, scaled to all the
+models, are the estimate: the seconds of one process (as ``workers=1``), those seconds
 shared among ``workers`` processes (at most one per CPU and per model: the
 work of a model is not split, and two processes on one core take turns), and
 the bytes of the build folder (its staging files plus the store). It is an estimate from
@@ -19,16 +22,18 @@ from __future__ import annotations
 
 import os
 import tempfile
-from collections.abc import Iterable
+import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from vptoolkit.checks import as_path, check_int
 from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.dataset.sources import SourceModel
 
-__all__ = ["CALIBRATION_MODELS", "BuildPlan", "plan_build"]
+__all__ = ["CALIBRATION_MODELS", "BuildPlan", "plan_build", "size_strata"]
 
-CALIBRATION_MODELS = 3
+CALIBRATION_MODELS = 8
 """Models :func:`plan_build` builds for its estimate unless told otherwise."""
 
 
@@ -51,8 +56,9 @@ class BuildPlan:
     n_calibration_failures : int
         Of those, how many failed (not counted in the per-model figures).
     seconds_per_model, bytes_per_model : float or None
-        Mean seconds (load, clean, sample, measure, write) and build-folder
-        bytes of a calibrated model; None when none was built.
+        Wall seconds of the calibration build per calibration model (load,
+        clean, sample, measure, write; a failed model's time counts too) and
+        build-folder bytes of a built model; None when none was built.
     workers : int
         Processes the estimate shares the work among: the build's
         ``workers``, at most the CPU count and the model count (at least 1).
@@ -175,16 +181,37 @@ def plan_build(
                        n_points=min(options.n_points, 50), max_models=1)
         build_dataset(selection.root, Path(folder) / "warm-up", tiny, categories=categories,
                       progress=False, compile_notice=progress)
+        chosen = size_strata(selection.models, n_calibrate)
+        sources = Path(folder) / "src"
+        for model in chosen:
+            link = sources / model.source
+            link.parent.mkdir(parents=True, exist_ok=True)
+            link.symlink_to(model.path)
         trial = Path(folder) / "build"
-        # max_models=n takes the first n of the models max_models chose: the same spread.
-        result = build_dataset(selection.root, trial, replace(options, max_models=n_calibrate),
-                               categories=categories, progress=progress)
+        started = time.perf_counter()
+        result = build_dataset(sources, trial, replace(options, max_models=None),
+                               progress=progress)
+        wall = time.perf_counter() - started
         n_bytes = sum(path.stat().st_size for path in trial.rglob("*") if path.is_file())
     n_built = result.n_computed
     if n_built == 0:
         return _with(plan, n_calibrate, result.n_failures, None, None)
-    seconds = sum(result.stage_seconds.values()) / n_built
-    return _with(plan, n_calibrate, n_calibrate - n_built, seconds, n_bytes / n_built)
+    return _with(plan, n_calibrate, n_calibrate - n_built, wall / n_calibrate,
+                 n_bytes / n_built)
+
+
+def size_strata(models: Sequence[SourceModel], k: int) -> list[SourceModel]:
+    """``k`` of ``models`` spread over their file sizes: the midpoints of ``k`` size strata.
+
+    With the models sorted by ``(size, source)``, the ``i``-th chosen is at
+    ``floor((i + 1/2) n / k)``; with ``k >= n`` every model is chosen.
+
+    """
+    by_size = sorted(models, key=lambda model: (model.path.stat().st_size, model.source))
+    n = len(by_size)
+    if k >= n:
+        return by_size
+    return [by_size[int((i + 0.5) * n / k)] for i in range(k)]
 
 
 def _with(plan: BuildPlan, n_calibrated: int, n_failed: int, seconds: float | None,

@@ -9,9 +9,17 @@ The paper's rule (:func:`paper_split`)
     ``train``/``test`` folder in the line is ModelNet's own and is not the
     paper's split.
 
-CSV (:func:`read_split_file`)
+CSV (:func:`read_split_file`, :func:`write_split_file`)
     A header line ``name,split`` then one model per line; the split is one of
     ``train``, ``validation`` (or ``val``) and ``test``.
+
+A split stratified by category (:func:`class_split`)
+    Within each category the models are ordered by
+    ``SHA-256(f"{seed}:{category}/{name}")`` and the first
+    ``max(1, round(fraction * n))`` become validation (none where the
+    category has a single model), the rest train; so every category with two
+    or more models is seen in both splits, and the split of a model depends
+    on its category's members and the seed only, never on file order.
 
 Needs the standard library only.
 """
@@ -19,6 +27,7 @@ Needs the standard library only.
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import os
 from collections.abc import Iterable, Sequence
@@ -28,14 +37,17 @@ from pathlib import Path, PurePosixPath
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
+from vptoolkit.files import write_text_atomic
 
 __all__ = [
     "PAPER_CATEGORIES",
     "ListedModel",
+    "class_split",
     "paper_split",
     "paper_splits",
     "read_model_list",
     "read_split_file",
+    "write_split_file",
 ]
 
 PAPER_CATEGORIES = ("airplane", "bench", "bottle", "car", "chair", "sofa", "table", "toilet")
@@ -216,3 +228,79 @@ def _read_csv(source: Path, text: str) -> dict[str, str]:
             raise InputError(f"{source}: line {number} lists {name!r} a second time")
         splits[name] = split
     return splits
+
+
+def class_split(models: Iterable[tuple[str, str]], *, fraction: float = 0.1,
+                seed: int = 0) -> dict[str, str]:
+    """Split models into train and validation within each category.
+
+    Parameters
+    ----------
+    models : iterable of (str, str)
+        ``(category, name)`` of every model; names must be unique.
+    fraction : float, optional
+        Share of each category that goes to validation, in (0, 1)
+        (default 0.1); at least one model of each category with two or more.
+    seed : int, optional
+        Seed of the order within each category (default 0).
+
+    Returns
+    -------
+    dict
+        Model name to ``"train"`` or ``"validation"``, in the order given.
+
+    Raises
+    ------
+    InputError
+        If ``fraction`` is outside (0, 1) or a name occurs twice.
+
+    Examples
+    --------
+    >>> split = class_split([("cup", "a"), ("cup", "b"), ("jet", "c")], fraction=0.1)
+    >>> sorted(split.values())
+    ['train', 'train', 'validation']
+    """
+    if not isinstance(fraction, (int, float)) or not 0.0 < fraction < 1.0:
+        raise InputError(f"fraction: expected a number in (0, 1), got {fraction!r}")
+    by_category: dict[str, list[str]] = {}
+    order: dict[str, None] = {}
+    for category, name in models:
+        if name in order:
+            raise InputError(f"models: the name {name!r} occurs twice; names must be unique")
+        by_category.setdefault(category, []).append(name)
+        order[name] = None
+    validation: set[str] = set()
+    for category, names in by_category.items():
+        if len(names) < 2:
+            continue
+        n_val = min(len(names) - 1, max(1, round(fraction * len(names))))
+        ranked = sorted(names, key=lambda name: hashlib.sha256(
+            f"{seed}:{category}/{name}".encode()).hexdigest())
+        validation.update(ranked[:n_val])
+    return {name: "validation" if name in validation else "train" for name in order}
+
+
+def write_split_file(path: str | os.PathLike[str], splits: dict[str, str]) -> Path:
+    """Write a ``name,split`` CSV that :func:`read_split_file` reads back, sorted by name.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write (atomically: a reader never sees half of it).
+    splits : dict
+        Model name to a split of :data:`~vptoolkit.conventions.SPLITS`.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    unknown = sorted({split for split in splits.values() if split not in SPLITS})
+    if unknown:
+        raise InputError(f"splits: {', '.join(unknown)} is not one of {', '.join(SPLITS)}")
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["name", "split"])
+    for name in sorted(splits):
+        writer.writerow([name, splits[name]])
+    return write_text_atomic(path, buffer.getvalue())

@@ -14,6 +14,10 @@ rotated inputs (:func:`score_protocol`):
    over models with its standard error ``s / sqrt(n)`` (``s`` the sample
    standard deviation over models).
 
+An answer that needs the mesh itself (a search that draws views) is scored
+the same way by :func:`score_mesh_protocol`: it sees the stored cleaned mesh
+rotated by the same ``R_k`` instead of the points.
+
 ``rotate=False`` scores the models in their stored orientation (one pass):
 the paper's protocol, a second table, easy for shapes that are stored upright.
 
@@ -53,12 +57,14 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import pca_directions
+from vptoolkit.mesh import Mesh
 from vptoolkit.rotations import fixed_rotations
 
 __all__ = [
     "Predictor",
     "ProtocolScores",
     "score_protocol",
+    "score_mesh_protocol",
     "random_view_scores",
     "pca_predictor",
     "best_constant_directions",
@@ -167,6 +173,48 @@ def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotatio
             totals[i] += 100.0 * np.diagonal(dataset.quality_of(i, back))
     return ProtocolScores(tuple(names), tuple(dataset.categories), totals / rotations.shape[1],
                           n_rotations if rotate else 0)
+
+
+def score_mesh_protocol(dataset: ViewpointDataset,
+                        answer: Callable[[Mesh], NDArray[np.float64]], *,
+                        n_rotations: int = 4, seed: int = 0) -> ProtocolScores:
+    """Score an answer that draws the mesh (e.g. a plain search) on rotated meshes.
+
+    The same protocol as :func:`score_protocol`, with the stored cleaned
+    mesh ``V R_k^T`` in place of the points: ``answer(mesh) -> (4, 3)``
+    directions in the rotated frame, scored after ``d R_k``.
+
+    Parameters
+    ----------
+    dataset : ViewpointDataset
+        The models to score; their stored meshes are used.
+    answer : callable
+        ``answer(mesh) -> (4, 3)`` unit directions in ``MEASURES`` order.
+    n_rotations : int
+        Rotations per model, at least 1 (default: 4).
+    seed : int
+        Seed of the rotations (default: 0).
+
+    Returns
+    -------
+    ProtocolScores
+    """
+    _check_dataset(dataset)
+    n_rotations = check_int(n_rotations, "n_rotations", minimum=1)
+    names = list(dataset.names)
+    totals = np.zeros((len(names), len(MEASURES)))
+    for i, name in enumerate(names):
+        vertices, faces = dataset.mesh(i)
+        for turn in fixed_rotations(name, n_rotations, seed=seed):
+            rotated = Mesh(np.asarray(vertices, dtype=np.float64) @ turn.T,
+                           np.asarray(faces, dtype=np.int64), name=name)
+            directions = np.asarray(answer(rotated), dtype=np.float64)
+            if directions.shape != (len(MEASURES), 3):
+                raise InputError(f"answer: expected directions of shape ({len(MEASURES)}, 3), "
+                                 f"got {directions.shape}")
+            totals[i] += 100.0 * np.diagonal(dataset.quality_of(i, directions @ turn))
+    return ProtocolScores(tuple(names), tuple(dataset.categories), totals / n_rotations,
+                          n_rotations)
 
 
 def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
