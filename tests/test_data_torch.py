@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -195,3 +196,71 @@ def test_too_few_surface_points_for_fps(tmp_path: Path) -> None:
     with open_dataset(store) as small:
         with pytest.raises(InputError, match="fewer than the n_fps=1024"):
             ViewpointTorchDataset(small)[0]
+
+
+# --------------------------------------------------------------------------- as PyTorch Geometric
+
+
+@pytest.mark.parametrize("index", [
+    slice(1, 4), [1, 2, 3], (1, 2, 3), np.array([1, 2, 3]), torch.tensor([1, 2, 3]),
+    np.array([False, True, True, True, False]), torch.tensor([False, True, True, True, False]),
+], ids=["slice", "list", "tuple", "array", "tensor", "mask", "tensor-mask"])
+def test_slices_and_index_lists_give_a_dataset_over_those_models(
+        dataset: ViewpointDataset, index: object) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4)
+    picked = adapter[index]
+    assert isinstance(picked, ViewpointTorchDataset) and len(picked) == 3
+    assert [picked[i]["name"] for i in range(3)] == dataset.names[1:4]
+    assert (picked.n_points, picked.n_fps, picked.seed) == (128, 32, 4)
+    for position, model in enumerate(range(1, 4)):  # the same items as through the whole dataset
+        assert _same(picked[position], adapter[model])
+
+
+def test_a_subset_keeps_the_order_of_its_indices_and_an_epoch_of_its_own(
+        dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset, n_points=128, n_fps=32, seed=4, fps_pool=2)
+    adapter.set_epoch(3)
+    picked = adapter[[4, 0, -1]]
+    assert [picked[i]["name"] for i in range(3)] == ["chair_0002", "airplane_0001", "chair_0002"]
+    assert picked.epoch == 3 and _same(picked[0], adapter[4]) and _same(picked[1], adapter[0])
+    picked.set_epoch(5)
+    assert (picked.epoch, adapter.epoch) == (5, 3)
+    assert isinstance(adapter[torch.tensor(2)], dict)  # a 0-d tensor is one item
+    assert len(adapter[2:2]) == 0 and len(adapter[[]]) == 0
+    with pytest.raises(IndexError, match="index 5 out of range for 5 models"):
+        adapter[[0, 5]]
+
+
+def test_split_selects_the_models_of_one_split(dataset: ViewpointDataset) -> None:
+    train = ViewpointTorchDataset(dataset, split="train", n_points=128, n_fps=32)
+    assert len(train) == 3
+    assert [train[i]["name"] for i in range(3)] == dataset.split("train").names
+    with pytest.warns(UserWarning):
+        validation = ViewpointTorchDataset(dataset, split="val", n_points=128, n_fps=32)
+    assert [validation[0]["name"]] == dataset.split("validation").names == ["airplane_0003"]
+    with pytest.raises(InputError, match="split: unknown split 'dev'"):
+        ViewpointTorchDataset(dataset, split="dev")
+
+
+def test_num_classes_and_class_names_are_the_stores_in_every_split(
+        dataset: ViewpointDataset) -> None:
+    adapter = ViewpointTorchDataset(dataset)
+    assert (adapter.num_classes, adapter.class_names) == (2, ["airplane", "chair"])
+    with pytest.warns(UserWarning):
+        test = ViewpointTorchDataset(dataset, split="test")
+    assert len(test) == 1 and (test.num_classes, test.class_names) == (2, ["airplane", "chair"])
+    assert adapter[0:1].num_classes == 2
+    assert test.class_names[test[0]["label"]] == test[0]["category"]
+
+
+def test_a_category_without_models_in_the_split_is_one_warning_line(
+        dataset: ViewpointDataset) -> None:
+    with pytest.warns(UserWarning) as caught:
+        ViewpointTorchDataset(dataset, split="val")
+    assert [str(w.message) for w in caught] == [
+        "category 'chair' has no model in split 'validation'"]
+    assert caught[0].filename == __file__  # points at the caller
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ViewpointTorchDataset(dataset, split="train")  # every category has train models
+        ViewpointTorchDataset(dataset.split("validation"), split="validation")  # only airplanes

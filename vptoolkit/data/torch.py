@@ -25,19 +25,30 @@ Randomness
     ``persistent_workers=True``; a given epoch gives the same items in any
     process.
 
+Indexing
+    As PyTorch Geometric's datasets do, an integer gives an item, and a
+    slice, a list, tuple, array or tensor of indices or a boolean mask
+    (``inputs[0:80]``, ``inputs[[0, 2]]``) gives another
+    :class:`ViewpointTorchDataset` over those models, with the same options
+    and cache; its epoch starts at this one's and follows its own
+    :meth:`~ViewpointTorchDataset.set_epoch`.
+
 torch is imported when this module is imported; :mod:`vptoolkit.data` never
 imports this module.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+import copy
+import warnings
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.data import ViewpointDataset
+from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
@@ -66,7 +77,12 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     Parameters
     ----------
     dataset : ViewpointDataset
-        E.g. ``open_dataset(path).split("train")``.
+        E.g. ``open_dataset(path)``, or one split of it.
+    split : str, optional
+        Keep only the models of this split: ``"train"``, ``"validation"``
+        (``"val"`` is an alias) or ``"test"`` (default: every model of
+        ``dataset``). A category of ``dataset`` with no model in the split
+        gets a ``UserWarning`` naming the category and the split.
     n_points : int
         Points per input (default: 4096).
     n_fps : int
@@ -112,6 +128,9 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     ``label``       int                     class label, ``dataset.class_names[label]``
     ==============  ======================  =============================================
 
+    Labels number the store's sorted category names (:attr:`class_names`,
+    :attr:`num_classes` of them), the same in every split and subset.
+
     Points are rotated about the origin of the model coordinates; view
     directions are directions, so the pairing of views and surface holds
     for any centre. To score a prediction ``p`` made on the rotated input,
@@ -120,12 +139,18 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     directly.
     """
 
-    def __init__(self, dataset: ViewpointDataset, *, n_points: int = N_NETWORK_POINTS,
-                 n_fps: int = N_FPS_POINTS, rotate: bool = True, seed: int = 0, fps_pool: int = 0,
-                 cache: bool = True,
+    def __init__(self, dataset: ViewpointDataset, *, split: str | None = None,
+                 n_points: int = N_NETWORK_POINTS, n_fps: int = N_FPS_POINTS, rotate: bool = True,
+                 seed: int = 0, fps_pool: int = 0, cache: bool = True,
                  transform: Callable[[dict[str, Any]], Any] | None = None) -> None:
         if not isinstance(dataset, ViewpointDataset):
             raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")
+        if split is not None:
+            chosen = dataset.split(split)
+            for category in sorted(set(dataset.categories) - set(chosen.categories)):
+                warnings.warn(f"category {category!r} has no model in split "
+                              f"{published_split(split)!r}", UserWarning, stacklevel=2)
+            dataset = chosen
         self.dataset = dataset
         self.n_points = _non_negative_int(n_points, "n_points")
         if self.n_points < 1:
@@ -142,11 +167,22 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         self.transform = transform
         # In shared memory: DataLoader workers, persistent ones too, read the epoch set here.
         self._epoch = torch.zeros((), dtype=torch.int64).share_memory_()
+        # Keyed by store row, so that the subsets indexing gives share them.
         self._items: dict[int, dict[str, Any]] = {}
         self._pool: dict[tuple[int, int], NDArray[np.int64]] = {}
 
     def __len__(self) -> int:
         return len(self.dataset)
+
+    @property
+    def class_names(self) -> list[str]:
+        """Category of each label: the store's sorted category names, label ``i`` at ``[i]``."""
+        return self.dataset.class_names
+
+    @property
+    def num_classes(self) -> int:
+        """Number of classes, ``len(class_names)``, whichever models this dataset holds."""
+        return len(self.dataset.class_names)
 
     @property
     def epoch(self) -> int:
@@ -165,19 +201,20 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         return np.random.default_rng(rotation_seed), np.random.default_rng(points_seed)
 
     def _item(self, index: int) -> dict[str, Any]:
-        if index in self._items:
-            return self._items[index]
+        row = self.dataset.row(index)
+        if row in self._items:
+            return self._items[row]
         item = self.dataset[index]
         kept = {key: item[key]
                 for key in ("points", "quality", "best_index", "name", "category", "label",
                             "views")}
         if self.cache:
-            self._items[index] = kept
+            self._items[row] = kept
         return kept
 
     def _fps_subset(self, index: int, member: int,
                     points: NDArray[np.float32]) -> NDArray[np.int64]:
-        key = (index, member)
+        key = (self.dataset.row(index), member)
         if key not in self._pool:
             from vptoolkit.points import farthest_point_sampling
 
@@ -187,7 +224,18 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
             self._pool[key] = farthest_point_sampling(points, self.n_fps, rng=rng)
         return self._pool[key]
 
-    def __getitem__(self, index: int) -> dict[str, Any]:
+    @overload
+    def __getitem__(self, index: int | np.integer[Any]) -> dict[str, Any]: ...
+
+    @overload
+    def __getitem__(self, index: slice | Sequence[int] | NDArray[Any] | torch.Tensor
+                    ) -> ViewpointTorchDataset: ...
+
+    def __getitem__(self, index: Any) -> Any:
+        if isinstance(index, torch.Tensor):
+            index = index.tolist()  # a 0-d tensor gives an int
+        if isinstance(index, (slice, list, tuple, np.ndarray)):
+            return self._subset(index)
         from vptoolkit.points import network_input_indices
 
         item = self._item(index)
@@ -214,3 +262,11 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
             "label": item["label"],
         }
         return result if self.transform is None else self.transform(result)
+
+    def _subset(self, index: slice | Sequence[int] | NDArray[Any]) -> ViewpointTorchDataset:
+        """The models ``index`` picks, with this dataset's options and caches; its epoch
+        starts at this one's and follows its own :meth:`set_epoch`."""
+        subset = copy.copy(self)
+        subset.dataset = self.dataset[index]
+        subset._epoch = torch.full((), self.epoch, dtype=torch.int64).share_memory_()
+        return subset

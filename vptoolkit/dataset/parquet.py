@@ -21,12 +21,24 @@ Hugging Face's ``Array2D``); short vectors are fixed-size lists. Files are
 zstd-compressed, one row group per 64 models, and the same store gives the
 same bytes (same pyarrow version).
 
+Each shard describes itself as the card does: its schema metadata holds the
+columns' :func:`hub_features` under the key ``huggingface``
+(``{"info": {"features": ...}}``, as ``datasets`` writes it; JSON with
+sorted keys). So ``datasets.load_dataset("parquet", data_files=shard)``
+reads one shard alone with ``label`` a ``ClassLabel`` with the class names
+and every string, number and vector column as declared. ``datasets`` takes
+an ``Array2D`` from the metadata only for a column stored as its Arrow
+extension type, which these plain lists are not (so that pandas and
+mlcroissant read them alike with ``datasets`` imported or not): read alone,
+the array columns are ``List(List(Value))`` of the same values.
+
 pyarrow is imported inside :func:`write_parquet_shards` (the ``dataset``
 extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 """
 
 from __future__ import annotations
 
+import json
 import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -52,6 +64,7 @@ __all__ = [
     "parse_size",
     "Column",
     "ParquetShard",
+    "hub_features",
     "model_columns",
     "view_columns",
     "shard_name",
@@ -237,6 +250,42 @@ def view_columns() -> list[Column]:
     ]
 
 
+def hub_features(columns: Sequence[Column]) -> dict[str, Any]:
+    """The columns as Hugging Face ``datasets`` features, the form of ``Features.to_dict()``.
+
+    A column with class names is a ``ClassLabel``, a scalar a ``Value``, a
+    vector a ``List`` (of fixed length where the shape says one), an array
+    of two or more axes an ``Array2D`` (``Array3D``, ...) whose first axis
+    may vary. The card's ``dataset_info`` declares the same features in the
+    hub's YAML.
+
+    Parameters
+    ----------
+    columns : sequence of Column
+        E.g. :func:`model_columns` or :func:`view_columns`.
+
+    Returns
+    -------
+    dict
+        Column name to feature dict, in column order;
+        ``datasets.Features.from_dict`` reads it.
+    """
+    features: dict[str, Any] = {}
+    for column in columns:
+        value = {"_type": "Value", "dtype": column.dtype}
+        if column.class_names is not None:
+            features[column.name] = {"_type": "ClassLabel", "names": list(column.class_names)}
+        elif not column.shape:
+            features[column.name] = value
+        elif len(column.shape) == 1:
+            length = {} if column.shape[0] is None else {"length": column.shape[0]}
+            features[column.name] = {"_type": "List", "feature": value, **length}
+        else:
+            features[column.name] = {"_type": f"Array{len(column.shape)}D", "dtype": column.dtype,
+                                     "shape": list(column.shape)}
+    return features
+
+
 def _arrow_type(pa: Any, column: Column) -> Any:
     value = pa.string() if column.dtype == "string" else pa.from_numpy_dtype(np.dtype(column.dtype))
     if len(column.shape) == 1 and column.shape[0] is not None:
@@ -267,7 +316,10 @@ def _nested(pa: Any, rows: list[NDArray[Any]], column: Column) -> Any:
 
 
 def _schema(pa: Any, columns: list[Column]) -> Any:
-    return pa.schema([pa.field(c.name, _arrow_type(pa, c)) for c in columns])
+    """The Arrow schema of a shard, with its ``datasets`` features as schema metadata."""
+    info = json.dumps({"info": {"features": hub_features(columns)}}, sort_keys=True)
+    return pa.schema([pa.field(c.name, _arrow_type(pa, c)) for c in columns],
+                     metadata={b"huggingface": info.encode()})
 
 
 def _write(pa: Any, pq: Any, path: Path, columns: list[Column],
@@ -406,7 +458,8 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str, *,
     (folder / PARQUET_FOLDER).mkdir(parents=True, exist_ok=True)
     attrs = reader.attrs
     records = _shard_records(reader)
-    columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
+    columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]),
+                            reader.class_labels()[0])
     lengths = {column: np.diff(np.asarray(reader.array(offsets)[...], np.int64))
                for column, offsets in (("mesh_vertices", "mesh_vertex_offsets"),
                                        ("mesh_faces", "mesh_face_offsets"))}
