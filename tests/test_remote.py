@@ -4,20 +4,25 @@ from __future__ import annotations
 
 import functools
 import http.server
+import json
+import os
 import shutil
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 
 from fixtures.environment import require_package
 from fixtures.releases import write_release_build
 from vptoolkit.cli import main
 from vptoolkit.data import open_dataset
+from vptoolkit.data import remote
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
+from vptoolkit.dataset.manifest import write_sha256sums
 from vptoolkit.dataset.release_options import ReleaseOptions
 from vptoolkit.errors import InputError, VerificationError
 
@@ -32,21 +37,33 @@ def release(tmp_path_factory: pytest.TempPathFactory) -> Path:
     base = tmp_path_factory.mktemp("remote")
     write_release_build(base / "build")
     return pack_release(base / "build", base / "release",
-                        ReleaseOptions(formats=["parquet", "hdf5"], license="cc-by-4.0")).path
+                        ReleaseOptions(formats=["parquet", "hdf5"], license="cc-by-4.0",
+                                       force_license=True)).path
+
+
+Route = Callable[[http.server.BaseHTTPRequestHandler], None]
+"""Answers one request in place of the file server."""
 
 
 class _Server:
-    """A release folder served on 127.0.0.1 (port chosen by the system); counts requests."""
+    """A release folder served on 127.0.0.1 (port chosen by the system); counts requests.
+
+    ``routes`` maps a request path to a :data:`Route` that answers it instead.
+    """
 
     def __init__(self, folder: Path) -> None:
         self.folder = folder
         self.requests: list[str] = []
-        log = self.requests
+        self.routes: dict[str, Route] = {}
+        log, routes = self.requests, self.routes
 
         class Handler(http.server.SimpleHTTPRequestHandler):
             def do_GET(self) -> None:  # noqa: N802 - the http.server name
                 log.append(self.path)
-                super().do_GET()
+                if self.path in routes:
+                    routes[self.path](self)
+                else:
+                    super().do_GET()
 
             def log_message(self, *args: object) -> None:
                 pass
@@ -59,6 +76,72 @@ class _Server:
     def downloads(self) -> list[str]:
         """The paths requested other than the manifest."""
         return [path for path in self.requests if not path.endswith("/SHA256SUMS")]
+
+    def path_of(self, name: str) -> str:
+        """The request path of a file of the served release."""
+        return f"/release/{name}"
+
+
+def _send(body: bytes, *, announced: int | None = None, chunked: bool = False,
+          byte_every_s: float = 0.0) -> Route:
+    """A route answering 200 with ``body`` (at most its bytes, then the connection closes).
+
+    ``announced`` is the Content-Length sent (none if None), ``chunked`` sends
+    one chunk header announcing twice the body, ``byte_every_s`` trickles it
+    one byte at a time.
+    """
+    def route(handler: http.server.BaseHTTPRequestHandler) -> None:
+        handler.send_response(200)
+        handler.send_header("Connection", "close")
+        if announced is not None:
+            handler.send_header("Content-Length", str(announced))
+        if chunked:
+            handler.send_header("Transfer-Encoding", "chunked")
+        handler.end_headers()
+        handler.close_connection = True
+        try:
+            if chunked:
+                handler.wfile.write(f"{2 * len(body):x}\r\n".encode())
+            if byte_every_s:
+                for index in range(len(body)):
+                    handler.wfile.write(body[index:index + 1])
+                    handler.wfile.flush()
+                    time.sleep(byte_every_s)
+            else:
+                for start in range(0, len(body), 1 << 16):
+                    handler.wfile.write(body[start:start + (1 << 16)])
+        except (BrokenPipeError, ConnectionResetError):
+            pass  # the client gave up, as it should
+
+    return route
+
+
+def _redirect(location: str) -> Route:
+    """A route answering 302 to ``location``."""
+    def route(handler: http.server.BaseHTTPRequestHandler) -> None:
+        handler.send_response(302)
+        handler.send_header("Location", location)
+        handler.send_header("Content-Length", "0")
+        handler.end_headers()
+
+    return route
+
+
+def _archive_name(served: _Server) -> str:
+    return next((served.folder / "release").glob("*.h5")).name
+
+
+def _cached(cache: Path) -> list[Path]:
+    """Every file and folder below the cache's release folders."""
+    return sorted(path for path in cache.rglob("*") if "releases" in path.parts)
+
+
+def _one_line(result: Result, code: int) -> str:
+    """The CLI's one error line, checked for its exit code."""
+    assert result.exit_code == code, result.output
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, lines
+    return lines[0]
 
 
 @pytest.fixture()
@@ -178,3 +261,189 @@ def test_cli_evaluate_scores_against_a_release_url_as_against_the_folder(
                                       str(release), "--json"])
     assert remote.exit_code == 0, remote.output
     assert json.loads(remote.stdout) == json.loads(local.stdout)
+
+
+@pytest.mark.parametrize("announced", [None, 10**15], ids=["endless", "content-length-1e15"])
+def test_a_manifest_over_its_cap_is_one_line_naming_the_url(
+        served: _Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        announced: int | None) -> None:
+    monkeypatch.setattr(remote, "MAX_MANIFEST_BYTES", 1 << 20)
+    served.routes[served.path_of("SHA256SUMS")] = _send(b"a" * (4 << 20), announced=announced)
+    message = r"release/SHA256SUMS: more than 1048576 bytes, the most a SHA256SUMS manifest"
+    with pytest.raises(InputError, match=message):
+        fetch_release(served.url, cache_dir=tmp_path)
+    result = CliRunner().invoke(main, ["info", served.url, "--cache-dir", str(tmp_path)])
+    assert "release/SHA256SUMS: more than 1048576 bytes" in _one_line(result, 2)
+    assert not _cached(tmp_path)
+
+
+def test_names_the_reader_does_not_read_are_not_downloaded(served: _Server,
+                                                           tmp_path: Path) -> None:
+    manifest = served.folder / "release" / "SHA256SUMS"
+    extra = "".join(f"{'0' * 64}  x{number:06d}.bin\n" for number in range(200_000))
+    manifest.write_text(manifest.read_text(encoding="utf-8") + extra, encoding="utf-8")
+    with open_dataset(served.url, cache_dir=tmp_path) as dataset:
+        assert len(dataset) > 0
+    assert sorted(served.downloads()) == sorted(
+        served.path_of(name) for name in ("README.md", "croissant.json", _archive_name(served)))
+
+
+def _record_size(folder: Path, name: str, size: int) -> None:
+    """Rewrite a release's croissant.json so that it records ``size`` bytes for ``name``."""
+    croissant = folder / "croissant.json"
+    document = json.loads(croissant.read_text(encoding="utf-8"))
+    for entry in document["distribution"]:
+        if entry.get("contentUrl") == name:
+            entry["contentSize"] = f"{size} B"
+    croissant.write_text(json.dumps(document), encoding="utf-8")
+    write_sha256sums(folder)
+
+
+@pytest.mark.parametrize("case", ["recorded-smaller", "endless", "unrecorded"])
+def test_a_file_past_its_size_is_refused_and_nothing_is_cached(
+        served: _Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, case: str) -> None:
+    name = _archive_name(served)
+    size = (served.folder / "release" / name).stat().st_size
+    if case == "recorded-smaller":
+        _record_size(served.folder / "release", name, 1000)
+        message = rf"{name}: more than 1000 bytes, its contentSize in croissant.json"
+    elif case == "endless":  # no Content-Length: refused once the recorded size is passed
+        served.routes[served.path_of(name)] = _send(b"\0" * (8 << 20))
+        message = rf"{name}: more than {size} bytes, its contentSize in croissant.json"
+    else:
+        (served.folder / "release" / "croissant.json").unlink()
+        write_sha256sums(served.folder / "release")
+        monkeypatch.setattr(remote, "MAX_FILE_BYTES", 1000)
+        message = rf"{name}: more than 1000 bytes, the most one file may hold"
+    with pytest.raises(InputError, match=message):
+        fetch_release(served.url, cache_dir=tmp_path)
+    assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+def test_a_file_url_is_bounded_by_the_recorded_size_too(release: Path, tmp_path: Path) -> None:
+    require_package("fsspec")
+    copy = shutil.copytree(release, tmp_path / "release")
+    name = next(copy.glob("*.h5")).name
+    _record_size(copy, name, 1000)
+    with pytest.raises(InputError, match=rf"{name}: more than 1000 bytes, its contentSize"):
+        fetch_release(copy.as_uri(), cache_dir=tmp_path / "cache")
+
+
+@pytest.mark.parametrize("where", ["manifest", "archive", "chunked-manifest"])
+def test_a_download_cut_short_is_one_line_exit_2(served: _Server, tmp_path: Path,
+                                                 where: str) -> None:
+    name = "SHA256SUMS" if where.endswith("manifest") else _archive_name(served)
+    body = (served.folder / "release" / name).read_bytes()[:406]
+    served.routes[served.path_of(name)] = (
+        _send(body, chunked=True) if where == "chunked-manifest" else _send(body, announced=812))
+    with pytest.raises(InputError, match=rf"{name}: download broke off"):
+        fetch_release(served.url, cache_dir=tmp_path)
+    result = CliRunner().invoke(main, ["info", served.url, "--cache-dir", str(tmp_path)])
+    assert f"{name}: download broke off" in _one_line(result, 2)
+    if where == "manifest":
+        assert "(406 of the 812 bytes announced)" in result.output
+    assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+@pytest.mark.parametrize("where", ["manifest", "archive"])
+def test_a_trickling_server_is_refused_below_the_minimum_rate(
+        served: _Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, where: str) -> None:
+    monkeypatch.setattr(remote, "GRACE_S", 0.5)
+    monkeypatch.setattr(remote, "MIN_BYTES_PER_S", 1000)
+    name = "SHA256SUMS" if where == "manifest" else _archive_name(served)
+    # 100 bytes at one per 0.1 s: done after 10 s at most, refused after about 0.6 s
+    served.routes[served.path_of(name)] = _send(b"x" * 100, announced=100, byte_every_s=0.1)
+    with pytest.raises(InputError, match=rf"{name}: too slow \(\d+ bytes in \d+ s, below 1000"):
+        fetch_release(served.url, cache_dir=tmp_path)
+    assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+def test_a_killed_download_leaves_no_partial_file_for_long(served: _Server,
+                                                           tmp_path: Path) -> None:
+    fcntl = pytest.importorskip("fcntl")
+    cache = tmp_path / "cache"
+    folder = fetch_release(served.url, cache_dir=cache)
+    name = _archive_name(served)
+    (folder / name).unlink()  # as kill -9 during its download and the card's leaves them
+    (folder / "README.md").unlink()
+    stale = [folder / f".{name}.0123abcd.partial", folder / ".README.md.4567cdef.partial"]
+    for path in stale:
+        path.write_bytes(b"half")
+    live = folder / f".{name}.89abcdef.partial"  # another process is writing it
+    live.write_bytes(b"half")
+    handle = os.open(live, os.O_RDONLY)
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fetch_release(served.url, cache_dir=cache)
+        assert not any(path.exists() for path in stale)
+        assert live.exists()
+    finally:
+        os.close(handle)
+    (folder / name).unlink()
+    result = CliRunner().invoke(main, ["verify", served.url, "--cache-dir", str(cache)])
+    assert result.exit_code == 0, result.output
+    assert "partial" not in result.output and "not listed" not in result.output
+    assert not [path for path in folder.iterdir() if path.name.startswith(".")]
+
+
+@pytest.mark.parametrize(("line", "problem"), [
+    (".", r"lists '\.', which is not the path of a file"),
+    ("data//x.parquet", r"lists 'data//x\.parquet', which is not the path of a file"),
+    ("README.md/x", r"lists README\.md both as a file and as the folder of README\.md/x"),
+], ids=["dot", "empty-part", "below-a-file"])
+def test_a_manifest_path_that_names_no_file_is_one_line(served: _Server, tmp_path: Path,
+                                                        line: str, problem: str) -> None:
+    manifest = served.folder / "release" / "SHA256SUMS"
+    manifest.write_text(manifest.read_text(encoding="utf-8") + f"{'0' * 64}  {line}\n",
+                        encoding="utf-8")
+    with pytest.raises(VerificationError, match=rf"release/SHA256SUMS: {problem}"):
+        fetch_release(served.url, cache_dir=tmp_path, everything=True)
+    result = CliRunner().invoke(main, ["verify", served.url, "--cache-dir", str(tmp_path)])
+    assert "release/SHA256SUMS: lists" in _one_line(result, 1)
+    assert not _cached(tmp_path)
+
+
+def test_a_redirect_to_another_scheme_than_http_is_refused(served: _Server,
+                                                           tmp_path: Path) -> None:
+    served.routes[served.path_of("SHA256SUMS")] = _redirect("ftp://127.0.0.1:9/SHA256SUMS")
+    with pytest.raises(InputError, match=r"release/SHA256SUMS: HTTP 302 .* Redirection to url "
+                                         r"'ftp://127\.0\.0\.1:9/SHA256SUMS' is not allowed"):
+        fetch_release(served.url, cache_dir=tmp_path)
+    moved = served.url.replace("/release/", "/moved/")
+    served.routes["/moved/SHA256SUMS"] = _redirect(served.url + "SHA256SUMS")
+    served.routes.pop(served.path_of("SHA256SUMS"))
+    with pytest.raises(InputError, match=r"moved/croissant\.json: HTTP 404"):
+        fetch_release(moved, cache_dir=tmp_path)  # an http redirect is followed
+
+
+@pytest.mark.parametrize("damage", ["flipped-byte", "truncated"])
+def test_a_cached_file_that_changed_is_fetched_again(served: _Server, release: Path,
+                                                     tmp_path: Path, damage: str) -> None:
+    folder = fetch_release(served.url, cache_dir=tmp_path)
+    cached = folder / _archive_name(served)
+    data = bytearray(cached.read_bytes())
+    if damage == "truncated":
+        del data[len(data) // 2:]
+    else:
+        data[len(data) // 2] ^= 0xFF
+    with cached.open("r+b") as stream:  # in place, as a stray write would
+        stream.write(bytes(data))
+        stream.truncate()
+    served.requests.clear()
+    with open_dataset(served.url, cache_dir=tmp_path) as remote_set, \
+            open_dataset(release) as local:
+        np.testing.assert_array_equal(remote_set[3]["quality"], local[3]["quality"])
+    assert served.downloads() == [served.path_of(cached.name)]
+
+
+def test_an_unchanged_cache_is_not_hashed_again(served: _Server, tmp_path: Path,
+                                                monkeypatch: pytest.MonkeyPatch) -> None:
+    fetch_release(served.url, cache_dir=tmp_path)
+
+    def refuse(path: object) -> str:
+        raise AssertionError(f"{path} hashed again")
+
+    monkeypatch.setattr(remote, "sha256_file", refuse)
+    served.requests.clear()
+    fetch_release(served.url, cache_dir=tmp_path)
+    assert served.downloads() == []
