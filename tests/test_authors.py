@@ -25,7 +25,8 @@ pytest.importorskip("zarr")
 
 def write_tree(root: Path, models: list[tuple[str, str, str]], *, n_points: int = 16,
                seed: int = 0) -> Path:
-    """A tree in the authors' layout with random measures, a box mesh per model."""
+    """A tree in the authors' layout with random points, unit normals and measures, a
+    tetrahedron mesh per model."""
     rng = np.random.default_rng(seed)
     views = fibonacci_sphere(1000)
     for folder in AUTHORS_FOLDERS.values():
@@ -41,7 +42,9 @@ def write_tree(root: Path, models: list[tuple[str, str, str]], *, n_points: int 
         obj.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n")
         points = root / "pts_unif" / f"{stem}.txt"
         points.parent.mkdir(parents=True, exist_ok=True)
-        np.savetxt(points, rng.random((n_points, 6)), fmt="%s", delimiter=",")
+        table = rng.random((n_points, 6)) + 0.1
+        table[:, 3:] /= np.linalg.norm(table[:, 3:], axis=1, keepdims=True)  # unit normals
+        np.savetxt(points, table, fmt="%s", delimiter=",")
         for folder in AUTHORS_FOLDERS.values():
             values = root / "best_views" / folder / "3D" / f"{stem}_vq_list.txt"
             values.parent.mkdir(parents=True, exist_ok=True)
@@ -304,3 +307,167 @@ def test_unprefixed_lines_duplicates_and_unknown_categories(tmp_path):
         import_authors(tree, tmp_path / "out")
     with pytest.raises(InputError, match="exists and is not an empty folder"):
         export_authors(result.path, tree)
+
+
+# --------------------------------------------------------------------------- hostile trees
+
+
+def _import_quietly(tree: Path, out: Path, **options):
+    """import_authors, failing the test on any warning (a batch catches the warning as error)."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = import_authors(tree, out, **options)
+    assert [str(w.message) for w in caught] == []
+    return result
+
+
+def test_a_category_of_dot_dot_is_a_failure_and_nothing_is_read_outside(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 3)))
+    # objfiles/../train/x.obj: every file of the line lies one folder up from its place
+    for source, target in (("objfiles/chair/train/chair_0003.obj", "train/chair_0003.obj"),
+                           ("pts_unif/chair/train/chair_0003.txt", "train/chair_0003.txt")):
+        (tree / target).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(tree / source, tree / target)
+    for folder in AUTHORS_FOLDERS.values():
+        lists = tree / "best_views" / folder
+        (lists / "train").mkdir()
+        shutil.copy(lists / "3D/chair/train/chair_0003_vq_list.txt", lists / "train")
+    lines = (tree / "small.txt").read_text().splitlines()
+    (tree / "small.txt").write_text("\n".join([*lines[:2], "objfiles/../train/chair_0003.obj",
+                                               "objfiles/chair/train/.hidden.obj", ""]))
+    result = _import_quietly(tree, tmp_path / "out")
+    assert result.n_models == 2 and result.n_failures == 2
+    dots, hidden = (failure["reason"] for failure in result.failures)
+    assert dots == (f"{tree / 'small.txt'}: line 3: category '..' cannot name a file or folder "
+                    "(it starts with '.')")
+    assert "line 4: model name '.hidden' cannot name" in hidden
+    with open_store(result.path) as store:
+        assert {record["category"] for record in store.models()} == {"chair"}
+
+
+def test_normals_not_of_unit_length_are_a_failure_naming_the_file(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 3)))
+    for name, normal in (("chair_0001", "0,0,0"), ("chair_0002", "0,0,7")):
+        points = tree / f"pts_unif/chair/train/{name}.txt"
+        lines = points.read_text().splitlines()
+        points.write_text("".join(",".join(line.split(",")[:3]) + f",{normal}\n"
+                                  for line in lines))
+    result = _import_quietly(tree, tmp_path / "out")
+    assert result.n_models == 1
+    zero, seven = (failure["reason"] for failure in result.failures)
+    assert zero == (f"{tree / 'pts_unif/chair/train/chair_0001.txt'}: points file: 16 of 16 "
+                    "normals are not of unit length (the first, normal 1, has length 0)")
+    assert "chair_0002.txt: points file: 16 of 16 normals" in seven and "length 7)" in seven
+
+
+def test_values_beyond_float32_and_empty_files_are_one_models_failure(tmp_path):
+    tree = write_tree(tmp_path / "set", listed(("chair", 5)))
+    pts = tree / "pts_unif/chair/train"
+    (pts / "chair_0001.txt").write_text("1e300,0,0,0,0,1\n" * 16)
+    (pts / "chair_0002.txt").write_text("0,0,0,1e300,0,0\n" * 16)
+    (tree / "best_views/vq7/3D/chair/train/chair_0003_vq_list.txt").write_text(
+        "1.7e308\n-1.7e308\n" * 500)
+    (pts / "chair_0004.txt").write_text("")
+    result = _import_quietly(tree, tmp_path / "out")
+    assert result.n_models == 1
+    reasons = [failure["reason"] for failure in result.failures]
+    assert [reason.split(": ")[0] for reason in reasons] == [
+        str(pts / "chair_0001.txt"), str(pts / "chair_0002.txt"),
+        str(tree / "best_views/vq7/3D/chair/train/chair_0003_vq_list.txt"),
+        str(pts / "chair_0004.txt")]
+    assert all("beyond the float32 range" in reason for reason in reasons[:3])
+    assert reasons[3].endswith("points file is empty")
+
+
+def test_an_empty_or_fifo_small_txt_is_refused_in_one_line(tmp_path):
+    import os
+
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    (tree / "small.txt").write_text("\n\n")
+    with pytest.raises(InputError, match="small.txt: lists no models"):
+        import_authors(tree, tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+    if not hasattr(os, "mkfifo"):
+        return
+    (tree / "small.txt").unlink()
+    os.mkfifo(tree / "small.txt")  # nobody writes it: reading it would block for ever
+    result = CliRunner().invoke(main, ["import-authors", str(tree), str(tmp_path / "out")])
+    assert result.exit_code == 2 and result.stderr == (
+        f"vptool: error: {tree / 'small.txt'}: not a regular file\n")
+
+
+def test_a_rerun_after_a_killed_import_removes_its_stale_staging(tmp_path):
+    import tempfile
+
+    from vptoolkit.files import held, temporary_prefix
+
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "busy").mkdir()
+    # what kill -9 during the write leaves: the store's hidden staging, half written
+    stale = Path(tempfile.mkdtemp(prefix=temporary_prefix("dataset.zarr"), suffix=".partial",
+                                  dir=out))
+    (stale / "points").mkdir()
+    (stale / "points" / "0.0.0").write_bytes(b"half")
+    result = import_authors(tree, out, meshes=False)
+    assert result.n_models == 2
+    assert sorted(path.name for path in out.iterdir()) == ["dataset.zarr"]
+    live = Path(tempfile.mkdtemp(prefix=temporary_prefix("dataset.zarr"), suffix=".partial",
+                                 dir=tmp_path / "busy"))
+    with held(live), pytest.raises(InputError, match="exists and is not an empty folder"):
+        import_authors(tree, tmp_path / "busy")  # another import is writing there
+    (out / "notes.txt").write_text("mine")  # other content still makes OUT not empty
+    with pytest.raises(InputError, match="exists and is not an empty folder"):
+        import_authors(tree, tmp_path / "out")
+
+
+def test_export_names_out_not_its_staging_and_removes_stale_staging(tmp_path, monkeypatch):
+    import errno
+    import tempfile
+
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+    from vptoolkit.dataset import authors_export
+    from vptoolkit.files import temporary_prefix
+
+    tree = write_tree(tmp_path / "set", listed(("chair", 2)))
+    store = import_authors(tree, tmp_path / "store", meshes=False).path
+    stale = [Path(tempfile.mkdtemp(prefix=temporary_prefix("tree"), suffix=".partial",
+                                   dir=tmp_path)) for _ in range(2)]
+    (stale[0] / "small.txt").write_text("half")
+    other = Path(tempfile.mkdtemp(prefix=temporary_prefix("tree2"), suffix=".partial",
+                                  dir=tmp_path))  # another output's: kept
+    target = tmp_path / "tree"
+
+    def full_disk(path, payload):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    with monkeypatch.context() as patch:
+        patch.setattr(authors_export, "_write", full_disk)
+        result = CliRunner().invoke(main, ["export-authors", str(store), str(target)])
+    assert result.exit_code == 2 and result.stderr == (
+        f"vptool: error: {target}: No space left on device\n")
+
+    def read_only(*args, **kwargs):
+        hidden = tmp_path / ".tree.12345678.partial"
+        raise PermissionError(errno.EROFS, "Read-only file system", str(hidden))
+
+    with monkeypatch.context() as patch:
+        patch.setattr(tempfile, "mkdtemp", read_only)
+        result = CliRunner().invoke(main, ["export-authors", str(store), str(target)])
+    assert result.exit_code == 2 and result.stderr == (
+        f"vptool: error: {target}: Read-only file system\n")
+    assert all(path.exists() for path in stale) and not target.exists()
+    export_authors(store, target)
+    assert (target / "small.txt").is_file()
+    assert not any(path.exists() for path in stale) and other.is_dir()
+    assert sorted(path.name for path in tmp_path.iterdir() if path.name.startswith(".")) == [
+        other.name]

@@ -445,6 +445,22 @@ def test_training_fewer_categories_keeps_the_others_in_the_index(tmp_path, monke
     assert trained == ["a", "b", "a"]
 
 
+@pytest.mark.parametrize("category", ["../../escaped", "/tmp/escaped", ".."])
+def test_a_category_that_is_not_a_folder_name_trains_nothing(tmp_path, monkeypatch, category):
+    import contextlib
+
+    trained = []
+    monkeypatch.setattr(T, "train_model", lambda *args, **run: trained.append(args))
+    monkeypatch.setattr(T, "open_dataset", lambda path: contextlib.nullcontext(None))
+    monkeypatch.setattr(T, "select_categories", lambda dataset, chosen: ["a", category])
+    (tmp_path / "deep" / "er").mkdir(parents=True)
+    with pytest.raises(InputError) as caught:
+        T.train_per_category("ds.zarr", tmp_path / "deep" / "er" / "per",
+                             TrainOptions(categories=["a"]))
+    assert str(caught.value).startswith(f"ds.zarr: category {category!r} cannot name a file")
+    assert trained == [] and list((tmp_path / "deep" / "er").iterdir()) == []
+
+
 def test_one_network_per_category_and_routing(dataset_dir, tmp_path):
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")

@@ -407,6 +407,12 @@ def _bad_entries(case: str) -> list[ModelEntry]:
         points = entries[0].points.copy()
         points[3, 1] = np.nan
         entries[0] = _renamed(entries[0], points=points)
+    elif case == "zero-normals":
+        entries[1] = _renamed(entries[1], normals=np.zeros_like(entries[1].normals))
+    elif case == "long-normals":
+        normals = entries[0].normals.copy()
+        normals[5] *= 1.002  # beyond the tolerance of 0.001
+        entries[0] = _renamed(entries[0], normals=normals)
     return entries
 
 
@@ -424,6 +430,10 @@ BAD_ENTRIES = {
     "float-faces": "faces: expected integers",
     "best-index": "best_index out of range",
     "nan-points": "points has NaN",
+    "zero-normals": "'airplane_0002', 200 of 200 normals are not of unit length \\(the first, "
+                    "normal 1, has length 0\\)$",
+    "long-normals": "'airplane_0001', 1 of 200 normals are not of unit length \\(the first, "
+                    "normal 6, has length 1.002\\)$",
 }
 
 

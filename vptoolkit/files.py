@@ -14,6 +14,10 @@ JSON members and attributes of stores) goes through :func:`parse_json` or
 than 4300 digits) and nesting deeper than the interpreter's recursion limit
 (``'[' * 200000``) all raise an :class:`~vptoolkit.errors.InputError` that
 names the file, never a ``RecursionError`` traceback.
+
+Every path built from a model name or category (a store's content, so maybe
+hostile) takes that part through :func:`check_path_part`, which the store
+writer and reader apply too.
 """
 
 from __future__ import annotations
@@ -29,7 +33,7 @@ from contextlib import contextmanager
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any, BinaryIO
 
-from vptoolkit.checks import one_line
+from vptoolkit.checks import one_line, short_repr
 
 try:
     import fcntl
@@ -40,11 +44,13 @@ from vptoolkit.errors import InputError
 __all__ = [
     "atomic_write",
     "check_output_folder",
+    "check_path_part",
     "held",
     "named_os_error",
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
+    "stale_partials",
     "temporary_name",
     "temporary_prefix",
     "write_bytes_atomic",
@@ -121,6 +127,54 @@ def is_inside_folder(relative: str) -> bool:
             and ".." not in posix.parts)
 
 
+_CONTROL_CHARACTER = re.compile("[\x00-\x1f\x7f-\x9f]")  # Unicode category Cc
+
+
+def check_path_part(value: object, what: str) -> str:
+    """Return ``value`` if it can be one component of a path inside a folder, else raise.
+
+    Model names and categories become file and folder names (``OUT/<category>/``,
+    ``objfiles/<category>/<folder>/<name>.obj``), so a store's writer and
+    reader and every path built from them check them here. Refused: a value
+    that is not a non-empty string, holds ``/`` or ``\\``, starts with ``.``
+    (so ``.``, ``..`` and hidden names), starts with a Windows drive
+    (``C:``) or holds a control character (Unicode category Cc, NUL and line
+    breaks included). Without separators, ``..`` can only be a whole component
+    at the start, so ``a..b`` passes.
+
+    Parameters
+    ----------
+    value : object
+        The name.
+    what : str
+        What the value is, first in the message, e.g. ``dataset.zarr: category``.
+
+    Returns
+    -------
+    part : str
+        ``value``, unchanged.
+
+    Raises
+    ------
+    InputError
+        ``<what> '<value>' cannot name a file or folder (<why>)``, the value
+        shortened to 80 characters.
+    """
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{what}: expected a non-empty string, got {short_repr(value, 80)}")
+    if "/" in value or "\\" in value:
+        problem = "it holds a path separator"
+    elif value.startswith("."):
+        problem = "it starts with '.'"
+    elif PureWindowsPath(value).drive:
+        problem = "it starts with a drive"
+    elif _CONTROL_CHARACTER.search(value):
+        problem = "it holds a control character"
+    else:
+        return value
+    raise InputError(f"{what} {short_repr(value, 80)} cannot name a file or folder ({problem})")
+
+
 _MAX_NAME_BYTES = 255  # a file name on ext4, XFS, APFS, NTFS
 _SUFFIX_BYTES = len(".12345678.partial") + 8  # room for mkstemp's longer random part
 
@@ -174,17 +228,26 @@ def remove_stale_partials(folder: str | os.PathLike[str], name: str) -> None:
     the sibling of ``rel.v2``, is not one of ``rel``'s), and an entry that a
     live process holds (:func:`held`) is left alone.
     """
-    root = Path(folder)
-    if not root.is_dir():
-        return
-    pattern = re.compile(re.escape(temporary_prefix(name)) + r"[A-Za-z0-9_]+\.partial")
-    for entry in sorted(root.iterdir()):
-        if not pattern.fullmatch(entry.name) or _is_held(entry):
-            continue
+    for entry in stale_partials(folder, name):
         if entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry, ignore_errors=True)
         else:
             entry.unlink(missing_ok=True)
+
+
+def stale_partials(folder: str | os.PathLike[str], name: str) -> list[Path]:
+    """The temporary siblings of ``name`` in ``folder`` that no live process holds.
+
+    What :func:`remove_stale_partials` deletes: the ``.<name>.<random>.partial``
+    files and folders a killed write left, sorted; none if ``folder`` is not a
+    folder. A command that wants a new or empty output folder ignores them.
+    """
+    root = Path(folder)
+    if not root.is_dir():
+        return []
+    pattern = re.compile(re.escape(temporary_prefix(name)) + r"[A-Za-z0-9_]+\.partial")
+    return [entry for entry in sorted(root.iterdir())
+            if pattern.fullmatch(entry.name) and not _is_held(entry)]
 
 
 @contextmanager

@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -41,10 +42,11 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
-from vptoolkit.dataset.schema import ModelEntry, published_split
+from vptoolkit.dataset.schema import ModelEntry, normal_length_problem, published_split
 from vptoolkit.dataset.split_files import ListedModel, paper_splits, read_model_list
 from vptoolkit.dataset.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
+from vptoolkit.files import check_path_part, stale_partials
 from vptoolkit.measures import normalize_quality
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
@@ -68,6 +70,8 @@ VIEW_TOLERANCE = 1e-5
 """How far a coordinate of ``_point_list.txt`` may be from ours."""
 MODEL_LIST = "small.txt"
 """The model list of a tree."""
+
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 @dataclass(frozen=True)
@@ -110,19 +114,29 @@ def _sha256_file(path: Path) -> str:
 
 
 def _read_table(path: Path, columns: int, rows: int | None, what: str) -> NDArray[np.float64]:
-    """A comma-separated table of finite floats; InputError naming the file otherwise."""
+    """A comma-separated table of finite floats within the float32 range (every value is
+    stored as float32); InputError naming the file otherwise."""
     if not path.is_file():
-        raise InputError(f"{path}: {what} is missing")
+        problem = "not a regular file" if path.exists() else "missing"
+        raise InputError(f"{path}: {what} is {problem}")
     try:
-        table = np.loadtxt(path, delimiter=",", dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data": said below
+            table = np.loadtxt(path, delimiter=",", dtype=np.float64, ndmin=2)
     except (OSError, ValueError) as err:
         raise InputError(f"{path}: {what} is not comma-separated numbers ({one_line(err)})") \
             from err
+    if not table.size:
+        raise InputError(f"{path}: {what} is empty")
     if table.shape[1:] != (columns,) or (rows is not None and table.shape[0] != rows):
         expected = f"{rows if rows is not None else 'n'} lines of {columns} values"
         raise InputError(f"{path}: {what} has shape {table.shape}, expected {expected}")
     if not np.isfinite(table).all():
         raise InputError(f"{path}: {what} holds NaN or infinite values")
+    largest = float(np.abs(table).max())
+    if largest > _FLOAT32_MAX:
+        raise InputError(f"{path}: {what} holds values beyond the float32 range (up to "
+                         f"{largest:.3g}), which cannot be stored")
     return table
 
 
@@ -136,6 +150,8 @@ def _check_tree(tree: Path) -> None:
             f"{tree}: not in the authors' layout (no {', '.join(missing)}); "
             "expected DATA/<set> holding small.txt, objfiles/, pts_unif/ and best_views/"
         )
+    if not (tree / MODEL_LIST).is_file():  # a FIFO would block the read for ever
+        raise InputError(f"{tree / MODEL_LIST}: not a regular file")
     views = fibonacci_sphere(N_VIEWS)
     for measure, folder in AUTHORS_FOLDERS.items():
         point_list = tree / "best_views" / folder / "3D" / "_point_list.txt"
@@ -186,7 +202,11 @@ class _ImportedEntries(Sequence[ModelEntry]):
 def _read_model(tree: Path, listed: _Listed, *, meshes: bool) -> ModelEntry:
     """Read one model's files into a :class:`ModelEntry`; InputError names a bad file."""
     stem = listed.model.stem_path
-    points = _read_table(tree / "pts_unif" / f"{stem}.txt", 6, None, "points file")
+    points_file = tree / "pts_unif" / f"{stem}.txt"
+    points = _read_table(points_file, 6, None, "points file")
+    problem = normal_length_problem(points[:, 3:])
+    if problem is not None:
+        raise InputError(f"{points_file}: points file: {problem}")
     raw = np.empty((N_VIEWS, len(MEASURES)), dtype=np.float64)
     for column, measure in enumerate(MEASURES):
         folder = AUTHORS_FOLDERS[measure]
@@ -286,7 +306,8 @@ def import_authors(
     ------
     InputError
         If ``tree`` is not in the authors' layout (no ``small.txt``,
-        ``pts_unif/`` or ``best_views/``, a malformed ``small.txt`` line, a
+        ``pts_unif/`` or ``best_views/``, a ``small.txt`` that is not a
+        regular file or lists no model, a malformed ``small.txt`` line, a
         view list that is not our Fibonacci sphere), ``out`` is a non-empty
         folder, or a category has no line in ``small.txt``.
 
@@ -296,11 +317,17 @@ def import_authors(
     order, as read; ``quality`` their per-model normalisation; best and worst
     views recomputed from it; ``points`` and ``normals`` the columns of
     ``pts_unif``; the mesh the ``.obj`` file. A listed model whose file is
-    missing or malformed (wrong number of values, NaN, an unreadable mesh, a
-    point count unlike the first model's) is a failure with a one-line reason
-    and still takes its place in the split index. The root attributes record
-    ``provenance``: the measures were imported, not computed, the tree's name,
-    and the SHA-256 of small.txt and one over the files of every imported model.
+    missing or malformed (wrong number of values, NaN, values beyond the
+    float32 range, normals not of unit length, an unreadable mesh, a point
+    count unlike the first model's), or whose category or name cannot be a
+    file or folder name (:func:`~vptoolkit.files.check_path_part`, e.g. the
+    category ``..`` of ``objfiles/../train/x.obj``), is a failure with a
+    one-line reason and still takes its place in the split index. Hidden
+    ``.dataset.zarr.*.partial`` staging that a killed import left in ``out``
+    does not count as content, and is removed once the store is written.
+    The root attributes record ``provenance``: the measures were imported,
+    not computed, the tree's name, and the SHA-256 of small.txt and one over
+    the files of every imported model.
     """
     root = as_path(tree, "tree")
     out_dir = as_path(out, "out")
@@ -314,13 +341,17 @@ def import_authors(
     if wanted is not None and (not wanted or not all(isinstance(c, str) and c for c in wanted)):
         raise InputError(f"categories: expected non-empty category names, got {wanted!r}")
     listed_lines = read_model_list(root / MODEL_LIST)
+    if not listed_lines:
+        raise InputError(f"{root / MODEL_LIST}: lists no models")
     if wanted is not None:
         found = {model.category for model in listed_lines}
         missing = [name for name in wanted if name not in found]
         if missing:
             raise InputError(f"{root / MODEL_LIST}: no lines of the categories "
                              f"{', '.join(missing)}")
-    if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
+    # A store staging folder a killed import left is not content; the write removes it.
+    if out_dir.exists() and (not out_dir.is_dir() or set(out_dir.iterdir())
+                             - set(stale_partials(out_dir, STORE_NAME))):
         raise InputError(f"{out_dir}: exists and is not an empty folder")
     listed = [_Listed(model, split) for model, split in paper_splits(listed_lines, wanted)]
 
@@ -339,6 +370,9 @@ def import_authors(
                          f"{item.model.name!r} a second time"
             else:
                 try:
+                    line = f"{root / MODEL_LIST}: line {item.model.line}"
+                    check_path_part(item.model.category, f"{line}: category")
+                    check_path_part(item.model.name, f"{line}: model name")
                     entry = _read_model(root, item, meshes=meshes)
                     count = len(entry.points)
                     if n_points is not None and count != n_points:

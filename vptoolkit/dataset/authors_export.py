@@ -13,7 +13,7 @@ import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,9 +24,18 @@ from vptoolkit.dataset.authors import AUTHORS_FOLDERS, MODEL_LIST, VIEW_TOLERANC
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.dataset.split_files import paper_split
 from vptoolkit.errors import InputError
-from vptoolkit.files import temporary_prefix
+from vptoolkit.files import (
+    check_path_part,
+    held,
+    named_os_error,
+    remove_stale_partials,
+    temporary_prefix,
+)
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
+
+if TYPE_CHECKING:
+    from vptoolkit.dataset.reader import StoreReader
 
 __all__ = ["ExportResult", "export_authors", "order_for_paper_rule"]
 
@@ -121,8 +130,10 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
         :func:`~vptoolkit.sphere.fibonacci_sphere`.
     out : path-like
         The data set folder to write (``data/<set>``): new, or an empty
-        folder. It is written under a temporary sibling name and renamed into
-        place at the end.
+        folder. It is written under a temporary sibling name
+        (``.<out>.<random>.partial``) and renamed into place at the end; such
+        siblings that a killed export left are removed after a successful
+        one, and an error names ``out``, never the temporary folder.
     progress : bool
         Show a progress bar on stderr (default: False).
 
@@ -135,8 +146,13 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     Raises
     ------
     InputError
-        If the store cannot be read, its views are not the authors' 1000, or
-        ``out`` is not new or empty.
+        If the store cannot be read, its views are not the authors' 1000, a
+        model's name or category cannot be a file or folder name
+        (:func:`~vptoolkit.files.check_path_part`), or ``out`` is not new or
+        empty.
+    OSError
+        If writing fails (e.g. a full disk or a read-only folder); its
+        ``filename`` is ``out``.
 
     Notes
     -----
@@ -151,7 +167,6 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     """
     from vptoolkit.dataset.containers import find_store
     from vptoolkit.dataset.reader import open_store
-    from vptoolkit.io.obj import obj_bytes
 
     target = as_path(out, "out")
     progress = check_bool(progress, "progress")
@@ -171,46 +186,76 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
         order, mismatched = order_for_paper_rule(
             [(r["name"], r["split"]) for r in records]
         )
-        row_of = {record["name"]: row for row, record in enumerate(records)}
-        temporary = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name),
-                                          suffix=".partial", dir=target.parent))
-        is_done = False
-        n_meshless = n_unseen = 0
+        stems = {record["name"]: _stem(record, data.path.name) for record in records}
         try:
-            point_list = _text(ours, "%.17g")
-            for folder in AUTHORS_FOLDERS.values():
-                _write(temporary / "best_views" / folder / "3D" / "_point_list.txt", point_list)
-            lines = []
-            with progress_bar(total=len(order), description="export", unit="model",
-                              enabled=progress) as bar:
-                for name in order:
-                    row = row_of[name]
-                    record = records[row]
-                    stem = f"{record['category']}/{_folder_of(record)}/{name}"
-                    lines.append(f"objfiles/{stem}.obj\n")
-                    entry = data.entry(row)
-                    if len(entry.faces):
-                        _write(temporary / "objfiles" / f"{stem}.obj",
-                               obj_bytes(np.asarray(entry.vertices, dtype=np.float64),
-                                         np.asarray(entry.faces, dtype=np.int64), name=name))
-                    else:
-                        n_meshless += 1
-                    points = np.concatenate([entry.points, entry.normals], axis=1)
-                    _write(temporary / "pts_unif" / f"{stem}.txt", _text(points, "%.9g"))
-                    n_unseen += _write_measures(temporary, stem, entry.quality_raw,
-                                                entry.quality, views)
-                    bar.update(1)
-            _write(temporary / MODEL_LIST, "".join(lines).encode("utf-8"))
-            os.chmod(temporary, 0o777 & ~_umask())
-            if target.exists():
-                target.rmdir()
-            os.rename(temporary, target)
-            is_done = True
+            temporary = Path(tempfile.mkdtemp(prefix=temporary_prefix(target.name),
+                                              suffix=".partial", dir=target.parent))
+        except OSError as err:  # e.g. a read-only folder: name OUT, not the hidden folder
+            raise named_os_error(err, target) from err
+        is_done = False
+        try:
+            with held(temporary):  # a concurrent export's cleanup leaves it alone
+                n_meshless, n_unseen = _write_tree(temporary, data, order, stems, views,
+                                                   progress)
+                os.chmod(temporary, 0o777 & ~_umask())
+                if target.exists():
+                    target.rmdir()
+                os.rename(temporary, target)
+                is_done = True
+        except OSError as err:
+            if err.filename is None or str(err.filename).startswith(str(temporary)):
+                # a full disk or a file too large: name OUT, not the hidden folder
+                raise named_os_error(err, target) from err
+            raise
         finally:
             if not is_done:
                 shutil.rmtree(temporary, ignore_errors=True)
+    remove_stale_partials(target.parent, target.name)  # left by a killed earlier export
     return ExportResult(path=target, n_models=len(order), mismatched=tuple(mismatched),
                         n_meshless=n_meshless, n_unseen_values=n_unseen)
+
+
+def _stem(record: dict[str, Any], store: str) -> str:
+    """``<category>/<train|test>/<name>`` of a model of ``store``, from checked parts."""
+    name = check_path_part(record["name"], f"{store}: model name")
+    category = check_path_part(record["category"], f"{store}: model {name!r}, category")
+    return f"{category}/{_folder_of(record)}/{name}"
+
+
+def _write_tree(root: Path, data: StoreReader, order: Sequence[str], stems: dict[str, str],
+                views: NDArray[np.float64], progress: bool) -> tuple[int, int]:
+    """Write every file of the tree under ``root``, the models in ``order``.
+
+    ``views`` are the store's, for the best views; the view lists hold the
+    Fibonacci sphere itself. Returns the number of models without a mesh and
+    of NaN raw values written.
+    """
+    from vptoolkit.io.obj import obj_bytes
+
+    n_meshless = n_unseen = 0
+    point_list = _text(fibonacci_sphere(N_VIEWS), "%.17g")
+    for folder in AUTHORS_FOLDERS.values():
+        _write(root / "best_views" / folder / "3D" / "_point_list.txt", point_list)
+    row_of = {record["name"]: row for row, record in enumerate(data.models())}
+    lines = []
+    with progress_bar(total=len(order), description="export", unit="model",
+                      enabled=progress) as bar:
+        for name in order:
+            stem = stems[name]
+            lines.append(f"objfiles/{stem}.obj\n")
+            entry = data.entry(row_of[name])
+            if len(entry.faces):
+                _write(root / "objfiles" / f"{stem}.obj",
+                       obj_bytes(np.asarray(entry.vertices, dtype=np.float64),
+                                 np.asarray(entry.faces, dtype=np.int64), name=name))
+            else:
+                n_meshless += 1
+            points = np.concatenate([entry.points, entry.normals], axis=1)
+            _write(root / "pts_unif" / f"{stem}.txt", _text(points, "%.9g"))
+            n_unseen += _write_measures(root, stem, entry.quality_raw, entry.quality, views)
+            bar.update(1)
+    _write(root / MODEL_LIST, "".join(lines).encode("utf-8"))
+    return n_meshless, n_unseen
 
 
 def _write_measures(root: Path, stem: str, raw: NDArray[Any], quality: NDArray[Any],

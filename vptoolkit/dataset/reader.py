@@ -31,6 +31,7 @@ from vptoolkit.dataset.schema import (
     from_json_bytes,
 )
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
+from vptoolkit.files import check_path_part
 
 __all__ = ["StoreReader", "open_store"]
 
@@ -128,13 +129,28 @@ class StoreReader:
         return value.decode("ascii") if isinstance(value, bytes) else str(value)
 
     def models(self) -> list[dict[str, Any]]:
-        """The decoded ``models_json``: one record per model, in row order."""
+        """The decoded ``models_json``: one record per model, in row order.
+
+        Raises
+        ------
+        InputError
+            If ``models_json`` does not hold one record per model, or a
+            record's name or category cannot be a file or folder name
+            (:func:`~vptoolkit.files.check_path_part`; names become output
+            paths, so a store written elsewhere or before the rule is refused
+            here).
+        """
         if self._models is None:
             decoded = self._decode("models_json")
-            if not isinstance(decoded, list) or len(decoded) != self.n_models:
+            if not isinstance(decoded, list) or len(decoded) != self.n_models or not all(
+                    isinstance(record, dict) for record in decoded):
                 raise InputError(
                     f"{self.path.name}: models_json does not hold {self.n_models} records"
                 )
+            for record in decoded:
+                name = check_path_part(record.get("name"), f"{self.path.name}: model name")
+                check_path_part(record.get("category"),
+                                f"{self.path.name}: model {name!r}, category")
             self._models = decoded
         return [dict(record) for record in self._models]
 

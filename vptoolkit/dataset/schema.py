@@ -6,7 +6,8 @@ root attributes the build and the writer set (:data:`BUILD_ATTRS`,
 :data:`WRITER_ATTRS`), the aliases of the split names of
 :data:`vptoolkit.conventions.SPLITS` (:data:`SPLIT_ALIASES`,
 :func:`published_split`), the keys of a failure record (:data:`FAILURE_KEYS`),
-one model's content (:class:`ModelEntry`), the JSON text encoding
+one model's content (:class:`ModelEntry`), the unit-normal rule
+(:data:`NORMAL_TOLERANCE`, :func:`normal_length_problem`), the JSON text encoding
 (:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
 (:func:`array_sha256`). Described in ``vptoolkit/dataset_card/SCHEMA.md``.
 
@@ -41,7 +42,9 @@ __all__ = [
     "class_names",
     "FAILURE_KEYS",
     "HDF5_JSON_KEY",
+    "NORMAL_TOLERANCE",
     "ModelEntry",
+    "normal_length_problem",
     "array_sha256",
     "le_bytes",
     "json_bytes",
@@ -203,6 +206,9 @@ FAILURE_KEYS = ("source", "category", "reason")
 HDF5_JSON_KEY = "json_attributes"
 """Root attribute of an HDF5 store naming its JSON-encoded root attributes."""
 
+NORMAL_TOLERANCE = 1e-3
+"""How far the length of a stored normal may be from 1."""
+
 _HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
 
 
@@ -292,6 +298,38 @@ class ModelEntry:
         if self.view_set is not None:
             record["view_set"] = self.view_set
         return record
+
+
+def normal_length_problem(normals: ArrayLike) -> str | None:
+    """Say which normals are not unit vectors, or None when all are.
+
+    A normal passes when ``abs(1 - |n|) <= NORMAL_TOLERANCE``, its length
+    computed in float64; zero, NaN and overflowing lengths fail.
+
+    Parameters
+    ----------
+    normals : (n_points, 3) array_like
+        The normals, finite numbers of any float dtype.
+
+    Returns
+    -------
+    problem : str or None
+        E.g. ``"200 of 500 normals are not of unit length (the first, normal 1,
+        has length 0)"``, for the caller to put after the file or model.
+
+    Examples
+    --------
+    >>> normal_length_problem([[0.0, 0.0, 1.0], [0.0, 0.0, 7.0]])
+    '1 of 2 normals are not of unit length (the first, normal 2, has length 7)'
+    """
+    values = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    with np.errstate(over="ignore", invalid="ignore"):
+        lengths = np.sqrt(np.square(values).sum(axis=1))
+    bad = np.flatnonzero(~(np.abs(1.0 - lengths) <= NORMAL_TOLERANCE))
+    if not bad.size:
+        return None
+    return (f"{bad.size} of {len(values)} normals are not of unit length (the first, normal "
+            f"{bad[0] + 1}, has length {lengths[bad[0]]:.6g})")
 
 
 # --------------------------------------------------------------------------- digests and JSON

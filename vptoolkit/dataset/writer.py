@@ -2,7 +2,8 @@
 
 Two passes over the entries, so a store of any size is written with one
 model in memory at a time: the first checks every entry (dtypes, shapes,
-sorted unique names, finite values), learns the layout and computes each
+sorted unique names and categories that can be file names, finite values,
+unit normals), learns the layout and computes each
 array's SHA-256; the second writes the rows in chunks and checks that every
 entry reads the same as on the first pass. The store is written next to its
 target under a temporary name and moved into place at the end, so a reader
@@ -20,6 +21,7 @@ import shutil
 import tempfile
 import zlib
 from collections.abc import Mapping, Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any, NamedTuple, Protocol
 
@@ -41,10 +43,17 @@ from vptoolkit.dataset.schema import (
     class_labels,
     json_bytes,
     le_bytes,
+    normal_length_problem,
     published_split,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import named_os_error, remove_stale_partials, temporary_prefix
+from vptoolkit.files import (
+    check_path_part,
+    held,
+    named_os_error,
+    remove_stale_partials,
+    temporary_prefix,
+)
 from vptoolkit.progress import Bar, progress_bar
 
 __all__ = ["write_dataset"]
@@ -100,8 +109,13 @@ def _cast(entry_name: str, field: str, value: Any, dtype: np.dtype[Any],
     return np.ascontiguousarray(source, dtype=dtype)
 
 
-def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None) -> _Checked:
-    """Validate one entry and cast its arrays; ``n_points`` None accepts any count."""
+def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None,
+                 store: str) -> _Checked:
+    """Validate one entry and cast its arrays; ``n_points`` None accepts any count.
+
+    ``store`` (the target's name) starts the message about a name or category
+    that cannot be a file or folder name (:func:`check_path_part`).
+    """
     if not isinstance(entry, ModelEntry):
         raise InputError(f"entries[{position}]: expected a ModelEntry, got {type(entry).__name__}")
     for field in ("name", "category", "split", "source", "source_sha256"):
@@ -110,7 +124,8 @@ def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None) 
             raise InputError(
                 f"entries[{position}]: {field} must be a non-empty string, got {value!r}"
             )
-    name = entry.name
+    name = check_path_part(entry.name, f"{store}: model name")
+    check_path_part(entry.category, f"{store}: model {name!r}, category")
     if published_split(entry.split) not in SPLITS:
         raise InputError(f"entries: model {name!r}, split {entry.split!r} is not one of {SPLITS}")
     if not _SHA256_HEX.fullmatch(entry.source_sha256):
@@ -138,6 +153,9 @@ def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None) 
     for field in ("points", "normals", "mesh_vertices"):
         if not np.isfinite(arrays[field]).all():
             raise InputError(f"entries: model {name!r}, {field} has NaN or infinite values")
+    problem = normal_length_problem(arrays["normals"])
+    if problem is not None:
+        raise InputError(f"entries: model {name!r}, {problem}")
     quality = arrays["quality"]
     if not (np.isfinite(quality).all() and (quality >= 0).all() and (quality <= 1).all()):
         raise InputError(f"entries: model {name!r}, quality must be finite and in [0, 1]")
@@ -186,7 +204,8 @@ class _Plan(NamedTuple):
     digests: dict[str, str]
 
 
-def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar) -> _Plan:
+def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar,
+                store: str) -> _Plan:
     hashers = {name: hashlib.sha256() for name in _ENTRY_ARRAYS}
     records: list[dict[str, Any]] = []
     checksums: list[int] = []
@@ -196,7 +215,7 @@ def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar) -> _
     previous: tuple[str, str] | None = None
     n_points: int | None = None
     for position in range(len(entries)):
-        checked = _check_entry(entries[position], position, n_views, n_points)
+        checked = _check_entry(entries[position], position, n_views, n_points, store)
         record = checked.record
         key = (record["category"], record["name"])
         if record["name"] in seen:
@@ -419,7 +438,10 @@ def write_dataset(
         must exist. An existing store there is replaced.
     entries : sequence of ModelEntry
         Supports ``len`` and ``[i]`` and may load lazily; each entry is read
-        exactly twice. Sorted by ``(category, name)``, names unique, the same
+        exactly twice. Sorted by ``(category, name)``, names unique, names
+        and categories usable as file names (:func:`~vptoolkit.files.check_path_part`),
+        normals of unit length (within
+        :data:`~vptoolkit.dataset.schema.NORMAL_TOLERANCE`), the same
         number of points in every entry and ``len(views)`` rows of quality.
         May be empty: the store then has zero models (and ``n_points`` 0).
     attrs : mapping
@@ -465,7 +487,7 @@ def write_dataset(
 
     with progress_bar(total=n_models, description=f"{target.name}: check", unit="model",
                       enabled=progress) as bar:
-        plan = _first_pass(entries, n_views, bar)
+        plan = _first_pass(entries, n_views, bar, str(target))
     categories = [record["category"] for record in plan.records]
     names, labels = class_labels(categories, attrs.get("class_names"))
     root_attrs = _root_attrs(
@@ -509,29 +531,31 @@ def write_dataset(
     temporary = _temporary_sibling(target, kind)
     is_done = False
     try:
-        if kind == "hdf5":
-            from vptoolkit.dataset._hdf5 import Hdf5Sink
+        # Held, so that a concurrent write's cleanup (remove_stale_partials) leaves it alone;
+        # HDF5 locks the file it writes itself, and a second lock would make its own fail.
+        with nullcontext() if kind == "hdf5" else held(temporary):
+            if kind == "hdf5":
+                from vptoolkit.dataset._hdf5 import Hdf5Sink
 
-            sink: _Sink = Hdf5Sink(temporary, root_attrs)
-        else:
-            from vptoolkit.dataset._zarr import ZarrSink
+                sink: _Sink = Hdf5Sink(temporary, root_attrs)
+            else:
+                from vptoolkit.dataset._zarr import ZarrSink
 
-            sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
-        try:
-            stored = {}
-            for name in ARRAY_NAMES:
-                shape, chunks = layout[name]
-                dtype = (
-                    whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
-                )
-                stored[name] = sink.create(name, shape, np.dtype(dtype), chunks, digests[name])
-            for name, array in whole.items():
-                if array.size:
-                    stored[name][...] = array
-            _second_pass(entries, plan, stored, layout, target.name, progress)
-        finally:
-            sink.close()
-        _move_into_place(temporary, target, kind)
+                sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
+            try:
+                stored = {}
+                for name in ARRAY_NAMES:
+                    shape, chunks = layout[name]
+                    dtype = whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
+                    stored[name] = sink.create(name, shape, np.dtype(dtype), chunks,
+                                               digests[name])
+                for name, array in whole.items():
+                    if array.size:
+                        stored[name][...] = array
+                _second_pass(entries, plan, stored, layout, target.name, progress)
+            finally:
+                sink.close()
+            _move_into_place(temporary, target, kind)
         remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
         is_done = True
     except OSError as err:
@@ -553,7 +577,8 @@ def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, A
     with progress_bar(total=len(plan.records), description=f"{label}: write", unit="model",
                       enabled=progress) as bar:
         for position, record in enumerate(plan.records):
-            checked = _check_entry(entries[position], position, n_views, plan.n_points or None)
+            checked = _check_entry(entries[position], position, n_views, plan.n_points or None,
+                                   label)
             if _entry_checksum(checked) != plan.checksums[position]:
                 raise VerificationError(
                     f"entries: model {record['name']!r} read differently on the second pass; "

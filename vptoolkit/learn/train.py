@@ -85,6 +85,7 @@ from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.errors import ExistingRunError, InputError, VerificationError
+from vptoolkit.files import check_path_part
 from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
 from vptoolkit.learn.labels import label_loss, label_phase
 from vptoolkit.learn.model import (
@@ -409,7 +410,9 @@ def train_per_category(
     """Train one network per category, the paper's set-up, into one folder.
 
     Each category's run is :func:`train_model` with the options restricted
-    to that category (``categories=(name,)``) into ``output/<category>/``;
+    to that category (``categories=(name,)``) into ``output/<category>/``
+    (a category that cannot be a folder name is refused,
+    :func:`~vptoolkit.files.check_path_part`);
     ``output/categories.json`` indexes them (``format``, ``categories``:
     name to checkpoint folder); categories an earlier run into the same
     folder listed stay listed. Give that folder to
@@ -442,12 +445,13 @@ def train_per_category(
     with open_dataset(dataset_path) as dataset:
         chosen = select_categories(dataset, options.categories)
         names = chosen if chosen is not None else sorted(set(dataset.split("train").categories))
+    folders = {name: check_path_part(name, f"{dataset_path}: category") for name in names}
     index = _category_index(folder)
     results = {}
-    for name in names:
-        results[name] = train_model(dataset_path, folder / name,
+    for name, part in folders.items():
+        results[name] = train_model(dataset_path, folder / part,
                                     replace(options, categories=(name,)), **run)
-        index[name] = name
+        index[name] = part
         write_json_atomic(folder / "categories.json", {
             "format": CATEGORY_MODELS_FORMAT,
             "categories": dict(sorted(index.items())),
