@@ -431,6 +431,20 @@ def test_duplicate_names_are_failures_not_overwrites(tmp_path):
             in reasons["plate/train/b.ply"])
 
 
+def test_a_name_no_store_can_hold_is_a_failure_not_a_failed_build(tmp_path):
+    """A file stem with a backslash or a control character is legal on Linux, not in a store."""
+    root = make_tree(tmp_path / "src", {
+        "cup/train/a\\b.obj": sample_path("table"),
+        "cup/train/tab\tname.obj": sample_path("bottle"),
+        "cup/train/c.stl": sample_path("teapot"),
+    })
+    result = build_dataset(root, tmp_path / "out", replace(SMALL, clean=False))
+    assert result.n_models == 1 and result.n_failures == 2
+    reasons = sorted(f["reason"] for f in result.failures)
+    assert all("model name" in reason and "cannot name a file or folder" in reason
+               for reason in reasons), reasons
+
+
 def _die_on_bottle(task):
     """A task that kills its worker process for one model (a segfault in a native library)."""
     if task.name == "bottle":

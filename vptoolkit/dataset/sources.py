@@ -36,6 +36,7 @@ from pathlib import Path
 
 from vptoolkit.checks import as_path, check_int
 from vptoolkit.errors import InputError
+from vptoolkit.files import check_path_part
 from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
 
 __all__ = [
@@ -181,10 +182,13 @@ def _check_categories(categories: Iterable[str] | None) -> list[str] | None:
 def split_duplicates(
     models: Sequence[SourceModel],
 ) -> tuple[list[SourceModel], list[dict[str, str]]]:
-    """Separate models with a unique name from duplicates, which all become failures.
+    """Separate the models a store can hold from duplicates and unusable names (failures).
 
     A name must be unique within the dataset (SCHEMA.md), so ``chair/a.off``
-    and ``table/a.off`` clash as much as ``chair/a.off`` and ``chair/a.obj``.
+    and ``table/a.off`` clash as much as ``chair/a.off`` and ``chair/a.obj``;
+    and a name or category must be usable as a path part
+    (:func:`vptoolkit.files.check_path_part`: a file stem holding a backslash
+    or a control character is legal on Linux but not in a store).
     """
     by_name: dict[str, list[SourceModel]] = {}
     for model in models:
@@ -192,6 +196,12 @@ def split_duplicates(
     unique: list[SourceModel] = []
     failures: list[dict[str, str]] = []
     for model in models:
+        try:
+            check_path_part(model.category, f"{model.source}: category")
+            check_path_part(model.name, f"{model.source}: model name")
+        except InputError as err:
+            failures.append(_failure(model, str(err)))
+            continue
         group = by_name[model.name]
         if len(group) == 1:
             unique.append(model)
