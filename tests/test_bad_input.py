@@ -561,3 +561,22 @@ def test_a_per_category_index_pointing_outside_the_model_folder_is_refused(
     code, text = _run("predict", sample_path("mug.obj"), "--model", model, "--category", "mug")
     _assert_one_line_bad_input(code, text, f"{model / 'categories.json'}: category 'mug' names",
                                "not a folder inside the model folder")
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("command", [
+    ["predict", "-m", "unoccluded", "{fifo}"],
+    ["predict", "{fifo}"],
+    ["pack", "{folder}", "{folder}/rel", "--licenses", "{fifo}"],
+    ["build-dataset", "{folder}", "{folder}/out", "--splits", "{fifo}"],
+    ["build-dataset", "{folder}", "{folder}/out", "--splits", "{fifo}", "--dry-run"],
+    ["sphere-map", "{fifo}", "-o", "{folder}/map.png"],
+    ["evaluate", "{fifo}", "--dataset", "{folder}"],
+], ids=["predict-unoccluded", "predict", "pack-licenses", "build-splits", "dry-run-splits",
+        "sphere-map", "evaluate"])
+def test_a_named_pipe_nobody_writes_is_refused_not_waited_on(tmp_path: Path,
+                                                             command: list[str]) -> None:
+    fifo = tmp_path / "pipe.npy"
+    os.mkfifo(fifo)  # reading it would block for ever
+    code, text = _run(*(part.format(fifo=fifo, folder=tmp_path) for part in command))
+    _assert_one_line_bad_input(code, text, f"{fifo}: not a regular file")

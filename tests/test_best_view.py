@@ -223,3 +223,43 @@ def test_command_on_a_dataset_split_is_scored_by_evaluate(tmp_path):
         random_view = np.mean([dataset[i]["quality"].mean(axis=0) for i in range(len(dataset))],
                               axis=0)
     assert all(mean[m] > 100 * random_view[i] + 10 for i, m in enumerate(MEASURES))
+
+
+@pytest.mark.parametrize("text, message", [
+    ("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 7\n",
+     "bad.off: face 0 refers to vertex 7"),
+    ("OFF\n4 2 0\n0 0 0\n1 0 0\n2 0 0\n3 0 0\n3 0 1 2\n3 1 2 3\n",
+     "bad: the mesh has zero surface area"),
+], ids=["bad-index", "zero-area"])
+@pytest.mark.parametrize("prior", ["none", "unoccluded"])
+def test_command_on_one_bad_mesh_is_one_line_and_exit_2(tmp_path, text, message, prior):
+    bad = tmp_path / "bad.off"
+    bad.write_text(text)
+    result = CliRunner().invoke(main, ["best-view", str(bad), "--views", "8", "--resolution",
+                                       "32", "--prior", prior])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.replace("\r", "\n").splitlines()  # the progress bar aside
+    errors = [line for line in lines if not line.startswith("best views:") and line.strip()]
+    assert len(errors) == 1 and errors[0].startswith(f"vptool: error: {message}"), lines
+    assert "Traceback" not in result.output and "Warning" not in result.output
+
+
+def test_a_mesh_of_zero_area_is_named_without_numpy_warnings():
+    line = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]),
+                name="line")
+    with pytest.raises(InputError, match="^line: the mesh has zero surface area$"):
+        search_best_views(line, 8, 32)  # pytest turns a RuntimeWarning into an error
+
+
+def test_command_on_an_empty_split_is_one_line_and_exit_2(tmp_path):
+    from fixtures.stores import synthetic_entries, write_synthetic
+
+    store = write_synthetic(tmp_path / "dataset.zarr", synthetic_entries(
+        [("chair", "chair_0001", "train"), ("chair", "chair_0002", "train")]))
+    out = tmp_path / "best.npz"
+    result = CliRunner().invoke(main, ["best-view", "--dataset", str(store), "--split", "test",
+                                       "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert result.stderr == (f"vptool: error: {store}: split 'test' holds no models; "
+                             "nothing to search\n")
+    assert not out.exists()

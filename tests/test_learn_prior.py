@@ -86,3 +86,55 @@ def test_map_modes_are_the_highest_cells_far_enough_apart():
     assert np.degrees(np.arccos(second[0, 0] @ (side @ turn[0]).numpy())) < 10
     for other in (first, second):
         assert float(third[0, 0] @ other[0, 0]) < np.cos(np.radians(30.0))
+
+
+def _best_view_with_prior(prior) -> tuple[int, list[str]]:
+    """Exit code and error lines of best-view on the mug with ``--prior prior``."""
+    result = CliRunner().invoke(main, ["best-view", str(sample_path("mug.obj")), "--views", "8",
+                                       "--resolution", "32", "--prior", str(prior)])
+    assert "Traceback" not in result.output and "Warning" not in result.output
+    lines = result.stderr.replace("\r", "\n").splitlines()
+    return result.exit_code, [line for line in lines if line.startswith("vptool:")]
+
+
+@pytest.mark.parametrize("command", ["best-view", "predict"])
+def test_a_missing_checkpoint_file_is_said_not_to_exist(tmp_path, command):
+    missing = tmp_path / "missing.safetensors"
+    if command == "best-view":
+        code, errors = _best_view_with_prior(missing)
+    else:
+        result = CliRunner().invoke(main, ["predict", "-m", str(missing),
+                                           str(sample_path("mug.obj"))])
+        code, errors = result.exit_code, result.stderr.splitlines()
+    assert code == 2
+    assert errors == [f"vptool: error: {missing}: no such checkpoint (a folder, *.safetensors "
+                      "or *.json file, or 'default')"]
+
+
+def test_a_per_category_folder_as_prior_says_best_view_takes_one_network(tmp_path):
+    folder = tmp_path / "per"
+    folder.mkdir()
+    (folder / "categories.json").write_text('{"format": "x", "categories": {}}')
+    code, errors = _best_view_with_prior(folder)
+    assert code == 2 and len(errors) == 1
+    assert errors[0].startswith(f"vptool: error: {folder}: holds one network per category")
+    assert "best-view has no --category" in errors[0]
+
+
+def test_a_prior_with_all_zero_weights_is_one_line_saying_they_are_broken(tmp_path):
+    from vptoolkit.learn import model as M
+    from vptoolkit.learn.config import LevelConfig, ModelConfig
+
+    small = ModelConfig(latent_channels=16, head_channels=(8,), levels=(
+        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
+                    neighbourhood="cell"),
+    ))
+    network = M.ViewpointNet(small)
+    with torch.no_grad():
+        for parameter in network.parameters():
+            parameter.zero_()
+    M.save_model(network, tmp_path / "zero")
+    code, errors = _best_view_with_prior(tmp_path / "zero")
+    assert code == 2 and len(errors) == 1
+    assert errors[0].startswith(f"vptool: error: {tmp_path / 'zero'}: the network answers a zero")
+    assert errors[0].endswith("its weights are broken")

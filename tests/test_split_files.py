@@ -55,6 +55,7 @@ def test_csv_and_small_txt_are_read(tmp_path):
     ("name,split\nmug,train\nmug,test\n", "line 3 lists 'mug' a second time"),
     ("name,split\nmug\n", "line 2 is 'mug', expected name,split"),
     ("mug.obj\n", "line 1 is 'mug.obj', expected objfiles/"),
+    ("name,split\n" + "x" * 200_000 + ",train\n", "line 2 cannot be read as CSV .*131072"),
 ])
 def test_a_malformed_split_file_is_one_line_naming_it(tmp_path, text, problem):
     path = tmp_path / "splits.csv"
@@ -62,6 +63,35 @@ def test_a_malformed_split_file_is_one_line_naming_it(tmp_path, text, problem):
     with pytest.raises(InputError, match=problem) as caught:
         read_split_file(path)
     assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("text", [
+    "name,split\n" + "y" * 100_000 + "\n",
+    "name,split\nmug,train\n" + "mug" * 30_000 + ",train\n" + "mug" * 30_000 + ",test\n",
+    "name,split\nmug," + "z" * 100_000 + "\n",
+    "z" * 100_000 + "\n",
+])
+def test_an_error_quotes_at_most_80_characters_of_a_long_line(tmp_path, text):
+    path = tmp_path / "splits.csv"
+    path.write_text(text)
+    with pytest.raises(InputError) as caught:
+        read_split_file(path)
+    quoted = str(caught.value).split("'", 1)[1].rsplit("...", 1)[0]
+    assert len(quoted) == 76 and "..." in str(caught.value) and len(str(caught.value)) < 250
+
+
+@pytest.mark.parametrize("extra", [[], ["--dry-run"]], ids=["build", "dry-run"])
+def test_build_dataset_with_a_cell_too_big_for_csv_is_one_line(tmp_path, extra):
+    src = source(tmp_path / "src")
+    csv = tmp_path / "bigcell.csv"
+    csv.write_text("name,split\n" + "x" * 200_000 + ",train\nmug,train\n")
+    result = CliRunner().invoke(main, ["build-dataset", str(src), str(tmp_path / "out"),
+                                       "--views", "20", "--no-clean", "--splits", str(csv),
+                                       *extra])
+    assert result.exit_code == 2, result.output
+    assert result.stderr == (f"vptool: error: {csv}: line 2 cannot be read as CSV "
+                             "(field larger than field limit (131072))\n")
+    assert not (tmp_path / "out").exists()
 
 
 def test_build_takes_its_split_from_a_csv(tmp_path):

@@ -69,6 +69,16 @@ def test_normals_are_made_unit_length(teapot):
                                unoccluded_quality(normals, areas, directions), rtol=1e-9)
 
 
+@pytest.mark.parametrize("length", [1e-300, 1e155, 1e300, np.finfo(np.float64).max])
+def test_normals_of_any_finite_length_are_made_unit_length(teapot, length):
+    # |n| of 1e155 overflows in float64 and used to give NaN and a ZeroDivisionError
+    normals, areas = mesh_elements(teapot)
+    directions = fibonacci_sphere(20)
+    scaled = normals / np.abs(normals).max(axis=1, keepdims=True) * length  # no warning here
+    np.testing.assert_allclose(unoccluded_quality(scaled, areas, directions),
+                               unoccluded_quality(normals, areas, directions), rtol=1e-9)
+
+
 def test_vmi_equals_vkl_and_a_uniform_sample_weighs_points_alike(teapot):
     normals, areas = mesh_elements(teapot)
     raw = unoccluded_quality(normals, areas, fibonacci_sphere(40))
@@ -116,10 +126,11 @@ def test_as_a_search_prior_its_first_candidate_is_drawn_at_full_resolution(teapo
 @pytest.mark.parametrize("normals, areas, message", [
     (np.zeros((4, 2)), np.ones(4), "expected shapes"),
     (np.eye(3), np.ones(2), "expected shapes"),
-    (np.full((3, 3), np.nan), np.ones(3), "finite"),
-    (np.eye(3), -np.ones(3), "areas >= 0"),
+    (np.full((3, 3), np.nan), np.ones(3), "normals: a normal is NaN or infinite"),
+    (np.full((3, 3), np.inf), np.ones(3), "normals: a normal is NaN or infinite"),
+    (np.eye(3), -np.ones(3), "areas: expected finite values >= 0"),
     (np.eye(3), np.zeros(3), "zero area"),
-    (np.zeros((3, 3)), np.ones(3), "3 of zero length"),
+    (np.zeros((3, 3)), np.ones(3), "normals: 3 of 3 normals have zero length"),
 ])
 def test_bad_elements_are_one_line_errors(normals, areas, message):
     with pytest.raises(InputError, match=message):
@@ -186,3 +197,34 @@ def test_predict_unoccluded_of_points_without_normals_exits_2(tmp_path, teapot):
     assert result.exit_code == 2
     assert result.stderr.count("\n") == 1 and "bare.npy: has no normals" in result.stderr
     assert "Traceback" not in result.output
+
+
+def test_predict_unoccluded_of_normals_longer_than_1e154_is_the_unit_answer(tmp_path, teapot):
+    sample = sample_surface(teapot, 2000, seed=0)
+    unit, huge = tmp_path / "unit.npy", tmp_path / "huge.npy"
+    np.save(unit, np.hstack([sample.points, sample.normals]))
+    np.save(huge, np.hstack([sample.points, sample.normals * 1e155]))
+    outputs = [CliRunner().invoke(main, ["predict", "-m", "unoccluded", str(path)])
+               for path in (unit, huge)]
+    assert [outcome.exit_code for outcome in outputs] == [0, 0], outputs[1].output
+    assert outputs[1].stderr == ""
+    assert outputs[1].stdout.replace("huge:", "unit:") == outputs[0].stdout
+
+
+@pytest.mark.parametrize("stored, message", [
+    (0.0, "model 'airplane_0001': 200 of 200 normals have zero length"),
+    (np.nan, "model 'airplane_0001': a normal is NaN or infinite"),
+])
+def test_predict_unoccluded_of_broken_stored_normals_names_the_dataset_and_model(
+        tmp_path, stored, message):
+    import h5py
+
+    from fixtures.stores import N_POINTS, write_synthetic
+
+    store = write_synthetic(tmp_path / "dataset.h5")
+    with h5py.File(store, "r+") as handle:  # damaged after writing, as on a bad disk
+        handle["normals"][0] = np.full((N_POINTS, 3), stored)
+    result = CliRunner().invoke(main, ["predict", "-m", "unoccluded", "--dataset", str(store),
+                                       "--split", "all"])
+    assert result.exit_code == 2, result.output
+    assert result.stderr == f"vptool: error: {store}: {message}\n"

@@ -283,7 +283,10 @@ class _Renderer:
         self.mesh = mesh
         self.scene = RasterScene(mesh, camera)
         self.areas = self.scene.areas
-        self.face_probability = self.areas / self.areas.sum()
+        total = float(self.areas.sum())
+        if not total > 0.0:
+            raise InputError(f"{mesh.name}: the mesh has zero surface area")
+        self.face_probability = self.areas / total
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,
                 estimate_face_probability: bool = False) -> NDArray[np.float64]:
@@ -359,7 +362,8 @@ def search_best_views(
     Raises
     ------
     InputError
-        On a budget, resolution or view count out of range, or a bad prior.
+        On a budget, resolution or view count out of range, a bad prior, or a
+        mesh of zero surface area.
 
     Examples
     --------
@@ -449,10 +453,14 @@ class SearchRun:
         In input order.
     failures : tuple of (str, str)
         ``(input, one-line reason)`` for every input that could not be searched.
+    is_bad_input : bool
+        Whether every failure was bad input (an unreadable or malformed mesh,
+        an :class:`~vptoolkit.errors.InputError`), none a measurement failure.
     """
 
     results: tuple[BestViews, ...]
     failures: tuple[tuple[str, str], ...]
+    is_bad_input: bool = True
 
     def save_predictions(self, path: str | os.PathLike[str]) -> Path:
         """Write the directions ``(n_meshes, 4, 3)`` as predictions that ``vptool evaluate``
@@ -513,9 +521,9 @@ def search_inputs(
     Raises
     ------
     InputError
-        On an invalid option or a dataset that cannot be opened. A mesh that
-        cannot be read or measured, or a second mesh of the same name, is
-        recorded in ``failures`` instead.
+        On an invalid option, a dataset that cannot be opened or a split of
+        it without models. A mesh that cannot be read or measured, or a
+        second mesh of the same name, is recorded in ``failures`` instead.
     """
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
@@ -526,6 +534,9 @@ def search_inputs(
 
             opened = stack.enter_context(open_dataset(dataset))
             subset = opened.split(split) if split is not None else opened
+            if not len(subset.names):
+                which = "the dataset" if split is None else f"split {split!r}"
+                raise InputError(f"{dataset}: {which} holds no models; nothing to search")
         return _search_all(_meshes(inputs, subset), budget, resolution, prior, progress)
 
 
@@ -542,6 +553,7 @@ def _search_all(sources: list[tuple[str, Callable[[], Mesh]]], budget: int, reso
         _load_kernels()
     results: list[BestViews] = []
     failures: list[tuple[str, str]] = []
+    is_bad_input = True
     names: set[str] = set()
     with progress_bar(total=len(sources), description="best views", unit="mesh",
                       enabled=progress) as bar:
@@ -559,5 +571,6 @@ def _search_all(sources: list[tuple[str, Callable[[], Mesh]]], budget: int, reso
                 names.add(mesh.name)
             except (InputError, MeasurementError) as error:
                 failures.append((label, one_line(error)))
+                is_bad_input = is_bad_input and isinstance(error, InputError)
             bar.update(1)
-    return SearchRun(tuple(results), tuple(failures))
+    return SearchRun(tuple(results), tuple(failures), is_bad_input)

@@ -454,7 +454,7 @@ def read_point_normals(path: Path) -> tuple[NDArray[np.float64], NDArray[np.floa
         raise InputError(f"{path.name}: has no normals; expected an (N, 6) point array "
                          "(x y z nx ny nz, as vptool sample writes)")
     normals = np.asarray(table[:, 3:], dtype=np.float64)
-    if not np.isfinite(normals).all() or not (np.linalg.norm(normals, axis=1) > 0).all():
+    if not np.isfinite(normals).all() or not np.abs(normals).max(axis=1).all():
         raise InputError(f"{path.name}: a normal is NaN, infinite or of zero length")
     return points, normals
 

@@ -136,6 +136,35 @@ def _pool(normals: NDArray[np.float64], areas: NDArray[np.float64], cells: int,
     return summed[used] / lengths[used, None], weights[used], a_log_a[used]
 
 
+def _unit_normals(normals: NDArray[np.float64], label: str) -> NDArray[np.float64]:
+    """``normals`` made unit length, each finite and of positive length.
+
+    Each row is divided by its largest absolute component before its length
+    is taken, so a normal of any finite length (1e-300 or 1e300) comes out
+    right, with no overflow or underflow.
+
+    Parameters
+    ----------
+    normals : (k, 3) float64
+    label : str
+        Starts the message: the argument, or the file and model.
+
+    Raises
+    ------
+    InputError
+        ``<label>: a normal is NaN or infinite`` or ``<label>: 3 of 500
+        normals have zero length``.
+    """
+    if not np.isfinite(normals).all():
+        raise InputError(f"{label}: a normal is NaN or infinite")
+    largest = np.abs(normals).max(axis=1, keepdims=True, initial=0.0)
+    n_zero = int(np.count_nonzero(largest == 0.0))
+    if n_zero:
+        raise InputError(f"{label}: {n_zero} of {len(normals)} normals have zero length")
+    scaled = normals / largest
+    return np.asarray(scaled / np.linalg.norm(scaled, axis=1, keepdims=True))
+
+
 def _x_log2_x(values: NDArray[np.float64]) -> NDArray[np.float64]:
     """``x log2 x`` elementwise, 0 at 0."""
     return np.asarray(values * np.log2(np.maximum(values, _TINY)))
@@ -168,13 +197,9 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
     if vectors.ndim != 2 or vectors.shape[1] != 3 or element_areas.shape != vectors.shape[:1]:
         raise InputError(f"normals, areas: expected shapes (k, 3) and (k,), "
                          f"got {vectors.shape} and {element_areas.shape}")
-    finite = np.isfinite(vectors).all() and np.isfinite(element_areas).all()
-    if not finite or (element_areas < 0).any():
-        raise InputError("normals, areas: expected finite values and areas >= 0")
-    lengths = np.linalg.norm(vectors, axis=1)
-    if not (lengths > 0).all():
-        raise InputError(f"normals: {int(np.sum(lengths == 0))} of zero length")
-    unit = vectors / lengths[:, None]
+    if not np.isfinite(element_areas).all() or (element_areas < 0).any():
+        raise InputError("areas: expected finite values >= 0")
+    unit = _unit_normals(vectors, "normals")
     total = float(element_areas.sum())
     if not total > 0.0:
         raise InputError("areas: the surface has zero area")
@@ -321,7 +346,9 @@ def predict_unoccluded(
     ------
     InputError
         Naming the input, on an unreadable file, a point file without normals,
-        an unknown file type or split, or two models of one name.
+        an unknown file type or split, two models of one name, or a normal
+        that is NaN, infinite or of zero length (naming the dataset and model
+        for a stored one).
     """
     from vptoolkit.best_view import coarse_directions
     from vptoolkit.data import open_dataset
@@ -352,6 +379,8 @@ def predict_unoccluded(
             with open_dataset(path) as dataset:
                 subset = dataset.split(split) if split is not None else dataset
                 for position, name in enumerate(subset.names):
-                    add(name, unoccluded_best_views(subset[position]["normals"],
-                                                    directions=n_directions))
+                    stored = np.asarray(subset[position]["normals"], dtype=np.float64)
+                    add(name, unoccluded_best_views(
+                        _unit_normals(stored, f"{source}: model {name!r}"),
+                        directions=n_directions))
     return tuple(names), np.array(answers).reshape(-1, len(MEASURES), 3)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import errno
 import os
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
@@ -53,16 +54,24 @@ Decorated = TypeVar("Decorated", bound=Callable[..., Any])
 
 
 class ExistingPath(click.Path):
-    """click.Path that names a symlink loop instead of saying the path does not exist."""
+    """click.Path that names a symlink loop and refuses what is neither a file nor a folder.
+
+    A named pipe, socket or device would block the command or feed it a
+    stream read more than once; it is refused with an
+    :class:`~vptoolkit.errors.InputError`, ``<path>: not a regular file``.
+    """
 
     def convert(self, value: Any, param: click.Parameter | None,
                 ctx: click.Context | None) -> Any:
-        """Check ``value`` as click.Path does, after naming a symbolic link loop."""
+        """Check ``value`` as click.Path does, after naming a symbolic link loop or a pipe."""
         try:
-            os.stat(os.fspath(value))
+            mode = os.stat(os.fspath(value)).st_mode
         except OSError as err:
             if err.errno == errno.ELOOP:
                 self.fail(f"{os.fsdecode(value)}: symbolic link loop ({err.strerror})", param, ctx)
+        else:
+            if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+                raise InputError(f"{os.fsdecode(value)}: not a regular file")
         return super().convert(value, param, ctx)
 
 

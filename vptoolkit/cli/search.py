@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -10,6 +11,7 @@ from typing import TYPE_CHECKING
 import click
 
 from vptoolkit.checks import check_suffix
+from vptoolkit.cli.group import EXIT_BAD_INPUT
 from vptoolkit.cli.options import (
     DATASET,
     MESH,
@@ -103,9 +105,12 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
                 click.echo(f"  {measure:<4} ({x:+.3f}, {y:+.3f}, {z:+.3f})  raw {raw:.4f}")
         if output is not None and run.results:
             click.echo(f"wrote {output} ({len(run.results)} meshes)")
-    for where, why in run.failures:
-        click.echo(f"vptool: error: {why}" if why.startswith(Path(where).name) else
-                   f"vptool: error: {where}: {why}", err=True)
+    for where, why in run.failures:  # the reason names the file or the mesh, else say where
+        named = why.startswith((Path(where).name, f"{Path(where).stem}:"))
+        click.echo(f"vptool: error: {why}" if named else f"vptool: error: {where}: {why}",
+                   err=True)
+    if run.failures and not run.results and run.is_bad_input:
+        sys.exit(EXIT_BAD_INPUT)  # nothing searched, all bad input: each said in its own line
     if run.failures:
         raise MeasurementError(f"{len(run.failures)} of {len(run.failures) + len(run.results)} "
                                "inputs failed")

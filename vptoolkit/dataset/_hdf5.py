@@ -10,6 +10,13 @@ root attribute ``json_attributes``
 decodes them. ``h5py`` is imported inside the functions, and
 :mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader` import
 this module only to write or open an HDF5 store.
+
+HDF5 cannot recover from a failed write: closing such a file fails again and
+the library crashes when the interpreter exits. So the sink writes through
+:class:`_KeptErrorFile`, which keeps the first failed write (a full disk, a
+file over ``ulimit -f``) instead of handing it to HDF5 and drops the rest; the
+next array write and :meth:`Hdf5Sink.close` raise it as the ``OSError`` it is,
+after the file is closed once.
 """
 
 from __future__ import annotations
@@ -28,13 +35,101 @@ from vptoolkit.optional import require
 __all__ = ["Hdf5Sink", "open_hdf5"]
 
 
+class _KeptErrorFile:
+    """The file under an HDF5 file being written, as h5py's ``fileobj`` driver calls it.
+
+    Writes and truncations go straight to the file (unbuffered) until one
+    fails; that ``OSError`` is kept in :attr:`error` and every later write or
+    truncation is dropped while reporting success, so HDF5 never sees an error.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self._stream = open(path, "w+b", buffering=0)  # closed by close()
+        self.error: OSError | None = None
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return self._stream.seek(offset, whence)
+
+    def tell(self) -> int:
+        return self._stream.tell()
+
+    def read(self, size: int = -1) -> bytes:
+        """Read ``size`` bytes (h5py takes an object with ``read`` and ``seek`` for a file)."""
+        return self._stream.read(size) or b""
+
+    def readinto(self, buffer: bytearray | memoryview) -> int | None:
+        return self._stream.readinto(buffer)
+
+    def write(self, data: bytes | bytearray | memoryview) -> int:
+        view = memoryview(data).cast("B")
+        written = 0
+        try:
+            while self.error is None and written < len(view):
+                written += self._stream.write(view[written:]) or 0
+        except OSError as err:
+            self.error = err
+        return len(view)
+
+    def truncate(self, size: int | None = None) -> int:
+        try:
+            if self.error is None:
+                return self._stream.truncate(size)
+        except OSError as err:
+            self.error = err
+        return self._stream.tell() if size is None else size
+
+    def flush(self) -> None:
+        """Nothing to flush: writes are unbuffered."""
+
+    def raise_error(self) -> None:
+        """Raise the kept error, if a write failed."""
+        if self.error is not None:
+            raise self.error
+
+    def close(self) -> None:
+        try:
+            self._stream.close()
+        except OSError as err:
+            self.error = self.error or err
+
+
+class _Hdf5Array:
+    """An HDF5 dataset being written: an assignment raises the file's kept write error.
+
+    Any other attribute is the dataset's own.
+    """
+
+    def __init__(self, dataset: Any, stream: _KeptErrorFile) -> None:
+        self._dataset = dataset
+        self._stream = stream
+
+    def __setitem__(self, key: Any, value: Any) -> None:
+        self._dataset[key] = value
+        self._stream.raise_error()
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._dataset, name)
+
+
 class Hdf5Sink:
-    """Writes the layout to an HDF5 file."""
+    """Writes the layout to an HDF5 file.
+
+    Raises
+    ------
+    OSError
+        From an array assignment or :meth:`close`, when writing the file
+        failed (a full disk, a file too large); closing still closes the file.
+    """
 
     def __init__(self, path: Path, root_attrs: dict[str, Any]) -> None:
         h5py = require("h5py")  # a core dependency
         self._h5py = h5py
-        self._file = h5py.File(path, "w", track_order=True)
+        self._stream = _KeptErrorFile(path)
+        try:
+            self._file = h5py.File(self._stream, "w", track_order=True)
+        except BaseException:
+            self._stream.close()
+            raise
         json_keys = []
         for key, value in root_attrs.items():
             if _is_scalar(value):
@@ -65,10 +160,15 @@ class Hdf5Sink:
                 shuffle=True,
             )
         dataset.attrs["sha256"] = sha256
-        return dataset
+        return _Hdf5Array(dataset, self._stream)
 
     def close(self) -> None:
-        self._file.close()
+        """Close the HDF5 file and the file under it, then raise a write error kept meanwhile."""
+        try:
+            self._file.close()
+        finally:
+            self._stream.close()
+        self._stream.raise_error()
 
 
 def _is_scalar(value: Any) -> bool:

@@ -30,10 +30,11 @@ import csv
 import hashlib
 import io
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from vptoolkit.checks import short_repr
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
@@ -54,6 +55,7 @@ PAPER_CATEGORIES = ("airplane", "bench", "bottle", "car", "chair", "sofa", "tabl
 """The eight ModelNet40 categories of the paper's experiments."""
 
 _PREFIX = "objfiles/"
+_QUOTED_CHARS = 80  # an error quotes at most this much of a line, ending in "..." when cut
 _FOLDERS = ("train", "test")
 
 
@@ -136,7 +138,7 @@ def _listed_model(source: Path, number: int, line: str) -> ListedModel:
     if (len(parts) != 3 or parts[1] not in _FOLDERS or not parts[2].lower().endswith(".obj")
             or len(parts[2]) <= len(".obj")):
         raise InputError(
-            f"{source}: line {number} is {line!r}, expected "
+            f"{source}: line {number} is {short_repr(line, _QUOTED_CHARS)}, expected "
             "objfiles/<category>/<train|test>/<name>.obj"
         )
     return ListedModel(category=parts[0], folder=parts[1], name=parts[2][: -len(".obj")],
@@ -190,8 +192,10 @@ def read_split_file(path: str | os.PathLike[str],
     Raises
     ------
     InputError
-        If the file cannot be read, a line is malformed, a split is unknown
-        or a name is listed twice; the message names the file and the line.
+        If the file cannot be read, a line is malformed (a CSV cell over
+        131,072 characters included), a split is unknown or a name is listed
+        twice; the message names the file and the line and quotes at most 80
+        characters of it.
     """
     source = Path(path)
     try:
@@ -204,28 +208,39 @@ def read_split_file(path: str | os.PathLike[str],
     splits: dict[str, str] = {}
     for model, split in paper_splits(read_model_list(source), categories):
         if model.name in splits:
-            raise InputError(f"{source}: line {model.line} lists {model.name!r} a second time")
+            raise InputError(f"{source}: line {model.line} lists "
+                             f"{short_repr(model.name, _QUOTED_CHARS)} a second time")
         splits[model.name] = split
     return splits
 
 
 def _read_csv(source: Path, text: str) -> dict[str, str]:
-    splits: dict[str, str] = {}
     rows = csv.reader(io.StringIO(text))
+    try:
+        return _csv_splits(source, rows)
+    except csv.Error as err:  # e.g. a cell longer than csv's field limit of 131,072 characters
+        raise InputError(f"{source}: line {rows.line_num} cannot be read as CSV ({err})") from err
+
+
+def _csv_splits(source: Path, rows: Iterator[list[str]]) -> dict[str, str]:
+    """The splits of the rows of a ``name,split`` CSV, its header first."""
+    splits: dict[str, str] = {}
     next(rows)
     for number, row in enumerate(rows, start=2):
         if not row or all(not cell.strip() for cell in row):
             continue
         if len(row) != 2 or not row[0].strip():
-            raise InputError(f"{source}: line {number} is {','.join(row)!r}, expected name,split")
+            raise InputError(f"{source}: line {number} is "
+                             f"{short_repr(','.join(row), _QUOTED_CHARS)}, expected name,split")
         name, split = row[0].strip(), published_split(row[1].strip().lower())
         if split not in SPLITS:
             raise InputError(
-                f"{source}: line {number}: split {row[1].strip()!r} is not one of "
-                f"{', '.join(SPLITS)} (or val)"
+                f"{source}: line {number}: split {short_repr(row[1].strip(), _QUOTED_CHARS)} "
+                f"is not one of {', '.join(SPLITS)} (or val)"
             )
         if name in splits:
-            raise InputError(f"{source}: line {number} lists {name!r} a second time")
+            raise InputError(f"{source}: line {number} lists "
+                             f"{short_repr(name, _QUOTED_CHARS)} a second time")
         splits[name] = split
     return splits
 

@@ -81,6 +81,7 @@ from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.learn.checkpoint import (
     MODEL_FORMAT,
     checkpoint_paths,
+    is_default_model,
     read_json,
     read_safetensors,
     write_json_atomic,
@@ -371,13 +372,17 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     Raises
     ------
     InputError
-        If a file is missing or unreadable, the configuration is not a
+        If ``path`` does not exist (naming it), a file is missing or
+        unreadable, the configuration is not a
         vptoolkit model, has no ``architecture``, lists its measures in
         another order than ``MEASURES`` or asks for sizes beyond the bounds
         of :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
     CheckpointError
         If the weights do not match the architecture.
     """
+    if not is_default_model(path) and not Path(path).exists():
+        raise InputError(f"{path}: no such checkpoint (a folder, *.safetensors or *.json file, "
+                         "or 'default')")
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
     if config.get("format") != MODEL_FORMAT:

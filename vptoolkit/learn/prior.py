@@ -28,19 +28,20 @@ from __future__ import annotations
 import itertools
 import math
 import os
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
-from vptoolkit.learn.predict import MeshPredictor
+from vptoolkit.learn.predict import MeshPredictor, predict_directions
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
-from vptoolkit.sphere import distinct_directions
+from vptoolkit.sphere import distinct_directions, fibonacci_sphere
 
 if TYPE_CHECKING:
     import torch
@@ -68,6 +69,14 @@ class NetworkPrior:
     threads : int, optional
         Torch threads during each call (default: torch's setting).
 
+    Raises
+    ------
+    InputError
+        If ``model_path`` does not exist, is not a checkpoint or is a
+        per-category folder, or if the network's weights are broken (it
+        answers no direction for the points of a sphere); a call raises it
+        for a mesh the network answers no direction for.
+
     Examples
     --------
     >>> prior = NetworkPrior("default")                       # doctest: +SKIP
@@ -82,7 +91,15 @@ class NetworkPrior:
                 raise InputError(f"{name}: expected an angle in [0, 180), got {angle!r}")
         if isinstance(modes, bool) or not isinstance(modes, int) or modes < 1:
             raise InputError(f"modes: expected a positive integer, got {modes!r}")
+        if not is_default_model(model_path) and (Path(model_path) / "categories.json").is_file():
+            raise InputError(f"{model_path}: holds one network per category, and a prior is one "
+                             "network for every mesh (best-view has no --category); give the "
+                             "folder of one category's network inside it")
         self.predictor = MeshPredictor(model_path, seed=seed, threads=threads)
+        probe = fibonacci_sphere(self.predictor.n_points).astype(np.float32)
+        with torch_threads(threads):  # broken weights answer no direction at all: say so once
+            predict_directions(self.predictor.model, probe[None],
+                               checkpoint=self.predictor.checkpoint)
         self.min_angle_deg = float(min_angle_deg)
         self.modes = modes
         self.mode_angle_deg = float(mode_angle_deg)
@@ -125,8 +142,12 @@ class NetworkPrior:
         if "maps" in outputs and self.modes > 1:
             ranked += map_modes(outputs["maps"], frames, self.modes, self.mode_angle_deg)[1:]
         candidates = np.concatenate([rank.reshape(-1, 3) for rank in ranked])
-        candidates = candidates / np.linalg.norm(candidates, axis=1, keepdims=True)
-        return distinct_directions(candidates, self.min_angle_deg)
+        lengths = np.linalg.norm(candidates, axis=1, keepdims=True)
+        if not (np.isfinite(lengths) & (lengths > 0.0)).all():
+            raise InputError(f"{self.predictor.checkpoint}: the network answers a zero or "
+                             f"non-finite vector for {mesh.name}, not a direction; its weights "
+                             "are broken")
+        return distinct_directions(candidates / lengths, self.min_angle_deg)
 
 
 def map_modes(maps: torch.Tensor, frames: torch.Tensor, modes: int,
