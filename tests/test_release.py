@@ -6,6 +6,7 @@ import hashlib
 import json
 import re
 import shutil
+import textwrap
 from collections import Counter
 from pathlib import Path
 
@@ -201,6 +202,65 @@ def test_a_full_disk_while_packing_names_the_release(build: Path, tmp_path: Path
     assert list(tmp_path.iterdir()) == []
 
 
+_UNDER_FILE_SIZE_LIMIT = textwrap.dedent("""
+    import json, resource, signal, sys
+    from pathlib import Path
+    from click.testing import CliRunner
+    from vptoolkit.cli import main
+
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails with EFBIG
+    resource.setrlimit(resource.RLIMIT_FSIZE, (int(sys.argv[1]),) * 2)
+    if sys.argv[2] == "pack":
+        outcome = CliRunner().invoke(main, ["pack", *sys.argv[3:]])
+        print(json.dumps([outcome.exit_code, outcome.output]))
+    else:
+        sys.path.insert(0, sys.argv[2])
+        from fixtures.stores import write_synthetic
+        try:
+            write_synthetic(Path(sys.argv[3]))
+        except OSError as err:
+            print(json.dumps([err.errno, err.filename]))
+""")
+
+
+def _under_file_size_limit(limit: int, *args: str) -> list:
+    """Run pack (``"pack", *options``) or write a synthetic store (``tests_folder, path``) in
+    a child whose files may not pass ``limit`` bytes; return what it printed (decoded)."""
+    import os
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", _UNDER_FILE_SIZE_LIMIT, str(limit), *args],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    assert done.returncode == 0, done.stderr[-2000:]
+    return json.loads(done.stdout)
+
+
+@pytest.mark.parametrize("limit_kb", [1, 40, 90])
+def test_a_file_size_limit_while_writing_the_hdf5_archive_is_one_line(
+        build: Path, tmp_path: Path, limit_kb: int) -> None:
+    # HDF5 used to raise RuntimeError on close and crash the interpreter at exit.
+    code, output = _under_file_size_limit(limit_kb * 1024, "pack", str(build),
+                                          str(tmp_path / "rel"), "--formats", "hdf5")
+    errors = [line for line in output.splitlines() if line.startswith("vptool: error:")]
+    assert code == 2, output
+    assert errors == [f"vptool: error: {tmp_path / 'rel'}: File too large"], output
+    assert "Traceback" not in output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_file_size_limit_while_writing_an_hdf5_store_names_the_store(tmp_path: Path) -> None:
+    import errno
+
+    require_package("h5py")
+    target = tmp_path / "dataset.h5"
+    number, filename = _under_file_size_limit(
+        20 * 1024, str(Path(__file__).parent), str(target))
+    assert (number, filename) == (errno.EFBIG, str(target))
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_pack_removes_only_its_own_stale_staging_folders(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
     from vptoolkit.files import held
@@ -238,7 +298,8 @@ def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
     from vptoolkit.dataset.release import pack_release
 
-    options = ReleaseOptions(name="mini-v1", license="cc-by-4.0", version="2.3.4")
+    options = ReleaseOptions(name="mini-v1", license="cc-by-4.0", version="2.3.4",
+                             force_license=True)  # the source is ModelNet-named
     result = pack_release(build, tmp_path / "nested" / "rel", options)
     assert result.zarr_zip is None  # by default Parquet and one archive, HDF5
     assert result.hdf5.name == "mini-v1.h5"  # the version is not in file names

@@ -162,6 +162,64 @@ def test_card_dataset_info_has_features_and_sizes(release) -> None:
     assert header["pretty_name"] == "Mini viewpoints"
 
 
+def test_a_shard_read_alone_by_datasets_has_the_cards_features(release, tmp_path: Path,
+                                                               monkeypatch) -> None:
+    require_package("datasets")
+    monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
+    monkeypatch.setenv("HF_HUB_OFFLINE", "1")
+    import datasets
+    import pyarrow.parquet as pq
+    import yaml
+
+    from vptoolkit.data import open_dataset
+
+    header = yaml.safe_load(release.card.read_text(encoding="utf-8").split("---\n")[1])
+    declared = {c["config_name"]: datasets.Features._from_yaml_list(c["features"])
+                for c in header["dataset_info"]}
+    for shard in release.parquet:
+        config = "views" if shard.parent.name == "views" else "default"
+        metadata = json.loads(pq.read_schema(shard).metadata[b"huggingface"])
+        assert datasets.Features.from_dict(metadata["info"]["features"]) == declared[config]
+        alone = datasets.load_dataset("parquet", data_files=str(shard),
+                                      cache_dir=str(tmp_path / "cache"))["train"]
+        # datasets takes an Array2D from the metadata only for its Arrow extension type,
+        # which plain lists are not: read alone, arrays are lists of lists of the same values.
+        as_read = {name: (datasets.List(datasets.List(datasets.Value(feature.dtype)))
+                          if isinstance(feature, datasets.Array2D) else feature)
+                   for name, feature in declared[config].items()}
+        assert alone.features == datasets.Features(as_read), shard.name
+    train = release.path / "data" / "train-00000-of-00001.parquet"
+    alone = datasets.load_dataset("parquet", data_files=str(train),
+                                  cache_dir=str(tmp_path / "cache"))["train"]
+    label = alone.features["label"]
+    assert isinstance(label, datasets.ClassLabel) and label.names == sorted(CATEGORIES)
+    with open_dataset(release.path) as reference:
+        models = reference.split("train")
+        assert alone["label"] == models.labels.tolist()
+        assert [label.int2str(v) for v in alone["label"]] == alone["category"]
+        np.testing.assert_array_equal(alone.with_format("numpy")[0]["quality"],
+                                      models[0]["quality"])
+
+
+def test_parquet_shards_repeat_byte_for_byte_with_sorted_json_features(release,
+                                                                       tmp_path: Path) -> None:
+    import pyarrow.parquet as pq
+
+    from vptoolkit.dataset.parquet import write_parquet_shards
+    from vptoolkit.dataset.reader import open_store
+
+    with open_store(next(release.path.glob("*.h5"))) as reader:
+        first = write_parquet_shards(reader, tmp_path / "a")
+        second = write_parquet_shards(reader, tmp_path / "b")
+    assert [s.path for s in first] == [s.path for s in second]
+    for shard in first:
+        written = (tmp_path / "a" / shard.path).read_bytes()
+        assert written == (tmp_path / "b" / shard.path).read_bytes(), shard.path
+        assert written == (release.path / shard.path).read_bytes(), shard.path
+        text = pq.read_schema(tmp_path / "a" / shard.path).metadata[b"huggingface"].decode()
+        assert text == json.dumps(json.loads(text), sort_keys=True)
+
+
 # --------------------------------------------------------------------------- Croissant
 
 
@@ -854,7 +912,7 @@ def test_plain_install_needs_no_heavy_package() -> None:
 
     project = tomllib.loads((Path(__file__).resolve().parents[1] / "pyproject.toml").read_text())
     core = [re.split(r"[<>=;\[ ]", dep)[0] for dep in project["project"]["dependencies"]]
-    assert sorted(core) == ["click", "h5py", "numpy", "tqdm"]
+    assert sorted(core) == ["click", "h5py", "numpy", "packaging", "tqdm"]
     extras = project["project"]["optional-dependencies"]
     assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures,remote]" in extras["all"]
     for package in ("numba", "trimesh"):
@@ -998,7 +1056,7 @@ def test_one_licence_for_every_model_fills_records_shards_and_card(tmp_path: Pat
     build = _write_build(tmp_path / "build")
     release = tmp_path / "release"
     result = CliRunner().invoke(main, ["pack", str(build), str(release), "--license",
-                                       "CC-BY-4.0", "--creator", "Jane Doe",
+                                       "CC-BY-4.0", "--force-license", "--creator", "Jane Doe",
                                        "--created", CREATED])
     assert result.exit_code == 0, result.output
     assert "warning" not in result.stderr
@@ -1051,7 +1109,7 @@ def test_a_licence_given_by_url_is_other_on_the_hub_with_its_link(tmp_path: Path
 
     url = "https://example.org/terms"
     result = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
-                          ReleaseOptions(license=url, formats=["hdf5"]))
+                          ReleaseOptions(license=url, formats=["hdf5"], force_license=True))
     header = result.card.read_text(encoding="utf-8").split("\n---\n")[0]
     assert 'license: "other"\nlicense_name: "custom"\nlicense_link: "https://example.org/terms"' \
         in header

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Build the wheel and the sdist, check their metadata, install the wheel into a
-# fresh venv (the light install: numpy, click, tqdm, h5py) and smoke-test it:
-# `vptool --help`, and the light reader on RELEASE when one is given.
+# fresh venv (the light install: numpy, click, tqdm, h5py, packaging) and smoke-test
+# it: `vptool --help`, and the light reader on RELEASE when one is given. Then unpack
+# the sdist and run a quick subset of its own tests from that copy against the
+# wheel, which proves that the sdist carries what its tests import (tests/fixtures/,
+# tests/data/, tools/, docs/: MANIFEST.in).
 # Usage: bash tools/check_package.sh [RELEASE]    (needs .venv from tools/setup.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -28,4 +31,18 @@ if sys.argv[1]:
     print(f"light install: read {n} models of {sys.argv[1]}")
 PY
 )
-echo "check_package: wheel and sdist build, pass twine check and install; the light reader works" >&2
+# The sdist's own tests, run from its unpacked copy against the built wheel: the
+# wheel goes into a folder of its own that leads PYTHONPATH, and .venv lends the
+# test tools and the extras the fixtures import (torch, zarr, ...). .venv's editable
+# vptoolkit comes last on the import path, and `pytest` (not `python -m pytest`)
+# keeps the copy's own vptoolkit/ off it, so what runs is the wheel's code.
+tar -xzf "$work"/dist/vptoolkit-*.tar.gz -C "$work"
+.venv/bin/python -m pip install -q --no-deps --target "$work/wheel" "$work"/dist/vptoolkit-*.whl
+venv_bin="$PWD/.venv/bin"
+(cd "$work"/vptoolkit-*/ && export PYTHONPATH="$work/wheel" \
+    && "$venv_bin/python" -P -c "import sys, vptoolkit; sys.exit(None if vptoolkit.__file__ \
+.startswith(sys.argv[1]) else f'the sdist tests would import {vptoolkit.__file__}')" "$work/wheel" \
+    && "$venv_bin/pytest" -q -x -p no:cacheprovider tests/test_checks.py tests/test_sphere.py \
+        tests/test_install_docs.py tests/test_release_licences.py)
+echo "check_package: wheel and sdist build, pass twine check and install; the light reader" \
+    "works; the sdist's own tests pass from its unpacked copy" >&2

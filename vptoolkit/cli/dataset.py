@@ -138,7 +138,12 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
               help="Base name of the archives.")
 @click.option("--license", "license_id", default=DEFAULT_LICENSE, show_default=True,
               help="Licence of the release and of every source mesh --licenses does not "
-              "name: an SPDX identifier (CC-BY-4.0, MIT) or a URL; 'other' states none.")
+              "name: an SPDX identifier or expression (CC-BY-4.0, MIT OR Apache-2.0) or a URL; "
+              "'other' states none. Refused where it contradicts the sources' own terms "
+              "(ModelNet, ShapeNet, the paper authors' data, a --licenses row).")
+@click.option("--force-license", is_flag=True,
+              help="Release under --license even where it contradicts the sources' own "
+              "terms; the card records that decision and what it contradicts.")
 @click.option("--formats", default=",".join(DEFAULT_FORMATS), show_default=True,
               help="Containers to write, comma-separated: parquet, zarr, hdf5 (each a full "
               "copy of the data).")
@@ -153,17 +158,17 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 @click.option("--source-url", help="Where the source meshes come from.")
 @click.option("--url", help="Where the release is published (Croissant url).")
 @click.option("--creator", help="Who made the release (Croissant creator).")
-@click.option("--licenses", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+@click.option("--licenses", type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
               help="CSV with the columns name, license, author, url: one row per model; "
-              "each license an SPDX identifier or a URL.")
+              "each license an SPDX identifier or expression, or a URL.")
 @click.option("--license-name", help="The hub's license_name when --license is other.")
 @click.option("--license-link", help="The hub's license_link when --license is other.")
 @click.option("--update-card", is_flag=True,
               help="DATASET is a release whose README.md was edited: rewrite croissant.json "
               "and SHA256SUMS to match it, leaving the archives as they are.")
 def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
-         formats: str, shard_size: str, dataset_version: str, created: str | None,
-         pretty_name: str | None,
+         force_license: bool, formats: str, shard_size: str, dataset_version: str,
+         created: str | None, pretty_name: str | None,
          source_url: str | None, url: str | None, creator: str | None,
          licenses: Path | None, license_name: str | None, license_link: str | None,
          update_card: bool) -> None:
@@ -202,7 +207,7 @@ def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
             name=name, license=license_id, formats=chosen, version=dataset_version,
             created=created, pretty_name=pretty_name, source_url=source_url, url=url,
             creator=creator, licenses=licenses, license_name=license_name,
-            license_link=license_link, shard_size=shard_size,
+            license_link=license_link, shard_size=shard_size, force_license=force_license,
         )
     result = pack_release(dataset, release_dir, options, progress=True)
     for line in result.warnings:

@@ -32,7 +32,7 @@ from vptoolkit.dataset.info import (
     source_name,
     split_count_rows,
 )
-from vptoolkit.dataset.licenses import LICENSES_NAME, hub_license
+from vptoolkit.dataset.licenses import LICENSES_NAME, hub_license, license_conflicts
 from vptoolkit.dataset.parquet import (
     VIEWS_CONFIG,
     Column,
@@ -89,6 +89,7 @@ def render_card(
     warnings: Sequence[str] = (),
     creator: str | None = None,
     url: str | None = None,
+    force_license: bool = False,
 ) -> str:
     """Fill ``vptoolkit/dataset_card/template.md`` into a release ``README.md``.
 
@@ -126,6 +127,11 @@ def render_card(
         Who made the release (default: ``"vptoolkit"``), in the citation.
     url : str, optional
         Where the release is published, in the citation.
+    force_license : bool
+        The publisher forced ``license`` over the sources' own terms
+        (``vptool pack --force-license``): the licence note then records
+        that decision and every term it contradicts
+        (:func:`~vptoolkit.dataset.licenses.license_conflicts`).
 
     Returns
     -------
@@ -256,7 +262,9 @@ def render_card(
         "yaml_license_extra": license_extra,
         "version": version,
         "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
-        "terms_block": _terms_block(source),
+        "terms_block": _terms_block(source) + (
+            _forced_licence_block(license, license_conflicts(license, reader.attrs, records))
+            if force_license else ""),
         "creator": creator or "vptoolkit",
         "dataset_citation": dataset_citation(title, creator=creator or "vptoolkit",
                                              year=when[:4], version=version, url=url,
@@ -343,6 +351,16 @@ MODELNET_TERMS = (
 def _terms_block(source: str) -> str:
     """ModelNet's terms of use for a ModelNet source, else nothing."""
     return f"\n{MODELNET_TERMS}\n" if re.match(r"modelnet", source, re.IGNORECASE) else ""
+
+
+def _forced_licence_block(license: str, conflicts: Sequence[str]) -> str:  # noqa: A002
+    """The publisher's forced licence and what it contradicts, else nothing."""
+    if not conflicts:
+        return ""
+    return (f"\n**Licence decision.** The publisher released this dataset under `{license}` "
+            f"with `vptool pack --force-license`, although that licence contradicts "
+            f"{'; and '.join(conflicts)}. This is the publisher's decision, recorded here; "
+            "check those terms before you use or redistribute the data.\n")
 
 
 def dataset_citation(title: str, *, creator: str, year: str, version: str, url: str | None,

@@ -66,7 +66,7 @@ from vptoolkit.dataset.descriptions import (
     write_json,
 )
 from vptoolkit.dataset.info import info_from_reader
-from vptoolkit.dataset.licenses import LICENSES_NAME, write_licenses
+from vptoolkit.dataset.licenses import LICENSES_NAME, check_release_license, write_licenses
 from vptoolkit.dataset.manifest import (
     CARD_NAME,
     MANIFEST_NAME,
@@ -397,6 +397,8 @@ def pack_release(
         with held(staging):  # a concurrent pack's cleanup leaves it alone
             with open_store(source) as reader:
                 attrs = dict(reader.attrs)
+                check_release_license(options.license, attrs, reader.models(), provenance,
+                                      force=options.force_license, where=str(source))
                 when = release_created(options.created, attrs.get("created"))
                 attrs["created"] = when
                 attrs["dataset_version"] = options.version

@@ -3,7 +3,8 @@
 :func:`~vptoolkit.dataset.release.pack_release` takes a
 :class:`ReleaseOptions`: the archives' base name, the formats, the version,
 the release time, the licence (one for the release and a per-mesh table),
-the card's and Croissant's names and links, and the Parquet shard size. It
+the card's and Croissant's names and links, the Parquet shard size, and
+whether a licence that contradicts the sources' own terms is forced. It
 is checked once, when it is made, so a bad option is refused before a store
 is opened; the defaults are the named constants below.
 """
@@ -18,7 +19,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Final
 
-from vptoolkit.checks import short_repr
+from vptoolkit.checks import check_bool, short_repr
 from vptoolkit.conventions import DATASET_VERSION
 from vptoolkit.dataset.licenses import check_license, check_licenses, read_licenses
 from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES, parse_size
@@ -63,11 +64,16 @@ class ReleaseOptions:
         (default: :data:`DEFAULT_NAME`): a letter or digit, then letters,
         digits, ``.``, ``_`` and ``-``.
     license : str
-        Licence of the release: an SPDX identifier (``CC-BY-4.0``, any case)
-        or the URL of the licence, for the card and Croissant; it is also the
-        licence of every source mesh the ``licenses`` table does not name.
-        The default :data:`DEFAULT_LICENSE` (``"other"``) says nothing: the
-        source meshes' licences apply.
+        Licence of the release: an SPDX identifier or expression
+        (``CC-BY-4.0`` in any case, ``MIT OR Apache-2.0``) or the URL of the
+        licence, for the card and Croissant; it is also the licence of every
+        source mesh the ``licenses`` table does not name. The default
+        :data:`DEFAULT_LICENSE` (``"other"``) says nothing: the source
+        meshes' licences apply. A licence that contradicts the terms the
+        sources state (ModelNet, ShapeNet, the paper authors' data, a model's
+        own licence) is refused when the release is packed
+        (:func:`~vptoolkit.dataset.licenses.check_release_license`) unless
+        ``force_license``.
     formats : tuple of str
         Containers to write, from :data:`FORMATS` (default:
         :data:`DEFAULT_FORMATS`, Parquet and HDF5); any sequence is kept as
@@ -108,6 +114,10 @@ class ReleaseOptions:
         text (``"500MB"``, ``"200KB"``; see
         :func:`~vptoolkit.dataset.parquet.parse_size`); kept in bytes
         (default: :data:`~vptoolkit.dataset.parquet.DEFAULT_SHARD_BYTES`).
+    force_license : bool
+        Release under ``license`` even where it contradicts the sources'
+        terms (default False); the card records that decision and what it
+        contradicts.
 
     Raises
     ------
@@ -134,6 +144,7 @@ class ReleaseOptions:
     license_name: str | None = None
     license_link: str | None = None
     shard_size: int | str = DEFAULT_SHARD_BYTES
+    force_license: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not _NAME.fullmatch(self.name):
@@ -158,6 +169,7 @@ class ReleaseOptions:
             "created": None if self.created is None else release_created(self.created, None),
             "licenses": _licenses(self.licenses),
             "shard_size": parse_size(self.shard_size, "shard_size"),
+            "force_license": check_bool(self.force_license, "force_license"),
         }
         for field_name, value in values.items():  # frozen: checked values replace the given ones
             object.__setattr__(self, field_name, value)
@@ -192,7 +204,8 @@ class ReleaseOptions:
         return {"license": self.license, "pretty_name": self.pretty_name,
                 "version": self.version, "created": self.created,
                 "source_url": self.source_url, "license_name": self.license_name,
-                "license_link": self.license_link, "creator": self.creator, "url": self.url}
+                "license_link": self.license_link, "creator": self.creator, "url": self.url,
+                "force_license": self.force_license}
 
 
 def _formats(formats: Any) -> tuple[str, ...]:
