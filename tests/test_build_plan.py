@@ -191,3 +191,23 @@ def test_calibration_models_are_spread_over_the_file_sizes(src, tmp_path):
     # A collection sorted small-first is not judged by its first, smallest models.
     plan = plan_build(src, tmp_path / "out", TINY, calibrate=3)
     assert plan.n_calibrated == 3 and plan.n_calibration_failures == 0
+
+
+def test_calibration_draws_as_a_worker_of_the_build_does(src, tmp_path, monkeypatch):
+    """Several workers draw with one numba thread each; one process with all of them."""
+    from vptoolkit._numba import max_threads, numba
+
+    seen = []
+    real = build_module.build_dataset
+
+    def recording(*args, **kwargs):
+        seen.append(numba.get_num_threads())
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(build_module, "build_dataset", recording)
+    shared = plan_build(src, tmp_path / "a", TINY, calibrate=1, workers=2)
+    plan_build(src, tmp_path / "b", TINY, calibrate=1, workers=1)
+    # [warm-up, timed] per plan; one CPU gives one worker whatever is asked
+    assert seen[1] == (1 if shared.workers > 1 else max_threads())
+    assert seen[3] == max_threads()
+    assert numba.get_num_threads() == max_threads()  # restored

@@ -10,11 +10,13 @@ or ``NUMBA_THREADING_LAYER_PRIORITY``.
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 
 import numba
 
-__all__ = ["numba"]
+__all__ = ["numba", "threads", "max_threads"]
 
 if "NUMBA_THREADING_LAYER" not in os.environ and "NUMBA_THREADING_LAYER_PRIORITY" not in os.environ:
     # numba.config sets its options at run time, out of the stubs' sight
@@ -37,3 +39,24 @@ def will_compile(dispatcher: object) -> bool:
     except Exception:  # noqa: BLE001 - numba internals; silence is the safe answer
         return False
     return not index
+
+
+@contextlib.contextmanager
+def threads(n: int) -> Iterator[None]:
+    """numba's thread count for the calling thread set to ``n`` inside the block, then restored.
+
+    A build's worker process runs numba with one thread; code in the calling
+    process that should cost what a worker's share costs (a dry run's
+    calibration) runs inside ``threads(1)``.
+    """
+    previous = numba.get_num_threads()
+    numba.set_num_threads(min(n, max_threads()))
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
+def max_threads() -> int:
+    """The most threads numba may use in this process (``NUMBA_NUM_THREADS``)."""
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]

@@ -9,7 +9,11 @@ sorted by size, the ``k`` chosen sit at ``floor((i + 1/2) n / k)``, the
 midpoints of ``k`` equal-count size strata, so a collection whose first
 models are small (or large) is not misjudged. The wall seconds of that
 calibration build per model and its bytes per model, scaled to all the
-models, are the estimate: the seconds of one process (as ``workers=1``), those seconds
+models, are the estimate. With several ``workers`` the calibration draws
+with one numba thread, as each worker process does, and the estimate is
+the seconds of those models in one such process, shared among the workers;
+with one worker it draws with all of numba's threads, as the build will.
+The estimate: the seconds of one process (as ``workers=1``), those seconds
 shared among ``workers`` processes (at most one per CPU and per model: the
 work of a model is not split, and two processes on one core take turns), and
 the bytes of the build folder (its staging files plus the store). It is an estimate from
@@ -157,6 +161,7 @@ def plan_build(
         As :func:`~vptoolkit.dataset.build.build_dataset` for bad options or
         sources.
     """
+    from vptoolkit._numba import max_threads, threads
     from vptoolkit.dataset.build import _check_build_options, build_dataset, select_models
 
     options = _check_build_options(options)
@@ -189,8 +194,11 @@ def plan_build(
             link.symlink_to(model.path)
         trial = Path(folder) / "build"
         started = time.perf_counter()
-        result = build_dataset(sources, trial, replace(options, max_models=None),
-                               progress=progress)
+        # A worker of a build with several processes draws with one numba thread;
+        # one process alone draws with all of them.
+        with threads(1 if plan.workers > 1 else max_threads()):
+            result = build_dataset(sources, trial, replace(options, max_models=None),
+                                   progress=progress)
         wall = time.perf_counter() - started
         n_bytes = sum(path.stat().st_size for path in trial.rglob("*") if path.is_file())
     n_built = result.n_computed
