@@ -40,7 +40,8 @@ which makes VMI equal VKL.
 
 Directions are unit vectors from the bounding-box centre towards the camera,
 in the mesh's own coordinates; raw values are in bits (VR a fraction);
-higher is better for VE and VR, lower for VKL and VMI.
+higher is better for VE and VR, lower for VKL and VMI. :meth:`BestViews.camera_pose`
+hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 """
 
 from __future__ import annotations
@@ -58,13 +59,13 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera
+from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, measure_index
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
 from vptoolkit.measures import quality_from_histograms, ranked_views
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import as_directions, fibonacci_sphere
 from vptoolkit.visibility import RasterScene
@@ -140,6 +141,8 @@ class BestViews:
         Wall time of the search, and of the prior's proposal (not part of the
         answer's bytes anywhere; :func:`search_inputs` loads numba's kernels
         before the first mesh, so no mesh's time holds that).
+    poses : ViewPoses
+        The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
     measures : tuple of str
         ``MEASURES``.
     """
@@ -150,7 +153,24 @@ class BestViews:
     resolution: int
     stages: tuple[SearchStage, ...]
     seconds: float
+    poses: ViewPoses
     measures: tuple[str, ...] = MEASURES
+
+    def camera_pose(self, measure: str, *,
+                    convention: Convention = "opencv") -> NDArray[np.float64]:
+        """Camera-to-world pose ``(4, 4) float64`` of a measure's best view, in model units.
+
+        ``convention``: ``"opencv"`` (default; x right, y down, z forward, as
+        Open3D) or ``"opengl"`` (x right, y up, z backward, as trimesh's
+        ``scene.camera_transform``); the inverse is the world-to-camera extrinsic
+        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). Raises InputError.
+        """
+        return self.poses.camera_to_world(convention)[measure_index(measure)]
+
+    def intrinsics(self, resolution: int | None = None) -> NDArray[np.float64]:
+        """Pinhole matrix ``K`` ``(3, 3) float64`` of a square image of ``resolution`` px
+        (default: the search's), as :meth:`vptoolkit.camera.ViewPoses.intrinsics`."""
+        return self.poses.intrinsics(resolution)
 
     @property
     def n_views(self) -> int:
@@ -318,7 +338,7 @@ def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64
 
 
 def search_best_views(
-    mesh: Mesh,
+    mesh: MeshLike,
     budget: int = BUDGET,
     resolution: int = SEARCH_RESOLUTION,
     *,
@@ -331,8 +351,9 @@ def search_best_views(
 
     Parameters
     ----------
-    mesh : Mesh
-        The model, in any orientation.
+    mesh : MeshLike
+        The model, in any orientation: a Mesh, a ``trimesh.Trimesh``, an Open3D
+        ``TriangleMesh`` or ``(vertices, faces)`` (:func:`~vptoolkit.mesh.as_mesh`).
     budget : int
         Views drawn over all stages, at least 1 (default: 64). A view at
         ``resolution`` px costs about what one of the 1000 views of
@@ -357,23 +378,24 @@ def search_best_views(
     Returns
     -------
     BestViews
-        Directions, measured raw values at ``resolution``, stages, seconds.
+        Directions, raw values at ``resolution``, stages, seconds, cameras.
 
     Raises
     ------
     InputError
         On a budget, resolution or view count out of range, a bad prior, or a
-        mesh of zero surface area.
+        mesh that is none of the above or has zero surface area.
 
     Examples
     --------
     >>> import trimesh
     >>> box = trimesh.creation.box(extents=(1, 2, 4))
-    >>> found = search_best_views(Mesh(box.vertices, box.faces), budget=16, resolution=64)
-    >>> found.n_views, found.directions.shape
-    (16, (4, 3))
+    >>> found = search_best_views(box, budget=16, resolution=64)
+    >>> found.n_views, found.directions.shape, found.camera_pose("VE").shape
+    (16, (4, 3), (4, 4))
     """
     started = time.perf_counter()
+    mesh = as_mesh(mesh)
     budget = _check_count(budget, "budget", 1, MAX_BUDGET)
     resolution = _check_count(resolution, "resolution", 1, 16384)
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
@@ -385,7 +407,8 @@ def search_best_views(
     if coarse_resolution is None:
         coarse_resolution = resolution if flat else min(resolution, COARSE_RESOLUTION)
     coarse_resolution = _check_count(coarse_resolution, "coarse_resolution", 1, resolution)
-    renderer = _Renderer(mesh, camera or Camera())
+    camera = camera or Camera()
+    renderer = _Renderer(mesh, camera)
     incumbents = _Incumbents.empty()
     stages: list[SearchStage] = []
 
@@ -428,6 +451,7 @@ def search_best_views(
         resolution=resolution,
         stages=tuple(_merge(stages)),
         seconds=time.perf_counter() - started,
+        poses=camera.look_at(mesh, incumbents.directions, resolution=resolution),
     )
 
 

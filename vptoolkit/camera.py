@@ -16,6 +16,25 @@ Conventions (defaults from :mod:`vptoolkit.conventions`):
 * Faces are culled when seen from behind: a face is front-facing when the eye
   lies on the side its right-hand-rule normal points to.
 
+For a renderer (:meth:`ViewPoses.camera_to_world`, :meth:`ViewPoses.intrinsics`):
+
+* Camera-to-world pose ``T = [[R, eye], [0, 0, 0, 1]]``, a ``(4, 4)`` matrix
+  whose rotation columns are the camera axes in model coordinates: a point
+  ``p`` of the camera frame is the model point ``R p + eye``. In the
+  **OpenCV** convention (Open3D's extrinsics) the axes are ``x = right``,
+  ``y = -true_up`` (down the image), ``z = forward`` (into the scene); in the
+  **OpenGL** convention (trimesh's ``scene.camera_transform``, pyrender,
+  Blender) ``x = right``, ``y = true_up``, ``z = -forward`` (the camera
+  looks down ``-z``): ``T_opengl = T_opencv @ diag(1, -1, -1, 1)``. The
+  world-to-camera extrinsic matrix is ``inv(T)``.
+* Intrinsics ``K = [[f, 0, res/2], [0, f, res/2], [0, 0, 1]]`` map a point
+  ``(x, y, z)`` of the OpenCV camera frame to ``(u, v) = (f x / z + res/2,
+  f y / z + res/2)``, ``u`` along the columns and ``v`` down the rows, where
+  pixel ``(col, row)`` covers ``[col, col + 1) x [row, row + 1)`` and its
+  centre is ``(col + 0.5, row + 0.5)``, as above (trimesh's ``Camera.K``
+  and OpenGL's viewport say the same). Tools that put pixel centres on
+  integers (OpenCV's ``projectPoints``) take ``cx = cy = res/2 - 0.5``.
+
 The whole bounding sphere of the model must lie inside the view frustum
 (``distance_factor >= 1 / (2 sin(fov / 2))``); this keeps every model fully in
 the picture and every depth positive.
@@ -25,16 +44,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.conventions import DISTANCE_FACTOR, FALLBACK_UP, FOV_DEG, UP
 from vptoolkit.errors import InputError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.mesh import MeshLike
 from vptoolkit.sphere import as_directions
 
-__all__ = ["Camera", "ViewPoses"]
+__all__ = ["CONVENTIONS", "Camera", "Convention", "ViewPoses"]
+
+Convention = Literal["opencv", "opengl"]
+"""Camera frame of a pose: OpenCV (x right, y down, z forward) or OpenGL (x right, y up, z back)."""
+
+CONVENTIONS: tuple[Convention, ...] = ("opencv", "opengl")
+"""The camera frames :meth:`ViewPoses.camera_to_world` gives."""
 
 
 @dataclass(frozen=True)
@@ -84,6 +112,65 @@ class ViewPoses:
         return np.stack(
             [half + self.focal_px * p_r / p_f, half - self.focal_px * p_u / p_f, p_f], axis=1
         )
+
+    def camera_to_world(self, convention: Convention = "opencv") -> NDArray[np.float64]:
+        """The camera-to-world pose of every view, for a renderer.
+
+        Parameters
+        ----------
+        convention : {"opencv", "opengl"}
+            Camera frame (module docstring): ``"opencv"`` x right, y down,
+            z forward (default); ``"opengl"`` x right, y up, z backward.
+
+        Returns
+        -------
+        poses : (n_views, 4, 4) float64
+            ``[[R, eye], [0, 0, 0, 1]]``, the columns of ``R`` the camera's
+            x, y and z axes in model coordinates; ``np.linalg.inv`` gives the
+            world-to-camera extrinsics.
+
+        Raises
+        ------
+        InputError
+            On an unknown convention.
+        """
+        if convention not in CONVENTIONS:
+            raise InputError(f"convention: expected one of {', '.join(CONVENTIONS)}, "
+                             f"got {convention!r}")
+        flip = 1.0 if convention == "opencv" else -1.0
+        poses = np.zeros((len(self.eyes), 4, 4))
+        poses[:, :3, 0] = self.right
+        poses[:, :3, 1] = -flip * self.up
+        poses[:, :3, 2] = flip * self.forward
+        poses[:, :3, 3] = self.eyes
+        poses[:, 3, 3] = 1.0
+        return poses
+
+    def intrinsics(self, resolution: int | None = None) -> NDArray[np.float64]:
+        """The pinhole matrix ``K`` of the views (the same for all).
+
+        Parameters
+        ----------
+        resolution : int, optional
+            Image side in pixels (default: the poses' own). The field of view
+            is fixed, so ``f`` scales with the side: ``f = (res/2) / tan(fov/2)``.
+
+        Returns
+        -------
+        K : (3, 3) float64
+            ``[[f, 0, res/2], [0, f, res/2], [0, 0, 1]]`` in pixels, for points
+            in the OpenCV camera frame; pixel ``(col, row)`` has its centre at
+            ``(col + 0.5, row + 0.5)`` (module docstring).
+
+        Raises
+        ------
+        InputError
+            If ``resolution`` is not a positive integer.
+        """
+        side = self.resolution if resolution is None else check_int(resolution, "resolution",
+                                                                    minimum=1)
+        focal = self.focal_px * side / self.resolution
+        return np.array([[focal, 0.0, side / 2.0], [0.0, focal, side / 2.0], [0.0, 0.0, 1.0]])
 
     def pixel_rays(self, view: int) -> NDArray[np.float32]:
         """Rays through the centre of every pixel of one view, row-major.
@@ -214,6 +301,30 @@ class Camera:
         ) * directions
         focal = (resolution / 2.0) / math.tan(math.radians(self.fov_deg) / 2.0)
         return ViewPoses(eyes, right, true_up, forward, focal, int(resolution))
+
+    def look_at(self, mesh: MeshLike, view_directions: ArrayLike, *,
+                resolution: int) -> ViewPoses:
+        """Camera poses of a mesh's views: :meth:`poses` at its bounding-box centre and diagonal.
+
+        Parameters
+        ----------
+        mesh : MeshLike
+            The model (:func:`vptoolkit.mesh.as_mesh`).
+        view_directions : (n_views, 3) array_like
+            Directions from the model centre towards the camera.
+        resolution : int
+            Image side in pixels.
+
+        Returns
+        -------
+        ViewPoses
+            The cameras the measures draw with; its
+            :meth:`~ViewPoses.camera_to_world` and :meth:`~ViewPoses.intrinsics`
+            hand the cameras to another renderer.
+        """
+        centre, diagonal = bounding_frame(mesh)
+        return self.poses(view_directions, centre=centre, diagonal=diagonal,
+                          resolution=resolution)
 
 
 def _unit(vector: tuple[float, float, float] | NDArray[np.float64]) -> NDArray[np.float64]:

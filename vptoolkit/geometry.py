@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 
 __all__ = ["face_cross_products", "face_areas", "face_normals", "bounding_frame"]
 
 
-def face_cross_products(mesh: Mesh) -> NDArray[np.float64]:
+def face_cross_products(mesh: MeshLike) -> NDArray[np.float64]:
     """``(b - a) x (c - a)`` of every triangle ``(a, b, c)``: twice its area times its unit normal.
 
     Returns
@@ -18,6 +18,7 @@ def face_cross_products(mesh: Mesh) -> NDArray[np.float64]:
     cross : (n_faces, 3) float64
         By the right-hand rule on the winding; zero for degenerate faces.
     """
+    mesh = as_mesh(mesh)
     vertices, faces = mesh.vertices, mesh.faces
     first = vertices[faces[:, 0]]
     u = vertices[faces[:, 1]] - first
@@ -28,7 +29,7 @@ def face_cross_products(mesh: Mesh) -> NDArray[np.float64]:
                      u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0]], axis=1)
 
 
-def face_areas(mesh: Mesh) -> NDArray[np.float64]:
+def face_areas(mesh: MeshLike) -> NDArray[np.float64]:
     """True area of every triangle.
 
     Returns
@@ -36,10 +37,11 @@ def face_areas(mesh: Mesh) -> NDArray[np.float64]:
     areas : (n_faces,) float64
         ``|(b - a) x (c - a)| / 2`` in squared model units; 0 for degenerate faces.
     """
+    mesh = as_mesh(mesh)
     return 0.5 * np.linalg.norm(face_cross_products(mesh), axis=1)
 
 
-def face_normals(mesh: Mesh) -> NDArray[np.float64]:
+def face_normals(mesh: MeshLike) -> NDArray[np.float64]:
     """Unit normal of every triangle by the right-hand rule on its winding.
 
     Returns
@@ -47,12 +49,13 @@ def face_normals(mesh: Mesh) -> NDArray[np.float64]:
     normals : (n_faces, 3) float64
         ``(b - a) x (c - a)`` normalised; the zero vector for degenerate faces.
     """
+    mesh = as_mesh(mesh)
     cross = face_cross_products(mesh)
     length = np.linalg.norm(cross, axis=1, keepdims=True)
     return np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
 
 
-def bounding_frame(mesh: Mesh) -> tuple[NDArray[np.float64], float]:
+def bounding_frame(mesh: MeshLike) -> tuple[NDArray[np.float64], float]:
     """Centre and diagonal of the axis-aligned bounding box of the used vertices.
 
     Vertices no face refers to are ignored, so stray points in a file do not
@@ -65,6 +68,7 @@ def bounding_frame(mesh: Mesh) -> tuple[NDArray[np.float64], float]:
     diagonal : float
         Length of the bounding-box diagonal in model units.
     """
+    mesh = as_mesh(mesh)
     is_used = np.zeros(len(mesh.vertices), dtype=bool)
     is_used[mesh.faces.ravel()] = True
     used = mesh.vertices[is_used]

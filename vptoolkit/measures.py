@@ -46,7 +46,7 @@ from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.progress import progress_bar
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
@@ -310,7 +310,7 @@ def quality_from_histograms(
 
 
 def compute_view_quality(
-    mesh: Mesh,
+    mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
@@ -321,7 +321,7 @@ def compute_view_quality(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     settings : MeasureSettings
         The number of Fibonacci-sphere views, the triangle-ID image side, the
@@ -348,10 +348,11 @@ def compute_view_quality(
     >>> import trimesh
     >>> box = trimesh.creation.box()
     >>> settings = MeasureSettings(views=100, resolution=64)
-    >>> quality = compute_view_quality(Mesh(box.vertices, box.faces), settings)
+    >>> quality = compute_view_quality(box, settings)
     >>> quality.raw.shape, quality.measures
     ((100, 4), ('VE', 'VR', 'VKL', 'VMI'))
     """
+    mesh = as_mesh(mesh)
     settings = check_settings(settings)
     if view_directions is None:
         directions = settings.directions()

@@ -1,16 +1,22 @@
-"""The triangle mesh container used throughout vptoolkit."""
+"""The triangle mesh container of vptoolkit, and other libraries' meshes turned into it.
+
+Every public function that takes a mesh takes a :data:`MeshLike`: a
+:class:`Mesh`, a ``trimesh.Trimesh``, an Open3D ``TriangleMesh`` or a
+``(vertices, faces)`` tuple, converted once at its entry by :func:`as_mesh`.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol, TypeAlias, cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
 
-__all__ = ["MAX_COORDINATE", "MIN_COORDINATE", "Mesh", "check_coordinate_range"]
+__all__ = ["MAX_COORDINATE", "MIN_COORDINATE", "Mesh", "MeshLike", "as_mesh",
+           "check_coordinate_range"]
 
 MAX_COORDINATE = 1e38
 """Largest coordinate magnitude a mesh may have: float32 (points, stored meshes) ends at 3.4e38.
@@ -92,6 +98,83 @@ class Mesh:
 
     def __repr__(self) -> str:
         return f"Mesh(name={self.name!r}, n_vertices={self.n_vertices}, n_faces={self.n_faces})"
+
+
+class _FaceListMesh(Protocol):
+    """A mesh with ``vertices`` and ``faces`` arrays, as ``trimesh.Trimesh``."""
+
+    @property
+    def vertices(self) -> Any: ...
+
+    @property
+    def faces(self) -> Any: ...
+
+
+class _TriangleListMesh(Protocol):
+    """A mesh with ``vertices`` and ``triangles`` vectors, as Open3D's ``TriangleMesh``."""
+
+    @property
+    def vertices(self) -> Any: ...
+
+    @property
+    def triangles(self) -> Any: ...
+
+
+MeshLike: TypeAlias = "Mesh | _FaceListMesh | _TriangleListMesh | tuple[ArrayLike, ArrayLike]"
+"""What a function that takes a mesh accepts; :func:`as_mesh` converts it."""
+
+
+def as_mesh(mesh: MeshLike, name: str | None = None) -> Mesh:
+    """The :class:`Mesh` of a vptoolkit, trimesh or Open3D mesh or of ``(vertices, faces)``.
+
+    The type is recognised by its attributes, so neither trimesh nor Open3D
+    is imported:
+
+    * a :class:`Mesh` (or subclass) is returned as it is;
+    * an object with ``vertices`` and ``faces`` (``trimesh.Trimesh``): its
+      ``(n_vertices, 3)`` float and ``(n_faces, 3)`` int arrays;
+    * an object with ``vertices`` and ``triangles`` (Open3D's legacy
+      ``open3d.geometry.TriangleMesh``): its ``Vector3dVector`` and
+      ``Vector3iVector``, read with ``np.asarray``;
+    * a tuple ``(vertices, faces)`` of array_likes of those shapes.
+
+    Vertices are copied to float64 and faces to int64; the winding is kept
+    (counter-clockwise seen from the front is the convention of all three).
+
+    Parameters
+    ----------
+    mesh : MeshLike
+        The mesh.
+    name : str, optional
+        Name of a converted mesh, first in its messages (default: "mesh");
+        a :class:`Mesh` keeps its own.
+
+    Returns
+    -------
+    Mesh
+
+    Raises
+    ------
+    InputError
+        ``mesh: expected a vptoolkit Mesh, a trimesh.Trimesh, an Open3D
+        TriangleMesh or (vertices, faces), got str`` for anything else, or the
+        :class:`Mesh` check's message for bad arrays.
+    """
+    if isinstance(mesh, Mesh):
+        return mesh
+    label = "mesh" if name is None else name
+    if isinstance(mesh, tuple) and len(mesh) == 2:
+        vertices, faces = mesh  # array_likes: Mesh converts them and names what it cannot read
+        return Mesh(cast("NDArray[np.float64]", vertices), cast("NDArray[np.int64]", faces),
+                    name=label)
+    if hasattr(mesh, "vertices") and hasattr(mesh, "faces"):
+        return Mesh(np.asarray(mesh.vertices), np.asarray(mesh.faces), name=label)
+    if hasattr(mesh, "vertices") and hasattr(mesh, "triangles"):
+        return Mesh(np.asarray(mesh.vertices), np.asarray(mesh.triangles), name=label)
+    got = (f"a tuple of {len(mesh)} items" if isinstance(mesh, tuple)
+           else type(mesh).__qualname__)
+    raise InputError("mesh: expected a vptoolkit Mesh, a trimesh.Trimesh, an Open3D "
+                     f"TriangleMesh or (vertices, faces), got {got}")
 
 
 def check_coordinate_range(coordinates: NDArray[np.float64], name: str, what: str) -> None:

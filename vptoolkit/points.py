@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int, check_npy_header, one_line
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import Mesh, check_coordinate_range
+from vptoolkit.mesh import MeshLike, as_mesh, check_coordinate_range
 
 __all__ = [
     "MAX_SURFACE_POINTS",
@@ -76,7 +76,7 @@ class SurfaceSample(NamedTuple):
     face_index: NDArray[np.int64]
 
 
-def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> SurfaceSample:
+def sample_surface(mesh: MeshLike, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> SurfaceSample:
     """Sample points uniformly by area on the faces of a mesh.
 
     Each point picks a face with probability proportional to its area, then a
@@ -87,7 +87,7 @@ def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> S
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The surface to sample; its total area must be positive.
     n : int
         Number of points, 1 to :data:`MAX_SURFACE_POINTS` (default: 20000, the paper's choice).
@@ -110,14 +110,13 @@ def sample_surface(mesh: Mesh, n: int = N_SURFACE_POINTS, *, seed: int = 0) -> S
     Examples
     --------
     >>> import numpy as np
-    >>> square = Mesh(np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float),
-    ...               np.array([[0, 1, 2], [0, 2, 3]]), name="square")
+    >>> square = (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float),
+    ...           np.array([[0, 1, 2], [0, 2, 3]]))
     >>> sample = sample_surface(square, 1000, seed=1)
     >>> sample.points.shape, sample.normals[0].tolist()
     ((1000, 3), [0.0, 0.0, 1.0])
     """
-    if not isinstance(mesh, Mesh):
-        raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+    mesh = as_mesh(mesh)
     n = check_int(n, "n", minimum=1, maximum=MAX_SURFACE_POINTS)
     seed = check_int(seed, "seed", minimum=0)  # numpy refuses negative seeds
 
@@ -364,7 +363,7 @@ def network_input(
 
 
 def poisson_disk_points(
-    mesh: Mesh, n: int, *, seed: int = 0, oversampling: int = 5
+    mesh: MeshLike, n: int, *, seed: int = 0, oversampling: int = 5
 ) -> NDArray[np.float64]:
     """``n`` blue-noise surface points by Yuksel's sample elimination (Open3D).
 
@@ -376,7 +375,7 @@ def poisson_disk_points(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The surface.
     n : int
         Points wanted (at least 1).
@@ -396,6 +395,7 @@ def poisson_disk_points(
     MissingDependencyError
         Without Open3D.
     """
+    mesh = as_mesh(mesh)
     from vptoolkit.optional import require
 
     n = check_int(n, "n", minimum=1)

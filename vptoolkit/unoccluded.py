@@ -56,7 +56,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
 from vptoolkit.measures import ranked_views
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.sphere import as_directions, distinct_directions, fibonacci_sphere
 
 __all__ = [
@@ -80,7 +80,7 @@ _TINY = np.finfo(np.float64).tiny
 _RANKED = 32  # best directions per measure looked through for distinct candidates
 
 
-def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def mesh_elements(mesh: MeshLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Unit normals and areas of the faces of positive area, wound outwards.
 
     A mesh whose signed volume ``sum_z (a_z - o) . ((b_z - a_z) x (c_z - a_z)) / 6``
@@ -93,6 +93,7 @@ def mesh_elements(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64]]
     -------
     normals : (k, 3) float64, areas : (k,) float64
     """
+    mesh = as_mesh(mesh)
     normals, areas, _ = _face_elements(mesh)
     return normals, areas
 
@@ -299,8 +300,9 @@ class UnoccludedPrior:
         self.per_measure = int(per_measure)
         self.min_angle_deg = float(min_angle_deg)
 
-    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first."""
+        mesh = as_mesh(mesh)
         from vptoolkit.best_view import coarse_directions
 
         normals, areas, face_areas = _face_elements(mesh)

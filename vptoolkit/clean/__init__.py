@@ -56,10 +56,9 @@ from vptoolkit.clean._meshlab import load_pymeshlab
 from vptoolkit.clean.hidden import HIDDEN_RESOLUTION, remove_hidden_faces
 from vptoolkit.clean.repair import SelfIntersectionMethod, check_method, repair_mesh
 from vptoolkit.clean.simplify import MAX_FACES, simplify_mesh
-from vptoolkit.clean.topology import check_mesh
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
 __all__ = ["StepReport", "CleaningReport", "clean_mesh"]
 
@@ -196,7 +195,7 @@ class CleaningReport:
 
 
 def clean_mesh(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     max_faces: int = MAX_FACES,
     self_intersections: SelfIntersectionMethod = "auto",
@@ -219,7 +218,7 @@ def clean_mesh(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The raw mesh, e.g. a ModelNet40 model.
     max_faces : int
         Face budget of the result, at least 4 (default: 10000).
@@ -249,7 +248,7 @@ def clean_mesh(
     Raises
     ------
     InputError
-        If ``mesh`` is not a Mesh or an option is out of range.
+        If ``mesh`` is not a mesh (:func:`~vptoolkit.mesh.as_mesh`) or an option is out of range.
     MissingDependencyError
         If pymeshlab is not installed.
     MeasurementError
@@ -263,7 +262,7 @@ def clean_mesh(
     >>> cleaned.n_faces <= 2000, [step["name"] for step in report.to_dict()["steps"]]
     (True, ['repair', 'remove_hidden', 'simplify'])
     """
-    check_mesh(mesh)
+    mesh = as_mesh(mesh)
     max_faces = check_int(max_faces, "max_faces", minimum=4)
     max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
     n_views = check_int(n_views, "n_views", minimum=1)

@@ -19,10 +19,10 @@ from numpy.typing import NDArray
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_bool, check_int
 from vptoolkit.clean.repair import RepairedMesh
-from vptoolkit.clean.topology import check_mesh, coherent_patches, submesh, undirected_edges
+from vptoolkit.clean.topology import coherent_patches, submesh, undirected_edges
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.geometry import bounding_frame, face_areas, face_normals
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_pixel_totals
 
@@ -53,7 +53,7 @@ class VisibleMesh(Mesh):
 
 
 def two_sided_pixel_totals(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     n_views: int = N_VIEWS,
     resolution: int = HIDDEN_RESOLUTION,
@@ -69,7 +69,7 @@ def two_sided_pixel_totals(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The mesh to test.
     n_views : int
         Number of view directions (default: 1000, as in the paper).
@@ -90,7 +90,7 @@ def two_sided_pixel_totals(
     InputError
         On a bad argument.
     """
-    check_mesh(mesh)
+    mesh = as_mesh(mesh)
     n_views = check_int(n_views, "n_views", minimum=1)
     resolution = check_int(resolution, "resolution", minimum=8)
     n_faces = mesh.n_faces
@@ -108,7 +108,7 @@ def two_sided_pixel_totals(
 
 
 def hidden_faces(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     n_views: int = N_VIEWS,
     resolution: int = HIDDEN_RESOLUTION,
@@ -121,7 +121,7 @@ def hidden_faces(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The mesh to test.
     n_views : int
         Number of view directions (default: 1000).
@@ -142,12 +142,13 @@ def hidden_faces(
     edge with a seen face counts as seen, up to two such rings deep. Large
     unseen faces are always hidden.
     """
+    mesh = as_mesh(mesh)
     pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
     return keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
 
 
 def remove_hidden_faces(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     n_views: int = N_VIEWS,
     resolution: int = HIDDEN_RESOLUTION,
@@ -170,7 +171,7 @@ def remove_hidden_faces(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The repaired mesh, as :func:`~vptoolkit.clean.repair.repair_mesh`
         returns it.
     n_views : int
@@ -191,6 +192,7 @@ def remove_hidden_faces(
     MeasurementError
         If no face is seen; the message starts with the mesh name.
     """
+    mesh = as_mesh(mesh)
     orient = check_bool(orient, "orient")
     n_views = check_int(n_views, "n_views", minimum=1)
     resolution = check_int(resolution, "resolution", minimum=8)

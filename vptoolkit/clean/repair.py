@@ -34,13 +34,12 @@ from vptoolkit.clean._meshlab import (
     to_meshset,
 )
 from vptoolkit.clean.topology import (
-    check_mesh,
     closed_components,
     faces_near,
     keep_major_faces_on_non_manifold_edges,
 )
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
 if TYPE_CHECKING:
     import pymeshlab
@@ -80,7 +79,7 @@ class RepairedMesh(Mesh):
 
 
 def repair_mesh(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     self_intersections: SelfIntersectionMethod = "auto",
     max_rounds: int = 5,
@@ -103,7 +102,7 @@ def repair_mesh(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The raw mesh.
     self_intersections : {"auto", "remove"}
         ``"auto"`` (default): boolean union of the closed parts that intersect,
@@ -162,13 +161,13 @@ def repair_mesh(
     Boolean union of everything through another library (manifold3d) was not
     used: it also needs closed input, so it would not help with ModelNet.
     """
-    check_mesh(mesh)
+    mesh = as_mesh(mesh)
     check_method(self_intersections)
     max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
     return _repair(load_pymeshlab(), mesh, self_intersections, max_rounds)
 
 
-def count_self_intersections(mesh: Mesh) -> int:
+def count_self_intersections(mesh: MeshLike) -> int:
     """Count the faces that intersect another face of the mesh.
 
     Uses pymeshlab's ``compute_selection_by_self_intersections_per_face``,
@@ -178,7 +177,7 @@ def count_self_intersections(mesh: Mesh) -> int:
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The mesh to test.
 
     Returns
@@ -186,7 +185,7 @@ def count_self_intersections(mesh: Mesh) -> int:
     count : int
         Number of faces selected as self-intersecting.
     """
-    check_mesh(mesh)
+    mesh = as_mesh(mesh)
     ml = load_pymeshlab()
     return count_intersecting_faces(to_meshset(ml, mesh.vertices, mesh.faces, mesh.name))
 

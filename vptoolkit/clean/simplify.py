@@ -24,10 +24,9 @@ from vptoolkit.clean._meshlab import (
     to_meshset,
 )
 from vptoolkit.clean.repair import remove_intersections
-from vptoolkit.clean.topology import check_mesh
 from vptoolkit.errors import MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
 if TYPE_CHECKING:
     import pymeshlab
@@ -52,7 +51,7 @@ class SimplifiedMesh(Mesh):
     intersections_after: int
 
 
-def simplify_mesh(mesh: Mesh, *, max_faces: int = MAX_FACES,
+def simplify_mesh(mesh: MeshLike, *, max_faces: int = MAX_FACES,
                   remesh: bool = False) -> SimplifiedMesh:
     """Step 3: decimate to at most ``max_faces`` faces, optionally remesh.
 
@@ -78,7 +77,7 @@ def simplify_mesh(mesh: Mesh, *, max_faces: int = MAX_FACES,
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The mesh to simplify.
     max_faces : int
         Face budget, at least 4 (default: 10000).
@@ -96,7 +95,7 @@ def simplify_mesh(mesh: Mesh, *, max_faces: int = MAX_FACES,
         If the budget cannot be met or a filter fails; the message starts with
         the mesh name.
     """
-    check_mesh(mesh)
+    mesh = as_mesh(mesh)
     max_faces = check_int(max_faces, "max_faces", minimum=4)
     remesh = check_bool(remesh, "remesh")
     ml = load_pymeshlab()

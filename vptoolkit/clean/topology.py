@@ -5,8 +5,7 @@ and how many faces each has (:func:`undirected_edges`), union-find labelling,
 the choice of faces to keep on non-manifold edges
 (:func:`keep_major_faces_on_non_manifold_edges`), consistently wound patches
 (:func:`coherent_patches`), closed components (:func:`closed_components`),
-taking a sub-mesh (:func:`submesh`) and the mesh argument check
-(:func:`check_mesh`).
+and taking a sub-mesh (:func:`submesh`).
 """
 
 from __future__ import annotations
@@ -14,13 +13,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.errors import MeasurementError
 from vptoolkit.mesh import Mesh
-
-
-def check_mesh(mesh: Mesh) -> None:
-    if not isinstance(mesh, Mesh):
-        raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
 
 
 def undirected_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:

@@ -33,7 +33,7 @@ from vptoolkit.errors import InputError, MeshLoadError
 from vptoolkit.files import write_bytes_atomic
 from vptoolkit.io import gltf, obj, off, ply, stl
 from vptoolkit.io._polygons import FormatError, check_and_triangulate
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
 __all__ = ["SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES", "find_mesh_files", "load_mesh", "save_mesh"]
 
@@ -151,7 +151,7 @@ def load_mesh(path: str | os.PathLike[str]) -> Mesh:
         raise MeshLoadError(f"{file_name}: invalid mesh ({err})") from err
 
 
-def save_mesh(mesh: Mesh, path: str | os.PathLike[str]) -> Path:
+def save_mesh(mesh: MeshLike, path: str | os.PathLike[str]) -> Path:
     """Write ``mesh`` to ``path`` atomically, in the format its suffix names.
 
     The data goes to a temporary file in the target directory, which then
@@ -159,7 +159,7 @@ def save_mesh(mesh: Mesh, path: str | os.PathLike[str]) -> Path:
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The mesh to write.
     path : str or os.PathLike
         Target file ending in one of :data:`WRITABLE_SUFFIXES`. OFF and OBJ
@@ -176,11 +176,10 @@ def save_mesh(mesh: Mesh, path: str | os.PathLike[str]) -> Path:
     Raises
     ------
     InputError
-        If ``mesh`` is not a Mesh, the suffix is not writable or the target
-        directory does not exist. Other OS errors propagate unchanged.
+        If ``mesh`` is not a mesh (:func:`~vptoolkit.mesh.as_mesh`), the suffix
+        is not writable or the target directory does not exist. Other OS errors propagate unchanged.
     """
-    if not isinstance(mesh, Mesh):
-        raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+    mesh = as_mesh(mesh)
     path = as_path(path, "path")
     suffix = path.suffix.lower()
     if suffix not in WRITABLE_SUFFIXES:

@@ -48,7 +48,7 @@ from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS, read_point_file
 
@@ -454,15 +454,16 @@ class MeshPredictor:
         self.seed = seed
         self.threads = threads
 
-    def inputs(self, mesh: Mesh) -> NDArray[np.float32]:
+    def inputs(self, mesh: MeshLike) -> NDArray[np.float32]:
         """The network input of a mesh, ``(n_points, 3) float32`` (the class docstring)."""
+        mesh = as_mesh(mesh)
         from vptoolkit.points import sample_surface
 
         surface = sample_surface(mesh, N_SURFACE_POINTS, seed=self.seed).points
         return network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
                               seed=self.seed, name=mesh.name)
 
-    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
         points = self.inputs(mesh)
         with torch_threads(self.threads):

@@ -39,7 +39,7 @@ from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor, predict_directions
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
 from vptoolkit.sphere import distinct_directions, fibonacci_sphere
 
@@ -126,8 +126,9 @@ class NetworkPrior:
             choices.append(axes * signs[:, None])
         return torch.stack(choices).to(points.dtype), centre
 
-    def __call__(self, mesh: Mesh) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first."""
+        mesh = as_mesh(mesh)
         model = self.predictor.model
         points = torch.as_tensor(self.predictor.inputs(mesh))
         with torch_threads(self.predictor.threads), torch.inference_mode():

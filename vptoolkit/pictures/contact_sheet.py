@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.settings import MeasureSettings, check_settings
@@ -124,7 +124,7 @@ def contact_sheet(
 
 
 def view_set_sheet(
-    mesh: Mesh,
+    mesh: MeshLike,
     k: int | None = 4,
     *,
     view_set: ViewSet | None = None,
@@ -136,7 +136,7 @@ def view_set_sheet(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     k : int or None
         Views in the set (default: 4); see :func:`vptoolkit.view_sets.search.best_view_set`.
@@ -161,6 +161,7 @@ def view_set_sheet(
     view_set : ViewSet
         The set drawn.
     """
+    mesh = as_mesh(mesh)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     with drawing_engine(engine, size=TILE_SIZE, camera=settings.camera) as active:
         if view_set is None:

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike, NDArray
 
     from vptoolkit.camera import Camera
-    from vptoolkit.mesh import Mesh
+    from vptoolkit.mesh import MeshLike
     from vptoolkit.pictures.shading import RenderStyle
 
 __all__ = ["ENGINES", "Engine", "drawing_engine", "open_renderer"]
@@ -83,12 +83,12 @@ class Engine(Protocol):
         """Free the engine's resources (it may be started again)."""
         ...
 
-    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions.
 
         Parameters
         ----------
-        mesh : Mesh
+        mesh : MeshLike
             The model.
         directions : (n, 3) or (3,) array_like
             View directions from the model centre towards the camera (any

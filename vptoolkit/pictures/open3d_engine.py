@@ -56,7 +56,7 @@ from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int, one_line
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
 from vptoolkit.geometry import bounding_frame
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures._open3d_child import read_message, write_message
 from vptoolkit.pictures.shading import (
     MAX_PICTURE_SIZE,
@@ -405,12 +405,12 @@ class Renderer:
                                    f"{image.shape} and dtype {image.dtype}")
         return image.copy()
 
-    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions.
 
         Parameters
         ----------
-        mesh : Mesh
+        mesh : MeshLike
             The model.
         directions : (n, 3) or (3,) array_like
             View directions from the model centre towards the camera (any
@@ -430,8 +430,7 @@ class Renderer:
         MeasurementError
             If a frame failed (hung or crashed) in all ``attempts`` tries.
         """
-        if not isinstance(mesh, Mesh):
-            raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+        mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
         assert self._frame_of_mesh is not None  # noqa: S101 (set by _prepare)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 
 __all__ = [
     "PICTURE_SIZE",
@@ -138,13 +138,14 @@ class CreaseNormals(NamedTuple):
     kept: NDArray[np.int64]
 
 
-def crease_normals(mesh: Mesh, crease_angle_deg: float) -> CreaseNormals:
+def crease_normals(mesh: MeshLike, crease_angle_deg: float) -> CreaseNormals:
     """Unshared corner positions and normals, smoothed within ``crease_angle_deg``.
 
     Normals are averaged over faces meeting at less than the crease angle (in
     degrees; 0 gives flat shading) and kept apart across sharper edges. Returns
     a :class:`CreaseNormals`.
     """
+    mesh = as_mesh(mesh)
     corners = mesh.vertices[mesh.faces]  # (n_faces, 3, 3)
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     double_area = np.linalg.norm(cross, axis=1)

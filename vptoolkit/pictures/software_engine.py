@@ -33,9 +33,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
-from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.shading import (
     MAX_PICTURE_SIZE,
     MIN_PICTURE_SIZE,
@@ -122,12 +121,12 @@ class SoftwareRenderer:
         self._corner_normals[kept] = normals.reshape(-1, 3, 3)
         self._mesh = mesh
 
-    def render(self, mesh: Mesh, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions.
 
         Parameters
         ----------
-        mesh : Mesh
+        mesh : MeshLike
             The model.
         directions : (n, 3) or (3,) array_like
             View directions from the model centre towards the camera.
@@ -137,8 +136,7 @@ class SoftwareRenderer:
         images : (n, size, size, 3) uint8
             sRGB pictures, row 0 at the top.
         """
-        if not isinstance(mesh, Mesh):
-            raise InputError(f"mesh: expected a vptoolkit Mesh, got {type(mesh).__name__}")
+        mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
         camera = picture_camera(self.camera, self.style.up)

@@ -35,7 +35,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.measures import ViewQuality
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
@@ -75,13 +75,13 @@ class RenderedView:
     label: str
 
 
-def render_views(mesh: Mesh, directions: ArrayLike, *,
+def render_views(mesh: MeshLike, directions: ArrayLike, *,
                  engine: Engine | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from several view directions with one engine.
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     directions : (n, 3) or (3,) array_like
         View directions from the model centre towards the camera.
@@ -94,17 +94,18 @@ def render_views(mesh: Mesh, directions: ArrayLike, *,
     -------
     images : (n, size, size, 3) uint8
     """
+    mesh = as_mesh(mesh)
     with drawing_engine(engine) as active:
         return active.render(mesh, directions)
 
 
-def render_view(mesh: Mesh, direction: ArrayLike, *,
+def render_view(mesh: MeshLike, direction: ArrayLike, *,
                 engine: Engine | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from one view direction.
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     direction : (3,) array_like
         View direction from the model centre towards the camera.
@@ -125,19 +126,20 @@ def render_view(mesh: Mesh, direction: ArrayLike, *,
     MeasurementError
         If the frame failed in every attempt.
     """
+    mesh = as_mesh(mesh)
     unit = as_directions(direction, name="direction")
     if len(unit) != 1:
         raise InputError(f"direction: expected one direction, got {len(unit)}")
     return render_views(mesh, unit, engine=engine)[0]
 
 
-def resolve_direction(mesh: Mesh, source: DirectionSource, *,
+def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
                       measure: str = "VE") -> NDArray[np.float64]:
     """The view direction a direction source gives for a mesh and measure.
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model (passed to ``source`` if it is callable).
     source : (3,) or (4, 3) array_like, or callable
         A direction, one direction per measure in ``MEASURES`` order, or a
@@ -156,6 +158,7 @@ def resolve_direction(mesh: Mesh, source: DirectionSource, *,
     InputError
         On an unknown measure, a wrong shape, or a zero or non-finite vector.
     """
+    mesh = as_mesh(mesh)
     column = measure_index(measure)
     value = source(mesh) if callable(source) else source
     try:
@@ -173,7 +176,7 @@ def resolve_direction(mesh: Mesh, source: DirectionSource, *,
 
 
 def render_best(
-    mesh: Mesh,
+    mesh: MeshLike,
     *,
     measure: str = "VE",
     quality: ViewQuality | None = None,
@@ -187,7 +190,7 @@ def render_best(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     measure : str
         ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
@@ -210,6 +213,7 @@ def render_best(
     InputError
         On an unknown measure, or an engine whose camera is not the measures'.
     """
+    mesh = as_mesh(mesh)
     column = measure_index(measure)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     if quality is None:
@@ -225,7 +229,7 @@ def render_best(
 
 
 def render_predicted(
-    mesh: Mesh,
+    mesh: MeshLike,
     source: DirectionSource,
     *,
     measure: str = "VE",
@@ -235,7 +239,7 @@ def render_predicted(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     source : (3,) or (4, 3) array_like, or callable
         See :func:`resolve_direction`; a callable gets the mesh and returns
@@ -250,6 +254,7 @@ def render_predicted(
     RenderedView
         ``label`` reads e.g. ``"predicted VE"``.
     """
+    mesh = as_mesh(mesh)
     direction = resolve_direction(mesh, source, measure=measure)
     image = render_view(mesh, direction, engine=engine)
     return RenderedView(image, direction, f"predicted {MEASURES[measure_index(measure)]}")

@@ -21,7 +21,7 @@ from vptoolkit.measures import (
     ViewQuality,
     compute_view_quality,
 )
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
@@ -246,7 +246,7 @@ def _check_k(k: int | None, until_coverage: float | None, n_views: int) -> tuple
 
 
 def best_view_set(
-    source: Mesh | FaceVisibility,
+    source: MeshLike | FaceVisibility,
     k: int | None = 4,
     *,
     objective: str = "coverage",
@@ -261,9 +261,9 @@ def best_view_set(
 
     Parameters
     ----------
-    source : Mesh or FaceVisibility
-        A mesh (its views are drawn here with ``settings``) or pixel counts
-        already drawn.
+    source : MeshLike or FaceVisibility
+        A mesh (:func:`~vptoolkit.mesh.as_mesh`; its views are drawn here with
+        ``settings``) or pixel counts already drawn.
     k : int or None
         Number of views (default: 4); with ``until_coverage`` the most views.
         Fewer come back when ``k`` exceeds the sampled views, or when no
@@ -313,12 +313,10 @@ def best_view_set(
     settings = check_settings(settings)
     if not 0.0 <= float(tolerance) < 1.0:
         raise InputError(f"tolerance: must lie in [0, 1), got {tolerance}")
-    if isinstance(source, Mesh):
-        visibility = FaceVisibility.from_mesh(source, settings)
-    elif isinstance(source, FaceVisibility):
+    if isinstance(source, FaceVisibility):
         visibility = source
     else:
-        raise InputError(f"source: expected a Mesh or FaceVisibility, got {type(source).__name__}")
+        visibility = FaceVisibility.from_mesh(source, settings)
     limit, target = _check_k(k, until_coverage, visibility.n_views)
     entries = _Entries(visibility, min_pixels)
     areas = visibility.face_areas
@@ -368,7 +366,7 @@ def _set_entropy(entries: _Entries, indices: NDArray[np.int64],
 
 
 def measure_view_set(
-    mesh: Mesh,
+    mesh: MeshLike,
     k: int | None = 4,
     *,
     settings: MeasureSettings = MeasureSettings(),
@@ -379,7 +377,7 @@ def measure_view_set(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model.
     k : int or None
         As for :func:`best_view_set`.
@@ -398,6 +396,7 @@ def measure_view_set(
     view_set : ViewSet
         The set, searched over the same views.
     """
+    mesh = as_mesh(mesh)
     settings = check_settings(settings)
     visibility = FaceVisibility.from_mesh(mesh, settings, progress=progress)
     quality = compute_view_quality(mesh, settings, view_directions=visibility.views,

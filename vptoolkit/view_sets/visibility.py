@@ -22,7 +22,7 @@ from vptoolkit.measures import (
     progress_runs,
     quality_from_histograms,
 )
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import ViewHistograms, iter_view_histograms
@@ -79,7 +79,7 @@ class FaceVisibility:
     @classmethod
     def from_mesh(
         cls,
-        mesh: Mesh,
+        mesh: MeshLike,
         settings: MeasureSettings = MeasureSettings(),
         *,
         view_directions: ArrayLike | None = None,
@@ -89,6 +89,7 @@ class FaceVisibility:
 
         Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
         """
+        mesh = as_mesh(mesh)
         settings = check_settings(settings)
         directions = (settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))

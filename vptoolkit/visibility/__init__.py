@@ -29,7 +29,7 @@ from vptoolkit.checks import check_int
 from vptoolkit.conventions import RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_cross_products
-from vptoolkit.mesh import Mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 
@@ -95,7 +95,7 @@ def _directions(settings: MeasureSettings, view_directions: ArrayLike | None) ->
 
 
 def iter_view_histograms(
-    mesh: Mesh,
+    mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
@@ -104,7 +104,7 @@ def iter_view_histograms(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model; faces of zero area are never drawn.
     settings : MeasureSettings
         The views, image side, camera and the backend that counts the pixels
@@ -118,6 +118,7 @@ def iter_view_histograms(
     ViewHistograms
         Consecutive runs of views covering all of the views in order.
     """
+    mesh = as_mesh(mesh)
     settings = check_settings(settings)
     directions = _directions(settings, view_directions)
     resolution, camera = settings.resolution, settings.camera
@@ -167,7 +168,7 @@ class RasterScene:
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model; faces of zero area are never drawn.
     camera : Camera, optional
         Camera conventions (default: ``Camera()``).
@@ -178,7 +179,8 @@ class RasterScene:
         True face areas, as :func:`vptoolkit.geometry.face_areas` gives them.
     """
 
-    def __init__(self, mesh: Mesh, camera: Camera | None = None) -> None:
+    def __init__(self, mesh: MeshLike, camera: Camera | None = None) -> None:
+        mesh = as_mesh(mesh)
         from vptoolkit.visibility._workspace import locality_order
 
         self.mesh = mesh
@@ -244,7 +246,7 @@ class RasterScene:
 
 
 def face_id_images(
-    mesh: Mesh,
+    mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
@@ -253,7 +255,7 @@ def face_id_images(
 
     Parameters
     ----------
-    mesh : Mesh
+    mesh : MeshLike
         The model; faces of zero area are never drawn.
     settings : MeasureSettings
         The views, image side and camera (its ``up`` is the image up); the
@@ -268,6 +270,7 @@ def face_id_images(
         Index of the face seen through each pixel centre, ``-1`` where no
         face is; row 0 at the top, column 0 at the left.
     """
+    mesh = as_mesh(mesh)
     from vptoolkit.visibility._raster import _project_vertices, _rasterize_view
 
     settings = check_settings(settings)
@@ -327,7 +330,7 @@ def _raycast_views(
 
 
 def face_pixel_counts(
-    mesh: Mesh,
+    mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
@@ -342,6 +345,7 @@ def face_pixel_counts(
         Pixels of face ``z`` in view ``v``. Dense: use
         :func:`iter_view_histograms` for many views of a big mesh.
     """
+    mesh = as_mesh(mesh)
     settings = check_settings(settings)
     parts = [
         h.to_dense()
@@ -351,7 +355,7 @@ def face_pixel_counts(
 
 
 def face_pixel_totals(
-    mesh: Mesh,
+    mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
@@ -368,6 +372,7 @@ def face_pixel_totals(
     totals : (n_faces,) int64
         ``sum_v a_z(v)``.
     """
+    mesh = as_mesh(mesh)
     settings = check_settings(settings)
     totals = np.zeros(mesh.n_faces, dtype=np.int64)
     for histograms in iter_view_histograms(mesh, settings, view_directions=view_directions):
