@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import functools
+import hashlib
 import http.server
 import json
+import logging
 import os
 import shutil
 import threading
@@ -25,6 +27,12 @@ from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
 from vptoolkit.dataset.manifest import write_sha256sums
 from vptoolkit.dataset.release_options import ReleaseOptions
 from vptoolkit.errors import InputError, VerificationError
+
+
+@pytest.fixture(autouse=True)
+def _quick_retries(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Retries wait milliseconds, not seconds."""
+    monkeypatch.setattr(remote, "BACKOFF_S", 0.001)
 
 
 @pytest.fixture(scope="module")
@@ -54,14 +62,19 @@ class _Server:
     def __init__(self, folder: Path) -> None:
         self.folder = folder
         self.requests: list[str] = []
+        self.ranges: list[str | None] = []  # the Range header of each request
         self.routes: dict[str, Route] = {}
-        log, routes = self.requests, self.routes
+        self.serves_ranges = True
+        log, ranges, routes, server = self.requests, self.ranges, self.routes, self
 
         class Handler(http.server.SimpleHTTPRequestHandler):
             def do_GET(self) -> None:  # noqa: N802 - the http.server name
                 log.append(self.path)
+                ranges.append(self.headers.get("Range"))
                 if self.path in routes:
                     routes[self.path](self)
+                elif server.serves_ranges and self.headers.get("Range"):
+                    _send_range(self, Path(self.translate_path(self.path)))
                 else:
                     super().do_GET()
 
@@ -72,6 +85,11 @@ class _Server:
         self.httpd = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
         self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}/release/"
         self.thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)
+
+    def stop(self) -> None:
+        """Stop serving and close the socket: every later request is refused."""
+        self.httpd.shutdown()
+        self.httpd.server_close()
 
     def downloads(self) -> list[str]:
         """The paths requested other than the manifest."""
@@ -116,6 +134,48 @@ def _send(body: bytes, *, announced: int | None = None, chunked: bool = False,
     return route
 
 
+def _send_range(handler: http.server.BaseHTTPRequestHandler, path: Path) -> None:
+    """Answer ``Range: bytes=<first>-[<last>]`` with 206 and that part of ``path``."""
+    first_text, last_text = handler.headers["Range"].removeprefix("bytes=").split("-")
+    data = path.read_bytes()
+    first = int(first_text)
+    last = min(int(last_text), len(data) - 1) if last_text else len(data) - 1
+    if first >= len(data):
+        handler.send_error(416)
+        return
+    handler.send_response(206)
+    handler.send_header("Content-Range", f"bytes {first}-{last}/{len(data)}")
+    handler.send_header("Content-Length", str(last + 1 - first))
+    handler.end_headers()
+    handler.wfile.write(data[first:last + 1])
+
+
+def _fail_first(times: int, answer: Route) -> Route:
+    """A route answering with ``answer`` ``times`` times, then as the file server does."""
+    left = [times]
+
+    def route(handler: http.server.BaseHTTPRequestHandler) -> None:
+        if left[0] > 0:
+            left[0] -= 1
+            answer(handler)
+        elif handler.headers.get("Range"):
+            _send_range(handler, Path(handler.translate_path(handler.path)))
+        else:
+            http.server.SimpleHTTPRequestHandler.do_GET(handler)
+
+    return route
+
+
+def _status(code: int) -> Route:
+    """A route answering ``code`` with an empty body."""
+    def route(handler: http.server.BaseHTTPRequestHandler) -> None:
+        handler.send_response(code)
+        handler.send_header("Content-Length", "0")
+        handler.end_headers()
+
+    return route
+
+
 def _redirect(location: str) -> Route:
     """A route answering 302 to ``location``."""
     def route(handler: http.server.BaseHTTPRequestHandler) -> None:
@@ -153,8 +213,7 @@ def served(release: Path, tmp_path: Path) -> Iterator[_Server]:
     try:
         yield server
     finally:
-        server.httpd.shutdown()
-        server.httpd.server_close()
+        server.stop()
 
 
 def test_is_remote_tells_urls_from_paths() -> None:
@@ -342,7 +401,9 @@ def test_a_download_cut_short_is_one_line_exit_2(served: _Server, tmp_path: Path
     assert f"{name}: download broke off" in _one_line(result, 2)
     if where == "manifest":
         assert "(406 of the 812 bytes announced)" in result.output
-    assert not [path for path in _cached(tmp_path) if name in path.name]
+    assert "gave up after 4 tries" in result.output
+    kept = [path.name for path in _cached(tmp_path) if name in path.name]
+    assert kept == ([] if name == "SHA256SUMS" else [f".{name}.download"])  # to go on from
 
 
 @pytest.mark.parametrize("where", ["manifest", "archive"])
@@ -447,3 +508,72 @@ def test_an_unchanged_cache_is_not_hashed_again(served: _Server, tmp_path: Path,
     served.requests.clear()
     fetch_release(served.url, cache_dir=tmp_path)
     assert served.downloads() == []
+
+
+def _release_folder(served: _Server, cache: Path) -> Path:
+    """The cache folder of the served release (named by the SHA-256 of its SHA256SUMS)."""
+    listing = (served.folder / "release" / "SHA256SUMS").read_bytes()
+    return cache / "releases" / hashlib.sha256(listing).hexdigest()
+
+
+def test_a_complete_cache_opens_offline_with_one_notice(
+        served: _Server, release: Path, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    cache = tmp_path / "cache"
+    fetch_release(served.url, cache_dir=cache)
+    served.stop()
+    notice = f"offline: using the cached copy of {served.url.rstrip('/')}"
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.data.remote"):
+        result = CliRunner().invoke(main, ["info", served.url, "--cache-dir", str(cache)])
+        assert result.exit_code == 0, result.output
+        assert "airplane" in result.output
+        with open_dataset(served.url, cache_dir=cache) as remote_set, \
+                open_dataset(release) as local:
+            np.testing.assert_array_equal(remote_set[3]["quality"], local[3]["quality"])
+    assert [record.getMessage() for record in caplog.records] == [notice]  # once per process
+    (_release_folder(served, cache) / _archive_name(served)).unlink()  # no longer complete
+    with pytest.raises(InputError, match=r"release/SHA256SUMS: cannot be fetched .*gave up after 4"):
+        open_dataset(served.url, cache_dir=cache)
+
+
+def test_an_http_error_is_not_taken_for_offline(served: _Server, tmp_path: Path) -> None:
+    fetch_release(served.url, cache_dir=tmp_path)
+    served.routes[served.path_of("SHA256SUMS")] = _status(404)
+    with pytest.raises(InputError, match=r"release/SHA256SUMS: HTTP 404"):
+        fetch_release(served.url, cache_dir=tmp_path)
+
+
+def test_a_download_is_tried_again_after_two_503s(served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+    served.routes[served.path_of(name)] = _fail_first(2, _status(503))
+    served.routes[served.path_of("SHA256SUMS")] = _fail_first(2, _status(503))
+    folder = fetch_release(served.url, cache_dir=tmp_path)
+    assert (folder / name).read_bytes() == (served.folder / "release" / name).read_bytes()
+    assert served.requests.count(served.path_of(name)) == 3
+    assert served.requests.count(served.path_of("SHA256SUMS")) == 3
+    served.routes[served.path_of("SHA256SUMS")] = _status(503)
+    with pytest.raises(InputError, match=r"SHA256SUMS: HTTP 503 .*; gave up after 4 tries"):
+        fetch_release(served.url, cache_dir=tmp_path / "other")
+
+
+@pytest.mark.parametrize("case", ["broken-off", "left-by-a-killed-run", "no-ranges", "damaged"])
+def test_a_partial_download_goes_on_with_a_range_request(served: _Server, tmp_path: Path,
+                                                         case: str) -> None:
+    name = _archive_name(served)
+    data = (served.folder / "release" / name).read_bytes()
+    half = len(data) // 2
+    if case == "broken-off":  # the first answer stops half way: the second try asks for the rest
+        served.routes[served.path_of(name)] = _fail_first(
+            1, _send(data[:half], announced=len(data)))
+    else:  # a partial file that a killed run left
+        partial = _release_folder(served, tmp_path) / f".{name}.download"
+        partial.parent.mkdir(parents=True)
+        partial.write_bytes(data[:half] if case != "damaged" else b"\0" * half)
+        served.serves_ranges = case != "no-ranges"
+    folder = fetch_release(served.url, cache_dir=tmp_path)
+    assert (folder / name).read_bytes() == data
+    asked = [ranges for path, ranges in zip(served.requests, served.ranges, strict=True)
+             if path == served.path_of(name)]
+    assert asked[-1 if case != "damaged" else -2] == f"bytes={half}-"
+    if case == "damaged":  # the resumed file did not match: fetched again, whole
+        assert asked[-1] is None
+    assert not [path for path in folder.iterdir() if path.name.startswith(".")]

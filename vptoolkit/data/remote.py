@@ -13,10 +13,28 @@ A release is addressed by the URL of its folder (or of one archive in it):
 of that file names the cache folder, ``<cache_dir>/releases/<sha256>/``, so a
 release whose content changed is a new folder and is fetched again, and an
 unchanged one is read from the cache with one small request. Each file is
-downloaded to a hidden temporary name beside its place, hashed while it
-arrives, and renamed into place only when its SHA-256 matches the manifest:
-the cache never holds a half-written or unverified file. The temporary file
-of a download that was killed is removed by the next download of that file.
+downloaded to a hidden sibling, ``.<name>.download``, hashed while it arrives,
+and renamed into place only when its SHA-256 matches the manifest: the cache
+never holds a half-written or unverified file under a file's own name.
+
+A request that finds no server, breaks off or gets an HTTP 5xx is tried
+again, :data:`TRIES` times in all, after waits of :data:`BACKOFF_S`, then twice
+as long each time. A download that broke off (in this try, or in a run that
+was killed) goes on from the end of its ``.download`` sibling with a Range
+request: the answer is used only if it is 206 with a Content-Range starting
+there, else the file is fetched from its start; the bytes already there are
+hashed with the rest, and a resumed file whose SHA-256 differs is fetched once
+more, whole. Downloads of at least :data:`PROGRESS_MIN_BYTES` show a tqdm bar
+on stderr when it is a terminal. When ``SHA256SUMS`` cannot be fetched because
+no server answers (not an HTTP error status) and the cache holds a complete
+copy of what the URL last served, verified (every file read has its stamp),
+that copy is used and ``offline: using the cached copy of <url>`` is logged
+as a warning, once per process; the URL's last release folder is recorded in
+``<cache_dir>/urls/<SHA-256 of the URL>.json``.
+
+The archive is fetched whole, also to read one split or one model: the
+reader (:func:`vptoolkit.dataset.reader.open_store`) opens a local path only,
+and only a whole file can be checked against its SHA-256.
 Each cached file is stamped (size, modification and change time, in
 ``<cache_dir>/releases/<sha256>.stamps.json``); a file whose stamp no longer
 matches is hashed again on the next open, and fetched again if its bytes
@@ -44,6 +62,11 @@ Examples
 --------
 >>> from vptoolkit.data import open_dataset
 >>> dataset = open_dataset("https://example.org/releases/viewpoints/")  # doctest: +SKIP
+
+Size
+    About 780 lines: the release cache (manifest, folders, stamps, offline
+    use) and the bounded, retried, resumable transfer of one file. The
+    transfer is a concept of its own and belongs in a module beside this one.
 """
 
 from __future__ import annotations
@@ -54,12 +77,13 @@ import json
 import logging
 import os
 import re
+import sys
 import time
 import urllib.parse
-from collections.abc import Iterable, Iterator, Mapping
-from contextlib import AbstractContextManager
+from collections.abc import Callable, Generator, Iterable, Iterator, Mapping
+from contextlib import ExitStack, closing
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, BinaryIO
+from typing import IO, TYPE_CHECKING, BinaryIO, NamedTuple, TypeVar
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.containers import archive_preference, store_kind
@@ -78,23 +102,28 @@ from vptoolkit.files import (
     parse_json,
     read_json_file,
     remove_stale_partials,
+    temporary_prefix,
     write_bytes_atomic,
     write_text_atomic,
 )
 from vptoolkit.optional import require
+from vptoolkit.progress import Bar, progress_bar
 
 if TYPE_CHECKING:
     import http.client
     import urllib.request
 
 __all__ = [
+    "BACKOFF_S",
     "GRACE_S",
     "MAX_DESCRIPTION_BYTES",
     "MAX_FILE_BYTES",
     "MAX_MANIFEST_BYTES",
     "MIN_BYTES_PER_S",
+    "PROGRESS_MIN_BYTES",
     "READ_TIMEOUT_S",
     "REMOTE_EXTRA",
+    "TRIES",
     "default_cache_dir",
     "fetch_release",
     "is_remote",
@@ -121,12 +150,43 @@ GRACE_S = 60.0
 READ_TIMEOUT_S = 60.0
 """Seconds a server may stay silent (connecting or while sending) before a download ends."""
 
+TRIES = 4
+"""Tries of one request in all when the server cannot be reached, breaks off or answers 5xx."""
+
+BACKOFF_S = 1.0
+"""Seconds before the second try; each later wait is twice the one before (1, 2, 4 s)."""
+
+PROGRESS_MIN_BYTES = 8 << 20
+"""Downloads of at least this many bytes show a progress bar on stderr (8 MiB)."""
+
 _SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]*)://")
 _CONTENT_SIZE = re.compile(r"(\d{1,19}) B")
 _DATA_SUFFIXES = (".zarr.zip", ".h5", ".hdf5", ".parquet")
 _TERMS = (CARD_NAME, LICENSES_NAME)
+_CONTENT_RANGE = re.compile(r"bytes (\d+)-\d+/(?:\d+|\*)")
 _USER_AGENT = "vptoolkit"
 _log = logging.getLogger(__name__)
+_noted_offline: set[str] = set()  # URLs whose offline notice this process has shown
+_T = TypeVar("_T")
+
+
+class _Transient(InputError):
+    """A failure that may pass when tried again: a transfer broken off, an HTTP 5xx answer."""
+
+
+class _Unreachable(_Transient):
+    """No answer at all: the host is unknown, refuses the connection or stays silent."""
+
+
+class _Body(NamedTuple):
+    """The answer to a request for one file, from byte ``offset`` on."""
+
+    offset: int
+    """Where ``blocks`` starts in the file: the byte asked for, or 0 when all of it comes."""
+    size: int | None
+    """Bytes of the whole file, when the answer says."""
+    blocks: Generator[bytes, None, None]
+    """The bytes, as they arrive; close it to end the transfer early."""
 
 
 def is_remote(path: object) -> bool:
@@ -171,43 +231,71 @@ class _HttpSource:
     def url_of(self, relative: str) -> str:
         return f"{self.base}/{urllib.parse.quote(relative)}"
 
-    def blocks(self, relative: str, limit: int, why: str) -> Iterator[bytes]:
-        """The body of ``relative`` as it arrives, one socket read at a time.
+    def open(self, relative: str, limit: int, why: str, start: int = 0) -> _Body:
+        """Request ``relative`` from byte ``start`` on (a Range request when ``start`` > 0).
 
-        Refused at once when the server announces more than ``limit`` bytes;
-        a body shorter than its ``Content-Length`` or a broken chunked body
-        ends in an :class:`~vptoolkit.errors.InputError`.
+        The answer starts at ``start`` when the server sends 206 with that
+        Content-Range, else at 0 (a server without ranges sends it all; a
+        416, a range past the end, asks again for all of it). Refused at once
+        when the file holds more than ``limit`` bytes; a body shorter than its
+        ``Content-Length`` or a broken chunked body ends in a
+        :class:`_Transient` error, as do an unreachable server (:class:`_Unreachable`)
+        and an HTTP 5xx.
         """
         import http.client
         import urllib.error
         import urllib.request
 
         url = self.url_of(relative)
-        request = urllib.request.Request(url, headers={"User-Agent": _USER_AGENT})
+        headers = {"User-Agent": _USER_AGENT}
+        if start:
+            headers["Range"] = f"bytes={start}-"
+        request = urllib.request.Request(url, headers=headers)
         try:
             response = _http_opener().open(request, timeout=READ_TIMEOUT_S)
         except urllib.error.HTTPError as err:
             err.close()
-            raise InputError(f"{url}: HTTP {err.code} {one_line(err.reason)}") from err
+            if err.code == 416 and start:
+                return self.open(relative, limit, why)
+            kind = _Transient if err.code >= 500 else InputError
+            raise kind(f"{url}: HTTP {err.code} {one_line(err.reason)}") from err
         except (urllib.error.URLError, OSError, http.client.HTTPException) as err:
             reason = getattr(err, "reason", err)
-            raise InputError(f"{url}: cannot be fetched ({one_line(reason)})") from err
+            raise _Unreachable(f"{url}: cannot be fetched ({one_line(reason)})") from err
+        offset = 0
+        if start and response.status == 206:
+            content_range = response.headers.get("Content-Range", "")
+            match = _CONTENT_RANGE.fullmatch(content_range)
+            if match is None or int(match[1]) != start:
+                response.close()
+                raise InputError(f"{url}: answered a request from byte {start} with "
+                                 f"Content-Range {one_line(content_range)!r}")
+            offset = start
+        announced = response.length  # None without a Content-Length
+        size = None if announced is None else offset + announced
+        if size is not None and size > limit:
+            response.close()
+            raise _too_large(url, limit, why)
+        return _Body(offset, size, self._read(response, url))
+
+    @staticmethod
+    def _read(response: http.client.HTTPResponse, url: str) -> Generator[bytes, None, None]:
+        import http.client
+
         with response:
-            announced = response.length  # None without a Content-Length
-            if announced is not None and announced > limit:
-                raise _too_large(url, limit, why)
+            announced = response.length
             received = 0
             while True:
                 try:
                     block = response.read1(BLOCK_SIZE)
                 except (OSError, http.client.HTTPException) as err:
-                    raise InputError(f"{url}: download broke off ({one_line(err)})") from err
+                    raise _Transient(f"{url}: download broke off ({one_line(err)})") from err
                 if not block:
                     break
                 received += len(block)
                 yield block
             if announced is not None and received < announced:
-                raise InputError(f"{url}: download broke off ({received} of the {announced} "
+                raise _Transient(f"{url}: download broke off ({received} of the {announced} "
                                  "bytes announced)")
 
 
@@ -228,32 +316,41 @@ class _FsspecSource:
     def url_of(self, relative: str) -> str:
         return f"{self.base}/{relative}"
 
-    def blocks(self, relative: str, limit: int, why: str) -> Iterator[bytes]:
-        """The content of ``relative`` in blocks of :data:`BLOCK_SIZE` bytes.
+    def open(self, relative: str, limit: int, why: str, start: int = 0) -> _Body:
+        """The content of ``relative`` from byte ``start`` on, in blocks of :data:`BLOCK_SIZE` bytes.
 
         Refused at once when the file system reports more than ``limit`` bytes.
         """
-        with self._open(relative) as stream:
-            size = getattr(stream, "size", None)  # fsspec's buffered files know it
-            if isinstance(size, int) and size > limit:
-                raise _too_large(self.url_of(relative), limit, why)
+        stream = self._open(relative)
+        size = getattr(stream, "size", None)  # fsspec's buffered files know it
+        if isinstance(size, int) and size > limit:
+            stream.close()
+            raise _too_large(self.url_of(relative), limit, why)
+        if start:
+            stream.seek(start)
+        return _Body(start, size if isinstance(size, int) else None,
+                     self._read(stream, self.url_of(relative)))
+
+    @staticmethod
+    def _read(stream: IO[bytes], url: str) -> Generator[bytes, None, None]:
+        with stream:
             while True:
                 try:
                     block = stream.read(BLOCK_SIZE)
                 except OSError as err:
-                    raise InputError(
-                        f"{self.url_of(relative)}: download broke off ({one_line(err)})") from err
+                    raise _Transient(f"{url}: download broke off ({one_line(err)})") from err
                 if not block:
                     return
                 yield block
 
-    def _open(self, relative: str) -> AbstractContextManager[IO[bytes]]:
+    def _open(self, relative: str) -> IO[bytes]:
         try:
-            return self._fs.open(f"{self._root}/{relative}", "rb")
+            stream: IO[bytes] = self._fs.open(f"{self._root}/{relative}", "rb")
         except FileNotFoundError as err:
             raise InputError(f"{self.url_of(relative)}: not found") from err
         except OSError as err:
             raise InputError(f"{self.url_of(relative)}: cannot be fetched ({err})") from err
+        return stream
 
 
 def _source(url: str) -> _HttpSource | _FsspecSource:
@@ -265,26 +362,58 @@ def _too_large(url: str, limit: int, why: str) -> InputError:
     return InputError(f"{url}: more than {limit} bytes, {why}; download refused, nothing cached")
 
 
-def _receive(source: _HttpSource | _FsspecSource, relative: str, limit: int,
-             why: str) -> Iterator[bytes]:
-    """The bytes of one file as they arrive, refused past ``limit`` bytes or below the minimum rate.
+def _receive(source: _HttpSource | _FsspecSource, relative: str, limit: int, why: str,
+             start: int = 0) -> _Body:
+    """One file from byte ``start`` on, refused past ``limit`` bytes or below the minimum rate.
 
     ``why`` says where ``limit`` comes from, in the message.
     """
-    url = source.url_of(relative)
+    body = source.open(relative, limit, why, start)
+    return body._replace(blocks=_bounded(body, source.url_of(relative), limit, why))
+
+
+def _bounded(body: _Body, url: str, limit: int,
+             why: str) -> Generator[bytes, None, None]:
+    """The blocks of ``body``, ended by an error past ``limit`` bytes or below the minimum rate.
+
+    Closing it, or an error, ends the transfer.
+    """
     start = time.monotonic()
     received = 0
-    for block in source.blocks(relative, limit, why):
-        received += len(block)
-        if received > limit:
-            raise _too_large(url, limit, why)
-        elapsed = time.monotonic() - start
-        if elapsed > GRACE_S and received < (elapsed - GRACE_S) * MIN_BYTES_PER_S:
-            raise InputError(
-                f"{url}: too slow ({received} bytes in {elapsed:.0f} s, below "
-                f"{MIN_BYTES_PER_S} bytes/s after the first {GRACE_S:g} s); download refused"
-            )
-        yield block
+    with closing(body.blocks):
+        for block in body.blocks:
+            received += len(block)
+            if body.offset + received > limit:
+                raise _too_large(url, limit, why)
+            elapsed = time.monotonic() - start
+            if elapsed > GRACE_S and received < (elapsed - GRACE_S) * MIN_BYTES_PER_S:
+                raise InputError(
+                    f"{url}: too slow ({received} bytes in {elapsed:.0f} s, below "
+                    f"{MIN_BYTES_PER_S} bytes/s after the first {GRACE_S:g} s); download refused"
+                )
+            yield block
+
+
+def _retrying(attempt: Callable[[], _T], tries: int | None = None) -> _T:
+    """``attempt()``, tried again after a :class:`_Transient` error, :data:`TRIES` times in all.
+
+    The waits between tries start at :data:`BACKOFF_S` and double. The last
+    error is raised, of the same class, saying how many tries were made.
+    """
+    tries = TRIES if tries is None else tries
+    for number in range(1, tries):
+        try:
+            return attempt()
+        except _Transient as err:
+            wait = BACKOFF_S * 2 ** (number - 1)
+            _log.info("%s; trying again in %.1f s", err, wait)
+            time.sleep(wait)
+    try:
+        return attempt()
+    except _Transient as err:
+        if tries == 1:
+            raise
+        raise type(err)(f"{err}; gave up after {tries} tries") from err
 
 
 def _check_paths(sums: Iterable[str], label: str) -> None:
@@ -398,8 +527,8 @@ def _is_cached(target: Path, expected: str, stamps: dict[str, object], relative:
     return False
 
 
-def _hold(stream: BinaryIO) -> None:
-    """Lock a download's temporary file while it is written.
+def _hold(stream: BinaryIO) -> bool:
+    """Lock a download's temporary file while it is written; False if another process holds it.
 
     :func:`~vptoolkit.files.remove_stale_partials` skips a locked file, so a
     concurrent download of the same file, in another process, keeps its own.
@@ -407,38 +536,154 @@ def _hold(stream: BinaryIO) -> None:
     try:
         import fcntl
     except ImportError:  # Windows: an open file cannot be removed anyway
-        return
+        return True
     try:
         fcntl.flock(stream.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
     except OSError:  # a file system without locks: nothing is held, as in files.held
-        return
+        return True
+    return True
+
+
+def _fill(out: BinaryIO, source: _HttpSource | _FsspecSource, relative: str,
+          sizes: Mapping[str, int], show: bool) -> str:
+    """Complete ``out`` with the bytes of ``relative`` and return the SHA-256 of all of it.
+
+    ``out`` may already hold the start of the file (a download broken off
+    before, in ``"a+b"`` mode): those bytes are hashed and the rest is asked
+    for with a Range request; a server that sends the whole file instead
+    starts ``out`` over. Transient failures are tried again (:func:`_retrying`),
+    each try going on from the bytes already written.
+    """
+    limit, why = _limit(relative, sizes)
+    digest = hashlib.sha256()
+    if out.seek(0, os.SEEK_END) > limit:
+        out.truncate(0)
+    elif out.tell():
+        out.seek(0)
+        for block in iter(functools.partial(out.read, BLOCK_SIZE), b""):
+            digest.update(block)
+    with ExitStack() as bars:
+        bar: Bar | None = None
+
+        def attempt() -> None:
+            nonlocal digest, bar
+            have = out.seek(0, os.SEEK_END)
+            body = _receive(source, relative, limit, why, start=have)
+            if body.offset != have:  # the whole file comes: start over
+                out.truncate(0)
+                digest = hashlib.sha256()
+            if bar is None:
+                total = body.size if body.size is not None else sizes.get(relative, 0)
+                bar = bars.enter_context(progress_bar(
+                    total=total, description=relative, unit="B", initial=body.offset,
+                    enabled=show and total >= PROGRESS_MIN_BYTES))
+            with closing(body.blocks):
+                for block in body.blocks:
+                    out.write(block)
+                    digest.update(block)
+                    bar.update(len(block))
+
+        _retrying(attempt)
+    return digest.hexdigest()
 
 
 def _download(source: _HttpSource | _FsspecSource, relative: str, expected: str,
-              target: Path, sizes: Mapping[str, int]) -> None:
-    """Fetch one file to ``target`` through a hidden temporary sibling, kept only if it matches.
+              target: Path, sizes: Mapping[str, int], show: bool) -> None:
+    """Fetch one file to ``target`` through a hidden sibling, moved into place only if it matches.
 
-    The temporary files that killed downloads of ``target`` left are removed first.
+    The sibling, ``.<name>.download``, is kept when the download fails on the
+    way (after :data:`TRIES` tries), and the next download goes on from its
+    end; a resumed file whose SHA-256 differs is fetched once more from the
+    start. While another process holds that sibling, this one downloads to a
+    temporary file of its own. The temporary files that killed downloads of
+    ``target`` left are removed first.
     """
     target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_partials(target.parent, target.name)
     url = source.url_of(relative)
-    limit, why = _limit(relative, sizes)
-    digest = hashlib.sha256()
-    with atomic_write(target) as out:
-        _hold(out)
-        for block in _receive(source, relative, limit, why):
-            digest.update(block)
-            out.write(block)
-        if digest.hexdigest() != expected:
-            raise VerificationError(
-                f"{url}: SHA-256 {digest.hexdigest()[:12]}... differs from SHA256SUMS "
-                f"({expected[:12]}...); download refused, nothing cached"
-            )
+    partial = target.with_name(f"{temporary_prefix(target.name)}download")
+    with open(partial, "a+b") as out:
+        if _hold(out):
+            resumed = out.seek(0, os.SEEK_END) > 0
+            try:
+                digest = _fill(out, source, relative, sizes, show)
+                if digest != expected and resumed:
+                    out.truncate(0)
+                    digest = _fill(out, source, relative, sizes, show)
+            except _Transient:
+                raise  # the bytes received so far stay, for the next download to go on from
+            except (InputError, OSError):
+                partial.unlink(missing_ok=True)
+                raise
+            if digest == expected:
+                out.flush()
+                os.fsync(out.fileno())
+        else:
+            with atomic_write(target) as fresh:
+                _hold(fresh)
+                digest = _fill(fresh, source, relative, sizes, show)
+                if digest != expected:
+                    raise _differs(url, digest, expected)
+            return
+    if digest != expected:
+        partial.unlink(missing_ok=True)
+        raise _differs(url, digest, expected)
+    os.replace(partial, target)
+
+
+def _differs(url: str, digest: str, expected: str) -> VerificationError:
+    return VerificationError(f"{url}: SHA-256 {digest[:12]}... differs from SHA256SUMS "
+                             f"({expected[:12]}...); download refused, nothing cached")
+
+
+def _wanted(sums: Mapping[str, str], archive: str | None, base: str,
+            everything: bool) -> list[str]:
+    """The files a fetch reads: every listed one, croissant.json first, or :func:`_needed`."""
+    if everything:  # croissant.json first: it records the sizes of the others
+        return sorted(sorted(sums), key=lambda name: name != CROISSANT_NAME)
+    return _needed(sums, archive, base)
+
+
+def _pointer(cache: Path, base: str) -> Path:
+    """Where the cache records which release folder ``base`` last served."""
+    return cache / "urls" / f"{hashlib.sha256(base.encode('utf-8')).hexdigest()}.json"
+
+
+def _cached_copy(cache: Path, base: str, archive: str | None, everything: bool) -> Path | None:
+    """The release folder (or archive) last fetched from ``base``, if complete and verified.
+
+    Complete and verified: the folder's ``SHA256SUMS`` hashes to its name and
+    every file a fetch would read is there with the stamp it got when it was
+    verified. Nothing is hashed here; None when any of that is not so.
+    """
+    pointer = _pointer(cache, base)
+    if not pointer.is_file():
+        return None
+    try:
+        record = read_json_file(pointer)
+        name = record.get("release") if isinstance(record, dict) else None
+        if not isinstance(name, str) or not re.fullmatch(r"[0-9a-f]{64}", name):
+            return None
+        folder = cache / "releases" / name
+        listing = (folder / MANIFEST_NAME).read_bytes()
+        if hashlib.sha256(listing).hexdigest() != name:
+            return None
+        wanted = _wanted(parse_sha256sums(listing, str(folder / MANIFEST_NAME)), archive, base,
+                         everything)
+    except (InputError, VerificationError, OSError):
+        return None
+    stamps = _read_stamps(cache / "releases" / f"{name}.stamps.json")
+    for relative in wanted:
+        target = folder / relative
+        if not target.is_file() or stamps.get(relative) != _stamp(target):
+            return None
+    return folder / archive if archive is not None else folder
 
 
 def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
-                  everything: bool = False) -> Path:
+                  everything: bool = False, progress: bool | None = None) -> Path:
     """Download a release into the local cache, verified, and return the local path.
 
     Parameters
@@ -454,13 +699,19 @@ def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
         Fetch every file the manifest lists (default: ``croissant.json``,
         the card, ``LICENSES.csv`` and one archive, what
         :func:`vptoolkit.data.open_dataset` reads).
+    progress : bool, optional
+        Show a progress bar on stderr for each download of at least
+        :data:`PROGRESS_MIN_BYTES` (default: when stderr is a terminal).
 
     Returns
     -------
     Path
         The cached release folder, or the cached archive when ``url`` names
         one. Files already cached are checked first (stamp, else SHA-256) and
-        fetched again if they changed.
+        fetched again if they changed. When the server cannot be reached and
+        the cache holds a complete, verified copy of what ``url`` last served,
+        that copy, with the warning ``offline: using the cached copy of <url>``
+        logged once per process.
 
     Raises
     ------
@@ -468,7 +719,9 @@ def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
         If ``SHA256SUMS`` or a file cannot be fetched (the line names the URL
         and the HTTP status or the reason: a download cut short, larger than
         its limit or slower than :data:`MIN_BYTES_PER_S`, a redirect to
-        another scheme than http(s)), or the release holds no archive to read.
+        another scheme than http(s)), after :data:`TRIES` tries where trying
+        again may help (no answer, a transfer broken off, HTTP 5xx), or the
+        release holds no archive to read.
     VerificationError
         If the manifest is malformed (a line that is not ``<sha256>  <path>``,
         a path outside the folder, ``.``, or below another listed file) or a
@@ -486,25 +739,34 @@ def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
         if last == MANIFEST_NAME:
             base = base.rsplit("/", 1)[0]
     source = _source(base)
-    listing = b"".join(_receive(source, MANIFEST_NAME, MAX_MANIFEST_BYTES,
-                                "the most a SHA256SUMS manifest may hold"))
+    cache = Path(cache_dir if cache_dir is not None else default_cache_dir())
+    cached = _cached_copy(cache, base, archive, everything)
+    try:  # one try only when a cached copy can stand in
+        listing = _retrying(lambda: b"".join(_receive(
+            source, MANIFEST_NAME, MAX_MANIFEST_BYTES,
+            "the most a SHA256SUMS manifest may hold").blocks), tries=1 if cached else None)
+    except _Unreachable:
+        if cached is None:
+            raise
+        if base not in _noted_offline:
+            _noted_offline.add(base)
+            _log.warning("offline: using the cached copy of %s", base)
+        return cached
     sums = parse_sha256sums(listing, source.url_of(MANIFEST_NAME))
     _check_paths(sums, source.url_of(MANIFEST_NAME))
-    releases = Path(cache_dir if cache_dir is not None else default_cache_dir()) / "releases"
+    releases = cache / "releases"
     folder = releases / hashlib.sha256(listing).hexdigest()
-    if everything:  # croissant.json first: it records the sizes of the others
-        wanted = sorted(sorted(sums), key=lambda name: name != CROISSANT_NAME)
-    else:
-        wanted = _needed(sums, archive, base)
+    wanted = _wanted(sums, archive, base, everything)
     folder.mkdir(parents=True, exist_ok=True)
     stamps_path = releases / f"{folder.name}.stamps.json"
     stamps = _read_stamps(stamps_path)
     before = dict(stamps)
     sizes: dict[str, int] = {}
+    show = sys.stderr.isatty() if progress is None else progress
     for relative in wanted:
         target = folder / relative
         if not _is_cached(target, sums[relative], stamps, relative):
-            _download(source, relative, sums[relative], target, sizes)
+            _download(source, relative, sums[relative], target, sizes, show)
             stamps[relative] = _stamp(target)
         if relative == CROISSANT_NAME:
             sizes = _recorded_sizes(target)
@@ -513,4 +775,9 @@ def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
     manifest = folder / MANIFEST_NAME
     if not manifest.is_file() or manifest.read_bytes() != listing:
         write_bytes_atomic(manifest, listing)
+    pointer = _pointer(cache, base)
+    record = json.dumps({"release": folder.name, "url": base}, sort_keys=True)
+    if not pointer.is_file() or pointer.read_text(encoding="utf-8") != record:
+        pointer.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(pointer, record)
     return folder / archive if archive is not None else folder
