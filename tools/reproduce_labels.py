@@ -137,6 +137,10 @@ def parse_args() -> argparse.Namespace:
                              "(the package's is vptoolkit/learn/pretrained)")
     parser.add_argument("--pretrained-method", default="ml+gl", choices=METHODS,
                         help="label method of the exported network")
+    parser.add_argument("--pretrained-from-table", action="store_true",
+                        help="export the table's own network of --pretrained-method (out/models/"
+                             "<method>, chosen by its validation score) instead of training "
+                             "another")
     parser.add_argument("--pretrained-epochs", type=int,
                         help="epochs of the exported network (default: --epochs)")
     parser.add_argument("--pretrained-head", default="256,64",
@@ -188,7 +192,14 @@ def main() -> None:
     print(table)
     if not args.quick:
         write_section(args.results, args.section, table)
-    if args.export_pretrained is not None:
+    if args.export_pretrained is None:
+        return
+    data = training_data(args.dataset or args.out / "dataset", sizes,
+                         real=args.dataset is not None)
+    if args.pretrained_from_table:
+        checkpoint = args.out / "models" / args.pretrained_method.replace("+", "_")
+        export_pretrained(checkpoint / "model.safetensors", args.export_pretrained, command, data)
+    else:
         method, epochs = args.pretrained_method, args.pretrained_epochs or sizes.epochs
         head = [int(width) for width in args.pretrained_head.split(",")]
         folder = f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
@@ -201,8 +212,7 @@ def main() -> None:
                                                         head_channels=tuple(head)))
         checkpoint = train_model(dataset, args.out / "models" / folder, options,
                                  resume=True, progress=True, threads=1).checkpoint
-        export_pretrained(checkpoint, args.export_pretrained, command,
-                          training_data(dataset, sizes, real=args.dataset is not None))
+        export_pretrained(checkpoint, args.export_pretrained, command, data)
 
 
 def parse_searches(text: str) -> list[tuple[int, int]]:
