@@ -8,6 +8,7 @@ import http.server
 import json
 import logging
 import os
+import pickle
 import shutil
 import threading
 import time
@@ -22,7 +23,7 @@ from fixtures.environment import require_package
 from fixtures.releases import write_release_build
 from vptoolkit.cli import main
 from vptoolkit.data import open_dataset
-from vptoolkit.data import remote
+from vptoolkit.data import download, ranges, remote
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
 from vptoolkit.dataset.manifest import write_sha256sums
 from vptoolkit.dataset.release_options import ReleaseOptions
@@ -32,7 +33,7 @@ from vptoolkit.errors import InputError, VerificationError
 @pytest.fixture(autouse=True)
 def _quick_retries(monkeypatch: pytest.MonkeyPatch) -> None:
     """Retries wait milliseconds, not seconds."""
-    monkeypatch.setattr(remote, "BACKOFF_S", 0.001)
+    monkeypatch.setattr(download, "BACKOFF_S", 0.001)
 
 
 @pytest.fixture(scope="module")
@@ -231,7 +232,8 @@ def test_default_cache_dir_follows_xdg(monkeypatch, tmp_path: Path) -> None:
 def test_first_open_downloads_and_verifies_the_second_uses_the_cache(
         served: _Server, release: Path, tmp_path: Path) -> None:
     cache = tmp_path / "cache"
-    with open_dataset(served.url, cache_dir=cache) as remote, open_dataset(release) as local:
+    with open_dataset(served.url, cache_dir=cache, partial=False) as remote, \
+            open_dataset(release) as local:
         assert remote.names == local.names
         np.testing.assert_array_equal(remote[3]["quality"], local[3]["quality"])
         assert remote.path.parent.parent.parent == cache
@@ -239,7 +241,7 @@ def test_first_open_downloads_and_verifies_the_second_uses_the_cache(
     assert any(path.endswith(".h5") for path in first)
     assert not any(path.endswith(".parquet") for path in first)  # only what reading needs
     served.requests.clear()
-    with open_dataset(served.url, cache_dir=cache) as again:
+    with open_dataset(served.url, cache_dir=cache) as again:  # cached: not read by ranges
         assert len(again) == len(local.names)
     assert served.requests == ["/release/SHA256SUMS"]
     cached = [p for p in cache.rglob("*") if p.is_file()]
@@ -264,7 +266,7 @@ def test_a_corrupted_download_is_refused_and_not_cached(served: _Server, tmp_pat
     data[len(data) // 2] ^= 0xFF
     archive.write_bytes(bytes(data))
     with pytest.raises(VerificationError, match=r"\.h5: SHA-256 .* differs from SHA256SUMS"):
-        open_dataset(served.url, cache_dir=cache)
+        open_dataset(served.url, cache_dir=cache, partial=False)
     assert not [p for p in cache.rglob("*") if p.is_file() and p.name.endswith(".h5")]
     assert not [p for p in cache.rglob(".*")]  # no temporary file left
     result = CliRunner().invoke(main, ["info", served.url, "--cache-dir", str(cache)])
@@ -341,7 +343,7 @@ def test_names_the_reader_does_not_read_are_not_downloaded(served: _Server,
     manifest = served.folder / "release" / "SHA256SUMS"
     extra = "".join(f"{'0' * 64}  x{number:06d}.bin\n" for number in range(200_000))
     manifest.write_text(manifest.read_text(encoding="utf-8") + extra, encoding="utf-8")
-    with open_dataset(served.url, cache_dir=tmp_path) as dataset:
+    with open_dataset(served.url, cache_dir=tmp_path, partial=False) as dataset:
         assert len(dataset) > 0
     assert sorted(served.downloads()) == sorted(
         served.path_of(name) for name in ("README.md", "croissant.json", _archive_name(served)))
@@ -409,8 +411,8 @@ def test_a_download_cut_short_is_one_line_exit_2(served: _Server, tmp_path: Path
 @pytest.mark.parametrize("where", ["manifest", "archive"])
 def test_a_trickling_server_is_refused_below_the_minimum_rate(
         served: _Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, where: str) -> None:
-    monkeypatch.setattr(remote, "GRACE_S", 0.5)
-    monkeypatch.setattr(remote, "MIN_BYTES_PER_S", 1000)
+    monkeypatch.setattr(download, "GRACE_S", 0.5)
+    monkeypatch.setattr(download, "MIN_BYTES_PER_S", 1000)
     name = "SHA256SUMS" if where == "manifest" else _archive_name(served)
     # 100 bytes at one per 0.1 s: done after 10 s at most, refused after about 0.6 s
     served.routes[served.path_of(name)] = _send(b"x" * 100, announced=100, byte_every_s=0.1)
@@ -491,7 +493,7 @@ def test_a_cached_file_that_changed_is_fetched_again(served: _Server, release: P
         stream.write(bytes(data))
         stream.truncate()
     served.requests.clear()
-    with open_dataset(served.url, cache_dir=tmp_path) as remote_set, \
+    with open_dataset(served.url, cache_dir=tmp_path, partial=False) as remote_set, \
             open_dataset(release) as local:
         np.testing.assert_array_equal(remote_set[3]["quality"], local[3]["quality"])
     assert served.downloads() == [served.path_of(cached.name)]
@@ -577,3 +579,101 @@ def test_a_partial_download_goes_on_with_a_range_request(served: _Server, tmp_pa
     if case == "damaged":  # the resumed file did not match: fetched again, whole
         assert asked[-1] is None
     assert not [path for path in folder.iterdir() if path.name.startswith(".")]
+
+
+def _range_bytes(served: _Server, name: str) -> int:
+    """Bytes the archive's requests asked for, all by Range (none asked for the whole file)."""
+    asked = [ranges for path, ranges in zip(served.requests, served.ranges, strict=True)
+             if path == served.path_of(name)]
+    assert asked and None not in asked, asked
+    spans = [text.removeprefix("bytes=").split("-") for text in asked if text is not None]
+    return sum(int(last) + 1 - int(first) for first, last in spans)
+
+
+def test_one_split_is_read_by_ranges_with_the_arrays_of_a_local_open(
+        served: _Server, release: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(ranges, "RANGE_BLOCK_BYTES", 4 << 10)
+    name = _archive_name(served)
+    with open_dataset(served.url, cache_dir=tmp_path) as remote_set, \
+            open_dataset(release) as local:
+        remote_test, local_test = remote_set.split("test"), local.split("test")
+        assert remote_test.names == local_test.names
+        np.testing.assert_array_equal(remote_test.array("quality"), local_test.array("quality"))
+        for key in ("points", "normals", "quality_raw", "best_index"):
+            np.testing.assert_array_equal(remote_test[0][key], local_test[0][key])
+        for remote_part, local_part in zip(remote_test.mesh(0), local_test.mesh(0), strict=True):
+            np.testing.assert_array_equal(remote_part, local_part)
+        assert remote_set.path.name == name and not remote_set.path.exists()
+    assert _range_bytes(served, name) < (served.folder / "release" / name).stat().st_size
+    assert not [path for path in _cached(tmp_path) if name in path.name]  # nothing half-cached
+
+
+def test_a_server_without_ranges_gets_the_whole_verified_download(
+        served: _Server, release: Path, tmp_path: Path) -> None:
+    served.serves_ranges = False
+    name = _archive_name(served)
+    with open_dataset(served.url, cache_dir=tmp_path) as remote_set, \
+            open_dataset(release) as local:
+        np.testing.assert_array_equal(remote_set[3]["quality"], local[3]["quality"])
+        assert remote_set.path.read_bytes() == (served.folder / "release" / name).read_bytes()
+    asked = [ranges for path, ranges in zip(served.requests, served.ranges, strict=True)
+             if path == served.path_of(name)]
+    assert asked == ["bytes=0-0", None]  # the probe answered 200, then the whole file
+
+
+def _answer_range(content_range: Callable[[int, int, int], str]) -> Route:
+    """A route answering a Range request with 206, the bytes asked for and ``content_range``.
+
+    ``content_range(first, last, size)`` gives the header sent.
+    """
+    def route(handler: http.server.BaseHTTPRequestHandler) -> None:
+        data = Path(handler.translate_path(handler.path)).read_bytes()
+        first_text, last_text = handler.headers["Range"].removeprefix("bytes=").split("-")
+        first, last = int(first_text), int(last_text)
+        handler.send_response(206)
+        handler.send_header("Content-Range", content_range(first, last, len(data)))
+        handler.send_header("Content-Length", str(last + 1 - first))
+        handler.end_headers()
+        handler.wfile.write(data[first:last + 1])
+
+    return route
+
+
+@pytest.mark.parametrize("case", ["wrong-start", "wrong-total", "recorded-size-differs",
+                                  "wrong-later"])
+def test_a_wrong_content_range_or_size_is_one_line_naming_the_url(
+        served: _Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, case: str) -> None:
+    monkeypatch.setattr(ranges, "RANGE_BLOCK_BYTES", 16 << 10)
+    name = _archive_name(served)
+    folder = served.folder / "release"
+    wrong = _answer_range(lambda first, last, size: f"bytes {first + 1}-{last + 1}/{size}")
+    if case == "wrong-start":
+        served.routes[served.path_of(name)] = wrong
+    elif case == "wrong-total":
+        served.routes[served.path_of(name)] = _answer_range(
+            lambda first, last, size: f"bytes {first}-{last}/{size + 1}")
+    elif case == "recorded-size-differs":
+        _record_size(folder, name, (folder / name).stat().st_size - 1)
+    with pytest.raises(InputError) as raised:
+        with open_dataset(served.url, cache_dir=tmp_path) as dataset:
+            served.routes[served.path_of(name)] = wrong  # the server goes wrong after the open
+            dataset.array("points")
+    message = str(raised.value)
+    assert message.startswith(served.url + name + ": answered a request for bytes ")
+    assert "\n" not in message and "Content-Range" in message
+    assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+def test_a_pickled_split_reopens_over_ranges(served: _Server, release: Path,
+                                             tmp_path: Path) -> None:
+    name = _archive_name(served)
+    with open_dataset(served.url, cache_dir=tmp_path) as remote_set, \
+            open_dataset(release) as local:
+        remote_test = remote_set.split("test")
+        served.requests.clear()
+        served.ranges.clear()
+        copy = pickle.loads(pickle.dumps(remote_test))  # as a data loader's worker receives it
+        for key in ("points", "quality"):
+            np.testing.assert_array_equal(copy[1][key], local.split("test")[1][key])
+        assert _range_bytes(served, name) > 0  # reopened by ranges, not downloaded
+    assert not [path for path in _cached(tmp_path) if name in path.name]

@@ -4,7 +4,9 @@ Builds a release from synthetic shapes (``write_collection``, ``vptool
 build-dataset``, ``vptool pack``), larger than the bundled samples, serves it
 on 127.0.0.1 (a port the system picks) with a handler that counts the bytes it
 sends and answers Range requests, and prints, for a fresh cache each time, the
-bytes sent to open the release and read one split, and to read one model.
+bytes sent to open the release and read one split, and to read one model: with
+the whole archive downloaded and verified (``partial=False``) and read by
+ranges (``partial=True``, the default).
 
     python tools/bench_remote.py --per-category 30 --work /tmp/bench-remote
 """
@@ -18,9 +20,10 @@ import subprocess
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
-from vptoolkit.data import open_dataset
+from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.synthetic import write_collection
 
 
@@ -81,25 +84,28 @@ def main() -> None:
     server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
     threading.Thread(target=server.serve_forever, daemon=True).start()
     url = f"http://127.0.0.1:{server.server_address[1]}/{release.name}/"
+    with open_dataset(release) as dataset:
+        n_models, n_test = len(dataset), len(dataset.split("test"))
+        name = dataset.names[n_models // 2]
+    print(f"release: {n_models} models, {archive.name} {archive.stat().st_size} bytes")
     try:
-        with tempfile.TemporaryDirectory() as cache:
-            _CountingHandler.sent[0] = 0
-            with open_dataset(url, cache_dir=cache) as dataset:
-                test = dataset.split("test")
-                n_test = len(test)
-            split_bytes = _CountingHandler.sent[0]
-        with tempfile.TemporaryDirectory() as cache:
-            _CountingHandler.sent[0] = 0
-            with open_dataset(url, cache_dir=cache) as dataset:
-                name = dataset.names[len(dataset) // 2]
-                dataset[name]["points"]
-            model_bytes = _CountingHandler.sent[0]
+        for partial in (False, True):
+            split_bytes = _bytes_sent(url, partial, lambda dataset: dataset.split("test"))
+            model_bytes = _bytes_sent(url, partial, lambda dataset: dataset[name]["points"])
+            print(f"partial={partial}: open + split('test') ({n_test} models): "
+                  f"{split_bytes} bytes sent; open + one model ({name}): {model_bytes} bytes sent")
     finally:
         server.shutdown()
         server.server_close()
-    print(f"release: {len(dataset)} models, {archive.name} {archive.stat().st_size} bytes")
-    print(f"open + split('test') ({n_test} models): {split_bytes} bytes sent")
-    print(f"open + one model ({name}): {model_bytes} bytes sent")
+
+
+def _bytes_sent(url: str, partial: bool, read: Callable[[ViewpointDataset], object]) -> int:
+    """Bytes the server sends to open ``url`` into a fresh cache and ``read`` the dataset."""
+    with tempfile.TemporaryDirectory() as cache:
+        _CountingHandler.sent[0] = 0
+        with open_dataset(url, cache_dir=cache, partial=partial) as dataset:
+            read(dataset)
+        return _CountingHandler.sent[0]
 
 
 if __name__ == "__main__":

@@ -19,7 +19,10 @@ Examples
 ((20000, 3), (1000, 4))
 
 A URL opens a published release through a verified local cache
-(:mod:`vptoolkit.data.remote`):
+(:mod:`vptoolkit.data.remote`, each file transferred by
+:mod:`vptoolkit.data.download`); an HDF5 archive on an http(s) server that
+serves byte ranges is read by ranges instead, only the parts asked for
+(:mod:`vptoolkit.data.ranges`):
 
 >>> dataset = open_dataset("https://example.org/viewpoints/")   # doctest: +SKIP
 """
@@ -36,7 +39,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import SPLITS
-from vptoolkit.data.remote import fetch_release, is_remote
+from vptoolkit.data.ranges import RangeFile, RemoteArchive
+from vptoolkit.data.remote import fetch_release, is_remote, locate_release
 from vptoolkit.dataset.containers import find_store
 from vptoolkit.dataset.reader import StoreReader, open_store
 from vptoolkit.dataset.schema import published_split
@@ -54,13 +58,17 @@ class _SharedStore:
 
     The reader is reopened after a fork (a new process id) and is left out
     when the object is copied to another process, so a dataset can be handed
-    to the worker processes of a data loader.
+    to the worker processes of a data loader. An archive read by ranges is
+    reopened from its :class:`~vptoolkit.data.ranges.RemoteArchive` (URL,
+    size, block settings), the path of its place in the cache naming it.
     """
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, remote: RemoteArchive | None = None) -> None:
         self.path = path
+        self.remote = remote
         self.is_closed = False
         self._reader: StoreReader | None = None
+        self._stream: RangeFile | None = None
         self._pid = -1
         reader = self.reader()
         is_read = False
@@ -91,7 +99,8 @@ class _SharedStore:
         if self.is_closed:
             raise InputError(f"{self.path.name}: dataset is closed")
         if self._reader is None or self._pid != os.getpid():
-            self._reader = open_store(self.path)
+            self._stream = None if self.remote is None else self.remote.open()
+            self._reader = open_store(self.path, stream=self._stream)
             self._pid = os.getpid()
         return self._reader
 
@@ -105,12 +114,16 @@ class _SharedStore:
     def close(self) -> None:
         if self._reader is not None and self._pid == os.getpid():
             self._reader.close()
+            if self._stream is not None:
+                self._stream.close()
         self._reader = None
+        self._stream = None
         self.is_closed = True
 
     def __getstate__(self) -> dict[str, Any]:
         state = dict(self.__dict__)
         state["_reader"] = None
+        state["_stream"] = None
         state["_pid"] = -1
         return state
 
@@ -168,7 +181,7 @@ class ViewpointDataset:
 
     @property
     def path(self) -> Path:
-        """Path of the store."""
+        """Path of the store; for an archive read by ranges, its place in the cache (not there)."""
         return self._shared.path
 
     @property
@@ -498,7 +511,8 @@ def _take_rows(array: Any, rows: NDArray[np.int64], dtype: type[np.generic]) -> 
 
 
 def open_dataset(path: str | os.PathLike[str], *,
-                 cache_dir: str | os.PathLike[str] | None = None) -> ViewpointDataset:
+                 cache_dir: str | os.PathLike[str] | None = None,
+                 partial: bool = True) -> ViewpointDataset:
     """Open a dataset store lazily, local or remote.
 
     Parameters
@@ -513,6 +527,14 @@ def open_dataset(path: str | os.PathLike[str], *,
     cache_dir : path-like, optional
         Cache folder for a URL (default: ``$XDG_CACHE_HOME/vptoolkit``, else
         ``~/.cache/vptoolkit``).
+    partial : bool
+        For a URL whose HDF5 archive is not cached yet, on an http(s) server
+        that serves byte ranges: read the archive by ranges, only the parts
+        asked for, checked against the size ``croissant.json`` records but
+        not against its SHA-256, which covers the whole file
+        (:func:`vptoolkit.data.remote.locate_release`; the manifest,
+        ``croissant.json`` and the card are verified as always). False
+        downloads the whole archive and verifies it first (default: True).
 
     Returns
     -------
@@ -531,7 +553,11 @@ def open_dataset(path: str | os.PathLike[str], *,
         For a URL other than http(s) without fsspec (the ``remote`` extra).
     """
     if is_remote(path):
-        path = fetch_release(str(path), cache_dir=cache_dir)
-    shared = _SharedStore(find_store(path))
+        located = (locate_release(str(path), cache_dir=cache_dir) if partial
+                   else fetch_release(str(path), cache_dir=cache_dir))
+        shared = (_SharedStore(located.path, located) if isinstance(located, RemoteArchive)
+                  else _SharedStore(find_store(located)))
+    else:
+        shared = _SharedStore(find_store(path))
     rows = np.arange(len(shared.records), dtype=np.int64)
     return ViewpointDataset(shared, rows, is_owner=True)

@@ -21,9 +21,10 @@ after the file is closed once.
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -185,9 +186,11 @@ def _is_plain_list(value: Any) -> bool:
     return len({type(item) for item in value}) == 1
 
 
-def open_hdf5(path: Path) -> tuple[Any, Any, dict[str, Any], list[str]]:
+def open_hdf5(path: Path, stream: BinaryIO | io.RawIOBase | None = None,
+              ) -> tuple[Any, Any, dict[str, Any], list[str]]:
+    """Open ``path`` for reading, or the readable, seekable ``stream`` that holds it."""
     h5py = require("h5py")  # a core dependency
-    handle = h5py.File(path, "r")
+    handle = h5py.File(path if stream is None else stream, "r")
     is_open = False
     try:
         raw = dict(handle.attrs)

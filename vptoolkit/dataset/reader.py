@@ -9,10 +9,12 @@ lazily and decodes the JSON records.
 
 from __future__ import annotations
 
+import io
 import os
+import weakref
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -328,7 +330,8 @@ def _rows_of(key: Any, n_rows: int) -> tuple[int, int]:
     return 0, n_rows
 
 
-def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> StoreReader:
+def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True,
+               stream: BinaryIO | io.RawIOBase | None = None) -> StoreReader:
     """Open a dataset store for reading.
 
     Parameters
@@ -340,6 +343,11 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> St
         Refuse a Zarr store with a missing chunk, which would read as zeros
         (default: True; :func:`vptoolkit.dataset.manifest.verify` turns it
         off to report every damaged array itself).
+    stream : binary file, optional
+        A readable, seekable file holding the HDF5 store ``path`` names, read
+        instead of ``path`` (which need not exist): an archive read by byte
+        ranges (:class:`vptoolkit.data.ranges.RangeFile`). The reader closes
+        the HDF5 file, not the stream; close the reader first, then the stream.
 
     Returns
     -------
@@ -361,22 +369,28 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True) -> St
     """
     source = Path(path)
     kind = store_kind(source)
-    if not source.exists():
+    if stream is not None and kind != "hdf5":
+        raise InputError(f"{source}: only an HDF5 store is read from a stream")
+    if stream is None and not source.exists():
         raise InputError(f"{source}: no such file or directory")
-    if source.is_dir() != (kind == "zarr"):
+    if stream is None and source.is_dir() != (kind == "zarr"):
         raise InputError(f"{source}: expected a {'directory' if kind == 'zarr' else 'file'}")
     try:
         if kind == "hdf5":
             from vptoolkit.dataset._hdf5 import open_hdf5
 
-            root, store, attrs, names = open_hdf5(source)
+            root, store, attrs, names = open_hdf5(source, stream)
         else:
             from vptoolkit.dataset._zarr import open_zarr
 
             root, store, attrs, names = open_zarr(require_zarr(), source, kind)
+    except VptoolkitError:  # the stream's own one-line error (a URL that answered wrongly)
+        raise
     except (OSError, ValueError, KeyError, TypeError, zipfile.BadZipFile) as err:
         raise InputError(f"{source}: not a readable dataset store ({err})") from err
     reader = StoreReader(source, kind, root, store, attrs, names)
+    if stream is not None:  # h5py crashes at exit over a Python file still open: close it first
+        weakref.finalize(reader, store.close)
     is_valid = False
     try:
         _check_root(reader)
