@@ -7,12 +7,12 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.best_view import (
-    _Renderer,
     coarse_directions,
     principal_frame,
     search_best_views,
     search_inputs,
 )
+from vptoolkit.best_view.search import _Renderer
 from vptoolkit.camera import Camera
 from vptoolkit.cli import main
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES

@@ -21,9 +21,9 @@ from vptoolkit.evaluate.scores import (
     EvaluationReport,
     evaluate_predictions,
     load_predictions,
-    save_predictions,
     score_directions,
 )
+from vptoolkit.predictions import write_predictions as save_predictions
 
 # (category, name, split) in (category, name) order; uneven categories in the test
 # split (airplane 3, chair 1, table 2) so the mean over categories differs from

@@ -17,7 +17,7 @@ LAYERS = {
     "visibility": 3,
     "measures": 4, "view_sets": 4,
     "clean": 5, "points": 5,
-    "dataset": 6, "data": 7, "dataset_card": 0,
+    "dataset": 6, "data": 7, "inputs": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9, "best_view": 9, "unoccluded": 9,
     "pictures": 10,
     "cli": 99,

@@ -287,7 +287,7 @@ def full_report(store, report_renderer, matplotlib_available, tmp_path_factory) 
 @pytest.fixture(scope="module")
 def predictions(store, tmp_path_factory) -> tuple[Path, np.ndarray]:
     """Predictions for the test split: box_b exactly right, capsule off; no VMI."""
-    from vptoolkit.evaluate.scores import save_predictions
+    from vptoolkit.predictions import write_predictions as save_predictions
 
     views = fibonacci_sphere(N_VIEWS)
     directions = np.zeros((2, 3, 3))

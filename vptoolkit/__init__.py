@@ -8,21 +8,25 @@ module, layer by layer):
   camera defaults and splits; lazy optional packages; argument checks;
   atomic writes and the JSON reader; the progress bar; the process pool.
 - ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
-  and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes; the
-  predictions ``.npz``.
-- ``geometry``, ``sphere``, ``camera``, ``rotations``: face areas and bounding
-  frame; Fibonacci view directions; the pinhole camera; seeded rotations.
+  and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
+  ``Predictions`` (names and directions) and its ``.npz``.
+- ``geometry``, ``sphere``, ``camera``, ``rotations``: face areas, bounding
+  and principal frames; Fibonacci view directions and the principal-frame
+  coarse sphere; the pinhole camera; seeded rotations.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
   model; complementary view sets.
 - ``clean``, ``points``, ``synthetic``: the pymeshlab cleaning pipeline;
   surface and farthest point sampling; procedural category-like shapes.
-- ``dataset``, ``data``: building, packing and verifying datasets and
-  releases; the light loader (numpy with zarr or h5py) and its torch adapter.
+- ``dataset``, ``data``, ``inputs``: building, packing and verifying datasets
+  and releases; the light loader (numpy with zarr or h5py) and its torch
+  adapter; the one router of mesh files, point files and datasets.
 - ``learn``: the point network, its labels, training, prediction and prior.
-- ``evaluate``, ``best_view``: scoring directions the authors' way and the
-  rotated protocol; the anytime best-view search within a budget of views.
+- ``evaluate``, ``best_view``, ``unoccluded``: scoring directions the
+  authors' way and the rotated protocol; the anytime best-view search within
+  a budget of views (``search``) and over many inputs (``run``); the
+  measures with occlusion ignored, in closed form.
 - ``pictures``: shaded pictures, sphere maps, contact sheets, thumbnails and
   the HTML report.
 - ``cli``: the ``vptool`` command line.
@@ -32,7 +36,7 @@ from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version
 
-from vptoolkit.best_view import BestViews, search_best_views
+from vptoolkit.best_view.search import BestViews, search_best_views
 from vptoolkit.conventions import MEASURES, N_VIEWS
 from vptoolkit.errors import (
     CheckpointError,

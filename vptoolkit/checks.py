@@ -22,6 +22,7 @@ __all__ = [
     "changed_values",
     "check_bool",
     "check_int",
+    "check_int_range",
     "check_keys",
     "check_npy_header",
     "check_suffix",
@@ -42,6 +43,17 @@ def check_int(
         raise InputError(f"{argument}: must be at least {minimum}, got {value}")
     if maximum is not None and value > maximum:
         raise InputError(f"{argument}: must be at most {maximum}, got {value}")
+    return int(value)
+
+
+def check_int_range(value: object, argument: str, low: int, high: int) -> int:
+    """Return ``value`` as an int from ``low`` to ``high``; the message states the range.
+
+    E.g. ``budget: expected an integer from 1 to 100000, got 0`` (bools are refused).
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or not low <= value <= high:
+        raise InputError(f"{argument}: expected an integer from {low} to {high}, got {value!r}")
     return int(value)
 
 

@@ -1,13 +1,13 @@
-"""Basic triangle-mesh geometry: face areas, normals and the bounding frame."""
+"""Basic triangle-mesh geometry: face areas, normals, the bounding frame and the principal frame."""
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
-__all__ = ["face_cross_products", "face_areas", "face_normals", "bounding_frame"]
+__all__ = ["face_cross_products", "face_areas", "face_normals", "bounding_frame", "principal_frame"]
 
 
 def face_cross_products(mesh: MeshLike) -> NDArray[np.float64]:
@@ -74,3 +74,28 @@ def bounding_frame(mesh: MeshLike) -> tuple[NDArray[np.float64], float]:
     used = mesh.vertices[is_used]
     low, high = used.min(axis=0), used.max(axis=0)
     return (low + high) / 2.0, float(np.linalg.norm(high - low))
+
+
+def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Rows: the surface's principal axes, largest spread first.
+
+    The axes are the eigenvectors of the covariance of the face centroids,
+    each weighted by its face's area (``areas``, computed when not given).
+
+    Returns
+    -------
+    axes : (3, 3) float64
+        Orthonormal rows; a right-handed frame.
+    """
+    areas = face_areas(mesh) if areas is None else areas
+    vertices, faces = mesh.vertices, mesh.faces
+    centroids = (vertices[faces[:, 0]] + vertices[faces[:, 1]] + vertices[faces[:, 2]]) / 3.0
+    total = float(areas.sum())
+    weights = areas / total if total > 0 else np.full(len(areas), 1.0 / len(areas))
+    centred = centroids - weights @ centroids
+    covariance = (centred * weights[:, None]).T @ centred
+    _, vectors = np.linalg.eigh(covariance)
+    axes = vectors[:, ::-1].T.copy()
+    if np.linalg.det(axes) < 0:
+        axes[2] = -axes[2]
+    return np.asarray(axes)

@@ -1,4 +1,10 @@
-"""The predictions file: one ``.npz`` of predicted view directions, read and written here.
+"""Predicted view directions: :class:`Predictions` and its ``.npz`` file, read and written here.
+
+Every predictor returns a :class:`Predictions` (a network's
+:func:`vptoolkit.learn.predict.predict`, the occlusion-free
+:func:`vptoolkit.unoccluded.predict_unoccluded`, the best-view search's
+:attr:`vptoolkit.best_view.run.SearchRun.predictions`), and
+:func:`write_predictions` is the one writer of the file.
 
 Format (``*.npz``, nothing pickled):
 
@@ -24,9 +30,10 @@ from __future__ import annotations
 
 import os
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +45,7 @@ from vptoolkit.files import atomic_write
 
 __all__ = [
     "PREDICTION_KEYS",
-    "PredictionArrays",
+    "Predictions",
     "read_arrays",
     "read_predictions",
     "parse_predictions",
@@ -53,22 +60,76 @@ _NPY_MAGIC = b"\x93NUMPY"
 _ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a zip entry, or an empty zip archive
 
 
-class PredictionArrays(NamedTuple):
-    """The three arrays of a predictions file, checked against each other.
+@dataclass(frozen=True)
+class Predictions:
+    """Predicted view directions of several models, checked when made.
 
     Attributes
     ----------
     names : tuple of str
-        Model names, as stored (not yet checked for duplicates).
-    directions : (n_models, n_measures, 3) array
-        As stored (dtype not yet checked; see :func:`parse_predictions`).
+        Model names (file stems, or dataset names), unique.
+    directions : (n_models, n_measures, 3) float64
+        One direction per model and measure, from the model centre towards
+        the camera (a predictor's are unit length; a file's need not be).
     measures : tuple of str
-        ``MEASURES`` or a subset in that order.
+        The measure of each direction: ``MEASURES`` or a subset in that order.
+
+    Raises
+    ------
+    InputError
+        If ``directions`` is not of shape ``(n_names, n_measures, 3)`` or two
+        names are the same.
+
+    Examples
+    --------
+    >>> found = Predictions(("chair",), np.zeros((1, 4, 3)))
+    >>> names, directions, measures = found   # unpacks like a tuple
+    >>> len(found), directions.shape
+    (1, (1, 4, 3))
     """
 
     names: tuple[str, ...]
-    directions: NDArray[Any]
-    measures: tuple[str, ...]
+    directions: NDArray[np.float64]
+    measures: tuple[str, ...] = MEASURES
+
+    def __post_init__(self) -> None:
+        directions = np.asarray(self.directions, dtype=np.float64)
+        if directions.shape != (len(self.names), len(self.measures), 3):
+            raise InputError(
+                f"directions: expected shape ({len(self.names)}, {len(self.measures)}, 3), "
+                f"got {directions.shape}"
+            )
+        if len(set(self.names)) != len(self.names):
+            raise InputError("names: model names must be unique")
+        object.__setattr__(self, "names", tuple(str(name) for name in self.names))
+        object.__setattr__(self, "measures", tuple(str(name) for name in self.measures))
+        object.__setattr__(self, "directions", directions)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+    def __iter__(self) -> Iterator[Any]:
+        """``names, directions, measures = predictions``."""
+        return iter((self.names, self.directions, self.measures))
+
+    def save_npz(self, path: str | os.PathLike[str]) -> Path:
+        """Write the predictions to an ``.npz`` file, atomically (:func:`write_predictions`).
+
+        The arrays are ``names (n_models,) unicode``, ``directions
+        (n_models, n_measures, 3) float64`` and ``measures (n_measures,)
+        unicode``; nothing is pickled (read back with :meth:`load_npz`).
+
+        Raises
+        ------
+        InputError
+            If ``path`` does not end in ``.npz`` or its folder does not exist.
+        """
+        return write_predictions(path, self.names, self.directions, measures=self.measures)
+
+    @classmethod
+    def load_npz(cls, path: str | os.PathLike[str]) -> Predictions:
+        """Read predictions written by :meth:`save_npz` (:func:`read_predictions`)."""
+        return read_predictions(path)
 
 
 def read_arrays(path: str | os.PathLike[str]) -> NDArray[Any] | dict[str, NDArray[Any]]:
@@ -135,7 +196,8 @@ def unicode_vector(file_name: str, key: str, array: NDArray[Any]) -> list[str]:
     return [str(value) for value in array]
 
 
-def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]]) -> PredictionArrays:
+def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]],
+                      ) -> tuple[tuple[str, ...], NDArray[Any], tuple[str, ...]]:
     """Check the members of a predictions ``.npz`` against the format.
 
     Parameters
@@ -144,6 +206,15 @@ def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]]) -> Predic
         Named in error messages.
     arrays : dict of str to ndarray
         The archive's members (:func:`read_arrays`).
+
+    Returns
+    -------
+    names : tuple of str
+        As stored (not yet checked for duplicates).
+    directions : (n_names, n_measures, 3) ndarray
+        As stored (dtype not yet checked).
+    measures : tuple of str
+        ``MEASURES`` or a subset in that order.
 
     Raises
     ------
@@ -173,15 +244,15 @@ def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]]) -> Predic
         raise InputError(f"{file_name}: directions must have shape ({len(names)}, "
                          f"{len(columns)}, 3) for {len(names)} names and "
                          f"{len(columns)} measures, got {raw.shape}")
-    return PredictionArrays(tuple(names), raw, tuple(file_measures))
+    return tuple(names), raw, tuple(file_measures)
 
 
-def read_predictions(path: str | os.PathLike[str]) -> PredictionArrays:
+def read_predictions(path: str | os.PathLike[str]) -> Predictions:
     """Read a predictions ``.npz`` (``allow_pickle=False``; the file is closed on return).
 
     Returns
     -------
-    predictions : PredictionArrays
+    predictions : Predictions
         ``names``, ``directions (n_models, n_measures, 3) float64`` and
         ``measures``.
 
@@ -189,7 +260,7 @@ def read_predictions(path: str | os.PathLike[str]) -> PredictionArrays:
     ------
     InputError
         As :func:`read_arrays` and :func:`parse_predictions`, or if the file is
-        a ``.npy`` or ``directions`` is not numeric.
+        a ``.npy``, ``directions`` is not numeric or two names are the same.
     """
     path = Path(path)
     if path.suffix.lower() != ".npz":
@@ -197,11 +268,12 @@ def read_predictions(path: str | os.PathLike[str]) -> PredictionArrays:
     arrays = read_arrays(path)
     if not isinstance(arrays, dict):  # read_arrays already refuses a .npy named .npz
         raise InputError(f"{path.name}: holds a single .npy array, not an .npz archive")
-    parsed = parse_predictions(path.name, arrays)
-    if parsed.directions.dtype.kind not in "fiu":
-        raise InputError(f"{path.name}: directions must be numeric, "
-                         f"got dtype {parsed.directions.dtype}")
-    return parsed._replace(directions=parsed.directions.astype(np.float64))
+    names, raw, measures = parse_predictions(path.name, arrays)
+    if raw.dtype.kind not in "fiu":
+        raise InputError(f"{path.name}: directions must be numeric, got dtype {raw.dtype}")
+    if len(set(names)) != len(names):
+        raise InputError(f"{path.name}: model names must be unique")
+    return Predictions(names, raw.astype(np.float64), measures)
 
 
 def write_predictions(

@@ -1,7 +1,9 @@
 """Candidate view directions on the unit sphere.
 
 A view direction ``v`` is a unit vector pointing from the model's centre
-towards the camera (see :mod:`vptoolkit.camera`).
+towards the camera (see :mod:`vptoolkit.camera`). :func:`coarse_directions`
+lays the Fibonacci sphere out in a mesh's principal frame, so the pattern
+turns with the model (the best-view search's coarse sphere).
 """
 
 from __future__ import annotations
@@ -13,9 +15,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
+from vptoolkit.geometry import principal_frame
+from vptoolkit.mesh import Mesh
 
-__all__ = ["fibonacci_sphere", "nearest_view", "as_directions", "angle_between_deg",
-           "is_zero_length", "distinct_directions"]
+__all__ = ["fibonacci_sphere", "coarse_directions", "nearest_view", "as_directions",
+           "angle_between_deg", "is_zero_length", "distinct_directions"]
 
 
 def fibonacci_sphere(n: int = N_VIEWS) -> NDArray[np.float64]:
@@ -116,6 +120,24 @@ def is_zero_length(vectors: ArrayLike) -> NDArray[np.bool_]:
     tiny = scale < 1e-12  # longer vectors are never shorter than their largest component
     lengths = np.where(tiny, scale, 0.0) * np.linalg.norm(_largest_component_one(values), axis=-1)
     return tiny & (lengths < 1e-12)
+
+
+def coarse_directions(mesh: Mesh, n: int, areas: NDArray[np.float64] | None = None,
+                      ) -> NDArray[np.float64]:
+    """``n`` Fibonacci directions in the mesh's principal frame, the poles on its least-spread axis.
+
+    The frame is :func:`vptoolkit.geometry.principal_frame` (``areas``: the
+    face areas, computed when not given), so the pattern turns with the mesh
+    and any input orientation is covered alike.
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors in the mesh's coordinates.
+    """
+    largest, middle, smallest = principal_frame(mesh, areas)
+    sphere = fibonacci_sphere(n)  # poles along y
+    return sphere[:, :1] * largest + sphere[:, 1:2] * smallest + sphere[:, 2:] * middle
 
 
 def nearest_view(

@@ -34,7 +34,7 @@ every element.
 The estimate needs no image: it is the zero-view answer of
 :func:`unoccluded_best_views` (points with normals suffice, so a scan without a
 mesh has one) and the candidate proposer of :class:`UnoccludedPrior` for
-:func:`vptoolkit.best_view.search_best_views`. It is exact for a convex surface
+:func:`vptoolkit.best_view.search.search_best_views`. It is exact for a convex surface
 seen from afar (orthographically) and misleads where parts hide each other.
 
 Directions are unit vectors from the model's centre towards the camera, in the
@@ -46,8 +46,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Sequence
-from pathlib import Path
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -57,7 +56,16 @@ from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
 from vptoolkit.measures import ranked_views
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.sphere import as_directions, distinct_directions, fibonacci_sphere
+from vptoolkit.predictions import Predictions
+from vptoolkit.sphere import (
+    as_directions,
+    coarse_directions,
+    distinct_directions,
+    fibonacci_sphere,
+)
+
+if TYPE_CHECKING:
+    from vptoolkit.data import ViewpointDataset
 
 __all__ = [
     "NORMAL_CELLS",
@@ -268,7 +276,7 @@ class UnoccludedPrior:
     """Candidate directions of a mesh from the occlusion-free estimate, for the search.
 
     The estimate is evaluated on ``n_directions`` directions of the mesh's
-    principal-frame Fibonacci sphere (:func:`vptoolkit.best_view.coarse_directions`,
+    principal-frame Fibonacci sphere (:func:`vptoolkit.sphere.coarse_directions`,
     so it turns with the mesh); the candidates are each of VE, VR and VKL's
     best ``per_measure`` directions at least ``min_angle_deg`` apart, rank by
     rank in ``MEASURES`` order (VMI's estimate is VKL's), duplicates dropped.
@@ -303,8 +311,6 @@ class UnoccludedPrior:
     def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first."""
         mesh = as_mesh(mesh)
-        from vptoolkit.best_view import coarse_directions
-
         normals, areas, face_areas = _face_elements(mesh)
         directions = coarse_directions(mesh, self.n_directions, face_areas)
         raw = unoccluded_quality(normals, areas, directions)
@@ -318,21 +324,23 @@ class UnoccludedPrior:
 
 
 def predict_unoccluded(
-    inputs: Sequence[str | os.PathLike[str]],
+    inputs: (str | os.PathLike[str] | ViewpointDataset
+             | Sequence[str | os.PathLike[str] | ViewpointDataset]),
     *,
     split: str | None = "test",
     n_directions: int = UNOCCLUDED_DIRECTIONS,
-) -> tuple[tuple[str, ...], NDArray[np.float64]]:
+) -> Predictions:
     """:func:`unoccluded_best_views` of mesh files, point files with normals and dataset splits.
 
     Parameters
     ----------
-    inputs : sequence of path-like
+    inputs : path-like, ViewpointDataset or a sequence of them
         Mesh files (their faces, on the mesh's principal-frame sphere of
-        ``n_directions``, :func:`vptoolkit.best_view.coarse_directions`),
+        ``n_directions``, :func:`vptoolkit.sphere.coarse_directions`),
         ``(N, 6)`` ``.npy`` point files (``x y z nx ny nz``; on the Fibonacci
         sphere of ``n_directions``) and datasets (their stored points' normals,
-        likewise), in any mix. Names: file stems, or the dataset's.
+        likewise), in any mix, told apart by :func:`vptoolkit.inputs.open_inputs`.
+        Names: file stems, or the dataset's.
     split : str, optional
         Split of dataset inputs, or None for every model (default: "test").
     n_directions : int
@@ -340,9 +348,9 @@ def predict_unoccluded(
 
     Returns
     -------
-    names : tuple of str
-    directions : (n_models, 4, 3) float64
-        Unit directions in ``MEASURES`` order, each in its input's own frame.
+    Predictions
+        ``names`` and ``directions (n_models, 4, 3) float64``: unit directions
+        in ``MEASURES`` order, each in its input's own frame.
 
     Raises
     ------
@@ -352,37 +360,23 @@ def predict_unoccluded(
         that is NaN, infinite or of zero length (naming the dataset and model
         for a stored one).
     """
-    from vptoolkit.best_view import coarse_directions
-    from vptoolkit.data import open_dataset
-    from vptoolkit.io import SUPPORTED_SUFFIXES, load_mesh
-    from vptoolkit.points import read_point_normals
+    from vptoolkit.inputs import claim_name, open_inputs
 
-    names: list[str] = []
+    names: set[str] = set()
     answers: list[NDArray[np.float64]] = []
-
-    def add(name: str, answer: NDArray[np.float64]) -> None:
-        if name in names:
-            raise InputError(f"inputs: two models are named {name!r}; model names must be unique")
-        names.append(name)
-        answers.append(answer)
-
-    for source in inputs:
-        path = Path(source)
-        suffix = path.suffix.lower()
-        if suffix == ".npy":
-            add(path.stem, unoccluded_best_views(read_point_normals(path)[1],
-                                                 directions=n_directions))
-        elif suffix in SUPPORTED_SUFFIXES:
-            mesh = load_mesh(path)
-            normals, areas, face_areas = _face_elements(mesh)
-            add(path.stem, unoccluded_best_views(
-                normals, areas, directions=coarse_directions(mesh, n_directions, face_areas)))
-        else:
-            with open_dataset(path) as dataset:
-                subset = dataset.split(split) if split is not None else dataset
-                for position, name in enumerate(subset.names):
-                    stored = np.asarray(subset[position]["normals"], dtype=np.float64)
-                    add(name, unoccluded_best_views(
-                        _unit_normals(stored, f"{source}: model {name!r}"),
-                        directions=n_directions))
-    return tuple(names), np.array(answers).reshape(-1, len(MEASURES), 3)
+    with open_inputs(inputs, split=split) as sources:
+        for source in sources:
+            claim_name(names, source.name)
+            if source.kind == "mesh":
+                mesh = source.mesh()
+                normals, areas, face_areas = _face_elements(mesh)
+                answers.append(unoccluded_best_views(
+                    normals, areas, directions=coarse_directions(mesh, n_directions, face_areas)))
+            elif source.kind == "points":
+                answers.append(unoccluded_best_views(source.normals(), directions=n_directions))
+            else:
+                answers.append(unoccluded_best_views(
+                    _unit_normals(source.normals(), f"{source.origin}: model {source.name!r}"),
+                    directions=n_directions))
+        ordered = tuple(source.name for source in sources)
+    return Predictions(ordered, np.array(answers).reshape(-1, len(MEASURES), 3))

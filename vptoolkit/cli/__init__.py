@@ -10,7 +10,7 @@ Modules: ``group`` (the click group: one-line errors, exit codes), ``options``
 (options and types several commands share, defaults from
 :mod:`vptoolkit.conventions`), ``measure`` (measures, views, clean, sample),
 ``dataset`` (build-dataset, pack, verify, info, import-authors,
-export-authors), ``learn`` (train, predict, evaluate), ``search`` (best-view)
+export-authors), ``learn`` (train, predict, evaluate), ``best_view`` (best-view)
 and ``pictures`` (render, sphere-map, report, thumbnails).
 """
 
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import click
 
-from vptoolkit.cli import dataset, learn, measure, pictures, search
+from vptoolkit.cli import best_view, dataset, learn, measure, pictures
 from vptoolkit.cli.group import VptoolGroup
 
 __all__ = ["main"]
@@ -35,7 +35,7 @@ def main() -> None:
     """
 
 
-for _command in (*measure.COMMANDS, *search.COMMANDS, *dataset.COMMANDS, *learn.COMMANDS,
+for _command in (*measure.COMMANDS, *best_view.COMMANDS, *dataset.COMMANDS, *learn.COMMANDS,
                  *pictures.COMMANDS):
     main.add_command(_command)
 del _command

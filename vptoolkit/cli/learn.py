@@ -23,15 +23,13 @@ from vptoolkit.cli.options import (
     local_dataset,
     seed_option,
 )
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_output_folder
 from vptoolkit.learn.options import DEFAULT_FPS_POOL, DEFAULT_LABELS, DEFAULT_VAL_SPLIT
 from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 if TYPE_CHECKING:
-    import numpy as np
-    from numpy.typing import NDArray
+    from vptoolkit.predictions import Predictions
 
 
 @click.command()
@@ -210,15 +208,12 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     if model == "unoccluded":
         from vptoolkit.unoccluded import predict_unoccluded
 
-        names, directions = predict_unoccluded(sources, split=chosen)
-        measures: tuple[str, ...] = MEASURES
+        predictions = predict_unoccluded(sources, split=chosen)
     else:
-        names, directions, measures = _network_predictions(model, sources, chosen, seed,
-                                                           category, device)
+        predictions = _network_predictions(model, sources, chosen, seed, category, device)
     if output is not None:
-        from vptoolkit.predictions import write_predictions
-
-        write_predictions(output, names, directions, measures=measures)
+        predictions.save_npz(output)
+    names, directions, measures = predictions.names, predictions.directions, predictions.measures
     for name, answer in zip(names[:10], directions[:10]):
         cells = "  ".join(f"{m} ({x:+.2f}, {y:+.2f}, {z:+.2f})"
                           for m, (x, y, z) in zip(measures, answer))
@@ -230,9 +225,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
 
 def _network_predictions(model: str, sources: list[Path], split: str | None, seed: int,
-                         category: str | None, device: str,
-                         ) -> tuple[tuple[str, ...], NDArray[np.float64], tuple[str, ...]]:
-    """Names, directions and measures of a network's predictions for ``predict``."""
+                         category: str | None, device: str) -> Predictions:
+    """A network's predictions for ``predict``."""
     from vptoolkit.learn.predict import predict
     from vptoolkit.points import read_point_file
 
@@ -240,9 +234,8 @@ def _network_predictions(model: str, sources: list[Path], split: str | None, see
         if source.suffix.lower() == ".npy" and source.is_file():
             read_point_file(source)
     with options_named(category_="--category"):
-        predictions = predict(model, sources, split=split, seed=seed, progress=True,
-                              category=category, device=device)
-    return predictions.names, predictions.directions, predictions.measures
+        return predict(model, sources, split=split, seed=seed, progress=True,
+                       category=category, device=device)
 
 
 COMMANDS = (train, predict_command, evaluate)

@@ -198,7 +198,7 @@ def max_faces_option(help: str | None) -> Callable[[Decorated], Decorated]:
 
 def budget_option() -> Callable[[Decorated], Decorated]:
     """``--views N``: a best-view search's budget of drawn views (default ``BUDGET``)."""
-    from vptoolkit.best_view import BUDGET, MAX_BUDGET
+    from vptoolkit.best_view.search import BUDGET, MAX_BUDGET
 
     return click.option("--views", "budget", default=BUDGET, show_default=True,
                         type=click.IntRange(1, MAX_BUDGET),
@@ -207,7 +207,7 @@ def budget_option() -> Callable[[Decorated], Decorated]:
 
 def search_resolution_option() -> Callable[[Decorated], Decorated]:
     """``--resolution PX``: the image side that decides a search (default ``SEARCH_RESOLUTION``)."""
-    from vptoolkit.best_view import SEARCH_RESOLUTION
+    from vptoolkit.best_view.search import SEARCH_RESOLUTION
 
     return click.option("--resolution", default=SEARCH_RESOLUTION, show_default=True,
                         type=click.IntRange(1, MAX_RESOLUTION),

@@ -14,8 +14,8 @@ Predictions come as a file (:func:`load_predictions`):
     ``directions`` : (n_models, n_measures, 3) float, one direction per measure;
     ``measures`` : (n_measures,) unicode, ``["VE", "VR", "VKL", "VMI"]`` or a
     subset in that order (e.g. ``["VKL"]``). Other keys are ignored.
-    :func:`save_predictions` writes this form (the format is owned by
-    :mod:`vptoolkit.predictions`).
+    :func:`vptoolkit.predictions.write_predictions` writes this form (the
+    format's owner, :mod:`vptoolkit.predictions`).
 ``*.npy``
     (n_models, 4, 3) in ``MEASURES`` order, or (n_models, 3) for the one
     measure named by ``measure``; rows in the order of the evaluated split.
@@ -35,7 +35,6 @@ from __future__ import annotations
 import math
 import os
 from collections import Counter
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -52,16 +51,11 @@ from vptoolkit.evaluate._inputs import (
     quoted,
     select_split,
 )
-from vptoolkit.predictions import (
-    parse_predictions,
-    read_arrays,
-    write_predictions,
-)
+from vptoolkit.predictions import parse_predictions, read_arrays
 
 __all__ = [
     "EvaluationReport",
     "load_predictions",
-    "save_predictions",
     "score_directions",
     "evaluate_predictions",
 ]
@@ -383,21 +377,6 @@ def load_predictions(
         Also for an unknown ``measure`` (naming the argument).
     """
     return _load(path, dataset_split, measure, f"the evaluated models of {dataset_split.path.name}")
-
-
-def save_predictions(
-    path: str | os.PathLike[str],
-    names: Sequence[str],
-    directions: ArrayLike,
-    *,
-    measures: Sequence[str] = MEASURES,
-) -> Path:
-    """Write predictions in the ``.npz`` form :func:`load_predictions` reads.
-
-    The format's owner is :func:`vptoolkit.predictions.write_predictions`;
-    this keeps its name here for the evaluation API (same parameters, same errors).
-    """
-    return write_predictions(path, names, directions, measures=measures)
 
 
 # --------------------------------------------------------------------------- scoring

@@ -17,8 +17,9 @@ nothing, so ``import vptoolkit.learn`` never loads torch):
 - ``vptoolkit.learn.train``: :func:`~vptoolkit.learn.train.train_model`, the
   training loop (Adam, step decay, validation, best checkpoint, resume).
 - ``vptoolkit.learn.predict``: :func:`~vptoolkit.learn.predict.predict` on
-  meshes, point files or a dataset split, and
-  :class:`~vptoolkit.learn.predict.Predictions`.
+  meshes, point files or a dataset split (read through
+  :func:`vptoolkit.inputs.open_inputs`), returning
+  :class:`~vptoolkit.predictions.Predictions`.
 
 Everything here needs the ``learn`` extra: ``pip install 'vptoolkit[learn]'``
 (torch and safetensors).

@@ -1,7 +1,8 @@
 """Predict best viewpoints with a trained network.
 
-:func:`predict` takes mesh files, point files or a dataset split and returns
-:class:`Predictions`: one unit direction per model and measure, pointing from
+:func:`predict` takes mesh files, point files or a dataset split (told apart
+by :func:`vptoolkit.inputs.open_inputs`) and returns
+:class:`~vptoolkit.predictions.Predictions`: one unit direction per model and measure, pointing from
 the model's bounding-box centre towards the camera, in the input's own
 coordinates.
 
@@ -32,9 +33,7 @@ network; meshes and point files need ``category``.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
-from functools import partial
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Final
 
@@ -50,7 +49,8 @@ from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
-from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS, read_point_file
+from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS
+from vptoolkit.predictions import Predictions
 
 if TYPE_CHECKING:
     import torch
@@ -59,7 +59,7 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["MeshPredictor", "Predictions", "predict", "predict_directions", "network_points",
+__all__ = ["MeshPredictor", "predict", "predict_directions", "network_points",
            "network_predictor", "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
@@ -67,80 +67,6 @@ CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 (:func:`vptoolkit.learn.train.train_per_category`)."""
 
 _SEED_INPUT = 3
-
-
-@dataclass(frozen=True)
-class Predictions:
-    """Predicted view directions of several models.
-
-    Attributes
-    ----------
-    names : tuple of str
-        Model names (file stems, or dataset names), unique.
-    directions : (n_models, n_measures, 3) float64
-        Unit directions from the bounding-box centre towards the camera.
-    measures : tuple of str
-        The measure of each direction, in ``MEASURES`` order.
-    """
-
-    names: tuple[str, ...]
-    directions: NDArray[np.float64]
-    measures: tuple[str, ...] = MEASURES
-
-    def __post_init__(self) -> None:
-        directions = np.asarray(self.directions, dtype=np.float64)
-        if directions.shape != (len(self.names), len(self.measures), 3):
-            raise InputError(
-                f"directions: expected shape ({len(self.names)}, {len(self.measures)}, 3), "
-                f"got {directions.shape}"
-            )
-        if len(set(self.names)) != len(self.names):
-            raise InputError("names: model names must be unique")
-        object.__setattr__(self, "names", tuple(str(name) for name in self.names))
-        object.__setattr__(self, "measures", tuple(str(name) for name in self.measures))
-        object.__setattr__(self, "directions", directions)
-
-    def __len__(self) -> int:
-        return len(self.names)
-
-    def save_npz(self, path: str | os.PathLike[str]) -> Path:
-        """Write ``names``, ``directions`` and ``measures`` to an ``.npz`` file, atomically
-        (:func:`vptoolkit.predictions.write_predictions`, the one owner of the format).
-
-        The arrays are ``names (n_models,) unicode``, ``directions
-        (n_models, n_measures, 3) float64`` and ``measures (n_measures,)
-        unicode``; nothing is pickled (read back with ``np.load(path,
-        allow_pickle=False)`` or :meth:`load_npz`).
-
-        Returns
-        -------
-        path : Path
-            The written file.
-
-        Raises
-        ------
-        InputError
-            If ``path`` does not end in ``.npz`` or its folder does not exist.
-        """
-        from vptoolkit.predictions import write_predictions
-
-        return write_predictions(path, self.names, self.directions, measures=self.measures)
-
-    @classmethod
-    def load_npz(cls, path: str | os.PathLike[str]) -> Predictions:
-        """Read predictions written by :meth:`save_npz`.
-
-        See :func:`vptoolkit.predictions.read_predictions`.
-
-        Raises
-        ------
-        InputError
-            If the file is missing, unreadable or lacks an array.
-        """
-        from vptoolkit.predictions import read_predictions
-
-        names, directions, measures = read_predictions(path)
-        return cls(tuple(names), directions, tuple(measures))
 
 
 def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
@@ -227,75 +153,6 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
             f"of {len(directions)} inputs, not a direction; its weights are broken"
         )
     return directions / lengths
-
-
-def _is_dataset(path: Path) -> bool:
-    from vptoolkit.dataset.containers import store_kind
-
-    if path.is_dir():
-        return True
-    try:
-        store_kind(path)
-    except InputError:
-        return False
-    return True
-
-
-def _mesh_points(path: Path, seed: int) -> NDArray[np.float64]:
-    from vptoolkit.io import load_mesh
-    from vptoolkit.points import sample_surface
-
-    return sample_surface(load_mesh(path), N_SURFACE_POINTS, seed=seed).points
-
-
-Source = tuple[str, str | None, Callable[[], NDArray[Any]]]
-
-
-def _sources(inputs: Any, split: str | None, seed: int) -> Iterator[Source]:
-    """(name, category or None, loader of surface points) of every input model, in order."""
-    from vptoolkit.data import ViewpointDataset, open_dataset
-    from vptoolkit.io import SUPPORTED_SUFFIXES
-
-    if isinstance(inputs, (str, os.PathLike, ViewpointDataset)):
-        inputs = [inputs]
-    for source in inputs:
-        if isinstance(source, ViewpointDataset):
-            yield from _dataset_sources(source, split)
-            continue
-        if not isinstance(source, (str, os.PathLike)):
-            raise InputError("inputs: expected paths or a ViewpointDataset, "
-                             f"got {type(source).__name__}")
-        path = Path(source)
-        suffix = path.suffix.lower()
-        if suffix == ".npy":
-            if not path.is_file():
-                raise InputError(f"{path}: no such point file")
-            yield path.stem, None, partial(read_point_file, path)
-        elif suffix in SUPPORTED_SUFFIXES:
-            if not path.is_file():
-                raise InputError(f"{path}: no such mesh file")
-            yield path.stem, None, partial(_mesh_points, path, seed)
-        elif _is_dataset(path):
-            dataset = open_dataset(path)
-            try:
-                yield from _dataset_sources(dataset, split)
-            finally:
-                dataset.close()
-        else:
-            raise InputError(
-                f"{path.name}: not a mesh ({', '.join(SUPPORTED_SUFFIXES)}), "
-                "point file (.npy) or dataset"
-            )
-
-
-def _dataset_sources(dataset: ViewpointDataset, split: str | None) -> Iterator[Source]:
-    subset = dataset.split(split) if split is not None else dataset
-    for position, (name, category) in enumerate(zip(subset.names, subset.categories)):
-        yield name, category, partial(_row_points, subset, position)
-
-
-def _row_points(dataset: ViewpointDataset, position: int) -> NDArray[np.float64]:
-    return np.asarray(dataset[position]["points"], dtype=np.float64)
 
 
 def load_networks(
@@ -538,18 +395,22 @@ def predict(
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
     networks = load_networks(model_path)
     tqdm = require("tqdm").tqdm
+    from vptoolkit.inputs import claim_name, open_inputs
+
     names: list[str] = []
+    seen: set[str] = set()
     routes: list[str | None] = []
     prepared: list[NDArray[np.float32]] = []
-    for name, source_category, load in tqdm(_sources(inputs, split, seed), disable=not progress,
-                                            desc="inputs", unit="model"):
-        if name in names:
-            raise InputError(f"inputs: two models are named {name!r}; model names must be unique")
-        route = _route(networks, name, source_category if source_category is not None else category)
-        size, fps = _input_sizes(networks[route][1], n_points, n_fps)
-        names.append(name)
-        routes.append(route)
-        prepared.append(network_points(load(), n_points=size, n_fps=fps, seed=seed, name=name))
+    with open_inputs(inputs, split=split) as sources:
+        for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
+            claim_name(seen, source.name)
+            route = _route(networks, source.name,
+                           source.category if source.category is not None else category)
+            size, fps = _input_sizes(networks[route][1], n_points, n_fps)
+            names.append(source.name)
+            routes.append(route)
+            prepared.append(network_points(source.points(seed=seed), n_points=size, n_fps=fps,
+                                           seed=seed, name=source.name))
     first_model, first_config = next(iter(networks.values()))
     measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
     with torch_threads(threads):

@@ -1,6 +1,6 @@
 """A network as the prior of the best-view search: where to look first.
 
-:func:`vptoolkit.best_view.search_best_views` draws a prior's candidate
+:func:`vptoolkit.best_view.search.search_best_views` draws a prior's candidate
 directions first and keeps what the drawing says is best, so a prior only
 has to put a good direction among a few candidates, not to be right.
 :class:`NetworkPrior` asks a checkpoint for them:

@@ -69,7 +69,8 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
       vptool best-view scan.ply --views 8 --prior unoccluded
       vptool best-view --dataset release/ --split test --prior default -o test.npz
     """
-    from vptoolkit.best_view import search_inputs
+    from vptoolkit.best_view.run import search_inputs
+    from vptoolkit.best_view.search import SearchSettings
 
     if output is not None:
         check_suffix(output, ".npz")
@@ -87,10 +88,11 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         from vptoolkit.learn.prior import NetworkPrior
 
         propose = NetworkPrior(prior)
-    run = search_inputs(meshes, dataset=dataset_path, split=None if split == "all" else split,
-                        budget=budget, resolution=resolution, prior=propose, progress=True)
+    run = search_inputs(meshes, settings=SearchSettings(budget=budget, resolution=resolution),
+                        dataset=dataset_path, split=None if split == "all" else split,
+                        prior=propose, progress=True)
     if output is not None and run.results:
-        run.save_predictions(output)
+        run.predictions.save_npz(output)
     if as_json:
         click.echo(json.dumps({"results": [result.summary() for result in run.results],
                                "failures": [{"input": where, "error": why}

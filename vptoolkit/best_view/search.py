@@ -46,28 +46,23 @@ hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import math
-import os
 import time
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
-from pathlib import Path
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, Convention, ViewPoses
-from vptoolkit.checks import one_line
+from vptoolkit.checks import check_int_range
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, measure_index
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.geometry import face_areas
 from vptoolkit.measures import quality_from_histograms, ranked_views
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.progress import progress_bar
-from vptoolkit.sphere import as_directions, fibonacci_sphere
+from vptoolkit.settings import MAX_RESOLUTION
+from vptoolkit.sphere import as_directions, coarse_directions
 from vptoolkit.visibility import RasterScene
 
 __all__ = [
@@ -76,11 +71,12 @@ __all__ = [
     "COARSE_RESOLUTION",
     "FLAT_BELOW",
     "MIN_STEP_DEG",
+    "MAX_BUDGET",
     "BestViews",
-    "SearchRun",
+    "SearchSettings",
     "SearchStage",
     "search_best_views",
-    "search_inputs",
+    "search_settings",
 ]
 
 BUDGET: Final = 64
@@ -227,50 +223,103 @@ class _Incumbents:
         return np.array(distinct).reshape(-1, 3)
 
 
-def _check_count(value: Any, name: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or not low <= value <= high:
-        raise InputError(f"{name}: expected an integer from {low} to {high}, got {value!r}")
-    return int(value)
+@dataclass(frozen=True)
+class SearchSettings:
+    """How a best-view search spends its views, checked once when made.
 
+    Parameters
+    ----------
+    budget : int
+        Views drawn over all stages, 1 to :data:`MAX_BUDGET` (default:
+        :data:`BUDGET` = 64). A view at ``resolution`` px costs about what one
+        of the 1000 views of :func:`~vptoolkit.measures.compute_view_quality`
+        costs there; views of a smaller ``coarse_resolution`` cost less.
+    resolution : int
+        Image side in pixels of the views that decide the answer, 1 to
+        :data:`vptoolkit.settings.MAX_RESOLUTION` (default:
+        :data:`SEARCH_RESOLUTION` = 128).
+    coarse_views : int, optional
+        Directions of the coarse sphere, 0 to ``budget`` (default: half of
+        what a prior leaves; all of it below :data:`FLAT_BELOW` views). With a
+        prior, the search also refuses more than the prior leaves.
+    coarse_resolution : int, optional
+        Image side of the coarse sphere, 1 to ``resolution`` (default:
+        ``min(resolution, 128)``, and ``resolution`` below :data:`FLAT_BELOW` views).
+    camera : Camera
+        Camera conventions (default: ``Camera()``).
 
-def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
-    """Rows: the surface's principal axes, largest spread first.
+    Raises
+    ------
+    InputError
+        A one-line message naming the field, e.g.
+        ``budget: expected an integer from 1 to 100000, got 0``.
 
-    The axes are the eigenvectors of the covariance of the face centroids,
-    each weighted by its face's area (``areas``, computed when not given).
-
-    Returns
-    -------
-    axes : (3, 3) float64
-        Orthonormal rows; a right-handed frame.
+    Examples
+    --------
+    >>> SearchSettings(budget=16, resolution=64).to_dict()["budget"]
+    16
     """
-    areas = face_areas(mesh) if areas is None else areas
-    vertices, faces = mesh.vertices, mesh.faces
-    centroids = (vertices[faces[:, 0]] + vertices[faces[:, 1]] + vertices[faces[:, 2]]) / 3.0
-    total = float(areas.sum())
-    weights = areas / total if total > 0 else np.full(len(areas), 1.0 / len(areas))
-    centred = centroids - weights @ centroids
-    covariance = (centred * weights[:, None]).T @ centred
-    _, vectors = np.linalg.eigh(covariance)
-    axes = vectors[:, ::-1].T.copy()
-    if np.linalg.det(axes) < 0:
-        axes[2] = -axes[2]
-    return np.asarray(axes)
+
+    budget: int = BUDGET
+    resolution: int = SEARCH_RESOLUTION
+    coarse_views: int | None = None
+    coarse_resolution: int | None = None
+    camera: Camera = field(default_factory=Camera)
+
+    def __post_init__(self) -> None:
+        budget = check_int_range(self.budget, "budget", 1, MAX_BUDGET)
+        resolution = check_int_range(self.resolution, "resolution", 1, MAX_RESOLUTION)
+        object.__setattr__(self, "budget", budget)
+        object.__setattr__(self, "resolution", resolution)
+        if self.coarse_views is not None:
+            object.__setattr__(self, "coarse_views", check_int_range(
+                self.coarse_views, "coarse_views", 0, budget))
+        if self.coarse_resolution is not None:
+            object.__setattr__(self, "coarse_resolution", check_int_range(
+                self.coarse_resolution, "coarse_resolution", 1, resolution))
+        if not isinstance(self.camera, Camera):
+            raise InputError(f"camera: expected a Camera, got {type(self.camera).__name__}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe record: the five fields, the camera as its record."""
+        return {"budget": self.budget, "resolution": self.resolution,
+                "coarse_views": self.coarse_views, "coarse_resolution": self.coarse_resolution,
+                "camera": self.camera.to_dict()}
 
 
-def coarse_directions(mesh: Mesh, n: int, areas: NDArray[np.float64] | None = None,
-                      ) -> NDArray[np.float64]:
-    """``n`` Fibonacci directions in the mesh's principal frame, the poles on its least-spread axis.
+def search_settings(
+    settings: SearchSettings | int | None = None,
+    *,
+    budget: int | None = None,
+    resolution: int | None = None,
+    coarse_views: int | None = None,
+    coarse_resolution: int | None = None,
+    camera: Camera | None = None,
+) -> SearchSettings:
+    """The :class:`SearchSettings` of a call: given whole, or built from the loose keywords.
 
-    Returns
-    -------
-    directions : (n, 3) float64
-        Unit vectors in the mesh's coordinates.
+    ``settings`` may also be a number, the old positional ``budget`` of
+    ``search_best_views(mesh, 64, 128)``. Raises InputError when a
+    ``SearchSettings`` comes with loose values too, or on a value out of range.
     """
-    largest, middle, smallest = principal_frame(mesh, areas)
-    sphere = fibonacci_sphere(n)  # poles along y
-    return sphere[:, :1] * largest + sphere[:, 1:2] * smallest + sphere[:, 2:] * middle
+    loose = {"budget": budget, "resolution": resolution, "coarse_views": coarse_views,
+             "coarse_resolution": coarse_resolution, "camera": camera}
+    if isinstance(settings, SearchSettings):
+        given = [name for name, value in loose.items() if value is not None]
+        if given:
+            raise InputError(f"settings: give SearchSettings or {', '.join(given)}, not both")
+        return settings
+    if settings is not None:
+        if not isinstance(settings, (int, float, np.number)):
+            raise InputError(f"settings: expected SearchSettings, got {type(settings).__name__}")
+        if budget is not None:
+            raise InputError("budget: given twice (positionally and by keyword)")
+        budget = settings
+    return SearchSettings(
+        budget=BUDGET if budget is None else budget,
+        resolution=SEARCH_RESOLUTION if resolution is None else resolution,
+        coarse_views=coarse_views, coarse_resolution=coarse_resolution,
+        camera=Camera() if camera is None else camera)
 
 
 def ring(centre: NDArray[np.float64], angle: float, n: int, turn: float) -> NDArray[np.float64]:
@@ -339,10 +388,11 @@ def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64
 
 def search_best_views(
     mesh: MeshLike,
-    budget: int = BUDGET,
-    resolution: int = SEARCH_RESOLUTION,
+    settings: SearchSettings | int | None = None,
+    resolution: int | None = None,
     *,
     prior: ArrayLike | None = None,
+    budget: int | None = None,
     coarse_views: int | None = None,
     coarse_resolution: int | None = None,
     camera: Camera | None = None,
@@ -354,26 +404,19 @@ def search_best_views(
     mesh : MeshLike
         The model, in any orientation: a Mesh, a ``trimesh.Trimesh``, an Open3D
         ``TriangleMesh`` or ``(vertices, faces)`` (:func:`~vptoolkit.mesh.as_mesh`).
-    budget : int
-        Views drawn over all stages, at least 1 (default: 64). A view at
-        ``resolution`` px costs about what one of the 1000 views of
-        :func:`~vptoolkit.measures.compute_view_quality` costs there; views of
-        a smaller ``coarse_resolution`` cost less.
-    resolution : int
-        Image side in pixels of the views that decide the answer (default: 128).
+    settings : SearchSettings, optional
+        Budget, resolution, coarse pass and camera (default: ``SearchSettings()``:
+        64 views, 128 px).
     prior : (k, 3) array_like, optional
         Candidate directions, most promising first, drawn first at
         ``resolution`` (an eighth of the budget, at least one view; e.g. from
         :class:`vptoolkit.unoccluded.UnoccludedPrior` or
         :class:`vptoolkit.learn.prior.NetworkPrior`).
-    coarse_views : int, optional
-        Directions of the coarse sphere (default: half of what the prior
-        leaves; all of it below :data:`FLAT_BELOW` views).
-    coarse_resolution : int, optional
-        Image side of the coarse sphere (default: ``min(resolution, 128)``,
-        and ``resolution`` below :data:`FLAT_BELOW` views).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``).
+    budget, resolution, coarse_views, coarse_resolution, camera
+        The fields of :class:`SearchSettings`, given loose instead of
+        ``settings`` (``search_best_views(mesh, budget=64, resolution=128)``,
+        or positionally ``search_best_views(mesh, 64, 128)``); the settings
+        are built from them (:func:`search_settings`).
 
     Returns
     -------
@@ -390,24 +433,27 @@ def search_best_views(
     --------
     >>> import trimesh
     >>> box = trimesh.creation.box(extents=(1, 2, 4))
-    >>> found = search_best_views(box, budget=16, resolution=64)
+    >>> found = search_best_views(box, SearchSettings(budget=16, resolution=64))
     >>> found.n_views, found.directions.shape, found.camera_pose("VE").shape
     (16, (4, 3), (4, 4))
     """
     started = time.perf_counter()
     mesh = as_mesh(mesh)
-    budget = _check_count(budget, "budget", 1, MAX_BUDGET)
-    resolution = _check_count(resolution, "resolution", 1, 16384)
+    chosen = search_settings(settings, budget=budget, resolution=resolution,
+                             coarse_views=coarse_views, coarse_resolution=coarse_resolution,
+                             camera=camera)
+    budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
     n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
     flat = budget < FLAT_BELOW
-    if coarse_views is None:
-        coarse_views = budget - n_prior if flat else max(1, (budget - n_prior) // 2)
-    coarse_views = _check_count(coarse_views, "coarse_views", 0, budget - n_prior)
-    if coarse_resolution is None:
-        coarse_resolution = resolution if flat else min(resolution, COARSE_RESOLUTION)
-    coarse_resolution = _check_count(coarse_resolution, "coarse_resolution", 1, resolution)
-    camera = camera or Camera()
+    n_coarse = chosen.coarse_views
+    if n_coarse is None:
+        n_coarse = budget - n_prior if flat else max(1, (budget - n_prior) // 2)
+    elif n_prior:  # the settings checked it against the budget, not against what the prior leaves
+        n_coarse = check_int_range(n_coarse, "coarse_views", 0, budget - n_prior)
+    coarse_size = chosen.coarse_resolution
+    if coarse_size is None:
+        coarse_size = resolution if flat else min(resolution, COARSE_RESOLUTION)
     renderer = _Renderer(mesh, camera)
     incumbents = _Incumbents.empty()
     stages: list[SearchStage] = []
@@ -418,23 +464,23 @@ def search_best_views(
         stages.append(SearchStage(stage, len(directions), size))
         return raw
 
-    sphere = (coarse_directions(mesh, coarse_views, renderer.areas) if coarse_views
+    sphere = (coarse_directions(mesh, n_coarse, renderer.areas) if n_coarse
               else np.zeros((0, 3)))
-    if coarse_views:  # first: its views give p(z) for every later measurement
-        coarse_raw = draw("coarse", sphere, coarse_resolution, sphere=True)
+    if n_coarse:  # first: its views give p(z) for every later measurement
+        coarse_raw = draw("coarse", sphere, coarse_size, sphere=True)
     if n_prior:
         incumbents.offer(candidates[:n_prior], draw("prior", candidates[:n_prior], resolution))
-    if coarse_views:
-        if coarse_resolution == resolution:
+    if n_coarse:
+        if coarse_size == resolution:
             incumbents.offer(sphere, coarse_raw)
         else:
-            left = budget - n_prior - coarse_views
+            left = budget - n_prior - n_coarse
             again = _confirm_candidates(sphere, coarse_raw, _CONFIRM_PER_MEASURE)[:left]
             if len(again):
                 incumbents.offer(again, draw("confirm", again, resolution))
     if not np.isfinite(incumbents.raw).any():
         raise MeasurementError(f"{mesh.name}: no face is visible from any view of the search")
-    angle = _FIRST_STEP * math.sqrt(4.0 * math.pi / max(coarse_views, n_prior, 1))
+    angle = _FIRST_STEP * math.sqrt(4.0 * math.pi / max(n_coarse, n_prior, 1))
     turn = 0.0
     while (left := budget - sum(stage.n_views for stage in stages)) > 0 \
             and math.degrees(angle) >= MIN_STEP_DEG:
@@ -467,134 +513,3 @@ def _merge(stages: Sequence[SearchStage]) -> list[SearchStage]:
     return merged
 
 
-@dataclass(frozen=True)
-class SearchRun:
-    """Best views of several meshes, and the meshes that failed.
-
-    Attributes
-    ----------
-    results : tuple of BestViews
-        In input order.
-    failures : tuple of (str, str)
-        ``(input, one-line reason)`` for every input that could not be searched.
-    is_bad_input : bool
-        Whether every failure was bad input (an unreadable or malformed mesh,
-        an :class:`~vptoolkit.errors.InputError`), none a measurement failure.
-    """
-
-    results: tuple[BestViews, ...]
-    failures: tuple[tuple[str, str], ...]
-    is_bad_input: bool = True
-
-    def save_predictions(self, path: str | os.PathLike[str]) -> Path:
-        """Write the directions ``(n_meshes, 4, 3)`` as predictions that ``vptool evaluate``
-        scores (:func:`vptoolkit.predictions.write_predictions`)."""
-        from vptoolkit.predictions import write_predictions
-
-        return write_predictions(path, [result.name for result in self.results],
-                                 np.stack([result.directions for result in self.results])
-                                 if self.results else np.zeros((0, len(MEASURES), 3)))
-
-
-def _meshes(inputs: Sequence[str | os.PathLike[str]], subset: Any,
-            ) -> list[tuple[str, Callable[[], Mesh]]]:
-    """(label, loader) of every mesh file, then of every model of the dataset subset."""
-    from vptoolkit.io import load_mesh
-
-    def stored(name: str) -> Mesh:
-        vertices, faces = subset.mesh(name)
-        return Mesh(vertices, faces, name=name)
-
-    files: list[tuple[str, Callable[[], Mesh]]] = [
-        (str(source), functools.partial(load_mesh, source)) for source in inputs]
-    if subset is None:
-        return files
-    return files + [(name, functools.partial(stored, name)) for name in subset.names]
-
-
-def search_inputs(
-    inputs: Sequence[str | os.PathLike[str]] = (),
-    *,
-    dataset: str | os.PathLike[str] | None = None,
-    split: str | None = "test",
-    budget: int = BUDGET,
-    resolution: int = SEARCH_RESOLUTION,
-    prior: Callable[[Mesh], ArrayLike] | None = None,
-    progress: bool = False,
-) -> SearchRun:
-    """:func:`search_best_views` over mesh files and a dataset split; failures recorded, not raised.
-
-    Parameters
-    ----------
-    inputs : sequence of path-like
-        Mesh files (names: the file stems).
-    dataset : path-like, optional
-        A dataset (store, build or release folder) whose stored, cleaned meshes
-        of ``split`` are searched (names: the dataset's).
-    split : str, optional
-        ``"train"``, ``"validation"``, ``"test"`` or None for all (default: "test").
-    budget, resolution : int
-        As for :func:`search_best_views`.
-    prior : callable, optional
-        ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
-        e.g. :class:`vptoolkit.unoccluded.UnoccludedPrior` or
-        :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
-    progress : bool
-        Show a progress bar over the meshes on stderr (default: False).
-
-    Raises
-    ------
-    InputError
-        On an invalid option, a dataset that cannot be opened or a split of
-        it without models. A mesh that cannot be read or measured, or a
-        second mesh of the same name, is recorded in ``failures`` instead.
-    """
-    budget = _check_count(budget, "budget", 1, MAX_BUDGET)
-    resolution = _check_count(resolution, "resolution", 1, 16384)
-    with contextlib.ExitStack() as stack:
-        subset = None
-        if dataset is not None:
-            from vptoolkit.data import open_dataset
-
-            opened = stack.enter_context(open_dataset(dataset))
-            subset = opened.split(split) if split is not None else opened
-            if not len(subset.names):
-                which = "the dataset" if split is None else f"split {split!r}"
-                raise InputError(f"{dataset}: {which} holds no models; nothing to search")
-        return _search_all(_meshes(inputs, subset), budget, resolution, prior, progress)
-
-
-def _load_kernels() -> None:
-    """Draw a tetrahedron once, so that numba's one-time kernel load is not any mesh's time."""
-    tetrahedron = Mesh(np.eye(4, 3, k=-1), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
-                       name="tetrahedron")
-    list(RasterScene(tetrahedron).histograms(np.eye(3)[:1], 8))
-
-
-def _search_all(sources: list[tuple[str, Callable[[], Mesh]]], budget: int, resolution: int,
-                prior: Callable[[Mesh], ArrayLike] | None, progress: bool) -> SearchRun:
-    if sources:
-        _load_kernels()
-    results: list[BestViews] = []
-    failures: list[tuple[str, str]] = []
-    is_bad_input = True
-    names: set[str] = set()
-    with progress_bar(total=len(sources), description="best views", unit="mesh",
-                      enabled=progress) as bar:
-        for label, load in sources:
-            try:
-                mesh = load()
-                if mesh.name in names:
-                    raise InputError(f"{label}: a second mesh named {mesh.name!r}; "
-                                     "names must be unique")
-                started = time.perf_counter()
-                candidates = prior(mesh) if prior is not None else None
-                proposing = time.perf_counter() - started  # part of the answer's cost
-                found = search_best_views(mesh, budget, resolution, prior=candidates)
-                results.append(replace(found, seconds=found.seconds + proposing))
-                names.add(mesh.name)
-            except (InputError, MeasurementError) as error:
-                failures.append((label, one_line(error)))
-                is_bad_input = is_bad_input and isinstance(error, InputError)
-            bar.update(1)
-    return SearchRun(tuple(results), tuple(failures), is_bad_input)

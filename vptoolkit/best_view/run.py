@@ -1,0 +1,153 @@
+"""The best-view search over many inputs: mesh files and a dataset split, failures recorded.
+
+:func:`search_inputs` reads its inputs through the one input router
+(:func:`vptoolkit.inputs.open_inputs`), runs
+:func:`~vptoolkit.best_view.search.search_best_views` on every mesh with one
+:class:`~vptoolkit.best_view.search.SearchSettings` and an optional prior,
+and returns a :class:`SearchRun`: the answers, the inputs that failed, and
+the answers as :class:`~vptoolkit.predictions.Predictions` that ``vptool
+evaluate`` scores. This is what ``vptool best-view`` runs.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from vptoolkit.best_view.search import (
+    BestViews,
+    SearchSettings,
+    search_best_views,
+    search_settings,
+)
+from vptoolkit.checks import one_line
+from vptoolkit.conventions import MEASURES
+from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.inputs import ModelSource, claim_name, open_inputs
+from vptoolkit.mesh import Mesh
+from vptoolkit.predictions import Predictions
+from vptoolkit.progress import progress_bar
+from vptoolkit.visibility import RasterScene
+
+__all__ = ["SearchRun", "search_inputs"]
+
+
+@dataclass(frozen=True)
+class SearchRun:
+    """Best views of several meshes, and the meshes that failed.
+
+    Attributes
+    ----------
+    results : tuple of BestViews
+        In input order.
+    failures : tuple of (str, str)
+        ``(input, one-line reason)`` for every input that could not be searched.
+    is_bad_input : bool
+        Whether every failure was bad input (an unreadable or malformed mesh,
+        an :class:`~vptoolkit.errors.InputError`), none a measurement failure.
+    """
+
+    results: tuple[BestViews, ...]
+    failures: tuple[tuple[str, str], ...]
+    is_bad_input: bool = True
+
+    @property
+    def predictions(self) -> Predictions:
+        """The answers' directions ``(n_meshes, 4, 3)`` by name, as ``vptool evaluate`` scores
+        them (write them with :meth:`~vptoolkit.predictions.Predictions.save_npz`)."""
+        return Predictions(tuple(result.name for result in self.results),
+                           np.stack([result.directions for result in self.results])
+                           if self.results else np.zeros((0, len(MEASURES), 3)))
+
+
+def search_inputs(
+    inputs: Sequence[str | os.PathLike[str]] = (),
+    *,
+    settings: SearchSettings | None = None,
+    dataset: str | os.PathLike[str] | None = None,
+    split: str | None = "test",
+    prior: Callable[[Mesh], ArrayLike] | None = None,
+    progress: bool = False,
+    budget: int | None = None,
+    resolution: int | None = None,
+) -> SearchRun:
+    """:func:`~vptoolkit.best_view.search.search_best_views` over mesh files and a dataset split;
+    failures recorded, not raised.
+
+    Parameters
+    ----------
+    inputs : sequence of path-like
+        Mesh files (names: the file stems).
+    settings : SearchSettings, optional
+        Budget, resolution, coarse pass and camera of every search (default:
+        ``SearchSettings()``).
+    dataset : path-like, optional
+        A dataset (store, build or release folder, or a release's URL) whose
+        stored, cleaned meshes of ``split`` are searched (names: the dataset's).
+    split : str, optional
+        ``"train"``, ``"validation"``, ``"test"`` or None for all (default: "test").
+    prior : callable, optional
+        ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
+        e.g. :class:`vptoolkit.unoccluded.UnoccludedPrior` or
+        :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
+    progress : bool
+        Show a progress bar over the meshes on stderr (default: False).
+    budget, resolution : int, optional
+        The fields of :class:`~vptoolkit.best_view.search.SearchSettings`,
+        given loose instead of ``settings``.
+
+    Raises
+    ------
+    InputError
+        On an invalid option, an input that is no mesh, point file or dataset
+        (:func:`vptoolkit.inputs.open_inputs`), a dataset that cannot be
+        opened or a split of it without models. A mesh that cannot be read
+        or measured, or a second model of the same name, is recorded in
+        ``failures`` instead.
+    """
+    chosen = search_settings(settings, budget=budget, resolution=resolution)
+    entries = [*inputs, *([] if dataset is None else [dataset])]
+    with open_inputs(entries, split=split, purpose="search") as sources:
+        return _search_all(sources, chosen, prior, progress)
+
+
+def _load_kernels() -> None:
+    """Draw a tetrahedron once, so that numba's one-time kernel load is not any mesh's time."""
+    tetrahedron = Mesh(np.eye(4, 3, k=-1), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
+                       name="tetrahedron")
+    list(RasterScene(tetrahedron).histograms(np.eye(3)[:1], 8))
+
+
+def _search_all(sources: list[ModelSource], settings: SearchSettings,
+                prior: Callable[[Mesh], ArrayLike] | None, progress: bool) -> SearchRun:
+    if sources:
+        _load_kernels()
+    results: list[BestViews] = []
+    failures: list[tuple[str, str]] = []
+    is_bad_input = True
+    names: set[str] = set()
+    with progress_bar(total=len(sources), description="best views", unit="mesh",
+                      enabled=progress) as bar:
+        for source in sources:
+            claimed: str | None = None
+            try:
+                mesh = source.mesh()
+                claim_name(names, mesh.name)  # a name counts once its mesh is searched
+                claimed = mesh.name
+                started = time.perf_counter()
+                candidates = prior(mesh) if prior is not None else None
+                proposing = time.perf_counter() - started  # part of the answer's cost
+                found = search_best_views(mesh, settings, prior=candidates)
+                results.append(replace(found, seconds=found.seconds + proposing))
+            except (InputError, MeasurementError) as error:
+                if claimed is not None:
+                    names.discard(claimed)
+                failures.append((source.label, one_line(error)))
+                is_bad_input = is_bad_input and isinstance(error, InputError)
+            bar.update(1)
+    return SearchRun(tuple(results), tuple(failures), is_bad_input)
