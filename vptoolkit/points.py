@@ -467,6 +467,9 @@ def _read_point_table(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
             table = np.load(stream, allow_pickle=False)
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
+    except MemoryError as err:
+        raise InputError(f"{path.name}: its {path.stat().st_size:,} bytes of points do not fit "
+                         "in memory; subsample it first") from err
     if table.ndim != 2 or table.shape[1] not in (3, 6) or table.shape[0] < 1:
         raise InputError(
             f"{path.name}: expected an (N, 3) or (N, 6) point array, got shape {table.shape}"
