@@ -7,12 +7,15 @@ module, layer by layer):
   ``progress``, ``parallel``: exception tree; measure order, view count,
   camera defaults and splits; lazy optional packages; argument checks;
   atomic writes and the JSON reader; the progress bar; the process pool.
+  ``_numba`` (private): numba, imported once with the package's threading
+  layer.
 - ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
   and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
-- ``geometry``, ``sphere``, ``camera``, ``rotations``: face areas, bounding
-  and principal frames; Fibonacci view directions and the principal-frame
-  coarse sphere; the pinhole camera; seeded rotations.
+- ``geometry``, ``sphere``, ``camera``, ``rotations``, ``settings``: face
+  areas, bounding and principal frames; Fibonacci view directions and the
+  principal-frame coarse sphere; the pinhole camera; seeded rotations;
+  ``MeasureSettings``, how the measures draw a model.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
@@ -22,6 +25,8 @@ module, layer by layer):
 - ``dataset``, ``data``, ``inputs``: building, packing and verifying datasets
   and releases; the light loader (numpy with zarr or h5py) and its torch
   adapter; the one router of mesh files, point files and datasets.
+  ``dataset_card`` holds no code: the dataset card template and
+  ``SCHEMA.md``, the stores' data contract.
 - ``learn``: the point network, its labels, training, prediction and prior.
 - ``evaluate``, ``best_view``, ``unoccluded``: scoring directions the
   authors' way and the rotated protocol; the anytime best-view search within

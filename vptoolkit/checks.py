@@ -21,6 +21,7 @@ __all__ = [
     "as_path",
     "changed_values",
     "check_bool",
+    "check_float",
     "check_int",
     "check_int_range",
     "check_keys",
@@ -34,16 +35,50 @@ _MAX_MESSAGE_CHARS = 200
 
 
 def check_int(
-    value: object, argument: str, *, minimum: int | None = None, maximum: int | None = None
+    value: object, argument: str, *, minimum: int | None = None, maximum: int | None = None,
+    expected: str | None = None, numpy: bool = True,
 ) -> int:
-    """Return ``value`` as an int within ``[minimum, maximum]`` (bools are refused)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+    """Return ``value`` as an int within ``[minimum, maximum]`` (bools are refused).
+
+    With ``expected`` every refusal reads ``{argument}: expected {expected}, got
+    {value}``, e.g. ``seed: expected a non-negative integer, got -1``. With
+    ``numpy=False`` numpy integers are refused too (for values kept as given,
+    e.g. in JSON records).
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or (not numpy and not isinstance(value, int)):
+        if expected is not None:
+            raise InputError(f"{argument}: expected {expected}, got {short_repr(value)}")
         raise InputError(f"{argument}: expected an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise InputError(f"{argument}: must be at least {minimum}, got {value}")
-    if maximum is not None and value > maximum:
-        raise InputError(f"{argument}: must be at most {maximum}, got {value}")
-    return int(value)
+    number = int(value)
+    if expected is not None and ((minimum is not None and number < minimum)
+                                 or (maximum is not None and number > maximum)):
+        raise InputError(f"{argument}: expected {expected}, got {number}")
+    if minimum is not None and number < minimum:
+        raise InputError(f"{argument}: must be at least {minimum}, got {number}")
+    if maximum is not None and number > maximum:
+        raise InputError(f"{argument}: must be at most {maximum}, got {number}")
+    return number
+
+
+def check_float(
+    value: object, argument: str, *, expected: str, minimum: float | None = None,
+    maximum: float | None = None, above: float | None = None, below: float | None = None,
+) -> float:
+    """Return ``value`` as a float if it is a finite int or float within the bounds.
+
+    ``minimum`` and ``maximum`` are inclusive, ``above`` and ``below``
+    exclusive; bools are refused. A refusal reads ``{argument}: expected
+    {expected}, got {value!r}``, e.g. ``lr: expected a positive finite number, got nan``.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value) \
+            or (minimum is not None and value < minimum) \
+            or (maximum is not None and value > maximum) \
+            or (above is not None and value <= above) \
+            or (below is not None and value >= below):
+        raise InputError(f"{argument}: expected {expected}, got {value!r}")
+    return float(value)
 
 
 def check_int_range(value: object, argument: str, low: int, high: int) -> int:
@@ -51,10 +86,8 @@ def check_int_range(value: object, argument: str, low: int, high: int) -> int:
 
     E.g. ``budget: expected an integer from 1 to 100000, got 0`` (bools are refused).
     """
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
-            or not low <= value <= high:
-        raise InputError(f"{argument}: expected an integer from {low} to {high}, got {value!r}")
-    return int(value)
+    return check_int(value, argument, minimum=low, maximum=high,
+                     expected=f"an integer from {low} to {high}")
 
 
 def check_keys(record: object, keys: Sequence[str], what: str, *,

@@ -46,6 +46,7 @@ __all__ = [
     "check_output_folder",
     "check_path_part",
     "held",
+    "json_text",
     "named_os_error",
     "parse_json",
     "read_json_file",
@@ -54,6 +55,7 @@ __all__ = [
     "temporary_name",
     "temporary_prefix",
     "write_bytes_atomic",
+    "write_json_atomic",
     "write_text_atomic",
 ]
 
@@ -302,6 +304,31 @@ def write_bytes_atomic(path: str | os.PathLike[str], payload: bytes) -> Path:
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """Write UTF-8 ``text`` to ``path`` through :func:`atomic_write`; return the path."""
     return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def json_text(value: Any, *, indent: int | None = 2, sort_keys: bool = True,
+              ensure_ascii: bool = True, allow_nan: bool = True, newline: bool = True) -> str:
+    """``value`` as JSON text: :func:`json.dumps` with these options, then a line break.
+
+    The defaults give indented JSON with sorted keys and a final newline;
+    ``newline=False`` leaves the text as :func:`json.dumps` wrote it.
+    """
+    text = json.dumps(value, indent=indent, sort_keys=sort_keys, ensure_ascii=ensure_ascii,
+                      allow_nan=allow_nan)
+    return text + "\n" if newline else text
+
+
+def write_json_atomic(path: str | os.PathLike[str], value: Any, *, indent: int | None = 2,
+                      sort_keys: bool = True, ensure_ascii: bool = True, allow_nan: bool = True,
+                      newline: bool = True) -> Path:
+    """Write ``value`` as :func:`json_text` through :func:`write_text_atomic`; return the path.
+
+    The keywords are :func:`json_text`'s; the defaults write indented JSON with
+    sorted keys and a final newline.
+    """
+    return write_text_atomic(path, json_text(value, indent=indent, sort_keys=sort_keys,
+                                             ensure_ascii=ensure_ascii, allow_nan=allow_nan,
+                                             newline=newline))
 
 
 def parse_json(data: str | bytes, label: str) -> Any:

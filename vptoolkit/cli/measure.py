@@ -20,7 +20,7 @@ from vptoolkit.cli.options import (
     views_option,
 )
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.files import atomic_write, check_output_folder, write_text_atomic
+from vptoolkit.files import atomic_write, check_output_folder, write_json_atomic
 
 
 @click.command()
@@ -179,7 +179,7 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     save_mesh(cleaned, target)
     record = report.to_dict()
     if report_path is not None:
-        write_text_atomic(report_path, json.dumps(record, indent=2) + "\n")
+        write_json_atomic(report_path, record, sort_keys=False)
     for step in record["steps"]:
         click.echo(f"{step['name']:<14} faces {step['faces_before']:>8} -> {step['faces_after']:<8}"
                    f" {step['seconds']:7.2f} s")

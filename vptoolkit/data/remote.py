@@ -78,7 +78,13 @@ from vptoolkit.dataset.descriptions import CROISSANT_NAME
 from vptoolkit.dataset.licenses import LICENSES_NAME
 from vptoolkit.dataset.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums, sha256_file
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import parse_json, read_json_file, write_bytes_atomic, write_text_atomic
+from vptoolkit.files import (
+    parse_json,
+    read_json_file,
+    write_bytes_atomic,
+    write_json_atomic,
+    write_text_atomic,
+)
 
 __all__ = [
     "MAX_DESCRIPTION_BYTES",
@@ -416,7 +422,7 @@ def _fetch(url: str, cache_dir: str | os.PathLike[str] | None, *, everything: bo
         if relative == CROISSANT_NAME:
             sizes = _recorded_sizes(target)
     if stamps != before:
-        write_text_atomic(stamps_path, json.dumps(stamps, sort_keys=True))
+        write_json_atomic(stamps_path, stamps, indent=None, newline=False)
     manifest = folder / MANIFEST_NAME
     if not manifest.is_file() or manifest.read_bytes() != listing:
         write_bytes_atomic(manifest, listing)

@@ -47,6 +47,7 @@ from typing import TYPE_CHECKING, Any, overload
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
@@ -64,11 +65,7 @@ __all__ = ["ViewpointTorchDataset"]
 
 _SEED_POOL = 5
 
-
-def _non_negative_int(value: Any, what: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-        raise InputError(f"{what}: expected a non-negative integer, got {value!r}")
-    return int(value)
+_NON_NEGATIVE = "a non-negative integer"
 
 
 class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
@@ -152,15 +149,15 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
                               f"{published_split(split)!r}", UserWarning, stacklevel=2)
             dataset = chosen
         self.dataset = dataset
-        self.n_points = _non_negative_int(n_points, "n_points")
+        self.n_points = check_int(n_points, "n_points", minimum=0, expected=_NON_NEGATIVE)
         if self.n_points < 1:
             raise InputError("n_points: expected at least 1")
-        self.n_fps = _non_negative_int(n_fps, "n_fps")
+        self.n_fps = check_int(n_fps, "n_fps", minimum=0, expected=_NON_NEGATIVE)
         if self.n_fps > self.n_points:
             raise InputError(f"n_fps: {self.n_fps} exceeds n_points={self.n_points}")
         self.rotate = bool(rotate)
-        self.seed = _non_negative_int(seed, "seed")
-        self.fps_pool = _non_negative_int(fps_pool, "fps_pool")
+        self.seed = check_int(seed, "seed", minimum=0, expected=_NON_NEGATIVE)
+        self.fps_pool = check_int(fps_pool, "fps_pool", minimum=0, expected=_NON_NEGATIVE)
         self.cache = bool(cache)
         if transform is not None and not callable(transform):
             raise InputError(f"transform: expected a callable, got {type(transform).__name__}")
@@ -191,7 +188,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
 
     def set_epoch(self, epoch: int) -> None:
         """Select the augmentations of another epoch (non-negative), in every worker too."""
-        self._epoch.fill_(_non_negative_int(epoch, "epoch"))
+        self._epoch.fill_(check_int(epoch, "epoch", minimum=0, expected=_NON_NEGATIVE))
 
     def generators(self, index: int) -> tuple[np.random.Generator, np.random.Generator]:
         """The (rotation, point selection) generators of item ``index`` this epoch."""

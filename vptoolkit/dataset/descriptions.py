@@ -14,7 +14,6 @@ file is a symbolic link. What a publisher gave at packing
 from __future__ import annotations
 
 import hashlib
-import json
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -29,7 +28,7 @@ from vptoolkit.dataset.manifest import (
     sha256_file,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import parse_json, write_bytes_atomic, write_text_atomic
+from vptoolkit.files import json_text, parse_json, write_bytes_atomic, write_json_atomic
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -67,12 +66,9 @@ def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, 
     return described[CARD_NAME]
 
 
-def _json_text(value: Any) -> str:
-    return json.dumps(value, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-
-
 def write_json(path: Path, value: Any) -> None:
-    write_text_atomic(path, _json_text(value))
+    """Write ``value`` as indented UTF-8 JSON (keys in their order, no NaN) atomically."""
+    write_json_atomic(path, value, sort_keys=False, ensure_ascii=False, allow_nan=False)
 
 
 def _release_files(folder: Path) -> list[str]:
@@ -179,7 +175,8 @@ def update_card(release_dir: Path | str) -> list[str]:
             item["contentSize"] = f"{len(card_bytes)} B"
     document["distribution"] = distribution
     document["recordSet"] = record_sets
-    croissant = _json_text(document).encode("utf-8")
+    croissant = json_text(document, sort_keys=False, ensure_ascii=False,
+                          allow_nan=False).encode("utf-8")
     sums = dict(listed)
     sums[CARD_NAME] = card_digest
     sums[CROISSANT_NAME] = hashlib.sha256(croissant).hexdigest()

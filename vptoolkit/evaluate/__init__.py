@@ -15,6 +15,9 @@ One module per question asked of a prediction:
     A predictor scored on rotated inputs, the baselines under the same
     protocol, standard errors and paired differences.
 
+``scores`` and ``coverage`` read predictions alike through the private
+``_inputs`` (splits, prediction arrays, messages).
+
 Import each name from its module (``from vptoolkit.evaluate.scores import
 score_directions``); this package imports nothing. Numpy only (plus the
 store's zarr or h5py); never torch, open3d or pymeshlab at import.

@@ -8,7 +8,9 @@ that keep the file's vertices in file order (no merging, no splitting by
 texture coordinates) and check the counts a header declares. glTF and GLB
 scenes go through trimesh (:mod:`~vptoolkit.io.gltf`), imported on first use,
 and are flattened with every node transform applied. The readers return plain
-arrays; this module checks them and builds the Mesh.
+arrays; this module checks them and builds the Mesh. The readers share the
+private :mod:`~vptoolkit.io._polygons` (polygon lists, number parsing, errors,
+and the checks and fan triangulation this module applies).
 
 Polygons with more than three vertices are fan-triangulated: ``(a, b, c, d)``
 becomes ``(a, b, c)`` and ``(a, c, d)``, in file order. OBJ and PLY faces with

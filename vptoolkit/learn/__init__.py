@@ -20,6 +20,21 @@ nothing, so ``import vptoolkit.learn`` never loads torch):
   meshes, point files or a dataset split (read through
   :func:`vptoolkit.inputs.open_inputs`), returning
   :class:`~vptoolkit.predictions.Predictions`.
+- ``vptoolkit.learn.config``: ``ModelConfig`` and ``LevelConfig``, the
+  architecture as data (no torch); ``vptoolkit.learn.hierarchy`` and
+  ``vptoolkit.learn.layers``: the point hierarchy (grid levels,
+  neighbourhoods, densities) and the layers (Monte Carlo convolution, encoder,
+  heads); ``vptoolkit.learn.frame``: the canonical input frame;
+  ``vptoolkit.learn.octahedral``: the octahedral sphere grid of the DLDL maps.
+- ``vptoolkit.learn.checkpoint``: checkpoint files (safetensors + JSON), read
+  and written safely; ``vptoolkit.learn.record``: the training record a
+  checkpoint's ``model.json`` carries; ``vptoolkit.learn.state``: the
+  resumable state of a run (weights, Adam moments, history), without pickle.
+- ``vptoolkit.learn.schedule``: the paper's optimisation settings and its
+  learning-rate schedule; ``vptoolkit.learn.splits``: which models of a store
+  a run uses; ``vptoolkit.learn.validation``: validation during training,
+  under the rotated protocol.
+- ``vptoolkit.learn.prior``: a network as the prior of the best-view search.
 
 Everything here needs the ``learn`` extra: ``pip install 'vptoolkit[learn]'``
 (torch and safetensors).

@@ -8,7 +8,6 @@ configuration); ``"default"`` names the network bundled with the package
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -29,7 +28,6 @@ __all__ = [
     "is_default_model",
     "read_json",
     "read_safetensors",
-    "write_json_atomic",
     "write_safetensors_atomic",
 ]
 
@@ -81,11 +79,6 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     return path / "model.safetensors", path / "model.json"
 
 
-
-
-def write_json_atomic(path: Path, values: Mapping[str, Any]) -> None:
-    """Write JSON (sorted keys, indented) atomically."""
-    write_bytes_atomic(path, (json.dumps(values, indent=2, sort_keys=True) + "\n").encode("utf-8"))
 
 
 def write_safetensors_atomic(path: Path, tensors: Mapping[str, Tensor],

@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any, Final
 
-from vptoolkit.checks import check_int, check_keys, short_repr
+from vptoolkit.checks import check_float, check_int, check_keys, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
@@ -185,14 +185,13 @@ class ModelConfig:
             check_positive_int(level.max_neighbours, f"levels[{position}].max_neighbours",
                                maximum=MAX_NEIGHBOURS)
             check_positive_int(level.channels, f"levels[{position}].channels", maximum=MAX_CHANNELS)
-            if not (_is_int(level.grid_level) and 1 <= level.grid_level <= source_level):
-                raise InputError(
-                    f"levels[{position}].grid_level: expected an integer in [1, {source_level}] "
-                    f"(no finer than the level before), got {level.grid_level!r}"
-                )
-            if not (_is_number(level.radius) and 2.0**-MAX_GRID_LEVEL <= level.radius <= 1.0):
-                raise InputError(f"levels[{position}].radius: expected a number in [2^-16, 1], "
-                                 f"got {level.radius!r}")
+            check_int(level.grid_level, f"levels[{position}].grid_level", minimum=1,
+                      maximum=source_level, numpy=False,
+                      expected=f"an integer in [1, {source_level}] (no finer than the level "
+                               "before)")
+            check_float(level.radius, f"levels[{position}].radius",
+                        minimum=2.0**-MAX_GRID_LEVEL, maximum=1.0,
+                        expected="a number in [2^-16, 1]")
             if level.neighbourhood not in ("ball", "cell"):
                 raise InputError(
                     f"levels[{position}].neighbourhood: expected 'ball' or 'cell', "
@@ -215,8 +214,7 @@ class ModelConfig:
                              f"got {self.decoder_channels!r}")
         for position, width in enumerate(self.decoder_channels):
             check_positive_int(width, f"decoder_channels[{position}]", maximum=MAX_CHANNELS)
-        if not (_is_number(self.dropout) and 0.0 <= self.dropout < 1.0):
-            raise InputError(f"dropout: expected a rate in [0, 1), got {self.dropout!r}")
+        check_float(self.dropout, "dropout", minimum=0.0, below=1.0, expected="a rate in [0, 1)")
 
     def to_dict(self) -> dict[str, Any]:
         """The configuration as JSON types."""
@@ -262,8 +260,7 @@ class ModelConfig:
 
 def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> None:
     """Raise :class:`InputError` naming ``name`` unless ``value`` is an int in ``[1, maximum]``."""
-    if not _is_int(value) or value < 1:
-        raise InputError(f"{name}: expected a positive integer, got {short_repr(value)}")
+    value = check_int(value, name, minimum=1, numpy=False, expected="a positive integer")
     if maximum is not None and value > maximum:
         raise InputError(f"{name}: expected at most {maximum}, got {value}")
 
@@ -280,11 +277,3 @@ def check_input_sizes(n_points: Any, n_fps: Any, *, prefix: str = "") -> tuple[i
     if n_fps > n_points:
         raise InputError(f"{prefix}n_fps: {n_fps} exceeds n_points={n_points}")
     return n_points, n_fps
-
-
-def _is_int(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)

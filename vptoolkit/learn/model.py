@@ -78,13 +78,13 @@ from typing import TYPE_CHECKING, Any
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import CheckpointError, InputError
+from vptoolkit.files import write_json_atomic
 from vptoolkit.learn.checkpoint import (
     MODEL_FORMAT,
     checkpoint_paths,
     is_default_model,
     read_json,
     read_safetensors,
-    write_json_atomic,
     write_safetensors_atomic,
 )
 from vptoolkit.learn.config import (

@@ -20,12 +20,18 @@ making options does, to check the label method and the architecture.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, Final
 
-from vptoolkit.checks import changed_values, check_bool, check_int, check_keys, short_repr
+from vptoolkit.checks import (
+    changed_values,
+    check_bool,
+    check_float,
+    check_int,
+    check_keys,
+    short_repr,
+)
 from vptoolkit.conventions import SEED, SPLITS
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
@@ -60,6 +66,8 @@ DEFAULT_FPS_POOL: Final = 8
 
 DEFAULT_VAL_ROTATIONS: Final = 3
 """Fixed rotations per validation model (0: the stored orientation only)."""
+
+_POSITIVE = "a positive finite number"
 
 
 @dataclass(frozen=True)
@@ -162,8 +170,9 @@ class TrainOptions:
             "labels": labels,
             "epochs": epochs,
             "batch_size": check_int(self.batch_size, "batch_size", minimum=2),
-            "lr": _positive(self.lr, "lr"),
-            "lr_decay": _positive(self.lr_decay, "lr_decay"),
+            "lr": check_float(self.lr, "lr", above=0.0, expected=_POSITIVE),
+            "lr_decay": check_float(self.lr_decay, "lr_decay", above=0.0,
+                                    expected=_POSITIVE),
             "lr_step": (scaled_lr_step(epochs) if self.lr_step is None
                         else check_int(self.lr_step, "lr_step", minimum=1)),
             "seed": check_int(self.seed, "seed", minimum=0),
@@ -230,14 +239,6 @@ class TrainOptions:
 def _default_step(options: TrainOptions) -> bool:
     """Whether ``options.lr_step`` is the default, :func:`scaled_lr_step` of its ``epochs``."""
     return options.lr_step == scaled_lr_step(options.epochs)
-
-
-def _positive(value: Any, name: str) -> float:
-    """``value`` as a float after checking it is a finite number above 0."""
-    is_number = isinstance(value, (int, float)) and not isinstance(value, bool)
-    if not is_number or not math.isfinite(value) or value <= 0:
-        raise InputError(f"{name}: expected a positive finite number, got {value!r}")
-    return float(value)
 
 
 def _split(name: Any) -> str:

@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from vptoolkit.data import ViewpointDataset
-from vptoolkit.learn.checkpoint import read_json, write_json_atomic
+from vptoolkit.files import write_json_atomic
+from vptoolkit.learn.checkpoint import read_json
 from vptoolkit.learn.options import TrainOptions
 
 __all__ = ["training_record", "update_best_record"]

@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING, Any, Final
 
 from vptoolkit.checks import check_int, short_repr
 from vptoolkit.errors import CheckpointError, InputError
+from vptoolkit.files import write_json_atomic
 from vptoolkit.learn.checkpoint import (
     checkpoint_paths,
     read_json,
     read_safetensors,
-    write_json_atomic,
     write_safetensors_atomic,
 )
 from vptoolkit.learn.model import ViewpointNet

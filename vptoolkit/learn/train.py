@@ -85,8 +85,8 @@ from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.errors import ExistingRunError, InputError, VerificationError
-from vptoolkit.files import check_path_part
-from vptoolkit.learn.checkpoint import checkpoint_paths, write_json_atomic
+from vptoolkit.files import check_path_part, write_json_atomic
+from vptoolkit.learn.checkpoint import checkpoint_paths
 from vptoolkit.learn.labels import label_loss, label_phase
 from vptoolkit.learn.model import (
     ViewpointNet,

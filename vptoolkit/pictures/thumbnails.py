@@ -14,7 +14,6 @@ frozen :class:`_MeasureTask` per file, each giving a :class:`_Measured`.
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -26,7 +25,7 @@ import numpy as np
 from vptoolkit.checks import as_path, check_int, one_line
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
-from vptoolkit.files import write_text_atomic
+from vptoolkit.files import write_json_atomic
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import run_tasks
 from vptoolkit.pictures.engine import Engine, drawing_engine
@@ -306,7 +305,7 @@ def render_thumbnails(
     failures.sort(key=lambda failure: failure.source)
     records.sort(key=lambda record: record["source"])
     index = target / _INDEX_NAME
-    write_text_atomic(index, json.dumps({
+    write_json_atomic(index, {
         "source": str(source),
         "measure": measure,
         "direction_from": "measures" if predictor is None else "predictor",
@@ -314,5 +313,5 @@ def render_thumbnails(
         "size": size,
         "thumbnails": records,
         "failures": [{"source": f.source, "reason": f.reason} for f in failures],
-    }, indent=2) + "\n")
+    }, sort_keys=False)
     return ThumbnailResult(sorted(done), failures, index)
