@@ -48,6 +48,7 @@ __all__ = [
     "held",
     "json_text",
     "named_os_error",
+    "errors_named",
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
@@ -114,6 +115,25 @@ def named_os_error(error: OSError, path: str | os.PathLike[str]) -> OSError:
         return OSError(error.errno, f"not fully written ({one_line(error)}); is the disk full?",
                        str(path))
     return OSError(error.errno, error.strerror, str(path))
+
+
+@contextmanager
+def errors_named(temporary: str | os.PathLike[str],
+                 target: str | os.PathLike[str]) -> Iterator[None]:
+    """Inside the block, an OSError about ``temporary`` or about no file names ``target``.
+
+    A writer that builds its output in a hidden temporary file or folder
+    (``temporary``) and moves it into place reports a full disk or a file
+    too large as a problem of the output the user named (``target``), never
+    of the hidden path (:func:`named_os_error`); an OSError about another
+    path (an input) passes unchanged.
+    """
+    try:
+        yield
+    except OSError as err:
+        if err.filename is None or str(err.filename).startswith(str(temporary)):
+            raise named_os_error(err, target) from err
+        raise
 
 
 def is_inside_folder(relative: str) -> bool:

@@ -27,6 +27,7 @@ from vptoolkit.errors import InputError
 from vptoolkit.files import (
     check_path_part,
     held,
+    errors_named,
     named_os_error,
     remove_stale_partials,
     temporary_prefix,
@@ -194,7 +195,8 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
             raise named_os_error(err, target) from err
         is_done = False
         try:
-            with held(temporary):  # a concurrent export's cleanup leaves it alone
+            # a full disk or a file too large names OUT, not the hidden folder
+            with errors_named(temporary, target), held(temporary):
                 n_meshless, n_unseen = _write_tree(temporary, data, order, stems, views,
                                                    progress)
                 os.chmod(temporary, 0o777 & ~_umask())
@@ -202,11 +204,6 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
                     target.rmdir()
                 os.rename(temporary, target)
                 is_done = True
-        except OSError as err:
-            if err.filename is None or str(err.filename).startswith(str(temporary)):
-                # a full disk or a file too large: name OUT, not the hidden folder
-                raise named_os_error(err, target) from err
-            raise
         finally:
             if not is_done:
                 shutil.rmtree(temporary, ignore_errors=True)

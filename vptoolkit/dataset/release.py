@@ -77,7 +77,13 @@ from vptoolkit.dataset.manifest import (
 from vptoolkit.dataset.release_options import ReleaseOptions, release_created
 from vptoolkit.dataset.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import held, named_os_error, remove_stale_partials, temporary_prefix
+from vptoolkit.files import (
+    errors_named,
+    held,
+    named_os_error,
+    remove_stale_partials,
+    temporary_prefix,
+)
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.parquet import ParquetShard
@@ -394,7 +400,9 @@ def pack_release(
     except OSError as err:  # a read-only or full parent folder: name the release
         raise named_os_error(err, target) from err
     try:
-        with held(staging):  # a concurrent pack's cleanup leaves it alone
+        # a full disk or a file too large names the release, not the hidden folder;
+        # a concurrent pack's cleanup leaves the held staging folder alone
+        with errors_named(staging, target), held(staging):
             with open_store(source) as reader:
                 attrs = dict(reader.attrs)
                 check_release_license(options.license, attrs, reader.models(), provenance,
@@ -441,12 +449,6 @@ def pack_release(
             _check_still_empty(target)
             _publish(staging, target)
             remove_stale_partials(target.parent, target.name)  # left by a killed earlier pack
-    except OSError as err:
-        shutil.rmtree(staging, ignore_errors=True)
-        if err.filename is None or str(err.filename).startswith(str(staging)):
-            # a full disk or a file too large: name the release, not the hidden folder
-            raise named_os_error(err, target) from err
-        raise
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise

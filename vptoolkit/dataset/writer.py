@@ -50,7 +50,7 @@ from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     check_path_part,
     held,
-    named_os_error,
+    errors_named,
     remove_stale_partials,
     temporary_prefix,
 )
@@ -531,38 +531,35 @@ def write_dataset(
     temporary = _temporary_sibling(target, kind)
     is_done = False
     try:
-        # Held, so that a concurrent write's cleanup (remove_stale_partials) leaves it alone;
-        # HDF5 locks the file it writes itself, and a second lock would make its own fail.
-        with nullcontext() if kind == "hdf5" else held(temporary):
-            if kind == "hdf5":
-                from vptoolkit.dataset._hdf5 import Hdf5Sink
+        # a full disk or a file too large names the store, not the hidden temporary
+        with errors_named(temporary, target):
+            # Held, so that a concurrent write's cleanup (remove_stale_partials) leaves it alone;
+            # HDF5 locks the file it writes itself, and a second lock would make its own fail.
+            with nullcontext() if kind == "hdf5" else held(temporary):
+                if kind == "hdf5":
+                    from vptoolkit.dataset._hdf5 import Hdf5Sink
 
-                sink: _Sink = Hdf5Sink(temporary, root_attrs)
-            else:
-                from vptoolkit.dataset._zarr import ZarrSink
+                    sink: _Sink = Hdf5Sink(temporary, root_attrs)
+                else:
+                    from vptoolkit.dataset._zarr import ZarrSink
 
-                sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
-            try:
-                stored = {}
-                for name in ARRAY_NAMES:
-                    shape, chunks = layout[name]
-                    dtype = whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
-                    stored[name] = sink.create(name, shape, np.dtype(dtype), chunks,
-                                               digests[name])
-                for name, array in whole.items():
-                    if array.size:
-                        stored[name][...] = array
-                _second_pass(entries, plan, stored, layout, target.name, progress)
-            finally:
-                sink.close()
-            _move_into_place(temporary, target, kind)
-        remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
-        is_done = True
-    except OSError as err:
-        if err.filename is None or str(err.filename).startswith(str(temporary)):
-            # a full disk or a file too large: name the store, not the hidden folder
-            raise named_os_error(err, target) from err
-        raise
+                    sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
+                try:
+                    stored = {}
+                    for name in ARRAY_NAMES:
+                        shape, chunks = layout[name]
+                        dtype = whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
+                        stored[name] = sink.create(name, shape, np.dtype(dtype), chunks,
+                                                   digests[name])
+                    for name, array in whole.items():
+                        if array.size:
+                            stored[name][...] = array
+                    _second_pass(entries, plan, stored, layout, target.name, progress)
+                finally:
+                    sink.close()
+                _move_into_place(temporary, target, kind)
+            remove_stale_partials(target.parent, target.name)  # left by a killed earlier write
+            is_done = True
     finally:
         if not is_done:
             _remove(temporary)
