@@ -264,3 +264,14 @@ def test_a_category_without_models_in_the_split_is_one_warning_line(
         warnings.simplefilter("error")
         ViewpointTorchDataset(dataset, split="train")  # every category has train models
         ViewpointTorchDataset(dataset.split("validation"), split="validation")  # only airplanes
+
+
+def test_a_path_is_opened_as_the_root_of_the_adapter(dataset: ViewpointDataset) -> None:
+    """As PyTorch Geometric's root: the path of a store gives the same items as the opened one."""
+    by_path = ViewpointTorchDataset(str(dataset.path), split="train", n_points=128, n_fps=32)
+    opened = ViewpointTorchDataset(dataset, split="train", n_points=128, n_fps=32)
+    assert len(by_path) == len(opened) == 3
+    assert np.array_equal(by_path[0]["points"], opened[0]["points"])
+    assert by_path[1]["name"] == opened[1]["name"]
+    with pytest.raises(InputError, match="expected a ViewpointDataset or the path or URL"):
+        ViewpointTorchDataset(42)  # type: ignore[arg-type]

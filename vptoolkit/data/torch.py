@@ -40,6 +40,7 @@ imports this module.
 from __future__ import annotations
 
 import copy
+import os
 import warnings
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any, overload
@@ -48,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int
-from vptoolkit.data import ViewpointDataset
+from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
@@ -73,8 +74,11 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
 
     Parameters
     ----------
-    dataset : ViewpointDataset
-        E.g. ``open_dataset(path)``, or one split of it.
+    dataset : ViewpointDataset, path-like or str
+        E.g. ``open_dataset(path)``, or one split of it; or, as a
+        ``root``, the path or URL of a dataset or release, opened with
+        :func:`~vptoolkit.data.open_dataset` (``ViewpointTorchDataset(
+        "release/", split="train")``) and read for the adapter's life.
     split : str, optional
         Keep only the models of this split: ``"train"``, ``"validation"``
         (``"val"`` is an alias) or ``"test"`` (default: every model of
@@ -136,12 +140,16 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     directly.
     """
 
-    def __init__(self, dataset: ViewpointDataset, *, split: str | None = None,
+    def __init__(self, dataset: ViewpointDataset | str | os.PathLike[str], *,
+                 split: str | None = None,
                  n_points: int = N_NETWORK_POINTS, n_fps: int = N_FPS_POINTS, rotate: bool = True,
                  seed: int = 0, fps_pool: int = 0, cache: bool = True,
                  transform: Callable[[dict[str, Any]], Any] | None = None) -> None:
+        if isinstance(dataset, (str, os.PathLike)):
+            dataset = open_dataset(dataset)
         if not isinstance(dataset, ViewpointDataset):
-            raise InputError(f"dataset: expected a ViewpointDataset, got {type(dataset).__name__}")
+            raise InputError("dataset: expected a ViewpointDataset or the path or URL of one, "
+                             f"got {type(dataset).__name__}")
         if split is not None:
             chosen = dataset.split(split)
             for category in sorted(set(dataset.categories) - set(chosen.categories)):
