@@ -122,14 +122,10 @@ def test_a_per_category_folder_as_prior_says_best_view_takes_one_network(tmp_pat
 
 
 def test_a_prior_with_all_zero_weights_is_one_line_saying_they_are_broken(tmp_path):
+    from fixtures.networks import TINY_CONFIG
     from vptoolkit.learn import model as M
-    from vptoolkit.learn.config import LevelConfig, ModelConfig
 
-    small = ModelConfig(latent_channels=16, head_channels=(8,), levels=(
-        LevelConfig(grid_level=3, radius=1 / 8, max_neighbours=16, channels=8,
-                    neighbourhood="cell"),
-    ))
-    network = M.ViewpointNet(small)
+    network = M.ViewpointNet(TINY_CONFIG)
     with torch.no_grad():
         for parameter in network.parameters():
             parameter.zero_()

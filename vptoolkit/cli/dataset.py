@@ -16,6 +16,7 @@ from vptoolkit.cli.options import (
     EXISTING,
     ExistingPath,
     cache_dir_option,
+    comma_list,
     local_dataset,
     max_faces_option,
     points_option,
@@ -96,7 +97,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
 
     if remesh and no_clean:
         raise InputError("--remesh: remeshing is a cleaning step; drop --no-clean or --remesh")
-    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    chosen = comma_list(categories)
     if calibrate is not None and not dry_run:
         raise InputError("--calibrate: only with --dry-run")
     options = BuildOptions(
@@ -303,7 +304,7 @@ def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: boo
     """
     from vptoolkit.dataset.authors import import_authors as run_import
 
-    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    chosen = comma_list(categories)
     result = run_import(tree, out, categories=chosen, meshes=not no_meshes, progress=True)
     counts = ", ".join(f"{n} {split}" for split, n in result.split_counts.items())
     click.echo(f"imported {result.path}: {result.n_models} models ({counts}), "
@@ -385,7 +386,7 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
     from vptoolkit.dataset.sources import discover_models
     from vptoolkit.dataset.split_files import class_split, write_split_file
 
-    chosen = [c.strip() for c in categories.split(",") if c.strip()] if categories else None
+    chosen = comma_list(categories)
     models = discover_models(src, chosen)
     splits = class_split([(model.category, model.name) for model in models],
                          fraction=fraction, seed=seed)

@@ -32,6 +32,7 @@ __all__ = [
     "EXISTING",
     "DATASET",
     "cache_dir_option",
+    "comma_list",
     "local_dataset",
     "MEASURE_CHOICE",
     "MODEL_HELP",
@@ -102,6 +103,13 @@ class Direction(click.ParamType):  # type: ignore[type-arg]
             raise InputError(f"{option}: expected a finite, non-zero direction x,y,z, "
                              f"got {value!r}") from None
         return x, y, z
+
+
+def comma_list(text: str | None) -> list[str] | None:
+    """The non-empty, stripped items of a comma-separated option (None when not given)."""
+    if not text:
+        return None
+    return [item.strip() for item in text.split(",") if item.strip()]
 
 
 MESH = ExistingPath(exists=True, dir_okay=False, path_type=Path)

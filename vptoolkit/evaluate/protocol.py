@@ -204,10 +204,11 @@ def score_mesh_protocol(dataset: ViewpointDataset,
     names = list(dataset.names)
     totals = np.zeros((len(names), len(MEASURES)))
     for i, name in enumerate(names):
-        vertices, faces = dataset.mesh(i)
+        stored, faces = dataset.mesh(i)
+        vertices = np.asarray(stored, dtype=np.float64)
+        faces64 = np.asarray(faces, dtype=np.int64)
         for turn in fixed_rotations(name, n_rotations, seed=seed):
-            rotated = Mesh(np.asarray(vertices, dtype=np.float64) @ turn.T,
-                           np.asarray(faces, dtype=np.int64), name=name)
+            rotated = Mesh(vertices @ turn.T, faces64, name=name)
             directions = np.asarray(answer(rotated), dtype=np.float64)
             if directions.shape != (len(MEASURES), 3):
                 raise InputError(f"answer: expected directions of shape ({len(MEASURES)}, 3), "
