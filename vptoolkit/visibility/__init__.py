@@ -32,6 +32,7 @@ from vptoolkit.geometry import bounding_frame, face_cross_products
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
+from vptoolkit.visibility.features import ViewFeatures
 
 __all__ = [
     "RasterScene",
@@ -61,6 +62,9 @@ class ViewHistograms:
         Number of faces of the mesh.
     first_view : int
         Index of the first view of this run in the full list of views.
+    features : ViewFeatures or None
+        Depth and silhouette statistics of these views, where they were
+        asked for (:mod:`vptoolkit.visibility.features`).
     """
 
     offsets: NDArray[np.int64]
@@ -68,6 +72,7 @@ class ViewHistograms:
     pixel_counts: NDArray[np.int32]
     n_faces: int
     first_view: int = 0
+    features: ViewFeatures | None = None
 
     @property
     def n_views(self) -> int:

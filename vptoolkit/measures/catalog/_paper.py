@@ -1,0 +1,25 @@
+"""The paper's four measures (VE, VR, VKL, VMI) computed together, once per mesh.
+
+They come from :func:`vptoolkit.measures.quality.quality_from_histograms`, the
+same streaming computation as ``compute_view_quality`` with the default
+measures, so the four keep the same values whatever else is asked for.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.conventions import MEASURES
+from vptoolkit.measures.data import ViewData
+
+
+def paper_column(data: ViewData, name: str) -> NDArray[np.float64]:
+    """Raw values of one of the paper's four measures, ``(n_views,)``."""
+    if "paper" not in data.cache:
+        from vptoolkit.measures.quality import quality_from_histograms
+
+        data.cache["paper"] = quality_from_histograms(
+            data.histograms, data.areas, n_views=data.n_views)
+    raw: NDArray[np.float64] = data.cache["paper"]
+    return raw[:, MEASURES.index(name)]

@@ -1,0 +1,126 @@
+"""What the measures read for one mesh and one set of views.
+
+A :class:`ViewData` holds the drawn pixel counts (and, where asked for, the
+per-view depth and silhouette statistics) of every view, and computes the
+shared quantities once, on first use: per-view sums, the face distribution
+``p(z)``, the per-face curvature and saliency, the neighbouring views. Each
+measure of :mod:`vptoolkit.measures.catalog` is a function of it.
+
+Notation as in :mod:`vptoolkit.measures.quality`: ``a_z(v)`` pixels of face
+``z`` in view ``v``, ``a_t(v) = sum_z a_z(v)``, ``A_z`` the face's area,
+``A_t`` the mesh's area, logarithms in base 2.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
+from vptoolkit.visibility import ViewHistograms
+from vptoolkit.visibility.features import ViewFeatures
+
+__all__ = ["ViewData"]
+
+
+class ViewData:
+    """The drawn views of one mesh, and what the measures derive from them.
+
+    Parameters
+    ----------
+    mesh : Mesh
+        The measured mesh.
+    views : (n_views, 3) float64
+        Unit view directions, model centre towards the camera.
+    settings : MeasureSettings
+        How the views were drawn.
+    areas : (n_faces,) float64
+        True face areas ``A_z``.
+    histograms : sequence of ViewHistograms
+        Runs of views in order, covering every view; with ``features`` where
+        a requested measure needs depth or silhouette statistics.
+    """
+
+    def __init__(self, mesh: Mesh, views: NDArray[np.float64], settings: MeasureSettings,
+                 areas: NDArray[np.float64], histograms: Sequence[ViewHistograms]) -> None:
+        self.mesh = mesh
+        self.views = views
+        self.settings = settings
+        self.areas = areas
+        self.histograms = histograms
+        self.n_views = int(len(views))
+        self.n_faces = int(mesh.n_faces)
+        self.cache: dict[str, Any] = {}
+        """Room for values several measures share (keyed by the module that computes them)."""
+
+    @cached_property
+    def entries(self) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+        """Every non-zero ``a_z(v)`` as ``(view, face, pixels)`` arrays, views in order."""
+        views = np.concatenate([run.view_index() + run.first_view for run in self.histograms])
+        faces = np.concatenate([run.face_ids for run in self.histograms]).astype(np.int64)
+        counts = np.concatenate([run.pixel_counts for run in self.histograms])
+        return views, faces, counts.astype(np.float64)
+
+    def per_view(self, weights: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``sum_z w`` per view, for ``weights`` aligned with :attr:`entries`."""
+        return np.bincount(self.entries[0], weights=weights, minlength=self.n_views)
+
+    @cached_property
+    def projected(self) -> NDArray[np.float64]:
+        """``a_t(v)``: covered pixels per view, ``(n_views,)``."""
+        return self.per_view(self.entries[2])
+
+    @cached_property
+    def seen(self) -> NDArray[np.bool_]:
+        """Views that see at least one face, ``(n_views,) bool``."""
+        return self.projected > 0
+
+    @cached_property
+    def face_totals(self) -> NDArray[np.float64]:
+        """``sum_v a_z(v)`` per face, ``(n_faces,)``."""
+        _, faces, counts = self.entries
+        return np.bincount(faces, weights=counts, minlength=self.n_faces)
+
+    @cached_property
+    def face_probability(self) -> NDArray[np.float64]:
+        """``p(z) = sum_v a_z(v) / sum_v a_t(v)``, as VMI takes it, ``(n_faces,)``."""
+        return self.face_totals / self.face_totals.sum()
+
+    @cached_property
+    def view_probability(self) -> NDArray[np.float64]:
+        """``p(v) = a_t(v) / sum_v' a_t(v')``, ``(n_views,)``."""
+        return self.projected / self.projected.sum()
+
+    @cached_property
+    def features(self) -> ViewFeatures:
+        """Depth and silhouette statistics of every view.
+
+        Raises
+        ------
+        RuntimeError
+            The views were drawn without them (no requested measure needed them).
+        """
+        runs = [run.features for run in self.histograms]
+        if any(run is None for run in runs):
+            raise RuntimeError("the views were drawn without depth and silhouette statistics")
+        return ViewFeatures.concatenate([run for run in runs if run is not None])
+
+    def neighbours(self, count: int) -> NDArray[np.int64]:
+        """The ``count`` nearest other views of each view by angle, ``(n_views, count)``.
+
+        Ties are broken by the lower view index.
+        """
+        key = f"neighbours:{count}"
+        if key not in self.cache:
+            count = min(count, self.n_views - 1)
+            cosines = self.views @ self.views.T
+            np.fill_diagonal(cosines, -np.inf)
+            order = np.argsort(-cosines, axis=1, kind="stable")[:, :count]
+            self.cache[key] = order.astype(np.int64)
+        result: NDArray[np.int64] = self.cache[key]
+        return result
