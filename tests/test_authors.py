@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.authors import AUTHORS_FOLDERS, import_authors
-from vptoolkit.dataset.authors_export import export_authors, order_for_paper_rule
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.reader import open_store
-from vptoolkit.dataset.split_files import paper_split, paper_splits, read_model_list
+from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
+from vptoolkit.dataset.authors.export import export_authors, order_for_paper_rule
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.build.split_files import paper_split, paper_splits, read_model_list
 from vptoolkit.errors import InputError
-from vptoolkit.measures import normalize_quality
+from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
@@ -159,7 +159,7 @@ def test_a_tree_not_in_the_layout_is_refused_with_one_line(tmp_path, damage):
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build.run import build_dataset
 
     src = tmp_path_factory.mktemp("src")
     for category, sample in (("bottle", "bottle.obj"), ("mug", "mug.obj"), ("table", "table.obj")):
@@ -205,7 +205,7 @@ def test_import_is_repeatable_byte_for_byte(tmp_path):
 
 
 def test_export_refuses_a_store_without_the_authors_views(tmp_path):
-    from vptoolkit.dataset.build import build_dataset
+    from vptoolkit.dataset.build.run import build_dataset
 
     src = tmp_path / "src" / "mug"
     src.mkdir(parents=True)
@@ -267,7 +267,7 @@ def test_import_and_export_from_the_command_line(tmp_path):
 
 
 def test_check_finds_our_own_measures_in_an_exported_build(built, tmp_path):
-    from vptoolkit.dataset.authors_check import check_measures
+    from vptoolkit.dataset.authors.check import check_measures
 
     export_authors(built, tmp_path / "set")
     imported = import_authors(tmp_path / "set", tmp_path / "back")
@@ -435,7 +435,7 @@ def test_export_names_out_not_its_staging_and_removes_stale_staging(tmp_path, mo
     from click.testing import CliRunner
 
     from vptoolkit.cli import main
-    from vptoolkit.dataset import authors_export
+    from vptoolkit.dataset.authors import export as authors_export
     from vptoolkit.files import temporary_prefix
 
     tree = write_tree(tmp_path / "set", listed(("chair", 2)))

@@ -18,7 +18,7 @@ from vptoolkit.cli import main
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import read_predictions
 from vptoolkit.rotations import fixed_rotations

@@ -24,13 +24,13 @@ import pytest
 
 from fixtures.environment import DASK_DASHBOARD, require_package
 from vptoolkit import parallel
-from vptoolkit.dataset import compute
-from vptoolkit.dataset.build import BuildResult, build_dataset
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.reader import open_store
-from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
-from vptoolkit.dataset.sources import assign_split, discover_models
-from vptoolkit.dataset.staging import STAGING_DIR
+from vptoolkit.dataset.build import compute
+from vptoolkit.dataset.build.run import BuildResult, build_dataset
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.store.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
+from vptoolkit.dataset.build.sources import assign_split, discover_models
+from vptoolkit.dataset.build.staging import STAGING_DIR
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -253,7 +253,7 @@ def test_build_measures_what_the_pipeline_measures(src, reference):
     """The stored quality of a model equals load -> clean -> measure done by hand."""
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
 
     _, stored = reference
     row = GOOD.index("table")
@@ -276,8 +276,8 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
     staging = out / STAGING_DIR
     code = (
         "import json\n"
-        "from vptoolkit.dataset.build import build_dataset\n"
-        "from vptoolkit.dataset.build_options import BuildOptions\n"
+        "from vptoolkit.dataset.build.run import build_dataset\n"
+        "from vptoolkit.dataset.build.options import BuildOptions\n"
         f"options = BuildOptions.from_dict(json.loads({json.dumps(SMALL.to_dict())!r}))\n"
         f"build_dataset({str(src)!r}, {str(out)!r}, options)\n"
     )

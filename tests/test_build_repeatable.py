@@ -27,10 +27,10 @@ import numpy as np
 import pytest
 
 from fixtures.environment import DASK_DASHBOARD, require_package
-from vptoolkit.dataset.build import build_dataset
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.reader import open_store
-from vptoolkit.dataset.schema import ARRAY_NAMES
+from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.store.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 

@@ -497,7 +497,7 @@ def test_clean_mesh_rejects_a_non_mesh() -> None:
 @pytest.mark.slow
 def test_measures_of_a_cleaned_real_mesh_stay_close() -> None:
     from vptoolkit.io import load_mesh
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.samples import sample_path
 
     bunny = load_mesh(sample_path("bunny"))

@@ -23,7 +23,7 @@ from fixtures.stores import (
 )
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import fibonacci_sphere
 

@@ -128,7 +128,7 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
 
 def test_the_build_stores_each_models_coverage_set_and_the_loader_reads_it(tiny_dataset):
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.compute import VIEW_SET_VIEWS
+    from vptoolkit.dataset.build.compute import VIEW_SET_VIEWS
 
     with open_dataset(tiny_dataset) as dataset:
         for position in range(len(dataset)):
@@ -147,8 +147,8 @@ def test_a_store_without_view_sets_still_loads_and_reports(tiny_dataset, tmp_pat
     import dataclasses
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.reader import open_store
-    from vptoolkit.dataset.writer import write_dataset
+    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.writer import write_dataset
     from vptoolkit.evaluate.coverage import model_view_set
 
     with open_store(next(tiny_dataset.glob("dataset.*"))) as reader:

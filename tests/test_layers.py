@@ -11,7 +11,7 @@ import vptoolkit
 
 LAYERS = {
     "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0, "progress": 0,
-    "parallel": 0, "_numba": 0,
+    "parallel": 0, "_numba": 0, "deprecation": 0,
     "mesh": 1, "io": 1, "samples": 1, "predictions": 1,
     "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2, "settings": 2,
     "visibility": 3,
@@ -54,6 +54,24 @@ def test_no_module_imports_from_a_higher_layer():
         for target in imported_modules(path):
             if LAYERS.get(target, 99) > LAYERS[own]:
                 violations.append(f"{path.relative_to(PACKAGE)} imports vptoolkit.{target}")
+    assert not violations, violations
+
+
+DATASET_STAGES = {"store": {"store"}, "build": {"store", "build"},
+                  "release": {"store", "release"}, "authors": {"store", "build", "authors"}}
+"""Which stages of ``vptoolkit.dataset`` each stage may import (its own and those below)."""
+
+
+def test_dataset_stages_import_only_lower_stages():
+    violations = []
+    for stage, allowed in DATASET_STAGES.items():
+        for path in sorted((PACKAGE / "dataset" / stage).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    parts = node.module.split(".")
+                    if parts[:2] == ["vptoolkit", "dataset"] and len(parts) > 2 \
+                            and parts[2] not in allowed:
+                        violations.append(f"{path.relative_to(PACKAGE)} imports {node.module}")
     assert not violations, violations
 
 

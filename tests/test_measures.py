@@ -5,7 +5,7 @@ from fixtures.meshes import box_mesh
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures import (
+from vptoolkit.measures.quality import (
     compute_view_quality,
     normalize_quality,
     quality_from_histograms,

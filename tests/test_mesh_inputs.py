@@ -12,7 +12,7 @@ from vptoolkit.best_view import search_best_views
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_areas
 from vptoolkit.io import load_mesh, save_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh, as_mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from fixtures.stores import MODELS, synthetic_entries, write_synthetic
-from vptoolkit.dataset import writer
-from vptoolkit.dataset.reader import open_store
+from vptoolkit.dataset.store import writer
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part
 from vptoolkit.sphere import fibonacci_sphere

@@ -31,7 +31,7 @@ def _flip_one_byte(path: Path) -> None:
 @pytest.mark.parametrize("damage", ["flipped byte", "deleted chunk"])
 def test_pack_refuses_a_damaged_store_and_writes_nothing(small_build: Path, tmp_path: Path,
                                                          damage: str) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     if damage == "flipped byte":
         _flip_one_byte(small_build / CHUNK)
@@ -51,7 +51,7 @@ def test_pack_refuses_a_damaged_store_and_writes_nothing(small_build: Path, tmp_
 
 def test_readers_refuse_a_missing_chunk_naming_array_and_models(small_build: Path) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     (small_build / CHUNK).unlink()
     expected = re.escape("array 'quality' chunk c/0/0/0 is missing, models airplane_0000")
@@ -103,7 +103,7 @@ def test_readers_name_array_and_models_of_a_chunk_that_does_not_decompress(
 
 
 def test_a_missing_mesh_chunk_names_the_models_whose_rows_it_held(small_build: Path) -> None:
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     (small_build / "dataset.zarr" / "mesh_faces" / "c" / "0" / "0").unlink()
     with pytest.raises(VerificationError, match=r"'mesh_faces' chunk c/0/0 .*airplane_0000, "):
@@ -115,8 +115,8 @@ def test_every_chunk_is_written_even_all_zeros_and_an_old_empty_chunk_still_read
 ) -> None:
     import zarr
 
-    from vptoolkit.dataset.reader import open_store
-    from vptoolkit.dataset.schema import array_sha256
+    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.schema import array_sha256
 
     # A chunk of zeros is stored (zarr would skip it by default) ...
     source = small_build / "dataset.zarr"

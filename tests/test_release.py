@@ -16,8 +16,8 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.releases import CATEGORIES, FAILURES, forge_shard, write_release_build
 from fixtures.stores import N_POINTS, N_VIEWS
-from vptoolkit.dataset.release_options import ReleaseOptions
-from vptoolkit.dataset.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
+from vptoolkit.dataset.release.options import ReleaseOptions
+from vptoolkit.dataset.store.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, VerificationError
 
 STEM = "vptoolkit-viewpoints"
@@ -39,8 +39,8 @@ def build(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="session")
 def release(build: Path, tmp_path_factory: pytest.TempPathFactory):
     """The release of ``build`` in every format, packed into an existing empty folder."""
-    from vptoolkit.dataset.release import pack_release
-    from vptoolkit.dataset.release_options import FORMATS
+    from vptoolkit.dataset.release.pack import pack_release
+    from vptoolkit.dataset.release.options import FORMATS
 
     folder = tmp_path_factory.mktemp("release") / "out"
     folder.mkdir()
@@ -54,8 +54,8 @@ def release_copy(release, tmp_path: Path) -> Path:
 
 
 def _source_records(build: Path) -> list[dict]:
-    from vptoolkit.dataset.reader import open_store
-    from vptoolkit.dataset.schema import published_split
+    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.schema import published_split
 
     with open_store(build / "dataset.zarr") as reader:
         return [{**r, "split": published_split(r["split"])} for r in reader.models()]
@@ -80,7 +80,7 @@ def test_release_holds_every_file(release) -> None:
 
 @pytest.mark.parametrize("archive", ["zarr_zip", "hdf5"])
 def test_archive_holds_the_source_content(build: Path, release, archive: str) -> None:
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     with open_store(build / "dataset.zarr") as source, \
             open_store(getattr(release, archive)) as packed:
@@ -120,9 +120,9 @@ def test_sha256sums_match_hashlib(release) -> None:
 
 def test_pack_reads_each_file_once_to_hash_it(build: Path, tmp_path: Path,
                                               monkeypatch: pytest.MonkeyPatch) -> None:
-    from vptoolkit.dataset import descriptions, manifest
-    from vptoolkit.dataset import release as release_module
-    from vptoolkit.dataset.release_options import FORMATS
+    from vptoolkit.dataset.release import descriptions, manifest
+    from vptoolkit.dataset.release import pack as release_module
+    from vptoolkit.dataset.release.options import FORMATS
 
     hashed: Counter[str] = Counter()
     real = manifest.sha256_file
@@ -141,7 +141,7 @@ def test_pack_reads_each_file_once_to_hash_it(build: Path, tmp_path: Path,
 
 
 def test_pack_into_a_non_empty_folder_is_an_input_error(build: Path, tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     target = tmp_path / "mine"
     target.mkdir()
@@ -154,7 +154,7 @@ def test_pack_into_a_non_empty_folder_is_an_input_error(build: Path, tmp_path: P
 
 
 def test_pack_onto_a_file_is_an_input_error(build: Path, tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     target = tmp_path / "release"
     target.write_text("a file")
@@ -166,7 +166,7 @@ def test_pack_onto_a_file_is_an_input_error(build: Path, tmp_path: Path) -> None
 @pytest.mark.parametrize("name", ["", "../escape", ".hidden", "a/b", "two words"])
 def test_pack_rejects_a_name_that_is_not_a_plain_file_name(build: Path, tmp_path: Path,
                                                            name: str) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     with pytest.raises(InputError, match="name"):
         pack_release(build, tmp_path / "release", ReleaseOptions(name=name))
@@ -175,7 +175,7 @@ def test_pack_rejects_a_name_that_is_not_a_plain_file_name(build: Path, tmp_path
 
 def test_failed_pack_leaves_no_release_and_no_staging(build: Path, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
-    from vptoolkit.dataset import release as release_module
+    from vptoolkit.dataset.release import pack as release_module
 
     def broken(*args: object, **kwargs: object) -> str:
         raise RuntimeError("card template broke")
@@ -190,7 +190,7 @@ def test_a_full_disk_while_packing_names_the_release(build: Path, tmp_path: Path
                                                     monkeypatch: pytest.MonkeyPatch) -> None:
     import errno
 
-    from vptoolkit.dataset import release as release_module
+    from vptoolkit.dataset.release import pack as release_module
 
     def full(folder: Path, known: dict) -> dict:
         raise OSError(errno.ENOSPC, "No space left on device")
@@ -262,7 +262,7 @@ def test_a_file_size_limit_while_writing_an_hdf5_store_names_the_store(tmp_path:
 
 
 def test_pack_removes_only_its_own_stale_staging_folders(build: Path, tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
     from vptoolkit.files import held
 
     stale = tmp_path / ".rel.ab12cd34.partial"       # a killed pack into rel
@@ -279,7 +279,7 @@ def test_pack_removes_only_its_own_stale_staging_folders(build: Path, tmp_path: 
 
 def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path: Path,
                                                            monkeypatch: pytest.MonkeyPatch) -> None:
-    from vptoolkit.dataset import release as release_module
+    from vptoolkit.dataset.release import pack as release_module
 
     target = tmp_path / "rel"
     real = release_module.write_sha256sums
@@ -296,7 +296,7 @@ def test_the_loser_of_two_packs_says_the_folder_was_filled(build: Path, tmp_path
 
 
 def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     options = ReleaseOptions(name="mini-v1", license="cc-by-4.0", version="2.3.4",
                              force_license=True)  # the source is ModelNet-named
@@ -312,7 +312,7 @@ def test_pack_uses_the_given_name_and_licence(build: Path, tmp_path: Path) -> No
 
 
 def test_verify_passes_on_a_fresh_release(release) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     report = verify(release.path)
     assert report.ok, report.summary()
@@ -326,7 +326,7 @@ def test_verify_passes_on_a_fresh_release(release) -> None:
 
 @pytest.mark.parametrize("path", ["store", "build folder", "release archive"])
 def test_verify_passes_on_a_single_store(build: Path, release, path: str) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     target = {"store": build / "dataset.zarr", "build folder": build,
               "release archive": release.hdf5}[path]
@@ -339,7 +339,7 @@ def test_verify_passes_on_a_single_store(build: Path, release, path: str) -> Non
 @pytest.mark.parametrize("suffix", [".h5", ".zarr.zip"])
 def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str) -> None:
     from vptoolkit.cli.group import exit_code as _exit_code
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     archive = release_copy / f"{STEM}{suffix}"
     content = bytearray(archive.read_bytes())
@@ -358,7 +358,7 @@ def test_verify_names_a_file_with_a_flipped_byte(release_copy: Path, suffix: str
 def test_verify_names_a_tampered_array_in_a_zarr_directory(build: Path, tmp_path: Path) -> None:
     import zarr
 
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     folder = Path(shutil.copytree(build, tmp_path / "build"))
     points = zarr.open_array(folder / "dataset.zarr" / "points", mode="r+")
@@ -373,7 +373,7 @@ def test_verify_names_a_tampered_array_in_a_zarr_directory(build: Path, tmp_path
 
 
 def test_verify_names_a_missing_file(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     (release_copy / f"{STEM}.h5").unlink()
     report = verify(release_copy)
@@ -383,7 +383,7 @@ def test_verify_names_a_missing_file(release_copy: Path) -> None:
 
 
 def test_verify_warns_about_an_unlisted_file(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     (release_copy / "notes.txt").write_text("added later")
     report = verify(release_copy)
@@ -392,7 +392,7 @@ def test_verify_warns_about_an_unlisted_file(release_copy: Path) -> None:
 
 
 def test_verify_names_an_edited_card(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     card = release_copy / "README.md"
     card.write_text(card.read_text(encoding="utf-8") + "\nedited\n", encoding="utf-8")
@@ -401,7 +401,7 @@ def test_verify_names_an_edited_card(release_copy: Path) -> None:
 
 
 def test_verify_reports_a_malformed_or_missing_manifest(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     manifest = release_copy / "SHA256SUMS"
     manifest.write_text(manifest.read_text() + "not a checksum line\n")
@@ -413,14 +413,14 @@ def test_verify_reports_a_malformed_or_missing_manifest(release_copy: Path) -> N
 
 
 def test_verify_of_a_missing_path_is_an_input_error(tmp_path: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     with pytest.raises(InputError, match="no such"):
         verify(tmp_path / "absent")
 
 
 def test_summary_names_the_first_mismatches_and_counts_the_rest() -> None:
-    from vptoolkit.dataset.manifest import Problem, VerifyReport
+    from vptoolkit.dataset.release.manifest import Problem, VerifyReport
 
     report = VerifyReport(path=Path("rel"), kind="release", files_checked=5)
     report.problems = [Problem("checksum", f"file{i}.bin", "checksum mismatch") for i in range(5)]
@@ -436,7 +436,8 @@ def test_summary_names_the_first_mismatches_and_counts_the_rest() -> None:
 
 
 def test_sha256sums_round_trip_through_a_folder(tmp_path: Path) -> None:
-    from vptoolkit.dataset.manifest import read_sha256sums, sha256_file, write_sha256sums
+    from vptoolkit.dataset.release.manifest import read_sha256sums, write_sha256sums
+    from vptoolkit.files import sha256_file
 
     (tmp_path / "sub").mkdir()
     (tmp_path / "b.txt").write_bytes(b"b" * (3 << 20))  # several 1 MiB blocks
@@ -451,7 +452,7 @@ def test_sha256sums_round_trip_through_a_folder(tmp_path: Path) -> None:
 @pytest.mark.parametrize("line", [f"{'0' * 64}  ../outside", f"{'0' * 64}  /etc/passwd",
                                   "xyz  file", f"{'0' * 63}  short"])
 def test_read_sha256sums_rejects_bad_lines(tmp_path: Path, line: str) -> None:
-    from vptoolkit.dataset.manifest import read_sha256sums
+    from vptoolkit.dataset.release.manifest import read_sha256sums
 
     (tmp_path / "SHA256SUMS").write_text(line + "\n")
     with pytest.raises(VerificationError, match="line 1"):
@@ -499,7 +500,7 @@ def test_card_has_every_datasheet_section_and_the_licence_note(release) -> None:
 
 
 def test_card_numbers_come_from_the_data(build: Path, release) -> None:
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     card = release.card.read_text(encoding="utf-8")
     records = _source_records(build)
@@ -529,7 +530,7 @@ def test_card_numbers_come_from_the_data(build: Path, release) -> None:
     (250_000, "100K<n<1M"), (10**6, "1M<n<10M"),
 ])
 def test_size_category(n_models: int, label: str) -> None:
-    from vptoolkit.dataset.info import size_category
+    from vptoolkit.dataset.store.info import size_category
 
     assert size_category(n_models) == label
 
@@ -583,7 +584,7 @@ def test_croissant_is_json_ld_with_the_manifest_sums(release) -> None:
 
 
 def test_dataset_info_counts_per_category_and_split(build: Path, release) -> None:
-    from vptoolkit.dataset.info import dataset_info, format_info
+    from vptoolkit.dataset.store.info import dataset_info, format_info
 
     records = _source_records(build)
     for path in (build, release.path, release.hdf5):
@@ -612,7 +613,7 @@ def test_dataset_info_counts_per_category_and_split(build: Path, release) -> Non
 
 
 def test_release_info_json_matches_dataset_info(release) -> None:
-    from vptoolkit.dataset.info import dataset_info
+    from vptoolkit.dataset.store.info import dataset_info
 
     stored = json.loads((release.path / "dataset_info.json").read_text(encoding="utf-8"))
     live = dataset_info(release.zarr_zip)
@@ -627,7 +628,7 @@ def test_a_read_only_parent_folder_names_the_release(build: Path, tmp_path: Path
     from click.testing import CliRunner
 
     from vptoolkit.cli import main
-    from vptoolkit.dataset import release as release_module
+    from vptoolkit.dataset.release import pack as release_module
 
     def refused(*args: object, prefix: str = "", suffix: str = "", dir: object = None) -> str:
         raise PermissionError(errno.EACCES, "Permission denied",
@@ -673,8 +674,8 @@ def test_verify_names_a_forged_parquet_shard_with_re_hashed_sums(release_copy: P
 
 def test_verify_says_it_skipped_the_shards_without_pyarrow(
         release_copy: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    from vptoolkit.dataset import parquet
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release import parquet
+    from vptoolkit.dataset.release.manifest import verify
     from vptoolkit.errors import MissingDependencyError
 
     def absent(module: str, extra: str | None = None) -> None:

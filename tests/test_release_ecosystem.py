@@ -18,8 +18,8 @@ import pytest
 from fixtures.environment import require_package
 from fixtures.releases import CATEGORIES, forge_shard, write_release_build
 from fixtures.stores import N_POINTS, N_VIEWS
-from vptoolkit.dataset.release_options import ReleaseOptions
-from vptoolkit.dataset.schema import ARRAY_NAMES
+from vptoolkit.dataset.release.options import ReleaseOptions
+from vptoolkit.dataset.store.schema import ARRAY_NAMES
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 
 CREATED = "2026-03-04T05:06:07Z"
@@ -44,8 +44,8 @@ def licenses_csv(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 @pytest.fixture(scope="module")
 def release(tmp_path_factory: pytest.TempPathFactory, licenses_csv: Path):
-    from vptoolkit.dataset.release import pack_release
-    from vptoolkit.dataset.release_options import FORMATS
+    from vptoolkit.dataset.release.pack import pack_release
+    from vptoolkit.dataset.release.options import FORMATS
 
     base = tmp_path_factory.mktemp("eco")
     build = _write_build(base / "build")
@@ -97,7 +97,7 @@ def test_class_labels_are_one_sorted_map_in_stores_card_croissant_and_datasets(
     import yaml
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     expected = sorted(CATEGORIES)
     for store in sorted(release.path.glob("*.h5")) + sorted(release.path.glob("*.zarr.zip")):
@@ -205,8 +205,8 @@ def test_parquet_shards_repeat_byte_for_byte_with_sorted_json_features(release,
                                                                        tmp_path: Path) -> None:
     import pyarrow.parquet as pq
 
-    from vptoolkit.dataset.parquet import write_parquet_shards
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.release.parquet import write_parquet_shards
+    from vptoolkit.dataset.store.reader import open_store
 
     with open_store(next(release.path.glob("*.h5"))) as reader:
         first = write_parquet_shards(reader, tmp_path / "a")
@@ -226,7 +226,7 @@ def test_parquet_shards_repeat_byte_for_byte_with_sorted_json_features(release,
 @pytest.fixture(scope="module")
 def sharded(tmp_path_factory: pytest.TempPathFactory):
     """The release cut into Parquet shards of at most 30 kB of rows (several per split)."""
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     base = tmp_path_factory.mktemp("sharded")
     return pack_release(_write_build(base / "build"), base / "release",
@@ -263,7 +263,7 @@ def test_a_small_shard_size_gives_several_hub_named_shards_that_datasets_loads(
 
 
 def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     assert verify(sharded.path).ok
     copy = Path(shutil.copytree(sharded.path, tmp_path / "release"))
@@ -280,7 +280,7 @@ def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None
                                                 ("1.5GB", 1_500_000_000), ("64MiB", 64 << 20),
                                                 ("4096", 4096), (" 2 kb ", 2000)])
 def test_shard_sizes_read_as_bytes(text: str, expected: int) -> None:
-    from vptoolkit.dataset.parquet import parse_size
+    from vptoolkit.dataset.release.parquet import parse_size
 
     assert parse_size(text) == expected
 
@@ -344,7 +344,7 @@ def test_croissant_carries_version_dates_creator_and_rai(release) -> None:
 
 
 def test_version_goes_into_attributes_card_and_croissant_not_names(release) -> None:
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.reader import open_store
 
     assert release.zarr_zip.name == "mini.zarr.zip" and release.hdf5.name == "mini.h5"
     assert not [name for name in release.files if "2.1.0" in name]
@@ -388,7 +388,7 @@ def test_schema_ships_inside_the_release(release) -> None:
     ({"formats": ["parquet", "csv"]}, "formats: expected one or more of"),
 ], ids=["version", "created", "formats"])
 def test_bad_release_options_are_input_errors(tmp_path: Path, bad: dict, message: str) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     build = _write_build(tmp_path / "build")
     with pytest.raises(InputError, match=re.escape(message)):
@@ -420,7 +420,7 @@ def test_release_options_are_checked_when_made(bad: dict, message: str) -> None:
 
 
 def test_a_licence_table_given_as_a_mapping_is_read_as_its_csv_file(tmp_path: Path) -> None:
-    from vptoolkit.dataset.licenses import read_licenses
+    from vptoolkit.dataset.release.licenses import read_licenses
 
     table = tmp_path / "table.csv"
     table.write_text("name,license,author,url,note\n airplane_0000 , MIT , Ada ,,x\n",
@@ -432,8 +432,8 @@ def test_a_licence_table_given_as_a_mapping_is_read_as_its_csv_file(tmp_path: Pa
 
 def test_release_options_keep_their_checked_values() -> None:
     from vptoolkit.conventions import DATASET_VERSION
-    from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
-    from vptoolkit.dataset.release_options import DEFAULT_FORMATS, DEFAULT_LICENSE, DEFAULT_NAME
+    from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
+    from vptoolkit.dataset.release.options import DEFAULT_FORMATS, DEFAULT_LICENSE, DEFAULT_NAME
 
     default = ReleaseOptions()
     assert (default.name, default.license, default.formats, default.version) == (
@@ -450,7 +450,7 @@ def test_release_options_keep_their_checked_values() -> None:
 
 
 def test_a_licence_table_without_its_columns_names_the_file(tmp_path: Path) -> None:
-    from vptoolkit.dataset.licenses import read_licenses
+    from vptoolkit.dataset.release.licenses import read_licenses
 
     (tmp_path / "l.csv").write_text("name,licence\nx,mit\n", encoding="utf-8")
     with pytest.raises(InputError, match="l.csv: header lacks the column"):
@@ -477,7 +477,7 @@ def test_an_empty_split_is_a_loud_warning(tmp_path: Path) -> None:
 
 
 def test_parquet_only_release(tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     build = _write_build(tmp_path / "build")
     result = pack_release(build, tmp_path / "release", ReleaseOptions(formats=["parquet"]))
@@ -491,7 +491,7 @@ def test_parquet_only_release(tmp_path: Path) -> None:
 def test_hdf5_only_card_promises_no_datasets_loading(tmp_path: Path) -> None:
     import yaml
 
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     build = _write_build(tmp_path / "build")
     result = pack_release(build, tmp_path / "release", ReleaseOptions(formats=["hdf5"]))
@@ -515,7 +515,7 @@ def test_card_shows_zarr_reading_only_with_a_zarr_zip(release) -> None:
 
 def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
                                                              monkeypatch) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     first = _write_build(tmp_path / "a" / "build", created="2025-01-01T00:00:00Z")
     second = _write_build(tmp_path / "b" / "build", created="2025-06-30T12:00:00Z")
@@ -538,7 +538,7 @@ def test_two_independent_builds_pack_to_identical_sha256sums(tmp_path: Path,
 ], ids=["after-9999", "before-year-1", "huge-epoch", "superscript-two", "5000-digits"])
 def test_release_times_beyond_the_calendar_are_one_line(monkeypatch, created, epoch,
                                                         needle) -> None:
-    from vptoolkit.dataset.release_options import release_created
+    from vptoolkit.dataset.release.options import release_created
 
     if epoch is None:
         monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
@@ -550,7 +550,7 @@ def test_release_times_beyond_the_calendar_are_one_line(monkeypatch, created, ep
 
 
 def test_release_times_before_the_year_1000_keep_four_digits(monkeypatch) -> None:
-    from vptoolkit.dataset.release_options import release_created
+    from vptoolkit.dataset.release.options import release_created
 
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
     assert release_created("1000-01-01T00:00:00+01:00", None) == "0999-12-31T23:00:00Z"
@@ -575,7 +575,7 @@ def test_cli_pack_refuses_a_created_beyond_9999_in_one_line(tmp_path: Path) -> N
 
 def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
         release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     (release_copy / "SHA256SUMS").unlink()
     (release_copy / "croissant.json").unlink()
@@ -586,7 +586,7 @@ def test_verify_without_manifest_and_croissant_checks_every_archive_and_fails(
 
 
 def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     (release_copy / "notes.txt").write_text("added")
     (release_copy / "data" / "extra.parquet").write_bytes(b"x")
@@ -596,7 +596,7 @@ def test_verify_names_every_unlisted_file(release_copy: Path) -> None:
 
 
 def test_verify_blames_the_manifest_for_a_bad_digest_line(release_copy: Path) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     manifest = release_copy / "SHA256SUMS"
     lines = manifest.read_text().splitlines()
@@ -613,14 +613,14 @@ def test_verify_skips_an_archive_it_cannot_open_for_lack_of_a_package(
     from click.testing import CliRunner
 
     from vptoolkit.cli import main
-    from vptoolkit.dataset import reader
+    from vptoolkit.dataset.store import reader
 
     def no_zarr() -> None:
         raise MissingDependencyError("zarr: not importable; install it with pip install "
                                      "'vptoolkit[dataset]'")
 
     monkeypatch.setattr(reader, "require_zarr", no_zarr)
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     report = verify(release_copy)
     assert report.problems == [] and report.ok  # the files and the HDF5 arrays were verified
@@ -656,7 +656,7 @@ def test_verify_prints_its_summary_once(release_copy: Path) -> None:
 
 def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypatch) -> None:
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset import containers
+    from vptoolkit.dataset.store import containers
 
     monkeypatch.setattr(containers, "zarr_is_usable", lambda: False)
     with open_dataset(release.path) as dataset:
@@ -666,7 +666,7 @@ def test_open_dataset_falls_back_to_the_container_it_can_read(release, monkeypat
 def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
     import types
 
-    from vptoolkit.dataset import containers, reader
+    from vptoolkit.dataset.store import containers, reader
 
     old = types.SimpleNamespace(__version__="2.18.3")
     monkeypatch.setattr(containers, "require", lambda module, extra=None: old)
@@ -679,7 +679,7 @@ def test_an_old_zarr_says_what_to_install(monkeypatch, release) -> None:
 
 @pytest.fixture(scope="module")
 def parquet_release(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     base = tmp_path_factory.mktemp("parquet-only")
     build = _write_build(base / "build")
@@ -741,8 +741,8 @@ def test_open_dataset_says_how_to_read_a_parquet_only_release(parquet_release: P
 
 
 def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) -> None:
-    from vptoolkit.dataset.descriptions import update_card
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.descriptions import update_card
+    from vptoolkit.dataset.release.manifest import verify
 
     before = {p.name: p.read_bytes() for p in release_copy.iterdir() if p.is_file()}
     assert update_card(release_copy) == ["croissant.json", "SHA256SUMS"]
@@ -762,7 +762,7 @@ def test_update_card_rewrites_croissant_and_manifest_only(release_copy: Path) ->
 
 
 def test_update_card_refuses_when_an_archive_changed(release_copy: Path) -> None:
-    from vptoolkit.dataset.descriptions import update_card
+    from vptoolkit.dataset.release.descriptions import update_card
 
     archive = release_copy / "mini.h5"
     data = bytearray(archive.read_bytes())
@@ -826,7 +826,7 @@ def _tamper_card_link(release_copy: Path) -> None:
     (_tamper_card_link, r"README.md: a symbolic link"),
 ], ids=["unlisted-shard", "edited-croissant", "card-symlink"])
 def test_update_card_blesses_only_the_card(release_copy: Path, tamper, message: str) -> None:
-    from vptoolkit.dataset.manifest import verify
+    from vptoolkit.dataset.release.manifest import verify
 
     tamper(release_copy)
     before = {name: (release_copy / name).read_bytes()
@@ -842,7 +842,7 @@ def test_update_card_blesses_only_the_card(release_copy: Path, tamper, message: 
 
 def test_update_card_puts_croissant_back_when_the_manifest_cannot_be_written(
         release_copy: Path, monkeypatch) -> None:
-    from vptoolkit.dataset import descriptions
+    from vptoolkit.dataset.release import descriptions
 
     card = release_copy / "README.md"
     card.write_text(card.read_text(encoding="utf-8") + "\nA correction.\n", encoding="utf-8")
@@ -921,7 +921,7 @@ def test_plain_install_needs_no_heavy_package() -> None:
 
 
 def test_the_sample_licence_table_covers_every_sample_mesh() -> None:
-    from vptoolkit.dataset.licenses import read_licenses
+    from vptoolkit.dataset.release.licenses import read_licenses
     from vptoolkit.samples import sample_names, sample_path
 
     table = read_licenses(sample_path("bunny.ply").parent / "LICENSES.csv")
@@ -1091,7 +1091,7 @@ def test_pack_without_a_licence_warns_on_stderr(tmp_path: Path) -> None:
 
 def test_card_states_modelnet_terms_lists_the_loaded_columns_and_names_mlcroissant(
         release) -> None:
-    from vptoolkit.dataset.card import MODELNET_TERMS, _terms_block
+    from vptoolkit.dataset.release.card import MODELNET_TERMS, _terms_block
 
     card = release.card.read_text(encoding="utf-8")
     assert MODELNET_TERMS in card  # the source, ModelNet40-mini, is recognised
@@ -1105,7 +1105,7 @@ def test_card_states_modelnet_terms_lists_the_loaded_columns_and_names_mlcroissa
 
 
 def test_a_licence_given_by_url_is_other_on_the_hub_with_its_link(tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     url = "https://example.org/terms"
     result = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
@@ -1117,7 +1117,7 @@ def test_a_licence_given_by_url_is_other_on_the_hub_with_its_link(tmp_path: Path
 
 
 def test_the_same_build_and_shard_size_pack_to_the_same_bytes(sharded, tmp_path: Path) -> None:
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     again = pack_release(_write_build(tmp_path / "build"), tmp_path / "release",
                          ReleaseOptions(created=CREATED, shard_size="30KB"))

@@ -11,7 +11,7 @@ from fixtures.environment import require_package
 from fixtures.releases import release_attrs, release_models, write_release_build
 from fixtures.stores import synthetic_entries, write_synthetic
 from vptoolkit.cli import main
-from vptoolkit.dataset.licenses import (
+from vptoolkit.dataset.release.licenses import (
     AUTHORS_SOURCE,
     MODELNET_SOURCE,
     SHAPENET_SOURCE,
@@ -21,7 +21,7 @@ from vptoolkit.dataset.licenses import (
     same_license,
     source_terms,
 )
-from vptoolkit.dataset.release_options import ReleaseOptions
+from vptoolkit.dataset.release.options import ReleaseOptions
 from vptoolkit.errors import InputError
 
 

@@ -25,8 +25,8 @@ from vptoolkit.cli import main
 from vptoolkit.data import open_dataset
 from vptoolkit.data import download, ranges, remote
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
-from vptoolkit.dataset.manifest import write_sha256sums
-from vptoolkit.dataset.release_options import ReleaseOptions
+from vptoolkit.dataset.release.manifest import write_sha256sums
+from vptoolkit.dataset.release.options import ReleaseOptions
 from vptoolkit.errors import InputError, VerificationError
 
 
@@ -41,7 +41,7 @@ def release(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A release with Parquet shards and an HDF5 archive (the default formats)."""
     require_package("h5py")
     require_package("pyarrow")
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     base = tmp_path_factory.mktemp("remote")
     write_release_build(base / "build")

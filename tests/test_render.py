@@ -278,7 +278,7 @@ def test_documented_return_shapes(renderer, cube):
 
 @pytest.mark.renderer
 def test_render_best_draws_the_best_view(renderer, cube):
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
 
     quality = compute_view_quality(cube, MeasureSettings(views=60, resolution=48))
     for column, measure in enumerate(MEASURES):

@@ -201,7 +201,7 @@ def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
 
 
 def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: Path, cube):
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map_file
 
     quality_path = compute_view_quality(cube, MeasureSettings(views=100, resolution=32)).save_npz(
@@ -239,8 +239,8 @@ def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message)
 def write_store(path: Path, build: dict[str, Any] = BUILD) -> Path:
     """A small dataset store of trimesh primitives with made-up smooth quality."""
     require_package("zarr")
-    from vptoolkit.dataset.schema import ModelEntry
-    from vptoolkit.dataset.writer import write_dataset
+    from vptoolkit.dataset.store.schema import ModelEntry
+    from vptoolkit.dataset.store.writer import write_dataset
 
     views = fibonacci_sphere(N_VIEWS)
     entries = []
@@ -322,7 +322,7 @@ def cards(page: str) -> list[dict[str, str]]:
 def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
     page = full_report.read_text(encoding="utf-8")
     assert full_report.name == "index.html"
-    from vptoolkit.dataset.schema import published_split
+    from vptoolkit.dataset.store.schema import published_split
 
     assert cards(page) == [{"name": n, "category": c, "split": published_split(s)}
                            for c, n, s, _ in MODELS]

@@ -14,7 +14,7 @@ from vptoolkit.camera import Camera
 from vptoolkit.conventions import N_VIEWS, RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.contact_sheet import view_set_sheet
 from vptoolkit.pictures.thumbnails import render_thumbnails

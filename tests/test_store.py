@@ -27,9 +27,9 @@ from fixtures.stores import (
     write_synthetic,
 )
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.containers import find_store, store_kind
-from vptoolkit.dataset.reader import open_store
-from vptoolkit.dataset.schema import (
+from vptoolkit.dataset.store.containers import find_store, store_kind
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
     BUILD_ATTRS,
     FORMAT_NAME,
@@ -41,7 +41,7 @@ from vptoolkit.dataset.schema import (
     json_bytes,
     string_values,
 )
-from vptoolkit.dataset.writer import write_dataset
+from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.sphere import fibonacci_sphere
 

@@ -12,7 +12,7 @@ from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.predictions import read_predictions

@@ -1,7 +1,7 @@
 """Benchmark of best-view answers: quality against cost, under rotation, in one run.
 
 For every mesh file under MESH_DIR (the bundled samples by default) the labels
-are built once with :func:`vptoolkit.dataset.build.build_dataset` (cleaned, 1000
+are built once with :func:`vptoolkit.dataset.build.run.build_dataset` (cleaned, 1000
 views at 256 px, the paper's scoring grid) and cached under ``--cache``. Then
 every answer below sees the user's raw file under ``--rotations`` fixed
 rotations per mesh (:func:`vptoolkit.rotations.fixed_rotations`), its answer is
@@ -73,14 +73,14 @@ from results_doc import (
 
 from vptoolkit.best_view import SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build import build_dataset
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.sources import discover_models
+from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.build.sources import discover_models
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar

@@ -1,4 +1,4 @@
-"""Benchmark of :func:`vptoolkit.dataset.build.build_dataset`: models per hour and bytes per model.
+"""Benchmark of :func:`vptoolkit.dataset.build.run.build_dataset`: models per hour and bytes per model.
 
 Makes a ModelNet-style tree from the bundled sample meshes (every sample,
 ``--copies`` times under new names, spread over three categories and
@@ -58,12 +58,12 @@ from typing import Any
 
 from results_doc import add_results_option, printed_section
 
-from vptoolkit.dataset.build import BuildResult, build_dataset
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.reader import StoreReader, open_store
-from vptoolkit.dataset.schema import ModelEntry
-from vptoolkit.dataset.staging import STAGING_DIR
-from vptoolkit.dataset.writer import write_dataset
+from vptoolkit.dataset.build.run import BuildResult, build_dataset
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.store.reader import StoreReader, open_store
+from vptoolkit.dataset.store.schema import ModelEntry
+from vptoolkit.dataset.build.staging import STAGING_DIR
+from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
 from vptoolkit.settings import MeasureSettings
@@ -113,7 +113,7 @@ def cpu_seconds() -> float:
 _CHILD_BUILD = """
 import json, resource, sys, time
 import vptoolkit
-from vptoolkit.dataset.build import build_dataset
+from vptoolkit.dataset.build.run import build_dataset
 def cpu_seconds():
     own = resource.getrusage(resource.RUSAGE_SELF)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -121,7 +121,7 @@ def cpu_seconds():
 options = json.loads(sys.argv[3])
 started, cpu_started = time.perf_counter(), cpu_seconds()
 try:
-    from vptoolkit.dataset.build_options import BuildOptions
+    from vptoolkit.dataset.build.options import BuildOptions
     from vptoolkit.settings import MeasureSettings
 except ImportError:  # a baseline whose build_dataset takes the options as keywords
     result = build_dataset(sys.argv[1], sys.argv[2], **options)

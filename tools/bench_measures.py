@@ -45,7 +45,7 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings

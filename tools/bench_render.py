@@ -34,7 +34,7 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.errors import MeasurementError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.pictures.open3d_engine import Renderer
 from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.samples import sample_path

@@ -29,7 +29,7 @@ from typing import Any
 from results_doc import add_results_option, printed_section
 
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.synthetic import make_shape

@@ -65,8 +65,8 @@ from results_doc import (
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build import build_dataset
-from vptoolkit.dataset.build_options import BuildOptions
+from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -83,7 +83,7 @@ from vptoolkit.learn.options import TrainOptions
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.learn.schedule import scaled_lr_step
 from vptoolkit.learn.train import train_model, train_per_category
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.synthetic import CATEGORIES, write_collection

@@ -82,7 +82,7 @@ from results_doc import (
 from vptoolkit.conventions import MEASURES, RESOLUTION
 from vptoolkit.geometry import face_areas, face_normals
 from vptoolkit.io import load_mesh
-from vptoolkit.measures import compute_view_quality
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import poisson_disk_points, sample_surface
 from vptoolkit.samples import sample_path
@@ -589,8 +589,8 @@ def section_robustness(options: RunOptions) -> Section:
     from tqdm import tqdm
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.build import build_dataset
-    from vptoolkit.dataset.build_options import BuildOptions
+    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.build.options import BuildOptions
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,

@@ -54,7 +54,7 @@ from vptoolkit.errors import (
     VptoolkitError,
 )
 from vptoolkit.io import load_mesh, save_mesh
-from vptoolkit.measures import ViewQuality, compute_view_quality
+from vptoolkit.measures.quality import ViewQuality, compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 

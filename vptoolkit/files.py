@@ -28,6 +28,7 @@ import os
 import re
 import secrets
 import shutil
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path, PurePosixPath, PureWindowsPath
@@ -42,6 +43,7 @@ except ImportError:  # Windows: no advisory locks, nothing is held
 from vptoolkit.errors import InputError
 
 __all__ = [
+    "BLOCK_SIZE",
     "atomic_write",
     "check_output_folder",
     "check_path_part",
@@ -52,6 +54,7 @@ __all__ = [
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
+    "sha256_file",
     "stale_partials",
     "temporary_name",
     "temporary_prefix",
@@ -409,3 +412,49 @@ def read_json_file(path: str | os.PathLike[str], label: str | None = None) -> An
     except OSError as err:
         raise InputError(f"{label}: cannot read ({one_line(err.strerror or err)})") from err
     return parse_json(data, label)
+
+
+BLOCK_SIZE = 1 << 20
+"""Bytes read per step while hashing or copying a file (1 MiB)."""
+
+
+def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
+    """Return the SHA-256 hex digest of a file, read in blocks.
+
+    Parameters
+    ----------
+    path : Path or str
+        The file.
+    block_size : int
+        Bytes read per step (default: 1 MiB).
+
+    Returns
+    -------
+    str
+        64 lower-case hex digits.
+
+    Raises
+    ------
+    InputError
+        If ``path`` is not a regular file (a named pipe is never waited on).
+    OSError
+        If it cannot be opened or read.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> file = pathlib.Path(tempfile.mkdtemp()) / "abc.txt"
+    >>> _ = file.write_bytes(b"abc")
+    >>> sha256_file(file)[:16]
+    'ba7816bf8f01cfea'
+    """
+    digest = hashlib.sha256()
+    # Opened without blocking, so a named pipe (or a device) is refused instead of
+    # waiting forever for a writer.
+    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(handle, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(handle).st_mode):
+            raise InputError(f"{Path(path).name}: not a regular file")
+        while block := stream.read(block_size):
+            digest.update(block)
+    return digest.hexdigest()

@@ -129,7 +129,7 @@ def claim_name(names: set[str], name: str) -> None:
 
 def _is_dataset(path: Path) -> bool:
     """Whether ``path`` may hold a dataset: a folder, or a file a store container claims."""
-    from vptoolkit.dataset.containers import store_kind
+    from vptoolkit.dataset.store.containers import store_kind
 
     if path.is_dir():
         return True

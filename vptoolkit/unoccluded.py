@@ -54,7 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
-from vptoolkit.measures import ranked_views
+from vptoolkit.measures.quality import ranked_views
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.sphere import (

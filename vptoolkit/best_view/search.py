@@ -59,7 +59,7 @@ from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, measure_index
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.measures import quality_from_histograms, ranked_views
+from vptoolkit.measures.quality import quality_from_histograms, ranked_views
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION
 from vptoolkit.sphere import as_directions, coarse_directions

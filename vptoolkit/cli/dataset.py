@@ -25,11 +25,11 @@ from vptoolkit.cli.options import (
     workers_option,
 )
 from vptoolkit.conventions import DATASET_VERSION, SEED
-from vptoolkit.dataset.authors import AUTHORS_RESOLUTION
-from vptoolkit.dataset.build_options import DEFAULT_FORMAT, FORMATS
-from vptoolkit.dataset.parquet import DEFAULT_SHARD_BYTES
-from vptoolkit.dataset.plan import CALIBRATION_MODELS
-from vptoolkit.dataset.release_options import (
+from vptoolkit.dataset.authors.importer import AUTHORS_RESOLUTION
+from vptoolkit.dataset.build.options import DEFAULT_FORMAT, FORMATS
+from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
+from vptoolkit.dataset.build.plan import CALIBRATION_MODELS
+from vptoolkit.dataset.release.options import (
     DEFAULT_FORMATS,
     DEFAULT_LICENSE,
     DEFAULT_NAME,
@@ -91,8 +91,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
     """
-    from vptoolkit.dataset.build import build_dataset as build
-    from vptoolkit.dataset.build_options import BuildOptions, SplitFile
+    from vptoolkit.dataset.build.run import build_dataset as build
+    from vptoolkit.dataset.build.options import BuildOptions, SplitFile
     from vptoolkit.settings import MeasureSettings
 
     if remesh and no_clean:
@@ -106,7 +106,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
         splits=None if split_file is None else SplitFile.read(split_file),
         max_models=max_models, format=store_format)
     if dry_run:
-        from vptoolkit.dataset.plan import plan_build
+        from vptoolkit.dataset.build.plan import plan_build
 
         plan = plan_build(src, out, options, categories=chosen, progress=True,
                           calibrate=CALIBRATION_MODELS if calibrate is None else calibrate,
@@ -191,7 +191,7 @@ def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
       vptool pack --update-card release/
     """
     if update_card:
-        from vptoolkit.dataset.descriptions import update_card as rewrite
+        from vptoolkit.dataset.release.descriptions import update_card as rewrite
 
         if release_dir is not None:
             raise InputError("--update-card: takes the release folder only, no RELEASE_DIR")
@@ -200,7 +200,7 @@ def pack(dataset: Path, release_dir: Path | None, name: str, license_id: str,
         return
     if release_dir is None:
         raise InputError("RELEASE_DIR: missing (only --update-card takes one folder)")
-    from vptoolkit.dataset.release import pack_release
+    from vptoolkit.dataset.release.pack import pack_release
 
     chosen = [part.strip() for part in formats.split(",") if part.strip()]
     with options_named(shard_size="--shard-size", license="--license"):
@@ -240,7 +240,7 @@ def verify(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
       vptool verify release/
       vptool verify https://example.org/viewpoints/ --cache-dir cache/
     """
-    from vptoolkit.dataset.manifest import verify as verify_path
+    from vptoolkit.dataset.release.manifest import verify as verify_path
 
     report = verify_path(local_dataset(path, cache_dir, everything=True))
     # The summary is printed once: on stdout when all is well, else as the error line.
@@ -269,7 +269,7 @@ def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
       vptool info release/
       vptool info https://example.org/viewpoints/
     """
-    from vptoolkit.dataset.info import dataset_info, format_info
+    from vptoolkit.dataset.store.info import dataset_info, format_info
 
     details = dataset_info(local_dataset(path, cache_dir))
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
@@ -302,7 +302,7 @@ def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: boo
       vptool import-authors data/ModelNet40 out/ \\
           --categories airplane,bench,bottle,car,chair,sofa,table,toilet --check 20
     """
-    from vptoolkit.dataset.authors import import_authors as run_import
+    from vptoolkit.dataset.authors.importer import import_authors as run_import
 
     chosen = comma_list(categories)
     result = run_import(tree, out, categories=chosen, meshes=not no_meshes, progress=True)
@@ -312,7 +312,7 @@ def import_authors(tree: Path, out: Path, categories: str | None, no_meshes: boo
     for failure in result.failures:
         click.echo(f"  failed {failure['source']}: {failure['reason']}", err=True)
     if n_check is not None:
-        from vptoolkit.dataset.authors_check import check_measures
+        from vptoolkit.dataset.authors.check import check_measures
 
         check = check_measures(result.path, n_check, resolution=check_resolution,
                                progress=True)
@@ -344,7 +344,7 @@ def export_authors(dataset: Path, out: Path) -> None:
     Example:
       vptool export-authors out/ viewpoint_learning/data/mine
     """
-    from vptoolkit.dataset.authors_export import export_authors as run_export
+    from vptoolkit.dataset.authors.export import export_authors as run_export
 
     result = run_export(dataset, out, progress=True)
     click.echo(f"exported {result.n_models} models into {result.path}")
@@ -383,8 +383,8 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
       vptool split meshes/ -o splits.csv --validation 0.1
       vptool build-dataset meshes/ out/ --splits splits.csv --workers 2
     """
-    from vptoolkit.dataset.sources import discover_models
-    from vptoolkit.dataset.split_files import class_split, write_split_file
+    from vptoolkit.dataset.build.sources import discover_models
+    from vptoolkit.dataset.build.split_files import class_split, write_split_file
 
     chosen = comma_list(categories)
     models = discover_models(src, chosen)

@@ -118,8 +118,8 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
       vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
       vptool train release/ -o per_category/ --per-category --epochs 300
     """
-    from vptoolkit.dataset.containers import find_store
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.containers import find_store
+    from vptoolkit.dataset.store.reader import open_store
     from vptoolkit.learn.options import TrainOptions
     from vptoolkit.learn.train import train_model, train_per_category
     from vptoolkit.points import N_FPS_POINTS, N_SURFACE_POINTS

@@ -1,7 +1,7 @@
 """Load the viewpoint-quality dataset with numpy alone.
 
 :func:`open_dataset` opens a store written by
-:func:`vptoolkit.dataset.writer.write_dataset` (Zarr directory, Zarr zip or
+:func:`vptoolkit.dataset.store.writer.write_dataset` (Zarr directory, Zarr zip or
 HDF5; see ``vptoolkit/dataset_card/SCHEMA.md``) and returns a lazy
 :class:`ViewpointDataset`: the per-model records and the view directions are
 read at once, everything else only when an item is asked for.
@@ -41,9 +41,9 @@ from vptoolkit.camera import Camera
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data.ranges import RangeFile, RemoteArchive
 from vptoolkit.data.remote import fetch_release, is_remote, locate_release
-from vptoolkit.dataset.containers import find_store
-from vptoolkit.dataset.reader import StoreReader, open_store
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.containers import find_store
+from vptoolkit.dataset.store.reader import StoreReader, open_store
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -519,7 +519,7 @@ def open_dataset(path: str | os.PathLike[str], *,
     ----------
     path : path-like or str
         A store (``*.zarr``, ``*.zarr.zip``, ``*.h5``), a build output folder
-        or a release folder (see :func:`vptoolkit.dataset.containers.find_store`);
+        or a release folder (see :func:`vptoolkit.dataset.store.containers.find_store`);
         or the URL of a release folder or archive (``https://...``,
         ``hf://datasets/...``, ``s3://...``), which is downloaded, verified
         against its ``SHA256SUMS`` and read from the local cache

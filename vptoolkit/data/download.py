@@ -51,7 +51,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, BinaryIO, NamedTuple, TypeVar
 
 from vptoolkit.checks import one_line
-from vptoolkit.dataset.manifest import BLOCK_SIZE
+from vptoolkit.files import BLOCK_SIZE
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
 from vptoolkit.files import atomic_write, remove_stale_partials, temporary_prefix
 from vptoolkit.optional import require

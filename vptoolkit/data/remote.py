@@ -28,7 +28,7 @@ changed.
 By default only what reading needs is fetched: ``croissant.json`` (which
 records the size of every file), the terms of use (the card ``README.md`` and
 ``LICENSES.csv``) and one archive, the one this install reads
-(:func:`~vptoolkit.dataset.containers.archive_preference`); other names the
+(:func:`~vptoolkit.dataset.store.containers.archive_preference`); other names the
 manifest lists are not downloaded. ``everything=True`` fetches every file
 (what ``vptool verify`` checks). :func:`locate_release` fetches the same but
 leaves an HDF5 archive that is not cached on an http(s) server that serves
@@ -73,10 +73,11 @@ from vptoolkit.data.download import (
     source_of,
 )
 from vptoolkit.data.ranges import RemoteArchive
-from vptoolkit.dataset.containers import archive_preference, store_kind
-from vptoolkit.dataset.descriptions import CROISSANT_NAME
-from vptoolkit.dataset.licenses import LICENSES_NAME
-from vptoolkit.dataset.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums, sha256_file
+from vptoolkit.dataset.store.containers import archive_preference, store_kind
+from vptoolkit.dataset.release.descriptions import CROISSANT_NAME
+from vptoolkit.dataset.release.licenses import LICENSES_NAME
+from vptoolkit.dataset.release.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums
+from vptoolkit.files import sha256_file
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     parse_json,

@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS

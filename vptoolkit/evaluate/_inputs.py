@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data import ViewpointDataset
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import is_zero_length
 

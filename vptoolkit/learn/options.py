@@ -33,7 +33,7 @@ from vptoolkit.checks import (
     short_repr,
 )
 from vptoolkit.conventions import SEED, SPLITS
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.learn.schedule import (
     PAPER_BATCH_SIZE,

@@ -106,7 +106,7 @@ class Measure:
 @cache
 def all_measures() -> Mapping[str, Measure]:
     """Every registered measure by name, in family order and then by rank."""
-    from vptoolkit.measures import catalog
+    import vptoolkit.measures.catalog as catalog
 
     found: list[Measure] = []
     for module in pkgutil.iter_modules(catalog.__path__):

@@ -119,7 +119,7 @@ class _Measured:
 def _best_direction_task(task: _MeasureTask) -> _Measured:
     """Worker: load a mesh and find its best view or view set (top level, so a pool can run it)."""
     from vptoolkit.io import load_mesh
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
 
     try:
         mesh = load_mesh(task.path)

@@ -34,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
-from vptoolkit.measures import ViewQuality
+from vptoolkit.measures.quality import ViewQuality
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.settings import MeasureSettings, check_settings
@@ -217,7 +217,7 @@ def render_best(
     column = measure_index(measure)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     if quality is None:
-        from vptoolkit.measures import compute_view_quality
+        from vptoolkit.measures.quality import compute_view_quality
 
         quality = compute_view_quality(mesh, settings)
     index = int(quality.best_index[column])

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.checks import check_int
 from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
-from vptoolkit.measures import (
+from vptoolkit.measures.quality import (
     ViewQuality,
     compute_view_quality,
 )

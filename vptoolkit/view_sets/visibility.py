@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures import (
+from vptoolkit.measures.quality import (
     normalize_quality,
     progress_runs,
     quality_from_histograms,

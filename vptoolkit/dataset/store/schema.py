@@ -96,7 +96,7 @@ BUILD_ATTRS = (
     "created",
 )
 """Root attributes the build must pass to
-:func:`~vptoolkit.dataset.writer.write_dataset` in ``attrs``."""
+:func:`~vptoolkit.dataset.store.writer.write_dataset` in ``attrs``."""
 
 WRITER_ATTRS = (
     "format",
@@ -109,7 +109,7 @@ WRITER_ATTRS = (
     "n_failures",
     "class_names",
 )
-"""Root attributes :func:`~vptoolkit.dataset.writer.write_dataset` sets itself
+"""Root attributes :func:`~vptoolkit.dataset.store.writer.write_dataset` sets itself
 (``class_names`` may also be passed, see :func:`class_names`)."""
 
 SPLIT_ALIASES = {"val": "validation"}
@@ -216,9 +216,9 @@ _HASH_BLOCK_BYTES = 1 << 26  # bytes read at a time when hashing a lazy array
 class ModelEntry:
     """One model as it goes into or comes out of a store.
 
-    :func:`~vptoolkit.dataset.writer.write_dataset` checks shapes and casts
+    :func:`~vptoolkit.dataset.store.writer.write_dataset` checks shapes and casts
     the arrays to the stored dtypes given below;
-    :meth:`~vptoolkit.dataset.reader.StoreReader.entry` returns them in those
+    :meth:`~vptoolkit.dataset.store.reader.StoreReader.entry` returns them in those
     dtypes.
 
     Attributes

@@ -1,13 +1,13 @@
 """The description files of a release: the card, ``croissant.json`` and ``dataset_info.json``.
 
-:func:`pack_release <vptoolkit.dataset.release.pack_release>` writes the
+:func:`pack_release <vptoolkit.dataset.release.pack.pack_release>` writes the
 card (``README.md``) and then ``croissant.json`` from it
 (:func:`write_descriptions`: the card's SHA-256, size and ``rai:`` fields
 go into the JSON-LD). A person may edit the card of a packed release later;
 :func:`update_card` then rewrites ``croissant.json`` and ``SHA256SUMS`` to
 match, after checking that nothing else changed, nothing was added and no
 file is a symbolic link. What a publisher gave at packing
-(:class:`~vptoolkit.dataset.release_options.ReleaseOptions`) stays in
+(:class:`~vptoolkit.dataset.release.options.ReleaseOptions`) stays in
 ``croissant.json``, so the rewrite says the same.
 """
 
@@ -19,21 +19,21 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vptoolkit.dataset.croissant import croissant_jsonld, rai_field_sources, rai_fields
-from vptoolkit.dataset.manifest import (
+from vptoolkit.dataset.release.croissant import croissant_jsonld, rai_field_sources, rai_fields
+from vptoolkit.files import sha256_file
+from vptoolkit.dataset.release.manifest import (
     CARD_NAME,
     MANIFEST_NAME,
     format_sha256sums,
     read_sha256sums,
-    sha256_file,
 )
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import json_text, parse_json, write_bytes_atomic, write_json_atomic
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.parquet import ParquetShard
-    from vptoolkit.dataset.reader import StoreReader
-    from vptoolkit.dataset.release_options import ReleaseOptions
+    from vptoolkit.dataset.release.parquet import ParquetShard
+    from vptoolkit.dataset.store.reader import StoreReader
+    from vptoolkit.dataset.release.options import ReleaseOptions
 
 __all__ = ["CROISSANT_NAME", "INFO_NAME", "update_card", "write_descriptions", "write_json"]
 
@@ -94,7 +94,7 @@ def update_card(release_dir: Path | str) -> list[str]:
     correction). This rewrites what depends on it: in ``croissant.json`` the
     card's SHA-256 and size and the ``rai:`` fields taken from the datasheet
     text, then ``SHA256SUMS``. The datasheet's headings and bullets are where
-    the RAI fields live (:func:`~vptoolkit.dataset.croissant.rai_field_sources`):
+    the RAI fields live (:func:`~vptoolkit.dataset.release.croissant.rai_field_sources`):
     a card that lost one that ``croissant.json`` holds is refused rather than
     the field silently dropped. Every other file, ``croissant.json`` included,
     must be what the manifest lists, so the rewrite starts from the metadata

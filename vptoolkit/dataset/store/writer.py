@@ -8,7 +8,7 @@ array's SHA-256; the second writes the rows in chunks and checks that every
 entry reads the same as on the first pass. The store is written next to its
 target under a temporary name and moved into place at the end, so a reader
 never sees a part. The containers' own code lives in
-:mod:`vptoolkit.dataset._zarr` and :mod:`vptoolkit.dataset._hdf5`.
+:mod:`vptoolkit.dataset.store._zarr` and :mod:`vptoolkit.dataset.store._hdf5`.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
-from vptoolkit.dataset.containers import require_zarr, store_kind
-from vptoolkit.dataset.schema import (
+from vptoolkit.dataset.store.containers import require_zarr, store_kind
+from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
     BUILD_ATTRS,
     FAILURE_KEYS,
@@ -441,7 +441,7 @@ def write_dataset(
         exactly twice. Sorted by ``(category, name)``, names unique, names
         and categories usable as file names (:func:`~vptoolkit.files.check_path_part`),
         normals of unit length (within
-        :data:`~vptoolkit.dataset.schema.NORMAL_TOLERANCE`), the same
+        :data:`~vptoolkit.dataset.store.schema.NORMAL_TOLERANCE`), the same
         number of points in every entry and ``len(views)`` rows of quality.
         May be empty: the store then has zero models (and ``n_points`` 0).
     attrs : mapping
@@ -537,11 +537,11 @@ def write_dataset(
             # HDF5 locks the file it writes itself, and a second lock would make its own fail.
             with nullcontext() if kind == "hdf5" else held(temporary):
                 if kind == "hdf5":
-                    from vptoolkit.dataset._hdf5 import Hdf5Sink
+                    from vptoolkit.dataset.store._hdf5 import Hdf5Sink
 
                     sink: _Sink = Hdf5Sink(temporary, root_attrs)
                 else:
-                    from vptoolkit.dataset._zarr import ZarrSink
+                    from vptoolkit.dataset.store._zarr import ZarrSink
 
                     sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
                 try:

@@ -10,7 +10,7 @@ The authors' tree (one folder per data set, e.g. ``data/ModelNet40``)::
     best_views/vq<k>/best/<cat>/<folder>/<name>.txt      max, min, best view x, y, z (5 lines)
 
 ``<folder>`` is ModelNet's ``train`` or ``test`` folder, not the paper's split
-(that is :func:`vptoolkit.dataset.split_files.paper_split` of the line's
+(that is :func:`vptoolkit.dataset.build.split_files.paper_split` of the line's
 position in ``small.txt``). Every file is comma-separated text.
 
 Measures
@@ -42,12 +42,12 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
-from vptoolkit.dataset.schema import ModelEntry, normal_length_problem, published_split
-from vptoolkit.dataset.split_files import ListedModel, paper_splits, read_model_list
-from vptoolkit.dataset.writer import write_dataset
+from vptoolkit.dataset.store.schema import ModelEntry, normal_length_problem, published_split
+from vptoolkit.dataset.build.split_files import ListedModel, paper_splits, read_model_list
+from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
-from vptoolkit.files import check_path_part, stale_partials
-from vptoolkit.measures import normalize_quality
+from vptoolkit.files import check_path_part, sha256_file, stale_partials
+from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -103,14 +103,6 @@ class ImportResult:
 
 
 # --------------------------------------------------------------------------- reading
-
-
-def _sha256_file(path: Path) -> str:
-    hasher = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            hasher.update(block)
-    return hasher.hexdigest()
 
 
 def _read_table(path: Path, columns: int, rows: int | None, what: str) -> NDArray[np.float64]:
@@ -223,11 +215,11 @@ def _read_model(tree: Path, listed: _Listed, *, meshes: bool) -> ModelEntry:
 
         mesh = load_mesh(mesh_file)
         vertices, faces = mesh.vertices, mesh.faces
-        digest = _sha256_file(mesh_file)
+        digest = sha256_file(mesh_file)
     else:
         vertices = np.zeros((0, 3), dtype=np.float32)
         faces = np.zeros((0, 3), dtype=np.int32)
-        digest = _sha256_file(tree / "pts_unif" / f"{stem}.txt")
+        digest = sha256_file(tree / "pts_unif" / f"{stem}.txt")
     return ModelEntry(
         name=listed.model.name,
         category=listed.model.category,
@@ -288,7 +280,7 @@ def import_authors(
         Import only these categories (default: all). The paper's split index
         counts only their lines of ``small.txt``, as in the authors' loader,
         so the paper's eight categories
-        (:data:`~vptoolkit.dataset.split_files.PAPER_CATEGORIES`) give the
+        (:data:`~vptoolkit.dataset.build.split_files.PAPER_CATEGORIES`) give the
         paper's split.
     meshes : bool
         Read and store ``objfiles/`` (default: True); without, each model
@@ -389,7 +381,7 @@ def import_authors(
             n_points = count
             seen.add(item.model.name)
             good.append(item)
-            file_sums += [f"{_sha256_file(path)}  {path.relative_to(root).as_posix()}"
+            file_sums += [f"{sha256_file(path)}  {path.relative_to(root).as_posix()}"
                           for path in _model_files(root, item, meshes)]
 
     good.sort(key=lambda item: (item.model.category, item.model.name))
@@ -411,7 +403,7 @@ def import_authors(
                           "0-7 train, 8 validation, 9 test",
             "categories": sorted(wanted) if wanted is not None else None,
             "meshes": meshes,
-            "small_txt_sha256": _sha256_file(root / MODEL_LIST),
+            "small_txt_sha256": sha256_file(root / MODEL_LIST),
             "files_sha256": files_digest,
             "n_files": len(file_sums),
         },

@@ -56,12 +56,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES, SPLITS
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = [
     "DEFAULT_SHARD_BYTES",

@@ -24,15 +24,13 @@ from pathlib import Path
 from typing import Any, Literal
 
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import is_inside_folder, read_json_file, write_text_atomic
+from vptoolkit.files import is_inside_folder, read_json_file, sha256_file, write_text_atomic
 
 __all__ = [
     "MANIFEST_NAME",
     "CARD_NAME",
-    "BLOCK_SIZE",
     "Problem",
     "VerifyReport",
-    "sha256_file",
     "hash_folder",
     "format_sha256sums",
     "write_sha256sums",
@@ -46,9 +44,6 @@ MANIFEST_NAME = "SHA256SUMS"
 
 CARD_NAME = "README.md"
 """File name of the dataset card inside a release folder (the hub reads it there)."""
-
-BLOCK_SIZE = 1 << 20
-"""Bytes read per step while hashing a file (1 MiB)."""
 
 _HEX = re.compile(r"[0-9a-f]{64}")
 _LINE = re.compile(r"^(?P<digest>[0-9a-fA-F]{64}) (?P<mode>[ *])(?P<path>.+)$")
@@ -192,48 +187,6 @@ class VerifyReport:
             "warnings": [problem.to_dict() for problem in self.warnings],
             "skipped": [problem.to_dict() for problem in self.skipped],
         }
-
-
-def sha256_file(path: Path | str, *, block_size: int = BLOCK_SIZE) -> str:
-    """Return the SHA-256 hex digest of a file, read in blocks.
-
-    Parameters
-    ----------
-    path : Path or str
-        The file.
-    block_size : int
-        Bytes read per step (default: 1 MiB).
-
-    Returns
-    -------
-    str
-        64 lower-case hex digits.
-
-    Raises
-    ------
-    InputError
-        If ``path`` is not a regular file (a named pipe is never waited on).
-    OSError
-        If it cannot be opened or read.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> file = pathlib.Path(tempfile.mkdtemp()) / "abc.txt"
-    >>> _ = file.write_bytes(b"abc")
-    >>> sha256_file(file)[:16]
-    'ba7816bf8f01cfea'
-    """
-    digest = hashlib.sha256()
-    # Opened without blocking, so a named pipe (or a device) is refused instead of
-    # waiting forever for a writer.
-    handle = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    with os.fdopen(handle, "rb") as stream:
-        if not stat.S_ISREG(os.fstat(handle).st_mode):
-            raise InputError(f"{Path(path).name}: not a regular file")
-        while block := stream.read(block_size):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def _list_files(folder: Path) -> list[str]:
@@ -387,8 +340,8 @@ def _check_arrays(
     store_path: Path, label: str, report: VerifyReport
 ) -> dict[str, str | None]:
     """Re-hash every array of one store; return name -> digest of its content."""
-    from vptoolkit.dataset.reader import open_store
-    from vptoolkit.dataset.schema import array_sha256
+    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.schema import array_sha256
 
     digests: dict[str, str | None] = {}
     try:
@@ -516,7 +469,7 @@ def _verify_release(folder: Path) -> VerifyReport:
     for archive in archives:
         found[archive.name] = _check_arrays(archive, archive.name, report)
     _compare_archives(found, report)
-    from vptoolkit.dataset.parquet import parse_shard_name
+    from vptoolkit.dataset.release.parquet import parse_shard_name
 
     shards = sorted(relative for relative in present if parse_shard_name(relative) is not None)
     intact = [archive for archive in archives
@@ -528,8 +481,8 @@ def _verify_release(folder: Path) -> VerifyReport:
 
 def _compare_shards(folder: Path, archive: Path, shards: list[str], report: VerifyReport) -> None:
     """Flag Parquet shards whose rows differ from the archive's models."""
-    from vptoolkit.dataset.parquet import shard_differences
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.release.parquet import shard_differences
+    from vptoolkit.dataset.store.reader import open_store
 
     try:
         with open_store(archive, check_chunks=False) as reader:
@@ -558,7 +511,7 @@ def verify(path: Path | str) -> VerifyReport:
         Parquet shards only is checked by the manifest alone). An archive, or
         shards, that cannot be read for lack of a package is ``skipped``, not
         damaged. Otherwise any path
-        :func:`vptoolkit.dataset.containers.find_store` accepts (a ``*.zarr``,
+        :func:`vptoolkit.dataset.store.containers.find_store` accepts (a ``*.zarr``,
         ``*.zarr.zip`` or ``*.h5`` store, or a build folder): array checks only.
 
     Returns
@@ -578,7 +531,7 @@ def verify(path: Path | str) -> VerifyReport:
         raise InputError(f"{path}: no such file or folder")
     if path.is_dir() and not path.name.endswith(".zarr") and _is_release_folder(path):
         return _verify_release(path)
-    from vptoolkit.dataset.containers import find_store
+    from vptoolkit.dataset.store.containers import find_store
 
     store_path = find_store(path)
     report = VerifyReport(path=path, kind="store")

@@ -5,7 +5,7 @@ file (arrays plus a JSON ``meta`` member as ``uint8``; nothing pickled),
 and each failed one as one ``.failed.json``, both atomically (temporary
 file in the same folder, fsync, :func:`os.replace`). ``build.json`` there
 holds the options (:meth:`BuildOptions.to_dict
-<vptoolkit.dataset.build_options.BuildOptions.to_dict>`), the toolkit version
+<vptoolkit.dataset.build.options.BuildOptions.to_dict>`), the toolkit version
 and the time the build was first started, and ``lock``
 keeps a second build out. A build killed at any point (even ``kill -9``) is
 resumed by running the same command again (:func:`scan_staging`): staged
@@ -16,7 +16,7 @@ warning. The staging folder is kept after the store is written, so
 rerunning (e.g. after adding models to the source) computes only what is
 new; delete ``OUT/.staging`` to reclaim its space, after which OUT can no
 longer be resumed. :class:`StagedEntries` reads the staged models back as
-the entries of :func:`vptoolkit.dataset.writer.write_dataset`.
+the entries of :func:`vptoolkit.dataset.store.writer.write_dataset`.
 """
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import changed_values, one_line
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.compute import FailedModel, MeasuredModel
-from vptoolkit.dataset.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
-from vptoolkit.dataset.sources import SourceModel
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.build.compute import FailedModel, MeasuredModel
+from vptoolkit.dataset.store.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
+from vptoolkit.dataset.build.sources import SourceModel
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, read_json_file
 

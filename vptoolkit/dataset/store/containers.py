@@ -1,6 +1,6 @@
 """Which container a dataset store path names, and whether this install can read Zarr v3.
 
-One layout (:mod:`vptoolkit.dataset.schema`, described in
+One layout (:mod:`vptoolkit.dataset.store.schema`, described in
 ``vptoolkit/dataset_card/SCHEMA.md``) is stored in one of three containers chosen by
 the file name:
 
@@ -20,17 +20,17 @@ HDF5 cannot hold nested attributes, so in an HDF5 file every root attribute
 that is not a ``str``, ``bool``, ``int`` or ``float`` (``measures``,
 ``higher_is_better``, ``camera``, ``cleaning``, ``split_fractions``, ...) is
 stored as a JSON string, and the root attribute ``json_attributes`` (itself a
-JSON list) names those keys. :class:`~vptoolkit.dataset.reader.StoreReader`
+JSON list) names those keys. :class:`~vptoolkit.dataset.store.reader.StoreReader`
 decodes them, so its ``attrs`` is the same dictionary for every container.
 
 :func:`store_kind` maps a suffix to ``"zarr"``, ``"zarr-zip"`` or ``"hdf5"``;
 :func:`find_store` picks the store a file or folder refers to;
 :func:`zarr_is_usable` and :func:`require_zarr` say whether zarr >= 3 is
 installed (the first without importing it). The writer
-(:mod:`vptoolkit.dataset.writer`) and the reader
-(:mod:`vptoolkit.dataset.reader`) both start here; each container's own
-reading and writing lives in :mod:`vptoolkit.dataset._zarr` and
-:mod:`vptoolkit.dataset._hdf5`, and ``zarr`` or ``h5py`` is imported inside
+(:mod:`vptoolkit.dataset.store.writer`) and the reader
+(:mod:`vptoolkit.dataset.store.reader`) both start here; each container's own
+reading and writing lives in :mod:`vptoolkit.dataset.store._zarr` and
+:mod:`vptoolkit.dataset.store._hdf5`, and ``zarr`` or ``h5py`` is imported inside
 the functions that need it, only the one for the container in use.
 """
 

@@ -6,7 +6,7 @@ the record sets of the Parquet configurations with their columns, and the
 ``rai:`` fields, which :func:`rai_fields` takes from the sections of the
 dataset card (:func:`card_sections`), so the card stays the one place they
 are written. Every number comes from the store's summary
-(:func:`vptoolkit.dataset.info.info_from_reader`).
+(:func:`vptoolkit.dataset.store.info.info_from_reader`).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from vptoolkit.conventions import DATASET_VERSION, SPLITS
-from vptoolkit.dataset.info import CITATION, info_from_reader, plural, source_name
-from vptoolkit.dataset.parquet import (
+from vptoolkit.dataset.store.info import CITATION, info_from_reader, plural, source_name
+from vptoolkit.dataset.release.parquet import (
     VIEWS_CONFIG,
     Column,
     ParquetShard,
@@ -25,7 +25,7 @@ from vptoolkit.dataset.parquet import (
 )
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = ["card_sections", "croissant_jsonld", "rai_field_sources", "rai_fields"]
 
@@ -140,7 +140,7 @@ def croissant_jsonld(
     shards : sequence of ParquetShard, optional
         The Parquet shards. Record sets are read from them (mlcroissant
         reads Parquet, not HDF5 or Zarr): ``models`` (one record per model,
-        the columns of :func:`~vptoolkit.dataset.parquet.model_columns`,
+        the columns of :func:`~vptoolkit.dataset.release.parquet.model_columns`,
         arrays with ``isArray``/``arrayShape``) from the FileSet
         ``model-shards``, and ``views`` from the FileObject of the views shard;
         beside them, given inline, ``splits`` (``cr:Split``, which the

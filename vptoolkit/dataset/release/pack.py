@@ -8,7 +8,7 @@ A release folder holds, for ``name = "vptoolkit-viewpoints"``::
     vptoolkit-viewpoints.zarr.zip          Zarr v3 zip store, the same   (format zarr)
     README.md                       dataset card (hub YAML header + datasheet)
     croissant.json                  Croissant 1.1 JSON-LD, record sets over the Parquet shards
-    dataset_info.json               :func:`~vptoolkit.dataset.info.dataset_info` as JSON
+    dataset_info.json               :func:`~vptoolkit.dataset.store.info.dataset_info` as JSON
     SCHEMA.md                       the layout of the archives
     LICENSES.csv                    per-mesh licence and attribution (with ``licenses``)
     SHA256SUMS                      ``sha256sum`` manifest of every other file
@@ -16,7 +16,7 @@ A release folder holds, for ``name = "vptoolkit-viewpoints"``::
 The file names hold no version (it is in the card, ``croissant.json``,
 ``dataset_info.json`` and the archives' attributes), so a loader's paths
 stay valid from one release to the next. The default formats are
-:data:`~vptoolkit.dataset.release_options.DEFAULT_FORMATS`, Parquet and
+:data:`~vptoolkit.dataset.release.options.DEFAULT_FORMATS`, Parquet and
 HDF5: Parquet for the hub, ``datasets`` and ``mlcroissant``, one archive
 for :mod:`vptoolkit.data` and ``h5py`` on the light install; a Zarr zip
 would be a third full copy of the data.
@@ -27,18 +27,18 @@ compare its ``SHA256SUMS``.
 
 :func:`pack_release` writes all of it into a hidden temporary sibling folder
 and renames that into place at the end, so the release folder either does not
-exist, stays empty, or is complete. :func:`~vptoolkit.dataset.manifest.verify`
-checks a release; :func:`~vptoolkit.dataset.info.dataset_info` and
-:func:`~vptoolkit.dataset.info.format_info` describe one. Packing writes
-``LICENSES.csv`` through :mod:`vptoolkit.dataset.licenses` and the card and
-``croissant.json`` through :mod:`vptoolkit.dataset.descriptions`, which also
-holds :func:`~vptoolkit.dataset.descriptions.update_card`.
+exist, stays empty, or is complete. :func:`~vptoolkit.dataset.release.manifest.verify`
+checks a release; :func:`~vptoolkit.dataset.store.info.dataset_info` and
+:func:`~vptoolkit.dataset.store.info.format_info` describe one. Packing writes
+``LICENSES.csv`` through :mod:`vptoolkit.dataset.release.licenses` and the card and
+``croissant.json`` through :mod:`vptoolkit.dataset.release.descriptions`, which also
+holds :func:`~vptoolkit.dataset.release.descriptions.update_card`.
 
 Size
     About 460 lines for one concept, the packing transaction: checking the
     source and the folder before anything is written, the staging folder and
     its lock, each format's writer call and the final rename (the options are
-    checked when made, in :mod:`vptoolkit.dataset.release_options`). The writers themselves live
+    checked when made, in :mod:`vptoolkit.dataset.release.options`). The writers themselves live
     in their own modules; what is left here shares the staging folder and
     its cleanup, which a split would have to pass around.
 """
@@ -58,24 +58,24 @@ from typing import TYPE_CHECKING, Any, overload
 
 from vptoolkit.checks import short_repr
 from vptoolkit.conventions import DATASET_VERSION, SPLITS
-from vptoolkit.dataset.card import render_card
-from vptoolkit.dataset.descriptions import (
+from vptoolkit.dataset.release.card import render_card
+from vptoolkit.dataset.release.descriptions import (
     CROISSANT_NAME,
     INFO_NAME,
     write_descriptions,
     write_json,
 )
-from vptoolkit.dataset.info import info_from_reader
-from vptoolkit.dataset.licenses import LICENSES_NAME, check_release_license, write_licenses
-from vptoolkit.dataset.manifest import (
+from vptoolkit.dataset.store.info import info_from_reader
+from vptoolkit.dataset.release.licenses import LICENSES_NAME, check_release_license, write_licenses
+from vptoolkit.files import sha256_file
+from vptoolkit.dataset.release.manifest import (
     CARD_NAME,
     MANIFEST_NAME,
-    sha256_file,
     verify,
     write_sha256sums,
 )
-from vptoolkit.dataset.release_options import ReleaseOptions, release_created
-from vptoolkit.dataset.schema import ModelEntry, published_split
+from vptoolkit.dataset.release.options import ReleaseOptions, release_created
+from vptoolkit.dataset.store.schema import ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     errors_named,
@@ -86,8 +86,8 @@ from vptoolkit.files import (
 )
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.parquet import ParquetShard
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.release.parquet import ParquetShard
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = [
     "ReleaseResult",
@@ -275,7 +275,7 @@ def _publish(staging: Path, release_dir: Path) -> None:
 
 def _require_formats(formats: Sequence[str]) -> None:
     """Fail before any work when a chosen format's library is missing."""
-    from vptoolkit.dataset.containers import require_zarr
+    from vptoolkit.dataset.store.containers import require_zarr
     from vptoolkit.optional import require
 
     if "zarr" in formats:
@@ -333,7 +333,7 @@ def pack_release(
     ----------
     dataset : Path or str
         A built dataset: a store or any folder
-        :func:`vptoolkit.dataset.containers.find_store` accepts.
+        :func:`vptoolkit.dataset.store.containers.find_store` accepts.
     release_dir : Path or str
         Output folder; must not exist or be empty. Its parent folders are
         created.
@@ -367,9 +367,9 @@ def pack_release(
         If an array of ``dataset`` differs from its stored SHA-256 (checked
         before anything is written).
     """
-    from vptoolkit.dataset.containers import find_store
-    from vptoolkit.dataset.reader import open_store
-    from vptoolkit.dataset.writer import write_dataset
+    from vptoolkit.dataset.store.containers import find_store
+    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.writer import write_dataset
 
     if options is None:
         options = ReleaseOptions()
@@ -422,7 +422,7 @@ def pack_release(
             with open_store(staging / described_name) as packed:
                 records = packed.models()
                 if "parquet" in chosen:
-                    from vptoolkit.dataset.parquet import write_parquet_shards
+                    from vptoolkit.dataset.release.parquet import write_parquet_shards
 
                     shards = write_parquet_shards(packed, staging,
                                                   shard_bytes=options.shard_bytes)

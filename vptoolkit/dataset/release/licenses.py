@@ -32,7 +32,7 @@ from typing import Any
 
 from packaging.licenses import InvalidLicenseExpression, canonicalize_license_expression
 
-from vptoolkit.dataset.manifest import CARD_NAME
+from vptoolkit.dataset.release.manifest import CARD_NAME
 from vptoolkit.errors import InputError
 
 __all__ = ["AUTHORS_SOURCE", "LICENSES_NAME", "LICENSE_COLUMNS", "MODELNET_SOURCE",
@@ -132,7 +132,7 @@ def source_terms(attrs: Mapping[str, Any]) -> list[SourceTerms]:
     Parameters
     ----------
     attrs : mapping
-        A store's root attributes (or :func:`~vptoolkit.dataset.info.info_from_reader`'s
+        A store's root attributes (or :func:`~vptoolkit.dataset.store.info.info_from_reader`'s
         summary): ``source`` (the source folder's name) and ``backend``.
 
     Returns

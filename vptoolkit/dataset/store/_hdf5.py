@@ -6,9 +6,9 @@ reading (:func:`open_hdf5`). A root attribute that is a ``str``, ``bool``,
 stored as HDF5 holds it (a list as a 1-D array, strings as UTF-8). HDF5 cannot
 hold nested attributes, so every other one is stored as a JSON string and the
 root attribute ``json_attributes``
-(:data:`~vptoolkit.dataset.schema.HDF5_JSON_KEY`) names those keys; reading
+(:data:`~vptoolkit.dataset.store.schema.HDF5_JSON_KEY`) names those keys; reading
 decodes them. ``h5py`` is imported inside the functions, and
-:mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader` import
+:mod:`vptoolkit.dataset.store.writer` and :mod:`vptoolkit.dataset.store.reader` import
 this module only to write or open an HDF5 store.
 
 HDF5 cannot recover from a failed write: closing such a file fails again and
@@ -28,7 +28,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from vptoolkit.dataset.schema import HDF5_JSON_KEY
+from vptoolkit.dataset.store.schema import HDF5_JSON_KEY
 from vptoolkit.errors import InputError
 from vptoolkit.files import parse_json
 from vptoolkit.optional import require

@@ -3,8 +3,8 @@
 Owns writing (:class:`ZarrSink`, Blosc/zstd chunks, every chunk stored, zip
 entries normalised), opening for reading (:func:`open_zarr`) and the check
 that no chunk is missing (:func:`check_chunks`). The ``zarr`` module is
-passed in by :mod:`vptoolkit.dataset.writer` and :mod:`vptoolkit.dataset.reader`
-(from :func:`vptoolkit.dataset.containers.require_zarr`), which import this
+passed in by :mod:`vptoolkit.dataset.store.writer` and :mod:`vptoolkit.dataset.store.reader`
+(from :func:`vptoolkit.dataset.store.containers.require_zarr`), which import this
 module lazily, inside the functions that use it; importing it imports no
 ``zarr``, so ``zarr`` stays optional.
 """
@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from vptoolkit.dataset.schema import array_sha256
+from vptoolkit.dataset.store.schema import array_sha256
 from vptoolkit.errors import VerificationError
 
 __all__ = ["ZarrSink", "open_zarr", "check_chunks"]

@@ -4,10 +4,10 @@
 process, in a worker process or on a Dask worker
 (:mod:`vptoolkit.parallel`). It gets a picklable :class:`ModelTask` and
 returns a :class:`MeasuredModel` (the arrays of one
-:class:`~vptoolkit.dataset.schema.ModelEntry` in schema dtypes, its record
+:class:`~vptoolkit.dataset.store.schema.ModelEntry` in schema dtypes, its record
 and the seconds per stage) or a :class:`FailedModel` with a one-line reason;
 it never raises. The caller stages the result
-(:mod:`vptoolkit.dataset.staging`).
+(:mod:`vptoolkit.dataset.build.staging`).
 
 Determinism
     Everything comes from the task: the point sample is seeded with
@@ -28,8 +28,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
-from vptoolkit.dataset.build_options import BuildOptions
-from vptoolkit.dataset.manifest import sha256_file
+from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.files import sha256_file
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
 
 __all__ = [
@@ -97,7 +97,7 @@ class MeasuredModel:
         ``n_vertices``, ``n_faces``, ``cleaning`` (report without timings, or
         None) and ``view_set``.
     arrays : dict of str to ndarray
-        The :class:`~vptoolkit.dataset.schema.ModelEntry` arrays in schema
+        The :class:`~vptoolkit.dataset.store.schema.ModelEntry` arrays in schema
         dtypes (``points``, ``normals``, ``quality``, ``quality_raw``,
         ``best_index``, ``best_value``, ``worst_index``, ``worst_value``,
         ``vertices``, ``faces``).

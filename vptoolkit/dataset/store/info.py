@@ -3,8 +3,8 @@
 :func:`info_from_reader` (or :func:`dataset_info` for a path) computes a
 JSON-safe summary from the store alone (its attributes, model records,
 failure log and arrays); :func:`format_info` renders it for the terminal.
-The dataset card (:mod:`vptoolkit.dataset.card`) and the Croissant metadata
-(:mod:`vptoolkit.dataset.croissant`) are written from this summary, with the
+The dataset card (:mod:`vptoolkit.dataset.release.card`) and the Croissant metadata
+(:mod:`vptoolkit.dataset.release.croissant`) are written from this summary, with the
 few sentence and number helpers kept here so that all three say things the
 same way.
 """
@@ -20,11 +20,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
-from vptoolkit.dataset.schema import published_split
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = [
     "CITATION",
@@ -82,7 +82,7 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
     Parameters
     ----------
     reader : StoreReader
-        An open store (:func:`vptoolkit.dataset.reader.open_store`).
+        An open store (:func:`vptoolkit.dataset.store.reader.open_store`).
 
     Returns
     -------
@@ -189,15 +189,15 @@ def dataset_info(path: Path | str) -> dict[str, Any]:
     ----------
     path : Path or str
         A store, a build folder or a release folder (anything
-        :func:`vptoolkit.dataset.containers.find_store` accepts).
+        :func:`vptoolkit.dataset.store.containers.find_store` accepts).
 
     Returns
     -------
     dict
         See :func:`info_from_reader`; ``path`` holds the store that was read.
     """
-    from vptoolkit.dataset.containers import find_store
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.containers import find_store
+    from vptoolkit.dataset.store.reader import open_store
 
     store_path = find_store(path)
     with open_store(store_path) as reader:

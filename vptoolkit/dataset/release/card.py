@@ -5,8 +5,8 @@ from the store (nothing is typed by hand), in the sections of "Datasheets for
 Datasets" (Gebru et al.), under the YAML header of :func:`hub_yaml` in the
 style of dataset hubs (configurations, features, size category).
 
-The summary the card is written from lives in :mod:`vptoolkit.dataset.info`
-and the Croissant metadata in :mod:`vptoolkit.dataset.croissant`.
+The summary the card is written from lives in :mod:`vptoolkit.dataset.store.info`
+and the Croissant metadata in :mod:`vptoolkit.dataset.release.croissant`.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vptoolkit.conventions import DATASET_VERSION
-from vptoolkit.dataset.info import (
+from vptoolkit.dataset.store.info import (
     CITATION,
     camera_sentence,
     format_number,
@@ -32,8 +32,8 @@ from vptoolkit.dataset.info import (
     source_name,
     split_count_rows,
 )
-from vptoolkit.dataset.licenses import LICENSES_NAME, hub_license, license_conflicts
-from vptoolkit.dataset.parquet import (
+from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
+from vptoolkit.dataset.release.parquet import (
     VIEWS_CONFIG,
     Column,
     ParquetShard,
@@ -43,7 +43,7 @@ from vptoolkit.dataset.parquet import (
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = [
     "render_card",
@@ -103,7 +103,7 @@ def render_card(
         Licence of the release, an identifier or a URL (default: ``"other"``;
         the toolkit cannot know the source meshes' licences, which apply).
         The YAML header carries the hub's fields of it
-        (:func:`~vptoolkit.dataset.licenses.hub_license`: ``other`` with a
+        (:func:`~vptoolkit.dataset.release.licenses.hub_license`: ``other`` with a
         name and a link, ``LICENSES.csv`` when ``files`` lists it).
     pretty_name : str, optional
         Human-readable title (default: derived from the source folder name).
@@ -120,7 +120,7 @@ def render_card(
         Where the source meshes come from.
     license_name, license_link : str, optional
         The hub's fields for a licence ``other`` or a URL (default: as
-        :func:`~vptoolkit.dataset.licenses.hub_license` fills them).
+        :func:`~vptoolkit.dataset.release.licenses.hub_license` fills them).
     warnings : sequence of str
         Lines shown in a warning block at the top (an empty split, say).
     creator : str, optional
@@ -131,7 +131,7 @@ def render_card(
         The publisher forced ``license`` over the sources' own terms
         (``vptool pack --force-license``): the licence note then records
         that decision and every term it contradicts
-        (:func:`~vptoolkit.dataset.licenses.license_conflicts`).
+        (:func:`~vptoolkit.dataset.release.licenses.license_conflicts`).
 
     Returns
     -------
@@ -421,7 +421,7 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
     Two configurations: ``default`` (the Parquet shards of each split, one row
-    per model, columns :func:`~vptoolkit.dataset.parquet.model_columns`) and
+    per model, columns :func:`~vptoolkit.dataset.release.parquet.model_columns`) and
     ``views`` (the shared view directions, as split ``train``, the hub's
     name for a configuration's only split). ``datasets.load_dataset(release)``
     then reads the shards, offline or streaming, with the declared features.
@@ -429,7 +429,7 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
     Parameters
     ----------
     shards : sequence of ParquetShard
-        What :func:`~vptoolkit.dataset.parquet.write_parquet_shards` wrote.
+        What :func:`~vptoolkit.dataset.release.parquet.write_parquet_shards` wrote.
     n_points, n_views : int
         Points and views per model, the shapes of the array features.
     class_names : sequence of str

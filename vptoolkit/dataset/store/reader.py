@@ -1,7 +1,7 @@
 """Reading a dataset store: :func:`open_store` and :class:`StoreReader`.
 
 :func:`open_store` opens any container (the container's own code is in
-:mod:`vptoolkit.dataset._zarr` and :mod:`vptoolkit.dataset._hdf5`), checks
+:mod:`vptoolkit.dataset.store._zarr` and :mod:`vptoolkit.dataset.store._hdf5`), checks
 the root (format, schema version, measure order, arrays, counts) and, for
 Zarr, that no chunk is missing; :class:`StoreReader` then reads arrays
 lazily and decodes the JSON records.
@@ -21,8 +21,8 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
-from vptoolkit.dataset.containers import require_zarr, store_kind
-from vptoolkit.dataset.schema import (
+from vptoolkit.dataset.store.containers import require_zarr, store_kind
+from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
     FORMAT_NAME,
     SCHEMA_VERSION,
@@ -166,7 +166,7 @@ class StoreReader:
             categories; for a store without it, the sorted categories.
         labels : (n_models,) int64
             The stored ``labels`` array, in row order; worked out from the
-            records' categories (:func:`~vptoolkit.dataset.schema.class_labels`)
+            records' categories (:func:`~vptoolkit.dataset.store.schema.class_labels`)
             for a store without one.
 
         Raises
@@ -341,7 +341,7 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True,
         ``*.hdf5`` file (use :func:`find_store` for folders).
     check_chunks : bool
         Refuse a Zarr store with a missing chunk, which would read as zeros
-        (default: True; :func:`vptoolkit.dataset.manifest.verify` turns it
+        (default: True; :func:`vptoolkit.dataset.release.manifest.verify` turns it
         off to report every damaged array itself).
     stream : binary file, optional
         A readable, seekable file holding the HDF5 store ``path`` names, read
@@ -377,11 +377,11 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True,
         raise InputError(f"{source}: expected a {'directory' if kind == 'zarr' else 'file'}")
     try:
         if kind == "hdf5":
-            from vptoolkit.dataset._hdf5 import open_hdf5
+            from vptoolkit.dataset.store._hdf5 import open_hdf5
 
             root, store, attrs, names = open_hdf5(source, stream)
         else:
-            from vptoolkit.dataset._zarr import open_zarr
+            from vptoolkit.dataset.store._zarr import open_zarr
 
             root, store, attrs, names = open_zarr(require_zarr(), source, kind)
     except VptoolkitError:  # the stream's own one-line error (a URL that answered wrongly)
@@ -395,7 +395,7 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True,
     try:
         _check_root(reader)
         if check_chunks:
-            from vptoolkit.dataset._zarr import check_chunks as _check_chunks
+            from vptoolkit.dataset.store._zarr import check_chunks as _check_chunks
 
             _check_chunks(reader)
         is_valid = True

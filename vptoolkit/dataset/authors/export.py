@@ -1,6 +1,6 @@
 """Writing a store in the paper authors' released tree: :func:`export_authors`.
 
-The layout and its measure folders are those of :mod:`vptoolkit.dataset.authors`;
+The layout and its measure folders are those of :mod:`vptoolkit.dataset.authors.importer`;
 this writes them so that the authors' training code can read our data.
 """
 
@@ -20,9 +20,9 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
-from vptoolkit.dataset.authors import AUTHORS_FOLDERS, MODEL_LIST, VIEW_TOLERANCE
-from vptoolkit.dataset.schema import published_split
-from vptoolkit.dataset.split_files import paper_split
+from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, MODEL_LIST, VIEW_TOLERANCE
+from vptoolkit.dataset.store.schema import published_split
+from vptoolkit.dataset.build.split_files import paper_split
 from vptoolkit.errors import InputError
 from vptoolkit.files import (
     check_path_part,
@@ -36,7 +36,7 @@ from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.reader import StoreReader
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = ["ExportResult", "export_authors", "order_for_paper_rule"]
 
@@ -166,8 +166,8 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     The ``best/`` files hold the raw maximum, the raw minimum and the best
     view's direction.
     """
-    from vptoolkit.dataset.containers import find_store
-    from vptoolkit.dataset.reader import open_store
+    from vptoolkit.dataset.store.containers import find_store
+    from vptoolkit.dataset.store.reader import open_store
 
     target = as_path(out, "out")
     progress = check_bool(progress, "progress")

@@ -1,0 +1,16 @@
+"""Releases: a build packed into files others can download, verify and load.
+
+Modules:
+
+- ``pack``: ``pack_release``, packing a store into release files.
+- ``options``: ``ReleaseOptions``, what a publisher says about a release.
+- ``manifest``: the SHA-256 manifest of a store or release and its verification.
+- ``parquet``: the Parquet shards; ``card``: the dataset card; ``croissant``:
+  the Croissant metadata; ``licenses``: per-model licences; ``descriptions``:
+  the card and Croissant rewritten after a release changes.
+"""
+
+from vptoolkit.deprecation import moved_module
+
+# The names of ``vptoolkit.dataset.release`` when it was one module (now ``pack``).
+__getattr__ = moved_module(__name__, "vptoolkit.dataset.release.pack")
