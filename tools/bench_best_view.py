@@ -39,7 +39,12 @@ same number of views. Cost: views drawn, and the median wall time
 per mesh and rotation in ms (the mesh already loaded; the prior's network time
 included). The Pareto front (no other row at most as slow and at least as good
 in the mean over the four measures) is starred. With ``--results FILE`` the
-table replaces the ``best_view`` section of FILE (``docs/results.md``).
+table replaces the ``best_view`` section of FILE (``docs/results.md``). With
+``--readme FILE`` the short table of which answer to use when
+(:func:`readme_table`: the default search, an 8-view search, the unoccluded
+estimate from points with normals, the network alone and the PCA axis, beside
+a random view and a flat sphere of 256 views) replaces the
+``readme_best_view`` section of FILE (``README.md``).
 
 Usage::
 
@@ -47,6 +52,7 @@ Usage::
     python tools/bench_best_view.py ~/meshes --budgets 8,64   # any folder of meshes
     python tools/bench_best_view.py --quick                   # a smoke test, seconds
     python tools/bench_best_view.py --results docs/results.md --section best_view
+    python tools/bench_best_view.py --results docs/results.md --readme README.md
 """
 
 from __future__ import annotations
@@ -71,7 +77,7 @@ from results_doc import (
     write_section,
 )
 
-from vptoolkit.best_view import SEARCH_RESOLUTION, coarse_directions, search_best_views
+from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build.run import build_dataset
 from vptoolkit.dataset.build.options import BuildOptions
@@ -96,6 +102,9 @@ from vptoolkit.unoccluded import (
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
 SCAN_POINTS = 2000  # surface points of the unoccluded estimate's scan stand-in
+README_SECTION = "readme_best_view"  # the section of --readme that readme_table fills
+FEW_VIEWS = 8  # the README's budget for many meshes: `vptool best-view --views 8`
+FLAT_VIEWS = 256  # the flat sphere the README sets beside the default search
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -111,6 +120,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--model", action="append", default=None,
                         help="network checkpoint, repeatable (default: the bundled one)")
     add_results_option(parser, "best_view")
+    parser.add_argument("--readme", type=Path,
+                        help=f"also write the short table of which answer to use into the "
+                             f"{README_SECTION} section of this file, README.md (needs "
+                             f"--budgets with {FEW_VIEWS}, {BUDGET} and {FLAT_VIEWS}, the "
+                             f"default --resolution and the bundled network)")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
     parser.add_argument("--ceiling-views", type=int, default=8,
                         help="directions of the sphere whose ceiling is shown (default: 8)")
@@ -132,6 +146,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     if args.quick:
         args.budget_list, args.rotations, args.ceiling_views = [4, 16], 1, 4
     args.models = args.model or ["default"]
+    if args.readme is not None and ({FEW_VIEWS, BUDGET, FLAT_VIEWS} - set(args.budget_list)
+                                    or args.resolution != SEARCH_RESOLUTION
+                                    or "default" not in args.models):
+        parser.error(f"--readme: its table needs --budgets with {FEW_VIEWS}, {BUDGET} and "
+                     f"{FLAT_VIEWS}, --resolution {SEARCH_RESOLUTION} and the bundled network "
+                     f"(no --quick)")
     return args
 
 
@@ -281,6 +301,75 @@ def pareto(rows: dict[str, dict[str, Any]]) -> set[str]:
     return front
 
 
+def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: str,
+                 rotations: int, views: int, resolution: int, source: str) -> str:
+    """The README's table of which answer to use when, from one run's rows.
+
+    Parameters
+    ----------
+    rows : dict
+        Row label of the full table (``"coarse-to-fine 64 @ 128"``, ``"network
+        alone"``, ...) -> (mean score per measure in %, VE, VR, VKL, VMI; median
+        ms per mesh and rotation, None for an expectation). Needs the rows of
+        the coarse-to-fine search at :data:`FEW_VIEWS` and
+        :data:`~vptoolkit.best_view.BUDGET` views and the plain search at
+        :data:`FLAT_VIEWS`, all at :data:`~vptoolkit.best_view.SEARCH_RESOLUTION`,
+        the unoccluded estimate from points, the bundled network alone, the
+        PCA axis and the random view.
+    meshes : str
+        What was scored, for the text (``"the 12 bundled meshes"``).
+    rotations, views, resolution : int
+        Fixed rotations per mesh; views and px of the labels.
+    source : str
+        The run: its command, date and machine, quoted under the table.
+
+    Returns
+    -------
+    str
+        Markdown whose links are relative to the repository root, where
+        README.md lies: the "about 1 s" of ``vptool measures`` is not measured
+        here and links the measures' benchmark.
+    """
+    def cells(label: str) -> list[str]:
+        mean, ms = rows[label]
+        return [" / ".join(f"{value:.1f}" for value in mean),
+                "–" if ms is None else f"{ms:.0f} ms"]
+
+    def search(kind: str, budget: int) -> str:
+        return f"{kind} {budget} @ {SEARCH_RESOLUTION}"
+
+    table = markdown_table(["you have", "use", "VE / VR / VKL / VMI", "time"], [
+        ["one mesh, or a few", f"`vptool best-view` ({BUDGET} views)",
+         *cells(search("coarse-to-fine", BUDGET))],
+        ["a million meshes", f"`vptool best-view --views {FEW_VIEWS}`",
+         *cells(search("coarse-to-fine", FEW_VIEWS))],
+        ["the optimum over the paper's 1000 views", "`vptool measures`",
+         "100 at its own resolution", "about 1 s ([benchmarks](docs/benchmarks.md#measures))"],
+        ["a scan: points with normals",
+         "`vptool predict -m unoccluded scan.npy` (an (N, 6) array: x y z nx ny nz)",
+         *cells(f"unoccluded estimate, {SCAN_POINTS} points with normals")],
+        ["points without normals", "`vptool predict`: the network", *cells("network alone")],
+        ["nothing but an axis", "the PCA axis (`vptoolkit.evaluate.baselines.pca_directions`)",
+         *cells("PCA axis")],
+    ], align="llll")
+    random_view = cells("random view (expectation)")[0]
+    flat, flat_ms = cells(search("plain search", FLAT_VIEWS))
+    return "\n".join([
+        f"Quality of each answer on {meshes}, each under {rotations} fixed "
+        f"rotation{'' if rotations == 1 else 's'}, scored "
+        f"the authors' way against {views} views at {resolution} px of the cleaned mesh (% of "
+        "the way from the worst to the best view; VE / VR / VKL / VMI), and its median time "
+        "per mesh on the machine named below, the mesh loaded:",
+        "",
+        *table,
+        "",
+        f"A random view scores {random_view}; a flat sphere of {FLAT_VIEWS} views "
+        f"{flat} in {flat_ms}.",
+        "",
+        f"From {source}.",
+    ])
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     started = time.perf_counter()
@@ -334,6 +423,15 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.results is not None:
         write_section(args.results, args.section, text)
+    if args.readme is not None:
+        where = (f"the {len(dataset)} bundled meshes" if args.mesh_dir == SAMPLES
+                 else f"the {len(dataset)} meshes of `{args.mesh_dir.name}/`")
+        write_section(args.readme, README_SECTION, readme_table(
+            {label: (row["scores"].mean.tolist(), row["ms"]) for label, row in results.items()},
+            meshes=where, rotations=args.rotations, views=len(dataset.views),
+            resolution=int(dataset.attrs.get("resolution", 0)),
+            source=f"`{command_line(__file__, argv)}`, {datetime.now(timezone.utc):%Y-%m-%d}, "
+                   f"{machine()}"))
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"views": row["views"], "ms": row["ms"],
                                                  "mean": row["scores"].mean.tolist(),

@@ -6,9 +6,11 @@ on 127.0.0.1 (a port the system picks) with a handler that counts the bytes it
 sends and answers Range requests, and prints, for a fresh cache each time, the
 bytes sent to open the release and read one split, and to read one model: with
 the whole archive downloaded and verified (``partial=False``) and read by
-ranges (``partial=True``, the default).
+ranges (``partial=True``, the default). With ``--results FILE`` what it
+printed replaces the ``remote`` section of FILE (``docs/benchmarks.md``).
 
     python tools/bench_remote.py --per-category 30 --work /tmp/bench-remote
+    python tools/bench_remote.py --results docs/benchmarks.md
 """
 
 from __future__ import annotations
@@ -22,6 +24,8 @@ import tempfile
 import threading
 from collections.abc import Callable
 from pathlib import Path
+
+from results_doc import add_results_option, printed_section
 
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.synthetic import write_collection
@@ -77,6 +81,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--per-category", type=int, default=30)
     parser.add_argument("--work", type=Path, default=Path(tempfile.gettempdir()) / "bench-remote")
+    add_results_option(parser, "remote")
     arguments = parser.parse_args()
     release = build_release(arguments.work, arguments.per_category)
     archive = next(release.glob("*.h5"))
@@ -87,13 +92,15 @@ def main() -> None:
     with open_dataset(release) as dataset:
         n_models, n_test = len(dataset), len(dataset.split("test"))
         name = dataset.names[n_models // 2]
-    print(f"release: {n_models} models, {archive.name} {archive.stat().st_size} bytes")
     try:
-        for partial in (False, True):
-            split_bytes = _bytes_sent(url, partial, lambda dataset: dataset.split("test"))
-            model_bytes = _bytes_sent(url, partial, lambda dataset: dataset[name]["points"])
-            print(f"partial={partial}: open + split('test') ({n_test} models): "
-                  f"{split_bytes} bytes sent; open + one model ({name}): {model_bytes} bytes sent")
+        with printed_section(arguments.results, arguments.section):
+            print(f"release: {n_models} models, {archive.name} {archive.stat().st_size} bytes")
+            for partial in (False, True):
+                split_bytes = _bytes_sent(url, partial, lambda dataset: dataset.split("test"))
+                model_bytes = _bytes_sent(url, partial, lambda dataset: dataset[name]["points"])
+                print(f"partial={partial}: open + split('test') ({n_test} models): "
+                      f"{split_bytes} bytes sent; open + one model ({name}): "
+                      f"{model_bytes} bytes sent")
     finally:
         server.shutdown()
         server.server_close()
