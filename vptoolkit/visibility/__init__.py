@@ -12,7 +12,11 @@ counted. Two backends give the same counts up to pixels on triangle edges:
     reference, about 50 times slower.
 
 Results come as sparse histograms (:class:`ViewHistograms`), batch by batch,
-so memory stays bounded for meshes with millions of faces.
+so memory stays bounded for meshes with millions of faces. With
+``features=True`` each batch also carries the depth and silhouette statistics
+of its views (:class:`~vptoolkit.visibility.features.ViewFeatures`), taken
+from each image while it is drawn: both backends compute them with the same
+code from the same kind of image, so they agree as their pixels do.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from vptoolkit.geometry import bounding_frame, face_cross_products
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
-from vptoolkit.visibility.features import ViewFeatures
+from vptoolkit.visibility.features import DEPTH_BINS, THUMBNAIL, TURNING_BINS, ViewFeatures
 
 __all__ = [
     "RasterScene",
@@ -104,6 +108,7 @@ def iter_view_histograms(
     settings: MeasureSettings = MeasureSettings(),
     *,
     view_directions: ArrayLike | None = None,
+    features: bool = False,
 ) -> Iterator[ViewHistograms]:
     """Yield the per-face pixel histograms of the views, a batch at a time.
 
@@ -117,6 +122,11 @@ def iter_view_histograms(
     view_directions : (n_views, 3) array_like, optional
         Directions from the model centre to the camera, drawn instead of the
         ``settings.views`` Fibonacci-sphere directions.
+    features : bool
+        Also give each run's depth and silhouette statistics
+        (:class:`~vptoolkit.visibility.features.ViewFeatures`, its module
+        states the conventions) in ``ViewHistograms.features``; the pixel
+        counts are the same either way.
 
     Yields
     ------
@@ -135,10 +145,12 @@ def iter_view_histograms(
         if diagonal > 0.0:
             mesh = Mesh((mesh.vertices - centre) / diagonal, mesh.faces, name=mesh.name)
     if settings.backend == "raster":
-        yield from RasterScene(mesh, camera).histograms(directions, resolution)
+        yield from RasterScene(mesh, camera).histograms(directions, resolution,
+                                                        features=features)
         return
     poses, normals, offsets, is_drawable, diagonal = _setup(mesh, directions, resolution, camera)
-    yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal)
+    yield from _raycast_views(mesh, poses, normals, offsets, is_drawable, camera, diagonal,
+                              features=features)
 
 
 def _face_planes(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
@@ -147,6 +159,13 @@ def _face_planes(mesh: Mesh) -> tuple[NDArray[np.float64], NDArray[np.float64], 
     normals = face_cross_products(mesh)
     offsets = np.einsum("ij,ij->i", normals, mesh.vertices[mesh.faces[:, 0]])
     return normals, offsets, np.linalg.norm(normals, axis=1) > 0.0
+
+
+def _depth_range(camera: Camera, diagonal: float) -> tuple[float, float]:
+    """``near, far``: the camera's distance to the model centre less and plus half the
+    diagonal, the depths normalised depth maps to 0 and 1."""
+    distance = camera.distance_factor * diagonal
+    return distance - diagonal / 2.0, distance + diagonal / 2.0
 
 
 def _setup(
@@ -202,9 +221,10 @@ class RasterScene:
         self.is_drawable = is_drawable[self.face_order]
         self._workspaces: dict[int, Any] = {}
 
-    def histograms(self, view_directions: ArrayLike,
-                   resolution: int = RESOLUTION) -> Iterator[ViewHistograms]:
-        """Yield the per-face pixel histograms of the views, as :func:`iter_view_histograms`."""
+    def histograms(self, view_directions: ArrayLike, resolution: int = RESOLUTION, *,
+                   features: bool = False) -> Iterator[ViewHistograms]:
+        """Yield the per-face pixel histograms of the views, as :func:`iter_view_histograms`
+        (with ``features``, their depth and silhouette statistics too)."""
         from vptoolkit.visibility._raster import rasterize_batch
         from vptoolkit.visibility._workspace import RasterWorkspace, histogram_capacity
 
@@ -213,21 +233,23 @@ class RasterScene:
         camera, mesh = self.camera, self.mesh
         poses = camera.poses(directions, centre=self.centre, diagonal=self.diagonal,
                              resolution=resolution)
-        if resolution not in self._workspaces:
-            self._workspaces[resolution] = RasterWorkspace.allocate(
-                resolution=resolution, n_faces=mesh.n_faces, n_vertices=len(self.vertices))
-        workspace = self._workspaces[resolution]
+        workspace = self._workspaces.get(resolution)
+        if workspace is None or (features and not workspace.has_features):
+            # one with the features' buffers serves both kinds of call
+            workspace = self._workspaces[resolution] = RasterWorkspace.allocate(
+                resolution=resolution, n_faces=mesh.n_faces, n_vertices=len(self.vertices),
+                features=features)
         n_threads = workspace.frames.shape[0]
         capacity = histogram_capacity(resolution, mesh.n_faces)
         batch = int(np.clip(_BATCH_BYTES // (8 * capacity), n_threads, 64))
         batch -= batch % n_threads
-        distance = camera.distance_factor * self.diagonal
-        near, far = distance - self.diagonal / 2.0, distance + self.diagonal / 2.0
+        near, far = _depth_range(camera, self.diagonal)
         n_views = len(poses.eyes)
         batch = min(batch, max(n_threads, n_views))
         out_ids = np.zeros((batch, capacity), dtype=np.int32)
         out_counts = np.zeros((batch, capacity), dtype=np.int32)
         out_lengths = np.zeros(batch, dtype=np.int64)
+        out_features = _empty_features(batch if features else 0)
         for start in range(0, n_views, batch):
             stop = min(start + batch, n_views)
             count = stop - start
@@ -237,7 +259,10 @@ class RasterScene:
                 poses.up[start:stop], poses.forward[start:stop], poses.focal_px, resolution,
                 near, far, workspace.frames, workspace.row_low, workspace.row_high,
                 workspace.id_counts, workspace.touched, workspace.screen_x, workspace.screen_y,
-                workspace.inverse_depth, out_ids, out_counts, out_lengths,
+                workspace.inverse_depth, out_ids, out_counts, out_lengths, features,
+                workspace.masks, out_features.depth_histogram, out_features.max_depth,
+                out_features.silhouette_length, out_features.turning_histogram,
+                out_features.depth_thumbnail,
             )
             lengths = out_lengths[:count]
             local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
@@ -247,7 +272,67 @@ class RasterScene:
                 pixel_counts=np.concatenate([out_counts[i, : lengths[i]] for i in range(count)]),
                 n_faces=mesh.n_faces,
                 first_view=start,
+                features=_first_views(out_features, count) if features else None,
             )
+
+
+def _empty_features(n_views: int) -> ViewFeatures:
+    """Zeroed statistics of ``n_views`` views, to be filled in."""
+    return ViewFeatures(
+        depth_histogram=np.zeros((n_views, DEPTH_BINS), dtype=np.int64),
+        max_depth=np.zeros(n_views, dtype=np.float64),
+        silhouette_length=np.zeros(n_views, dtype=np.float64),
+        turning_histogram=np.zeros((n_views, TURNING_BINS), dtype=np.int64),
+        depth_thumbnail=np.zeros((n_views, THUMBNAIL, THUMBNAIL), dtype=np.uint8),
+    )
+
+
+def _first_views(features: ViewFeatures, count: int) -> ViewFeatures:
+    """Copies of the statistics of the first ``count`` views."""
+    return ViewFeatures(
+        depth_histogram=features.depth_histogram[:count].copy(),
+        max_depth=features.max_depth[:count].copy(),
+        silhouette_length=features.silhouette_length[:count].copy(),
+        turning_histogram=features.turning_histogram[:count].copy(),
+        depth_thumbnail=features.depth_thumbnail[:count].copy(),
+    )
+
+
+def _frame_features(frames: NDArray[np.int64], near: float, far: float) -> ViewFeatures:
+    """Depth and silhouette statistics of images in the raster's key layout.
+
+    Parameters
+    ----------
+    frames : (n_views, resolution, resolution) int64
+        Keys as :mod:`._raster` draws them: 0 where no face is seen, else the
+        quantised inverse depth ``floor(2**30 (1/z - 1/far) / (1/near -
+        1/far))`` in the high 32 bits and a non-zero face ID below.
+    near, far : float
+        The depths of normalised depth 0 and 1.
+
+    Returns
+    -------
+    ViewFeatures
+        As the raster kernel computes them, with the same function.
+    """
+    from vptoolkit.visibility._raster import view_features
+    from vptoolkit.visibility._workspace import silhouette_masks
+
+    n_views, resolution = frames.shape[0], frames.shape[1]
+    mask = silhouette_masks(resolution, 1)[0]
+    result = _empty_features(n_views)
+    for view in range(n_views):
+        covered = frames[view] != 0
+        is_row_covered = covered.any(axis=1)
+        row_low = np.where(is_row_covered, covered.argmax(axis=1), resolution).astype(np.int64)
+        row_high = np.where(is_row_covered, resolution - 1 - covered[:, ::-1].argmax(axis=1),
+                            -1).astype(np.int64)
+        result.max_depth[view], result.silhouette_length[view] = view_features(
+            np.ascontiguousarray(frames[view]).reshape(-1), resolution, row_low, row_high, near,
+            far, mask, result.depth_histogram[view], result.turning_histogram[view],
+            result.depth_thumbnail[view],
+        )
+    return result
 
 
 def face_id_images(
@@ -282,8 +367,7 @@ def face_id_images(
     resolution, camera = settings.resolution, settings.camera
     poses, normals, offsets, is_drawable, diagonal = _setup(
         mesh, _directions(settings, view_directions), resolution, camera)
-    distance = camera.distance_factor * diagonal
-    near, far = distance - diagonal / 2.0, distance + diagonal / 2.0
+    near, far = _depth_range(camera, diagonal)
     faces = mesh.faces.astype(np.int32)
     screen_x = np.zeros(len(mesh.vertices), dtype=np.int64)
     screen_y = np.zeros(len(mesh.vertices), dtype=np.int64)
@@ -314,6 +398,8 @@ def _raycast_views(
     is_drawable: NDArray[np.bool_],
     camera: Camera,
     diagonal: float,
+    *,
+    features: bool,
 ) -> Iterator[ViewHistograms]:
     from vptoolkit.visibility._raycast import RaycastScene
 
@@ -321,17 +407,36 @@ def _raycast_views(
         mesh, face_normals=normals, face_offsets=offsets, is_drawable=is_drawable,
         diagonal=diagonal,
     )
+    near, far = _depth_range(camera, diagonal)
     for view in range(len(poses.eyes)):
         ids = scene.face_ids(poses, view, cull_back_faces=camera.cull_back_faces)
         counts = np.bincount(ids[ids >= 0], minlength=mesh.n_faces)
         visible = np.flatnonzero(counts)
+        view_features = None
+        if features:
+            keys = _depth_keys(ids, scene.depths(poses, view, ids), near, far)
+            view_features = _frame_features(keys.reshape(1, poses.resolution, -1), near, far)
         yield ViewHistograms(
             offsets=np.array([0, len(visible)], dtype=np.int64),
             face_ids=visible.astype(np.int32),
             pixel_counts=counts[visible].astype(np.int32),
             n_faces=mesh.n_faces,
             first_view=view,
+            features=view_features,
         )
+
+
+def _depth_keys(face_ids: NDArray[np.int64], depths: NDArray[np.float64], near: float,
+                far: float) -> NDArray[np.int64]:
+    """The raster's keys (:func:`_frame_features`) of pixels that see face ``face_ids``
+    (-1: none) at distance ``depths`` along the camera axis."""
+    from vptoolkit.visibility._raster import _DEPTH_LEVELS
+
+    seen = face_ids >= 0
+    inverse = np.clip((1.0 / depths[seen] - 1.0 / far) / (1.0 / near - 1.0 / far), 0.0, 1.0)
+    keys = np.zeros(len(face_ids), dtype=np.int64)
+    keys[seen] = ((inverse * _DEPTH_LEVELS).astype(np.int64) << 32) | (face_ids[seen] + 1)
+    return keys
 
 
 def face_pixel_counts(

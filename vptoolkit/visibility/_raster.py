@@ -39,18 +39,29 @@ Views are split over the threads; each thread owns its buffers
 put in an order that keeps those buffers in cache
 (:func:`._workspace.locality_order`).
 
-``tests/test_raster_kernel.py`` checks the paths against a numpy rasteriser
+Asked for, the depth and silhouette statistics of a view
+(:mod:`.features`) are taken from its frame after drawing and before
+counting, by :func:`view_features`, which the ``"raycast"`` backend calls
+too on an image of the same keys. Over the written spans it bins the
+normalised depth of each covered pixel, keeps the nearest depth of each
+thumbnail block and copies the covered pixels into a mask with a
+background border, on which :func:`_trace_silhouette` follows every border
+as Suzuki and Abe's algorithm does in OpenCV's ``findContours`` (the same
+pixel chains, so the same lengths and turns).
+
+``tests/visibility/test_raster.py`` checks the paths against a numpy rasteriser
 of this definition and whole views against frozen per-face counts, bit for
-bit; ``tools/bench_measures.py --baseline DIR`` times the kernel against the
-one of another checkout.
+bit; ``tests/visibility/test_features.py`` checks the statistics against OpenCV
+and against values known by hand; ``tools/bench_measures.py --baseline DIR``
+times the kernel against the one of another checkout.
 
 Size
-    About 610 lines for one concept, the scan conversion and counting of a
-    view (the buffers and face order are :mod:`._workspace`). They stay in
-    one file because numba's on-disk cache checks only
+    About 890 lines for one concept, the scan conversion of a view and what
+    is counted on it (the buffers and face order are :mod:`._workspace`).
+    They stay in one file because numba's on-disk cache checks only
     the source file of the function it caches: a kernel compiled with code
     inlined from another module would be reloaded stale after that module
-    changed (``tests/test_raster_kernel.py`` checks that no cached kernel
+    changed (``tests/visibility/test_raster.py`` checks that no cached kernel
     imports another module's).
 """
 
@@ -551,6 +562,273 @@ def _count_row_runs(frame: NDArray[np.int64], first: np.int64, last: np.int64,
     return n_touched
 
 
+_FOREGROUND, _VISITED, _RIGHT_BOUND = 1, 2, 3
+"""Values of a silhouette mask pixel (0 is background): covered and not yet on a traced
+border, on a traced border, on a traced border whose right neighbour (background) the
+tracing examined (Suzuki and Abe's ``NBD`` and ``-NBD``)."""
+_STEP_X = np.array([1, 1, 0, -1, -1, -1, 0, 1], dtype=np.int64)
+_STEP_Y = np.array([0, -1, -1, -1, 0, 1, 1, 1], dtype=np.int64)
+"""Pixel offset of chain code ``s``: 0 right, then counter-clockwise on screen (y is down)."""
+_TURN_BIN = np.array([4, 3, 2, 1, 8, 7, 6, 5], dtype=np.int64)
+"""Turning-angle bin of the code change ``(s_out - s_in) mod 8``: the angle is
+``-45 * change`` in (-180, 180] (glm's oriented angle of the two steps, y down),
+the bin ``(angle + 180) // 45``."""
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _normalised_depth(q: np.int64, q_step: float, inverse_far: float, near: float,
+                      inverse_range: float) -> float:
+    """Normalised depth ``(z - near) / (far - near)`` in [0, 1] of the quantised inverse
+    depth ``q`` of a key: ``1 / z = q * q_step + 1 / far``."""
+    depth = (1.0 / (q * q_step + inverse_far) - near) * inverse_range
+    return min(max(depth, 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _follow_border(mask: NDArray[np.uint8], start: int | np.int64, width: int | np.int64,
+                   is_hole: bool, turning: NDArray[np.int64]) -> tuple[np.int64, np.int64]:
+    """Follow one border of the padded ``mask`` from pixel ``start``, as Suzuki and Abe.
+
+    The border is an outer one (background to the left of ``start``) or a
+    hole's (background to the right). The neighbour search turns clockwise
+    from the background side for the first pixel, then counter-clockwise from
+    the previous pixel for each next one; each pixel left is marked
+    ``_RIGHT_BOUND`` when the search passed its right neighbour, else
+    ``_VISITED`` if it was unmarked. The chain is the sequence of pixels left
+    (OpenCV's ``CHAIN_APPROX_NONE`` points), closed when the walk is back at
+    ``start`` coming from the first pixel found. Its turns (one per chain
+    pixel: the change from the step into it to the step out of it) are added
+    to ``turning``; an isolated pixel is one turn of 0.
+
+    Returns
+    -------
+    axis_steps, diagonal_steps
+        Steps of the closed chain along an axis and along a diagonal.
+    """
+    s = np.int64(0) if is_hole else np.int64(4)
+    s_end = s
+    while True:
+        s = (s - 1) & 7
+        last = start + _STEP_X[s] + _STEP_Y[s] * width
+        if mask[uint64(last)] != 0 or s == s_end:
+            break
+    if s == s_end:
+        mask[uint64(start)] = _RIGHT_BOUND
+        turning[4] += 1
+        return np.int64(0), np.int64(0)
+    axis_steps = np.int64(0)
+    diagonal_steps = np.int64(0)
+    first = np.int64(-1)
+    previous = np.int64(-1)
+    here = start
+    while True:
+        s_end = s
+        after = here
+        for _ in range(8):
+            s += 1
+            after = here + _STEP_X[s & 7] + _STEP_Y[s & 7] * width
+            if mask[uint64(after)] != 0:
+                break
+        s &= 7
+        if 1 <= s <= s_end:
+            mask[uint64(here)] = _RIGHT_BOUND
+        elif mask[uint64(here)] == _FOREGROUND:
+            mask[uint64(here)] = _VISITED
+        diagonal_steps += s & 1
+        axis_steps += 1 - (s & 1)
+        if previous >= 0:
+            turning[_TURN_BIN[(s - previous) & 7]] += 1
+        else:
+            first = s
+        previous = s
+        if after == start and here == last:
+            break
+        here = after
+        s = (s + 4) & 7
+    turning[_TURN_BIN[(first - previous) & 7]] += 1
+    return axis_steps, diagonal_steps
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _trace_silhouette(mask: NDArray[np.uint8], resolution: int, row_low: NDArray[np.int64],
+                      row_high: NDArray[np.int64], turning: NDArray[np.int64]) -> float:
+    """Trace every border of the covered pixels, as OpenCV's ``findContours(RETR_LIST,
+    CHAIN_APPROX_NONE)``; the summed chain length, turns added to ``turning``.
+
+    ``mask`` is the ``(resolution + 2)`` square image, row-major, of
+    :func:`view_features` (a background border around the frame). A raster
+    scan over the written span of each row and the pixel after it starts an
+    outer border at an unmarked covered pixel with background on its left,
+    and a hole's border at a covered pixel not marked ``_RIGHT_BOUND`` with
+    background on its right (Suzuki and Abe's border following, 8-connected
+    covered pixels). A closed chain is 1 per axis step and ``sqrt(2)`` per
+    diagonal step long (``cv::arcLength(contour, true)``).
+    """
+    width = np.int64(resolution + 2)
+    axis_steps = np.int64(0)
+    diagonal_steps = np.int64(0)
+    for y in range(resolution):
+        low = row_low[y]
+        high = row_high[y]
+        if low > high:
+            continue
+        base = (y + 1) * width + 1
+        previous = mask[uint64(base + low - 1)]
+        for i in range(base + low, base + high + 2):
+            pixel = mask[uint64(i)]
+            if pixel == previous:
+                continue
+            if previous == 0 and pixel == _FOREGROUND:
+                axis, diagonal = _follow_border(mask, i, width, False, turning)
+                pixel = mask[uint64(i)]
+            elif pixel == 0 and previous != _RIGHT_BOUND:
+                axis, diagonal = _follow_border(mask, i - 1, width, True, turning)
+            else:
+                axis, diagonal = np.int64(0), np.int64(0)
+            axis_steps += axis
+            diagonal_steps += diagonal
+            previous = pixel
+    return axis_steps + math.sqrt(2.0) * diagonal_steps
+
+
+_HISTOGRAM_LANES = 4
+"""Copies of the depth histogram that consecutive pixels add to in turn, so that
+an increment need not wait for the one before (neighbours mostly share a bin)."""
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _thumbnail_blocks(resolution: int, thumbnail_side: int
+                      ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """How the image's pixels are gathered into the thumbnail.
+
+    The image is split into ``side x side`` blocks, ``side = min(resolution,
+    thumbnail_side)``: block ``k`` spans the pixel rows (and columns)
+    ``floor(k * resolution / side) .. floor((k + 1) * resolution / side) - 1``,
+    one pixel each when the image is smaller than the thumbnail. Thumbnail
+    pixel ``i`` shows block ``floor((i + 1/2) * side / thumbnail_side)``:
+    block ``i`` itself for an image at least as big as the thumbnail,
+    otherwise the pixel nearest to its centre.
+
+    Returns
+    -------
+    block_of : (resolution,) int64
+        Block of each pixel row (and column).
+    edges : (side + 1,) int64
+        First pixel of each block, then ``resolution``.
+    source : (thumbnail_side,) int64
+        Block shown by each thumbnail row (and column).
+    """
+    side = min(resolution, thumbnail_side)
+    edges = np.empty(side + 1, dtype=np.int64)
+    block_of = np.empty(resolution, dtype=np.int64)
+    for k in range(side + 1):
+        edges[k] = k * resolution // side
+    for k in range(side):
+        block_of[edges[k]:edges[k + 1]] = k
+    source = np.empty(thumbnail_side, dtype=np.int64)
+    for i in range(thumbnail_side):
+        source[i] = (2 * i + 1) * side // (2 * thumbnail_side)
+    return block_of, edges, source
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def view_features(
+    frame: NDArray[np.int64],
+    resolution: int,
+    row_low: NDArray[np.int64],
+    row_high: NDArray[np.int64],
+    near: float,
+    far: float,
+    mask: NDArray[np.uint8],
+    depth_histogram: NDArray[np.int64],
+    turning_histogram: NDArray[np.int64],
+    thumbnail: NDArray[np.uint8],
+) -> tuple[float, float]:
+    """Depth and silhouette statistics of one drawn view (:mod:`.features`).
+
+    Reads the keys of ``frame`` (row-major, as :func:`_rasterize_view` writes
+    them: covered where non-zero, quantised inverse depth ``q`` in the high
+    32 bits) over the written span ``row_low[y]..row_high[y]`` of each row,
+    and changes none of them. A covered pixel is at the distance ``z = 1 /
+    (q (1/near - 1/far) / 2**30 + 1/far)`` along the camera axis, of
+    normalised depth ``(z - near) / (far - near)`` clipped to [0, 1], which
+    falls in bin ``floor(depth * n_bins)`` (the last bin closed) of
+    ``depth_histogram``. Each thumbnail pixel shows the nearest covered pixel
+    of its block (:func:`_thumbnail_blocks`) as ``1 + round(254 (1 -
+    depth))``, 0 where the block sees nothing. The silhouette is traced on
+    ``mask``, the covered pixels with a background border of one pixel
+    (:func:`_trace_silhouette`), which must be all zero and is left so.
+
+    The histograms and the thumbnail are overwritten.
+
+    Returns
+    -------
+    max_depth, silhouette_length
+        Largest normalised depth of a covered pixel (NaN if none) and the
+        length of all contours.
+    """
+    n_bins = depth_histogram.shape[0]
+    block_of, block_edges, block_shown = _thumbnail_blocks(resolution, thumbnail.shape[0])
+    depth_blocks = np.full((len(block_edges) - 1, len(block_edges) - 1), -1, dtype=np.int64)
+    bins = np.empty(resolution, dtype=np.int64)
+    lanes = np.zeros((_HISTOGRAM_LANES, n_bins + 1), dtype=np.int64)  # bin n_bins: background
+    inverse_far = 1.0 / far
+    q_step = (1.0 / near - inverse_far) / _DEPTH_LEVELS
+    inverse_range = 1.0 / (far - near)
+    width = resolution + 2
+    nothing = np.int64(1) << 62
+    q_min = nothing
+    for y in range(resolution):
+        low = row_low[y]
+        high = row_high[y]
+        if low > high:
+            continue
+        base = y * resolution
+        mask_base = (y + 1) * width + 1
+        # no branch per pixel: the background gets the spare bin and neutral extremes
+        for x in range(low, high + 1):
+            key = frame[uint64(base + x)]
+            is_covered = key != 0
+            q = key >> 32
+            mask[uint64(mask_base + x)] = np.uint8(is_covered)
+            q_min = min(q_min, q if is_covered else nothing)
+            depth = _normalised_depth(q, q_step, inverse_far, near, inverse_range)
+            bins[x] = min(np.int64(depth * n_bins), n_bins - 1) if is_covered else n_bins
+        for x in range(low, high + 1):
+            lanes[x % _HISTOGRAM_LANES, bins[x]] += 1
+        blocks = depth_blocks[block_of[y]]
+        block = block_of[low]
+        x = low
+        while x <= high:
+            stop = min(block_edges[block + 1] - 1, high)
+            nearest = blocks[block]
+            for k in range(x, stop + 1):
+                key = frame[uint64(base + k)]
+                nearest = max(nearest, key >> 32 if key != 0 else np.int64(-1))
+            blocks[block] = nearest
+            block += 1
+            x = stop + 1
+    for b in range(n_bins):
+        depth_histogram[b] = lanes[:, b].sum()
+    turning_histogram[:] = 0
+    length = _trace_silhouette(mask, resolution, row_low, row_high, turning_histogram)
+    for y in range(resolution):
+        if row_low[y] <= row_high[y]:
+            mask_base = (y + 1) * width + 1
+            mask[mask_base + row_low[y]: mask_base + row_high[y] + 1] = 0
+    for i in range(thumbnail.shape[0]):
+        for j in range(thumbnail.shape[1]):
+            q = depth_blocks[block_shown[i], block_shown[j]]
+            if q < 0:
+                thumbnail[i, j] = 0
+            else:
+                depth = _normalised_depth(q, q_step, inverse_far, near, inverse_range)
+                thumbnail[i, j] = np.uint8(1 + round(254.0 * (1.0 - depth)))
+    if q_min == nothing:
+        return np.nan, length
+    return _normalised_depth(q_min, q_step, inverse_far, near, inverse_range), length
+
+
 @njit(parallel=True, cache=True, nogil=True, error_model="numpy")
 def rasterize_batch(
     vertices: NDArray[np.float64],
@@ -578,14 +856,24 @@ def rasterize_batch(
     out_ids: NDArray[np.int32],
     out_counts: NDArray[np.int32],
     out_lengths: NDArray[np.int64],
+    features: bool,
+    masks: NDArray[np.uint8],
+    depth_histograms: NDArray[np.int64],
+    max_depths: NDArray[np.float64],
+    silhouette_lengths: NDArray[np.float64],
+    turning_histograms: NDArray[np.int64],
+    thumbnails: NDArray[np.uint8],
 ) -> None:
-    """Per-face pixel histograms of a batch of views.
+    """Per-face pixel histograms of a batch of views, and with ``features`` their image statistics.
 
     ``face_normals`` and ``face_offsets`` are the unnormalised face planes
     ``n . x = offset``; a face is front-facing from ``eye`` when
     ``n . eye > offset``. ``is_drawable`` is False for faces never drawn
     (zero area). Results of view ``i`` go to ``out_ids[i, :out_lengths[i]]``
-    and ``out_counts[i, :out_lengths[i]]``.
+    and ``out_counts[i, :out_lengths[i]]``; with ``features``, the statistics
+    of :func:`view_features` to row ``i`` of the last five arrays, taken from
+    the frame after drawing and before counting (on the thread's ``masks``).
+    Without, those arrays may be empty.
     """
     n_views = eyes.shape[0]
     n_threads = frames.shape[0]
@@ -602,6 +890,12 @@ def rasterize_batch(
                 screen_x[thread], screen_y[thread], inverse_depth[thread],
                 resolution, frames[thread], row_low[thread], row_high[thread],
             )
+            if features:
+                max_depths[view], silhouette_lengths[view] = view_features(
+                    frames[thread], resolution, row_low[thread], row_high[thread], near, far,
+                    masks[thread], depth_histograms[view], turning_histograms[view],
+                    thumbnails[view],
+                )
             n_seen, n_pixels = _collect_histogram(
                 resolution, frames[thread], row_low[thread], row_high[thread],
                 id_counts[thread], touched[thread], out_ids[view], out_counts[view], count_runs,

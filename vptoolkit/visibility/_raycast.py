@@ -75,3 +75,35 @@ class RaycastScene:
         raise MeasurementError(
             f"ray casting: rays still hit back faces after {_MAX_PEELS} layers in view {view}"
         )
+
+    def depths(self, poses: ViewPoses, view: int,
+               face_ids: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Distance along the camera axis to the seen face of each pixel of one view.
+
+        The ray through the centre of pixel ``(x, y)`` is ``eye + z D`` with
+        ``D = forward + u right - v up``, ``u = (x + 1/2 - res/2) / f`` and
+        ``v = (y + 1/2 - res/2) / f``; it meets the plane ``n . p = offset``
+        of its face at ``z = (offset - n . eye) / (n . D)``, in double
+        precision whatever the float32 hit distance of the cast.
+
+        Parameters
+        ----------
+        face_ids : (resolution * resolution,) int64
+            :meth:`face_ids` of the view.
+
+        Returns
+        -------
+        depths : (resolution * resolution,) float64
+            ``z`` per pixel, row-major; NaN where no face is seen.
+        """
+        res = poses.resolution
+        tangents = (np.arange(res) + 0.5 - res / 2.0) / poses.focal_px
+        seen = np.flatnonzero(face_ids >= 0)
+        faces = face_ids[seen]
+        normals = self._normals[faces]
+        across = tangents[seen % res] * (normals @ poses.right[view])
+        down = tangents[seen // res] * (normals @ poses.up[view])
+        depths = np.full(len(face_ids), np.nan)
+        depths[seen] = ((self._offsets[faces] - normals @ poses.eyes[view])
+                        / (normals @ poses.forward[view] + across - down))
+        return depths

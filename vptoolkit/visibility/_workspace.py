@@ -2,10 +2,11 @@
 
 :class:`RasterWorkspace` holds what each thread of :mod:`._raster` writes
 (its frame of keys, the written span of each row, the per-face counts and
-the projected vertices), allocated once per call and reused across batches
-of views, within :data:`FRAME_BUDGET_BYTES`. :func:`locality_order` reorders
-faces along a Morton curve so that consecutive faces touch neighbouring
-pixels and vertices. Plain numpy: no compiled code lives here.
+the projected vertices, and where the views' image statistics are asked
+for, the silhouette mask), allocated once per call and reused across batches
+of views, within :data:`FRAME_BUDGET_BYTES`. :func:`locality_order`
+reorders faces along a Morton curve so that consecutive faces touch
+neighbouring pixels and vertices. Plain numpy: no compiled code lives here.
 """
 
 from __future__ import annotations
@@ -38,6 +39,10 @@ class RasterWorkspace:
         Fixed-point vertex positions of the view in progress.
     inverse_depth : (n_threads, n_vertices) float64
         Normalised inverse depth of each vertex in [0, 1] (1 = nearest).
+    masks : (n_threads, (resolution + 2) ** 2) uint8
+        Covered pixels of the view in progress with a background border of
+        one pixel, and the marks of the contours traced on them; all zero
+        between views. ``(n_threads, 0)`` when drawn without features.
     """
 
     frames: NDArray[np.int64]
@@ -48,12 +53,27 @@ class RasterWorkspace:
     screen_x: NDArray[np.int64]
     screen_y: NDArray[np.int64]
     inverse_depth: NDArray[np.float64]
+    masks: NDArray[np.uint8]
+
+    @property
+    def has_features(self) -> bool:
+        """Whether the buffers of the image statistics are there."""
+        return bool(self.masks.shape[1] > 0)
 
     @classmethod
-    def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int) -> RasterWorkspace:
+    def allocate(cls, *, resolution: int, n_faces: int, n_vertices: int,
+                 features: bool = False) -> RasterWorkspace:
+        """Buffers for as many threads as :func:`threads_within_budget` allows.
+
+        With ``features`` the silhouette masks are allocated too (and
+        counted in the budget); without, they are empty.
+        """
         capacity = histogram_capacity(resolution, n_faces)
         n_threads = threads_within_budget(resolution=resolution, n_faces=n_faces,
-                                          n_vertices=n_vertices, capacity=capacity)
+                                          n_vertices=n_vertices, capacity=capacity,
+                                          features=features)
+        masks = silhouette_masks(resolution, n_threads) if features else np.zeros(
+            (n_threads, 0), dtype=np.uint8)
         return cls(
             frames=np.zeros((n_threads, resolution * resolution), dtype=np.int64),
             row_low=np.full((n_threads, resolution), resolution, dtype=np.int64),
@@ -63,7 +83,13 @@ class RasterWorkspace:
             screen_x=np.zeros((n_threads, n_vertices), dtype=np.int64),
             screen_y=np.zeros((n_threads, n_vertices), dtype=np.int64),
             inverse_depth=np.zeros((n_threads, n_vertices), dtype=np.float64),
+            masks=masks,
         )
+
+
+def silhouette_masks(resolution: int, n_threads: int) -> NDArray[np.uint8]:
+    """Zeroed silhouette masks of ``n_threads`` threads (see :class:`RasterWorkspace`)."""
+    return np.zeros((n_threads, (resolution + 2) ** 2), dtype=np.uint8)
 
 
 FRAME_BUDGET_BYTES = 1 << 30
@@ -75,15 +101,18 @@ would multiply that by the thread count (3.2 GB on 2 threads).
 
 
 def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
-                          capacity: int) -> int:
-    """Threads whose buffers fit :data:`FRAME_BUDGET_BYTES`: at least 1, at most numba's.
+                          capacity: int, features: bool = False) -> int:
+    """Threads whose buffers (with ``features``, the silhouette masks too) fit
+    :data:`FRAME_BUDGET_BYTES`: at least 1, at most numba's.
 
     The result depends only on the sizes and the thread count, never on the
     views, and every view is drawn the same way on any thread, so the counts
-    are identical whatever it returns.
+    and statistics are identical whatever it returns.
     """
     per_thread = (8 * resolution * resolution + 16 * resolution + 8 * (n_faces + 1)
                   + 4 * (capacity + 1) + 24 * n_vertices)
+    if features:
+        per_thread += (resolution + 2) ** 2
     return int(max(1, min(numba.get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
 
 
