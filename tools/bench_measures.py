@@ -15,6 +15,11 @@ midpoint-subdivided to size):
   scaled to all views, and the ratio raycast / raster from the same run;
 * how far the best view per measure at 256 and 512 lies from the one at
   1024 (degrees) and how much normalised quality (at 1024) it loses;
+* the cost of every measure of the registry beside the paper's four: the
+  seconds of ``compute_view_quality`` with the four and with all of them,
+  alternately in one run, and their ratio; the drawing pass with and without
+  the depth and silhouette statistics; and the seconds each family adds on
+  top of the drawn views (its measures computed on one ``ViewData``);
 * the JIT compile time (cold cache) and the cached start-up time, apart;
 * the peak resident memory of the process after the largest mesh.
 
@@ -45,7 +50,9 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.io import load_mesh
+from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import FAMILIES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -108,6 +115,62 @@ def time_baseline(code: Path, mesh_file: Path, resolution: int) -> float:
         raise SystemExit(f"bench_measures: the baseline child imported {record['code']}, "
                          f"not {code}")
     return float(record["seconds"])
+
+
+def time_measures(mesh: Mesh, views: np.ndarray, resolution: int, repeat: int) -> dict[str, float]:
+    """Seconds of the paper's four against every registered measure, and per family.
+
+    ``four_s`` and ``all_s`` are ``compute_view_quality`` with the default
+    measures and with ``"all"``, best of ``repeat``, run alternately so both
+    see the same machine load; ``draw_s`` and ``draw_features_s`` the drawing
+    pass alone without and with the depth and silhouette statistics; each
+    family's entry is the seconds its measures take on the drawn views, their
+    shared per-mesh quantities (curvature, saliency, neighbours) included.
+    """
+    settings = MeasureSettings(resolution=resolution)
+    four, every, draw, draw_features = [], [], [], []
+    for _ in range(repeat):
+        started = time.perf_counter()
+        compute_view_quality(mesh, settings, view_directions=views)
+        four.append(time.perf_counter() - started)
+        started = time.perf_counter()
+        compute_view_quality(mesh, settings, view_directions=views, measures="all")
+        every.append(time.perf_counter() - started)
+        started = time.perf_counter()
+        runs = list(iter_view_histograms(mesh, settings, view_directions=views))
+        draw.append(time.perf_counter() - started)
+        started = time.perf_counter()
+        runs = list(iter_view_histograms(mesh, settings, view_directions=views, features=True))
+        draw_features.append(time.perf_counter() - started)
+    record = {"four_s": min(four), "all_s": min(every), "draw_s": min(draw),
+              "draw_features_s": min(draw_features)}
+    from vptoolkit.geometry import face_areas
+
+    for family in FAMILIES:
+        data = ViewData(mesh, views, settings, face_areas(mesh), runs)
+        started = time.perf_counter()
+        for measure in all_measures().values():
+            if measure.family == family:
+                measure.compute(data)
+        record[family] = time.perf_counter() - started
+    return record
+
+
+def print_measure_costs(mesh: Mesh, views: np.ndarray, resolution: int,
+                        repeat: int) -> dict[str, float]:
+    """Print and return :func:`time_measures` of one mesh."""
+    record = time_measures(mesh, views, resolution, repeat)
+    print(f"\nall {len(all_measures())} measures against the paper's four: {mesh.name}, "
+          f"{mesh.n_faces} faces, {len(views)} views at {resolution} px, best of {repeat}")
+    print(f"  the four: {record['four_s']:.2f} s; all: {record['all_s']:.2f} s; "
+          f"ratio {record['all_s'] / record['four_s']:.2f}")
+    print(f"  drawing: {record['draw_s']:.2f} s; with depth and silhouette statistics: "
+          f"{record['draw_features_s']:.2f} s "
+          f"(x{record['draw_features_s'] / record['draw_s']:.2f})")
+    for family in FAMILIES:
+        names = ", ".join(m.name for m in all_measures().values() if m.family == family)
+        print(f"  {family:<12}{record[family]:>7.2f} s on the drawn views  ({names})")
+    return {"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution, **record}
 
 
 def jit_seconds() -> tuple[float, float]:
@@ -214,6 +277,8 @@ def main() -> None:
                     print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
                     results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
                                     "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})
+        # the torus has 8,700 faces: the issue's 10k-face mesh at the finest resolution
+        results.append(print_measure_costs(torus, views, finest, args.repeat))
         peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
         print(f"\npeak resident memory of this process: {peak_mb:.0f} MB")
         if args.json:

@@ -7,7 +7,10 @@ from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 
-__all__ = ["face_cross_products", "face_areas", "face_normals", "bounding_frame", "principal_frame"]
+__all__ = [
+    "face_cross_products", "face_areas", "face_normals", "bounding_frame", "principal_frame",
+    "undirected_edges", "welded_faces",
+]
 
 
 def face_cross_products(mesh: MeshLike) -> NDArray[np.float64]:
@@ -99,3 +102,29 @@ def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDA
     if np.linalg.det(axes) < 0:
         axes[2] = -axes[2]
     return np.asarray(axes)
+
+
+def welded_faces(mesh: MeshLike) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The mesh with one vertex per distinct position: ``(vertices, faces)``.
+
+    Faces of a mesh stored as a triangle soup (an STL file) share no vertex
+    index; here they share their edges as the surface does.
+    """
+    mesh = as_mesh(mesh)
+    vertices, position = np.unique(mesh.vertices, axis=0, return_inverse=True)
+    return vertices, position.reshape(-1)[mesh.faces].astype(np.int64)
+
+
+def undirected_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Edge id of each face side ``(n_faces, 3)`` and the number of faces on each edge.
+
+    Side ``k`` of face ``f`` joins corners ``k`` and ``k + 1 (mod 3)``; two
+    sides share an id when they join the same two vertex indices, in either
+    order. Ids run over ``0 .. n_edges - 1`` in increasing order of the
+    sorted vertex pair.
+    """
+    sides = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1)
+    sides = np.sort(sides, axis=2).reshape(-1, 2)
+    keys = sides[:, 0] * (int(faces.max()) + 1) + sides[:, 1]
+    _, edge_id, counts = np.unique(keys, return_inverse=True, return_counts=True)
+    return edge_id.reshape(-1, 3).astype(np.int64), counts.astype(np.int64)

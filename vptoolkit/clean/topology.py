@@ -1,7 +1,7 @@
 """Pure-numpy mesh topology for :mod:`vptoolkit.clean` (no pymeshlab).
 
-Owns the face-array computations the cleaning steps share: undirected edges
-and how many faces each has (:func:`undirected_edges`), union-find labelling,
+Owns the face-array computations the cleaning steps share (undirected edges
+come from :func:`vptoolkit.geometry.undirected_edges`): union-find labelling,
 the choice of faces to keep on non-manifold edges
 (:func:`keep_major_faces_on_non_manifold_edges`), consistently wound patches
 (:func:`coherent_patches`), closed components (:func:`closed_components`),
@@ -14,16 +14,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import MeasurementError
+from vptoolkit.geometry import undirected_edges
 from vptoolkit.mesh import Mesh
-
-
-def undirected_edges(faces: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Edge id of each face side ``(n_faces, 3)`` and the number of faces on each edge."""
-    sides = np.stack([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]], axis=1)
-    sides = np.sort(sides, axis=2).reshape(-1, 2)
-    keys = sides[:, 0] * (int(faces.max()) + 1) + sides[:, 1]
-    _, edge_id, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    return edge_id.reshape(-1, 3).astype(np.int64), counts.astype(np.int64)
 
 
 def _union_find(

@@ -23,28 +23,48 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write, check_output_folder, write_json_atomic
 
 
+def _measure_names(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, ...]:
+    """Check ``--measures`` before the mesh is read: known, distinct names."""
+    from vptoolkit.measures.registry import resolve_measures
+
+    try:
+        return resolve_measures(value)
+    except InputError as err:
+        raise InputError(f"--measures: {str(err).removeprefix('measures: ')}") from None
+
+
 @click.command()
 @click.argument("mesh", type=MESH)
+@click.option("--measures", "names", default="paper", show_default=True,
+              callback=_measure_names,
+              help="Comma-separated measure names (VE,NVT,INS), 'all' for every registered "
+                   "measure, or 'paper' for VE, VR, VKL and VMI.")
 @views_option()
 @resolution_option()
 @click.option("--backend", type=click.Choice(["raster", "raycast"]), default="raster",
               show_default=True, help="raster: fast numba z-buffer; raycast: Open3D reference.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write views, raw and normalised measures and the camera to this .npz.")
+              help="Write views, raw and normalised measures, their names and the camera "
+                   "to this .npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
-def measures(mesh: Path, n_views: int, resolution: int, backend: str,
+def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, backend: str,
              output: Path | None, as_json: bool) -> None:
-    """Compute VE, VR, VKL and VMI of MESH for every view; print the best views.
+    """Compute viewpoint quality measures of MESH for every view; print the best views.
 
-    VE and VR: higher is better; VKL and VMI: lower is better. Directions point
-    from the model centre to the camera, in the mesh's own coordinates.
+    By default the paper's four: VE and VR (higher is better), VKL and VMI
+    (lower is better). --measures picks others of the survey by Bonaventura
+    et al. (2018) by name; the table says which way each is better.
+    Directions point from the model centre to the camera, in the mesh's own
+    coordinates.
 
     \b
     Example:
       vptool measures bunny.ply --views 1000 --resolution 512 -o bunny.npz
+      vptool measures bunny.ply --measures NVT,PA,I3,INS
+      vptool measures bunny.ply --measures all --json
     """
     from vptoolkit.io import load_mesh
-    from vptoolkit.measures import compute_view_quality
+    from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.settings import MeasureSettings
 
     settings = MeasureSettings(views=n_views, resolution=resolution,
@@ -54,7 +74,7 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
         check_output_folder(output, "--output")  # before the work, not after
     loaded = load_mesh(mesh)
     started = time.perf_counter()
-    quality = compute_view_quality(loaded, settings, progress=True)
+    quality = compute_view_quality(loaded, settings, measures=names, progress=True)
     seconds = time.perf_counter() - started
     if output is not None:
         quality.save_npz(output)
@@ -67,11 +87,11 @@ def measures(mesh: Path, n_views: int, resolution: int, backend: str,
         f"{quality.name}: {quality.n_faces} faces, {len(quality.views)} views at "
         f"{quality.resolution} px ({quality.backend}, {seconds:.2f} s)"
     )
-    click.echo(f"{'measure':<8} {'view':>5}  {'direction (x, y, z)':<26} {'raw':>9}")
+    click.echo(f"{'measure':<8} {'view':>5}  {'direction (x, y, z)':<26} {'raw':>9}  best")
     for name, best in summary["best"].items():
         x, y, z = best["direction"]
         click.echo(f"{name:<8} {best['view_index']:>5}  ({x:+.3f}, {y:+.3f}, {z:+.3f})     "
-                   f"{best['raw']:>9.4f}")
+                   f"{best['raw']:>9.4f}  {'max' if best['higher_is_better'] else 'min'}")
     if output is not None:
         click.echo(f"wrote {output}")
 

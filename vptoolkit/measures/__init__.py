@@ -2,39 +2,26 @@
 
 Modules, one concept each:
 
-- ``registry``: :class:`Measure`, the registry of every measure, names from
-  what a user wrote (``"all"``, ``"VE,SL"``).
-- ``data``: :class:`ViewData`, the drawn views of one mesh and what the
-  measures derive from them.
-- ``quality``: :func:`compute_view_quality` and :class:`ViewQuality`, the
-  paper's four from streamed pixel counts, normalisation and ranking.
+- ``registry``: :class:`~vptoolkit.measures.registry.Measure`, the registry of
+  every measure, names from what a user wrote (``"all"``, ``"VE,SL"``).
+- ``data``: :class:`~vptoolkit.measures.data.ViewData`, the drawn views of one
+  mesh and what the measures derive from them.
+- ``quality``: :func:`~vptoolkit.measures.quality.compute_view_quality` and
+  ``ViewQuality``, any registered measures of a mesh's views (the paper's four,
+  by default, streamed from the pixel counts), normalisation and ranking.
+- ``curvature``: the per-face mean curvature of a mesh, computed once per mesh.
+- ``saliency``: per-face saliency (Feixas et al.'s from the views, Lee et al.'s
+  from the curvature), computed once per mesh.
 - ``catalog``: one module per measure, found by the registry.
+
+The names of the former single module stay importable from here
+(``from vptoolkit.measures import compute_view_quality``); inside vptoolkit
+each name is imported from its own module.
 """
 
-from vptoolkit.measures.quality import (
-    ViewQuality,
-    compute_view_quality,
-    normalize_quality,
-    progress_runs,
-    quality_from_histograms,
-    ranked_views,
-)
-from vptoolkit.measures.registry import (
-    Measure,
-    all_measures,
-    get_measure,
-    resolve_measures,
-)
-
-__all__ = [
-    "Measure",
-    "ViewQuality",
-    "all_measures",
-    "compute_view_quality",
-    "get_measure",
-    "normalize_quality",
-    "progress_runs",
-    "quality_from_histograms",
-    "ranked_views",
-    "resolve_measures",
-]
+from vptoolkit.measures.quality import ViewQuality as ViewQuality
+from vptoolkit.measures.quality import compute_view_quality as compute_view_quality
+from vptoolkit.measures.quality import normalize_quality as normalize_quality
+from vptoolkit.measures.quality import progress_runs as progress_runs
+from vptoolkit.measures.quality import quality_from_histograms as quality_from_histograms
+from vptoolkit.measures.quality import ranked_views as ranked_views

@@ -68,7 +68,8 @@ class ViewData:
 
     def per_view(self, weights: NDArray[np.float64]) -> NDArray[np.float64]:
         """``sum_z w`` per view, for ``weights`` aligned with :attr:`entries`."""
-        return np.bincount(self.entries[0], weights=weights, minlength=self.n_views)
+        return np.asarray(np.bincount(self.entries[0], weights=weights, minlength=self.n_views),
+                          dtype=np.float64)
 
     @cached_property
     def projected(self) -> NDArray[np.float64]:
@@ -84,7 +85,8 @@ class ViewData:
     def face_totals(self) -> NDArray[np.float64]:
         """``sum_v a_z(v)`` per face, ``(n_faces,)``."""
         _, faces, counts = self.entries
-        return np.bincount(faces, weights=counts, minlength=self.n_faces)
+        return np.asarray(np.bincount(faces, weights=counts, minlength=self.n_faces),
+                          dtype=np.float64)
 
     @cached_property
     def face_probability(self) -> NDArray[np.float64]:

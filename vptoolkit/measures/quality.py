@@ -1,4 +1,11 @@
-"""The four viewpoint quality measures VE, VR, VKL and VMI.
+"""Viewpoint quality of a mesh over its views: computation, normalisation, ranking.
+
+:func:`compute_view_quality` computes any registered measures
+(:mod:`vptoolkit.measures.registry`); by default the paper's four, VE, VR,
+VKL and VMI, which :func:`quality_from_histograms` streams from the pixel
+counts without keeping them (with a second drawing pass for a large mesh).
+Other measures read a :class:`~vptoolkit.measures.data.ViewData` built once
+from the kept pixel counts.
 
 Notation (Bonaventura et al. 2018, as in the paper's section 3): for a view
 ``v`` and a face ``z``, ``a_z(v)`` is the projected area of ``z`` in pixels
@@ -18,14 +25,19 @@ With ``p(z|v) = a_z(v) / a_t(v)`` and logarithms in base 2 (bits):
   ``p(z) = sum_v a_z(v) / sum_v a_t(v)`` over the sampled views.
 
 Per model, each measure is normalised to [0, 1] over the sampled views with
-1 = best: ``(q - worst) / (best - worst)`` (paper, eq. 5).
+1 = best: ``(q - worst) / (best - worst)`` (paper, eq. 5), with best the
+maximum where :attr:`Measure.higher_is_better
+<vptoolkit.measures.registry.Measure.higher_is_better>` and the minimum
+otherwise.
 
 Special cases
     A view that sees no face (every face is back-facing from it) has
     ``VR = 0`` and NaN for VE, VKL and VMI; its normalised value is 0 (worst)
-    for all four. A measure that is constant over the views that see
-    something normalises to 1 for all of them (every view is best). A model
-    that no view sees at all raises :class:`~vptoolkit.errors.MeasurementError`.
+    for all four (other measures state their own value, NaN for most; NaN
+    always normalises to 0). A measure that is constant over the views that
+    see something normalises to 1 for all of them (every view is best). A
+    model that no view sees at all raises
+    :class:`~vptoolkit.errors.MeasurementError`.
 """
 
 from __future__ import annotations
@@ -35,7 +47,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,7 +58,9 @@ from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.progress import progress_bar
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
@@ -62,6 +76,10 @@ __all__ = [
 
 _STORE_BYTES = 1 << 29  # keep histograms for the VMI pass up to this size, else recompute
 
+_IMAGE_NEEDS: Final = frozenset({"depth", "silhouette"})
+"""Needs drawn with the pixel counts, as each run's
+:class:`~vptoolkit.visibility.features.ViewFeatures`."""
+
 
 @dataclass(frozen=True)
 class ViewQuality:
@@ -71,16 +89,18 @@ class ViewQuality:
     ----------
     views : (n_views, 3) float64
         Unit view directions (model centre towards the camera).
-    raw : (n_views, 4) float64
-        Raw measures in :data:`~vptoolkit.conventions.MEASURES` order, in bits
-        (VR is a fraction of the area); NaN where a view sees nothing.
-    normalized : (n_views, 4) float64
+    raw : (n_views, M) float64
+        Raw values, one column per name of ``measures``, in each measure's
+        own units (bits for VE, VKL, VMI; VR a fraction of the area); NaN
+        where a measure is undefined for a view (one that sees nothing).
+    normalized : (n_views, M) float64
         Per-model normalised measures in [0, 1], 1 = best.
     measures : tuple of str
-        ``("VE", "VR", "VKL", "VMI")``.
-    best_index : (4,) int64
+        The measures' names, in column order; by default
+        :data:`~vptoolkit.conventions.MEASURES`, ``("VE", "VR", "VKL", "VMI")``.
+    best_index : (M,) int64
         Index of the best view per measure (the first one on ties).
-    worst_index : (4,) int64
+    worst_index : (M,) int64
         Index of the worst view per measure.
     name : str
         Name of the mesh.
@@ -108,11 +128,17 @@ class ViewQuality:
 
     @property
     def best_views(self) -> NDArray[np.float64]:
-        """Best view direction per measure, ``(4, 3) float64``."""
+        """Best view direction per measure, ``(M, 3) float64``."""
         return self.views[self.best_index]
 
+    @property
+    def higher_is_better(self) -> tuple[bool, ...]:
+        """For each of :attr:`measures`: is a higher raw value better?"""
+        return tuple(get_measure(name).higher_is_better for name in self.measures)
+
     def summary(self) -> dict[str, Any]:
-        """JSON-safe summary: best view, raw value and index per measure."""
+        """JSON-safe summary: per measure, by name, the best view's index, direction and
+        raw value, and which way the measure is better."""
         return {
             "name": self.name,
             "n_faces": self.n_faces,
@@ -125,17 +151,20 @@ class ViewQuality:
                     "view_index": int(index),
                     "direction": [round(float(c), 6) for c in self.views[index]],
                     "raw": float(self.raw[index, column]),
+                    "higher_is_better": higher,
                 }
-                for column, (measure, index) in enumerate(zip(self.measures, self.best_index))
+                for column, (measure, index, higher) in enumerate(
+                    zip(self.measures, self.best_index, self.higher_is_better))
             },
         }
 
     def save_npz(self, path: str | os.PathLike[str]) -> Path:
         """Write the arrays and conventions to an ``.npz`` file atomically.
 
-        The file holds ``views``, ``raw``, ``normalized``, ``measures``
-        (unicode), ``best_index``, ``resolution``, ``backend``, ``name`` and
-        ``camera`` (a JSON string); nothing needs pickle to load.
+        The file holds ``views``, ``raw``, ``normalized``, ``measures`` (the
+        column names, unicode), ``higher_is_better`` (bool, one per column),
+        ``best_index``, ``worst_index``, ``resolution``, ``backend``,
+        ``name`` and ``camera`` (a JSON string); nothing needs pickle to load.
         """
         target = check_suffix(path, ".npz")
         with atomic_write(target) as handle:
@@ -145,6 +174,7 @@ class ViewQuality:
                 raw=self.raw,
                 normalized=self.normalized,
                 measures=np.array(self.measures, dtype=np.str_),
+                higher_is_better=np.array(self.higher_is_better, dtype=np.bool_),
                 best_index=self.best_index,
                 worst_index=self.worst_index,
                 resolution=np.int64(self.resolution),
@@ -155,40 +185,60 @@ class ViewQuality:
         return target
 
 
-def ranked_views(raw: NDArray[np.float64], column: int) -> NDArray[np.intp]:
+def ranked_views(raw: NDArray[np.float64], column: int,
+                 higher_is_better: Sequence[bool] | None = None) -> NDArray[np.intp]:
     """Row indices of ``raw`` from the best to the worst value of one measure.
 
-    Best is the largest value for VE and VR and the smallest for VKL and VMI
-    (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`); NaN rows come last, and
-    equal values keep their order (a stable sort).
+    Parameters
+    ----------
+    raw : (n_views, M) float64
+        Raw values, one column per measure.
+    column : int
+        The measure's column.
+    higher_is_better : sequence of bool, optional
+        For each column, whether a higher value is better; by default the
+        paper's four (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`: the
+        largest value is best for VE and VR, the smallest for VKL and VMI).
+
+    Returns
+    -------
+    (n_views,) intp
+        NaN rows last; equal values keep their order (a stable sort).
     """
-    if HIGHER_IS_BETTER[column]:
-        return np.argsort(-np.where(np.isfinite(raw[:, column]), raw[:, column], -np.inf),
-                          kind="stable")
-    return np.argsort(np.where(np.isfinite(raw[:, column]), raw[:, column], np.inf),
-                      kind="stable")
+    higher = (HIGHER_IS_BETTER if higher_is_better is None else higher_is_better)[column]
+    values = raw[:, column]
+    if higher:
+        return np.argsort(-np.where(np.isfinite(values), values, -np.inf), kind="stable")
+    return np.argsort(np.where(np.isfinite(values), values, np.inf), kind="stable")
 
 
-def normalize_quality(raw: ArrayLike) -> NDArray[np.float64]:
+def normalize_quality(raw: ArrayLike,
+                      higher_is_better: Sequence[bool] | None = None) -> NDArray[np.float64]:
     """Normalise raw measures per column to [0, 1] with 1 = best (eq. 5).
 
     Parameters
     ----------
-    raw : (n_views, 4) array_like
-        Raw values in :data:`MEASURES` order; NaN marks a view that sees nothing.
+    raw : (n_views, M) array_like
+        Raw values, one column per measure; NaN marks a view where the
+        measure is undefined (one that sees nothing).
+    higher_is_better : sequence of M bool, optional
+        For each column, whether a higher raw value is better; by default
+        the paper's four in :data:`MEASURES` order
+        (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, so ``M = 4``).
 
     Returns
     -------
-    normalized : (n_views, 4) float64
-        ``(q - q_worst) / (q_best - q_worst)``, where best is the maximum for
-        VE and VR and the minimum for VKL and VMI; 0 for NaN entries; 1 for
-        every finite entry of a constant column.
+    normalized : (n_views, M) float64
+        ``(q - q_worst) / (q_best - q_worst)``, where best is the maximum of
+        a column whose higher values are better and the minimum otherwise;
+        0 for NaN entries; 1 for every finite entry of a constant column.
     """
+    directions = HIGHER_IS_BETTER if higher_is_better is None else tuple(higher_is_better)
     values = np.asarray(raw, dtype=np.float64)
-    if values.ndim != 2 or values.shape[1] != len(MEASURES):
-        raise InputError(f"raw: expected shape (n_views, {len(MEASURES)}), got {values.shape}")
+    if values.ndim != 2 or values.shape[1] != len(directions):
+        raise InputError(f"raw: expected shape (n_views, {len(directions)}), got {values.shape}")
     normalized = np.zeros_like(values)
-    for column, is_higher_better in enumerate(HIGHER_IS_BETTER):
+    for column, is_higher_better in enumerate(directions):
         finite = np.isfinite(values[:, column])
         if not finite.any():
             continue
@@ -313,11 +363,12 @@ def compute_view_quality(
     mesh: MeshLike,
     settings: MeasureSettings = MeasureSettings(),
     *,
+    measures: str | Iterable[str] | None = None,
     view_directions: ArrayLike | None = None,
     progress: bool = False,
     histograms: Sequence[ViewHistograms] | None = None,
 ) -> ViewQuality:
-    """Compute VE, VR, VKL and VMI of a mesh for every view.
+    """Compute viewpoint quality measures of a mesh for every view.
 
     Parameters
     ----------
@@ -327,6 +378,11 @@ def compute_view_quality(
         The number of Fibonacci-sphere views, the triangle-ID image side, the
         camera and the pixel counting backend (default: ``MeasureSettings()``,
         1000 views at 1024 px).
+    measures : str or iterable of str, optional
+        What :func:`~vptoolkit.measures.registry.resolve_measures` takes:
+        ``None`` or ``"paper"`` for the paper's four (VE, VR, VKL, VMI, the
+        default), ``"all"`` for every registered measure, or names
+        (``"VE,NVT,INS"``); the result's columns follow this order.
     view_directions : (n_views, 3) array_like, optional
         Explicit view directions, measured instead of the ``settings.views``
         Fibonacci-sphere directions.
@@ -336,12 +392,30 @@ def compute_view_quality(
         Pixel counts already drawn for exactly these views with these
         ``settings`` (e.g. kept by
         :func:`vptoolkit.view_sets.search.measure_view_set` for a view set); nothing
-        is drawn then.
+        is drawn then. They must carry ``features`` where a requested
+        measure needs depth or silhouette statistics.
 
     Returns
     -------
     ViewQuality
         Raw and normalised measures, best and worst views.
+
+    Raises
+    ------
+    InputError
+        An unknown measure name, or ``histograms`` without the statistics a
+        measure needs.
+    MeasurementError
+        No view sees any face of the mesh.
+
+    Notes
+    -----
+    The paper's four, asked for in their order, are streamed from the pixel
+    counts (:func:`quality_from_histograms`), so a large mesh never holds all
+    views' counts. Any other choice draws the views once, with the depth and
+    silhouette statistics only if a requested measure needs them, keeps the
+    runs in a :class:`~vptoolkit.measures.data.ViewData` and computes each
+    measure from it; what no requested measure reads is never computed.
 
     Examples
     --------
@@ -351,7 +425,11 @@ def compute_view_quality(
     >>> quality = compute_view_quality(box, settings)
     >>> quality.raw.shape, quality.measures
     ((100, 4), ('VE', 'VR', 'VKL', 'VMI'))
+    >>> compute_view_quality(box, settings, measures="NVT,PA").measures
+    ('NVT', 'PA')
     """
+    names = resolve_measures(measures)
+    chosen = [get_measure(name) for name in names]
     mesh = as_mesh(mesh)
     settings = check_settings(settings)
     if view_directions is None:
@@ -359,24 +437,34 @@ def compute_view_quality(
     else:
         directions = as_directions(view_directions, name="view_directions")
     areas = face_areas(mesh)
+    with_features = any(measure.needs & _IMAGE_NEEDS for measure in chosen)
+    if histograms is not None and with_features \
+            and any(run.features is None for run in histograms):
+        needing = ", ".join(m.name for m in chosen if m.needs & _IMAGE_NEEDS)
+        raise InputError(f"{mesh.name}: histograms: drawn without the depth and silhouette "
+                         f"statistics (needed by {needing})")
 
     def draw() -> Iterable[ViewHistograms]:
         if histograms is not None:
             return histograms
-        return iter_view_histograms(mesh, settings, view_directions=directions)
+        return iter_view_histograms(mesh, settings, view_directions=directions,
+                                    features=with_features)
 
     first_pass: Iterable[ViewHistograms] = draw()
     if progress:
         first_pass = progress_runs(first_pass, len(directions), mesh.name)
     try:
-        raw = quality_from_histograms(
-            first_pass, areas, n_views=len(directions), recompute=draw()
-        )
+        if names == MEASURES:
+            raw = quality_from_histograms(
+                first_pass, areas, n_views=len(directions), recompute=draw()
+            )
+        else:
+            raw = _registered_quality(mesh, directions, settings, areas, first_pass, chosen)
     except MeasurementError as err:
         raise MeasurementError(f"{mesh.name}: {err}") from err
     except InputError as err:
         raise InputError(f"{mesh.name}: {err}") from err
-    normalized = normalize_quality(raw)
+    normalized = normalize_quality(raw, [measure.higher_is_better for measure in chosen])
     return ViewQuality(
         views=directions,
         raw=raw,
@@ -388,7 +476,25 @@ def compute_view_quality(
         resolution=settings.resolution,
         backend=settings.backend,
         camera=settings.camera,
+        measures=names,
     )
+
+
+def _registered_quality(mesh: Mesh, views: NDArray[np.float64], settings: MeasureSettings,
+                        areas: NDArray[np.float64], runs: Iterable[ViewHistograms],
+                        chosen: Sequence[Measure]) -> NDArray[np.float64]:
+    """Raw values ``(n_views, M)`` of the chosen measures from one pass over the runs."""
+    data = ViewData(mesh, views, settings, areas, list(runs))
+    if not data.seen.any():
+        raise MeasurementError("no face is visible from any of the views")
+    columns = []
+    for measure in chosen:
+        values = np.asarray(measure.compute(data), dtype=np.float64)
+        if values.shape != (data.n_views,):
+            raise RuntimeError(f"{measure.name}: computed shape {values.shape}, "
+                               f"expected ({data.n_views},)")
+        columns.append(values)
+    return np.column_stack(columns)
 
 
 def progress_runs(

@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 __all__ = [
     "FAMILIES",
     "NEEDS",
-    "PAPER_MEASURES",
     "Measure",
     "all_measures",
     "get_measure",

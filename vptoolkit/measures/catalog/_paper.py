@@ -20,6 +20,6 @@ def paper_column(data: ViewData, name: str) -> NDArray[np.float64]:
         from vptoolkit.measures.quality import quality_from_histograms
 
         data.cache["paper"] = quality_from_histograms(
-            data.histograms, data.areas, n_views=data.n_views)
+            data.histograms, data.areas, n_views=data.n_views, recompute=data.histograms)
     raw: NDArray[np.float64] = data.cache["paper"]
     return raw[:, MEASURES.index(name)]

@@ -1,0 +1,316 @@
+"""Per-face saliency of a mesh: from the views (Feixas et al.) and from the curvature (Lee et al.).
+
+Notation as in :mod:`vptoolkit.measures.data`: ``a_z(v)`` pixels of face
+``z`` in view ``v``, ``A_z = sum_v a_z(v)`` the face's pixels over all views
+(its :attr:`~vptoolkit.measures.data.ViewData.face_totals`), logarithms in
+base 2.
+
+Polygonal saliency (Feixas, Sbert and González 2009)
+    With the channel of :mod:`vptoolkit.measures.quality`, ``p(v|z) =
+    a_z(v) / A_z`` is the distribution of the views that see face ``z``. Two
+    neighbouring faces ``z, z'`` differ by the Jensen-Shannon divergence of
+    their view distributions, weighted by their probabilities
+    ``pi = A_z / (A_z + A_z')``, ``pi' = A_z' / (A_z + A_z')``:
+
+    ``D(z, z') = H(pi p(V|z) + pi' p(V|z')) - pi H(p(V|z)) - pi' H(p(V|z'))``
+
+    in [0, 1] bits, and the saliency of ``z`` is the mean over its
+    neighbours ``N(z)``: ``S(z) = (1 / |N(z)|) sum_{z' in N(z)} D(z, z')``.
+    Neighbours are the faces that share an edge with ``z``, vertices at the
+    same position counting as one (so a triangle soup, as an STL file
+    holds it, has its edges), and only neighbours seen from some view
+    (``A_z' > 0``) count, as in quoniam's ``FeixasSaliency``. A face no view
+    sees, or none of whose neighbours is seen, has no saliency (NaN here);
+    the measures say which value they give it. With ``x log x`` written
+    ``g(x)``, only views that see both faces enter a sum:
+
+    ``D(z, z') = [sum_{v: a_z(v) a_z'(v) > 0} (g(a_z(v)) + g(a_z'(v)) - g(a_z(v) + a_z'(v)))
+    + g(A_z + A_z') - g(A_z) - g(A_z')] / (A_z + A_z')``,
+
+    so each pair costs the views that see its first face, whose pixel
+    counts are looked up in a dense (views by faces) block of a batch of
+    views.
+
+Mesh saliency (Lee, Varshney and Jacobs 2005)
+    Computed on the face centroids ``x_z`` with the per-face mean curvature
+    ``H_z`` of :mod:`vptoolkit.measures.curvature`. The Gaussian-weighted
+    mean of the curvature at scale ``sigma`` is
+
+    ``G(z, sigma) = sum_{|x_y - x_z| < 2 sigma} H_y w_zy / sum_{|x_y - x_z| < 2 sigma} w_zy``,
+    ``w_zy = exp(-|x_y - x_z|^2 / (2 sigma^2))``,
+
+    the saliency at scale ``sigma_i`` is ``S_i(z) = |G(z, sigma_i) - G(z,
+    2 sigma_i)|`` for ``sigma_i = i eps``, ``i = 2 .. 6``, ``eps`` 0.3 % of
+    the bounding-box diagonal, and the scales are combined after Itti's
+    non-linear normalisation: each ``S_i`` is divided by its maximum and
+    multiplied by ``(1 - m_i)^2``, ``m_i`` the mean of its other local maxima
+    (faces above all their edge neighbours by more than rounding, the global
+    maximum left out; 0 if there is none), and ``S = sum_i S_i``. A scale
+    whose ``S_i`` is 0 everywhere adds nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING, Final, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from vptoolkit.geometry import bounding_frame, undirected_edges, welded_faces
+from vptoolkit.measures.curvature import mesh_curvature
+from vptoolkit.mesh import MeshLike, as_mesh
+
+if TYPE_CHECKING:
+    from vptoolkit.measures.data import ViewData
+
+__all__ = [
+    "CACHE_KEY",
+    "LEE_CACHE_KEY",
+    "face_neighbours",
+    "lee_saliency",
+    "mesh_saliency",
+    "polygon_saliency",
+]
+
+CACHE_KEY: Final = "saliency"
+"""Key of the per-face polygonal saliency (NaN where undefined) in :attr:`ViewData.cache`."""
+
+LEE_CACHE_KEY: Final = "saliency:lee"
+"""Key of the per-face mesh saliency of Lee et al. in :attr:`ViewData.cache`."""
+
+LEE_SCALES: Final = (2.0, 3.0, 4.0, 5.0, 6.0)
+"""Lee et al.'s scales ``sigma_i / eps``."""
+
+LEE_EPSILON: Final = 0.003
+"""Lee et al.'s ``eps`` as a fraction of the bounding-box diagonal."""
+
+_CANDIDATES: Final = 1 << 22  # neighbour candidates examined at once by the Gaussian sums
+_PEAK_TOLERANCE: Final = 1e-9  # a local maximum stands this far above its neighbours (max = 1)
+_DENSE: Final = 1 << 22  # pixel counts laid out densely at once by the divergences
+
+
+def face_neighbours(mesh: MeshLike) -> NDArray[np.int64]:
+    """Pairs of faces that share an edge.
+
+    Vertices at the same position are one vertex here, so faces of a mesh
+    stored as a triangle soup are joined too. An edge with more than two
+    faces joins each pair of them.
+
+    Parameters
+    ----------
+    mesh : MeshLike
+        The model.
+
+    Returns
+    -------
+    pairs : (n_pairs, 2) int64
+        ``(z, z')`` with ``z < z'``, each pair once, in increasing order.
+    """
+    keys = undirected_edges(welded_faces(mesh)[1])[0].ravel()
+    order = np.argsort(keys, kind="stable")
+    edge, face = keys[order], order // 3
+    # The faces of an edge are a run of equal keys: pair the entries `step` apart in a run.
+    found = []
+    for step in range(1, len(edge)):
+        same = edge[:-step] == edge[step:]
+        if not same.any():
+            break
+        found.append(np.stack([face[:-step][same], face[step:][same]], axis=1))
+    pairs = np.concatenate(found) if found else np.empty((0, 2), dtype=np.int64)
+    pairs = np.sort(pairs[pairs[:, 0] != pairs[:, 1]], axis=1)
+    return np.unique(pairs, axis=0).astype(np.int64).reshape(-1, 2)
+
+
+def _x_log_x(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``x log2 x`` of positive values."""
+    result: NDArray[np.float64] = values * np.log2(values)
+    return result
+
+
+def _divergences(data: ViewData, pairs: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``D(z, z')`` of each pair of seen faces, ``(n_pairs,)`` (module docstring).
+
+    ``pairs`` are sorted, first face lower. Views go in batches: the batch's
+    pixel counts are laid out densely, views by faces, and every entry
+    ``a_z(v)`` looks up ``a_z'(v)`` of each neighbour ``z' > z`` there.
+    """
+    views, faces, counts = data.entries
+    n_views, n_faces, totals = data.n_views, data.n_faces, data.face_totals
+    following = np.bincount(pairs[:, 0], minlength=n_faces)
+    first_pair = np.cumsum(following) - following
+    shared = np.zeros(len(pairs))
+    batch = max(1, _DENSE // n_faces)
+    bounds = np.searchsorted(views, np.arange(0, n_views + batch, batch))
+    for low, start, stop in zip(range(0, n_views, batch), bounds[:-1], bounds[1:]):
+        dense = np.zeros((min(batch, n_views - low), n_faces))
+        dense[views[start:stop] - low, faces[start:stop]] = counts[start:stop]
+        lengths = following[faces[start:stop]]
+        entry = np.repeat(np.arange(start, stop, dtype=np.int64), lengths)
+        pair = np.arange(len(entry), dtype=np.int64) \
+            + np.repeat(first_pair[faces[start:stop]] - (np.cumsum(lengths) - lengths), lengths)
+        theirs = dense[views[entry] - low, pairs[pair, 1]]
+        both = theirs > 0
+        mine, theirs = counts[entry[both]], theirs[both]
+        shared += np.bincount(pair[both], minlength=len(pairs),
+                              weights=_x_log_x(mine) + _x_log_x(theirs) - _x_log_x(mine + theirs))
+    first, second = totals[pairs[:, 0]], totals[pairs[:, 1]]
+    joint = first + second
+    divergence = (shared + _x_log_x(joint) - _x_log_x(first) - _x_log_x(second)) / joint
+    return np.clip(divergence, 0.0, 1.0)  # rounding only: D is in [0, 1] bits
+
+
+def polygon_saliency(
+    data: ViewData, *, undefined: Literal["nan", "lowest", "highest"] = "nan"
+) -> NDArray[np.float64]:
+    """Feixas et al.'s saliency of every face from the views, computed once per :class:`ViewData`.
+
+    Parameters
+    ----------
+    data : ViewData
+        The drawn views of the mesh.
+    undefined : {"nan", "lowest", "highest"}
+        What a face without saliency (no view sees it or any of its edge
+        neighbours) gets: NaN, or the lowest or highest saliency of the other
+        faces (0 where no face has one).
+
+    Returns
+    -------
+    saliency : (n_faces,) float64
+        ``S(z)`` in [0, 1] bits (module docstring); kept in ``data.cache``
+        under :data:`CACHE_KEY` with NaN for the faces without saliency.
+    """
+    if CACHE_KEY not in data.cache:
+        totals = data.face_totals
+        pairs = face_neighbours(data.mesh)
+        pairs = pairs[(totals[pairs[:, 0]] > 0) & (totals[pairs[:, 1]] > 0)]
+        divergence = _divergences(data, pairs)
+        ends = pairs.T.ravel()
+        sums = np.bincount(ends, weights=np.tile(divergence, 2), minlength=data.n_faces)
+        neighbours = np.bincount(ends, minlength=data.n_faces)
+        data.cache[CACHE_KEY] = np.divide(sums, neighbours, out=np.full(data.n_faces, np.nan),
+                                          where=neighbours > 0)
+    saliency: NDArray[np.float64] = data.cache[CACHE_KEY]
+    if undefined == "nan":
+        return saliency
+    defined = saliency[~np.isnan(saliency)]
+    if len(defined) == 0:
+        return np.zeros_like(saliency)
+    fill = defined.min() if undefined == "lowest" else defined.max()
+    return np.where(np.isnan(saliency), fill, saliency)
+
+
+def _gaussian_means(points: NDArray[np.float64], values: NDArray[np.float64],
+                    sigmas: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``G(z, sigma)`` of the module docstring for every point and sigma, ``(n_points, n_sigmas)``.
+
+    The points within ``2 max(sigmas)`` of each point are found in a grid of
+    cells of that side: those of its own cell and the 26 around it.
+    """
+    radius = 2.0 * float(sigmas.max())
+    cell = np.floor((points - points.min(axis=0)) / radius).astype(np.int64) + 1
+    shape = cell.max(axis=0) + 2
+    keys = (cell[:, 0] * shape[1] + cell[:, 1]) * shape[2] + cell[:, 2]
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    offsets = [(dx * shape[1] + dy) * shape[2] + dz
+               for dx, dy, dz in itertools.product((-1, 0, 1), repeat=3)]
+    crowd = int(np.unique(keys, return_counts=True)[1].max())
+    chunk = max(1, _CANDIDATES // (27 * crowd))
+    limits = (2.0 * sigmas) ** 2
+    weights = np.zeros((len(points), len(sigmas)))
+    weighted = np.zeros((len(points), len(sigmas)))
+    for start in range(0, len(points), chunk):
+        query = np.arange(start, min(start + chunk, len(points)), dtype=np.int64)
+        near_parts, far_parts = [], []
+        for offset in offsets:
+            low = np.searchsorted(sorted_keys, keys[query] + offset, side="left")
+            lengths = np.searchsorted(sorted_keys, keys[query] + offset, side="right") - low
+            near_parts.append(np.repeat(query, lengths))
+            far_parts.append(order[np.arange(int(lengths.sum()), dtype=np.int64)
+                                   + np.repeat(low - (np.cumsum(lengths) - lengths), lengths)])
+        near, far = np.concatenate(near_parts), np.concatenate(far_parts)
+        step = points[near] - points[far]
+        squared = np.einsum("ij,ij->i", step, step)
+        inside = squared < limits.max()
+        near, squared, far_values = near[inside], squared[inside], values[far[inside]]
+        for column, (sigma, limit) in enumerate(zip(sigmas, limits)):
+            within = squared < limit
+            weight = np.exp(squared[within] / (-2.0 * sigma**2))
+            weights[:, column] += np.bincount(near[within], weight, minlength=len(points))
+            weighted[:, column] += np.bincount(near[within], weight * far_values[within],
+                                               minlength=len(points))
+    means: NDArray[np.float64] = weighted / weights  # each point weighs 1 in its own sums
+    return means
+
+
+def _itti_normalised(values: NDArray[np.float64], pairs: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``values / max`` times ``(1 - m)^2``, ``m`` the mean of the other local maxima.
+
+    A local maximum is above each of its edge neighbours by more than
+    rounding, so that neighbours equal by symmetry are not told apart by it.
+    """
+    top = int(np.argmax(values))
+    if values[top] <= 0.0:
+        return np.zeros_like(values)
+    scaled = values / values[top]
+    around = np.full(len(values), -np.inf)
+    np.maximum.at(around, pairs[:, 0], scaled[pairs[:, 1]])
+    np.maximum.at(around, pairs[:, 1], scaled[pairs[:, 0]])
+    is_peak = scaled > around + _PEAK_TOLERANCE
+    is_peak[top] = False
+    others = float(scaled[is_peak].mean()) if is_peak.any() else 0.0
+    result: NDArray[np.float64] = scaled * (1.0 - others) ** 2
+    return result
+
+
+def lee_saliency(mesh: MeshLike, curvature: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Lee et al.'s mesh saliency of every face from its mean curvature.
+
+    Parameters
+    ----------
+    mesh : MeshLike
+        The model.
+    curvature : (n_faces,) float64
+        Mean curvature of every face (as
+        :func:`vptoolkit.measures.curvature.face_mean_curvature` gives it).
+
+    Returns
+    -------
+    saliency : (n_faces,) float64
+        ``S(z) >= 0`` (module docstring), dimensionless: each scale
+        contributes at most 1. All zeros for a mesh with no extent.
+    """
+    mesh = as_mesh(mesh)
+    _, diagonal = bounding_frame(mesh)
+    if diagonal == 0.0:
+        return np.zeros(mesh.n_faces)
+    centroids = mesh.vertices[mesh.faces].mean(axis=1)
+    scales = np.asarray(LEE_SCALES)
+    sigmas, column = np.unique(np.concatenate([scales, 2.0 * scales]), return_inverse=True)
+    means = _gaussian_means(centroids, np.asarray(curvature, dtype=np.float64),
+                            LEE_EPSILON * diagonal * sigmas)
+    centre, surround = column[:len(scales)], column[len(scales):]
+    pairs = face_neighbours(mesh)
+    saliency = np.zeros(mesh.n_faces)
+    for inner, outer in zip(centre, surround):
+        saliency += _itti_normalised(np.abs(means[:, inner] - means[:, outer]), pairs)
+    return saliency
+
+
+def mesh_saliency(data: ViewData) -> NDArray[np.float64]:
+    """:func:`lee_saliency` of ``data.mesh``, computed once per :class:`ViewData`.
+
+    The curvature is the shared one of
+    :func:`vptoolkit.measures.curvature.mesh_curvature`; the result is kept
+    in ``data.cache`` under :data:`LEE_CACHE_KEY`.
+
+    Returns
+    -------
+    saliency : (n_faces,) float64
+        ``S(z) >= 0`` of every face.
+    """
+    if LEE_CACHE_KEY not in data.cache:
+        data.cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data))
+    saliency: NDArray[np.float64] = data.cache[LEE_CACHE_KEY]
+    return saliency
