@@ -22,6 +22,7 @@ SLOW_MARKERS = ("slow", "renderer")
 
 pytest_plugins = [
     "fixtures.builds",
+    "fixtures.commands",
     "fixtures.environment",
     "fixtures.meshes",
     "fixtures.networks",

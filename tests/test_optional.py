@@ -9,11 +9,11 @@ from pathlib import Path
 import pytest
 
 import vptoolkit
+from fixtures.paths import REPO
 from vptoolkit.optional import EXTRAS, install_hint
 
-ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = Path(vptoolkit.__file__).parent
-DECLARED = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
+DECLARED = set(tomllib.loads((REPO / "pyproject.toml").read_text())["project"][
     "optional-dependencies"])
 
 

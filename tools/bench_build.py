@@ -1,4 +1,5 @@
-"""Benchmark of :func:`vptoolkit.dataset.build.run.build_dataset`: models per hour and bytes per model.
+"""Benchmark of :func:`vptoolkit.dataset.build.run.build_dataset`: models per hour and bytes
+per model.
 
 Makes a ModelNet-style tree from the bundled sample meshes (every sample,
 ``--copies`` times under new names, spread over three categories and
@@ -58,11 +59,10 @@ from typing import Any
 
 from results_doc import add_results_option, printed_section
 
-from vptoolkit.dataset.build.run import BuildResult, build_dataset
 from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.store.reader import StoreReader, open_store
-from vptoolkit.dataset.store.schema import ModelEntry
+from vptoolkit.dataset.build.run import BuildResult, build_dataset
 from vptoolkit.dataset.build.staging import STAGING_DIR
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.io import find_mesh_files
 from vptoolkit.samples import sample_names, sample_path
@@ -181,25 +181,12 @@ def folder_bytes(path: Path) -> int:
     return sum(item.stat().st_size for item in path.rglob("*") if item.is_file())
 
 
-class _Entries(Sequence[ModelEntry]):
-    """The models of an open store as a lazy sequence, to write them again elsewhere."""
-
-    def __init__(self, reader: StoreReader) -> None:
-        self._reader = reader
-
-    def __len__(self) -> int:
-        return self._reader.n_models
-
-    def __getitem__(self, index: Any) -> Any:
-        return self._reader.entry(index)
-
-
 def hdf5_bytes(zarr_store: Path, target: Path) -> int:
     """Write the models of a Zarr store to an HDF5 file and return its size."""
     with open_store(zarr_store) as reader:
         write_dataset(
             target,
-            _Entries(reader),
+            reader.entries(),
             attrs=reader.attrs,
             views=reader.array("views")[...],
             failures=reader.failures(),

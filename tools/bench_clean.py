@@ -45,6 +45,7 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.clean import clean_mesh
 from vptoolkit.mesh import Mesh
+from vptoolkit.settings import MeasureSettings
 
 DEFAULT_SIZES = (10_000, 50_000, 400_000)
 
@@ -100,7 +101,6 @@ def toy_airplane(n_faces: int) -> Mesh:
 
 def baseline_seconds(mesh: Mesh, resolution: int) -> float:
     """Seconds of one plain visibility pass over ``mesh``: 1000 views, no cleaning."""
-    from vptoolkit.settings import MeasureSettings
     from vptoolkit.visibility import face_pixel_totals
 
     start = time.perf_counter()
@@ -114,7 +114,7 @@ def bench_one(
     """Clean ``mesh`` ``repeat`` times and return the fastest report plus the baseline."""
     baseline = baseline_seconds(mesh, resolution)
     reports = [
-        clean_mesh(mesh, max_faces=max_faces, hidden_resolution=resolution)[1]
+        clean_mesh(mesh, max_faces=max_faces, settings=MeasureSettings(resolution=resolution))[1]
         for _ in range(repeat)
     ]
     report = min(reports, key=lambda report: report.seconds)
@@ -125,7 +125,7 @@ def bench_one(
 
 
 _CHILD_CLEAN = """
-import json, sys
+import inspect, json, sys
 import numpy as np
 import vptoolkit
 from vptoolkit.clean import clean_mesh
@@ -133,6 +133,12 @@ from vptoolkit.mesh import Mesh
 data = np.load(sys.argv[1])
 mesh = Mesh(data["vertices"], data["faces"], name=str(data["name"]))
 options, repeat = json.loads(sys.argv[2]), int(sys.argv[3])
+resolution = options.pop("resolution")
+if "settings" in inspect.signature(clean_mesh).parameters:
+    from vptoolkit.settings import MeasureSettings
+    options["settings"] = MeasureSettings(resolution=resolution)
+else:  # code from before clean_mesh took MeasureSettings
+    options["hidden_resolution"] = resolution
 clean_mesh(mesh, **options)  # warm-up: numba's kernels, pymeshlab's first use
 reports = [clean_mesh(mesh, **options)[1] for _ in range(repeat)]
 record = min(reports, key=lambda report: report.seconds).to_dict()
@@ -148,7 +154,7 @@ def bench_baseline(
     with tempfile.TemporaryDirectory(prefix="bench_clean_") as scratch:
         path = Path(scratch) / "mesh.npz"
         np.savez(path, vertices=mesh.vertices, faces=mesh.faces, name=mesh.name)
-        options = {"max_faces": max_faces, "hidden_resolution": resolution}
+        options = {"max_faces": max_faces, "resolution": resolution}
         done = subprocess.run(
             [sys.executable, "-c", _CHILD_CLEAN, str(path), json.dumps(options), str(repeat)],
             env={**os.environ, "PYTHONPATH": str(code)}, cwd=code,

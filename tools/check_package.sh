@@ -4,7 +4,7 @@
 # it: `vptool --help`, and the light reader on RELEASE when one is given. Then unpack
 # the sdist and run a quick subset of its own tests from that copy against the
 # wheel, which proves that the sdist carries what its tests import (tests/fixtures/,
-# tests/data/, tools/, docs/: MANIFEST.in).
+# tests/assets/, tools/, docs/: MANIFEST.in).
 # Usage: bash tools/check_package.sh [RELEASE]    (needs .venv from tools/setup.sh)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -43,6 +43,6 @@ venv_bin="$PWD/.venv/bin"
     && "$venv_bin/python" -P -c "import sys, vptoolkit; sys.exit(None if vptoolkit.__file__ \
 .startswith(sys.argv[1]) else f'the sdist tests would import {vptoolkit.__file__}')" "$work/wheel" \
     && "$venv_bin/pytest" -q -x -p no:cacheprovider tests/test_checks.py tests/test_sphere.py \
-        tests/test_install_docs.py tests/test_release_licences.py)
+        tests/project/test_install_docs.py tests/dataset/release/test_licenses.py)
 echo "check_package: wheel and sdist build, pass twine check and install; the light reader" \
     "works; the sdist's own tests pass from its unpacked copy" >&2

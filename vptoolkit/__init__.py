@@ -8,7 +8,7 @@ module, layer by layer):
   camera defaults and splits; lazy optional packages; argument checks;
   atomic writes and the JSON reader; the progress bar; the process pool.
   ``_numba`` (private): numba, imported once with the package's threading
-  layer.
+  layer. ``deprecation``: old import paths of moved names, with a warning.
 - ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
   and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.

@@ -19,7 +19,7 @@ Views
 
 Releases
     ``DATASET_VERSION = "1.0.0"`` is the version a release gets unless it is
-    given one (:func:`vptoolkit.dataset.release.pack_release`, ``vptool pack
+    given one (:func:`vptoolkit.dataset.release.pack.pack_release`, ``vptool pack
     --version``), in its attributes, file names, card and Croissant.
 
 Camera (defaults of :class:`vptoolkit.camera.Camera`)
@@ -73,7 +73,7 @@ SPLITS: Final = ("train", "validation", "test")
 The loader (:mod:`vptoolkit.data`), the dataset card, Croissant, the Parquet
 shards, ``vptool info`` and the CLI say ``"validation"``, as the Hugging Face
 hub does. A store or build of schema 1 may record ``"val"``;
-:func:`vptoolkit.dataset.schema.published_split` maps it, and every API that
+:func:`vptoolkit.dataset.store.schema.published_split` maps it, and every API that
 takes a split accepts ``"val"`` as an alias.
 """
 

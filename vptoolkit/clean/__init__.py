@@ -13,7 +13,10 @@ functions in order, so ``simplify_mesh(remove_hidden_faces(repair_mesh(mesh)))``
    non-manifold edges and vertices, and resolve self-intersections (see its
    Notes for how and why).
 2. :func:`~vptoolkit.clean.hidden.remove_hidden_faces` -- drop the faces seen
-   in none of the 1000 views (:func:`~vptoolkit.clean.hidden.hidden_faces`),
+   in none of the 1000 views (:func:`~vptoolkit.clean.hidden.hidden_faces`;
+   the views, image side and camera are a
+   :class:`~vptoolkit.settings.MeasureSettings`,
+   :data:`~vptoolkit.clean.hidden.HIDDEN_SETTINGS` by default),
    e.g. passenger seats inside an airplane, and turn each remaining face
    towards the side it is seen from.
 3. :func:`~vptoolkit.clean.simplify.simplify_mesh` -- quadric edge-collapse
@@ -53,12 +56,12 @@ from typing import Any
 
 from vptoolkit.checks import check_bool, check_int
 from vptoolkit.clean._meshlab import load_pymeshlab
-from vptoolkit.clean.hidden import HIDDEN_RESOLUTION, remove_hidden_faces
+from vptoolkit.clean.hidden import HIDDEN_SETTINGS, check_hidden_settings, remove_hidden_faces
 from vptoolkit.clean.repair import SelfIntersectionMethod, check_method, repair_mesh
 from vptoolkit.clean.simplify import MAX_FACES, simplify_mesh
-from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.settings import MeasureSettings
 
 __all__ = ["StepReport", "CleaningReport", "clean_mesh"]
 
@@ -200,15 +203,14 @@ def clean_mesh(
     max_faces: int = MAX_FACES,
     self_intersections: SelfIntersectionMethod = "auto",
     max_rounds: int = 5,
-    n_views: int = N_VIEWS,
-    hidden_resolution: int = HIDDEN_RESOLUTION,
+    settings: MeasureSettings = HIDDEN_SETTINGS,
     orient: bool = True,
     remesh: bool = False,
 ) -> tuple[Mesh, CleaningReport]:
     """Clean a mesh in the paper's three steps and report what changed.
 
     1. :func:`repair_mesh` (connectivity and self-intersections).
-    2. Remove the faces seen in none of the ``n_views`` views and turn the
+    2. Remove the faces seen in none of the ``settings.views`` views and turn the
        others towards the side they are seen from
        (:func:`remove_hidden_faces`). Removing intersecting faces in step 1
        can open seams through which buried parts become visible, so a face is
@@ -227,10 +229,11 @@ def clean_mesh(
         :func:`~vptoolkit.clean.repair.repair_mesh`).
     max_rounds : int
         Rounds of removing intersecting faces and closing holes (default: 5).
-    n_views : int
-        Views on the Fibonacci sphere for the hidden-face test (default: 1000).
-    hidden_resolution : int
-        Image side in pixels for the hidden-face test (default: 256).
+    settings : MeasureSettings
+        Views on the Fibonacci sphere, image side (at least 8), camera and
+        backend of the hidden-face test (default:
+        :data:`~vptoolkit.clean.hidden.HIDDEN_SETTINGS`: 1000 views at 256
+        pixels).
     orient : bool
         In step 2, reverse the faces seen mostly from behind (default: True;
         see :func:`~vptoolkit.clean.hidden.remove_hidden_faces`).
@@ -265,8 +268,7 @@ def clean_mesh(
     mesh = as_mesh(mesh)
     max_faces = check_int(max_faces, "max_faces", minimum=4)
     max_rounds = check_int(max_rounds, "max_rounds", minimum=0)
-    n_views = check_int(n_views, "n_views", minimum=1)
-    hidden_resolution = check_int(hidden_resolution, "hidden_resolution", minimum=8)
+    settings = check_hidden_settings(settings)
     check_method(self_intersections)
     orient = check_bool(orient, "orient")
     remesh = check_bool(remesh, "remesh")
@@ -276,8 +278,7 @@ def clean_mesh(
     repaired = repair_mesh(mesh, self_intersections=self_intersections, max_rounds=max_rounds)
     steps = [_step("repair", mesh, repaired, start)]
     start = time.perf_counter()
-    visible = remove_hidden_faces(repaired, n_views=n_views, resolution=hidden_resolution,
-                                  orient=orient)
+    visible = remove_hidden_faces(repaired, settings, orient=orient)
     steps.append(_step("remove_hidden", repaired, visible, start))
     start = time.perf_counter()
     simplified = simplify_mesh(visible, max_faces=max_faces, remesh=remesh)

@@ -2,32 +2,44 @@
 
 Owns :func:`remove_hidden_faces` and its result :class:`VisibleMesh`,
 :func:`hidden_faces`, :func:`two_sided_pixel_totals` (each face drawn from both
-sides over the Fibonacci views), :data:`HIDDEN_RESOLUTION`, the rescue of
+sides over the Fibonacci views), :data:`HIDDEN_SETTINGS`, the rescue of
 sub-pixel faces next to seen ones, the per-patch orientation vote, and the
 test added after a step 1 that removed intersecting faces
 (:func:`_hidden_before_resolving`). Needs no pymeshlab.
+
+The views, image side, camera and backend of the hidden-face test are one
+:class:`~vptoolkit.settings.MeasureSettings`, as for the measures; the
+default, :data:`HIDDEN_SETTINGS`, is the measures' own but at
+:data:`HIDDEN_RESOLUTION` pixels.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final
 
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.camera import Camera
-from vptoolkit.checks import check_bool, check_int
+from vptoolkit.checks import check_bool
 from vptoolkit.clean.repair import RepairedMesh
-from vptoolkit.clean.topology import coherent_patches, submesh, undirected_edges
-from vptoolkit.conventions import N_VIEWS
-from vptoolkit.geometry import bounding_frame, face_areas, face_normals
+from vptoolkit.clean.topology import coherent_patches, submesh
+from vptoolkit.errors import InputError
+from vptoolkit.geometry import bounding_frame, face_areas, face_normals, undirected_edges
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.settings import MeasureSettings
+from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.visibility import face_pixel_totals
 
-HIDDEN_RESOLUTION = 256
+HIDDEN_RESOLUTION: Final = 256
 """Default image side, in pixels, of the visibility pass that finds hidden faces."""
+
+MIN_HIDDEN_RESOLUTION: Final = 8
+"""Smallest image side the hidden-face test accepts: below it whole parts fall between pixels."""
+
+HIDDEN_SETTINGS: Final = MeasureSettings(resolution=HIDDEN_RESOLUTION)
+"""Default settings of the hidden-face test: 1000 Fibonacci views, ``Camera()``,
+the raster backend, at :data:`HIDDEN_RESOLUTION` pixels."""
 
 _BACK_OFFSET = 1e-5
 """Offset of the reversed copy of each face in :func:`hidden_faces`, in diagonals."""
@@ -52,16 +64,32 @@ class VisibleMesh(Mesh):
     faces_flipped: int
 
 
+def check_hidden_settings(value: object, name: str = "settings") -> MeasureSettings:
+    """Return ``value`` if it is a :class:`~vptoolkit.settings.MeasureSettings` the test accepts.
+
+    Raises
+    ------
+    InputError
+        If ``value`` is not a ``MeasureSettings``
+        (:func:`~vptoolkit.settings.check_settings`) or its ``resolution``
+        is below :data:`MIN_HIDDEN_RESOLUTION`, e.g.
+        ``settings: resolution must be at least 8 for the hidden-face test, got 4``.
+    """
+    settings = check_settings(value, name)
+    if settings.resolution < MIN_HIDDEN_RESOLUTION:
+        raise InputError(f"{name}: resolution must be at least {MIN_HIDDEN_RESOLUTION} for the "
+                         f"hidden-face test, got {settings.resolution}")
+    return settings
+
+
 def two_sided_pixel_totals(
     mesh: MeshLike,
-    *,
-    n_views: int = N_VIEWS,
-    resolution: int = HIDDEN_RESOLUTION,
+    settings: MeasureSettings = HIDDEN_SETTINGS,
 ) -> NDArray[np.int64]:
     """Pixels of each face over all views, seen from its front and from its back.
 
-    Counts with :func:`~vptoolkit.visibility.face_pixel_totals` over
-    ``n_views`` directions of :func:`~vptoolkit.sphere.fibonacci_sphere`
+    Counts with :func:`~vptoolkit.visibility.face_pixel_totals` over the
+    ``settings.views`` directions of :func:`~vptoolkit.sphere.fibonacci_sphere`
     (back faces culled, the model framed as for the measures). Each face is
     drawn from both sides: a reversed copy sits ``1e-5`` bounding-box
     diagonals behind it. The copy is offset rather than coincident, so depth
@@ -71,12 +99,12 @@ def two_sided_pixel_totals(
     ----------
     mesh : MeshLike
         The mesh to test.
-    n_views : int
-        Number of view directions (default: 1000, as in the paper).
-    resolution : int
-        Image side in pixels (default: 256). A face smaller than a pixel is
-        still hit in some of the many slightly shifted views; lower values are
-        faster but may miss small faces in deep concavities.
+    settings : MeasureSettings
+        Views, image side, camera and backend (default:
+        :data:`HIDDEN_SETTINGS`, 1000 views as in the paper at 256 pixels).
+        A face smaller than a pixel is still hit in some of the many
+        slightly shifted views; a lower ``resolution`` (at least 8) is faster
+        but may miss small faces in deep concavities.
 
     Returns
     -------
@@ -88,11 +116,10 @@ def two_sided_pixel_totals(
     Raises
     ------
     InputError
-        On a bad argument.
+        On a bad argument (:func:`check_hidden_settings`).
     """
     mesh = as_mesh(mesh)
-    n_views = check_int(n_views, "n_views", minimum=1)
-    resolution = check_int(resolution, "resolution", minimum=8)
+    settings = check_hidden_settings(settings)
     n_faces = mesh.n_faces
     _, diagonal = bounding_frame(mesh)
     offset = _BACK_OFFSET * diagonal
@@ -103,15 +130,13 @@ def two_sided_pixel_totals(
         np.vstack([mesh.faces, back_faces]),
         name=mesh.name,
     )
-    totals = face_pixel_totals(two_sided, MeasureSettings(views=n_views, resolution=resolution))
+    totals = face_pixel_totals(two_sided, settings)
     return np.stack([totals[:n_faces], totals[n_faces:]], axis=1).astype(np.int64)
 
 
 def hidden_faces(
     mesh: MeshLike,
-    *,
-    n_views: int = N_VIEWS,
-    resolution: int = HIDDEN_RESOLUTION,
+    settings: MeasureSettings = HIDDEN_SETTINGS,
 ) -> NDArray[np.bool_]:
     """Find the faces seen in none of the views, from either side.
 
@@ -123,10 +148,9 @@ def hidden_faces(
     ----------
     mesh : MeshLike
         The mesh to test.
-    n_views : int
-        Number of view directions (default: 1000).
-    resolution : int
-        Image side in pixels (default: 256).
+    settings : MeasureSettings
+        Views, image side, camera and backend (default:
+        :data:`HIDDEN_SETTINGS`, 1000 views at 256 pixels).
 
     Returns
     -------
@@ -141,17 +165,22 @@ def hidden_faces(
     pixel (at the camera's distance from the model centre) that shares an
     edge with a seen face counts as seen, up to two such rings deep. Large
     unseen faces are always hidden.
+
+    Raises
+    ------
+    InputError
+        On a bad argument (:func:`check_hidden_settings`).
     """
     mesh = as_mesh(mesh)
-    pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
-    return keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, resolution)
+    settings = check_hidden_settings(settings)
+    pixels = two_sided_pixel_totals(mesh, settings)
+    return keep_small_faces_by_seen_ones(mesh, pixels.sum(axis=1) == 0, settings)
 
 
 def remove_hidden_faces(
     mesh: MeshLike,
+    settings: MeasureSettings = HIDDEN_SETTINGS,
     *,
-    n_views: int = N_VIEWS,
-    resolution: int = HIDDEN_RESOLUTION,
     orient: bool = True,
 ) -> VisibleMesh:
     """Step 2: drop the faces seen in none of the views and orient the rest.
@@ -174,10 +203,9 @@ def remove_hidden_faces(
     mesh : MeshLike
         The repaired mesh, as :func:`~vptoolkit.clean.repair.repair_mesh`
         returns it.
-    n_views : int
-        Number of view directions (default: 1000).
-    resolution : int
-        Image side in pixels (default: 256).
+    settings : MeasureSettings
+        Views, image side, camera and backend (default:
+        :data:`HIDDEN_SETTINGS`, 1000 views at 256 pixels).
     orient : bool
         Reverse the faces seen mostly from behind (default: True).
 
@@ -189,18 +217,19 @@ def remove_hidden_faces(
 
     Raises
     ------
+    InputError
+        On a bad argument (:func:`check_hidden_settings`).
     MeasurementError
         If no face is seen; the message starts with the mesh name.
     """
     mesh = as_mesh(mesh)
     orient = check_bool(orient, "orient")
-    n_views = check_int(n_views, "n_views", minimum=1)
-    resolution = check_int(resolution, "resolution", minimum=8)
-    pixels = two_sided_pixel_totals(mesh, n_views=n_views, resolution=resolution)
+    settings = check_hidden_settings(settings)
+    pixels = two_sided_pixel_totals(mesh, settings)
     is_hidden = pixels.sum(axis=1) == 0
     if isinstance(mesh, RepairedMesh) and mesh.method != "none":
-        is_hidden |= _hidden_before_resolving(mesh, n_views, resolution)
-    is_hidden = keep_small_faces_by_seen_ones(mesh, is_hidden, resolution)
+        is_hidden |= _hidden_before_resolving(mesh, settings)
+    is_hidden = keep_small_faces_by_seen_ones(mesh, is_hidden, settings)
     if orient:
         is_flipped = seen_from_behind(mesh.faces, np.where(is_hidden[:, None], 0, pixels))
         is_flipped &= ~is_hidden
@@ -220,8 +249,8 @@ def remove_hidden_faces(
     )
 
 
-def _hidden_before_resolving(repaired: RepairedMesh, n_views: int,
-                             resolution: int) -> NDArray[np.bool_]:
+def _hidden_before_resolving(repaired: RepairedMesh,
+                             settings: MeasureSettings) -> NDArray[np.bool_]:
     """Repaired faces that were hidden before the self-intersections were resolved.
 
     Resolving intersections by removal opens seams through which buried parts
@@ -239,7 +268,7 @@ def _hidden_before_resolving(repaired: RepairedMesh, n_views: int,
         np.vstack([connected.faces, repaired.faces[is_new] + connected.n_vertices]),
         name=connected.name,
     )
-    pixels = two_sided_pixel_totals(scene, n_views=n_views, resolution=resolution)
+    pixels = two_sided_pixel_totals(scene, settings)
     was_hidden = pixels.sum(axis=1) == 0
     is_hidden = np.zeros(repaired.n_faces, dtype=bool)
     is_hidden[~is_new] = was_hidden[origin[~is_new]]
@@ -248,15 +277,22 @@ def _hidden_before_resolving(repaired: RepairedMesh, n_views: int,
 
 
 def keep_small_faces_by_seen_ones(
-    mesh: Mesh, is_hidden: NDArray[np.bool_], resolution: int, *, rings: int = 2
+    mesh: Mesh, is_hidden: NDArray[np.bool_], settings: MeasureSettings, *, rings: int = 2
 ) -> NDArray[np.bool_]:
-    """Count sub-pixel unseen faces next to seen ones as seen (see :func:`hidden_faces`)."""
+    """Count sub-pixel unseen faces next to seen ones as seen (see :func:`hidden_faces`).
+
+    A pixel's side at the camera's distance from the model centre is
+    ``2 d tan(fov / 2) / resolution`` with ``d`` the camera's
+    ``distance_factor`` times the bounding-box diagonal (``settings.camera``
+    and ``settings.resolution``); an unseen face of less area than a pixel
+    that shares an edge with a seen face counts as seen, ``rings`` times over.
+    """
     if not is_hidden.any() or is_hidden.all():
         return is_hidden
-    camera = Camera()
+    camera = settings.camera
     _, diagonal = bounding_frame(mesh)
     distance = camera.distance_factor * diagonal
-    pixel = 2.0 * distance * math.tan(math.radians(camera.fov_deg) / 2.0) / resolution
+    pixel = 2.0 * distance * math.tan(math.radians(camera.fov_deg) / 2.0) / settings.resolution
     is_small = face_areas(mesh) < pixel * pixel
     candidates = is_hidden & is_small
     if not candidates.any():

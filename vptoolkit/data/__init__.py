@@ -43,7 +43,7 @@ from vptoolkit.data.ranges import RangeFile, RemoteArchive
 from vptoolkit.data.remote import fetch_release, is_remote, locate_release
 from vptoolkit.dataset.store.containers import find_store
 from vptoolkit.dataset.store.reader import StoreReader, open_store
-from vptoolkit.dataset.store.schema import published_split
+from vptoolkit.dataset.store.schema import ENTRY_ARRAYS, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -488,10 +488,7 @@ class ViewpointDataset:
 
 
 _STACKED: dict[str, type[np.generic]] = {
-    "points": np.float32, "normals": np.float32, "quality": np.float32, "quality_raw": np.float32,
-    "best_index": np.int64, "best_value": np.float32, "worst_index": np.int64,
-    "worst_value": np.float32,
-}
+    spec.name: spec.numpy_dtype.type for spec in ENTRY_ARRAYS if spec.per == "model"}
 
 
 def _take_rows(array: Any, rows: NDArray[np.int64], dtype: type[np.generic]) -> NDArray[Any]:

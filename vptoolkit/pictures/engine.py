@@ -15,7 +15,7 @@ in a :class:`~vptoolkit.pictures.shading.RenderStyle`. Two satisfy
 :func:`open_renderer` makes either. Every picture function takes one
 ``engine`` (its size, camera and style apply) and leaves it open for its
 owner, or makes the default engine for the call (:func:`drawing_engine`).
-``tests/test_engine_contract.py`` checks what every engine must do.
+``tests/pictures/test_engine.py`` checks what every engine must do.
 """
 
 from __future__ import annotations

@@ -31,19 +31,23 @@ from __future__ import annotations
 import hashlib
 import os
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
-from vptoolkit.dataset.store.schema import ModelEntry, normal_length_problem, published_split
 from vptoolkit.dataset.build.split_files import ListedModel, paper_splits, read_model_list
+from vptoolkit.dataset.store.schema import (
+    LazyEntries,
+    ModelEntry,
+    normal_length_problem,
+    published_split,
+)
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import check_path_part, sha256_file, stale_partials
@@ -172,23 +176,6 @@ class _Listed:
     @property
     def source(self) -> str:
         return f"objfiles/{self.model.stem_path}.obj"
-
-
-class _ImportedEntries(Sequence[ModelEntry]):
-    """Entries read from the tree on each access (the writer reads each twice)."""
-
-    def __init__(self, tree: Path, listed: list[_Listed], meshes: bool) -> None:
-        self._tree = tree
-        self._listed = listed
-        self._meshes = meshes
-
-    def __len__(self) -> int:
-        return len(self._listed)
-
-    def __getitem__(self, index: Any) -> Any:
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(len(self)))]
-        return _read_model(self._tree, self._listed[index], meshes=self._meshes)
 
 
 def _read_model(tree: Path, listed: _Listed, *, meshes: bool) -> ModelEntry:
@@ -409,9 +396,10 @@ def import_authors(
         },
     }
     out_dir.mkdir(parents=True, exist_ok=True)
-    store = write_dataset(out_dir / STORE_NAME, _ImportedEntries(root, good, meshes),
-                          attrs=attrs, views=fibonacci_sphere(N_VIEWS), failures=failures,
-                          progress=progress)
+    # read from the tree again on each access: the writer reads each entry twice
+    entries = LazyEntries(len(good), lambda row: _read_model(root, good[row], meshes=meshes))
+    store = write_dataset(out_dir / STORE_NAME, entries, attrs=attrs,
+                          views=fibonacci_sphere(N_VIEWS), failures=failures, progress=progress)
     counts = {split: sum(published_split(item.split) == split for item in good)
               for split in SPLITS}
     return ImportResult(path=store, n_models=len(good), failures=tuple(failures),

@@ -68,7 +68,6 @@ from vptoolkit.dataset.build.sources import (
 )
 from vptoolkit.dataset.build.split_files import read_split_file
 from vptoolkit.dataset.build.staging import (
-    StagedEntries,
     build_lock,
     prepare_out,
     resume_or_start,
@@ -77,6 +76,7 @@ from vptoolkit.dataset.build.staging import (
     stage_failure,
     stage_key,
     stage_model,
+    staged_entries,
     warn_about_models_left_out,
 )
 from vptoolkit.dataset.store.writer import write_dataset
@@ -301,7 +301,7 @@ def build_dataset(
                     stage_seconds["models"] += 1
                 bar.update(1)
 
-        entries = StagedEntries(
+        entries = staged_entries(
             [
                 (done[model.model_id], selection.splits[model.model_id])
                 for model in unique

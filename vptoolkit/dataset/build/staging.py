@@ -15,7 +15,7 @@ and a staged file that cannot be read in full is computed again after one
 warning. The staging folder is kept after the store is written, so
 rerunning (e.g. after adding models to the source) computes only what is
 new; delete ``OUT/.staging`` to reclaim its space, after which OUT can no
-longer be resumed. :class:`StagedEntries` reads the staged models back as
+longer be resumed. :func:`staged_entries` reads the staged models back as
 the entries of :func:`vptoolkit.dataset.store.writer.write_dataset`.
 """
 
@@ -30,22 +30,29 @@ import re
 from collections.abc import Iterator, Mapping, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, overload
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import changed_values, one_line
-from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.build.compute import FailedModel, MeasuredModel
-from vptoolkit.dataset.store.schema import FAILURE_KEYS, ModelEntry, from_json_bytes, json_bytes
+from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.build.sources import SourceModel
+from vptoolkit.dataset.store.schema import (
+    ENTRY_ARRAYS,
+    FAILURE_KEYS,
+    LazyEntries,
+    ModelEntry,
+    from_json_bytes,
+    json_bytes,
+)
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, read_json_file
 
 __all__ = [
     "STAGING_DIR",
-    "StagedEntries",
+    "staged_entries",
     "build_lock",
     "prepare_out",
     "resume_or_start",
@@ -68,19 +75,8 @@ _LOCK_FILE = "lock"
 _TEMP_SUFFIX = ".partial"  # temporary files of vptoolkit.files.atomic_write
 _MODEL_SUFFIX = ".npz"
 _FAILURE_SUFFIX = ".failed.json"
-_ARRAY_NAMES = (
-    "points",
-    "normals",
-    "quality",
-    "quality_raw",
-    "best_index",
-    "best_value",
-    "worst_index",
-    "worst_value",
-    "vertices",
-    "faces",
-)
-# Fields of a staged meta's record that StagedEntries reads.
+_MEMBERS = tuple(spec.field for spec in ENTRY_ARRAYS)  # a staged model's arrays, by field name
+# Fields of a staged meta's record that staged_entries reads.
 _RECORD_KEYS = ("name", "category", "source", "source_sha256", "cleaning")
 
 
@@ -253,10 +249,10 @@ def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
         # np.load leaks its file handle when the zip is broken, so open the file here.
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
             meta = _check_meta(from_json_bytes(staged["meta"]))
-            missing = [name for name in _ARRAY_NAMES if name not in staged.files]
+            missing = [name for name in _MEMBERS if name not in staged.files]
             if missing:
                 raise KeyError(f"no member {missing[0]!r}")
-            for name in _ARRAY_NAMES:
+            for name in _MEMBERS:
                 staged[name]  # reads the member in full and checks its CRC
     # Any failure to decode (zlib.error, BadZipFile, a wrong meta, ...) means unreadable.
     except Exception as err:  # the file is redone, never trusted
@@ -267,7 +263,7 @@ def _staged_meta_matches(path: Path, signature: Mapping[str, Any]) -> bool:
 
 
 def _check_meta(meta: Any) -> dict[str, Any]:
-    """Return a staged ``meta`` if it has the fields :class:`StagedEntries` reads, else raise."""
+    """Return a staged ``meta`` if it has the fields :func:`staged_entries` reads, else raise."""
     if not isinstance(meta, dict) or not isinstance(meta.get("record"), dict):
         raise ValueError("meta is not an object with a record")
     missing = [key for key in _RECORD_KEYS if key not in meta["record"]]
@@ -343,27 +339,28 @@ def _fsync_folder(folder: Path) -> None:
         os.close(handle)
 
 
-class StagedEntries(Sequence[ModelEntry]):
-    """The staged models as a lazy sequence of :class:`ModelEntry`, one file read per item."""
+def staged_entries(items: Sequence[tuple[Path, str]]) -> LazyEntries:
+    """The staged models as a lazy sequence of :class:`ModelEntry`, one file read per item.
 
-    def __init__(self, items: Sequence[tuple[Path, str]]) -> None:
-        self._items = list(items)
+    Parameters
+    ----------
+    items : sequence of (Path, str)
+        Each model's staged ``.npz`` file (:func:`stage_model`) and its
+        split, in store order.
 
-    def __len__(self) -> int:
-        return len(self._items)
+    Returns
+    -------
+    entries : LazyEntries
+        Item ``i`` read from ``items[i]``'s file each time it is read, its
+        arrays the members named by the fields of
+        :data:`~vptoolkit.dataset.store.schema.ENTRY_ARRAYS`.
+    """
+    listed = list(items)
 
-    @overload
-    def __getitem__(self, index: int) -> ModelEntry: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> StagedEntries: ...
-
-    def __getitem__(self, index: int | slice) -> ModelEntry | StagedEntries:
-        if isinstance(index, slice):
-            return StagedEntries(self._items[index])
-        path, split = self._items[index]
+    def read(index: int) -> ModelEntry:
+        path, split = listed[index]
         with open(path, "rb") as stream, np.load(stream, allow_pickle=False) as staged:
-            arrays = {name: staged[name] for name in _ARRAY_NAMES}
+            arrays = {name: staged[name] for name in _MEMBERS}
             meta = from_json_bytes(staged["meta"])
         record = meta["record"]
         return ModelEntry(
@@ -376,3 +373,5 @@ class StagedEntries(Sequence[ModelEntry]):
             view_set=record.get("view_set"),
             **arrays,
         )
+
+    return LazyEntries(len(listed), read)

@@ -5,6 +5,8 @@ Modules:
 - ``pack``: ``pack_release``, packing a store into release files.
 - ``options``: ``ReleaseOptions``, what a publisher says about a release.
 - ``manifest``: the SHA-256 manifest of a store or release and its verification.
+- ``contents``: ``ReleaseFiles``, what packing wrote (digests, sizes, Parquet
+  shards) that the card and Croissant describe.
 - ``parquet``: the Parquet shards; ``card``: the dataset card; ``croissant``:
   the Croissant metadata; ``licenses``: per-model licences; ``descriptions``:
   the card and Croissant rewritten after a release changes.

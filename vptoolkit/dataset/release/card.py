@@ -5,8 +5,23 @@ from the store (nothing is typed by hand), in the sections of "Datasheets for
 Datasets" (Gebru et al.), under the YAML header of :func:`hub_yaml` in the
 style of dataset hubs (configurations, features, size category).
 
+A card is a function of three values, as Hugging Face ``datasets`` derives a
+card's data from one ``DatasetInfo``: the store (its summary,
+:func:`~vptoolkit.dataset.store.info.info_from_reader`), what packing wrote
+(:class:`~vptoolkit.dataset.release.contents.ReleaseFiles`) and what the
+publisher said (:class:`~vptoolkit.dataset.release.options.ReleaseOptions`).
+Each part of the card (header, summary, licence, files, reading, counts,
+measures, schema, statistics, datasheet, citation) is one small function
+returning the template placeholders it fills.
+
 The summary the card is written from lives in :mod:`vptoolkit.dataset.store.info`
 and the Croissant metadata in :mod:`vptoolkit.dataset.release.croissant`.
+
+Size
+    About 650 lines for one concept, the card: a function per part of it,
+    the hub YAML header (:func:`hub_yaml`) and the datasheet's sentences.
+    The parts share the Markdown and YAML helpers at the end; the prose
+    itself is in the template.
 """
 
 from __future__ import annotations
@@ -21,7 +36,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.conventions import DATASET_VERSION
+from vptoolkit.dataset.release.contents import ReleaseFiles, check_described
+from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
+from vptoolkit.dataset.release.options import ReleaseOptions
+from vptoolkit.dataset.release.parquet import (
+    VIEWS_CONFIG,
+    Column,
+    ParquetShard,
+    model_columns,
+    view_columns,
+)
 from vptoolkit.dataset.store.info import (
     CITATION,
     camera_sentence,
@@ -32,14 +56,7 @@ from vptoolkit.dataset.store.info import (
     source_name,
     split_count_rows,
 )
-from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
-from vptoolkit.dataset.release.parquet import (
-    VIEWS_CONFIG,
-    Column,
-    ParquetShard,
-    model_columns,
-    view_columns,
-)
+from vptoolkit.dataset.store.schema import ARRAY_SPECS
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
@@ -50,46 +67,16 @@ __all__ = [
     "hub_yaml",
 ]
 
-_ARRAY_MEANINGS = {
-    "views": "unit view directions, model centre to camera (Fibonacci sphere)",
-    "points": "points sampled uniformly by area on the cleaned mesh",
-    "normals": "unit face normal at each point",
-    "quality": "normalised quality in [0, 1], 1 = best",
-    "quality_raw": "raw measures, NaN where a view sees nothing",
-    "best_index": "index into `views` of the best view per measure",
-    "best_value": "raw value at the best view",
-    "worst_index": "index into `views` of the worst view per measure",
-    "worst_value": "raw value at the worst view",
-    "mesh_vertices": "cleaned mesh vertices of all models, concatenated",
-    "mesh_vertex_offsets": "model m owns vertex rows offsets[m]:offsets[m+1]",
-    "mesh_faces": "faces, indices local to the model's vertices",
-    "mesh_face_offsets": "model m owns face rows offsets[m]:offsets[m+1]",
-    "models_json": "UTF-8 JSON list of model records in row order",
-    "failures_json": "UTF-8 JSON list of inputs that could not be processed",
-    "names": "model name per model, in row order",
-    "categories": "category per model",
-    "splits": "split per model: train, validation or test",
-    "labels": "class label per model: index into the root attribute `class_names`",
-}
+_ARRAY_MEANINGS = {name: spec.description for name, spec in ARRAY_SPECS.items()}
+"""What each stored array holds, as the card's schema table says it."""
 
 
 def render_card(
     reader: StoreReader,
-    files: Mapping[str, str],
+    files: ReleaseFiles,
+    options: ReleaseOptions | None = None,
     *,
-    license: str = "other",  # noqa: A002 - the dataset-hub field is called license
-    pretty_name: str | None = None,
-    file_sizes: Mapping[str, int] | None = None,
-    shards: Sequence[ParquetShard] | None = None,
-    version: str = DATASET_VERSION,
-    created: str | None = None,
-    source_url: str | None = None,
-    license_name: str | None = None,
-    license_link: str | None = None,
     warnings: Sequence[str] = (),
-    creator: str | None = None,
-    url: str | None = None,
-    force_license: bool = False,
 ) -> str:
     """Fill ``vptoolkit/dataset_card/template.md`` into a release ``README.md``.
 
@@ -97,41 +84,26 @@ def render_card(
     ----------
     reader : StoreReader
         The store the card describes.
-    files : mapping of str to str
-        Release file name -> SHA-256 hex digest, listed in the card.
-    license : str
-        Licence of the release, an identifier or a URL (default: ``"other"``;
-        the toolkit cannot know the source meshes' licences, which apply).
-        The YAML header carries the hub's fields of it
-        (:func:`~vptoolkit.dataset.release.licenses.hub_license`: ``other`` with a
-        name and a link, ``LICENSES.csv`` when ``files`` lists it).
-    pretty_name : str, optional
-        Human-readable title (default: derived from the source folder name).
-    file_sizes : mapping of str to int, optional
-        Release file name -> size in bytes, listed beside the digests.
-    shards : sequence of ParquetShard, optional
-        The release's Parquet shards; the YAML header then carries the hub's
-        ``configs`` and a full ``dataset_info`` (see :func:`hub_yaml`).
-    version : str
-        Dataset version (default: ``"1.0.0"``).
-    created : str, optional
-        Release time (default: the store's ``created``).
-    source_url : str, optional
-        Where the source meshes come from.
-    license_name, license_link : str, optional
-        The hub's fields for a licence ``other`` or a URL (default: as
-        :func:`~vptoolkit.dataset.release.licenses.hub_license` fills them).
-    warnings : sequence of str
-        Lines shown in a warning block at the top (an empty split, say).
-    creator : str, optional
-        Who made the release (default: ``"vptoolkit"``), in the citation.
-    url : str, optional
-        Where the release is published, in the citation.
-    force_license : bool
-        The publisher forced ``license`` over the sources' own terms
-        (``vptool pack --force-license``): the licence note then records
-        that decision and every term it contradicts
+    files : ReleaseFiles
+        Release file name -> SHA-256 digest and size, listed in the card
+        (the suffixes present name the formats; ``LICENSES.csv`` among them
+        points the licence fields at it), and the Parquet shards: with
+        shards the YAML header carries the hub's ``configs`` and a full
+        ``dataset_info`` (:func:`hub_yaml`) and the card shows how
+        ``datasets`` and ``mlcroissant`` load them.
+    options : ReleaseOptions, optional
+        What the publisher said (default: ``ReleaseOptions()``). The card
+        uses ``license`` (with ``license_name`` and ``license_link``, the
+        hub's fields of it,
+        :func:`~vptoolkit.dataset.release.licenses.hub_license`),
+        ``pretty_name`` (the title; default from the source folder name),
+        ``version``, ``created`` (default: the store's ``created``),
+        ``source_url``, ``creator`` (default ``"vptoolkit"``) and ``url``
+        (in the citation), and ``force_license``: the licence note then
+        records the publisher's decision and every term it contradicts
         (:func:`~vptoolkit.dataset.release.licenses.license_conflicts`).
+    warnings : sequence of str
+        Lines shown in a warning block under the summary (an empty split, say).
 
     Returns
     -------
@@ -139,44 +111,85 @@ def render_card(
         Markdown with a YAML front matter block. Each model record's
         ``provenance`` (licence, author, url) is tabled under the licence
         note.
+
+    Raises
+    ------
+    InputError
+        If ``files`` or ``options`` is of another type, or the template
+        holds a placeholder no part fills.
     """
+    files, options = check_described(files, options)
     info = info_from_reader(reader)
-    source = source_name(info)
-    title = pretty_name or f"Viewpoint quality of {source} models"
-    stats = info["statistics"]
-    sizes = file_sizes or {}
-    measures = info["measures"]
-    cleaning = info.get("cleaning") or {}
-    fractions = info.get("split_fractions") or {}
+    title = options.pretty_name or f"Viewpoint quality of {source_name(info)} models"
+    values = {
+        **_header(info, files, options, title),
+        **_summary(info, options, title, warnings),
+        **_licence(reader, info, options),
+        **_files(files),
+        **_reading(info, files),
+        **_counts(info),
+        **_measures(info),
+        **_schema(reader),
+        **_statistics(info),
+        **_datasheet(info, files, options),
+        **_citation(info, options, title),
+    }
+    template = string.Template(_load_template("template.md"))
+    try:
+        return template.substitute({key: str(value) for key, value in values.items()})
+    except (KeyError, ValueError) as err:
+        raise InputError(f"template.md: cannot fill placeholder ({err})") from err
 
-    if shards:
-        yaml_hub = hub_yaml(shards, n_points=int(info["n_points"] or 0),
-                            n_views=int(info["n_views"]), class_names=info["class_names"])
-    else:
-        # Without Parquet shards `datasets` has nothing to load: no configs, no splits.
-        yaml_hub = ""
 
-    count_header, count_rows = split_count_rows(info)
-    measure_rows = [
-        [m, measures["names"][m], "higher" if hi else "lower", measures["units"][m],
-         format_number(stats["best_value"][m]["mean"]),
-         format_number(stats["best_value"][m]["min"]),
-         format_number(stats["best_value"][m]["max"])]
-        for m, hi in zip(measures["order"], measures["higher_is_better"])
-    ]
-    file_rows = [[f"`{name}`", str(sizes[name]) if name in sizes else "-", f"`{digest}`"]
-                 for name, digest in sorted(files.items())]
-    failure_rows = [[f"`{r.get('source')}`", r.get("category") or "-", r.get("reason") or "-"]
-                    for r in info["failures"]]
-    reasons = Counter(str(r.get("reason")) for r in info["failures"])
-    split_sentence = ", ".join(f"{name} {format_number(value)}"
-                               for name, value in fractions.items())
-    splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
-        info, split_sentence, cleaning)
-
-    hub = hub_license(license, license_name, license_link, table=LICENSES_NAME in files)
+def _header(info: dict[str, Any], files: ReleaseFiles, options: ReleaseOptions,
+            title: str) -> dict[str, Any]:
+    """The YAML header: title, the hub's licence fields, size category and, with shards,
+    the hub's configurations (:func:`hub_yaml`; without shards ``datasets`` has nothing
+    to load: no configs, no splits)."""
+    hub = hub_license(options.license, options.license_name, options.license_link,
+                      table=LICENSES_NAME in files.digests)
     yaml_license = hub.pop("license")
-    license_extra = "".join(f"\n{key}: {_yaml_str(value)}" for key, value in hub.items())
+    return {
+        "yaml_pretty_name": _yaml_str(title),
+        "yaml_license": _yaml_str(yaml_license),
+        "yaml_license_extra": "".join(f"\n{key}: {_yaml_str(value)}"
+                                      for key, value in hub.items()),
+        "yaml_size_category": _yaml_str(size_category(info["n_models"])),
+        "yaml_hub": (hub_yaml(files.shards, n_points=int(info["n_points"] or 0),
+                              n_views=int(info["n_views"]), class_names=info["class_names"])
+                     if files.shards else ""),
+    }
+
+
+def _summary(info: dict[str, Any], options: ReleaseOptions, title: str,
+             warnings: Sequence[str]) -> dict[str, Any]:
+    """The title and first paragraph: models, categories, points, measures, views,
+    resolution, version and release time, then the warning block."""
+    return {
+        "title": title,
+        "models_phrase": plural(info["n_models"], "model"),
+        "n_categories": len(info["categories"]),
+        "source": source_name(info),
+        "categories": ", ".join(f"`{c}`" for c in info["categories"]) or "none",
+        "n_points": info["n_points"],
+        "n_views": info["n_views"],
+        "resolution": info["resolution"],
+        "measure_order": ", ".join(info["measures"]["order"]),
+        "version": options.version,
+        "created": options.created or info.get("created"),
+        "toolkit_version": info.get("toolkit_version"),
+        "source_url_sentence": (f" Source meshes: <{options.source_url}>."
+                                if options.source_url else ""),
+        "warnings_block": "".join(f"\n> **Warning.** {line}.\n" for line in warnings),
+    }
+
+
+def _licence(reader: StoreReader, info: dict[str, Any],
+             options: ReleaseOptions) -> dict[str, Any]:
+    """The licence note: the release's licence, the source meshes' provenance (one
+    sentence when every mesh shares one licence, else a table), ModelNet's terms and
+    a forced licence's conflicts."""
+    release_licence = options.license
     records = reader.models()
     licensed = [r for r in records if r.get("provenance")]
     provenance_rows = [
@@ -205,15 +218,37 @@ def render_card(
         provenance_sentence = ("vptoolkit was given no licence for them "
                                "(`vptool pack --license ID` or `--licenses FILE.csv`); check "
                                "them before redistributing.")
-    formats = [label for suffix, label in ((".zarr.zip", "a Zarr v3 zip store"),
-                                           (".h5", "an HDF5 file"),
-                                           (".parquet", "Parquet shards per split"))
-               if any(name.endswith(suffix) for name in files)]
-    archives = [name for name in sorted(files) if name.endswith(".zarr.zip")]
-    hdf5_files = [name for name in sorted(files) if name.endswith((".h5", ".hdf5"))]
-    n_failures = info["n_failures"]
-    split_names = ", ".join(f"`{s}`" for s in info["splits"])
-    if shards:
+    forced = (_forced_licence_block(release_licence,
+                                    license_conflicts(release_licence, reader.attrs, records))
+              if options.force_license else "")
+    return {
+        "license": release_licence,
+        "provenance_sentence": provenance_sentence,
+        "provenance_table": (_markdown_table(["model", "licence", "author", "url"],
+                                             provenance_rows, ["l", "l", "l", "l"])
+                             if provenance_rows else ""),
+        "terms_block": _terms_block(source_name(info)) + forced,
+    }
+
+
+def _files(files: ReleaseFiles) -> dict[str, Any]:
+    """The files table (name, bytes, SHA-256) and which formats hold the same data."""
+    rows = [[f"`{name}`", str(files.sizes[name]) if name in files.sizes else "-", f"`{digest}`"]
+            for name, digest in sorted(files.digests.items())]
+    return {
+        "files_table": _markdown_table(["file", "bytes", "sha256"], rows, ["l", "r", "l"]),
+        "same_data_sentence": _same_data_sentence(files.digests),
+    }
+
+
+def _reading(info: dict[str, Any], files: ReleaseFiles) -> dict[str, Any]:
+    """How to load the release: ``datasets`` and ``mlcroissant`` over the Parquet shards
+    (or why not), then the archives with vptoolkit and with ``h5py`` or ``zarr`` alone."""
+    archives = [name for name in sorted(files.digests) if name.endswith(".zarr.zip")]
+    hdf5_files = [name for name in sorted(files.digests) if name.endswith((".h5", ".hdf5"))]
+    if files.shards:
+        split_names = ", ".join(f"`{s}`" for s in info["splits"])
+        columns = model_columns(int(info["n_points"] or 0), int(info["n_views"]))
         datasets_block = (
             f"With Hugging Face `datasets` (the Parquet shards, splits {split_names}):\n\n"
             "```python\nfrom datasets import load_dataset\n\n"
@@ -222,18 +257,6 @@ def render_card(
             f"# ({info['n_points']}, 3) float32\n"
             'views = load_dataset("path/to/this/folder", "views")["train"]  '
             f"# the {info['n_views']} view directions\n```"
-        )
-    else:
-        readable = " or ".join(f"`{name}`" for name in [*hdf5_files, *archives]) or "the archive"
-        tools = ", ".join(["vptoolkit", *(["`h5py`"] if hdf5_files else []),
-                           *(["`zarr>=3`"] if archives else [])])
-        datasets_block = (
-            "This release has no Parquet shards, so Hugging Face `datasets` cannot load it; "
-            f"read {readable} with {tools} as shown below."
-        )
-    if shards:
-        columns = model_columns(int(info["n_points"] or 0), int(info["n_views"]))
-        datasets_block += (
             "\n\nThe columns of a row (one model):\n\n"
             + _markdown_table(["column", "type", "shape", "meaning"],
                               [[f"`{c.name}`", c.dtype, _shape_text(c.shape), c.description]
@@ -244,96 +267,123 @@ def render_card(
             'records = mlc.Dataset(jsonld="croissant.json").records(record_set="models")\n'
             'first = next(iter(records))    # "models/name", "models/points", ...\n```'
         )
-    when = str(created or info.get("created") or "")
-    values = {
-        "models_phrase": plural(info["n_models"], "model"),
-        "failures_phrase": (
-            f"{plural(n_failures, 'input')} could not be processed; "
-            f"{'it is' if n_failures == 1 else 'they are'} listed below and in the "
-            "`failures_json` array." if n_failures else "No input failed."
-        ),
+    else:
+        readable = " or ".join(f"`{name}`" for name in [*hdf5_files, *archives]) or "the archive"
+        tools = ", ".join(["vptoolkit", *(["`h5py`"] if hdf5_files else []),
+                           *(["`zarr>=3`"] if archives else [])])
+        datasets_block = (
+            "This release has no Parquet shards, so Hugging Face `datasets` cannot load it; "
+            f"read {readable} with {tools} as shown below."
+        )
+    return {
+        "datasets_block": datasets_block,
         "store_name": (hdf5_files or archives or ["dataset.h5"])[0],
         "raw_readers": " and ".join(["`h5py`"] * bool(hdf5_files or not archives)
                                     + ["`zarr>=3`"] * bool(archives)) + " read",
         "raw_example": _raw_example(hdf5_files[0] if hdf5_files else None,
                                     archives[0] if archives else None),
-        "yaml_pretty_name": _yaml_str(title),
-        "yaml_license": _yaml_str(yaml_license),
-        "yaml_license_extra": license_extra,
-        "version": version,
-        "source_url_sentence": f" Source meshes: <{source_url}>." if source_url else "",
-        "terms_block": _terms_block(source) + (
-            _forced_licence_block(license, license_conflicts(license, reader.attrs, records))
-            if force_license else ""),
-        "creator": creator or "vptoolkit",
-        "dataset_citation": dataset_citation(title, creator=creator or "vptoolkit",
-                                             year=when[:4], version=version, url=url,
-                                             source=source,
-                                             toolkit_version=info.get("toolkit_version")),
-        "warnings_block": "".join(f"\n> **Warning.** {line}.\n" for line in warnings),
-        "provenance_sentence": provenance_sentence,
-        "provenance_table": (_markdown_table(["model", "licence", "author", "url"],
-                                             provenance_rows, ["l", "l", "l", "l"])
-                             if provenance_rows else ""),
-        "formats_sentence": " and ".join(formats) or "no archive",
-        "split_names": split_names,
-        "datasets_block": datasets_block,
-        "same_data_sentence": _same_data_sentence(files),
-        "yaml_size_category": _yaml_str(size_category(info["n_models"])),
-        "yaml_hub": yaml_hub,
-        "title": title,
-        "license": license,
-        "source": source,
-        "n_models": info["n_models"],
-        "n_categories": len(info["categories"]),
-        "categories": ", ".join(f"`{c}`" for c in info["categories"]) or "none",
-        "n_views": info["n_views"],
-        "n_points": info["n_points"],
-        "resolution": info["resolution"],
-        "backend": info["backend"],
-        "camera": camera_sentence(info.get("camera")),
-        "measure_order": ", ".join(measures["order"]),
-        "log_base": measures["log_base"],
-        "normalisation": measures["normalisation"],
-        "split_seed": info.get("split_seed"),
-        "splits_sentence": splits_sentence,
-        "collection_sentence": collection_sentence,
-        "split_fractions": split_sentence or "not recorded",
-        "toolkit_version": info.get("toolkit_version"),
-        "created": created or info.get("created"),
-        "cleaning_sentence": cleaning_sentence,
-        "n_failures": info["n_failures"],
-        "failure_reasons": (
-            "; ".join(f"{reason} ({n})" for reason, n in sorted(reasons.items()))
-            or "none"
-        ),
-        "failures_table": (_markdown_table(["source", "category", "reason"], failure_rows,
-                                           ["l", "l", "l"])
-                           if failure_rows else ""),
+    }
+
+
+def _counts(info: dict[str, Any]) -> dict[str, Any]:
+    """The models per category and split, and the class label of each category."""
+    count_header, count_rows = split_count_rows(info)
+    return {
         "count_table": _markdown_table(count_header, count_rows),
         "class_table": _markdown_table(
             ["label", "category"], [[label, f"`{name}`"] for label, name in
                                     enumerate(info["class_names"])], ["r", "l"]),
+    }
+
+
+def _measures(info: dict[str, Any]) -> dict[str, Any]:
+    """The measures: logarithm base, normalisation, and per measure its name, which way
+    is better, raw unit and the mean, min and max of its best raw value."""
+    measures, stats = info["measures"], info["statistics"]
+    rows = [
+        [m, measures["names"][m], "higher" if hi else "lower", measures["units"][m],
+         format_number(stats["best_value"][m]["mean"]),
+         format_number(stats["best_value"][m]["min"]),
+         format_number(stats["best_value"][m]["max"])]
+        for m, hi in zip(measures["order"], measures["higher_is_better"])
+    ]
+    return {
+        "log_base": measures["log_base"],
+        "normalisation": measures["normalisation"],
         "measure_table": _markdown_table(
             ["measure", "name", "best", "raw unit", "best raw mean", "best raw min",
-             "best raw max"], measure_rows, ["l", "l", "l", "l", "r", "r", "r"]),
-        "schema_table": _markdown_table(["array", "shape", "dtype", "meaning"],
-                                        _array_rows(reader), ["l", "l", "l", "l"]),
-        "files_table": _markdown_table(["file", "bytes", "sha256"], file_rows,
-                                       ["l", "r", "l"]),
+             "best raw max"], rows, ["l", "l", "l", "l", "r", "r", "r"]),
+    }
+
+
+def _schema(reader: StoreReader) -> dict[str, Any]:
+    """The arrays of the store: shape, dtype and meaning of each."""
+    return {"schema_table": _markdown_table(["array", "shape", "dtype", "meaning"],
+                                            _array_rows(reader), ["l", "l", "l", "l"])}
+
+
+def _statistics(info: dict[str, Any]) -> dict[str, Any]:
+    """Faces and vertices per mesh, before and after cleaning, and the failures by reason."""
+    stats = info["statistics"]
+    reasons = Counter(str(r.get("reason")) for r in info["failures"])
+    return {
         "mean_faces": format_number(stats["faces"]["mean"]),
         "min_faces": format_number(stats["faces"]["min"]),
         "max_faces": format_number(stats["faces"]["max"]),
         "mean_vertices": format_number(stats["vertices"]["mean"]),
         "n_cleaned": stats["n_cleaned"],
         "mean_faces_before": format_number(stats["faces_before_cleaning"]["mean"]),
+        "n_failures": info["n_failures"],
+        "failure_reasons": (
+            "; ".join(f"{reason} ({n})" for reason, n in sorted(reasons.items()))
+            or "none"
+        ),
+    }
+
+
+def _datasheet(info: dict[str, Any], files: ReleaseFiles,
+               options: ReleaseOptions) -> dict[str, Any]:
+    """The datasheet's own sentences (Gebru et al.): creator, splits, failures, collection,
+    cleaning and the formats distributed."""
+    n_failures = info["n_failures"]
+    fractions = info.get("split_fractions") or {}
+    split_sentence = ", ".join(f"{name} {format_number(value)}"
+                               for name, value in fractions.items())
+    splits_sentence, collection_sentence, cleaning_sentence = _method_sentences(
+        info, split_sentence, info.get("cleaning") or {})
+    failure_rows = [[f"`{r.get('source')}`", r.get("category") or "-", r.get("reason") or "-"]
+                    for r in info["failures"]]
+    formats = [label for suffix, label in ((".zarr.zip", "a Zarr v3 zip store"),
+                                           (".h5", "an HDF5 file"),
+                                           (".parquet", "Parquet shards per split"))
+               if any(name.endswith(suffix) for name in files.digests)]
+    return {
+        "creator": options.creator or "vptoolkit",
+        "splits_sentence": splits_sentence,
+        "failures_phrase": (
+            f"{plural(n_failures, 'input')} could not be processed; "
+            f"{'it is' if n_failures == 1 else 'they are'} listed below and in the "
+            "`failures_json` array." if n_failures else "No input failed."
+        ),
+        "failures_table": (_markdown_table(["source", "category", "reason"], failure_rows,
+                                           ["l", "l", "l"])
+                           if failure_rows else ""),
+        "collection_sentence": collection_sentence,
+        "cleaning_sentence": cleaning_sentence,
+        "formats_sentence": " and ".join(formats) or "no archive",
+    }
+
+
+def _citation(info: dict[str, Any], options: ReleaseOptions, title: str) -> dict[str, Any]:
+    """The BibTeX entries: the release itself (:func:`dataset_citation`), then the paper."""
+    when = str(options.created or info.get("created") or "")
+    return {
+        "dataset_citation": dataset_citation(
+            title, creator=options.creator or "vptoolkit", year=when[:4],
+            version=options.version, url=options.url, source=source_name(info),
+            toolkit_version=info.get("toolkit_version")),
         "citation": CITATION,
     }
-    template = string.Template(_load_template("template.md"))
-    try:
-        return template.substitute({key: str(value) for key, value in values.items()})
-    except (KeyError, ValueError) as err:
-        raise InputError(f"template.md: cannot fill placeholder ({err})") from err
 
 
 MODELNET_TERMS = (

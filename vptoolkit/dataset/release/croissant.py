@@ -1,4 +1,4 @@
-"""Croissant 1.0 JSON-LD metadata of a release, with its Responsible-AI fields.
+"""Croissant 1.1 JSON-LD metadata of a release, with its Responsible-AI fields.
 
 :func:`croissant_jsonld` describes a release for dataset search engines and
 loaders (mlcommons.org/croissant): one FileObject per file with its SHA-256,
@@ -6,23 +6,22 @@ the record sets of the Parquet configurations with their columns, and the
 ``rai:`` fields, which :func:`rai_fields` takes from the sections of the
 dataset card (:func:`card_sections`), so the card stays the one place they
 are written. Every number comes from the store's summary
-(:func:`vptoolkit.dataset.store.info.info_from_reader`).
+(:func:`vptoolkit.dataset.store.info.info_from_reader`), every file from
+what packing wrote (:class:`~vptoolkit.dataset.release.contents.ReleaseFiles`)
+and every name, link and licence from what the publisher said
+(:class:`~vptoolkit.dataset.release.options.ReleaseOptions`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
-from vptoolkit.conventions import DATASET_VERSION, SPLITS
+from vptoolkit.conventions import SPLITS
+from vptoolkit.dataset.release.contents import ReleaseFiles, check_described
+from vptoolkit.dataset.release.options import ReleaseOptions
+from vptoolkit.dataset.release.parquet import VIEWS_CONFIG, Column, model_columns, view_columns
 from vptoolkit.dataset.store.info import CITATION, info_from_reader, plural, source_name
-from vptoolkit.dataset.release.parquet import (
-    VIEWS_CONFIG,
-    Column,
-    ParquetShard,
-    model_columns,
-    view_columns,
-)
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store.reader import StoreReader
@@ -108,69 +107,60 @@ _RAI_SECTIONS = (
 
 def croissant_jsonld(
     reader: StoreReader,
-    files: Mapping[str, str],
+    files: ReleaseFiles,
+    options: ReleaseOptions | None = None,
     *,
-    license: str = "other",  # noqa: A002 - the Croissant field is called license
-    name: str | None = None,
-    file_sizes: Mapping[str, int] | None = None,
-    shards: Sequence[ParquetShard] | None = None,
     card: str | None = None,
-    version: str = DATASET_VERSION,
-    date_published: str | None = None,
-    url: str | None = None,
-    source_url: str | None = None,
-    creator: str | None = None,
 ) -> dict[str, Any]:
     """Return Croissant 1.1 JSON-LD metadata of a release.
+
+    Written from the same three values as the card
+    (:func:`~vptoolkit.dataset.release.card.render_card`): the store's
+    summary, what packing wrote and what the publisher said.
 
     Parameters
     ----------
     reader : StoreReader
         The store the metadata describes.
-    files : mapping of str to str
-        Release file name -> SHA-256 hex digest; each becomes a
-        ``cr:FileObject`` with ``contentUrl`` (relative to the metadata file),
-        ``encodingFormat``, ``sha256`` and ``contentSize`` where known.
-    license : str
-        Licence identifier or URL (default: ``"other"``).
-    name : str, optional
-        Dataset name (default: derived from the source name).
-    file_sizes : mapping of str to int, optional
-        File name -> size in bytes (``contentSize``).
-    shards : sequence of ParquetShard, optional
-        The Parquet shards. Record sets are read from them (mlcroissant
-        reads Parquet, not HDF5 or Zarr): ``models`` (one record per model,
-        the columns of :func:`~vptoolkit.dataset.release.parquet.model_columns`,
-        arrays with ``isArray``/``arrayShape``) from the FileSet
-        ``model-shards``, and ``views`` from the FileObject of the views shard;
-        beside them, given inline, ``splits`` (``cr:Split``, which the
-        ``split`` field references) and ``categories`` (the class labels,
-        which the ``label`` field references). Without shards there are no
-        record sets.
+    files : ReleaseFiles
+        Each listed file becomes a ``cr:FileObject`` with ``contentUrl``
+        (relative to the metadata file), ``encodingFormat``, ``sha256`` and
+        ``contentSize`` where its size is known. Record sets are read from
+        the Parquet shards (mlcroissant reads Parquet, not HDF5 or Zarr):
+        ``models`` (one record per model, the columns of
+        :func:`~vptoolkit.dataset.release.parquet.model_columns`, arrays with
+        ``isArray``/``arrayShape``) from the FileSet ``model-shards``, and
+        ``views`` from the FileObject of the views shard; beside them, given
+        inline, ``splits`` (``cr:Split``, which the ``split`` field
+        references) and ``categories`` (the class labels, which the
+        ``label`` field references). Without shards there are no record sets.
+    options : ReleaseOptions, optional
+        What the publisher said (default: ``ReleaseOptions()``). Croissant
+        uses ``license``, ``pretty_name`` (``name``; default from the source
+        name), ``version``, ``created`` (``datePublished``; default the
+        store's ``created``), ``url`` (default: ``source_url``),
+        ``source_url`` (``isBasedOn``) and ``creator`` (default
+        ``"vptoolkit"``).
     card : str, optional
         The release's ``README.md``; the ``rai:`` fields are taken from its
         datasheet sections.
-    version : str
-        Dataset version, ``MAJOR.MINOR.PATCH`` (default: ``"1.0.0"``).
-    date_published : str, optional
-        ISO 8601 time of the release (default: the store's ``created``).
-    url : str, optional
-        Where the dataset is published (default: ``source_url``).
-    source_url : str, optional
-        Where the source meshes come from (``isBasedOn``).
-    creator : str, optional
-        Who made the release (default: ``"vptoolkit"``).
 
     Returns
     -------
     dict
         JSON types only; ``mlcroissant validate`` reports no error.
+
+    Raises
+    ------
+    InputError
+        If ``files`` or ``options`` is of another type.
     """
+    files, options = check_described(files, options)
     info = info_from_reader(reader)
     source = source_name(info)
-    sizes = file_sizes or {}
+    sizes = files.sizes
     distribution: list[dict[str, Any]] = []
-    for file_name, digest in sorted(files.items()):
+    for file_name, digest in sorted(files.digests.items()):
         mime, description = _encoding(file_name)
         entry: dict[str, Any] = {
             "@type": "cr:FileObject",
@@ -185,8 +175,8 @@ def croissant_jsonld(
             entry["contentSize"] = f"{int(sizes[file_name])} B"
         distribution.append(entry)
     record_sets: list[dict[str, Any]] = []
-    model_shards = [s for s in shards or () if s.split != VIEWS_CONFIG]
-    view_shards = [s for s in shards or () if s.split == VIEWS_CONFIG]
+    model_shards = [s for s in files.shards if s.split != VIEWS_CONFIG]
+    view_shards = [s for s in files.shards if s.split == VIEWS_CONFIG]
     n_views, n_points = info["n_views"], info["n_points"]
     if model_shards:
         folder = model_shards[0].path.rsplit("/", 1)[0]
@@ -227,7 +217,7 @@ def croissant_jsonld(
             "field": [_croissant_field(VIEWS_CONFIG, c, {"fileObject": {"@id": shard.path}})
                       for c in view_columns()],
         })
-    title = name or f"Viewpoint quality of {source} models"
+    title = options.pretty_name or f"Viewpoint quality of {source} models"
     document: dict[str, Any] = {
         "@context": dict(_CROISSANT_CONTEXT),
         "@type": "sc:Dataset",
@@ -241,20 +231,20 @@ def croissant_jsonld(
             "Parquet shards; the Zarr v3 zip and the HDF5 file hold the same arrays with the "
             "layout of SCHEMA.md."
         ),
-        "license": license,
+        "license": options.license,
         "citeAs": CITATION,
-        "version": version,
-        "datePublished": date_published or info.get("created"),
+        "version": options.version,
+        "datePublished": options.created or info.get("created"),
         "dateCreated": info.get("created"),
-        "creator": {"@type": "sc:Organization", "name": creator or "vptoolkit"},
+        "creator": {"@type": "sc:Organization", "name": options.creator or "vptoolkit"},
         "keywords": ["3D", "point cloud", "mesh", "viewpoint selection", "viewpoint quality",
                      *info["categories"]],
         "isAccessibleForFree": True,
     }
-    if url or source_url:
-        document["url"] = url or source_url
-    if source_url:
-        document["isBasedOn"] = source_url
+    if options.url or options.source_url:
+        document["url"] = options.url or options.source_url
+    if options.source_url:
+        document["isBasedOn"] = options.source_url
     if card:
         document.update(rai_fields(card))
     document["distribution"] = distribution

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -31,9 +30,9 @@ from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import json_text, parse_json, write_bytes_atomic, write_json_atomic
 
 if TYPE_CHECKING:
-    from vptoolkit.dataset.release.parquet import ParquetShard
-    from vptoolkit.dataset.store.reader import StoreReader
+    from vptoolkit.dataset.release.contents import ReleaseFiles
     from vptoolkit.dataset.release.options import ReleaseOptions
+    from vptoolkit.dataset.store.reader import StoreReader
 
 __all__ = ["CROISSANT_NAME", "INFO_NAME", "update_card", "write_descriptions", "write_json"]
 
@@ -41,29 +40,22 @@ CROISSANT_NAME = "croissant.json"
 INFO_NAME = "dataset_info.json"
 
 
-def write_descriptions(folder: Path, reader: StoreReader, digests: Mapping[str, str],
-                        sizes: Mapping[str, int], shards: Sequence[ParquetShard],
-                        options: ReleaseOptions) -> str:
-    """Write croissant.json from the card in ``folder`` (which it lists with its digest).
+def write_descriptions(folder: Path, reader: StoreReader, files: ReleaseFiles,
+                       options: ReleaseOptions) -> str:
+    """Write croissant.json from the card in ``folder``, listing ``files`` and the card.
 
     Returns
     -------
     str
         The SHA-256 of the card, so that the manifest need not read it again.
     """
-    card = (folder / CARD_NAME).read_text(encoding="utf-8")
-    described = dict(digests)
-    described[CARD_NAME] = sha256_file(folder / CARD_NAME)
-    all_sizes = dict(sizes)
-    all_sizes[CARD_NAME] = (folder / CARD_NAME).stat().st_size
-    croissant = croissant_jsonld(
-        reader, described, license=options.license, name=options.pretty_name,
-        file_sizes=all_sizes, shards=shards, card=card,
-        version=options.version, date_published=options.created, url=options.url,
-        source_url=options.source_url, creator=options.creator,
-    )
+    card_path = folder / CARD_NAME
+    card_digest = sha256_file(card_path)
+    described = files.with_file(CARD_NAME, card_digest, card_path.stat().st_size)
+    croissant = croissant_jsonld(reader, described, options,
+                                 card=card_path.read_text(encoding="utf-8"))
     write_json(folder / CROISSANT_NAME, croissant)
-    return described[CARD_NAME]
+    return card_digest
 
 
 def write_json(path: Path, value: Any) -> None:

@@ -199,14 +199,6 @@ class ReleaseOptions:
         """The licence of a source mesh the table does not name (None for ``"other"``)."""
         return None if self.license == DEFAULT_LICENSE else self.license
 
-    def card_arguments(self) -> dict[str, Any]:
-        """The keywords of :func:`~vptoolkit.dataset.release.card.render_card` these options give."""
-        return {"license": self.license, "pretty_name": self.pretty_name,
-                "version": self.version, "created": self.created,
-                "source_url": self.source_url, "license_name": self.license_name,
-                "license_link": self.license_link, "creator": self.creator, "url": self.url,
-                "force_license": self.force_license}
-
 
 def _formats(formats: Any) -> tuple[str, ...]:
     if isinstance(formats, str) or not isinstance(formats, Sequence):

@@ -54,11 +54,12 @@ import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, overload
+from typing import TYPE_CHECKING, Any
 
 from vptoolkit.checks import short_repr
 from vptoolkit.conventions import DATASET_VERSION, SPLITS
 from vptoolkit.dataset.release.card import render_card
+from vptoolkit.dataset.release.contents import ReleaseFiles
 from vptoolkit.dataset.release.descriptions import (
     CROISSANT_NAME,
     INFO_NAME,
@@ -75,7 +76,7 @@ from vptoolkit.dataset.release.manifest import (
     write_sha256sums,
 )
 from vptoolkit.dataset.release.options import ReleaseOptions, release_created
-from vptoolkit.dataset.store.schema import ModelEntry, published_split
+from vptoolkit.dataset.store.schema import LazyEntries, ModelEntry, published_split
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     errors_named,
@@ -170,41 +171,30 @@ class _ReleaseEntry(ModelEntry):
         return record
 
 
-class _ReaderEntries(Sequence["ModelEntry"]):
-    """The models of an open store as a lazy sequence: entry ``i`` is read on access.
+def _release_entries(reader: StoreReader,
+                     provenance: Mapping[str, dict[str, str]] | None = None,
+                     default_license: str | None = None) -> LazyEntries:
+    """The models of an open store as they go into a release, read on access.
 
     Splits come out under their published names, and a model named in
     ``provenance`` gets its licence, author and url; any other model without
     stored provenance gets ``{"license": default_license}`` when that is given.
     """
+    records = reader.models()
+    known = provenance or {}
+    default = {"license": default_license} if default_license else None
 
-    def __init__(self, reader: StoreReader,
-                 provenance: Mapping[str, dict[str, str]] | None = None,
-                 default_license: str | None = None) -> None:
-        self._reader = reader
-        self._records = reader.models()
-        self._length = len(self._records)
-        self._provenance = provenance or {}
-        self._default = {"license": default_license} if default_license else None
-
-    def __len__(self) -> int:
-        return self._length
-
-    @overload
-    def __getitem__(self, index: int) -> ModelEntry: ...
-
-    @overload
-    def __getitem__(self, index: slice) -> Sequence[ModelEntry]: ...
-
-    def __getitem__(self, index: int | slice) -> ModelEntry | Sequence[ModelEntry]:
-        if isinstance(index, slice):
-            return [self[i] for i in range(*index.indices(self._length))]
-        entry = self._reader.entry(index)
+    def release_entry(row: int) -> ModelEntry:
+        entry = reader.entry(row)
         fields = {f.name: getattr(entry, f.name) for f in dataclasses.fields(entry)}
         fields["split"] = published_split(entry.split)
-        fields["provenance"] = (self._provenance.get(entry.name)
-                                or self._records[index].get("provenance") or self._default)
+        fields["provenance"] = (known.get(entry.name) or records[row].get("provenance")
+                                or default)
         return _ReleaseEntry(**fields)
+
+    return LazyEntries(len(records), release_entry)
+
+
 
 
 def _check_source_intact(source: Path) -> None:
@@ -411,7 +401,7 @@ def pack_release(
                 attrs["created"] = when
                 attrs["dataset_version"] = options.version
                 options = dataclasses.replace(options, created=when)
-                entries = _ReaderEntries(reader, provenance, options.default_license)
+                entries = _release_entries(reader, provenance, options.default_license)
                 views = reader.array("views")[:]
                 failures = reader.failures()
                 for archive in dict.fromkeys([*written, described_name]):
@@ -435,12 +425,11 @@ def pack_release(
                 for extra in (LICENSES_NAME, SCHEMA_NAME):
                     if (staging / extra).exists():
                         digests[extra] = sha256_file(staging / extra)
-                sizes = {file: (staging / file).stat().st_size for file in digests}
-                card = render_card(packed, digests, file_sizes=sizes, shards=shards,
-                                   **options.card_arguments(), warnings=found)
+                release_files = ReleaseFiles(
+                    digests, {file: (staging / file).stat().st_size for file in digests}, shards)
+                card = render_card(packed, release_files, options, warnings=found)
                 (staging / CARD_NAME).write_text(card, encoding="utf-8", newline="\n")
-                digests[CARD_NAME] = write_descriptions(staging, packed, digests, sizes, shards,
-                                                        options)
+                digests[CARD_NAME] = write_descriptions(staging, packed, release_files, options)
                 info = info_from_reader(packed)
             if described_name not in written:
                 (staging / described_name).unlink()
@@ -468,5 +457,3 @@ def pack_release(
         parquet=tuple(target / s.path for s in shards),
         warnings=tuple(found) + ((_NO_LICENCE,) if unlicensed else ()),
     )
-
-

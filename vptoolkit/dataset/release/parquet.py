@@ -36,8 +36,9 @@ pyarrow is imported inside :func:`write_parquet_shards` (the ``dataset``
 extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 
 Size
-    About 630 lines for one concept, the shard files: the columns declared
-    once (:class:`Column`, :func:`model_columns`, their hub features), the
+    About 630 lines for one concept, the shard files: the columns
+    (:class:`Column`; :func:`model_columns`, whose array columns are read
+    off :data:`~vptoolkit.dataset.store.schema.ENTRY_ARRAYS`; their hub features), the
     writer and the check of written shards against the store
     (:func:`shard_differences`). The writer and the check walk the same
     column declarations value by value, so they stay beside them.
@@ -55,8 +56,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES, SPLITS
-from vptoolkit.dataset.store.schema import published_split
+from vptoolkit.conventions import SPLITS
+from vptoolkit.dataset.store.schema import ARRAY_SPECS, ENTRY_ARRAYS, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
 
@@ -89,6 +90,7 @@ DEFAULT_SHARD_BYTES = 500 * 1000**2
 
 _ROWS_PER_GROUP = 64
 _STORED_AS = {"label": "labels"}  # column -> store array, where the names differ
+_OFFSETS = {spec.name: spec.offsets for spec in ENTRY_ARRAYS if spec.per == "mesh"}
 _PROVENANCE = ("license", "author", "url")
 _SHARD = re.compile(r"(?P<folder>[a-z]+)/(?P<split>[a-z]+)-(?P<index>[0-9]{5})-of-"
                     r"(?P<count>[0-9]{5})\.parquet")
@@ -207,6 +209,12 @@ def model_columns(n_points: int, n_views: int,
                   class_names: Sequence[str] | None = None) -> list[Column]:
     """The columns of a model shard, in file order.
 
+    The model's record (``name``, ``category``, its class ``label``,
+    ``split``, ``source`` and its digest, the provenance fields), then one
+    column per array a :class:`~vptoolkit.dataset.store.schema.ModelEntry`
+    carries (:data:`~vptoolkit.dataset.store.schema.ENTRY_ARRAYS`: their
+    names, dtypes, shapes and column descriptions), in store order.
+
     Parameters
     ----------
     n_points : int
@@ -221,31 +229,21 @@ def model_columns(n_points: int, n_views: int,
     -------
     list of Column
     """
-    order = ", ".join(MEASURES)
-    n_measures = len(MEASURES)
+    labels = ARRAY_SPECS["labels"]
+    sizes = {"n_points": n_points, "n_views": n_views}
     return [
         Column("name", "string", (), "unique model name"),
         Column("category", "string", (), "object category"),
-        Column("label", "int64", (), "class label: the category's index in the sorted category "
-               "names", None if class_names is None else tuple(class_names)),
+        Column("label", labels.dtype, (), labels.column,
+               None if class_names is None else tuple(class_names)),
         Column("split", "string", (), f"split: {', '.join(SPLITS)}"),
         Column("source", "string", (), "path of the source mesh inside the source dataset"),
         Column("source_sha256", "string", (), "SHA-256 of the source mesh file"),
         Column("license", "string", (), "licence of the source mesh (null if not given)"),
         Column("author", "string", (), "author or attribution of the source mesh"),
         Column("url", "string", (), "where the source mesh comes from"),
-        Column("points", "float32", (n_points, 3), "points sampled by area on the cleaned mesh"),
-        Column("normals", "float32", (n_points, 3), "unit face normal at each point"),
-        Column("quality", "float32", (n_views, n_measures),
-               f"normalised quality per view, columns {order}, 1 = best"),
-        Column("quality_raw", "float32", (n_views, n_measures),
-               f"raw measures per view, columns {order}, NaN where nothing is seen"),
-        Column("best_index", "int64", (n_measures,), "index of the best view per measure"),
-        Column("best_value", "float32", (n_measures,), "raw value at the best view"),
-        Column("worst_index", "int64", (n_measures,), "index of the worst view per measure"),
-        Column("worst_value", "float32", (n_measures,), "raw value at the worst view"),
-        Column("mesh_vertices", "float32", (None, 3), "vertices of the cleaned mesh"),
-        Column("mesh_faces", "int32", (None, 3), "triangles, indices into mesh_vertices"),
+        *(Column(spec.name, spec.dtype, spec.resolve(sizes), spec.column)
+          for spec in ENTRY_ARRAYS),
     ]
 
 
@@ -346,8 +344,7 @@ def _write(pa: Any, pq: Any, path: Path, columns: list[Column],
 
 def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[Column],
                    records: list[dict[str, Any]]) -> Any:
-    vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
-    face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
+    offsets = _mesh_offsets(reader)
     for start in range(0, len(rows), _ROWS_PER_GROUP):
         chunk = rows[start : start + _ROWS_PER_GROUP]
         arrays = []
@@ -359,17 +356,21 @@ def _model_batches(pa: Any, reader: StoreReader, rows: list[int], columns: list[
                 arrays.append(pa.array([None if v is None else str(v) for v in values],
                                        pa.string()))
                 continue
-            if column.name == "mesh_vertices":
-                block = [reader.array("mesh_vertices")[vertex_offsets[r] : vertex_offsets[r + 1]]
-                         for r in chunk]
-            elif column.name == "mesh_faces":
-                block = [reader.array("mesh_faces")[face_offsets[r] : face_offsets[r + 1]]
-                         for r in chunk]
+            if column.name in offsets:
+                stored, bounds = reader.array(column.name), offsets[column.name]
+                block = [stored[bounds[r] : bounds[r + 1]] for r in chunk]
             else:
                 stored = _per_model(reader, column)
                 block = [stored[r] for r in chunk]
             arrays.append(_nested(pa, block, column))
         yield arrays
+
+
+def _mesh_offsets(reader: StoreReader) -> dict[str, NDArray[np.int64]]:
+    """The row offsets of each mesh column's store array (model ``m`` owns rows
+    ``o[m]:o[m + 1]``), by column name."""
+    return {name: np.asarray(reader.array(offsets)[...], np.int64)
+            for name, offsets in _OFFSETS.items()}
 
 
 def _per_model(reader: StoreReader, column: Column) -> Any:
@@ -467,9 +468,7 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str, *,
     records = _shard_records(reader)
     columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]),
                             reader.class_labels()[0])
-    lengths = {column: np.diff(np.asarray(reader.array(offsets)[...], np.int64))
-               for column, offsets in (("mesh_vertices", "mesh_vertex_offsets"),
-                                       ("mesh_faces", "mesh_face_offsets"))}
+    lengths = {name: np.diff(offsets) for name, offsets in _mesh_offsets(reader).items()}
     shards = []
     for split in SPLITS:
         rows = [row for row, record in enumerate(records)
@@ -611,15 +610,13 @@ def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Col
                      where: list[str]) -> list[tuple[str, str]]:
     """``(<shard>:<model>:<column>, detail)`` for each value of ``table`` unlike the store's."""
     found = []
-    vertex_offsets = np.asarray(reader.array("mesh_vertex_offsets")[...], np.int64)
-    face_offsets = np.asarray(reader.array("mesh_face_offsets")[...], np.int64)
+    offsets = _mesh_offsets(reader)
     for column in columns:
         if column.dtype == "string":
             values: list[Any] = table.column(column.name).to_pylist()
         else:
             values = _shard_values(pa, table.column(column.name), column)
-        if column.name in ("mesh_vertices", "mesh_faces"):
-            offsets = vertex_offsets if column.name == "mesh_vertices" else face_offsets
+        if column.name in offsets:
             stored = reader.array(column.name)
         elif column.dtype != "string":
             stored = _per_model(reader, column)
@@ -629,8 +626,9 @@ def _row_differences(pa: Any, reader: StoreReader, table: Any, columns: list[Col
                 if column.name == "split":
                     expected = published_split(str(expected))
                 expected = None if expected is None else str(expected)
-            elif column.name in ("mesh_vertices", "mesh_faces"):
-                expected = stored[offsets[row] : offsets[row + 1]]
+            elif column.name in offsets:
+                bounds = offsets[column.name]
+                expected = stored[bounds[row] : bounds[row + 1]]
             else:
                 expected = stored[row]
             if not _same(expected, values[position], column.dtype):

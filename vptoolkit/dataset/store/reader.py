@@ -4,7 +4,10 @@
 :mod:`vptoolkit.dataset.store._zarr` and :mod:`vptoolkit.dataset.store._hdf5`), checks
 the root (format, schema version, measure order, arrays, counts) and, for
 Zarr, that no chunk is missing; :class:`StoreReader` then reads arrays
-lazily and decodes the JSON records.
+lazily, a model (:meth:`StoreReader.entry`) or every model as a lazy
+sequence (:meth:`StoreReader.entries`) by the declarations of
+:data:`~vptoolkit.dataset.store.schema.ARRAY_SPECS`, and decodes the JSON
+records.
 """
 
 from __future__ import annotations
@@ -24,9 +27,12 @@ from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
 from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
+    ARRAY_SPECS,
+    ENTRY_ARRAYS,
     FORMAT_NAME,
     SCHEMA_VERSION,
     STRING_ARRAYS,
+    LazyEntries,
     ModelEntry,
     class_labels,
     class_names,
@@ -37,11 +43,6 @@ from vptoolkit.files import check_path_part
 
 __all__ = ["StoreReader", "open_store"]
 
-_PER_MODEL_ARRAYS = (
-    "points", "normals", "quality", "quality_raw",
-    "best_index", "best_value", "worst_index", "worst_value",
-)
-_MESH_ARRAYS = {"mesh_vertices": "mesh_vertex_offsets", "mesh_faces": "mesh_face_offsets"}
 _MAX_NAMED_MODELS = 3  # models named in an error message before "and N more"
 
 
@@ -142,6 +143,10 @@ class StoreReader:
             paths, so a store written elsewhere or before the rule is refused
             here).
         """
+        return [dict(record) for record in self._records()]
+
+    def _records(self) -> list[dict[str, Any]]:
+        """The checked records of :meth:`models`, decoded once and not copied."""
         if self._models is None:
             decoded = self._decode("models_json")
             if not isinstance(decoded, list) or len(decoded) != self.n_models or not all(
@@ -154,7 +159,7 @@ class StoreReader:
                 check_path_part(record.get("category"),
                                 f"{self.path.name}: model {name!r}, category")
             self._models = decoded
-        return [dict(record) for record in self._models]
+        return self._models
 
     def class_labels(self) -> tuple[list[str], NDArray[np.int64]]:
         """The class names and each model's class label.
@@ -212,28 +217,37 @@ class StoreReader:
         if not -n_models <= index < n_models:
             raise IndexError(f"index {index} out of range for {n_models} models")
         row = int(index) % n_models
-        record = self.models()[row]
-        vertex_offsets = self.array("mesh_vertex_offsets")[row : row + 2]
-        face_offsets = self.array("mesh_face_offsets")[row : row + 2]
+        record = self._records()[row]
+        arrays: dict[str, NDArray[Any]] = {}
+        for spec in ENTRY_ARRAYS:
+            stored = self.array(spec.name)
+            if spec.per == "mesh":
+                first, stop = self.array(spec.offsets)[row : row + 2]
+                arrays[spec.field] = np.asarray(stored[first:stop])
+            else:
+                arrays[spec.field] = np.asarray(stored[row])
         return ModelEntry(
             name=record["name"],
             category=record["category"],
             split=record["split"],
             source=record["source"],
             source_sha256=record["source_sha256"],
-            points=np.asarray(self.array("points")[row]),
-            normals=np.asarray(self.array("normals")[row]),
-            quality=np.asarray(self.array("quality")[row]),
-            quality_raw=np.asarray(self.array("quality_raw")[row]),
-            best_index=np.asarray(self.array("best_index")[row]),
-            best_value=np.asarray(self.array("best_value")[row]),
-            worst_index=np.asarray(self.array("worst_index")[row]),
-            worst_value=np.asarray(self.array("worst_value")[row]),
-            vertices=np.asarray(self.array("mesh_vertices")[vertex_offsets[0] : vertex_offsets[1]]),
-            faces=np.asarray(self.array("mesh_faces")[face_offsets[0] : face_offsets[1]]),
             cleaning=record["cleaning"],
             view_set=record.get("view_set"),
+            **arrays,
         )
+
+    def entries(self) -> LazyEntries:
+        """The models as a lazy sequence: item ``i`` is :meth:`entry` ``(i)``, read on access.
+
+        Returns
+        -------
+        entries : LazyEntries
+            ``n_models`` entries, none held: e.g. to write the store again
+            elsewhere with :func:`~vptoolkit.dataset.store.writer.write_dataset`,
+            one model in memory at a time.
+        """
+        return LazyEntries(self.n_models, self.entry)
 
     def models_of_rows(self, name: str, first: int, stop: int) -> str:
         """Which models rows ``first:stop`` of an array belong to, for an error message.
@@ -247,10 +261,11 @@ class StoreReader:
         """
         try:
             names = [str(record.get("name")) for record in self.models()]
-            if name in _PER_MODEL_ARRAYS:
+            spec = ARRAY_SPECS.get(name)
+            if spec is not None and spec.per == "model":
                 rows = list(range(first, min(stop, len(names))))
-            elif name in _MESH_ARRAYS:
-                offsets = np.asarray(self._root[_MESH_ARRAYS[name]][...])
+            elif spec is not None and spec.per == "mesh":
+                offsets = np.asarray(self._root[spec.offsets][...])
                 rows = [
                     row for row in range(len(names))
                     if offsets[row] < stop and offsets[row + 1] > first

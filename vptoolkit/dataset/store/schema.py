@@ -1,17 +1,27 @@
 """The data contract of a viewpoint-quality dataset store (schema version 1).
 
 What every container holds, independent of how it is stored: the ``format``
-name and ``schema_version``, the root array names (:data:`ARRAY_NAMES`), the
-root attributes the build and the writer set (:data:`BUILD_ATTRS`,
-:data:`WRITER_ATTRS`), the aliases of the split names of
-:data:`vptoolkit.conventions.SPLITS` (:data:`SPLIT_ALIASES`,
-:func:`published_split`), the keys of a failure record (:data:`FAILURE_KEYS`),
-one model's content (:class:`ModelEntry`), the unit-normal rule
-(:data:`NORMAL_TOLERANCE`, :func:`normal_length_problem`), the JSON text encoding
-(:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
+name and ``schema_version``; the root arrays, declared once
+(:class:`ArraySpec`, :data:`ARRAY_SPECS`), from which :data:`ARRAY_NAMES`,
+:data:`ENTRY_ARRAYS` and :data:`STRING_ARRAYS` are read, and so are the
+writer's dtypes, shapes and chunks, the reader's models of each row, a
+build's staged members and a release's Parquet columns; the root attributes
+the build and the writer set (:data:`BUILD_ATTRS`, :data:`WRITER_ATTRS`); the
+aliases of the split names of :data:`vptoolkit.conventions.SPLITS`
+(:data:`SPLIT_ALIASES`, :func:`published_split`); the keys of a failure
+record (:data:`FAILURE_KEYS`); one model's content (:class:`ModelEntry`) and a
+lazy sequence of them (:class:`LazyEntries`); the unit-normal rule
+(:data:`NORMAL_TOLERANCE`, :func:`normal_length_problem`); the JSON text
+encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
 (:func:`array_sha256`). Described in ``vptoolkit/dataset_card/SCHEMA.md``.
 
-Needs numpy only.
+Needs numpy (and :mod:`vptoolkit.conventions`) only.
+
+Size
+    About 640 lines for one concept, the data contract of SCHEMA.md that
+    every stage reads: the arrays' declarations, the model they make up and
+    its lazy sequence stay beside the attributes, split names and encodings
+    of the same contract, so that a store's layout is read in one place.
 """
 
 from __future__ import annotations
@@ -19,20 +29,25 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from types import MappingProxyType
+from typing import Any, Literal, Protocol, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import parse_json
 
 __all__ = [
     "FORMAT_NAME",
     "SCHEMA_VERSION",
+    "ArraySpec",
+    "ARRAY_SPECS",
     "ARRAY_NAMES",
+    "ENTRY_ARRAYS",
     "STRING_ARRAYS",
     "BUILD_ATTRS",
     "WRITER_ATTRS",
@@ -44,6 +59,7 @@ __all__ = [
     "HDF5_JSON_KEY",
     "NORMAL_TOLERANCE",
     "ModelEntry",
+    "LazyEntries",
     "normal_length_problem",
     "array_sha256",
     "le_bytes",
@@ -58,30 +74,157 @@ FORMAT_NAME = "vptoolkit-viewpoint-dataset"
 SCHEMA_VERSION = 1
 """Value of the root attribute ``schema_version`` written and read here."""
 
-ARRAY_NAMES = (
-    "views",
-    "points",
-    "normals",
-    "quality",
-    "quality_raw",
-    "best_index",
-    "best_value",
-    "worst_index",
-    "worst_value",
-    "mesh_vertices",
-    "mesh_vertex_offsets",
-    "mesh_faces",
-    "mesh_face_offsets",
-    "models_json",
-    "failures_json",
-    "names",
-    "categories",
-    "splits",
-    "labels",
-)
+_CHUNK_MODELS = 64  # models per chunk of the per-model arrays other than points and normals
+_CHUNK_ROWS = 1 << 16  # rows per chunk of the mesh arrays, their offsets and the string arrays
+_CHUNK_BYTES = 1 << 22  # bytes per chunk of the JSON arrays
+
+
+@dataclass(frozen=True)
+class ArraySpec:
+    """One root array of a store: its name, dtype, shape, chunks and the models its rows hold.
+
+    Attributes
+    ----------
+    name : str
+        The array's name in the store.
+    dtype : str
+        A numpy dtype name (``"float32"``, ``"int64"``, ...), stored
+        little-endian, or ``"string"``: UTF-8 strings (:data:`STRING_ARRAYS`).
+    per : {"model", "mesh", "root"}
+        Which rows belong to which model. ``"model"``: the models' values
+        stacked, row ``m`` is model ``m`` and the array is
+        ``(n_models, *shape)``. ``"mesh"``: each model owns a run of rows of
+        varying length, model ``m`` the rows ``o[m]:o[m + 1]`` of the
+        ``offsets`` array ``o``. ``"root"``: the array as a whole, not split
+        by model.
+    shape : tuple of int, str or None
+        The shape of one model's value (``"model"``), of one model's rows
+        (``"mesh"``, first axis None) or of the whole array (``"root"``). A
+        string names a size: ``"n_points"``, ``"n_views"``, ``"n_measures"``
+        (``len(MEASURES)``); None is a length set by the content (the rows
+        of a mesh, the bytes of a JSON text, ``n_models + 1`` offsets).
+    chunk_rows : int or None
+        Rows along the first axis per chunk (models, for ``"model"``); None
+        stores the array as one chunk.
+    description : str
+        What the array holds, as the dataset card's table of arrays says it.
+    field : str
+        The :class:`ModelEntry` attribute holding a model's value (its rows,
+        for ``"mesh"``); empty for an array the writer makes itself, from
+        the records, the class labels or the views.
+    offsets : str
+        For ``"mesh"``, the ``(n_models + 1,)`` int64 array of row offsets;
+        else empty.
+    column : str
+        What a model's value holds, as the Parquet column of a release that
+        carries it describes it; empty for an array with no such column.
+    """
+
+    name: str
+    dtype: str
+    per: Literal["model", "mesh", "root"]
+    shape: tuple[int | str | None, ...]
+    chunk_rows: int | None
+    description: str
+    field: str = ""
+    offsets: str = ""
+    column: str = ""
+
+    @property
+    def numpy_dtype(self) -> np.dtype[Any]:
+        """The stored numpy dtype: little-endian, ``object`` for a string array (as the
+        containers' writers take one)."""
+        if self.dtype == "string":
+            return np.dtype(object)
+        return np.dtype(self.dtype).newbyteorder("<")
+
+    def resolve(self, sizes: Mapping[str, int | None]) -> tuple[int | None, ...]:
+        """:attr:`shape` with its named sizes taken from ``sizes``.
+
+        Parameters
+        ----------
+        sizes : mapping of str to int or None
+            ``"n_points"`` and ``"n_views"`` (``"n_measures"`` is
+            ``len(MEASURES)`` unless given); a size of None stays None
+            (any length).
+
+        Returns
+        -------
+        shape : tuple of int or None
+            None where the length varies or the size is not known.
+
+        Examples
+        --------
+        >>> ARRAY_SPECS["quality"].resolve({"n_points": 200, "n_views": 50})
+        (50, 4)
+        >>> ARRAY_SPECS["mesh_faces"].resolve({})
+        (None, 3)
+        """
+        known = {"n_measures": len(MEASURES), **sizes}
+        return tuple(known[axis] if isinstance(axis, str) else axis for axis in self.shape)
+
+
+_ORDER = ", ".join(MEASURES)
+ARRAY_SPECS: Mapping[str, ArraySpec] = MappingProxyType({spec.name: spec for spec in (
+    ArraySpec("views", "float64", "root", ("n_views", 3), None,
+              "unit view directions, model centre to camera (Fibonacci sphere)"),
+    ArraySpec("points", "float32", "model", ("n_points", 3), 1,
+              "points sampled uniformly by area on the cleaned mesh", field="points",
+              column="points sampled by area on the cleaned mesh"),
+    ArraySpec("normals", "float32", "model", ("n_points", 3), 1,
+              "unit face normal at each point", field="normals",
+              column="unit face normal at each point"),
+    ArraySpec("quality", "float32", "model", ("n_views", "n_measures"), _CHUNK_MODELS,
+              "normalised quality in [0, 1], 1 = best", field="quality",
+              column=f"normalised quality per view, columns {_ORDER}, 1 = best"),
+    ArraySpec("quality_raw", "float32", "model", ("n_views", "n_measures"), _CHUNK_MODELS,
+              "raw measures, NaN where a view sees nothing", field="quality_raw",
+              column=f"raw measures per view, columns {_ORDER}, NaN where nothing is seen"),
+    ArraySpec("best_index", "int64", "model", ("n_measures",), _CHUNK_MODELS,
+              "index into `views` of the best view per measure", field="best_index",
+              column="index of the best view per measure"),
+    ArraySpec("best_value", "float32", "model", ("n_measures",), _CHUNK_MODELS,
+              "raw value at the best view", field="best_value",
+              column="raw value at the best view"),
+    ArraySpec("worst_index", "int64", "model", ("n_measures",), _CHUNK_MODELS,
+              "index into `views` of the worst view per measure", field="worst_index",
+              column="index of the worst view per measure"),
+    ArraySpec("worst_value", "float32", "model", ("n_measures",), _CHUNK_MODELS,
+              "raw value at the worst view", field="worst_value",
+              column="raw value at the worst view"),
+    ArraySpec("mesh_vertices", "float32", "mesh", (None, 3), _CHUNK_ROWS,
+              "cleaned mesh vertices of all models, concatenated", field="vertices",
+              offsets="mesh_vertex_offsets", column="vertices of the cleaned mesh"),
+    ArraySpec("mesh_vertex_offsets", "int64", "root", (None,), _CHUNK_ROWS,
+              "model m owns vertex rows offsets[m]:offsets[m+1]"),
+    ArraySpec("mesh_faces", "int32", "mesh", (None, 3), _CHUNK_ROWS,
+              "faces, indices local to the model's vertices", field="faces",
+              offsets="mesh_face_offsets", column="triangles, indices into mesh_vertices"),
+    ArraySpec("mesh_face_offsets", "int64", "root", (None,), _CHUNK_ROWS,
+              "model m owns face rows offsets[m]:offsets[m+1]"),
+    ArraySpec("models_json", "uint8", "root", (None,), _CHUNK_BYTES,
+              "UTF-8 JSON list of model records in row order"),
+    ArraySpec("failures_json", "uint8", "root", (None,), _CHUNK_BYTES,
+              "UTF-8 JSON list of inputs that could not be processed"),
+    ArraySpec("names", "string", "model", (), _CHUNK_ROWS, "model name per model, in row order"),
+    ArraySpec("categories", "string", "model", (), _CHUNK_ROWS, "category per model"),
+    ArraySpec("splits", "string", "model", (), _CHUNK_ROWS,
+              "split per model: train, validation or test"),
+    ArraySpec("labels", "int64", "model", (), _CHUNK_ROWS,
+              "class label per model: index into the root attribute `class_names`",
+              column="class label: the category's index in the sorted category names"),
+)})
+"""Every root array of a store by name, in the order of SCHEMA.md: the one declaration the
+writer, the reader, a build's staging and a release's Parquet columns are derived from."""
+
+ARRAY_NAMES = tuple(ARRAY_SPECS)
 """Every root array of a store, in the order of SCHEMA.md."""
 
-STRING_ARRAYS = ("names", "categories", "splits")
+ENTRY_ARRAYS = tuple(spec for spec in ARRAY_SPECS.values() if spec.field)
+"""The arrays of :data:`ARRAY_SPECS` a :class:`ModelEntry` carries, in store order
+(``points`` first)."""
+
+STRING_ARRAYS = tuple(spec.name for spec in ARRAY_SPECS.values() if spec.dtype == "string")
 """Root arrays of UTF-8 strings, one per model: readable with h5py or zarr alone."""
 
 BUILD_ATTRS = (
@@ -298,6 +441,62 @@ class ModelEntry:
         if self.view_set is not None:
             record["view_set"] = self.view_set
         return record
+
+
+class LazyEntries(Sequence[ModelEntry]):
+    """Models made on access: a sequence of :class:`ModelEntry` that holds none of them.
+
+    ``entries[i]`` calls ``get(i)`` every time it is read, so
+    :func:`~vptoolkit.dataset.store.writer.write_dataset`, which reads each
+    entry twice, holds one model at a time whatever the store's size.
+    :meth:`~vptoolkit.dataset.store.reader.StoreReader.entries` gives a store's
+    models so; a build's staged files, a release's models and the paper
+    authors' tree are read through one too.
+
+    Parameters
+    ----------
+    length : int
+        Number of models, at least 0.
+    get : callable
+        ``get(i)`` makes model ``i``, for ``0 <= i < length`` (a negative
+        index is turned into that range first).
+
+    Raises
+    ------
+    InputError
+        If ``length`` is not a whole number of at least 0.
+
+    Examples
+    --------
+    >>> entries = LazyEntries(3, lambda i: f"model {i}")  # a text stands in for a ModelEntry
+    >>> len(entries), entries[-1], list(entries[1:])
+    (3, 'model 2', ['model 1', 'model 2'])
+    """
+
+    def __init__(self, length: int, get: Callable[[int], ModelEntry]) -> None:
+        if isinstance(length, bool) or not isinstance(length, (int, np.integer)) or length < 0:
+            raise InputError(f"length: expected a whole number >= 0, got {length!r}")
+        self._length = int(length)
+        self._get = get
+
+    def __len__(self) -> int:
+        return self._length
+
+    @overload
+    def __getitem__(self, index: int) -> ModelEntry: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> LazyEntries: ...
+
+    def __getitem__(self, index: int | slice) -> ModelEntry | LazyEntries:
+        if isinstance(index, slice):
+            rows = range(self._length)[index]
+            return LazyEntries(len(rows), lambda position: self._get(rows[position]))
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise TypeError(f"entries: index must be an integer or a slice, got {index!r}")
+        if not -self._length <= index < self._length:
+            raise IndexError(f"index {index} out of range for {self._length} models")
+        return self._get(int(index) % self._length)
 
 
 def normal_length_problem(normals: ArrayLike) -> str | None:

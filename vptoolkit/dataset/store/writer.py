@@ -7,8 +7,10 @@ unit normals), learns the layout and computes each
 array's SHA-256; the second writes the rows in chunks and checks that every
 entry reads the same as on the first pass. The store is written next to its
 target under a temporary name and moved into place at the end, so a reader
-never sees a part. The containers' own code lives in
-:mod:`vptoolkit.dataset.store._zarr` and :mod:`vptoolkit.dataset.store._hdf5`.
+never sees a part. Each array's dtype, shape and chunks come from its
+declaration in :data:`~vptoolkit.dataset.store.schema.ARRAY_SPECS`. The
+containers' own code lives in :mod:`vptoolkit.dataset.store._zarr` and
+:mod:`vptoolkit.dataset.store._hdf5`.
 """
 
 from __future__ import annotations
@@ -31,13 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
 from vptoolkit.dataset.store.schema import (
-    ARRAY_NAMES,
+    ARRAY_SPECS,
     BUILD_ATTRS,
+    ENTRY_ARRAYS,
     FAILURE_KEYS,
     FORMAT_NAME,
     HDF5_JSON_KEY,
     SCHEMA_VERSION,
-    STRING_ARRAYS,
+    ArraySpec,
     ModelEntry,
     array_sha256,
     class_labels,
@@ -49,8 +52,8 @@ from vptoolkit.dataset.store.schema import (
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     check_path_part,
-    held,
     errors_named,
+    held,
     remove_stale_partials,
     temporary_prefix,
 )
@@ -58,9 +61,6 @@ from vptoolkit.progress import Bar, progress_bar
 
 __all__ = ["write_dataset"]
 
-_CHUNK_MODELS = 64  # models per chunk of the per-model arrays other than points/normals
-_CHUNK_ROWS = 1 << 16  # rows per chunk of the concatenated mesh arrays and the offsets
-_CHUNK_BYTES = 1 << 22  # bytes per chunk of the JSON arrays
 _SHA256_HEX = re.compile(r"[0-9a-f]{64}")
 
 
@@ -71,24 +71,13 @@ class _Checked(NamedTuple):
     arrays: dict[str, NDArray[Any]]
 
 
-_ENTRY_ARRAYS: dict[str, tuple[str, np.dtype[Any]]] = {
-    # stored array name: (ModelEntry field, dtype)
-    "points": ("points", np.dtype("<f4")),
-    "normals": ("normals", np.dtype("<f4")),
-    "quality": ("quality", np.dtype("<f4")),
-    "quality_raw": ("quality_raw", np.dtype("<f4")),
-    "best_index": ("best_index", np.dtype("<i8")),
-    "best_value": ("best_value", np.dtype("<f4")),
-    "worst_index": ("worst_index", np.dtype("<i8")),
-    "worst_value": ("worst_value", np.dtype("<f4")),
-    "mesh_vertices": ("vertices", np.dtype("<f4")),
-    "mesh_faces": ("faces", np.dtype("<i4")),
-}
-
-
-def _cast(entry_name: str, field: str, value: Any, dtype: np.dtype[Any],
-          shape: tuple[int | None, ...]) -> NDArray[Any]:
-    where = f"entries: model {entry_name!r}, {field}"
+def _cast(entry_name: str, spec: ArraySpec, value: Any,
+          sizes: Mapping[str, int | None]) -> NDArray[Any]:
+    """A model's value of an array of :data:`ENTRY_ARRAYS`, checked against its declared
+    shape (:meth:`ArraySpec.resolve` of ``sizes``; None accepts any length) and cast to its
+    stored dtype."""
+    where = f"entries: model {entry_name!r}, {spec.field}"
+    dtype, shape = spec.numpy_dtype, spec.resolve(sizes)
     try:
         source = np.asarray(value)
     except (TypeError, ValueError) as err:
@@ -130,26 +119,14 @@ def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None,
         raise InputError(f"entries: model {name!r}, split {entry.split!r} is not one of {SPLITS}")
     if not _SHA256_HEX.fullmatch(entry.source_sha256):
         raise InputError(f"entries: model {name!r}, source_sha256 is not 64 lower-case hex digits")
-    arrays = {
-        "points": _cast(name, "points", entry.points, _ENTRY_ARRAYS["points"][1], (n_points, 3)),
-    }
-    n_points = arrays["points"].shape[0]
-    if n_points < 1:
-        raise InputError(f"entries: model {name!r}, points is empty")
-    shapes: dict[str, tuple[int | None, ...]] = {
-        "normals": (n_points, 3),
-        "quality": (n_views, len(MEASURES)),
-        "quality_raw": (n_views, len(MEASURES)),
-        "best_index": (len(MEASURES),),
-        "best_value": (len(MEASURES),),
-        "worst_index": (len(MEASURES),),
-        "worst_value": (len(MEASURES),),
-        "mesh_vertices": (None, 3),
-        "mesh_faces": (None, 3),
-    }
-    for stored, shape in shapes.items():
-        field, dtype = _ENTRY_ARRAYS[stored]
-        arrays[stored] = _cast(name, field, getattr(entry, field), dtype, shape)
+    arrays: dict[str, NDArray[Any]] = {}
+    for spec in ENTRY_ARRAYS:
+        arrays[spec.name] = _cast(name, spec, getattr(entry, spec.field),
+                                  {"n_points": n_points, "n_views": n_views})
+        if spec.name == "points":  # declared first: the normals must match its count
+            n_points = arrays["points"].shape[0]
+            if n_points < 1:
+                raise InputError(f"entries: model {name!r}, points is empty")
     for field in ("points", "normals", "mesh_vertices"):
         if not np.isfinite(arrays[field]).all():
             raise InputError(f"entries: model {name!r}, {field} has NaN or infinite values")
@@ -206,7 +183,7 @@ class _Plan(NamedTuple):
 
 def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar,
                 store: str) -> _Plan:
-    hashers = {name: hashlib.sha256() for name in _ENTRY_ARRAYS}
+    hashers = {spec.name: hashlib.sha256() for spec in ENTRY_ARRAYS}
     records: list[dict[str, Any]] = []
     checksums: list[int] = []
     n_vertices = [0]
@@ -367,6 +344,26 @@ class _RowWriter:
         self._n_pending = len(rest)
 
 
+def _layout(spec: ArraySpec, whole: Mapping[str, NDArray[Any]],
+            sizes: Mapping[str, int]) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """The shape and chunks of a stored array (SCHEMA.md, "Arrays" and "Chunking").
+
+    ``whole`` holds the arrays written at once (a ``"root"`` one's shape is
+    its own, a mesh array's rows end at its offsets' last), ``sizes`` the
+    ``n_models``, ``n_points`` and ``n_views`` of the store. A chunk holds
+    ``spec.chunk_rows`` rows along the first axis, or all of them, and the
+    whole of every other axis.
+    """
+    if spec.per == "root":
+        shape = tuple(whole[spec.name].shape)
+    else:
+        declared = spec.resolve(sizes)
+        rows = sizes["n_models"] if spec.per == "model" else int(whole[spec.offsets][-1])
+        inner = declared if spec.per == "model" else declared[1:]
+        shape = (rows, *[int(axis) for axis in inner if axis is not None])  # all sizes known
+    return shape, (spec.chunk_rows or shape[0], *shape[1:])
+
+
 def _temporary_sibling(target: Path, kind: str) -> Path:
     prefix, suffix = temporary_prefix(target.name), ".partial"
     if kind == "zarr":
@@ -505,26 +502,8 @@ def write_dataset(
         "splits": _strings(published_split(record["split"]) for record in plan.records),
         "labels": labels,
     }
-    n_points = plan.n_points
-    layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]] = {
-        # name: (shape, chunks)
-        "views": ((n_views, 3), (n_views, 3)),
-        "points": ((n_models, n_points, 3), (1, n_points, 3)),
-        "normals": ((n_models, n_points, 3), (1, n_points, 3)),
-        "quality": ((n_models, n_views, 4), (_CHUNK_MODELS, n_views, 4)),
-        "quality_raw": ((n_models, n_views, 4), (_CHUNK_MODELS, n_views, 4)),
-        "best_index": ((n_models, 4), (_CHUNK_MODELS, 4)),
-        "best_value": ((n_models, 4), (_CHUNK_MODELS, 4)),
-        "worst_index": ((n_models, 4), (_CHUNK_MODELS, 4)),
-        "worst_value": ((n_models, 4), (_CHUNK_MODELS, 4)),
-        "mesh_vertices": ((int(plan.vertex_offsets[-1]), 3), (_CHUNK_ROWS, 3)),
-        "mesh_vertex_offsets": ((n_models + 1,), (_CHUNK_ROWS,)),
-        "mesh_faces": ((int(plan.face_offsets[-1]), 3), (_CHUNK_ROWS, 3)),
-        "mesh_face_offsets": ((n_models + 1,), (_CHUNK_ROWS,)),
-        "models_json": ((len(whole["models_json"]),), (_CHUNK_BYTES,)),
-        "failures_json": ((len(whole["failures_json"]),), (_CHUNK_BYTES,)),
-        **{name: ((n_models,), (_CHUNK_ROWS,)) for name in (*STRING_ARRAYS, "labels")},
-    }
+    sizes = {"n_models": n_models, "n_points": plan.n_points, "n_views": n_views}
+    layout = {name: _layout(spec, whole, sizes) for name, spec in ARRAY_SPECS.items()}
     digests = {name: array_sha256(array) for name, array in whole.items()}
     digests.update(plan.digests)
 
@@ -546,10 +525,9 @@ def write_dataset(
                     sink = ZarrSink(require_zarr(), temporary, kind, root_attrs)
                 try:
                     stored = {}
-                    for name in ARRAY_NAMES:
+                    for name, spec in ARRAY_SPECS.items():
                         shape, chunks = layout[name]
-                        dtype = whole[name].dtype if name in whole else _ENTRY_ARRAYS[name][1]
-                        stored[name] = sink.create(name, shape, np.dtype(dtype), chunks,
+                        stored[name] = sink.create(name, shape, spec.numpy_dtype, chunks,
                                                    digests[name])
                     for name, array in whole.items():
                         if array.size:
@@ -569,7 +547,8 @@ def write_dataset(
 def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, Any],
                  layout: dict[str, tuple[tuple[int, ...], tuple[int, ...]]],
                  label: str, progress: bool) -> None:
-    writers = {name: _RowWriter(stored[name], layout[name][1][0]) for name in _ENTRY_ARRAYS}
+    writers = {spec.name: _RowWriter(stored[spec.name], layout[spec.name][1][0])
+               for spec in ENTRY_ARRAYS}
     n_views = layout["views"][0][0]
     with progress_bar(total=len(plan.records), description=f"{label}: write", unit="model",
                       enabled=progress) as bar:
@@ -581,9 +560,9 @@ def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, A
                     f"entries: model {record['name']!r} read differently on the second pass; "
                     "entries must be deterministic"
                 )
-            for name, array in checked.arrays.items():
-                writers[name].append(array[None] if name not in ("mesh_vertices", "mesh_faces")
-                                     else array)
+            for spec in ENTRY_ARRAYS:  # a model's value is one row; its mesh, its own rows
+                array = checked.arrays[spec.name]
+                writers[spec.name].append(array[None] if spec.per == "model" else array)
             bar.update(1)
     for writer in writers.values():
         writer.finish()

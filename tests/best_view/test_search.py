@@ -1,0 +1,134 @@
+"""The anytime best-view search: exhaustive agreement, its own coarse pass, orientation, errors."""
+
+import json
+
+import numpy as np
+import pytest
+
+from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
+from vptoolkit.best_view.search import _Renderer
+from vptoolkit.camera import Camera
+from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
+from vptoolkit.errors import InputError
+from vptoolkit.io import load_mesh
+from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.mesh import Mesh
+from vptoolkit.rotations import fixed_rotations
+from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
+
+
+@pytest.fixture(scope="module")
+def mug() -> Mesh:
+    return load_mesh(sample_path("mug.obj"))
+
+
+@pytest.fixture(scope="module")
+def teapot() -> Mesh:
+    return load_mesh(sample_path("teapot.stl"))
+
+
+def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug):
+    directions = coarse_directions(mug, 120)
+    exhaustive = compute_view_quality(mug, MeasureSettings(resolution=64),
+                                      view_directions=directions)
+    found = search_best_views(mug, 120, 64, coarse_views=120, coarse_resolution=64)
+    assert found.n_views == 120 and [s.name for s in found.stages] == ["coarse"]
+    np.testing.assert_allclose(found.directions, exhaustive.best_views, rtol=0, atol=1e-12)
+    best = exhaustive.raw[exhaustive.best_index, np.arange(4)]
+    np.testing.assert_allclose(found.raw, best, rtol=1e-12)
+
+
+def _better_or_equal(first, second):
+    return [a >= b if higher else a <= b for a, b, higher in zip(first, second, HIGHER_IS_BETTER)]
+
+
+@pytest.mark.parametrize("budget", [8, 16, 64])
+def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
+    found = search_best_views(teapot, budget, 256)
+    coarse = next(stage for stage in found.stages if stage.name == "coarse")
+    sphere = coarse_directions(teapot, coarse.n_views)
+    renderer = _Renderer(teapot, Camera())
+    coarse_raw = renderer.measure(sphere, coarse.resolution, estimate_face_probability=True)
+    coarse_best = compute_view_quality(teapot, MeasureSettings(resolution=coarse.resolution),
+                                       view_directions=sphere).best_views
+    again = renderer.measure(coarse_best, 256)  # the coarse pass's best, drawn at 256 px
+    assert np.isfinite(coarse_raw).any()
+    assert all(_better_or_equal(found.raw, np.diagonal(again)))
+    assert found.n_views <= budget
+
+
+def test_stages_spend_the_budget_and_decide_at_the_resolution(teapot):
+    found = search_best_views(teapot, 64, 256)
+    assert [s.name for s in found.stages] == ["coarse", "confirm", "refine"]
+    assert found.n_views == 64 and found.stages[0].n_views == 32
+    assert [s.resolution for s in found.stages] == [128, 256, 256]
+    small = search_best_views(teapot, 64, 96)
+    assert [(s.name, s.resolution) for s in small.stages] == [("coarse", 96), ("refine", 96)]
+    flat = search_best_views(teapot, 8, 96)
+    assert [(s.name, s.n_views, s.resolution) for s in flat.stages] == [("coarse", 8, 96)]
+    np.testing.assert_allclose(np.linalg.norm(found.directions, axis=1), 1.0)
+    summary = json.loads(json.dumps(found.summary()))
+    assert list(summary["best"]) == list(MEASURES) and summary["views"] == 64
+
+
+def test_the_coarse_sphere_turns_with_the_mesh(teapot):
+    turn = fixed_rotations("teapot", 1)[0]
+    turned = Mesh(teapot.vertices @ turn.T, teapot.faces, name="teapot")
+    axes, turned_axes = principal_frame(teapot), principal_frame(turned)
+    # each axis turns with the mesh, up to its sign
+    cosines = np.sum((axes @ turn.T) * turned_axes, axis=1)
+    np.testing.assert_allclose(np.abs(cosines), 1.0, atol=1e-9)
+
+
+def test_any_orientation_finds_views_as_good(teapot):
+    """Under four rotations the answer, turned back, is nearly as good as the upright one's."""
+    labels = compute_view_quality(teapot, MeasureSettings(views=500, resolution=96))
+    from vptoolkit.sphere import nearest_view
+
+    def score(directions):
+        index = nearest_view(directions, labels.views)
+        return labels.normalized[index, np.arange(4)]
+
+    upright = score(search_best_views(teapot, 64, 96).directions)
+    turned = []
+    for turn in fixed_rotations("teapot", 4):
+        mesh = Mesh(teapot.vertices @ turn.T, teapot.faces, name="teapot")
+        turned.append(score(search_best_views(mesh, 64, 96).directions @ turn))
+    assert np.mean(turned, axis=0).min() > 0.85 and upright.min() > 0.85
+
+
+def test_same_inputs_give_the_same_answer(mug):
+    first = search_best_views(mug, 32, 64)
+    second = search_best_views(mug, 32, 64)
+    assert first.directions.tobytes() == second.directions.tobytes()
+    assert first.raw.tobytes() == second.raw.tobytes()
+
+
+def test_a_prior_is_drawn_first_at_full_resolution(mug):
+    found = search_best_views(mug, 16, 64, prior=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    assert [(s.name, s.n_views, s.resolution) for s in found.stages][:2] == [
+        ("coarse", 7, 64), ("prior", 2, 64)]
+    assert found.n_views == 16
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"budget": 0}, "budget: expected an integer from 1"),
+    ({"budget": 2.5}, "budget: expected an integer"),
+    ({"resolution": 0}, "resolution: expected an integer from 1"),
+    ({"coarse_views": 99}, "coarse_views: expected an integer from 0 to 16"),
+    ({"coarse_resolution": 1000}, "coarse_resolution: expected an integer from 1 to 64"),
+    ({"prior": [[np.nan, 0, 1]]}, "prior: contains NaN"),
+    ({"prior": [[0, 0, 0]]}, "prior: contains 1 zero-length"),
+])
+def test_bad_options_are_one_line_input_errors(mug, options, message):
+    arguments = {"budget": 16, "resolution": 64, **options}
+    with pytest.raises(InputError, match=message):
+        search_best_views(mug, **arguments)
+
+
+def test_a_mesh_of_zero_area_is_named_without_numpy_warnings():
+    line = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]),
+                name="line")
+    with pytest.raises(InputError, match="^line: the mesh has zero surface area$"):
+        search_best_views(line, 8, 32)  # pytest turns a RuntimeWarning into an error

@@ -1,0 +1,92 @@
+"""vptool train, predict and evaluate."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fixtures.environment import require_package
+from vptoolkit.cli import main
+from vptoolkit.samples import sample_path
+
+
+def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_path):
+    from fixtures.stores import write_synthetic
+    from vptoolkit.data import open_dataset
+    from vptoolkit.evaluate.baselines import oracle_directions
+
+    store = write_synthetic(tmp_path / "dataset.zarr")
+    with open_dataset(store) as dataset:
+        test = dataset.split("test")
+        np.save(tmp_path / "oracle.npy", oracle_directions(test))
+        n_test = len(test)
+    result = runner.invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
+                                  str(store), "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["mean"] == {m: 100.0 for m in ("VE", "VR", "VKL", "VMI")}
+    np.save(tmp_path / "bad.npy", np.zeros((n_test, 4, 3)))
+    bad = runner.invoke(main, ["evaluate", str(tmp_path / "bad.npy"), "--dataset", str(store)])
+    assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: bad.npy: ")
+
+
+@pytest.mark.slow
+def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
+    import shutil
+
+    from vptoolkit.synthetic import write_collection
+
+    src = tmp_path / "shapes"
+    write_collection(src, n_per_category=3, categories=("bottle", "table"), seed=0)
+    out = tmp_path / "out"
+    built = runner.invoke(main, ["build-dataset", str(src), str(out), "--views", "60",
+                                 "--resolution", "48", "--points", "1500", "--no-clean",
+                                 "--split-seed", "3"])
+    assert built.exit_code == 0, built.output
+    model = tmp_path / "model.safetensors"
+    trained = runner.invoke(main, ["train", str(out), "-o", str(model), "--epochs", "2",
+                                   "--batch-size", "2", "--threads", "1", "--val-split", "train"])
+    assert trained.exit_code == 0, trained.output
+    assert model.exists() and model.with_suffix(".json").exists()
+    predictions = tmp_path / "predictions.npz"
+    predicted = runner.invoke(main, ["predict", "--model", str(model), "--dataset", str(out),
+                                     "--split", "all", "-o", str(predictions)])
+    assert predicted.exit_code == 0, predicted.output
+    with np.load(predictions, allow_pickle=False) as stored:
+        assert stored["directions"].shape == (6, 4, 3)
+    scored = runner.invoke(main, ["evaluate", str(predictions), "--dataset", str(out),
+                                  "--split", "all", "--json"])
+    assert scored.exit_code == 0, scored.output
+    assert set(json.loads(scored.stdout)["mean"]) == {"VE", "VR", "VKL", "VMI"}
+    mesh_prediction = runner.invoke(main, ["predict", "--model", str(model),
+                                           str(sample_path("teapot.stl")),
+                                           "-o", str(tmp_path / "teapot.npz"), "--device", "cpu"])
+    assert mesh_prediction.exit_code == 0, mesh_prediction.output
+
+    per_category = tmp_path / "per_category"
+    trained = runner.invoke(main, ["train", str(out), "-o", str(per_category), "--per-category",
+                                   "--epochs", "1", "--batch-size", "2", "--threads", "1",
+                                   "--val-split", "train",
+                                   "--device", "cpu"])
+    assert trained.exit_code == 0, trained.output
+    assert trained.stdout.startswith("bottle: best epoch 1 of 1")
+    assert "table: best epoch" in trained.stdout
+    routed = runner.invoke(main, ["predict", "--model", str(per_category), "--dataset", str(out),
+                                  "--split", "all"])
+    assert routed.exit_code == 0, routed.output
+    unrouted = runner.invoke(main, ["predict", "--model", str(per_category),
+                                    str(sample_path("teapot.stl"))])
+    assert unrouted.exit_code == 2 and "one network per category" in unrouted.stderr
+    chosen = runner.invoke(main, ["predict", "--model", str(per_category),
+                                  str(sample_path("teapot.stl")), "--category", "table"])
+    assert chosen.exit_code == 0, chosen.output
+    shutil.rmtree(out)
+
+
+def test_predict_with_the_bundled_network_prints_directions(runner):
+    require_package("torch")
+    result = runner.invoke(main, ["predict", str(sample_path("bunny.ply"))])
+    assert result.exit_code == 0, result.output
+    line = result.stdout.strip().splitlines()[0]
+    assert line.startswith("bunny: VE (") and "VMI (" in line

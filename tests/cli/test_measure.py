@@ -1,0 +1,180 @@
+"""vptool measures, views, clean and sample."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from fixtures.commands import SMALL_DRAW
+from fixtures.paths import MALFORMED
+from vptoolkit.cli import main
+from vptoolkit.samples import sample_path
+
+
+def test_measures_prints_the_best_view_per_measure(runner):
+    result = runner.invoke(main, ["measures", str(sample_path("suzanne.ply")),
+                                  "--views", "200", "--resolution", "128"])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("suzanne: 968 faces, 200 views at 128 px (raster")
+    assert [line.split()[0] for line in lines[2:6]] == ["VE", "VR", "VKL", "VMI"]
+
+
+def test_measures_json_and_npz_agree(runner, tmp_path):
+    out = tmp_path / "teapot.npz"
+    result = runner.invoke(main, ["measures", str(sample_path("teapot.stl")), "--views", "100",
+                                  "--resolution", "96", "--json", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert list(summary["best"]) == ["VE", "VR", "VKL", "VMI"]
+    assert summary["camera"]["fov_deg"] == 45.0
+    with np.load(out, allow_pickle=False) as stored:
+        best = stored["best_index"]
+        assert [summary["best"][m]["view_index"] for m in ("VE", "VR", "VKL", "VMI")] == list(best)
+
+
+def test_raycast_backend_from_the_command_line(runner):
+    result = runner.invoke(main, ["measures", str(sample_path("angle_block.STL")), "--views", "8",
+                                  "--resolution", "64", "--backend", "raycast", "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["backend"] == "raycast"
+
+
+@pytest.mark.parametrize("name", ["empty.obj", "empty.stl", "ply_empty_header.ply"])
+def test_malformed_mesh_is_one_line_and_exit_2(runner, name):
+    result = runner.invoke(main, ["measures", str(MALFORMED / name), "--views", "4"])
+    assert result.exit_code == 2
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+    assert result.stderr.startswith(f"vptool: error: {name}: ")
+
+
+def test_bad_output_suffix_is_bad_input(runner, tmp_path):
+    result = runner.invoke(main, ["measures", str(sample_path("teapot.stl")), "-o",
+                                  str(tmp_path / "out.txt")])
+    assert result.exit_code == 2
+    assert "out.txt: output must end in .npz" in result.stderr
+
+
+def test_missing_file_and_bad_option_exit_2(runner, tmp_path):
+    assert runner.invoke(main, ["measures", str(tmp_path / "nope.off")]).exit_code == 2
+    assert runner.invoke(main, ["measures", str(sample_path("teapot.stl")),
+                                "--views", "0"]).exit_code == 2
+
+
+def test_clean_writes_mesh_and_report(runner, tmp_path):
+    target, report = tmp_path / "bunny_clean.ply", tmp_path / "report.json"
+    result = runner.invoke(main, ["clean", str(sample_path("bunny.ply")), str(target),
+                                  "--max-faces", "3000", "--report", str(report)])
+    assert result.exit_code == 0, result.output
+    from vptoolkit.io import load_mesh
+
+    assert load_mesh(target).n_faces <= 3000
+    steps = json.loads(report.read_text())["steps"]
+    assert [step["name"] for step in steps] == ["repair", "remove_hidden", "simplify"]
+
+
+def test_sample_writes_points_with_normals(runner, tmp_path):
+    out = tmp_path / "points.npy"
+    args = ["sample", str(sample_path("teapot.stl")), "-o", str(out), "--points", "500"]
+    assert runner.invoke(main, args).exit_code == 0
+    first = np.load(out, allow_pickle=False)
+    assert first.shape == (500, 6) and first.dtype == np.float32
+    np.testing.assert_allclose(np.linalg.norm(first[:, 3:], axis=1), 1.0, atol=1e-5)
+    assert runner.invoke(main, args).exit_code == 0
+    np.testing.assert_array_equal(np.load(out, allow_pickle=False), first)
+    bad = runner.invoke(main, ["sample", str(MALFORMED / "empty.obj"), "-o", str(out)])
+    assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: empty.obj: ")
+
+
+def one_error_line(result) -> str:
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output, result.output
+    assert lines[0].startswith("vptool: error: ")
+    return lines[0]
+
+
+def test_views_prints_one_row_per_pick_with_rising_coverage(runner):
+    result = runner.invoke(main, ["views", str(sample_path("suzanne.ply")), *SMALL_DRAW])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("suzanne: 968 faces, 120 views at 96 px, coverage objective")
+    rows = [line.split() for line in lines[2:6]]
+    assert [row[0] for row in rows] == ["1", "2", "3", "4"]
+    coverage = [float(row[-2]) for row in rows]
+    assert coverage == sorted(coverage) and coverage[-1] > coverage[0]
+    assert lines[6].startswith("reachable: ")
+
+
+def test_views_json_and_npz_agree(runner, tmp_path):
+    out = tmp_path / "teapot_views.npz"
+    result = runner.invoke(main, ["views", str(sample_path("teapot.stl")), *SMALL_DRAW, "--k", "3",
+                                  "--objective", "information", "--json", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert summary["objective"] == "information" and len(summary["picks"]) == 3
+    with np.load(out, allow_pickle=False) as stored:
+        assert stored["indices"].tolist() == [p["view_index"] for p in summary["picks"]]
+
+
+def test_views_until_a_coverage_target(runner):
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *SMALL_DRAW,
+                                  "--coverage", "0.9", "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    coverage = [pick["coverage"] for pick in summary["picks"]]
+    assert coverage[-1] >= 0.9 * summary["reachable"] - 1e-6
+    assert len(coverage) == 1 or coverage[-2] < 0.9 * summary["reachable"]
+
+
+@pytest.mark.parametrize("name", ["empty.obj", "empty.stl", "ply_empty_header.ply", "README.md"])
+def test_views_of_a_malformed_file_is_one_line_and_exit_2(runner, name):
+    result = runner.invoke(main, ["views", str(MALFORMED / name), "--views", "8"])
+    assert result.exit_code == 2
+    assert one_error_line(result).startswith(f"vptool: error: {name}: ")
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["-o", "set.txt"], "set.txt: output must end in .npz"),
+    (["--coverage", "1.5"], "--coverage"),
+    (["--k", "0"], "--k"),
+    (["--objective", "beauty"], "--objective"),
+], ids=["suffix", "target", "k", "objective"])
+def test_views_rejects_bad_options_with_exit_2(runner, tmp_path, arguments, message):
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *arguments],
+                           catch_exceptions=False)
+    assert result.exit_code == 2
+    assert message in result.stderr and "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("arguments, expected", [
+    (["--coverage", "nan"], "--coverage: must lie in (0, 1], got nan"),
+    (["-o", "missing/v.npz"], "--output: missing/v.npz: output folder missing does not exist"),
+])
+def test_views_refuses_a_bad_target_or_output_folder_before_drawing(runner, monkeypatch,
+                                                                    tmp_path, arguments,
+                                                                    expected):
+    import vptoolkit.view_sets.search
+
+    def never(*args, **kwargs):
+        raise AssertionError("the views were drawn")
+
+    monkeypatch.setattr(vptoolkit.view_sets.search, "measure_view_set", never)
+    monkeypatch.chdir(tmp_path)
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), *SMALL_DRAW, *arguments])
+    assert result.exit_code == 2, result.output
+    assert one_error_line(result) == f"vptool: error: {expected}"
+
+
+def test_views_with_an_unreachable_min_pixels_is_a_failure(runner, tmp_path):
+    out = tmp_path / "v.npz"
+    result = runner.invoke(main, ["views", str(sample_path("mug.obj")), "--views", "12",
+                                  "--resolution", "16", "--min-pixels", "100000",
+                                  "-o", str(out)])
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    line = result.stderr.strip().splitlines()[-1]  # after the progress bar
+    assert line.startswith("vptool: error: ") and "--min-pixels" in line
+    assert "no face has 100000 pixels in any of the 12 views" in line
+    assert not out.exists()

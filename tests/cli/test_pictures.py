@@ -1,0 +1,174 @@
+"""vptool render, sphere-map, report and thumbnails: thin commands over the picture modules."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fixtures.commands import SMALL_DRAW
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh
+from fixtures.pictures import decode_png, model_mask, started_renderer
+from vptoolkit.cli import main
+from vptoolkit.io import save_mesh
+from vptoolkit.samples import sample_path
+
+
+@pytest.fixture(scope="module")
+def renderer_available():
+    """Skip (or fail in CI) where no renderer can start; the commands start their own."""
+    yield from started_renderer(16)
+
+
+@pytest.fixture()
+def cube_file(tmp_path: Path) -> Path:
+    path = tmp_path / "cube.off"
+    save_mesh(box_mesh(name="cube"), path)
+    return path
+
+
+def one_error_line(result) -> str:
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("vptool: error: ")
+    return lines[0]
+
+
+@pytest.mark.renderer
+@pytest.mark.parametrize("how", [["--view", "1,1,1"], ["--best", "vr", "--views", "40",
+                                                        "--resolution", "64"]],
+                         ids=["view", "best"])
+def test_render_writes_a_picture_of_the_mesh(renderer_available, runner, cube_file, tmp_path, how):
+    output = tmp_path / "cube.png"
+    result = runner.invoke(main, ["render", str(cube_file), *how, "--size", "64",
+                                  "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    image = decode_png(output.read_bytes())
+    assert image.shape == (64, 64, 3) and model_mask(image).any() and not model_mask(image).all()
+    assert result.stdout.startswith(f"wrote {output} (")
+
+
+@pytest.mark.renderer
+def test_render_from_the_bundled_network(renderer_available, runner, tmp_path):
+    require_package("torch")
+    output = tmp_path / "teapot.png"
+    result = runner.invoke(main, ["render", str(sample_path("teapot.stl")), "--model", "default",
+                                  "--measure", "VKL", "--size", "48", "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert "predicted VKL" in result.stdout
+    assert model_mask(decode_png(output.read_bytes())).any()
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ([], "exactly one of --view, --best, --model or --view-set"),
+    (["--view", "1,0,0", "--best", "VE"], "exactly one of"),
+    (["--view", "1,2"], "--view: expected three numbers x,y,z"),
+    (["--view", "0,0,0"], "--view"),
+], ids=["none", "two", "short-view", "zero-view"])
+def test_render_rejects_bad_choices_in_one_line(runner, cube_file, tmp_path, arguments, message):
+    result = runner.invoke(main, ["render", str(cube_file), *arguments,
+                                  "-o", str(tmp_path / "x.png")])
+    assert result.exit_code == 2
+    assert message in one_error_line(result)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_render_without_a_vulkan_driver_exits_2(runner, cube_file, tmp_path, monkeypatch):
+    require_package("open3d")
+    for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
+        monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
+    result = runner.invoke(main, ["render", str(cube_file), "--view", "0,0,1", "--size", "32",
+                                  "--engine", "open3d", "-o", str(tmp_path / "x.png")])
+    assert result.exit_code == 2
+    assert "could not start" in one_error_line(result)
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_sphere_map_marks_the_best_view(runner, cube_file, tmp_path):
+    require_package("matplotlib")
+    quality = tmp_path / "cube.npz"
+    measured = runner.invoke(main, ["measures", str(cube_file), "--views", "60", "--resolution",
+                                    "48", "-o", str(quality)])
+    assert measured.exit_code == 0, measured.output
+    output = tmp_path / "map.png"
+    result = runner.invoke(main, ["sphere-map", str(quality), "--measure", "vmi",
+                                  "--predicted", "0,0,1", "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    import matplotlib.image
+
+    pixels = matplotlib.image.imread(output)
+    assert pixels.std() > 0.05
+    red = (pixels[..., 0] > 0.8) & (pixels[..., 1] < 0.25) & (pixels[..., 2] < 0.25)
+    assert red.any()  # the best-view star
+
+
+def test_sphere_map_of_a_wrong_file_exits_2(runner, tmp_path):
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, something=np.zeros(3))
+    result = runner.invoke(main, ["sphere-map", str(bad), "-o", str(tmp_path / "map.png")])
+    assert result.exit_code == 2
+    assert "bad.npz: lacks views, normalized" in one_error_line(result)
+
+
+def test_report_without_pictures(runner, tiny_dataset, tmp_path):
+    require_package("matplotlib")
+    result = runner.invoke(main, ["report", str(tiny_dataset), "--no-pictures", "-o",
+                                  str(tmp_path / "report")])
+    assert result.exit_code == 0, result.output
+    page = (tmp_path / "report" / "index.html").read_text()
+    assert page.count('class="card"') == 4
+    assert len(list((tmp_path / "report" / "maps").glob("*.png"))) == 4
+
+
+def test_report_of_an_unknown_split_exits_2(runner, tiny_dataset, tmp_path):
+    result = runner.invoke(main, ["report", str(tiny_dataset), "--split", "everything",
+                                  "-o", str(tmp_path / "report")])
+    assert result.exit_code == 2
+
+
+@pytest.mark.renderer
+def test_thumbnails_skip_bad_files_and_exit_1(renderer_available, runner, cube_file, tmp_path):
+    (cube_file.parent / "broken.off").write_text("OFF\n3 1 0\n0 0 0\n")
+    out = tmp_path / "thumbs"
+    result = runner.invoke(main, ["thumbnails", str(cube_file.parent), str(out), "--size", "48",
+                                  "--views", "40", "--resolution", "48", "--workers", "1"])
+    assert result.exit_code == 1, result.output
+    assert "wrote 1 thumbnails" in result.stdout
+    assert "skipped broken.off: broken.off: " in result.stderr
+    assert model_mask(decode_png((out / "cube.png").read_bytes())).any()
+    index = json.loads((out / "thumbnails.json").read_text())
+    assert [failure["source"] for failure in index["failures"]] == ["broken.off"]
+
+
+def test_render_view_set_draws_a_contact_sheet(runner, tmp_path):
+    from fixtures.pictures import read_png
+
+    output = tmp_path / "sheet.png"
+    result = runner.invoke(main, ["render", str(sample_path("teapot.stl")), "--view-set", "3",
+                                  *SMALL_DRAW, "--size", "64", "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith(f"wrote {output} (3 views, views [")
+    sheet = read_png(output)
+    assert sheet.shape[1] == 3 * 64 + 4 * 6  # three tiles and four gaps in a row
+    assert sheet.shape[0] > 64 and (sheet[..., :3] < 200).any()
+
+
+def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
+    import shutil
+
+    from fixtures.pictures import read_png
+
+    source = tmp_path / "models"
+    source.mkdir()
+    shutil.copy(sample_path("mug.obj"), source / "mug.obj")
+    (source / "broken.off").write_text("OFF\n3 1 0\n0 0 0\n")
+    out = tmp_path / "sheets"
+    result = runner.invoke(main, ["thumbnails", str(source), str(out), "--view-set", "2",
+                                  "--size", "48", *SMALL_DRAW, "--workers", "1"])
+    assert result.exit_code == 1, result.output  # the broken file is skipped
+    assert read_png(out / "mug.png").shape[1] == 2 * 48 + 3 * 6
+    record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
+    assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")

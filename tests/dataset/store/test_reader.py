@@ -1,0 +1,90 @@
+"""open_store: what it refuses to open, and a closed reader."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from fixtures.stores import write_synthetic
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.errors import InputError, VerificationError
+
+
+def _edit_root_attributes(store: Path, **changes: Any) -> None:
+    metadata_path = store / "zarr.json"
+    metadata = json.loads(metadata_path.read_text())
+    metadata["attributes"].update(changes)
+    metadata_path.write_text(json.dumps(metadata))
+
+
+@pytest.fixture()
+def zarr_copy(tmp_path: Path) -> Path:
+    return write_synthetic(tmp_path / "d.zarr")
+
+
+def test_open_missing_store(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="missing.h5: no such file"):
+        open_store(tmp_path / "missing.h5")
+
+
+@pytest.mark.parametrize("name", ["junk.zarr.zip", "junk.h5"])
+def test_open_random_file(tmp_path: Path, name: str) -> None:
+    (tmp_path / name).write_bytes(np.random.default_rng(0).bytes(4096))
+    with pytest.raises(InputError, match=f"{name}: not a readable dataset store"):
+        open_store(tmp_path / name)
+
+
+def test_open_folder_that_is_not_a_store(tmp_path: Path) -> None:
+    (tmp_path / "empty.zarr").mkdir()
+    with pytest.raises(InputError, match="empty.zarr: not a readable dataset store"):
+        open_store(tmp_path / "empty.zarr")
+
+
+def test_open_other_zarr_group(tmp_path: Path) -> None:
+    import zarr
+
+    zarr.create_group(store=str(tmp_path / "other.zarr"), attributes={"title": "x"})
+    with pytest.raises(InputError, match="other.zarr: not a vptoolkit viewpoint dataset"):
+        open_store(tmp_path / "other.zarr")
+
+
+def test_open_rejects_other_schema_version(zarr_copy: Path) -> None:
+    _edit_root_attributes(zarr_copy, schema_version=2)
+    with pytest.raises(InputError, match="d.zarr: schema_version 2 is not supported"):
+        open_store(zarr_copy)
+
+
+def test_open_rejects_other_measure_order(zarr_copy: Path) -> None:
+    _edit_root_attributes(zarr_copy, measures=["VR", "VE", "VKL", "VMI"])
+    with pytest.raises(VerificationError, match="d.zarr: measures"):
+        open_store(zarr_copy)
+
+
+def test_open_rejects_other_measure_order_in_hdf5(tmp_path: Path) -> None:
+    import h5py
+
+    target = write_synthetic(tmp_path / "d.h5")
+    with h5py.File(target, "a") as handle:
+        handle.attrs["measures"] = json.dumps(["VE", "VR", "VMI", "VKL"])
+    with pytest.raises(VerificationError, match="d.h5: measures"):
+        open_store(target)
+
+
+def test_open_rejects_missing_array(zarr_copy: Path) -> None:
+    import shutil
+
+    shutil.rmtree(zarr_copy / "normals")
+    with pytest.raises(InputError, match="missing arrays \\['normals'\\]"):
+        open_store(zarr_copy)
+
+
+def test_closed_reader_refuses_access(stores: dict[str, Path]) -> None:
+    reader = open_store(stores["hdf5"])
+    reader.close()
+    reader.close()
+    with pytest.raises(InputError, match="store is closed"):
+        reader.array("points")

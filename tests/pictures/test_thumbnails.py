@@ -1,0 +1,141 @@
+"""Thumbnails for a folder of meshes: best views, prediction hooks, bad files skipped."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from fixtures.environment import require_package
+from fixtures.meshes import primitive_mesh
+from fixtures.paths import MALFORMED
+from fixtures.pictures import decode_png, model_mask, started_renderer
+from vptoolkit.camera import Camera
+from vptoolkit.errors import InputError, MissingDependencyError
+from vptoolkit.mesh import Mesh
+from vptoolkit.pictures.engine import open_renderer
+from vptoolkit.settings import MeasureSettings
+
+SIZE = 96
+
+
+@pytest.fixture(scope="module")
+def renderer():
+    yield from started_renderer(SIZE)
+
+
+@pytest.fixture()
+def mesh_folder(tmp_path: Path) -> Path:
+    from vptoolkit.io import save_mesh
+
+    source = tmp_path / "meshes"
+    (source / "nested").mkdir(parents=True)
+    save_mesh(primitive_mesh("box", {"extents": (1.0, 0.5, 0.3)}, "cube"), source / "cube.obj")
+    save_mesh(primitive_mesh("box", {}, "cube"), source / "cube.off")  # same picture name
+    save_mesh(primitive_mesh("icosphere", {"subdivisions": 2}, "ball"),
+              source / "nested" / "ball.stl")
+    (source / "bad.off").write_text("OFF\n3 1 0\n0 0 0\n")
+    shutil.copy(MALFORMED / "empty.obj", source / "empty.obj")
+    (source / "notes.txt").write_text("not a mesh")
+    return source
+
+
+@pytest.mark.renderer
+def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp_path: Path,
+                                                          renderer):
+    from vptoolkit.pictures.thumbnails import ThumbnailResult, render_thumbnails
+
+    out = tmp_path / "thumbs"
+    result = render_thumbnails(mesh_folder, out, measure="VR", workers=2,
+                               settings=MeasureSettings(views=40, resolution=48), engine=renderer)
+    assert isinstance(result, ThumbnailResult)
+    assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
+    for path in result.done:
+        image = decode_png(path.read_bytes())
+        assert image.shape == (SIZE, SIZE, 3) and model_mask(image).any()
+    reasons = {failure.source: failure.reason for failure in result.failures}
+    assert sorted(reasons) == ["bad.off", "cube.off", "empty.obj"]
+    assert reasons["cube.off"] == "same thumbnail name as cube.obj (cube.png)"
+    assert reasons["bad.off"].startswith("bad.off: ")
+    index = json.loads(result.index.read_text())
+    assert index["measure"] == "VR" and index["direction_from"] == "measures"
+    assert index["settings"] == MeasureSettings(views=40, resolution=48).to_dict()
+    assert index["size"] == SIZE
+    assert [r["source"] for r in index["thumbnails"]] == ["cube.obj", "nested/ball.stl"]
+    assert index["thumbnails"][0]["label"].startswith("best VR (view ")
+    assert [f["source"] for f in index["failures"]] == ["bad.off", "cube.off", "empty.obj"]
+
+
+@pytest.mark.renderer
+def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, renderer):
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    seen = []
+
+    def predict(mesh: Mesh) -> list[float]:
+        seen.append(mesh.name)
+        return [0.0, 0.0, 2.0]
+
+    result = render_thumbnails(mesh_folder / "nested", tmp_path / "out", predictor=predict,
+                               engine=renderer)
+    assert seen == ["ball"] and result.done == [tmp_path / "out" / "ball.png"]
+    index = json.loads(result.index.read_text())
+    assert index["thumbnails"] == [{"source": "ball.stl", "image": "ball.png",
+                                    "direction": [0.0, 0.0, 1.0], "label": "predicted VE"}]
+
+
+def test_thumbnails_without_a_renderer_stop_before_any_work(mesh_folder: Path, tmp_path: Path,
+                                                            monkeypatch):
+    require_package("open3d")
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    for variable in ("VK_ICD_FILENAMES", "VK_DRIVER_FILES"):
+        monkeypatch.setenv(variable, "/nonexistent/vptoolkit-test-icd.json")
+    with pytest.raises(MissingDependencyError, match="^renderer: Open3D's offscreen renderer "
+                                                     "could not start"):
+        with open_renderer("open3d", size=32) as engine:
+            render_thumbnails(mesh_folder, tmp_path / "out", engine=engine)
+    assert not list((tmp_path / "out").rglob("*.png"))
+
+
+def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    with pytest.raises(InputError, match="unknown measure"):
+        render_thumbnails(mesh_folder, tmp_path / "out", measure="best")
+    with pytest.raises(InputError, match="no such file or folder"):
+        render_thumbnails(tmp_path / "missing", tmp_path / "out")
+    with pytest.raises(InputError, match="workers"):
+        render_thumbnails(mesh_folder, tmp_path / "out", workers=0)
+    with pytest.raises(InputError, match="engine: expected an Engine"):
+        render_thumbnails(mesh_folder, tmp_path / "out", engine="software")  # type: ignore[arg-type]
+    mirrored = MeasureSettings(camera=Camera(cull_back_faces=False))
+    with pytest.raises(InputError, match="engine: its camera differs from the camera"), \
+            open_renderer(size=32) as engine:
+        render_thumbnails(mesh_folder, tmp_path / "out", settings=mirrored, engine=engine)
+    assert not list((tmp_path / "out").rglob("*.png"))
+
+
+def test_view_set_thumbnails_draw_with_the_camera_of_the_settings(mesh_folder: Path,
+                                                                  tmp_path: Path):
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    camera = Camera(fov_deg=30.0, distance_factor=2.0)
+    settings = MeasureSettings(views=40, resolution=48, camera=camera)
+    out = tmp_path / "out"
+    with open_renderer(size=32, camera=camera) as engine:
+        result = render_thumbnails(mesh_folder, out, settings=settings, engine=engine,
+                                   view_set=2)
+    assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
+
+
+def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):
+    from vptoolkit.pictures.thumbnails import _mesh_files
+
+    (mesh_folder / ".git").mkdir()
+    (mesh_folder / ".git" / "old.off").write_bytes(b"")
+    (mesh_folder / "nested" / ".ball.stl.partial.stl").write_bytes(b"")
+    names = [p.relative_to(mesh_folder).as_posix() for p in _mesh_files(mesh_folder)]
+    assert names == ["bad.off", "cube.obj", "cube.off", "empty.obj", "nested/ball.stl"]

@@ -1,0 +1,18 @@
+"""The resumable build of a store from a folder of meshes.
+
+Modules:
+
+- ``run``: ``build_dataset``, the build with its failure log.
+- ``options``: ``BuildOptions``, what defines a built dataset, checked when made.
+- ``sources``: mesh files, ids, splits and seeds; ``staging``: the resumable
+  staging folder; ``compute``: one model's task.
+- ``plan``: the models a build would take, per category and split, and an
+  estimate from a few calibration models.
+- ``split_files``: published splits read from a ``name,split`` CSV or the
+  paper's ``small.txt``.
+"""
+
+from vptoolkit.deprecation import moved_module
+
+# The names of ``vptoolkit.dataset.build`` when it was one module (now ``run``).
+__getattr__ = moved_module(__name__, "vptoolkit.dataset.build.run")
