@@ -9,6 +9,7 @@ module, layer by layer):
   atomic writes and the JSON reader; the progress bar; the process pool.
   ``_numba`` (private): numba, imported once with the package's threading
   layer. ``deprecation``: old import paths of moved names, with a warning.
+  ``_version`` (private): the version, written once.
 - ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
   and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
@@ -39,8 +40,7 @@ module, layer by layer):
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-
+from vptoolkit._version import __version__
 from vptoolkit.best_view.search import BestViews, search_best_views
 from vptoolkit.conventions import MEASURES, N_VIEWS
 from vptoolkit.errors import (
@@ -58,10 +58,6 @@ from vptoolkit.measures.quality import ViewQuality, compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
-try:
-    __version__ = version("vptoolkit")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0"
 
 __all__ = [
     "BestViews",

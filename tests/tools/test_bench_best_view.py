@@ -58,3 +58,30 @@ def test_bad_arguments_exit_2_in_one_line(arguments: list[str], message: str,
     result = run_tool(TOOL, *arguments)
     assert result.returncode == 2 and message in result.stderr
     assert "Traceback" not in result.stderr
+
+
+def test_the_readme_table_takes_its_rows_from_one_run() -> None:
+    import bench_best_view as bench
+
+    search = f"@ {bench.SEARCH_RESOLUTION}"
+    labels = [f"coarse-to-fine {bench.BUDGET} {search}",
+              f"coarse-to-fine {bench.FEW_VIEWS} {search}",
+              f"plain search {bench.FLAT_VIEWS} {search}",
+              f"unoccluded estimate, {bench.SCAN_POINTS} points with normals", "network alone",
+              "PCA axis", "random view (expectation)"]
+    rows = {label: ([10.0 * i + 1, 10.0 * i + 2, 10.0 * i + 3, 10.0 * i + 4],
+                    None if label.startswith("random") else 5.0 * (i + 1))
+            for i, label in enumerate(labels)}
+    text = bench.readme_table(rows, meshes="two meshes", rotations=4, views=1000,
+                              resolution=256, source="a test")
+    table = [line for line in text.splitlines() if line.startswith("|")]
+    assert len(table) == 2 + 6  # header, rule and six answers
+    assert "1.0 / 2.0 / 3.0 / 4.0" in table[2] and "5 ms" in table[2]  # the full budget's row
+    assert "11.0 / 12.0 / 13.0 / 14.0" in table[3]  # the few views' row
+    assert "A random view scores 61.0 / 62.0 / 63.0 / 64.0" in text
+    assert text.endswith("From a test.")
+
+
+def test_the_readme_table_needs_the_full_run(tmp_path: Path, run_tool: RunTool) -> None:
+    result = run_tool(TOOL, "--quick", "--readme", str(tmp_path / "README.md"))
+    assert result.returncode == 2 and "--readme" in result.stderr

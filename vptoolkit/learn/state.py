@@ -81,7 +81,7 @@ def _load_optimizer(optimizer: torch.optim.Optimizer, tensors: Mapping[str, Tens
 
 
 def toolkit_version() -> str:
-    from vptoolkit import __version__
+    from vptoolkit._version import __version__
 
     return __version__
 
