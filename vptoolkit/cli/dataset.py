@@ -19,6 +19,7 @@ from vptoolkit.cli.options import (
     comma_list,
     local_dataset,
     max_faces_option,
+    measures_option,
     points_option,
     resolution_option,
     views_option,
@@ -47,6 +48,10 @@ from vptoolkit.settings import MAX_RESOLUTION
 @click.option("--categories", help="Comma-separated categories to include (default: all).")
 @views_option("Fibonacci view directions per model.")
 @resolution_option("Triangle-ID image side in pixels.")
+@measures_option(dest="measure_names",
+                 help="Measures of every model, the columns of the quality arrays in this "
+                      "order: comma-separated names (VE,NVT,SL), 'all' for every registered "
+                      "measure, or 'paper' for VE, VR, VKL and VMI.")
 @points_option("Surface points per model.")
 @max_faces_option("Face budget of the cleaned meshes.")
 @click.option("--no-clean", is_flag=True, help="Measure the meshes as they are.")
@@ -70,8 +75,9 @@ from vptoolkit.settings import MAX_RESOLUTION
               help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
               "0: count only).")
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
-                  categories: str | None, n_views: int, resolution: int, n_points: int,
-                  max_faces: int, no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
+                  categories: str | None, n_views: int, resolution: int,
+                  measure_names: tuple[str, ...], n_points: int, max_faces: int,
+                  no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
                   dry_run: bool, calibrate: int | None) -> None:
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
@@ -82,12 +88,15 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
     goes on. Rerunning the same command resumes an interrupted build. Exit code
     1 when some inputs failed. --dry-run sizes the build first: the models per
     category and split, and the hours and disk estimated from --calibrate
-    models.
+    models. --measures chooses the measures of the survey by Bonaventura et al.
+    (2018) the store holds (default: the paper's four); every reader of the
+    store follows the names it records.
 
     \b
     Example:
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --dry-run
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
+      vptool build-dataset ModelNet40/ out/ --categories airplane --measures VE,NVT,SL
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
     """
@@ -101,7 +110,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
     if calibrate is not None and not dry_run:
         raise InputError("--calibrate: only with --dry-run")
     options = BuildOptions(
-        measure=MeasureSettings(views=n_views, resolution=resolution), n_points=n_points,
+        measure=MeasureSettings(views=n_views, resolution=resolution),
+        measures=measure_names, n_points=n_points,
         max_faces=max_faces, clean=not no_clean, remesh=remesh, split_seed=split_seed,
         splits=None if split_file is None else SplitFile.read(split_file),
         max_models=max_models, format=store_format)
@@ -338,7 +348,9 @@ def export_authors(dataset: Path, out: Path) -> None:
 
     small.txt is ordered so that the paper's rule (index % 10 over its lines)
     gives each model its split; the models it cannot place are listed. The
-    store needs the 1000 Fibonacci views of the paper.
+    store needs the 1000 Fibonacci views of the paper and its four measures
+    (VE, VR, VKL, VMI: the only ones the authors' tree has folders for; any
+    other measure the store holds is left out).
 
     \b
     Example:

@@ -15,8 +15,8 @@ Examples
 >>> with open_dataset("build/") as dataset:                    # doctest: +SKIP
 ...     train = dataset.split("train")
 ...     item = train[0]
-...     item["points"].shape, item["quality"].shape
-((20000, 3), (1000, 4))
+...     item["points"].shape, item["quality"].shape, dataset.measures
+((20000, 3), (1000, 4), ('VE', 'VR', 'VKL', 'VMI'))
 
 A URL opens a published release through a verified local cache
 (:mod:`vptoolkit.data.remote`, each file transferred by
@@ -43,7 +43,7 @@ from vptoolkit.data.ranges import RangeFile, RemoteArchive
 from vptoolkit.data.remote import fetch_release, is_remote, locate_release
 from vptoolkit.dataset.store.containers import find_store
 from vptoolkit.dataset.store.reader import StoreReader, open_store
-from vptoolkit.dataset.store.schema import ENTRY_ARRAYS, published_split
+from vptoolkit.dataset.store.schema import ENTRY_ARRAYS, published_split, registered_measures
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import nearest_view
 
@@ -147,17 +147,18 @@ class ViewpointDataset:
     ==============  ==========================  ===================================
     ``points``      (n_points, 3) float32       surface points, model coordinates
     ``normals``     (n_points, 3) float32       unit face normal at each point
-    ``quality``     (n_views, 4) float32        normalised quality, 1 = best
-    ``quality_raw`` (n_views, 4) float32        raw measures, NaN where nothing seen
+    ``quality``     (n_views, K) float32        normalised quality, 1 = best
+    ``quality_raw`` (n_views, K) float32        raw measures, NaN where nothing seen
     ``views``       (n_views, 3) float64        the view directions (shared, read-only)
-    ``best_index``  (4,) int64                  best view per measure
+    ``best_index``  (K,) int64                  best view per measure
     ``name``        str                         model name
     ``category``    str                         category
     ``label``       int                         class label: ``class_names[label] == category``
     ``split``       str                         ``"train"``, ``"validation"`` or ``"test"``
     ==============  ==========================  ===================================
 
-    The last axis of size 4 follows ``measures`` (``("VE", "VR", "VKL", "VMI")``).
+    The last axis of size ``K`` holds one column per name of :attr:`measures`, the
+    store's (by default the paper's four, ``("VE", "VR", "VKL", "VMI")``).
     Labels number the sorted category names of the whole store from 0
     (:attr:`class_names`), the same in every split and subset.
     """
@@ -216,8 +217,23 @@ class ViewpointDataset:
 
     @property
     def measures(self) -> tuple[str, ...]:
-        """Measure names, the order of every last axis of size 4."""
+        """Measure names as the store records them, the columns of every measure axis
+        (``quality`` is ``(n_views, K)`` for ``K`` names)."""
         return tuple(self._shared.attrs["measures"])
+
+    @property
+    def higher_is_better(self) -> tuple[bool, ...]:
+        """For each of :attr:`measures`, whether a higher raw value is better (from the
+        measure registry; the normalised ``quality`` is always 1 = best).
+
+        Raises
+        ------
+        InputError
+            One line, for a measure the registry does not know (a store written by
+            another version: its arrays load, but its direction is unknown).
+        """
+        return tuple(m.higher_is_better for m in registered_measures(self.measures,
+                                                                     self.path.name))
 
     @property
     def views(self) -> NDArray[np.float64]:
@@ -357,12 +373,13 @@ class ViewpointDataset:
                                 split_name=self._split_name)
 
     def array(self, key: str) -> NDArray[Any]:
-        """One key of every item, stacked: e.g. ``array("quality")`` is ``(n, n_views, 4)``.
+        """One key of every item, stacked: e.g. ``array("quality")`` is ``(n, n_views, K)``.
 
         Parameters
         ----------
         key : str
-            ``"points"``, ``"normals"``, ``"quality"``, ``"quality_raw"``,
+            ``"points"``, ``"normals"``, ``"quality"``, ``"quality_raw"``
+            (``(n, n_views, K)``, ``K`` the number of :attr:`measures`),
             ``"best_index"``, ``"best_value"``, ``"worst_index"``,
             ``"worst_value"`` (the store's per-model arrays, dtypes as in the
             items), ``"label"`` (int64), or ``"name"``, ``"category"``,
@@ -456,8 +473,9 @@ class ViewpointDataset:
 
         Returns
         -------
-        quality : (n, 4) float32
-            One row per direction (a single direction gives ``(1, 4)``).
+        quality : (n, K) float32
+            One row per direction, one column per measure of :attr:`measures`
+            (a single direction gives ``(1, K)``).
 
         Raises
         ------
@@ -543,9 +561,10 @@ def open_dataset(path: str | os.PathLike[str], *,
     InputError
         If no store is found, it cannot be read or a URL cannot be fetched.
     VerificationError
-        If the store's measure order differs from ``MEASURES``, or a
-        downloaded file differs from the release's ``SHA256SUMS`` (it is not
-        cached).
+        If the store's ``measures`` and ``higher_is_better`` disagree with each
+        other, the registry or the arrays
+        (:func:`~vptoolkit.dataset.store.reader.open_store`), or a downloaded
+        file differs from the release's ``SHA256SUMS`` (it is not cached).
     MissingDependencyError
         For a URL other than http(s) without fsspec (the ``remote`` extra).
     """

@@ -120,14 +120,17 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     ==============  ======================  =============================================
     ``points``      (n_points, 3) float32   input points, rotated
     ``views``       (n_views, 3) float32    all view directions, rotated
-    ``quality``     (n_views, 4) float32    normalised quality per view, 1 = best
-    ``best_views``  (4, 3) float32          best view per measure, rotated
-    ``best_index``  (4,) int64              index of the best view per measure
+    ``quality``     (n_views, K) float32    normalised quality per view, 1 = best
+    ``best_views``  (K, 3) float32          best view per measure, rotated
+    ``best_index``  (K,) int64              index of the best view per measure
     ``rotation``    (3, 3) float32          the rotation ``R``: rotated = ``v @ R.T``
     ``name``        str                     model name
     ``category``    str                     category
     ``label``       int                     class label, ``dataset.class_names[label]``
     ==============  ======================  =============================================
+
+    ``K`` is the number of the store's measures (:attr:`measures`, by default
+    the paper's four), in their order.
 
     Labels number the store's sorted category names (:attr:`class_names`,
     :attr:`num_classes` of them), the same in every split and subset.
@@ -178,6 +181,12 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
 
     def __len__(self) -> int:
         return len(self.dataset)
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """The store's measure names, the columns of ``quality`` and the rows of
+        ``best_views`` and ``best_index``."""
+        return self.dataset.measures
 
     @property
     def class_names(self) -> list[str]:

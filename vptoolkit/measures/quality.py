@@ -47,7 +47,7 @@ import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Final
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -76,9 +76,6 @@ __all__ = [
 
 _STORE_BYTES = 1 << 29  # keep histograms for the VMI pass up to this size, else recompute
 
-_IMAGE_NEEDS: Final = frozenset({"depth", "silhouette"})
-"""Needs drawn with the pixel counts, as each run's
-:class:`~vptoolkit.visibility.features.ViewFeatures`."""
 
 
 @dataclass(frozen=True)
@@ -437,10 +434,10 @@ def compute_view_quality(
     else:
         directions = as_directions(view_directions, name="view_directions")
     areas = face_areas(mesh)
-    with_features = any(measure.needs & _IMAGE_NEEDS for measure in chosen)
+    with_features = any(measure.needs_image_statistics for measure in chosen)
     if histograms is not None and with_features \
             and any(run.features is None for run in histograms):
-        needing = ", ".join(m.name for m in chosen if m.needs & _IMAGE_NEEDS)
+        needing = ", ".join(m.name for m in chosen if m.needs_image_statistics)
         raise InputError(f"{mesh.name}: histograms: drawn without the depth and silhouette "
                          f"statistics (needed by {needing})")
 

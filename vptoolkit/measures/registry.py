@@ -31,6 +31,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAMILIES",
+    "IMAGE_NEEDS",
     "NEEDS",
     "Measure",
     "all_measures",
@@ -57,6 +58,11 @@ NEEDS: Final = frozenset({"pixels", "depth", "silhouette", "curvature", "salienc
 ``neighbours``
     the neighbouring views of each view on the sphere.
 """
+
+
+IMAGE_NEEDS: Final = frozenset({"depth", "silhouette"})
+"""The needs that the drawing pass serves with per-view image statistics
+(``iter_view_histograms(..., features=True)``)."""
 
 
 @dataclass(frozen=True)
@@ -100,6 +106,11 @@ class Measure:
         unknown = set(self.needs) - NEEDS
         if unknown:
             raise ValueError(f"{self.name}: unknown needs {sorted(unknown)}")
+
+    @property
+    def needs_image_statistics(self) -> bool:
+        """Whether the views must be drawn with depth and silhouette statistics."""
+        return bool(self.needs & IMAGE_NEEDS)
 
 
 @cache

@@ -58,19 +58,21 @@ def test_open_rejects_other_schema_version(zarr_copy: Path) -> None:
         open_store(zarr_copy)
 
 
-def test_open_rejects_other_measure_order(zarr_copy: Path) -> None:
-    _edit_root_attributes(zarr_copy, measures=["VR", "VE", "VKL", "VMI"])
-    with pytest.raises(VerificationError, match="d.zarr: measures"):
+def test_open_rejects_measures_whose_directions_contradict_the_registry(zarr_copy: Path) -> None:
+    _edit_root_attributes(zarr_copy, measures=["VKL", "VR", "VE", "VMI"])  # VKL: lower is better
+    with pytest.raises(VerificationError, match="d.zarr: measures .*VKL is lower is better"):
         open_store(zarr_copy)
 
 
-def test_open_rejects_other_measure_order_in_hdf5(tmp_path: Path) -> None:
+def test_open_rejects_measures_whose_directions_contradict_the_registry_in_hdf5(
+        tmp_path: Path) -> None:
     import h5py
 
     target = write_synthetic(tmp_path / "d.h5")
     with h5py.File(target, "a") as handle:
-        handle.attrs["measures"] = json.dumps(["VE", "VR", "VMI", "VKL"])
-    with pytest.raises(VerificationError, match="d.h5: measures"):
+        handle.attrs["measures"] = np.array(["VMI", "VR", "VKL", "VE"],
+                                            dtype=h5py.string_dtype())
+    with pytest.raises(VerificationError, match="d.h5: measures .*VMI is lower is better"):
         open_store(target)
 
 

@@ -8,8 +8,11 @@ again over the stored views, and for each model and measure this reports
 - the Spearman rank correlation between the stored and our normalised quality
   over the views (1 = the same order of views; the normalisation is monotone
   in the raw value, so this is the rank correlation of the raw measures, with
-  the sign of VKL and VMI turned so that 1 always means agreement), and
-- the angle in degrees between the stored best view and ours.
+  the sign of a lower-is-better measure such as VKL and VMI turned so that 1
+  always means agreement), and
+- the angle in degrees between the stored best view and ours,
+
+for every measure the store records (an imported store: the paper's four).
 """
 
 from __future__ import annotations
@@ -40,8 +43,8 @@ class ModelCheck:
     name : str
         The model.
     correlation : tuple of float or None
-        Spearman rank correlation per measure, in ``MEASURES`` order; None
-        where one side is constant over the views.
+        Spearman rank correlation per measure, in the order of the store's
+        ``measures``; None where one side is constant over the views.
     best_angle_deg : tuple of float
         Angle in degrees between the stored and our best view, per measure.
     """
@@ -63,11 +66,14 @@ class MeasureCheck:
         One line per chosen model that could not be measured.
     resolution : int
         Image side in pixels of our measurement.
+    measures : tuple of str
+        The measures compared, the store's (default: the paper's four).
     """
 
     models: tuple[ModelCheck, ...]
     failures: tuple[str, ...]
     resolution: int
+    measures: tuple[str, ...] = MEASURES
 
     def summary(self) -> dict[str, dict[str, float | None]]:
         """Per measure: mean rank correlation, median and mean best-view angle.
@@ -79,7 +85,7 @@ class MeasureCheck:
             None where no model gives a value.
         """
         result: dict[str, dict[str, float | None]] = {}
-        for column, measure in enumerate(MEASURES):
+        for column, measure in enumerate(self.measures):
             values = [value for m in self.models
                       if (value := m.correlation[column]) is not None]
             angles = [m.best_angle_deg[column] for m in self.models]
@@ -151,10 +157,12 @@ def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
     Raises
     ------
     InputError
-        If the store cannot be opened or an argument is invalid.
+        If the store cannot be opened, records a measure the registry does not
+        know, or an argument is invalid.
     """
     from vptoolkit.dataset.store.containers import find_store
     from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.dataset.store.schema import registered_measures
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.mesh import Mesh
     from vptoolkit.settings import MeasureSettings
@@ -166,6 +174,8 @@ def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
     checked: list[ModelCheck] = []
     failures: list[str] = []
     with open_store(find_store(as_path(dataset, "dataset"))) as store:
+        measures = store.measures
+        registered_measures(measures, store.path.name)  # each one our pipeline can compute
         views = np.asarray(store.array("views"), dtype=np.float64)
         total = store.n_models
         rows = sorted({int(round(x)) for x in np.linspace(0, total - 1, min(n_models, total))}
@@ -182,15 +192,17 @@ def check_measures(dataset: str | os.PathLike[str], n_models: int, *,
                 try:
                     mesh = Mesh(np.asarray(entry.vertices, dtype=np.float64),
                                 np.asarray(entry.faces, dtype=np.int64), name=entry.name)
-                    ours = compute_view_quality(mesh, settings, view_directions=views)
+                    ours = compute_view_quality(mesh, settings, measures=measures,
+                                                view_directions=views)
                 except VptoolkitError as err:
                     failures.append(f"{entry.name}: {one_line(err)}")
                     continue
                 stored = np.asarray(entry.quality, dtype=np.float64)
                 correlation = tuple(rank_correlation(stored[:, c], ours.normalized[:, c])
-                                    for c in range(len(MEASURES)))
+                                    for c in range(len(measures)))
                 angles = angle_between_deg(views[np.asarray(entry.best_index)],
                                            views[ours.best_index])
                 checked.append(ModelCheck(name=entry.name, correlation=correlation,
                                           best_angle_deg=tuple(float(a) for a in angles)))
-    return MeasureCheck(models=tuple(checked), failures=tuple(failures), resolution=resolution)
+    return MeasureCheck(models=tuple(checked), failures=tuple(failures), resolution=resolution,
+                        measures=measures)

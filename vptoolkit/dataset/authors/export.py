@@ -1,7 +1,10 @@
 """Writing a store in the paper authors' released tree: :func:`export_authors`.
 
 The layout and its measure folders are those of :mod:`vptoolkit.dataset.authors.importer`;
-this writes them so that the authors' training code can read our data.
+this writes them so that the authors' training code can read our data. The tree has a
+folder for each of the paper's four measures only (VE, VR, VKL, VMI): a store holding
+them (in any order, among others) is exported with those four; one lacking any of them
+is refused.
 """
 
 from __future__ import annotations
@@ -128,7 +131,9 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     dataset : path-like
         A store, a build folder or a release folder (as :func:`vptoolkit.data.open_dataset`
         takes); it must have 1000 views in the order of
-        :func:`~vptoolkit.sphere.fibonacci_sphere`.
+        :func:`~vptoolkit.sphere.fibonacci_sphere` and hold the paper's four
+        measures (:data:`~vptoolkit.conventions.MEASURES`; the columns of any
+        other measure are not written).
     out : path-like
         The data set folder to write (``data/<set>``): new, or an empty
         folder. It is written under a temporary sibling name
@@ -147,10 +152,10 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     Raises
     ------
     InputError
-        If the store cannot be read, its views are not the authors' 1000, a
-        model's name or category cannot be a file or folder name
-        (:func:`~vptoolkit.files.check_path_part`), or ``out`` is not new or
-        empty.
+        If the store cannot be read, its views are not the authors' 1000, it
+        lacks one of the paper's four measures, a model's name or category
+        cannot be a file or folder name (:func:`~vptoolkit.files.check_path_part`),
+        or ``out`` is not new or empty.
     OSError
         If writing fails (e.g. a full disk or a read-only folder); its
         ``filename`` is ``out``.
@@ -176,6 +181,11 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     if not target.parent.is_dir():
         raise InputError(f"{target}: output folder {target.parent} does not exist")
     with open_store(find_store(as_path(dataset, "dataset"))) as data:
+        lacking = [measure for measure in MEASURES if measure not in data.measures]
+        if lacking:
+            raise InputError(
+                f"{data.path}: the authors' tree holds {', '.join(MEASURES)}; this store "
+                f"records {', '.join(data.measures)}, without {', '.join(lacking)}")
         views = np.asarray(data.array("views"), dtype=np.float64)
         ours = fibonacci_sphere(N_VIEWS)
         if views.shape != ours.shape or np.abs(views - ours).max() > VIEW_TOLERANCE:
@@ -230,6 +240,7 @@ def _write_tree(root: Path, data: StoreReader, order: Sequence[str], stems: dict
     from vptoolkit.io.obj import obj_bytes
 
     n_meshless = n_unseen = 0
+    columns = [data.measures.index(measure) for measure in MEASURES]
     point_list = _text(fibonacci_sphere(N_VIEWS), "%.17g")
     for folder in AUTHORS_FOLDERS.values():
         _write(root / "best_views" / folder / "3D" / "_point_list.txt", point_list)
@@ -249,7 +260,8 @@ def _write_tree(root: Path, data: StoreReader, order: Sequence[str], stems: dict
                 n_meshless += 1
             points = np.concatenate([entry.points, entry.normals], axis=1)
             _write(root / "pts_unif" / f"{stem}.txt", _text(points, "%.9g"))
-            n_unseen += _write_measures(root, stem, entry.quality_raw, entry.quality, views)
+            n_unseen += _write_measures(root, stem, entry.quality_raw[:, columns],
+                                        entry.quality[:, columns], views)
             bar.update(1)
     _write(root / MODEL_LIST, "".join(lines).encode("utf-8"))
     return n_meshless, n_unseen
@@ -257,7 +269,10 @@ def _write_tree(root: Path, data: StoreReader, order: Sequence[str], stems: dict
 
 def _write_measures(root: Path, stem: str, raw: NDArray[Any], quality: NDArray[Any],
                     views: NDArray[np.float64]) -> int:
-    """Write one model's lists and best files; return the NaN values written as the worst."""
+    """Write one model's lists and best files; return the NaN values written as the worst.
+
+    ``raw`` and ``quality`` are ``(n_views, 4)``, columns in ``MEASURES`` order.
+    """
     n_unseen = 0
     for column, measure in enumerate(MEASURES):
         folder = AUTHORS_FOLDERS[measure]

@@ -22,7 +22,7 @@ import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,6 +31,11 @@ from vptoolkit.checks import one_line
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.files import sha256_file
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
+
+if TYPE_CHECKING:
+    from vptoolkit.measures.quality import ViewQuality
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.view_sets.result import ViewSet
 
 __all__ = [
     "VIEW_SET_VIEWS",
@@ -60,7 +65,7 @@ class ModelTask:
     category, name : str
         The model's category and name.
     options : BuildOptions
-        The build's options: measure settings, surface points, cleaning.
+        The build's options: measure settings, the measures, surface points, cleaning.
     seed : int
         Seed of the point sample.
     signature : dict
@@ -182,7 +187,6 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     from vptoolkit.clean import clean_mesh
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
-    from vptoolkit.view_sets.search import measure_view_set
 
     path = Path(task.path)
     seconds: dict[str, float] = {}
@@ -198,7 +202,7 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
         cleaning = _without_timings(report.to_dict())
     seconds["clean"] = time.perf_counter() - started
     started = time.perf_counter()
-    quality, view_set = measure_view_set(mesh, VIEW_SET_VIEWS, settings=options.measure)
+    quality, view_set = _quality_and_view_set(mesh, options)
     seconds["measure"] = time.perf_counter() - started
     started = time.perf_counter()
     sample = sample_surface(mesh, options.n_points, seed=task.seed)
@@ -234,6 +238,36 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
         arrays=arrays,
         seconds=seconds,  # wall-clock per stage: reported, never stored
     )
+
+
+def _quality_and_view_set(mesh: Mesh, options: BuildOptions) -> tuple[ViewQuality, ViewSet]:
+    """The build's measures of a mesh and its coverage view set, from one drawing of its views.
+
+    The views are drawn once (with the depth and silhouette statistics only when
+    a chosen measure needs them); the measures
+    (:func:`~vptoolkit.measures.quality.compute_view_quality` with
+    ``measures=options.measures``: the paper's four streamed from the pixel
+    counts, any others from the registry) and the greedy coverage set of
+    :data:`VIEW_SET_VIEWS` views (:func:`~vptoolkit.view_sets.search.best_view_set`)
+    read the same pixel counts, as :func:`~vptoolkit.view_sets.search.measure_view_set`
+    does for the four.
+    """
+    from vptoolkit.geometry import face_areas
+    from vptoolkit.measures.quality import compute_view_quality
+    from vptoolkit.measures.registry import get_measure
+    from vptoolkit.view_sets.search import best_view_set
+    from vptoolkit.view_sets.visibility import FaceVisibility
+    from vptoolkit.visibility import iter_view_histograms
+
+    settings = options.measure
+    directions = settings.directions()
+    features = any(get_measure(name).needs_image_statistics for name in options.measures)
+    runs = tuple(iter_view_histograms(mesh, settings, view_directions=directions,
+                                      features=features))
+    visibility = FaceVisibility(directions, face_areas(mesh), runs, mesh.name)
+    quality = compute_view_quality(mesh, settings, measures=options.measures,
+                                   view_directions=visibility.views, histograms=runs)
+    return quality, best_view_set(visibility, VIEW_SET_VIEWS)
 
 
 def failed_model(task: ModelTask, reason: str, *, is_staged: bool = True) -> FailedModel:

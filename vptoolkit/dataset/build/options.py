@@ -8,7 +8,8 @@ resumed build compares ``BuildOptions.from_dict(recorded) == options``)
 and the options part of the store's attributes
 (:meth:`BuildOptions.store_attrs`). Every default is a named constant of
 its owner: ``N_VIEWS``, ``RESOLUTION`` and ``Camera()`` through
-:class:`~vptoolkit.settings.MeasureSettings`, ``N_SURFACE_POINTS``,
+:class:`~vptoolkit.settings.MeasureSettings`, the paper's four measures
+(:data:`~vptoolkit.conventions.MEASURES`), ``N_SURFACE_POINTS``,
 ``MAX_FACES``, ``SEED`` and :data:`DEFAULT_FORMAT`.
 """
 
@@ -16,18 +17,21 @@ from __future__ import annotations
 
 import hashlib
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Final, Literal
 
 from vptoolkit.checks import as_path, check_bool, check_int, check_keys
 from vptoolkit.clean.simplify import MAX_FACES
-from vptoolkit.conventions import SEED
+from vptoolkit.conventions import MEASURES, SEED
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import resolve_measures
 from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
 from vptoolkit.settings import MeasureSettings, check_settings
 
-__all__ = ["DEFAULT_FORMAT", "FORMATS", "BuildOptions", "SplitFile", "StoreFormat"]
+__all__ = ["DEFAULT_FORMAT", "FORMATS", "BuildOptions", "SplitFile", "StoreFormat",
+           "checked_measures"]
 
 StoreFormat = Literal["zarr", "hdf5"]
 
@@ -37,8 +41,8 @@ FORMATS: Final[dict[str, str]] = {"zarr": "dataset.zarr", "hdf5": "dataset.h5"}
 DEFAULT_FORMAT: Final = "zarr"
 """Store format of a build unless it is given one."""
 
-_KEYS = ("format", "measure", "n_points", "max_faces", "clean", "remesh", "split_seed",
-         "splits_sha256", "max_models")
+_KEYS = ("format", "measure", "measures", "n_points", "max_faces", "clean", "remesh",
+         "split_seed", "splits_sha256", "max_models")
 
 
 @dataclass(frozen=True)
@@ -78,6 +82,21 @@ class SplitFile:
         return cls(sha256=digest, path=checked)
 
 
+def checked_measures(measures: str | Iterable[str]) -> tuple[str, ...]:
+    """The measure names of a build: :func:`~vptoolkit.measures.registry.resolve_measures`
+    of ``measures`` (names, ``"VE,SL"``, ``"paper"`` or ``"all"``).
+
+    Raises
+    ------
+    InputError
+        One line starting ``measures:``, naming an unknown or repeated name.
+    """
+    try:
+        return resolve_measures(measures)
+    except InputError as err:
+        raise InputError(f"measures: {str(err).removeprefix('measures: ')}") from err
+
+
 @dataclass(frozen=True)
 class BuildOptions:
     """The options that define a built dataset, checked once when made.
@@ -87,6 +106,12 @@ class BuildOptions:
     measure : MeasureSettings
         Views, triangle-ID image side, camera and backend of the measures
         (default: ``MeasureSettings()``: 1000 views at 1024 px, raster).
+    measures : tuple of str
+        The measures every model gets, the columns of the store's ``quality``,
+        ``quality_raw``, ``best_*`` and ``worst_*`` in this order (the root
+        attribute ``measures``): registered, distinct names
+        (:func:`checked_measures` turns ``"VE,SL"``, ``"paper"`` or ``"all"``
+        into them; default: the paper's four, VE, VR, VKL and VMI).
     n_points : int
         Surface points per model, 1 to ``MAX_SURFACE_POINTS`` (default:
         ``N_SURFACE_POINTS`` = 20000).
@@ -121,10 +146,12 @@ class BuildOptions:
     Raises
     ------
     InputError
-        A one-line message naming the field, e.g. ``n_points: must be at least 1, got 0``.
+        A one-line message naming the field, e.g. ``n_points: must be at least 1, got 0``
+        or ``measures: unknown measure 'XY'; known: ...``.
     """
 
     measure: MeasureSettings = field(default_factory=MeasureSettings)
+    measures: tuple[str, ...] = MEASURES
     n_points: int = N_SURFACE_POINTS
     max_faces: int = MAX_FACES
     clean: bool = True
@@ -137,6 +164,7 @@ class BuildOptions:
     def __post_init__(self) -> None:
         checked: dict[str, Any] = {
             "measure": check_settings(self.measure, "measure"),
+            "measures": checked_measures(self.measures),
             "n_points": check_int(self.n_points, "n_points", minimum=1,
                                   maximum=MAX_SURFACE_POINTS),
             "max_faces": check_int(self.max_faces, "max_faces", minimum=4),
@@ -167,6 +195,7 @@ class BuildOptions:
         return {
             "format": self.format,
             "measure": self.measure.to_dict(),
+            "measures": list(self.measures),
             "n_points": self.n_points,
             "max_faces": self.max_faces,
             "clean": self.clean,
@@ -178,11 +207,18 @@ class BuildOptions:
 
     @classmethod
     def from_dict(cls, record: dict[str, Any]) -> BuildOptions:
-        """The options of a :meth:`to_dict` record; a missing or unknown key is an InputError."""
+        """The options of a :meth:`to_dict` record; a missing or unknown key is an InputError.
+
+        A record made before builds chose their measures has no ``measures``: the
+        paper's four, which it was built with.
+        """
+        if isinstance(record, dict) and "measures" not in record:
+            record = {**record, "measures": list(MEASURES)}
         record = check_keys(record, _KEYS, "build options")
         digest = record["splits_sha256"]
         return cls(
             measure=MeasureSettings.from_dict(record["measure"]),
+            measures=record["measures"],
             n_points=record["n_points"],
             max_faces=record["max_faces"],
             clean=record["clean"],
@@ -196,12 +232,14 @@ class BuildOptions:
     def store_attrs(self) -> dict[str, Any]:
         """The store attributes these options define (``vptoolkit/dataset_card/SCHEMA.md``).
 
-        ``resolution``, ``backend``, ``camera``, ``cleaning`` (``enabled``,
-        ``max_faces``, ``remesh``), ``split_seed`` and, with ``splits``,
-        ``split_file`` (``name``, ``sha256``); the writer adds ``n_views``
-        and ``n_points`` from the arrays.
+        ``measures``, ``resolution``, ``backend``, ``camera``, ``cleaning``
+        (``enabled``, ``max_faces``, ``remesh``), ``split_seed`` and, with
+        ``splits``, ``split_file`` (``name``, ``sha256``); the writer adds
+        ``higher_is_better`` from the registry, and ``n_views`` and
+        ``n_points`` from the arrays.
         """
         attrs: dict[str, Any] = {
+            "measures": list(self.measures),
             "resolution": self.measure.resolution,
             "backend": self.measure.backend,
             "camera": self.measure.camera.to_dict(),

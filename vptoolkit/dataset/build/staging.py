@@ -122,10 +122,10 @@ def resume_or_start(staging: Path, options: BuildOptions, root: Path) -> str:
     (``BuildOptions.from_dict(recorded) == options``); anything else would
     mix models computed two ways in one store.
     """
-    import vptoolkit
+    from vptoolkit._version import __version__
 
     build_file = staging / _BUILD_FILE
-    version = vptoolkit.__version__
+    version = __version__
     if build_file.exists():
         try:
             recorded = read_json_file(build_file, str(build_file))

@@ -18,7 +18,7 @@ The summary the card is written from lives in :mod:`vptoolkit.dataset.store.info
 and the Croissant metadata in :mod:`vptoolkit.dataset.release.croissant`.
 
 Size
-    About 650 lines for one concept, the card: a function per part of it,
+    About 660 lines for one concept, the card: a function per part of it,
     the hub YAML header (:func:`hub_yaml`) and the datasheet's sentences.
     The parts share the Markdown and YAML helpers at the end; the prose
     itself is in the template.
@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.release.contents import ReleaseFiles, check_described
 from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
 from vptoolkit.dataset.release.options import ReleaseOptions
@@ -56,11 +57,12 @@ from vptoolkit.dataset.store.info import (
     source_name,
     split_count_rows,
 )
-from vptoolkit.dataset.store.schema import ARRAY_SPECS
+from vptoolkit.dataset.store.schema import ARRAY_SPECS, registered_measures
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store.reader import StoreReader
+    from vptoolkit.measures.registry import Measure
 
 __all__ = [
     "render_card",
@@ -69,6 +71,19 @@ __all__ = [
 
 _ARRAY_MEANINGS = {name: spec.description for name, spec in ARRAY_SPECS.items()}
 """What each stored array holds, as the card's schema table says it."""
+
+_PAPER_RAW_VALUES = ("Raw values use logarithms base {log_base} (bits; VR is a fraction of "
+                     "the surface\narea) and are NaN where a view sees nothing.")
+"""The card's sentence on the raw values of the paper's four measures."""
+
+_RAW_VALUES = ("Raw values are in each measure's own unit (logarithms base {log_base}, bits, "
+               "for the\ninformation measures) and are NaN where a measure is undefined for "
+               "a view (most\nmeasures, for a view that sees nothing).")
+"""The card's sentence on the raw values of any other choice of measures."""
+
+_COUNT_WORDS = ("no", "one", "two", "three", "four", "five", "six", "seven", "eight", "nine",
+                "ten", "eleven", "twelve")
+"""The counts the card's prose writes as words (:func:`_count_word`)."""
 
 
 def render_card(
@@ -115,10 +130,12 @@ def render_card(
     Raises
     ------
     InputError
-        If ``files`` or ``options`` is of another type, or the template
-        holds a placeholder no part fills.
+        If ``files`` or ``options`` is of another type, the store records a
+        measure the registry does not know (its title and direction are
+        unknown), or the template holds a placeholder no part fills.
     """
     files, options = check_described(files, options)
+    measures = registered_measures(reader.measures, reader.path.name)
     info = info_from_reader(reader)
     title = options.pretty_name or f"Viewpoint quality of {source_name(info)} models"
     values = {
@@ -128,7 +145,7 @@ def render_card(
         **_files(files),
         **_reading(info, files),
         **_counts(info),
-        **_measures(info),
+        **_measures(info, measures),
         **_schema(reader),
         **_statistics(info),
         **_datasheet(info, files, options),
@@ -156,7 +173,8 @@ def _header(info: dict[str, Any], files: ReleaseFiles, options: ReleaseOptions,
                                       for key, value in hub.items()),
         "yaml_size_category": _yaml_str(size_category(info["n_models"])),
         "yaml_hub": (hub_yaml(files.shards, n_points=int(info["n_points"] or 0),
-                              n_views=int(info["n_views"]), class_names=info["class_names"])
+                              n_views=int(info["n_views"]), class_names=info["class_names"],
+                              measures=info["measures"]["order"])
                      if files.shards else ""),
     }
 
@@ -175,6 +193,7 @@ def _summary(info: dict[str, Any], options: ReleaseOptions, title: str,
         "n_views": info["n_views"],
         "resolution": info["resolution"],
         "measure_order": ", ".join(info["measures"]["order"]),
+        "measure_count": _count_word(len(info["measures"]["order"])),
         "version": options.version,
         "created": options.created or info.get("created"),
         "toolkit_version": info.get("toolkit_version"),
@@ -248,7 +267,8 @@ def _reading(info: dict[str, Any], files: ReleaseFiles) -> dict[str, Any]:
     hdf5_files = [name for name in sorted(files.digests) if name.endswith((".h5", ".hdf5"))]
     if files.shards:
         split_names = ", ".join(f"`{s}`" for s in info["splits"])
-        columns = model_columns(int(info["n_points"] or 0), int(info["n_views"]))
+        columns = model_columns(int(info["n_points"] or 0), int(info["n_views"]),
+                                measures=info["measures"]["order"])
         datasets_block = (
             f"With Hugging Face `datasets` (the Parquet shards, splits {split_names}):\n\n"
             "```python\nfrom datasets import load_dataset\n\n"
@@ -296,19 +316,23 @@ def _counts(info: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _measures(info: dict[str, Any]) -> dict[str, Any]:
-    """The measures: logarithm base, normalisation, and per measure its name, which way
-    is better, raw unit and the mean, min and max of its best raw value."""
+def _measures(info: dict[str, Any], registered: Sequence[Measure]) -> dict[str, Any]:
+    """The measures: how many, the raw values' units, normalisation, and per measure its
+    name, which way is better (both from the registry), raw unit and the mean, min and max
+    of its best raw value."""
     measures, stats = info["measures"], info["statistics"]
     rows = [
-        [m, measures["names"][m], "higher" if hi else "lower", measures["units"][m],
-         format_number(stats["best_value"][m]["mean"]),
-         format_number(stats["best_value"][m]["min"]),
-         format_number(stats["best_value"][m]["max"])]
-        for m, hi in zip(measures["order"], measures["higher_is_better"])
+        [m.name, m.title, "higher" if m.higher_is_better else "lower", measures["units"][m.name],
+         format_number(stats["best_value"][m.name]["mean"]),
+         format_number(stats["best_value"][m.name]["min"]),
+         format_number(stats["best_value"][m.name]["max"])]
+        for m in registered
     ]
+    names = tuple(m.name for m in registered)
+    raw_values = _PAPER_RAW_VALUES if names == MEASURES else _RAW_VALUES
     return {
-        "log_base": measures["log_base"],
+        "n_measures": len(names),
+        "raw_values_sentence": raw_values.format(log_base=measures["log_base"]),
         "normalisation": measures["normalisation"],
         "measure_table": _markdown_table(
             ["measure", "name", "best", "raw unit", "best raw mean", "best raw min",
@@ -467,7 +491,7 @@ def _same_data_sentence(files: Mapping[str, str]) -> str:
 
 
 def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
-             class_names: Sequence[str] = ()) -> str:
+             class_names: Sequence[str] = (), measures: Sequence[str] = MEASURES) -> str:
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
     Two configurations: ``default`` (the Parquet shards of each split, one row
@@ -485,6 +509,9 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
     class_names : sequence of str
         The store's ``class_names``: the ``label`` feature is a
         ``ClassLabel`` with these names.
+    measures : sequence of str
+        The store's ``measures``: the measure features hold one column per
+        name (default: the paper's four).
 
     Returns
     -------
@@ -501,7 +528,8 @@ def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
     if view_splits:
         lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:", *_data_files(view_splits)]
     lines.append("dataset_info:")
-    configs = [("default", model_columns(n_points, n_views, class_names), model_splits),
+    configs = [("default", model_columns(n_points, n_views, class_names, measures=measures),
+                model_splits),
                (VIEWS_CONFIG, view_columns(), view_splits)]
     for config_name, columns, chosen in configs:
         if not chosen:
@@ -547,6 +575,11 @@ def _yaml_feature(column: Column) -> str:
 def _load_template(name: str) -> str:
     resource = importlib.resources.files("vptoolkit.dataset_card").joinpath(name)
     return resource.read_text(encoding="utf-8")
+
+
+def _count_word(count: int) -> str:
+    """``four`` for 4: a count as the card's prose says it (digits from 13 on)."""
+    return _COUNT_WORDS[count] if count < len(_COUNT_WORDS) else str(count)
 
 
 def _markdown_table(header: Sequence[str], rows: Sequence[Sequence[Any]],

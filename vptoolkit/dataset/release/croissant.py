@@ -128,8 +128,9 @@ def croissant_jsonld(
         ``contentSize`` where its size is known. Record sets are read from
         the Parquet shards (mlcroissant reads Parquet, not HDF5 or Zarr):
         ``models`` (one record per model, the columns of
-        :func:`~vptoolkit.dataset.release.parquet.model_columns`, arrays with
-        ``isArray``/``arrayShape``) from the FileSet ``model-shards``, and
+        :func:`~vptoolkit.dataset.release.parquet.model_columns` for the store's
+        measures, arrays with ``isArray``/``arrayShape``, the measure arrays'
+        descriptions naming their columns) from the FileSet ``model-shards``, and
         ``views`` from the FileObject of the views shard; beside them, given
         inline, ``splits`` (``cr:Split``, which the ``split`` field
         references) and ``categories`` (the class labels, which the
@@ -190,7 +191,8 @@ def croissant_jsonld(
             "encodingFormat": "application/x-parquet",
             "includes": f"{folder}/*.parquet",
         })
-        columns = model_columns(int(n_points or 0), int(n_views))
+        columns = model_columns(int(n_points or 0), int(n_views),
+                                measures=info["measures"]["order"])
         record_sets.append(_split_record_set())
         record_sets.append(_category_record_set(info["class_names"]))
         record_sets.append({

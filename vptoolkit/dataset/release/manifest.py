@@ -67,7 +67,8 @@ class Problem:
         cannot be decoded, or differs between the archives of one release),
         ``"unreadable"`` (an archive cannot be opened or lacks a schema array),
         ``"manifest"`` (a malformed ``SHA256SUMS`` line), ``"attrs"`` (the
-        archive's measure order differs from ``MEASURES``) or
+        archive's ``measures`` and ``higher_is_better`` disagree with each
+        other, the measure registry or its arrays' columns) or
         ``"extra"`` (a file the manifest does not list; only ever a warning).
     target : str
         What is wrong: a path relative to the verified folder, or

@@ -76,7 +76,12 @@ from vptoolkit.dataset.release.manifest import (
     write_sha256sums,
 )
 from vptoolkit.dataset.release.options import ReleaseOptions, release_created
-from vptoolkit.dataset.store.schema import LazyEntries, ModelEntry, published_split
+from vptoolkit.dataset.store.schema import (
+    LazyEntries,
+    ModelEntry,
+    published_split,
+    registered_measures,
+)
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     errors_named,
@@ -348,8 +353,9 @@ def pack_release(
     InputError
         If ``release_dir`` exists and is not an empty folder,
         ``SOURCE_DATE_EPOCH`` is malformed, the licence table file is bad,
-        or ``dataset`` holds no readable store (the options themselves are
-        checked when made).
+        ``dataset`` holds no readable store, or its store records a measure
+        the registry does not know (the card needs its title and direction;
+        the options themselves are checked when made).
     MissingDependencyError
         If a chosen format's library is missing (zarr >= 3, pyarrow: ``pip
         install 'vptoolkit[dataset]'``).
@@ -394,6 +400,8 @@ def pack_release(
         # a concurrent pack's cleanup leaves the held staging folder alone
         with errors_named(staging, target), held(staging):
             with open_store(source) as reader:
+                # the card names each measure and which way it is better: the registry's
+                registered_measures(reader.measures, reader.path.name)
                 attrs = dict(reader.attrs)
                 check_release_license(options.license, attrs, reader.models(), provenance,
                                       force=options.force_license, where=str(source))

@@ -36,7 +36,7 @@ pyarrow is imported inside :func:`write_parquet_shards` (the ``dataset``
 extra); nothing here is needed to read a release with :mod:`vptoolkit.data`.
 
 Size
-    About 630 lines for one concept, the shard files: the columns
+    About 640 lines for one concept, the shard files: the columns
     (:class:`Column`; :func:`model_columns`, whose array columns are read
     off :data:`~vptoolkit.dataset.store.schema.ENTRY_ARRAYS`; their hub features), the
     writer and the check of written shards against the store
@@ -56,7 +56,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import SPLITS
+from vptoolkit.conventions import MEASURES, SPLITS
 from vptoolkit.dataset.store.schema import ARRAY_SPECS, ENTRY_ARRAYS, published_split
 from vptoolkit.errors import InputError
 from vptoolkit.optional import require
@@ -205,8 +205,8 @@ def parse_size(text: str | int, label: str = "--shard-size") -> int:
     return int(value)
 
 
-def model_columns(n_points: int, n_views: int,
-                  class_names: Sequence[str] | None = None) -> list[Column]:
+def model_columns(n_points: int, n_views: int, class_names: Sequence[str] | None = None, *,
+                  measures: Sequence[str] = MEASURES) -> list[Column]:
     """The columns of a model shard, in file order.
 
     The model's record (``name``, ``category``, its class ``label``,
@@ -224,13 +224,17 @@ def model_columns(n_points: int, n_views: int,
     class_names : sequence of str, optional
         The store's ``class_names``, kept on the ``label`` column (for the
         card and Croissant; the shard itself stores the integer).
+    measures : sequence of str
+        The store's ``measures``: the measure arrays hold one column per name
+        (``quality`` is ``(n_views, K)``), and their descriptions list the
+        names (default: the paper's four).
 
     Returns
     -------
     list of Column
     """
     labels = ARRAY_SPECS["labels"]
-    sizes = {"n_points": n_points, "n_views": n_views}
+    sizes = {"n_points": n_points, "n_views": n_views, "n_measures": len(measures)}
     return [
         Column("name", "string", (), "unique model name"),
         Column("category", "string", (), "object category"),
@@ -242,7 +246,7 @@ def model_columns(n_points: int, n_views: int,
         Column("license", "string", (), "licence of the source mesh (null if not given)"),
         Column("author", "string", (), "author or attribution of the source mesh"),
         Column("url", "string", (), "where the source mesh comes from"),
-        *(Column(spec.name, spec.dtype, spec.resolve(sizes), spec.column)
+        *(Column(spec.name, spec.dtype, spec.resolve(sizes), spec.column_for(measures))
           for spec in ENTRY_ARRAYS),
     ]
 
@@ -467,7 +471,7 @@ def write_parquet_shards(reader: StoreReader, release_dir: Path | str, *,
     attrs = reader.attrs
     records = _shard_records(reader)
     columns = model_columns(int(attrs["n_points"]), int(attrs["n_views"]),
-                            reader.class_labels()[0])
+                            reader.class_labels()[0], measures=reader.measures)
     lengths = {name: np.diff(offsets) for name, offsets in _mesh_offsets(reader).items()}
     shards = []
     for split in SPLITS:
@@ -561,7 +565,8 @@ def shard_differences(reader: StoreReader, release_dir: Path | str,
     names = [str(record["name"]) for record in records]
     by_split = {split: [row for row, record in enumerate(records)
                         if published_split(str(record["split"])) == split] for split in SPLITS}
-    model_cols = model_columns(int(attrs["n_points"]), int(attrs["n_views"]))
+    model_cols = model_columns(int(attrs["n_points"]), int(attrs["n_views"]),
+                               measures=reader.measures)
     groups: dict[str, list[tuple[str, int]]] = {}
     for relative in sorted(shards):
         parsed = parse_shard_name(relative)

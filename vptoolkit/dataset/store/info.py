@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
+from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 
@@ -46,7 +46,8 @@ SPLIT_ORDER = SPLITS
 
 
 LOG_BASE = 2
-"""Base of the logarithms in VE, VKL and VMI (``vptoolkit.measures``): values are in bits."""
+"""Base of the logarithms of the measures (``vptoolkit.measures``): VE, VKL, VMI and every
+other information measure are in bits."""
 
 
 CITATION = (
@@ -61,12 +62,17 @@ CITATION = (
     "}"
 )
 
-_MEASURE_NAMES = {
-    "VE": ("viewpoint entropy", "bits"),
-    "VR": ("visibility ratio", "fraction of the surface area"),
-    "VKL": ("viewpoint Kullback-Leibler divergence", "bits"),
-    "VMI": ("viewpoint mutual information", "bits"),
+_PAPER_UNITS = {
+    "VE": "bits",
+    "VR": "fraction of the surface area",
+    "VKL": "bits",
+    "VMI": "bits",
 }
+"""The raw unit of each of the paper's four measures; the summary gives any other measure
+``"-"`` (its unit is stated in its definition, :mod:`vptoolkit.measures.catalog`)."""
+
+_UNKNOWN_TITLE = "not known to this vptoolkit"
+"""The name the summary gives a measure the registry does not know."""
 
 
 _SIZE_STEPS = (
@@ -92,8 +98,9 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         ``backend``, ``categories``, ``class_names`` (label ``i`` is
         ``class_names[i]``) and ``splits`` (ordered),
         ``counts`` (category -> split -> models, every pair present),
-        ``split_totals``, ``category_totals``, ``measures`` (order,
-        higher_is_better, log_base, units, normalisation), ``camera``,
+        ``split_totals``, ``category_totals``, ``measures`` (order: the
+        store's names; higher_is_better: as recorded; names, units, log_base,
+        normalisation), ``camera``,
         ``cleaning``, ``split_seed``, ``split_fractions``, ``source``,
         ``toolkit_version``, ``created``, ``dataset_version`` (of a release,
         else None), ``statistics`` (best raw value per
@@ -114,10 +121,11 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
     split_totals = {s: sum(counts[c][s] for c in categories) for s in splits}
     category_totals = {c: sum(counts[c].values()) for c in categories}
 
+    order = reader.measures
     best_value = np.asarray(reader.array("best_value")[:], dtype=np.float64).reshape(
-        -1, len(MEASURES)
+        -1, len(order)
     )
-    best_stats = {m: _summary(best_value[:, i]) for i, m in enumerate(MEASURES)}
+    best_stats = {m: _summary(best_value[:, i]) for i, m in enumerate(order)}
     faces = [record["n_faces"] for record in models if record.get("n_faces") is not None]
     vertices = [
         record["n_vertices"] for record in models if record.get("n_vertices") is not None
@@ -136,8 +144,6 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "faces_before_cleaning": _summary(faces_before),
     }
 
-    higher = attrs.get("higher_is_better", list(HIGHER_IS_BETTER))
-    order = attrs.get("measures", list(MEASURES))
     info = {
         "store": Path(reader.path).name,
         "store_kind": reader.kind,
@@ -162,9 +168,9 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         "category_totals": category_totals,
         "measures": {
             "order": list(order),
-            "higher_is_better": list(higher),
-            "names": {m: _MEASURE_NAMES.get(m, (m, ""))[0] for m in order},
-            "units": {m: _MEASURE_NAMES.get(m, (m, ""))[1] for m in order},
+            "higher_is_better": list(attrs["higher_is_better"]),
+            "names": {m: _measure_name(m) for m in order},
+            "units": {m: _PAPER_UNITS.get(m, "-") for m in order},
             "log_base": LOG_BASE,
             "normalisation": "per model over its views: (q - worst) / (best - worst); 1 = best",
         },
@@ -180,6 +186,14 @@ def info_from_reader(reader: StoreReader) -> dict[str, Any]:
         ],
     }
     return _json_safe(info)
+
+
+def _measure_name(name: str) -> str:
+    """What the summary calls a measure: its registry title, or that it is unknown."""
+    from vptoolkit.measures.registry import all_measures
+
+    known = all_measures()
+    return known[name].title if name in known else _UNKNOWN_TITLE
 
 
 def dataset_info(path: Path | str) -> dict[str, Any]:

@@ -2,7 +2,7 @@
 
 :func:`open_store` opens any container (the container's own code is in
 :mod:`vptoolkit.dataset.store._zarr` and :mod:`vptoolkit.dataset.store._hdf5`), checks
-the root (format, schema version, measure order, arrays, counts) and, for
+the root (format, schema version, the measures and their directions, arrays, counts) and, for
 Zarr, that no chunk is missing; :class:`StoreReader` then reads arrays
 lazily, a model (:meth:`StoreReader.entry`) or every model as a lazy
 sequence (:meth:`StoreReader.entries`) by the declarations of
@@ -23,7 +23,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
 from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
@@ -37,6 +36,7 @@ from vptoolkit.dataset.store.schema import (
     class_labels,
     class_names,
     from_json_bytes,
+    registered_measures,
 )
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
 from vptoolkit.files import check_path_part
@@ -88,6 +88,27 @@ class StoreReader:
     def n_models(self) -> int:
         """Number of models ``M``."""
         return int(self.attrs["n_models"])
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """The names of the columns of every measure axis (``quality`` is ``(M, V, K)`` for
+        ``K`` names): the root attribute ``measures``, by default
+        :data:`~vptoolkit.conventions.MEASURES`."""
+        return tuple(self.attrs["measures"])
+
+    @property
+    def higher_is_better(self) -> tuple[bool, ...]:
+        """For each of :attr:`measures`, whether a higher raw value is better, from the
+        registry.
+
+        Raises
+        ------
+        InputError
+            One line, for a measure the registry does not know
+            (:func:`~vptoolkit.dataset.store.schema.registered_measures`).
+        """
+        return tuple(m.higher_is_better
+                     for m in registered_measures(self.measures, self.path.name))
 
     def array_names(self) -> list[str]:
         """Names of the root arrays, sorted."""
@@ -376,11 +397,17 @@ def open_store(path: str | os.PathLike[str], *, check_chunks: bool = True,
         attribute ``class_names`` may lack the label and string arrays), or has a
         ``schema_version`` other than :data:`SCHEMA_VERSION`.
     VerificationError
-        If its ``measures`` or ``higher_is_better`` attribute differs from
-        :data:`~vptoolkit.conventions.MEASURES` and
-        :data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, or (with
-        ``check_chunks``) a chunk is missing; the message names the array and
-        its models.
+        If its ``measures`` attribute is not a list of distinct names, its
+        ``higher_is_better`` not one bool per name or, for a measure the
+        registry knows, not the registry's direction, a measure array's last
+        axis does not hold one column per name, or (with ``check_chunks``) a
+        chunk is missing; the message names the array and its models.
+
+    Notes
+    -----
+    A measure the registry does not know (a store written by another version)
+    opens all the same: its arrays are there. What needs its direction or title
+    (:attr:`StoreReader.higher_is_better`, the card) says so in one line.
     """
     source = Path(path)
     kind = store_kind(source)
@@ -432,15 +459,7 @@ def _check_root(reader: StoreReader) -> None:
             f"{label}: schema_version {version!r} is not supported (this vptoolkit reads "
             f"{SCHEMA_VERSION})"
         )
-    if attrs.get("measures") != list(MEASURES):
-        raise VerificationError(
-            f"{label}: measures {attrs.get('measures')!r} differ from {list(MEASURES)}"
-        )
-    if attrs.get("higher_is_better") != list(HIGHER_IS_BETTER):
-        raise VerificationError(
-            f"{label}: higher_is_better {attrs.get('higher_is_better')!r} differs from "
-            f"{list(HIGHER_IS_BETTER)}"
-        )
+    _check_measures(attrs, label)
     # A store without class_names predates the label and string arrays; it is read without them.
     expected = ARRAY_NAMES if "class_names" in attrs else [
         name for name in ARRAY_NAMES if name not in (*STRING_ARRAYS, "labels")]
@@ -450,3 +469,32 @@ def _check_root(reader: StoreReader) -> None:
     for key in ("n_models", "n_views", "n_points"):
         if not isinstance(attrs.get(key), int):
             raise InputError(f"{label}: root attribute {key!r} is missing or not an integer")
+    n_measures = len(attrs["measures"])
+    for spec in ENTRY_ARRAYS:
+        shape = reader.array(spec.name).shape
+        if "n_measures" in spec.shape and (not shape or shape[-1] != n_measures):
+            raise VerificationError(
+                f"{label}: array {spec.name!r} of shape {tuple(shape)} does not hold one column "
+                f"per measure of {attrs['measures']}")
+
+
+def _check_measures(attrs: dict[str, Any], label: str) -> None:
+    """The ``measures`` and ``higher_is_better`` attributes: distinct names, one bool each,
+    the registry's direction for every name it knows."""
+    from vptoolkit.measures.registry import all_measures
+
+    names, higher = attrs.get("measures"), attrs.get("higher_is_better")
+    if not (isinstance(names, list) and names
+            and all(isinstance(name, str) and name for name in names)
+            and len(set(names)) == len(names)):
+        raise VerificationError(f"{label}: measures {names!r} is not a list of distinct names")
+    if not (isinstance(higher, list) and len(higher) == len(names)
+            and all(isinstance(flag, bool) for flag in higher)):
+        raise VerificationError(f"{label}: higher_is_better {higher!r} does not give one "
+                                f"direction per measure of {names}")
+    known = all_measures()
+    for name, flag in zip(names, higher):
+        if name in known and known[name].higher_is_better != flag:
+            raise VerificationError(
+                f"{label}: measures {names} with higher_is_better {higher}: {name} is "
+                f"{'higher' if known[name].higher_is_better else 'lower'} is better")

@@ -6,7 +6,8 @@ name and ``schema_version``; the root arrays, declared once
 :data:`ENTRY_ARRAYS` and :data:`STRING_ARRAYS` are read, and so are the
 writer's dtypes, shapes and chunks, the reader's models of each row, a
 build's staged members and a release's Parquet columns; the root attributes
-the build and the writer set (:data:`BUILD_ATTRS`, :data:`WRITER_ATTRS`); the
+the build and the writer set (:data:`BUILD_ATTRS`, :data:`WRITER_ATTRS`) and the
+registered measures the ``measures`` attribute names (:func:`registered_measures`); the
 aliases of the split names of :data:`vptoolkit.conventions.SPLITS`
 (:data:`SPLIT_ALIASES`, :func:`published_split`); the keys of a failure
 record (:data:`FAILURE_KEYS`); one model's content (:class:`ModelEntry`) and a
@@ -15,10 +16,11 @@ lazy sequence of them (:class:`LazyEntries`); the unit-normal rule
 encoding (:func:`json_bytes`, :func:`from_json_bytes`) and the array digest
 (:func:`array_sha256`). Described in ``vptoolkit/dataset_card/SCHEMA.md``.
 
-Needs numpy (and :mod:`vptoolkit.conventions`) only.
+Needs numpy (and :mod:`vptoolkit.conventions`) only; :func:`registered_measures` imports
+the measure registry (:mod:`vptoolkit.measures.registry`, numpy alone) when called.
 
 Size
-    About 640 lines for one concept, the data contract of SCHEMA.md that
+    About 700 lines for one concept, the data contract of SCHEMA.md that
     every stage reads: the arrays' declarations, the model they make up and
     its lazy sequence stay beside the attributes, split names and encodings
     of the same contract, so that a store's layout is read in one place.
@@ -32,7 +34,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from types import MappingProxyType
-from typing import Any, Literal, Protocol, overload
+from typing import TYPE_CHECKING, Any, Literal, Protocol, overload
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -40,6 +42,9 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import parse_json
+
+if TYPE_CHECKING:
+    from vptoolkit.measures.registry import Measure
 
 __all__ = [
     "FORMAT_NAME",
@@ -51,6 +56,7 @@ __all__ = [
     "STRING_ARRAYS",
     "BUILD_ATTRS",
     "WRITER_ATTRS",
+    "registered_measures",
     "SPLIT_ALIASES",
     "published_split",
     "class_labels",
@@ -101,8 +107,9 @@ class ArraySpec:
         The shape of one model's value (``"model"``), of one model's rows
         (``"mesh"``, first axis None) or of the whole array (``"root"``). A
         string names a size: ``"n_points"``, ``"n_views"``, ``"n_measures"``
-        (``len(MEASURES)``); None is a length set by the content (the rows
-        of a mesh, the bytes of a JSON text, ``n_models + 1`` offsets).
+        (the length of the root attribute ``measures``, ``len(MEASURES)`` by
+        default); None is a length set by the content (the rows of a mesh,
+        the bytes of a JSON text, ``n_models + 1`` offsets).
     chunk_rows : int or None
         Rows along the first axis per chunk (models, for ``"model"``); None
         stores the array as one chunk.
@@ -117,7 +124,9 @@ class ArraySpec:
         else empty.
     column : str
         What a model's value holds, as the Parquet column of a release that
-        carries it describes it; empty for an array with no such column.
+        carries it describes it, ``{measures}`` standing for the store's
+        measure names (:meth:`column_for`); empty for an array with no such
+        column.
     """
 
     name: str
@@ -144,9 +153,9 @@ class ArraySpec:
         Parameters
         ----------
         sizes : mapping of str to int or None
-            ``"n_points"`` and ``"n_views"`` (``"n_measures"`` is
-            ``len(MEASURES)`` unless given); a size of None stays None
-            (any length).
+            ``"n_points"``, ``"n_views"`` and ``"n_measures"`` (the
+            number of the store's measures, ``len(MEASURES)`` unless given);
+            a size of None stays None (any length).
 
         Returns
         -------
@@ -157,14 +166,26 @@ class ArraySpec:
         --------
         >>> ARRAY_SPECS["quality"].resolve({"n_points": 200, "n_views": 50})
         (50, 4)
+        >>> ARRAY_SPECS["best_index"].resolve({"n_measures": 3})
+        (3,)
         >>> ARRAY_SPECS["mesh_faces"].resolve({})
         (None, 3)
         """
         known = {"n_measures": len(MEASURES), **sizes}
         return tuple(known[axis] if isinstance(axis, str) else axis for axis in self.shape)
 
+    def column_for(self, measures: Sequence[str]) -> str:
+        """:attr:`column` for a store of these measures: their names, comma-separated, in
+        place of ``{measures}``.
 
-_ORDER = ", ".join(MEASURES)
+        Examples
+        --------
+        >>> ARRAY_SPECS["quality"].column_for(("VE", "NVT", "SL"))
+        'normalised quality per view, columns VE, NVT, SL, 1 = best'
+        """
+        return self.column.replace("{measures}", ", ".join(measures))
+
+
 ARRAY_SPECS: Mapping[str, ArraySpec] = MappingProxyType({spec.name: spec for spec in (
     ArraySpec("views", "float64", "root", ("n_views", 3), None,
               "unit view directions, model centre to camera (Fibonacci sphere)"),
@@ -176,10 +197,10 @@ ARRAY_SPECS: Mapping[str, ArraySpec] = MappingProxyType({spec.name: spec for spe
               column="unit face normal at each point"),
     ArraySpec("quality", "float32", "model", ("n_views", "n_measures"), _CHUNK_MODELS,
               "normalised quality in [0, 1], 1 = best", field="quality",
-              column=f"normalised quality per view, columns {_ORDER}, 1 = best"),
+              column="normalised quality per view, columns {measures}, 1 = best"),
     ArraySpec("quality_raw", "float32", "model", ("n_views", "n_measures"), _CHUNK_MODELS,
               "raw measures, NaN where a view sees nothing", field="quality_raw",
-              column=f"raw measures per view, columns {_ORDER}, NaN where nothing is seen"),
+              column="raw measures per view, columns {measures}, NaN where nothing is seen"),
     ArraySpec("best_index", "int64", "model", ("n_measures",), _CHUNK_MODELS,
               "index into `views` of the best view per measure", field="best_index",
               column="index of the best view per measure"),
@@ -253,7 +274,50 @@ WRITER_ATTRS = (
     "class_names",
 )
 """Root attributes :func:`~vptoolkit.dataset.store.writer.write_dataset` sets itself
-(``class_names`` may also be passed, see :func:`class_names`)."""
+(``class_names`` may also be passed, see :func:`class_names`; ``measures``, the names
+of the columns of every measure axis, is taken from the build's attributes, the paper's
+four by default, and ``higher_is_better`` from the registry for those names)."""
+
+
+def registered_measures(names: Sequence[str], where: str) -> tuple[Measure, ...]:
+    """The registry's measures (:func:`~vptoolkit.measures.registry.get_measure`) of a
+    store's ``measures`` attribute, for what needs their titles or directions.
+
+    A store may record a measure this vptoolkit does not know (written by another
+    version): its arrays load all the same, but which way it is better, or what it is
+    called, is known only from the registry.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Measure names, e.g. the root attribute ``measures``.
+    where : str
+        What the names belong to (the store's file name), at the start of the message.
+
+    Returns
+    -------
+    tuple of Measure
+        One per name, in order.
+
+    Raises
+    ------
+    InputError
+        One line naming the first unknown measure.
+
+    Examples
+    --------
+    >>> [m.higher_is_better for m in registered_measures(["VE", "VKL"], "d.h5")]
+    [True, False]
+    """
+    from vptoolkit.measures.registry import all_measures
+
+    known = all_measures()
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        raise InputError(
+            f"{where}: measure {unknown[0]!r} is not one this vptoolkit knows, so which way "
+            f"it is better is unknown (known: {', '.join(known)})")
+    return tuple(known[name] for name in names)
 
 SPLIT_ALIASES = {"val": "validation"}
 """Other names a model record or a caller may use for a split of
@@ -380,13 +444,14 @@ class ModelEntry:
         Points sampled uniformly by area on the cleaned mesh.
     normals : (n_points, 3) float32
         Unit face normal at each point.
-    quality : (n_views, 4) float32
-        Normalised quality in [0, 1], 1 = best, in ``MEASURES`` order.
-    quality_raw : (n_views, 4) float32
+    quality : (n_views, K) float32
+        Normalised quality in [0, 1], 1 = best, one column per measure of the
+        store's ``measures`` (by default ``MEASURES``, ``K = 4``).
+    quality_raw : (n_views, K) float32
         Raw measures; NaN where a view sees nothing.
-    best_index, worst_index : (4,) int64
+    best_index, worst_index : (K,) int64
         Index into the views of the best and worst view per measure.
-    best_value, worst_value : (4,) float32
+    best_value, worst_value : (K,) float32
         Raw value at the best and worst view per measure.
     vertices : (n_vertices, 3) float32
         Cleaned mesh vertices.

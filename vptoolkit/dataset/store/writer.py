@@ -30,7 +30,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, SPLITS
+from vptoolkit.conventions import MEASURES, SPLITS
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
 from vptoolkit.dataset.store.schema import (
     ARRAY_SPECS,
@@ -48,6 +48,7 @@ from vptoolkit.dataset.store.schema import (
     le_bytes,
     normal_length_problem,
     published_split,
+    registered_measures,
 )
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
@@ -99,7 +100,7 @@ def _cast(entry_name: str, spec: ArraySpec, value: Any,
 
 
 def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None,
-                 store: str) -> _Checked:
+                 n_measures: int, store: str) -> _Checked:
     """Validate one entry and cast its arrays; ``n_points`` None accepts any count.
 
     ``store`` (the target's name) starts the message about a name or category
@@ -122,7 +123,8 @@ def _check_entry(entry: Any, position: int, n_views: int, n_points: int | None,
     arrays: dict[str, NDArray[Any]] = {}
     for spec in ENTRY_ARRAYS:
         arrays[spec.name] = _cast(name, spec, getattr(entry, spec.field),
-                                  {"n_points": n_points, "n_views": n_views})
+                                  {"n_points": n_points, "n_views": n_views,
+                                   "n_measures": n_measures})
         if spec.name == "points":  # declared first: the normals must match its count
             n_points = arrays["points"].shape[0]
             if n_points < 1:
@@ -181,7 +183,7 @@ class _Plan(NamedTuple):
     digests: dict[str, str]
 
 
-def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar,
+def _first_pass(entries: Sequence[ModelEntry], n_views: int, n_measures: int, progress: Bar,
                 store: str) -> _Plan:
     hashers = {spec.name: hashlib.sha256() for spec in ENTRY_ARRAYS}
     records: list[dict[str, Any]] = []
@@ -192,7 +194,8 @@ def _first_pass(entries: Sequence[ModelEntry], n_views: int, progress: Bar,
     previous: tuple[str, str] | None = None
     n_points: int | None = None
     for position in range(len(entries)):
-        checked = _check_entry(entries[position], position, n_views, n_points, store)
+        checked = _check_entry(entries[position], position, n_views, n_points, n_measures,
+                               store)
         record = checked.record
         key = (record["category"], record["name"])
         if record["name"] in seen:
@@ -253,6 +256,21 @@ def _strings(values: Any) -> NDArray[np.object_]:
     return np.array(list(values) or [], dtype=object)
 
 
+def _measure_names(attrs: Mapping[str, Any]) -> list[str]:
+    """The ``measures`` attribute the store gets: ``attrs["measures"]``, registered and
+    distinct names (:func:`~vptoolkit.measures.registry.resolve_measures`), or the paper's
+    four."""
+    from vptoolkit.measures.registry import resolve_measures
+
+    given = attrs.get("measures", MEASURES)
+    if isinstance(given, str) or not isinstance(given, Sequence) or not given:
+        raise InputError(f"attrs: measures must be a non-empty list of names, got {given!r}")
+    try:
+        return list(resolve_measures([str(name) for name in given]))
+    except InputError as err:
+        raise InputError(f"attrs: measures: {str(err).removeprefix('measures: ')}") from err
+
+
 def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
                 n_points: int | None, n_failures: int,
                 labels: list[str] | None = None) -> dict[str, Any]:
@@ -267,11 +285,13 @@ def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
         raise InputError(f"attrs: missing root attributes {missing}")
     if HDF5_JSON_KEY in attrs:
         raise InputError(f"attrs: {HDF5_JSON_KEY!r} is reserved for HDF5 files")
+    names = _measure_names(attrs)
     own: dict[str, Any] = {
         "format": FORMAT_NAME,
         "schema_version": SCHEMA_VERSION,
-        "measures": list(MEASURES),
-        "higher_is_better": list(HIGHER_IS_BETTER),
+        "measures": names,
+        "higher_is_better": [m.higher_is_better
+                             for m in registered_measures(names, "attrs: measures")],
         "n_models": n_models,
         "n_views": n_views,
         "n_points": 0 if n_points is None else n_points,
@@ -281,7 +301,7 @@ def _root_attrs(attrs: Mapping[str, Any], *, n_models: int, n_views: int,
         tail["class_names"] = labels
     for key, value in {**own, **tail}.items():
         # Attributes read back from a store may be passed through unchanged.
-        if key == "n_points" and n_points is None:
+        if key == "measures" or (key == "n_points" and n_points is None):
             continue
         if key in attrs and attrs[key] != value:
             raise InputError(
@@ -350,7 +370,7 @@ def _layout(spec: ArraySpec, whole: Mapping[str, NDArray[Any]],
 
     ``whole`` holds the arrays written at once (a ``"root"`` one's shape is
     its own, a mesh array's rows end at its offsets' last), ``sizes`` the
-    ``n_models``, ``n_points`` and ``n_views`` of the store. A chunk holds
+    ``n_models``, ``n_points``, ``n_views`` and ``n_measures`` of the store. A chunk holds
     ``spec.chunk_rows`` rows along the first axis, or all of them, and the
     whole of every other axis.
     """
@@ -443,9 +463,14 @@ def write_dataset(
         May be empty: the store then has zero models (and ``n_points`` 0).
     attrs : mapping
         The build's root attributes, all of :data:`BUILD_ATTRS` (other
-        JSON-safe keys are kept too). Keys of :data:`WRITER_ATTRS` are set by
-        the writer; they may be passed only with the value the writer would
-        set (e.g. attributes read back from another store).
+        JSON-safe keys are kept too), and optionally ``measures``: the
+        registered, distinct names of the columns of every entry's measure
+        arrays (``quality`` is ``(n_views, K)`` for ``K`` names; default the
+        paper's four, :data:`~vptoolkit.conventions.MEASURES`). The other keys
+        of :data:`WRITER_ATTRS` are set by the writer (``higher_is_better``
+        from the registry for those names); they may be passed only with the
+        value the writer would set (e.g. attributes read back from another
+        store).
     views : (n_views, 3) array_like
         Unit view directions, stored as float64.
     failures : sequence of mapping
@@ -464,7 +489,8 @@ def write_dataset(
     InputError
         On an unknown suffix, a missing folder, a target of the wrong kind
         (a file where a directory goes or vice versa), or a bad entry,
-        attribute, view array or failure record; the message names it.
+        attribute (an unknown or repeated measure name among them), view array
+        or failure record; the message names it.
     VerificationError
         If an entry reads differently the second time.
     """
@@ -479,12 +505,13 @@ def write_dataset(
     failure_records = _check_failures(failures)
     n_views = len(view_directions)
     n_models = len(entries)
-    _root_attrs(attrs, n_models=n_models, n_views=n_views, n_points=None,
-                n_failures=len(failure_records))  # fail before reading any entry
+    checked_attrs = _root_attrs(attrs, n_models=n_models, n_views=n_views, n_points=None,
+                                n_failures=len(failure_records))  # fail before reading any entry
+    n_measures = len(checked_attrs["measures"])
 
     with progress_bar(total=n_models, description=f"{target.name}: check", unit="model",
                       enabled=progress) as bar:
-        plan = _first_pass(entries, n_views, bar, str(target))
+        plan = _first_pass(entries, n_views, n_measures, bar, str(target))
     categories = [record["category"] for record in plan.records]
     names, labels = class_labels(categories, attrs.get("class_names"))
     root_attrs = _root_attrs(
@@ -502,7 +529,8 @@ def write_dataset(
         "splits": _strings(published_split(record["split"]) for record in plan.records),
         "labels": labels,
     }
-    sizes = {"n_models": n_models, "n_points": plan.n_points, "n_views": n_views}
+    sizes = {"n_models": n_models, "n_points": plan.n_points, "n_views": n_views,
+             "n_measures": n_measures}
     layout = {name: _layout(spec, whole, sizes) for name, spec in ARRAY_SPECS.items()}
     digests = {name: array_sha256(array) for name, array in whole.items()}
     digests.update(plan.digests)
@@ -550,11 +578,12 @@ def _second_pass(entries: Sequence[ModelEntry], plan: _Plan, stored: dict[str, A
     writers = {spec.name: _RowWriter(stored[spec.name], layout[spec.name][1][0])
                for spec in ENTRY_ARRAYS}
     n_views = layout["views"][0][0]
+    n_measures = layout["best_index"][0][1]
     with progress_bar(total=len(plan.records), description=f"{label}: write", unit="model",
                       enabled=progress) as bar:
         for position, record in enumerate(plan.records):
             checked = _check_entry(entries[position], position, n_views, plan.n_points or None,
-                                   label)
+                                   n_measures, label)
             if _entry_checksum(checked) != plan.checksums[position]:
                 raise VerificationError(
                     f"entries: model {record['name']!r} read differently on the second pass; "

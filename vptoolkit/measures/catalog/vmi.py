@@ -20,7 +20,7 @@ def _compute(data: ViewData) -> NDArray[np.float64]:
 
 MEASURE = Measure(
     name="VMI",
-    title="viewpoint mutual information (I1)",
+    title="viewpoint mutual information",
     family="information",
     higher_is_better=False,
     needs=frozenset({"pixels"}),
