@@ -14,7 +14,12 @@ Format (``*.npz``, nothing pickled):
     One direction per model and measure, from the model centre towards the
     camera (need not be unit length).
 ``measures`` : (n_measures,) unicode
-    ``MEASURES`` (``["VE", "VR", "VKL", "VMI"]``) or a subset in that order.
+    Registered measure names (:mod:`vptoolkit.measures.registry`), each
+    once: by default the paper's four, ``MEASURES`` (``["VE", "VR", "VKL",
+    "VMI"]``); any others in any order, e.g. ``["NVT", "SL", "VE"]``. Where a
+    file names several of the paper's four, they keep their order VE, VR,
+    VKL, VMI among themselves (the order every file has had), so a file of
+    the four reads as it always has.
 
 Other keys are ignored. :func:`write_predictions` writes the file atomically
 (:func:`vptoolkit.files.atomic_write`); :func:`read_predictions` reads it back
@@ -23,7 +28,8 @@ with ``allow_pickle=False`` and closes the file on every path.
 member of a ``.npz`` archive. Scoring against a dataset (which names, which
 split) lives in :mod:`vptoolkit.evaluate`.
 
-Numpy only.
+Numpy, and the measure registry for the known names (which loads the
+catalog's small modules, numpy only).
 """
 
 from __future__ import annotations
@@ -42,10 +48,12 @@ from vptoolkit.checks import check_npy_header, one_line
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
+from vptoolkit.measures.registry import all_measures
 
 __all__ = [
     "PREDICTION_KEYS",
     "Predictions",
+    "check_prediction_measures",
     "read_arrays",
     "read_predictions",
     "parse_predictions",
@@ -72,13 +80,16 @@ class Predictions:
         One direction per model and measure, from the model centre towards
         the camera (a predictor's are unit length; a file's need not be).
     measures : tuple of str
-        The measure of each direction: ``MEASURES`` or a subset in that order.
+        The measure of each direction: registered names, each once (the
+        paper's four, where several are given, in their order); default
+        ``MEASURES``. See :func:`check_prediction_measures`.
 
     Raises
     ------
     InputError
-        If ``directions`` is not of shape ``(n_names, n_measures, 3)`` or two
-        names are the same.
+        If ``directions`` is not of shape ``(n_names, n_measures, 3)``, two
+        names are the same, or ``measures`` break
+        :func:`check_prediction_measures`.
 
     Examples
     --------
@@ -102,7 +113,7 @@ class Predictions:
         if len(set(self.names)) != len(self.names):
             raise InputError("names: model names must be unique")
         object.__setattr__(self, "names", tuple(str(name) for name in self.names))
-        object.__setattr__(self, "measures", tuple(str(name) for name in self.measures))
+        object.__setattr__(self, "measures", check_prediction_measures(self.measures))
         object.__setattr__(self, "directions", directions)
 
     def __len__(self) -> int:
@@ -196,6 +207,46 @@ def unicode_vector(file_name: str, key: str, array: NDArray[Any]) -> list[str]:
     return [str(value) for value in array]
 
 
+def check_prediction_measures(measures: Sequence[str], where: str = "measures",
+                              ) -> tuple[str, ...]:
+    """The measure names of predictions, checked.
+
+    Parameters
+    ----------
+    measures : sequence of str
+        The names, one per direction of a model.
+    where : str
+        What the error messages name first (default: ``"measures"``; a
+        file's name when reading one).
+
+    Returns
+    -------
+    tuple of str
+        The names, as given.
+
+    Raises
+    ------
+    InputError
+        No name, a name the registry does not know
+        (:func:`vptoolkit.measures.registry.all_measures`) or a name given
+        twice. Any order is allowed: scoring matches measures by name.
+    """
+    names = [str(name) for name in measures]
+    known = all_measures()
+    unknown = [name for name in names if name not in known]
+    if unknown:
+        listed = ", ".join(repr(name) for name in unknown[:3])
+        listed += ", ..." if len(unknown) > 3 else ""
+        raise InputError(f"{where}: unknown measure(s) {listed}, expected registered names "
+                         f"({', '.join(known)})")
+    if not names:
+        raise InputError(f"{where}: no measure named")
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise InputError(f"{where}: measures {names} name {', '.join(repeated)} twice")
+    return tuple(names)
+
+
 def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]],
                       ) -> tuple[tuple[str, ...], NDArray[Any], tuple[str, ...]]:
     """Check the members of a predictions ``.npz`` against the format.
@@ -214,13 +265,13 @@ def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]],
     directions : (n_names, n_measures, 3) ndarray
         As stored (dtype not yet checked).
     measures : tuple of str
-        ``MEASURES`` or a subset in that order.
+        Registered names, as :func:`check_prediction_measures` accepts them.
 
     Raises
     ------
     InputError
-        A missing key, ``names`` or ``measures`` not a 1-D unicode array, an
-        unknown measure, measures out of ``MEASURES`` order, or ``directions``
+        A missing key, ``names`` or ``measures`` not a 1-D unicode array,
+        measures :func:`check_prediction_measures` refuses, or ``directions``
         not of shape ``(n_names, n_measures, 3)``.
     """
     missing_keys = [key for key in PREDICTION_KEYS if key not in arrays]
@@ -228,23 +279,14 @@ def parse_predictions(file_name: str, arrays: dict[str, NDArray[Any]],
         raise InputError(f"{file_name}: missing key(s) {', '.join(missing_keys)} "
                          f"(has {', '.join(sorted(arrays)) or 'none'})")
     names = unicode_vector(file_name, "names", arrays["names"])
-    file_measures = unicode_vector(file_name, "measures", arrays["measures"])
-    unknown_measures = [m for m in file_measures if m not in MEASURES]
-    if unknown_measures:
-        listed = ", ".join(repr(name) for name in unknown_measures[:3])
-        listed += ", ..." if len(unknown_measures) > 3 else ""
-        raise InputError(f"{file_name}: unknown measure(s) {listed}, "
-                         f"expected some of {', '.join(MEASURES)}")
-    columns = [MEASURES.index(m) for m in file_measures]
-    if not columns or columns != sorted(set(columns)):
-        raise InputError(f"{file_name}: measures {file_measures} differ from the order "
-                         f"{', '.join(MEASURES)} (or a subset in that order)")
+    file_measures = check_prediction_measures(
+        unicode_vector(file_name, "measures", arrays["measures"]), file_name)
     raw = arrays["directions"]
-    if raw.shape != (len(names), len(columns), 3):
+    if raw.shape != (len(names), len(file_measures), 3):
         raise InputError(f"{file_name}: directions must have shape ({len(names)}, "
-                         f"{len(columns)}, 3) for {len(names)} names and "
-                         f"{len(columns)} measures, got {raw.shape}")
-    return tuple(names), raw, tuple(file_measures)
+                         f"{len(file_measures)}, 3) for {len(names)} names and "
+                         f"{len(file_measures)} measures, got {raw.shape}")
+    return tuple(names), raw, file_measures
 
 
 def read_predictions(path: str | os.PathLike[str]) -> Predictions:
@@ -294,8 +336,9 @@ def write_predictions(
     directions : (n_models, n_measures, 3) array_like
         One direction per model and measure, stored as float64.
     measures : sequence of str
-        The predicted measures, ``MEASURES`` or a subset in that order
-        (default: all four).
+        The predicted measures: registered names, each once, the paper's
+        four in their order among themselves (default: ``MEASURES``, the
+        four; see :func:`check_prediction_measures`).
 
     Returns
     -------
@@ -314,11 +357,7 @@ def write_predictions(
     name_list = [str(name) for name in names]
     if len(set(name_list)) != len(name_list):
         raise InputError("names: model names must be unique")
-    measure_list = [str(m) for m in measures]
-    columns = [MEASURES.index(m) if m in MEASURES else -1 for m in measure_list]
-    if not columns or -1 in columns or columns != sorted(set(columns)):
-        raise InputError(f"measures: {measure_list} is not {', '.join(MEASURES)} "
-                         "or a subset in that order")
+    measure_list = check_prediction_measures(measures)
     values = np.asarray(directions, dtype=np.float64)
     if values.shape != (len(name_list), len(measure_list), 3):
         raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "

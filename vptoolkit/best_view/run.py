@@ -7,6 +7,10 @@
 and returns a :class:`SearchRun`: the answers, the inputs that failed, and
 the answers as :class:`~vptoolkit.predictions.Predictions` that ``vptool
 evaluate`` scores. This is what ``vptool best-view`` runs.
+
+Every mesh is searched for the same measures: those asked for, else a
+dataset's recorded measures that a search can evaluate
+(:func:`recorded_searchable`), else the paper's four.
 """
 
 from __future__ import annotations
@@ -20,21 +24,24 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from vptoolkit.best_view.search import (
+    UNSEARCHABLE_NEEDS,
     BestViews,
     SearchSettings,
     search_best_views,
     search_settings,
+    searchable_measures,
 )
 from vptoolkit.checks import one_line
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
+from vptoolkit.measures.registry import all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
 from vptoolkit.visibility import RasterScene
 
-__all__ = ["SearchRun", "search_inputs"]
+__all__ = ["SearchRun", "recorded_searchable", "search_inputs"]
 
 
 @dataclass(frozen=True)
@@ -50,19 +57,44 @@ class SearchRun:
     is_bad_input : bool
         Whether every failure was bad input (an unreadable or malformed mesh,
         an :class:`~vptoolkit.errors.InputError`), none a measurement failure.
+    measures : tuple of str
+        The searched measures, the same for every mesh (default: the paper's four).
     """
 
     results: tuple[BestViews, ...]
     failures: tuple[tuple[str, str], ...]
     is_bad_input: bool = True
+    measures: tuple[str, ...] = MEASURES
 
     @property
     def predictions(self) -> Predictions:
-        """The answers' directions ``(n_meshes, 4, 3)`` by name, as ``vptool evaluate`` scores
-        them (write them with :meth:`~vptoolkit.predictions.Predictions.save_npz`)."""
+        """The answers' directions ``(n_meshes, M, 3)`` by name, with the searched measures'
+        names, as ``vptool evaluate`` scores them (write them with
+        :meth:`~vptoolkit.predictions.Predictions.save_npz`)."""
         return Predictions(tuple(result.name for result in self.results),
                            np.stack([result.directions for result in self.results])
-                           if self.results else np.zeros((0, len(MEASURES), 3)))
+                           if self.results else np.zeros((0, len(self.measures), 3)),
+                           self.measures)
+
+
+def recorded_searchable(recorded: Sequence[str], where: str = "dataset") -> tuple[str, ...]:
+    """The measures of ``recorded`` (a dataset's) that a search can evaluate, in its order.
+
+    Names the registry does not know, and measures with a need in
+    :data:`~vptoolkit.best_view.search.UNSEARCHABLE_NEEDS`, are left out.
+
+    Raises
+    ------
+    InputError
+        If none is left (the message starts with ``where``).
+    """
+    known = all_measures()
+    kept = tuple(name for name in recorded
+                 if name in known and not known[name].needs & UNSEARCHABLE_NEEDS)
+    if not kept:
+        raise InputError(f"{where}: records no measure a search can evaluate "
+                         f"({', '.join(recorded)}); name the measures to search")
+    return kept
 
 
 def search_inputs(
@@ -72,6 +104,7 @@ def search_inputs(
     dataset: str | os.PathLike[str] | None = None,
     split: str | None = "test",
     prior: Callable[[Mesh], ArrayLike] | None = None,
+    measures: str | Sequence[str] | None = None,
     progress: bool = False,
     budget: int | None = None,
     resolution: int | None = None,
@@ -95,6 +128,11 @@ def search_inputs(
         ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
         e.g. :class:`vptoolkit.unoccluded.UnoccludedPrior` or
         :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
+    measures : str or sequence of str, optional
+        The measures to search
+        (:func:`~vptoolkit.best_view.search.searchable_measures`); default:
+        with ``dataset``, the measures it records that a search can evaluate
+        (:func:`recorded_searchable`), else the paper's four.
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
     budget, resolution : int, optional
@@ -104,16 +142,23 @@ def search_inputs(
     Raises
     ------
     InputError
-        On an invalid option, an input that is no mesh, point file or dataset
+        On an invalid option, an unknown measure or one a search cannot
+        evaluate, an input that is no mesh, point file or dataset
         (:func:`vptoolkit.inputs.open_inputs`), a dataset that cannot be
         opened or a split of it without models. A mesh that cannot be read
         or measured, or a second model of the same name, is recorded in
         ``failures`` instead.
     """
     chosen = search_settings(settings, budget=budget, resolution=resolution)
+    names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
     with open_inputs(entries, split=split, purpose="search") as sources:
-        return _search_all(sources, chosen, prior, progress)
+        if names is None:
+            stored = next((source.dataset for source in sources if source.dataset is not None),
+                          None)
+            names = (searchable_measures(None) if stored is None
+                     else recorded_searchable(stored.measures, stored.path.name))
+        return _search_all(sources, chosen, prior, progress, names)
 
 
 def _load_kernels() -> None:
@@ -124,7 +169,8 @@ def _load_kernels() -> None:
 
 
 def _search_all(sources: list[ModelSource], settings: SearchSettings,
-                prior: Callable[[Mesh], ArrayLike] | None, progress: bool) -> SearchRun:
+                prior: Callable[[Mesh], ArrayLike] | None, progress: bool,
+                measures: tuple[str, ...]) -> SearchRun:
     if sources:
         _load_kernels()
     results: list[BestViews] = []
@@ -142,7 +188,7 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 started = time.perf_counter()
                 candidates = prior(mesh) if prior is not None else None
                 proposing = time.perf_counter() - started  # part of the answer's cost
-                found = search_best_views(mesh, settings, prior=candidates)
+                found = search_best_views(mesh, settings, prior=candidates, measures=measures)
                 results.append(replace(found, seconds=found.seconds + proposing))
             except (InputError, MeasurementError) as error:
                 if claimed is not None:
@@ -150,4 +196,4 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 failures.append((source.label, one_line(error)))
                 is_bad_input = is_bad_input and isinstance(error, InputError)
             bar.update(1)
-    return SearchRun(tuple(results), tuple(failures), is_bad_input)
+    return SearchRun(tuple(results), tuple(failures), is_bad_input, measures)

@@ -3,7 +3,9 @@
 The cost of a view search is the number of triangle-ID images drawn, whatever
 the machine; :func:`search_best_views` spends a budget of ``budget`` views in
 stages, coarse to fine, and returns the best direction it measured for each
-of VE, VR, VKL and VMI (:mod:`vptoolkit.measures`):
+measure it searches (:mod:`vptoolkit.measures`; by default the paper's four,
+VE, VR, VKL and VMI; any other that a few views can evaluate, see
+*Measures* below):
 
 1. **coarse**: a Fibonacci sphere of ``coarse_views`` directions (half the
    budget) at ``coarse_resolution`` pixels (``resolution`` up to 128 px, then
@@ -38,10 +40,39 @@ every face in proportion to its area (``mean_v a_t(v) A_z / A_t``, divided by
 ``sum_v a_t(v) + mean_v a_t(v)``). With no coarse view, ``p(z) = A_z / A_t``,
 which makes VMI equal VKL.
 
+Measures
+    The paper's four are measured from each stage's pixel counts as above
+    (:func:`vptoolkit.measures.quality.quality_from_histograms`, with the
+    estimated ``p(z)``). Any other registered measure is computed by the
+    registry (:attr:`Measure.compute <vptoolkit.measures.registry.Measure.compute>`)
+    from the same drawing, with the depth and silhouette statistics drawn
+    too where one needs them; the per-mesh curvature is computed once per
+    search. Where such a measure compares a view with the others drawn (I2
+    and I3 through the distributions over the views, SS through the largest
+    projected area), the others are every view drawn at ``resolution`` so
+    far, and the competing views are measured again after each stage, so
+    every comparison is over one set of views. Measures that need the
+    neighbouring views on the sphere or a saliency computed from all views
+    (:data:`UNSEARCHABLE_NEEDS`: INS, DVS, SAL, EVMI, MS) cannot be
+    evaluated on a few scattered views; the search refuses them
+    (:func:`searchable_measures`), and ``vptool measures`` computes them
+    over the full sphere.
+
 Directions are unit vectors from the bounding-box centre towards the camera,
-in the mesh's own coordinates; raw values are in bits (VR a fraction);
-higher is better for VE and VR, lower for VKL and VMI. :meth:`BestViews.camera_pose`
+in the mesh's own coordinates; raw values are in each measure's units (bits
+for VE, VKL, VMI; VR a fraction); which way is better is the registry's
+(:attr:`Measure.higher_is_better <vptoolkit.measures.registry.Measure.higher_is_better>`:
+higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
+
+Size
+    About 690 lines for one concept, the search of one mesh: its settings
+    (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
+    and what measures a stage's views (the paper's four with the estimated
+    ``p(z)``, the registry's measures over the competing views). The stages
+    and the measuring share the incumbents, the estimate and the competing
+    views, which a split would have to pass between modules; the search over
+    many inputs is :mod:`vptoolkit.best_view.run`.
 """
 
 from __future__ import annotations
@@ -49,7 +80,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Final
 
 import numpy as np
@@ -57,13 +88,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES, measure_index
+from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.measures.curvature import CACHE_KEY as CURVATURE_KEY
+from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.quality import quality_from_histograms, ranked_views
+from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.settings import MAX_RESOLUTION
+from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
-from vptoolkit.visibility import RasterScene
+from vptoolkit.visibility import RasterScene, ViewHistograms
 
 __all__ = [
     "BUDGET",
@@ -72,11 +106,13 @@ __all__ = [
     "FLAT_BELOW",
     "MIN_STEP_DEG",
     "MAX_BUDGET",
+    "UNSEARCHABLE_NEEDS",
     "BestViews",
     "SearchSettings",
     "SearchStage",
     "search_best_views",
     "search_settings",
+    "searchable_measures",
 ]
 
 BUDGET: Final = 64
@@ -96,6 +132,11 @@ MIN_STEP_DEG: Final = 0.25
 
 MAX_BUDGET: Final = 100_000
 """Largest budget accepted (views per mesh)."""
+
+UNSEARCHABLE_NEEDS: Final = frozenset({"neighbours", "saliency"})
+"""Needs (:data:`vptoolkit.measures.registry.NEEDS`) a search cannot meet: the
+neighbouring views on the sphere, and a saliency computed from all views."""
+
 
 _RING = 4  # directions per ring of the refinement
 _FIRST_STEP = 0.5  # the first ring's angle, in coarse spacings
@@ -124,9 +165,9 @@ class BestViews:
     ----------
     name : str
         Name of the mesh.
-    directions : (4, 3) float64
+    directions : (M, 3) float64
         Best unit direction per measure, bounding-box centre towards the camera.
-    raw : (4,) float64
+    raw : (M,) float64
         Raw value of each measure in its best direction, drawn at ``resolution``
         (VMI with the estimated ``p(z)`` of the module docstring).
     resolution : int
@@ -140,7 +181,8 @@ class BestViews:
     poses : ViewPoses
         The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
     measures : tuple of str
-        ``MEASURES``.
+        The searched measures, the row order of ``directions`` and ``raw``
+        (default: the paper's four, ``MEASURES``).
     """
 
     name: str
@@ -159,9 +201,14 @@ class BestViews:
         ``convention``: ``"opencv"`` (default; x right, y down, z forward, as
         Open3D) or ``"opengl"`` (x right, y up, z backward, as trimesh's
         ``scene.camera_transform``); the inverse is the world-to-camera extrinsic
-        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). Raises InputError.
+        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). ``measure`` is
+        a searched one, in any case. Raises InputError.
         """
-        return self.poses.camera_to_world(convention)[measure_index(measure)]
+        folded = [name.upper() for name in self.measures]
+        if not isinstance(measure, str) or measure.upper() not in folded:
+            raise InputError(f"measure: {measure!r} was not searched (searched: "
+                             f"{', '.join(self.measures)})")
+        return self.poses.camera_to_world(convention)[folded.index(measure.upper())]
 
     def intrinsics(self, resolution: int | None = None) -> NDArray[np.float64]:
         """Pinhole matrix ``K`` ``(3, 3) float64`` of a square image of ``resolution`` px
@@ -195,14 +242,19 @@ class _Incumbents:
 
     directions: NDArray[np.float64]
     raw: NDArray[np.float64]
+    higher_is_better: tuple[bool, ...]
 
     @classmethod
-    def empty(cls) -> _Incumbents:
-        return cls(np.zeros((len(MEASURES), 3)), np.full(len(MEASURES), np.nan))
+    def empty(cls, higher_is_better: Sequence[bool]) -> _Incumbents:
+        n = len(higher_is_better)
+        return cls(np.zeros((n, 3)), np.full(n, np.nan), tuple(higher_is_better))
 
-    def offer(self, directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
-        """Keep, per measure, the better of the incumbent and the best new view (first on ties)."""
-        for column, higher in enumerate(HIGHER_IS_BETTER):
+    def offer(self, directions: NDArray[np.float64], raw: NDArray[np.float64],
+              columns: Sequence[int]) -> None:
+        """Keep, per measure of ``columns``, the better of the incumbent and the best new
+        view (first on ties)."""
+        for column in columns:
+            higher = self.higher_is_better[column]
             values = raw[:, column]
             if not np.isfinite(values).any():
                 continue
@@ -213,6 +265,13 @@ class _Incumbents:
                 self.directions[column] = directions[best]
                 self.raw[column] = values[best]
 
+    def take_best(self, directions: NDArray[np.float64], raw: NDArray[np.float64],
+                  columns: Sequence[int]) -> None:
+        """Take, per measure of ``columns``, the best of these views alone (first on ties):
+        for values measured again over every competing view."""
+        self.raw[list(columns)] = np.nan
+        self.offer(directions, raw, columns)
+
     def centres(self) -> NDArray[np.float64]:
         """Distinct incumbent directions, in measure order."""
         distinct: list[NDArray[np.float64]] = []
@@ -221,6 +280,43 @@ class _Incumbents:
             if all(float(direction @ other) < 1.0 - 1e-12 for other in distinct):
                 distinct.append(direction)
         return np.array(distinct).reshape(-1, 3)
+
+
+def searchable_measures(measures: str | Sequence[str] | None = None) -> tuple[str, ...]:
+    """The measures a search can look for, from what a user wrote.
+
+    Parameters
+    ----------
+    measures : str, sequence of str or None
+        What :func:`~vptoolkit.measures.registry.resolve_measures` takes
+        (``None``: the paper's four; ``"all"``; ``"VE,SL"``).
+
+    Returns
+    -------
+    tuple of str
+        The names, in the order given.
+
+    Raises
+    ------
+    InputError
+        One line: an unknown or repeated name, or measures the search cannot
+        evaluate, named with why (those with a need in
+        :data:`UNSEARCHABLE_NEEDS`: the neighbouring views of each view, or a
+        saliency over all views of the sphere).
+    """
+    names = resolve_measures(measures)
+    why = {"neighbours": "the neighbouring views of each view",
+           "saliency": "a saliency computed from all views"}
+    refused = []
+    for name in names:
+        needs = sorted(get_measure(name).needs & UNSEARCHABLE_NEEDS)
+        if needs:
+            refused.append(f"{name} ({' and '.join(why[need] for need in needs)})")
+    if refused:
+        raise InputError(f"measures: {', '.join(refused)} cannot be evaluated on the few "
+                         "views a search draws; measure them over the whole sphere with "
+                         "vptool measures")
+    return names
 
 
 @dataclass(frozen=True)
@@ -346,38 +442,93 @@ def _face_probability(counts: NDArray[np.float64], n_views: int,
 
 
 class _Renderer:
-    """Draws views of one mesh and measures them with one ``p(z)`` estimate."""
+    """Draws views of one mesh and measures them: the paper's four with one ``p(z)``
+    estimate, the others by the registry over the competing views."""
 
-    def __init__(self, mesh: Mesh, camera: Camera) -> None:
+    def __init__(self, mesh: Mesh, camera: Camera, measures: Sequence[Measure] | None = None,
+                 ) -> None:
         self.mesh = mesh
+        self.camera = camera
         self.scene = RasterScene(mesh, camera)
         self.areas = self.scene.areas
         total = float(self.areas.sum())
         if not total > 0.0:
             raise InputError(f"{mesh.name}: the mesh has zero surface area")
         self.face_probability = self.areas / total
+        chosen = [get_measure(name) for name in MEASURES] if measures is None else list(measures)
+        self.measures = chosen
+        self.paper = [c for c, measure in enumerate(chosen) if measure.name in MEASURES]
+        """Columns of the paper's four, measured from each stage's own pixel counts."""
+        self.paper_source = [MEASURES.index(chosen[c].name) for c in self.paper]
+        self.others = [c for c, measure in enumerate(chosen) if measure.name not in MEASURES]
+        """Columns of the measures the registry computes."""
+        self.features = any(chosen[c].needs_image_statistics for c in self.others)
+        self.kept_directions = np.zeros((0, 3))
+        self.kept_runs: list[ViewHistograms] = []
+        self.mesh_cache: dict[str, Any] = {}
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,
-                estimate_face_probability: bool = False) -> NDArray[np.float64]:
-        """Raw measures ``(n, 4)`` of the directions at ``resolution``; NaN where none is seen."""
-        runs = list(self.scene.histograms(directions, resolution))
-        if estimate_face_probability:
-            counts = np.zeros(self.mesh.n_faces)
-            for run in runs:
-                counts += np.bincount(run.face_ids, weights=run.pixel_counts,
-                                      minlength=self.mesh.n_faces)
-            self.face_probability = _face_probability(counts, len(directions), self.areas)
-        try:
-            return quality_from_histograms(runs, self.areas, n_views=len(directions),
-                                           face_probability=self.face_probability)
-        except MeasurementError:
-            return np.full((len(directions), len(MEASURES)), np.nan)
+                estimate_face_probability: bool = False, keep: bool = False,
+                ) -> NDArray[np.float64]:
+        """Raw measures ``(n, M)`` of the directions at ``resolution``; NaN where none is seen.
+
+        With ``keep``, the views join the competing ones (drawn at the
+        search's resolution) and the registry's columns are left NaN here:
+        :meth:`competing` measures them with the others.
+        """
+        runs = list(self.scene.histograms(directions, resolution, features=self.features))
+        raw = np.full((len(directions), len(self.measures)), np.nan)
+        if self.paper:
+            if estimate_face_probability:
+                counts = np.zeros(self.mesh.n_faces)
+                for run in runs:
+                    counts += np.bincount(run.face_ids, weights=run.pixel_counts,
+                                          minlength=self.mesh.n_faces)
+                self.face_probability = _face_probability(counts, len(directions), self.areas)
+            try:
+                four = quality_from_histograms(runs, self.areas, n_views=len(directions),
+                                               face_probability=self.face_probability)
+                raw[:, self.paper] = four[:, self.paper_source]
+            except MeasurementError:
+                pass
+        if self.others:
+            if keep:
+                first = len(self.kept_directions)
+                self.kept_runs += [replace(run, first_view=first + run.first_view)
+                                   for run in runs]
+                self.kept_directions = np.concatenate([self.kept_directions, directions])
+            else:
+                raw[:, self.others] = self._registered(directions, runs, resolution)
+        return raw
+
+    def competing(self, resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Every competing view so far and its raw values ``(n, M)`` of the registry's
+        columns (the others NaN), measured over them together."""
+        raw = np.full((len(self.kept_directions), len(self.measures)), np.nan)
+        raw[:, self.others] = self._registered(self.kept_directions, self.kept_runs, resolution)
+        return self.kept_directions, raw
+
+    def _registered(self, directions: NDArray[np.float64], runs: Sequence[ViewHistograms],
+                    resolution: int) -> NDArray[np.float64]:
+        """The registry's measures ``(n, len(others))`` of these views, computed together."""
+        settings = MeasureSettings(views=max(1, len(directions)), resolution=resolution,
+                                   camera=self.camera)
+        data = ViewData(self.mesh, directions, settings, self.areas, runs)
+        data.cache.update(self.mesh_cache)
+        values = np.full((len(directions), len(self.others)), np.nan)
+        if len(directions) and data.seen.any():
+            for column, index in enumerate(self.others):
+                values[:, column] = self.measures[index].compute(data)
+        if CURVATURE_KEY in data.cache:  # per mesh: computed once per search
+            self.mesh_cache[CURVATURE_KEY] = data.cache[CURVATURE_KEY]
+        return values
 
 
 def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
-                        per_measure: int) -> NDArray[np.float64]:
+                        per_measure: int, higher_is_better: Sequence[bool],
+                        ) -> NDArray[np.float64]:
     """The best ``per_measure`` coarse directions of each measure, distinct, rank by rank."""
-    orders = [ranked_views(raw, column) for column in range(len(MEASURES))]
+    orders = [ranked_views(raw, column, higher_is_better) for column in range(raw.shape[1])]
     chosen: list[int] = []
     for rank in range(min(per_measure, len(directions))):
         for order in orders:
@@ -392,6 +543,7 @@ def search_best_views(
     resolution: int | None = None,
     *,
     prior: ArrayLike | None = None,
+    measures: str | Sequence[str] | None = None,
     budget: int | None = None,
     coarse_views: int | None = None,
     coarse_resolution: int | None = None,
@@ -411,7 +563,13 @@ def search_best_views(
         Candidate directions, most promising first, drawn first at
         ``resolution`` (an eighth of the budget, at least one view; e.g. from
         :class:`vptoolkit.unoccluded.UnoccludedPrior` or
-        :class:`vptoolkit.learn.prior.NetworkPrior`).
+        :class:`vptoolkit.learn.prior.NetworkPrior`); each competes for
+        every searched measure. No candidate (``(0, 3)``) is no prior.
+    measures : str or sequence of str, optional
+        The measures to search (:func:`searchable_measures`: ``None`` or
+        ``"paper"`` for VE, VR, VKL and VMI, the default; names such as
+        ``"NVT,SL"``; ``"all"`` names measures a search cannot evaluate and
+        is refused).
     budget, resolution, coarse_views, coarse_resolution, camera
         The fields of :class:`SearchSettings`, given loose instead of
         ``settings`` (``search_best_views(mesh, budget=64, resolution=128)``,
@@ -421,13 +579,15 @@ def search_best_views(
     Returns
     -------
     BestViews
-        Directions, raw values at ``resolution``, stages, seconds, cameras.
+        Directions, raw values at ``resolution``, stages, seconds, cameras,
+        one row per searched measure.
 
     Raises
     ------
     InputError
-        On a budget, resolution or view count out of range, a bad prior, or a
-        mesh that is none of the above or has zero surface area.
+        On a budget, resolution or view count out of range, a bad prior, an
+        unknown measure or one a search cannot evaluate, or a mesh that is
+        none of the above or has zero surface area.
 
     Examples
     --------
@@ -436,8 +596,11 @@ def search_best_views(
     >>> found = search_best_views(box, SearchSettings(budget=16, resolution=64))
     >>> found.n_views, found.directions.shape, found.camera_pose("VE").shape
     (16, (4, 3), (4, 4))
+    >>> search_best_views(box, 16, 64, measures="NVT,SL").measures
+    ('NVT', 'SL')
     """
     started = time.perf_counter()
+    names = searchable_measures(measures)
     mesh = as_mesh(mesh)
     chosen = search_settings(settings, budget=budget, resolution=resolution,
                              coarse_views=coarse_views, coarse_resolution=coarse_resolution,
@@ -454,30 +617,41 @@ def search_best_views(
     coarse_size = chosen.coarse_resolution
     if coarse_size is None:
         coarse_size = resolution if flat else min(resolution, COARSE_RESOLUTION)
-    renderer = _Renderer(mesh, camera)
-    incumbents = _Incumbents.empty()
+    renderer = _Renderer(mesh, camera, [get_measure(name) for name in names])
+    higher = tuple(measure.higher_is_better for measure in renderer.measures)
+    incumbents = _Incumbents.empty(higher)
     stages: list[SearchStage] = []
 
     def draw(stage: str, directions: NDArray[np.float64], size: int, *,
              sphere: bool = False) -> NDArray[np.float64]:
-        raw = renderer.measure(directions, size, estimate_face_probability=sphere)
+        raw = renderer.measure(directions, size, estimate_face_probability=sphere,
+                               keep=size == resolution)
         stages.append(SearchStage(stage, len(directions), size))
         return raw
+
+    def offer(directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
+        """Views drawn at ``resolution`` compete: the paper's four as measured, the
+        registry's measured again with every competing view."""
+        incumbents.offer(directions, raw, renderer.paper)
+        if renderer.others:
+            every, again = renderer.competing(resolution)
+            incumbents.take_best(every, again, renderer.others)
 
     sphere = (coarse_directions(mesh, n_coarse, renderer.areas) if n_coarse
               else np.zeros((0, 3)))
     if n_coarse:  # first: its views give p(z) for every later measurement
         coarse_raw = draw("coarse", sphere, coarse_size, sphere=True)
     if n_prior:
-        incumbents.offer(candidates[:n_prior], draw("prior", candidates[:n_prior], resolution))
+        offer(candidates[:n_prior], draw("prior", candidates[:n_prior], resolution))
     if n_coarse:
         if coarse_size == resolution:
-            incumbents.offer(sphere, coarse_raw)
+            offer(sphere, coarse_raw)
         else:
             left = budget - n_prior - n_coarse
-            again = _confirm_candidates(sphere, coarse_raw, _CONFIRM_PER_MEASURE)[:left]
+            again = _confirm_candidates(sphere, coarse_raw, _CONFIRM_PER_MEASURE,
+                                        higher)[:left]
             if len(again):
-                incumbents.offer(again, draw("confirm", again, resolution))
+                offer(again, draw("confirm", again, resolution))
     if not np.isfinite(incumbents.raw).any():
         raise MeasurementError(f"{mesh.name}: no face is visible from any view of the search")
     angle = _FIRST_STEP * math.sqrt(4.0 * math.pi / max(n_coarse, n_prior, 1))
@@ -487,7 +661,7 @@ def search_best_views(
         centres = incumbents.centres()
         rings = np.stack([ring(centre, angle, _RING, turn) for centre in centres], axis=1)
         proposals = rings.reshape(-1, 3)[:left]  # ring point by ring point, every centre in turn
-        incumbents.offer(proposals, draw("refine", proposals, resolution))
+        offer(proposals, draw("refine", proposals, resolution))
         angle *= 0.5
         turn += math.pi / _RING
     return BestViews(
@@ -498,6 +672,7 @@ def search_best_views(
         stages=tuple(_merge(stages)),
         seconds=time.perf_counter() - started,
         poses=camera.look_at(mesh, incumbents.directions, resolution=resolution),
+        measures=names,
     )
 
 

@@ -18,6 +18,7 @@ from vptoolkit.cli.options import (
     budget_option,
     cache_dir_option,
     local_dataset,
+    measures_option,
     search_resolution_option,
 )
 from vptoolkit.errors import InputError, MeasurementError
@@ -27,6 +28,12 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from vptoolkit.mesh import Mesh
+
+
+def _searchable(value: str) -> tuple[str, ...]:
+    from vptoolkit.best_view.search import searchable_measures
+
+    return searchable_measures(value)
 
 
 @click.command("best-view")
@@ -42,15 +49,19 @@ if TYPE_CHECKING:
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Split of --dataset.")
+@measures_option("Measures to search: names (VE,NVT,SL) or 'paper' [default: with "
+                 "--dataset, the measures it records that a search can evaluate; else "
+                 "paper]. INS, DVS, SAL, EVMI and MS need all views of the sphere and are "
+                 "refused.", default=None, resolve=_searchable)
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write names, directions (N, 4, 3) and measures to this .npz "
+              help="Write names, directions (N, M, 3) and the measures' names to this .npz "
                    "(scored by vptool evaluate).")
 @click.option("--json", "as_json", is_flag=True,
               help="Print per mesh the directions, views drawn, resolutions and seconds.")
 @cache_dir_option()
 def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str,
-              dataset_path: Path | str | None, split: str, output: Path | None, as_json: bool,
-              cache_dir: Path | None) -> None:
+              dataset_path: Path | str | None, split: str, measures: tuple[str, ...] | None,
+              output: Path | None, as_json: bool, cache_dir: Path | None) -> None:
     """Find the best view per measure of MESHES within a budget of drawn views.
 
     A Fibonacci sphere of half the budget (at 128 px when --resolution is
@@ -60,17 +71,19 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     1k-16k faces on two cores, loading aside: about 3 ms for 8 views and 10 ms
     for 64 at 128 px; a view at --resolution 1024 costs about 1 ms.
     Directions point from the model centre to the camera, in each mesh's own
-    coordinates; VE and VR: higher is better, VKL and VMI: lower is better.
+    coordinates; VE and VR: higher is better, VKL and VMI: lower is better
+    (vptool measures --measures all lists every measure's direction).
 
     \b
     Example:
       vptool best-view bunny.ply
       vptool best-view *.off --views 256 --resolution 256 -o best.npz
+      vptool best-view bunny.ply --measures NVT,SL,MD
       vptool best-view scan.ply --views 8 --prior unoccluded
       vptool best-view --dataset release/ --split test --prior default -o test.npz
     """
-    from vptoolkit.best_view.run import search_inputs
-    from vptoolkit.best_view.search import SearchSettings
+    from vptoolkit.best_view.run import recorded_searchable, search_inputs
+    from vptoolkit.best_view.search import SearchSettings, searchable_measures
 
     if output is not None:
         check_suffix(output, ".npz")
@@ -79,6 +92,12 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         raise InputError("inputs: give mesh files or --dataset")
     if dataset_path is not None:
         dataset_path = local_dataset(dataset_path, cache_dir)
+    if measures is None and dataset_path is not None:
+        from vptoolkit.data import open_dataset
+
+        with open_dataset(dataset_path) as opened:
+            measures = recorded_searchable(opened.measures, opened.path.name)
+    names = measures or searchable_measures(None)
     propose: Callable[[Mesh], ArrayLike] | None = None
     if prior == "unoccluded":
         from vptoolkit.unoccluded import UnoccludedPrior
@@ -87,10 +106,10 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     elif prior != "none":
         from vptoolkit.learn.prior import NetworkPrior
 
-        propose = NetworkPrior(prior)
+        propose = NetworkPrior(prior, measures=names)
     run = search_inputs(meshes, settings=SearchSettings(budget=budget, resolution=resolution),
                         dataset=dataset_path, split=None if split == "all" else split,
-                        prior=propose, progress=True)
+                        prior=propose, measures=names, progress=True)
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:

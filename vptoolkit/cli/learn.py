@@ -15,12 +15,13 @@ from vptoolkit.cli.group import options_named
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
-    MEASURE_CHOICE,
+    MEASURE_NAME,
     PREDICT_MODEL_HELP,
     ExistingPath,
     cache_dir_option,
     device_option,
     local_dataset,
+    measures_option,
     seed_option,
 )
 from vptoolkit.errors import ExistingRunError, InputError
@@ -40,7 +41,7 @@ if TYPE_CHECKING:
 @click.option("--split", default="test", show_default=True,
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Models to score.")
-@click.option("--measure", type=MEASURE_CHOICE,
+@click.option("--measure", type=MEASURE_NAME,
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("--view-sets", is_flag=True,
@@ -51,10 +52,11 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
              as_json: bool, view_sets: bool, cache_dir: Path | None) -> None:
     """Score predicted view directions against a dataset.
 
-    PREDICTIONS is a predictions.npz (names, directions (N, 4, 3), measures;
-    matched by name) or a .npy of shape (N, 4, 3), or (N, 3) with --measure, in
-    the split's order. The score of a direction is the normalised quality of
-    the nearest sampled view (100 % = the best view), per category and measure.
+    PREDICTIONS is a predictions.npz (names, directions (N, M, 3), measures;
+    matched by name) or a .npy of shape (N, M, 3) in the dataset's measure
+    order, or (N, 3) with --measure, in the split's order. The score of a
+    direction is the normalised quality of the nearest sampled view (100 % =
+    the best view), per category and measure.
 
     \b
     Example:
@@ -97,26 +99,30 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
 @click.option("--fps-pool", default=DEFAULT_FPS_POOL, show_default=True, type=click.IntRange(0),
               help="Farthest-point subsets kept per model (0: sample anew for every input, "
                    "slower).")
+@measures_option("Measures to learn, one head each: names the dataset records (VE,NVT,SL), "
+                 "'paper' or 'all' [default: every measure the dataset records].", default=None)
 @device_option()
 @click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
 @cache_dir_option()
 def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_size: int,
           lr: float, seed: int, val_split: str, per_category: bool, categories: str | None,
-          fps_pool: int, device: str, threads: int | None, resume: bool,
-          cache_dir: Path | None) -> None:
+          fps_pool: int, measures: tuple[str, ...] | None, device: str, threads: int | None,
+          resume: bool, cache_dir: Path | None) -> None:
     """Train a viewpoint network on the train split of DATASET (a path or a release's URL).
 
     Inputs are put in their canonical principal-axis frame, so the network's
-    answer turns with the model. Keeps the checkpoint with the best mean
-    validation score (normalised quality of the nearest sampled view, under
-    fixed rotations); the checkpoint is safetensors plus a JSON config, never
-    a pickle.
+    answer turns with the model. The network has one head per measure the
+    dataset records (or per --measures name), named in its model.json. Keeps
+    the checkpoint with the best mean validation score (normalised quality of
+    the nearest sampled view, under fixed rotations); the checkpoint is
+    safetensors plus a JSON config, never a pickle.
 
     \b
     Example:
       vptool train release/ -o model.safetensors --labels ml+gl --epochs 200
       vptool train release/ -o per_category/ --per-category --epochs 300
+      vptool train release/ -o ve_sl/ --measures VE,SL --epochs 200
     """
     from vptoolkit.dataset.store.containers import find_store
     from vptoolkit.dataset.store.reader import open_store
@@ -142,10 +148,10 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     chosen = [name.strip() for name in categories.split(",")] if categories else None
     try:
         with options_named(val_split="--val-split", dataset_path="DATASET",
-                           categories="--categories"):
+                           categories="--categories", measures="--measures"):
             options = TrainOptions(labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
                                    seed=seed, val_split=val_split, categories=chosen,
-                                   fps_pool=fps_pool)
+                                   fps_pool=fps_pool, measures=measures)
             if per_category:
                 results = train_per_category(dataset, output, options, **run)
             else:
@@ -170,7 +176,8 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
               type=click.Choice(["train", "validation", "val", "test", "all"]),
               help="Split of --dataset.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write names, directions (N, 4, 3) and measures to this .npz.")
+              help="Write names, directions (N, M, 3) and the network's M measures to this "
+                   ".npz.")
 @seed_option("Seed of the surface sampling and input point choice.")
 @click.option("--category",
               help="Category of mesh and point-file inputs, for a per-category model folder.")
@@ -183,8 +190,9 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
     INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
     vptool sample). Directions come back in each input's own frame, from the
-    model centre towards the camera. Without --model the network bundled with
-    vptoolkit predicts (trained on procedural shapes; see docs/results.md).
+    model centre towards the camera, one per measure the network learnt.
+    Without --model the network bundled with vptoolkit predicts (trained on
+    procedural shapes; see docs/results.md).
     --model unoccluded answers in closed form from normals with occlusion
     ignored (vptoolkit.unoccluded; a mesh's faces, an (N, 6) point file's
     normals, a dataset's stored normals): no network, a few ms, and on real

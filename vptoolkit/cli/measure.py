@@ -14,6 +14,7 @@ from vptoolkit.cli.options import (
     MEASURE_CHOICE,
     MESH,
     max_faces_option,
+    measures_option,
     points_option,
     resolution_option,
     seed_option,
@@ -23,22 +24,10 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write, check_output_folder, write_json_atomic
 
 
-def _measure_names(ctx: click.Context, param: click.Parameter, value: str) -> tuple[str, ...]:
-    """Check ``--measures`` before the mesh is read: known, distinct names."""
-    from vptoolkit.measures.registry import resolve_measures
-
-    try:
-        return resolve_measures(value)
-    except InputError as err:
-        raise InputError(f"--measures: {str(err).removeprefix('measures: ')}") from None
-
-
 @click.command()
 @click.argument("mesh", type=MESH)
-@click.option("--measures", "names", default="paper", show_default=True,
-              callback=_measure_names,
-              help="Comma-separated measure names (VE,NVT,INS), 'all' for every registered "
-                   "measure, or 'paper' for VE, VR, VKL and VMI.")
+@measures_option(dest="names", help="Comma-separated measure names (VE,NVT,INS), 'all' for "
+                 "every registered measure, or 'paper' for VE, VR, VKL and VMI.")
 @views_option()
 @resolution_option()
 @click.option("--backend", type=click.Choice(["raster", "raycast"]), default="raster",

@@ -35,6 +35,10 @@ __all__ = [
     "comma_list",
     "local_dataset",
     "MEASURE_CHOICE",
+    "MEASURE_NAME",
+    "MeasureName",
+    "measures_option",
+    "parse_measures",
     "MODEL_HELP",
     "PREDICT_MODEL_HELP",
     "views_option",
@@ -160,6 +164,70 @@ def local_dataset(source: Path | str, cache_dir: Path | None, *,
 
 MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
 """One of :data:`vptoolkit.conventions.MEASURES`, in any case."""
+
+
+# ParamType takes type arguments at run time only in recent click releases
+class MeasureName(click.ParamType):  # type: ignore[type-arg]
+    """One registered measure name (:mod:`vptoolkit.measures.registry`), in any case.
+
+    Converts to the registry's spelling (``vkl`` to ``VKL``); an unknown name
+    raises an :class:`~vptoolkit.errors.InputError` naming the option, so it
+    is one line and exit status 2. Whether a file or dataset records the
+    measure is for the command to check.
+    """
+
+    name = "measure"
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> str:
+        """The registry's spelling of ``value``."""
+        from vptoolkit.measures.registry import all_measures
+
+        option = param.opts[0] if param is not None and param.opts else "measure"
+        known = {name.upper(): name for name in all_measures()}
+        text = str(value).strip()
+        if text.upper() not in known:
+            raise InputError(f"{option}: unknown measure {text!r}; known: "
+                             f"{', '.join(known.values())}")
+        return known[text.upper()]
+
+
+MEASURE_NAME = MeasureName()
+"""One registered measure name, in any case (:class:`MeasureName`)."""
+
+
+def parse_measures(value: str,
+                   resolve: Callable[[str], tuple[str, ...]] | None = None) -> tuple[str, ...]:
+    """The measure names of a ``--measures`` value; a refusal is one line naming the option.
+
+    ``resolve`` turns the text into names (default:
+    :func:`vptoolkit.measures.registry.resolve_measures`: ``all``, ``paper``
+    or ``NAME,...``).
+    """
+    from vptoolkit.measures.registry import resolve_measures
+
+    try:
+        return (resolve or resolve_measures)(value)
+    except InputError as err:
+        raise InputError(f"--measures: {str(err).removeprefix('measures: ')}") from None
+
+
+def measures_option(help: str, *, default: str | None = "paper",
+                    resolve: Callable[[str], tuple[str, ...]] | None = None,
+                    dest: str = "measures") -> Callable[[Decorated], Decorated]:
+    """``--measures all|paper|NAME,...``: measure names, checked before any work.
+
+    The value goes through :func:`parse_measures` with ``resolve`` and reaches
+    the command as its parameter ``dest``. Without the option the value is
+    ``default`` resolved, or None for ``default=None`` (the command decides).
+    """
+
+    def check(ctx: click.Context, param: click.Parameter,
+              value: str | None) -> tuple[str, ...] | None:
+        return None if value is None else parse_measures(value, resolve)
+
+    return click.option("--measures", dest, default=default,
+                        show_default=default is not None, callback=check, help=help)
 
 MODEL_HELP = ("Checkpoint (folder or .safetensors), or 'default' for the bundled network "
               "(./default for a checkpoint of that name).")

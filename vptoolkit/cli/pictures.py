@@ -16,11 +16,13 @@ from vptoolkit.cli.group import EXIT_FAILURE
 from vptoolkit.cli.options import (
     EXISTING,
     MEASURE_CHOICE,
+    MEASURE_NAME,
     MESH,
     MODEL_HELP,
     Direction,
     ExistingPath,
     engine_option,
+    parse_measures,
     resolution_option,
     size_option,
     up_option,
@@ -109,28 +111,76 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
 
 
 @click.command("sphere-map")
-@click.argument("quality", type=ExistingPath(exists=True, dir_okay=False, path_type=Path))
+@click.argument("source", type=ExistingPath(exists=True, dir_okay=False, path_type=Path))
 @click.option("-o", "--output", required=True, type=click.Path(dir_okay=False, path_type=Path),
               help="PNG file to write.")
-@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE)
+@click.option("--measure", type=MEASURE_NAME,
+              help="Draw this one measure [default: the first the .npz records].")
+@click.option("--measures", "measures_text",
+              help="Draw these measures on one figure, four maps to a row: names (VE,SL,MD), "
+                   "'paper' or 'all' (of an .npz: every measure it records; of a mesh: every "
+                   "registered measure, computed) [default for a mesh: paper].")
 @click.option("--predicted", type=Direction(),
               help="A predicted direction x,y,z to mark with a cross.")
-def sphere_map(quality: Path, output: Path, measure: str, predicted: Vector | None) -> None:
-    """Draw a measure over the view sphere as a Mercator map.
+@views_option("Views sampled when SOURCE is a mesh.")
+@resolution_option("Triangle-ID image side when SOURCE is a mesh.")
+@click.option("--dpi", default=100, show_default=True, type=click.IntRange(20, 600),
+              help="Pixels per inch of the PNG (a row of four maps is 12 x 3.4 inches).")
+def sphere_map(source: Path, output: Path, measure: str | None, measures_text: str | None,
+               predicted: Vector | None, n_views: int, resolution: int, dpi: int) -> None:
+    """Draw measures over the view sphere as Mercator maps.
 
-    QUALITY is the .npz of vptool measures -o. Colours: normalised quality
-    (1 = best); the star marks the best sampled view, the cross --predicted.
+    SOURCE is the .npz of vptool measures -o (drawn as recorded), or a mesh
+    (its measures computed first, --views at --resolution). --measure draws
+    one map; --measures draws several on one figure, titled by the measures'
+    names. Colours: normalised quality (1 = best); the star marks the best
+    sampled view, the cross --predicted.
 
     \b
     Example:
       vptool measures bunny.ply -o bunny.npz
       vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
+      vptool sphere-map bunny.npz --measures all -o bunny_maps.png
+      vptool sphere-map bunny.ply --measures all --views 500 --resolution 128 -o all.png
     """
-    from vptoolkit.pictures.sphere_map import sphere_map_file
+    from vptoolkit.pictures.sphere_map import (
+        save_figure,
+        sphere_map_file,
+        sphere_maps,
+        sphere_maps_file,
+    )
 
+    if measure is not None and measures_text is not None:
+        raise InputError("sphere-map: give --measure or --measures, not both")
+    check_suffix(output, ".png")
     check_output_folder(output, "--output")
-    sphere_map_file(quality, output, measure=measure, predicted=predicted)
-    click.echo(f"wrote {output}")
+    if source.suffix.lower() == ".npz":
+        if measures_text is None:
+            sphere_map_file(source, output, measure=measure, predicted=predicted, dpi=dpi)
+        else:
+            every = measures_text.strip().lower() == "all"
+            sphere_maps_file(source, output, predicted=predicted, dpi=dpi,
+                             measures=None if every else parse_measures(measures_text))
+        click.echo(f"wrote {output}")
+        return
+    from vptoolkit.io import load_mesh
+    from vptoolkit.measures.quality import compute_view_quality
+    from vptoolkit.pictures.sphere_map import sphere_map as one_map
+    from vptoolkit.settings import MeasureSettings
+
+    names = (measure,) if measure is not None else parse_measures(measures_text or "paper")
+    loaded = load_mesh(source)
+    quality = compute_view_quality(loaded, MeasureSettings(views=n_views, resolution=resolution),
+                                   measures=names, progress=True)
+    title = f"{quality.name}: {len(quality.views)} views at {quality.resolution} px"
+    if measure is not None:
+        figure = one_map(quality.views, quality.normalized, measures=quality.measures,
+                         predicted=predicted, title=title)
+    else:
+        figure = sphere_maps(quality.views, quality.normalized, measures=quality.measures,
+                             predicted=predicted, title=title)
+    save_figure(figure, output, dpi=dpi)
+    click.echo(f"wrote {output} ({', '.join(quality.measures)})")
 
 
 @click.command()
@@ -151,9 +201,11 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
            no_pictures: bool, view_set_k: int, up: Vector, engine: str) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
-    Pictures from each measure's best view, the four quality maps, the scores
-    of --predictions, filters by category and split, and a summary table.
-    Open OUTPUT/index.html in any browser; no server is needed.
+    Pictures from each measure's best view, the quality maps of every
+    measure DATASET records (the paper's four unless it was built with
+    others), the scores of --predictions, filters by category and split, and
+    a summary table. Open OUTPUT/index.html in any browser; no server is
+    needed.
 
     \b
     Example:

@@ -4,8 +4,11 @@
 (view along the smallest principal axis) and :func:`oracle_directions` (the
 dataset's own best views, 100 % under
 :func:`vptoolkit.evaluate.scores.score_directions` by construction). Each
-returns ``(n_models, 4, 3)`` float64 unit vectors in ``MEASURES`` order, the
-form every scorer takes. Numpy only.
+returns ``(n_models, M, 3)`` float64 unit vectors, one per measure, the form
+every scorer takes: ``M`` is given (``n_measures``, by default the paper's
+four, ``len(MEASURES)``; pass ``len(dataset.measures)`` for a dataset
+recorded with other measures), and the oracle takes the dataset's own.
+Numpy only.
 """
 
 from __future__ import annotations
@@ -16,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import one_line
+from vptoolkit.checks import check_int, one_line
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
@@ -26,11 +29,13 @@ __all__ = ["random_directions", "pca_directions", "oracle_directions"]
 _SYMMETRY_TOLERANCE = 1e-9  # |third moment| / std**3 below which a cloud counts as symmetric
 
 
-
-def random_directions(n: int, *, seed: int) -> NDArray[np.float64]:
+def random_directions(n: int, *, seed: int,
+                      n_measures: int = len(MEASURES)) -> NDArray[np.float64]:
     """Directions drawn uniformly on the unit sphere, independently per measure.
 
-    Normalised standard-normal vectors, from ``np.random.default_rng(seed)``.
+    Normalised standard-normal vectors, from ``np.random.default_rng(seed)``,
+    drawn model by model, measure by measure (so the paper's four draw what
+    they always drew).
 
     Parameters
     ----------
@@ -38,23 +43,27 @@ def random_directions(n: int, *, seed: int) -> NDArray[np.float64]:
         Number of models, at least 0.
     seed : int
         Seed of the generator; the same seed gives the same array.
+    n_measures : int
+        Directions per model, at least 1 (default: 4, the paper's measures).
 
     Returns
     -------
-    directions : (n, 4, 3) float64
+    directions : (n, n_measures, 3) float64
         Unit vectors.
 
     Raises
     ------
     InputError
-        If ``n`` is negative or either argument is not an integer.
+        If ``n`` is negative, ``n_measures`` below 1 or an argument is not an
+        integer.
     """
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
         raise InputError(f"n: expected a non-negative integer, got {n!r}")
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
         raise InputError(f"seed: expected an integer, got {seed!r}")
+    n_measures = check_int(n_measures, "n_measures", minimum=1)
     rng = np.random.default_rng(int(seed))
-    directions = np.zeros((int(n), len(MEASURES), 3))
+    directions = np.zeros((int(n), n_measures, 3))
     is_todo = np.ones(directions.shape[:2], dtype=bool)
     while is_todo.any():  # redraw the (practically impossible) near-zero draws
         directions[is_todo] = rng.standard_normal((int(is_todo.sum()), 3))
@@ -85,7 +94,8 @@ def _pca_direction(points: NDArray[np.float64], label: str) -> NDArray[np.float6
     return np.asarray(unit / np.linalg.norm(unit))
 
 
-def pca_directions(points: ArrayLike | Sequence[ArrayLike]) -> NDArray[np.float64]:
+def pca_directions(points: ArrayLike | Sequence[ArrayLike], *,
+                   n_measures: int = len(MEASURES)) -> NDArray[np.float64]:
     """A PCA heuristic: look along each model's smallest principal axis.
 
     Viewing along the eigenvector of the smallest eigenvalue of the point
@@ -97,25 +107,30 @@ def pca_directions(points: ArrayLike | Sequence[ArrayLike]) -> NDArray[np.float6
     If the projection is symmetric (``|third moment| <= 1e-9 std**3``), the
     component of largest magnitude is made positive. The rule only uses the
     points, so rotating a model rotates its direction with it (except in the
-    symmetric fallback). The same direction is returned for all four measures.
+    symmetric fallback). The same direction is returned for every measure.
 
     Parameters
     ----------
     points : (n_models, n_points, 3) array_like or sequence of (n_points_i, 3) array_like
         Point clouds in model coordinates, e.g. ``dataset[i]["points"]``;
         at least 3 points each.
+    n_measures : int
+        Copies of the direction per model, one per measure, at least 1
+        (default: 4, the paper's measures).
 
     Returns
     -------
-    directions : (n_models, 4, 3) float64
+    directions : (n_models, n_measures, 3) float64
         Unit vectors, identical along the measure axis.
 
     Raises
     ------
     InputError
         On a wrong shape, fewer than 3 points, NaN or infinite coordinates,
-        or a cloud whose points all coincide (naming ``points[i]``).
+        or a cloud whose points all coincide (naming ``points[i]``), or
+        ``n_measures`` below 1.
     """
+    n_measures = check_int(n_measures, "n_measures", minimum=1)
     if isinstance(points, np.ndarray):
         if points.ndim != 3 or points.shape[2] != 3:
             raise InputError("points: expected (n_models, n_points, 3) or a list of "
@@ -123,7 +138,7 @@ def pca_directions(points: ArrayLike | Sequence[ArrayLike]) -> NDArray[np.float6
         clouds: Sequence[ArrayLike] = list(points)
     else:
         clouds = list(points)  # type: ignore[arg-type]
-    directions = np.zeros((len(clouds), len(MEASURES), 3))
+    directions = np.zeros((len(clouds), n_measures, 3))
     for model, cloud in enumerate(clouds):
         try:
             array = np.asarray(cloud, dtype=np.float64)
@@ -146,11 +161,11 @@ def oracle_directions(dataset: ViewpointDataset) -> NDArray[np.float64]:
 
     Returns
     -------
-    directions : (n_models, 4, 3) float64
-        ``dataset.views[dataset[i]["best_index"]]``, unit vectors in
-        ``MEASURES`` order.
+    directions : (n_models, M, 3) float64
+        ``dataset.views[dataset[i]["best_index"]]``, unit vectors, one per
+        measure the dataset records, in its order.
     """
-    directions = np.zeros((len(dataset), len(MEASURES), 3))
+    directions = np.zeros((len(dataset), len(dataset.measures), 3))
     for model in range(len(dataset)):
         directions[model] = dataset.views[dataset[model]["best_index"]]
     return directions

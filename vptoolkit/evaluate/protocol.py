@@ -6,7 +6,9 @@ rotated inputs (:func:`score_protocol`):
 1. every model gets ``n_rotations`` fixed rotations ``R_k``
    (:func:`vptoolkit.rotations.fixed_rotations`, seeded by its name);
 2. the predictor sees the surface points ``x R_k^T`` and answers with one
-   direction per measure in that frame;
+   direction per measure in that frame (per measure the dataset records,
+   :attr:`~vptoolkit.data.ViewpointDataset.measures`, ``M`` in all; or one
+   direction for every measure);
 3. the answer goes back to the model's frame (``d R_k``) and scores the
    normalised quality of the nearest sampled view, in percent (the
    authors' scoring, :meth:`vptoolkit.data.ViewpointDataset.quality_of`);
@@ -31,12 +33,16 @@ Baselines under the same protocol
     tests). Rotations do not change it.
 
     :func:`pca_predictor`: the smallest principal axis
-    (:func:`vptoolkit.evaluate.baselines.pca_directions`), rotation-equivariant.
+    (:func:`vptoolkit.evaluate.baselines.pca_directions`), rotation-equivariant,
+    one direction for every measure.
 
     :func:`best_constant_directions` and :func:`constant_predictor`: one fixed
     direction per measure, the sampled view with the best mean score over a
     training split in its stored orientation. Under rotation it is as good as
     a random view; on upright shapes it is a strong rival.
+
+Every score array has one column per measure the dataset records, in its
+order (:attr:`ProtocolScores.measures`).
 
 A difference between two rows is significant here when it exceeds twice its
 paired standard error (:func:`paired_difference`), about a 95 % level.
@@ -73,8 +79,9 @@ __all__ = [
 ]
 
 Predictor = Callable[[Sequence[NDArray[np.float64]], Sequence[str]], NDArray[np.float64]]
-"""``predictor(points, names) -> (n_models, 4, 3)``: one direction per measure for each
-``(n_points_i, 3)`` cloud, in the cloud's own frame (not necessarily unit)."""
+"""``predictor(points, names) -> (n_models, M, 3)``: one direction per measure the dataset
+records for each ``(n_points_i, 3)`` cloud, in the cloud's own frame (not necessarily unit);
+or ``(n_models, 1, 3)``, one direction for every measure."""
 
 
 @dataclass(frozen=True)
@@ -85,29 +92,32 @@ class ProtocolScores:
     ----------
     names, categories : tuple of str
         The models, in dataset order.
-    scores : (n_models, 4) float64
+    scores : (n_models, M) float64
         Mean over the model's rotations of the normalised quality of the
-        nearest sampled view, in percent, ``MEASURES`` order.
+        nearest sampled view, in percent, one column per name of ``measures``.
     n_rotations : int
         Rotations per model (0 for the stored orientation).
+    measures : tuple of str
+        The columns' measures, the dataset's (default: the paper's four).
     """
 
     names: tuple[str, ...]
     categories: tuple[str, ...]
     scores: NDArray[np.float64]
     n_rotations: int
+    measures: tuple[str, ...] = MEASURES
 
     @property
     def mean(self) -> NDArray[np.float64]:
-        """(4,) mean over models."""
+        """(M,) mean over models."""
         return np.asarray(self.scores.mean(axis=0))
 
     @property
     def sem(self) -> NDArray[np.float64]:
-        """(4,) standard error of :attr:`mean` (sample standard deviation / sqrt(n))."""
+        """(M,) standard error of :attr:`mean` (sample standard deviation / sqrt(n))."""
         n = len(self.scores)
         if n < 2:
-            return np.full(len(MEASURES), np.nan)
+            return np.full(self.scores.shape[1], np.nan)
         return np.asarray(self.scores.std(axis=0, ddof=1) / np.sqrt(n))
 
     def category_means(self) -> dict[str, NDArray[np.float64]]:
@@ -124,14 +134,27 @@ def _check_dataset(dataset: ViewpointDataset) -> None:
         raise InputError(f"{dataset.path.name}: no models to score")
 
 
-def _directions(predictor: Predictor, clouds: list[NDArray[np.float64]],
-                names: list[str]) -> NDArray[np.float64]:
-    directions = np.asarray(predictor(clouds, names), dtype=np.float64)
-    if directions.shape != (len(clouds), len(MEASURES), 3):
-        raise InputError("predictor: expected directions of shape "
-                         f"({len(clouds)}, {len(MEASURES)}, 3), "
+def _per_measure(directions: NDArray[np.float64], n_measures: int, what: str,
+                 ) -> NDArray[np.float64]:
+    """``(..., n_measures, 3)`` directions: as given, or one direction (``(..., 1, 3)``)
+    repeated for every measure."""
+    expected = (*directions.shape[:-2], n_measures, 3)
+    if directions.shape[-2:] == (1, 3):
+        return np.repeat(directions, n_measures, axis=-2)
+    if directions.ndim < 2 or directions.shape != expected:
+        raise InputError(f"{what}: expected directions of shape {expected} "
+                         f"(or {(*expected[:-2], 1, 3)}: one for every measure), "
                          f"got {directions.shape}")
     return directions
+
+
+def _directions(predictor: Predictor, clouds: list[NDArray[np.float64]],
+                names: list[str], n_measures: int) -> NDArray[np.float64]:
+    directions = np.asarray(predictor(clouds, names), dtype=np.float64)
+    if directions.ndim != 3 or len(directions) != len(clouds):
+        raise InputError("predictor: expected directions of shape "
+                         f"({len(clouds)}, {n_measures}, 3), got {directions.shape}")
+    return _per_measure(directions, n_measures, "predictor")
 
 
 def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotations: int = 4,
@@ -143,8 +166,9 @@ def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotatio
     dataset : ViewpointDataset
         The models to score, e.g. a test split.
     predictor : callable
-        ``predictor(points, names) -> (n_models, 4, 3)``, see :data:`Predictor`;
-        called once per rotation index with every model's rotated surface points.
+        ``predictor(points, names) -> (n_models, M, 3)`` or ``(n_models, 1, 3)``,
+        see :data:`Predictor`; called once per rotation index with every
+        model's rotated surface points.
     n_rotations : int
         Rotations per model, at least 1 (default: 4); ignored without ``rotate``.
     rotate : bool
@@ -164,15 +188,16 @@ def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotatio
         rotations = np.stack([fixed_rotations(name, n_rotations, seed=seed) for name in names])
     else:
         rotations = np.eye(3)[None, None].repeat(len(names), axis=0)
-    totals = np.zeros((len(names), len(MEASURES)))
+    measures = dataset.measures
+    totals = np.zeros((len(names), len(measures)))
     for k in range(rotations.shape[1]):
         turned = [cloud @ rotations[i, k].T for i, cloud in enumerate(points)]
-        directions = _directions(predictor, turned, names)
+        directions = _directions(predictor, turned, names, len(measures))
         for i in range(len(names)):
             back = directions[i] @ rotations[i, k]
             totals[i] += 100.0 * np.diagonal(dataset.quality_of(i, back))
     return ProtocolScores(tuple(names), tuple(dataset.categories), totals / rotations.shape[1],
-                          n_rotations if rotate else 0)
+                          n_rotations if rotate else 0, measures)
 
 
 def score_mesh_protocol(dataset: ViewpointDataset,
@@ -181,7 +206,7 @@ def score_mesh_protocol(dataset: ViewpointDataset,
     """Score an answer that draws the mesh (e.g. a plain search) on rotated meshes.
 
     The same protocol as :func:`score_protocol`, with the stored cleaned
-    mesh ``V R_k^T`` in place of the points: ``answer(mesh) -> (4, 3)``
+    mesh ``V R_k^T`` in place of the points: ``answer(mesh) -> (M, 3)``
     directions in the rotated frame, scored after ``d R_k``.
 
     Parameters
@@ -189,7 +214,8 @@ def score_mesh_protocol(dataset: ViewpointDataset,
     dataset : ViewpointDataset
         The models to score; their stored meshes are used.
     answer : callable
-        ``answer(mesh) -> (4, 3)`` unit directions in ``MEASURES`` order.
+        ``answer(mesh) -> (M, 3)`` unit directions, one per measure the
+        dataset records, in its order; or ``(1, 3)``, one for every measure.
     n_rotations : int
         Rotations per model, at least 1 (default: 4).
     seed : int
@@ -202,20 +228,19 @@ def score_mesh_protocol(dataset: ViewpointDataset,
     _check_dataset(dataset)
     n_rotations = check_int(n_rotations, "n_rotations", minimum=1)
     names = list(dataset.names)
-    totals = np.zeros((len(names), len(MEASURES)))
+    measures = dataset.measures
+    totals = np.zeros((len(names), len(measures)))
     for i, name in enumerate(names):
         stored, faces = dataset.mesh(i)
         vertices = np.asarray(stored, dtype=np.float64)
         faces64 = np.asarray(faces, dtype=np.int64)
         for turn in fixed_rotations(name, n_rotations, seed=seed):
             rotated = Mesh(vertices @ turn.T, faces64, name=name)
-            directions = np.asarray(answer(rotated), dtype=np.float64)
-            if directions.shape != (len(MEASURES), 3):
-                raise InputError(f"answer: expected directions of shape ({len(MEASURES)}, 3), "
-                                 f"got {directions.shape}")
+            directions = _per_measure(np.asarray(answer(rotated), dtype=np.float64),
+                                      len(measures), "answer")
             totals[i] += 100.0 * np.diagonal(dataset.quality_of(i, directions @ turn))
     return ProtocolScores(tuple(names), tuple(dataset.categories), totals / n_rotations,
-                          n_rotations)
+                          n_rotations, measures)
 
 
 def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
@@ -226,16 +251,18 @@ def random_view_scores(dataset: ViewpointDataset) -> ProtocolScores:
     _check_dataset(dataset)
     scores = np.stack([100.0 * np.asarray(dataset[i]["quality"], dtype=np.float64).mean(axis=0)
                        for i in range(len(dataset))])
-    return ProtocolScores(tuple(dataset.names), tuple(dataset.categories), scores, 0)
+    return ProtocolScores(tuple(dataset.names), tuple(dataset.categories), scores, 0,
+                          dataset.measures)
 
 
 def pca_predictor(points: Sequence[NDArray[np.float64]],
                   names: Sequence[str]) -> NDArray[np.float64]:
-    """The PCA heuristic as a :data:`Predictor`.
+    """The PCA heuristic as a :data:`Predictor`: ``(n_models, 1, 3)``, one direction for
+    every measure.
 
     See :func:`vptoolkit.evaluate.baselines.pca_directions`.
     """
-    return pca_directions(list(points))
+    return pca_directions(list(points), n_measures=1)
 
 
 def best_constant_directions(dataset: ViewpointDataset) -> NDArray[np.float64]:
@@ -248,21 +275,22 @@ def best_constant_directions(dataset: ViewpointDataset) -> NDArray[np.float64]:
 
     Returns
     -------
-    directions : (4, 3) float64
-        Unit vectors in ``MEASURES`` order.
+    directions : (M, 3) float64
+        Unit vectors, one per measure the dataset records, in its order.
     """
     _check_dataset(dataset)
-    total = np.zeros((len(dataset.views), len(MEASURES)))
+    total = np.zeros((len(dataset.views), len(dataset.measures)))
     for i in range(len(dataset)):
         total += np.asarray(dataset[i]["quality"], dtype=np.float64)
     return np.asarray(dataset.views[total.argmax(axis=0)], dtype=np.float64)
 
 
 def constant_predictor(directions: NDArray[np.float64]) -> Predictor:
-    """A :data:`Predictor` answering ``directions`` (4, 3) for every input."""
+    """A :data:`Predictor` answering ``directions`` ``(M, 3)`` (one per measure, e.g. from
+    :func:`best_constant_directions`) for every input."""
     fixed = np.asarray(directions, dtype=np.float64)
-    if fixed.shape != (len(MEASURES), 3):
-        raise InputError(f"directions: expected shape ({len(MEASURES)}, 3), got {fixed.shape}")
+    if fixed.ndim != 2 or fixed.shape[1] != 3 or len(fixed) == 0:
+        raise InputError(f"directions: expected shape (n_measures, 3), got {fixed.shape}")
 
     def predict(points: Sequence[NDArray[np.float64]], names: Sequence[str]) -> NDArray[np.float64]:
         return np.repeat(fixed[None], len(points), axis=0)
@@ -277,13 +305,16 @@ def paired_difference(
 
     Returns
     -------
-    difference, sem : (4,) float64
+    difference, sem : (M,) float64
         In percentage points; the difference is significant at about the
         95 % level where ``|difference| > 2 sem``.
     """
     if first.names != second.names:
         raise InputError("paired_difference: the two score sets cover different models")
+    if first.measures != second.measures:
+        raise InputError("paired_difference: the two score sets cover different measures "
+                         f"({', '.join(first.measures)}; {', '.join(second.measures)})")
     delta = first.scores - second.scores
     n = len(delta)
-    sem = delta.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.full(len(MEASURES), np.nan)
+    sem = delta.std(axis=0, ddof=1) / np.sqrt(n) if n > 1 else np.full(delta.shape[1], np.nan)
     return np.asarray(delta.mean(axis=0)), np.asarray(sem)

@@ -7,18 +7,30 @@ taken per measure; a category's score is the mean over its models; the
 headline ``mean`` is the unweighted mean over categories, as in the paper's
 table 2 (its ML+GL ``mean`` row equals the mean of its eight category rows).
 
+Measures
+    A dataset records its measures (:attr:`ViewpointDataset.measures
+    <vptoolkit.data.ViewpointDataset.measures>`, the store's ``measures``
+    attribute: the paper's four, ``("VE", "VR", "VKL", "VMI")``, unless it
+    was built with others), and its quality arrays have one column per
+    name, ``M`` in all. Every score array, table, JSON report and category
+    summary here lists the dataset's measures in its order; a prediction
+    names any of them, and a measure it does not name shows as not
+    predicted (NaN, ``-`` in tables).
+
 Predictions come as a file (:func:`load_predictions`):
 
 ``*.npz``
     ``names`` : (n_models,) unicode, model names (any order, matched by name);
     ``directions`` : (n_models, n_measures, 3) float, one direction per measure;
-    ``measures`` : (n_measures,) unicode, ``["VE", "VR", "VKL", "VMI"]`` or a
-    subset in that order (e.g. ``["VKL"]``). Other keys are ignored.
+    ``measures`` : (n_measures,) unicode, names the dataset records, in any
+    order (the paper's four in theirs, see :mod:`vptoolkit.predictions`),
+    e.g. ``["VKL"]`` or ``["SL", "NVT"]``. Other keys are ignored.
     :func:`vptoolkit.predictions.write_predictions` writes this form (the
     format's owner, :mod:`vptoolkit.predictions`).
 ``*.npy``
-    (n_models, 4, 3) in ``MEASURES`` order, or (n_models, 3) for the one
-    measure named by ``measure``; rows in the order of the evaluated split.
+    (n_models, M, 3) in the dataset's measure order, or (n_models, 3) for the
+    one measure named by ``measure``; rows in the order of the evaluated
+    split.
 
 Directions point from the model centre towards the camera and need not be
 unit length. Files are read with ``allow_pickle=False``.
@@ -42,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES, measure_index
+from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
@@ -51,15 +63,16 @@ from vptoolkit.evaluate._inputs import (
     quoted,
     select_split,
 )
+from vptoolkit.measures.registry import all_measures
 from vptoolkit.predictions import parse_predictions, read_arrays
 
 __all__ = [
     "EvaluationReport",
     "load_predictions",
+    "recorded_measure",
     "score_directions",
     "evaluate_predictions",
 ]
-
 
 
 # --------------------------------------------------------------------------- report
@@ -89,10 +102,13 @@ class EvaluationReport:
         The evaluated models, in the split's order.
     model_categories : tuple of str
         Category of each model.
-    scores : (n_models, 4) float64
-        Normalised quality of the nearest sampled view, in percent, in
-        ``MEASURES`` order; NaN for a measure that was not predicted.
-        Read-only.
+    scores : (n_models, M) float64
+        Normalised quality of the nearest sampled view, in percent, one
+        column per name of ``measures``; NaN for a measure that was not
+        predicted. Read-only.
+    measures : tuple of str
+        The dataset's measures, the column order of every score array
+        (default: the paper's four, ``MEASURES``).
     """
 
     dataset: str
@@ -101,26 +117,26 @@ class EvaluationReport:
     names: tuple[str, ...]
     model_categories: tuple[str, ...]
     scores: NDArray[np.float64]
+    measures: tuple[str, ...] = MEASURES
 
     def __post_init__(self) -> None:
         scores = np.array(self.scores, dtype=np.float64)
+        measures = tuple(str(name) for name in self.measures)
         n_models = len(self.names)
         if n_models == 0:
             raise InputError("scores: a report needs at least one model")
-        if scores.shape != (n_models, len(MEASURES)) or len(self.model_categories) != n_models:
+        if not measures or len(set(measures)) != len(measures):
+            raise InputError(f"measures: expected distinct names, got {list(measures)}")
+        if scores.shape != (n_models, len(measures)) or len(self.model_categories) != n_models:
             raise InputError(
-                f"scores: expected shape ({n_models}, {len(MEASURES)}) and {n_models} categories, "
+                f"scores: expected shape ({n_models}, {len(measures)}) and {n_models} categories, "
                 f"got {scores.shape} and {len(self.model_categories)}"
             )
         scores.flags.writeable = False
         object.__setattr__(self, "scores", scores)
+        object.__setattr__(self, "measures", measures)
         object.__setattr__(self, "names", tuple(self.names))
         object.__setattr__(self, "model_categories", tuple(self.model_categories))
-
-    @property
-    def measures(self) -> tuple[str, ...]:
-        """Column order of every score array: ``("VE", "VR", "VKL", "VMI")``."""
-        return tuple(MEASURES)
 
     @property
     def n_models(self) -> int:
@@ -129,13 +145,13 @@ class EvaluationReport:
 
     @property
     def is_scored(self) -> NDArray[np.bool_]:
-        """``(4,) bool``: was each measure predicted?"""
+        """``(M,) bool``: was each measure predicted?"""
         return np.asarray(~np.isnan(self.scores).all(axis=0))
 
     @property
     def scored_measures(self) -> tuple[str, ...]:
-        """Names of the predicted measures, in ``MEASURES`` order."""
-        return tuple(m for m, is_scored in zip(MEASURES, self.is_scored) if is_scored)
+        """Names of the predicted measures, in :attr:`measures` order."""
+        return tuple(m for m, is_scored in zip(self.measures, self.is_scored) if is_scored)
 
     @property
     def categories(self) -> tuple[str, ...]:
@@ -150,18 +166,18 @@ class EvaluationReport:
 
     @property
     def category_scores(self) -> NDArray[np.float64]:
-        """``(n_categories, 4) float64``: mean score of each category's models, in %."""
+        """``(n_categories, M) float64``: mean score of each category's models, in %."""
         categories = np.array(self.model_categories)
         return np.stack([self.scores[categories == c].mean(axis=0) for c in self.categories])
 
     @property
     def mean(self) -> NDArray[np.float64]:
-        """``(4,) float64``: unweighted mean over categories, in % (the paper's ``mean``)."""
+        """``(M,) float64``: unweighted mean over categories, in % (the paper's ``mean``)."""
         return np.asarray(self.category_scores.mean(axis=0), dtype=np.float64)
 
     @property
     def model_mean(self) -> NDArray[np.float64]:
-        """``(4,) float64``: mean over all models regardless of category, in %."""
+        """``(M,) float64``: mean over all models regardless of category, in %."""
         return np.asarray(self.scores.mean(axis=0), dtype=np.float64)
 
     def to_dict(self, *, per_model: bool = False) -> dict[str, Any]:
@@ -176,16 +192,16 @@ class EvaluationReport:
         -------
         report : dict
             ``dataset``, ``split``, ``predictions``, ``n_models``,
-            ``measures``, ``scored_measures``, ``unit`` (``"percent"``),
-            ``protocol``, ``categories`` (``{category: {"n_models": int,
-            "VE": float | None, ...}}``), ``mean`` (over categories) and
-            ``model_mean`` (over models), each ``{"VE": float | None, ...}``;
-            with ``per_model``, ``models``: a list of ``{"name", "category",
-            "VE", ...}``.
+            ``measures`` (the dataset's, in its order), ``scored_measures``,
+            ``unit`` (``"percent"``), ``protocol``, ``categories``
+            (``{category: {"n_models": int, "VE": float | None, ...}}``),
+            ``mean`` (over categories) and ``model_mean`` (over models), each
+            ``{"VE": float | None, ...}`` by measure name; with ``per_model``,
+            ``models``: a list of ``{"name", "category", "VE", ...}``.
         """
 
         def by_measure(row: NDArray[np.float64]) -> dict[str, float | None]:
-            return {m: _percent_or_none(float(v)) for m, v in zip(MEASURES, row)}
+            return {m: _percent_or_none(float(v)) for m, v in zip(self.measures, row)}
 
         categories = {
             category: {"n_models": int(count), **by_measure(row)}
@@ -197,7 +213,7 @@ class EvaluationReport:
             "split": self.split,
             "predictions": self.predictions,
             "n_models": self.n_models,
-            "measures": list(MEASURES),
+            "measures": list(self.measures),
             "scored_measures": list(self.scored_measures),
             "unit": "percent",
             "protocol": "normalised quality of the nearest sampled view",
@@ -246,11 +262,12 @@ class EvaluationReport:
         if transpose:
             header = ["measure", *self.categories, "mean"]
             body = [[m, *(cell(v) for v in column), cell(mean)]
-                    for m, column, mean in zip(MEASURES, self.category_scores.T, self.mean)]
+                    for m, column, mean in zip(self.measures, self.category_scores.T,
+                                               self.mean)]
             counts = ["n", *(str(int(c)) for c in self.category_counts), str(self.n_models)]
             rows = [header, counts, None, *body]
         else:
-            header = ["category", "n", *MEASURES]
+            header = ["category", "n", *self.measures]
             body = [[category, str(int(count)), *(cell(v) for v in row)]
                     for category, count, row in zip(self.categories, self.category_counts,
                                                     self.category_scores)]
@@ -274,19 +291,39 @@ class EvaluationReport:
 # --------------------------------------------------------------------------- loading
 
 
-def _check_measure(measure: str | None) -> int | None:
-    """Column of ``measure`` in ``MEASURES`` (case-insensitive), or None."""
-    return None if measure is None else measure_index(measure)
+def recorded_measure(dataset: ViewpointDataset, measure: str | None) -> int | None:
+    """Column of ``measure`` among the dataset's recorded measures, or None for None.
+
+    The name is matched case-insensitively (``"vkl"`` is VKL).
+
+    Raises
+    ------
+    InputError
+        One line naming the argument: a name the registry does not know, or
+        one the dataset does not record (both list what it records).
+    """
+    if measure is None:
+        return None
+    recorded = dataset.measures
+    folded = {name.upper(): column for column, name in enumerate(recorded)}
+    text = str(measure)
+    if text.upper() in folded:
+        return folded[text.upper()]
+    known = {name.upper() for name in all_measures()}
+    problem = "unknown measure" if text.upper() not in known else "measure not recorded,"
+    raise InputError(f"measure: {problem} {text!r}; {dataset.path.name} records "
+                     f"{', '.join(recorded)}")
 
 
 def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str | None,
           where: str) -> tuple[list[str], NDArray[np.float64]]:
     path = Path(path)
     file_name = path.name
-    column = _check_measure(measure)
+    column = recorded_measure(dataset, measure)
+    recorded = dataset.measures
     expected_names = dataset.names
     n_models = len(expected_names)
-    directions = np.full((n_models, len(MEASURES), 3), np.nan)
+    directions = np.full((n_models, len(recorded), 3), np.nan)
     loaded = read_arrays(path)
 
     if isinstance(loaded, np.ndarray):
@@ -296,21 +333,27 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
                                  "predicts (--measure)")
             columns = [column]
             loaded = loaded[:, None, :]
-        elif loaded.ndim == 3 and loaded.shape[1:] == (len(MEASURES), 3):
-            columns = list(range(len(MEASURES)))
+        elif loaded.ndim == 3 and loaded.shape[1:] == (len(recorded), 3):
+            columns = list(range(len(recorded)))
         else:
-            raise InputError(f"{file_name}: expected shape (n_models, 4, 3) or (n_models, 3), "
+            raise InputError(f"{file_name}: expected shape (n_models, {len(recorded)}, 3) "
+                             f"(measures {', '.join(recorded)}) or (n_models, 3), "
                              f"got {loaded.shape}")
         if loaded.shape[0] != n_models:
             raise InputError(f"{file_name}: holds {loaded.shape[0]} predictions, "
                              f"{where} has {n_models} models")
         values = check_directions(file_name, loaded, expected_names,
-                                   [MEASURES[c] for c in columns])
+                                  [recorded[c] for c in columns])
         rows = np.arange(n_models)
     else:
         names_tuple, raw, measures_tuple = parse_predictions(file_name, loaded)
         names, file_measures = list(names_tuple), list(measures_tuple)
-        columns = [MEASURES.index(m) for m in file_measures]
+        unrecorded = [m for m in file_measures if m not in recorded]
+        if unrecorded:
+            raise InputError(f"{file_name}: {counted(len(unrecorded), 'measure', 'measures')} "
+                             f"not recorded in {dataset.path.name}: {quoted(unrecorded)} "
+                             f"(it records {', '.join(recorded)})")
+        columns = [recorded.index(m) for m in file_measures]
         values = check_directions(file_name, raw, names, file_measures)
         duplicates = sorted(name for name, count in Counter(names).items() if count > 1)
         if duplicates:
@@ -329,8 +372,8 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
 
     if column is not None:
         if column not in columns:
-            raise InputError(f"{file_name}: measure {MEASURES[column]!r} is not predicted "
-                             f"(file has {', '.join(MEASURES[c] for c in columns)})")
+            raise InputError(f"{file_name}: measure {recorded[column]!r} is not predicted "
+                             f"(file has {', '.join(recorded[c] for c in columns)})")
         values = values[:, [columns.index(column)], :]
         columns = [column]
     directions[rows[:, None], np.array(columns)[None, :], :] = values
@@ -349,22 +392,23 @@ def load_predictions(
     ----------
     path : path-like
         ``*.npz`` with ``names``, ``directions`` and ``measures``, or ``*.npy``
-        of shape (n_models, 4, 3) or (n_models, 3); see the module docstring.
+        of shape (n_models, M, 3) or (n_models, 3); see the module docstring.
     dataset_split : ViewpointDataset
         The models being evaluated, e.g. ``dataset.split("test")``. An
         ``.npz`` must name each of them exactly once; an ``.npy`` must have
         one row per model, in this order.
     measure : str, optional
-        Score only this measure (``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"``,
-        case-insensitive). Required for an (n_models, 3) array.
+        Score only this measure, one the dataset records (case-insensitive).
+        Required for an (n_models, 3) array.
 
     Returns
     -------
     names : list of str
         ``dataset_split.names``.
-    directions : (n_models, 4, 3) float64
-        Row ``i`` predicts ``names[i]``, in ``MEASURES`` order, as stored
-        (not normalised); all-NaN rows for measures not predicted.
+    directions : (n_models, M, 3) float64
+        Row ``i`` predicts ``names[i]``, one column per measure the dataset
+        records, in its order, as stored (not normalised); all-NaN rows for
+        measures not predicted.
 
     Raises
     ------
@@ -373,8 +417,9 @@ def load_predictions(
         with ``allow_pickle=False`` (e.g. an object array), a missing key,
         wrong shape or dtype, NaN, infinite or zero vectors, duplicate or
         unknown names, a count that differs from the split, measures that are
-        unknown or out of ``MEASURES`` order, or a ``measure`` not predicted.
-        Also for an unknown ``measure`` (naming the argument).
+        unknown, repeated or not recorded in the dataset, or a ``measure``
+        not predicted. Also for a ``measure`` that is unknown or not recorded
+        (naming the argument).
     """
     return _load(path, dataset_split, measure, f"the evaluated models of {dataset_split.path.name}")
 
@@ -399,10 +444,12 @@ def score_directions(
     ----------
     dataset : ViewpointDataset
         The evaluated models (a whole dataset or one split).
-    directions : (n_models, 4, 3) array_like
-        Row ``i`` for ``dataset[i]``, in ``MEASURES`` order, any non-zero
-        length. A measure whose directions are NaN for every model is not
-        scored (NaN in the report).
+    directions : (n_models, M, 3) array_like
+        Row ``i`` for ``dataset[i]``, one column per measure the dataset
+        records (:attr:`ViewpointDataset.measures
+        <vptoolkit.data.ViewpointDataset.measures>`), in its order, any
+        non-zero length. A measure whose directions are NaN for every model
+        is not scored (NaN in the report).
     split : str, optional
         Split label of the report (default: the models' split if they all
         share one, else ``"all"``).
@@ -423,13 +470,14 @@ def score_directions(
     n_models = len(dataset)
     if n_models == 0:
         raise InputError(f"{dataset.path.name}: no models to evaluate")
+    measures = dataset.measures
     values = np.asarray(directions, dtype=np.float64)
-    if values.shape != (n_models, len(MEASURES), 3):
-        raise InputError(f"directions: expected shape ({n_models}, {len(MEASURES)}, 3), "
+    if values.shape != (n_models, len(measures), 3):
+        raise InputError(f"directions: expected shape ({n_models}, {len(measures)}, 3), "
                          f"got {values.shape}")
-    is_missing = np.any(np.isnan(values), axis=2)  # (n_models, 4)
+    is_missing = np.any(np.isnan(values), axis=2)  # (n_models, M)
     is_scored = ~is_missing.all(axis=0)
-    partial = [m for m, column in zip(MEASURES, is_missing.T) if 0 < column.sum() < n_models]
+    partial = [m for m, column in zip(measures, is_missing.T) if 0 < column.sum() < n_models]
     if partial:
         raise InputError(f"directions: measure(s) {', '.join(partial)} predicted for some "
                          "models only; predict every model or none")
@@ -441,9 +489,9 @@ def score_directions(
     scale = np.abs(values).max(axis=2, keepdims=True)
     is_scalable = np.isfinite(scale) & (scale > 0)
     values = np.where(is_scalable, values / np.where(is_scalable, scale, 1.0), values)
-    scores = np.full((n_models, len(MEASURES)), np.nan)
+    scores = np.full((n_models, len(measures)), np.nan)
     for model in range(n_models):
-        quality = dataset.quality_of(model, values[model, columns])  # (n_scored, 4)
+        quality = dataset.quality_of(model, values[model, columns])  # (n_scored, M)
         scores[model, columns] = 100.0 * quality[np.arange(len(columns)), columns]
     if split is None:
         present = set(dataset.splits)
@@ -455,6 +503,7 @@ def score_directions(
         names=tuple(dataset.names),
         model_categories=tuple(dataset.categories),
         scores=scores,
+        measures=measures,
     )
 
 
@@ -476,7 +525,8 @@ def evaluate_predictions(
     split : str
         ``"train"``, ``"val"``, ``"test"`` (default) or ``"all"``.
     measure : str, optional
-        Score only this measure; required for an (n_models, 3) ``.npy``.
+        Score only this measure, one the dataset records; required for an
+        (n_models, 3) ``.npy``.
 
     Returns
     -------
@@ -486,8 +536,9 @@ def evaluate_predictions(
     Raises
     ------
     InputError
-        For an unknown split or measure, an empty split, or any problem of
-        the predictions file (one line naming the file).
+        For an unknown split, a measure that is unknown or not recorded in
+        the dataset, an empty split, or any problem of the predictions file
+        (one line naming the file).
 
     Examples
     --------
@@ -497,8 +548,8 @@ def evaluate_predictions(
     if not isinstance(dataset, ViewpointDataset):
         with open_dataset(dataset) as opened:
             return evaluate_predictions(opened, predictions_path, split=split, measure=measure)
+    recorded_measure(dataset, measure)
     selected = select_split(dataset, split)
-    _check_measure(measure)
     _, directions = _load(predictions_path, selected, measure,
                           f"split {split!r} of {dataset.path.name}")
     return score_directions(selected, directions, split=split,

@@ -1,4 +1,4 @@
-"""The architecture of a viewpoint network: levels, widths, head and input frame, as data.
+"""The architecture of a viewpoint network: levels, widths, heads, measures and input frame.
 
 :class:`ModelConfig` is stored in every checkpoint's JSON and rebuilt from it;
 :class:`LevelConfig` describes one level of the point hierarchy
@@ -21,7 +21,7 @@ from vptoolkit.learn.frame import INPUT_FRAMES
 __all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL",
            "MAX_LAYERS", "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig",
            "ModelConfig",
-           "ball_level", "check_input_sizes", "check_positive_int"]
+           "ball_level", "check_input_sizes", "check_measure_names", "check_positive_int"]
 
 HEADS: Final = ("direction", "sr", "dldl")
 """Network heads: unit directions, spherical regression, sphere maps."""
@@ -49,6 +49,8 @@ MAX_LAYERS: Final = 16
 
 MAX_PARAMETERS: Final = 1 << 27
 """Most parameters of a network (134 million, 512 MiB in float32)."""
+
+_LEGACY_COUNT = "n_measures"  # how checkpoints before named heads said how many heads they had
 
 
 @dataclass(frozen=True)
@@ -124,8 +126,14 @@ class ModelConfig:
     ----------
     head : {"direction", "sr", "dldl"}
         Output head (default: "direction").
-    n_measures : int
-        Heads, one per measure (default: 4, ``MEASURES``).
+    measures : tuple of str
+        The measure each head predicts, in head order: distinct names of the
+        registry (:func:`vptoolkit.measures.registry.resolve_measures`), any
+        number of them, the paper's four among them in their order, as
+        :class:`~vptoolkit.predictions.Predictions` carry them (default:
+        ``MEASURES``, the paper's four). A sequence is kept as a tuple.
+        :meth:`from_dict` reads the ``n_measures`` of older checkpoints as
+        the first ``n_measures`` of ``MEASURES``.
     levels : tuple of LevelConfig
         The hierarchy below the global level (default: :data:`DEFAULT_LEVELS`).
     latent_channels : int
@@ -151,7 +159,7 @@ class ModelConfig:
     """
 
     head: str = "direction"
-    n_measures: int = len(MEASURES)
+    measures: tuple[str, ...] = MEASURES
     levels: tuple[LevelConfig, ...] = DEFAULT_LEVELS
     latent_channels: int = 512
     kernel_size: int = 16
@@ -168,7 +176,7 @@ class ModelConfig:
                              f"got {self.input_frame!r}")
         if self.head not in HEADS:
             raise InputError(f"head: unknown head {self.head!r}, expected one of {list(HEADS)}")
-        check_positive_int(self.n_measures, "n_measures", maximum=len(MEASURES))
+        object.__setattr__(self, "measures", check_measure_names(self.measures, predicted=True))
         check_positive_int(self.latent_channels, "latent_channels", maximum=MAX_CHANNELS)
         for name in ("kernel_size", "global_kernel_size", "kernel_hidden"):
             check_positive_int(getattr(self, name), name, maximum=MAX_KERNEL)
@@ -216,9 +224,15 @@ class ModelConfig:
             check_positive_int(width, f"decoder_channels[{position}]", maximum=MAX_CHANNELS)
         check_float(self.dropout, "dropout", minimum=0.0, below=1.0, expected="a rate in [0, 1)")
 
+    @property
+    def n_measures(self) -> int:
+        """Heads: one per measure, ``len(measures)``."""
+        return len(self.measures)
+
     def to_dict(self) -> dict[str, Any]:
         """The configuration as JSON types."""
         result = asdict(self)
+        result["measures"] = list(self.measures)
         result["levels"] = [asdict(level) for level in self.levels]
         result["head_channels"] = list(self.head_channels)
         result["decoder_channels"] = list(self.decoder_channels)
@@ -235,8 +249,14 @@ class ModelConfig:
             (``MAX_CHANNELS``, ``MAX_KERNEL``, ``MAX_NEIGHBOURS``, ``MAX_LAYERS``),
             naming the field.
         """
-        kwargs = check_keys(values, tuple(cls.__dataclass_fields__), "architecture",
+        kwargs = check_keys(values, (*cls.__dataclass_fields__, _LEGACY_COUNT), "architecture",
                             missing_ok=True)
+        if _LEGACY_COUNT in kwargs:  # a checkpoint from before the heads were named
+            if "measures" in kwargs:
+                raise InputError(f"architecture: give measures or {_LEGACY_COUNT}, not both")
+            count = kwargs.pop(_LEGACY_COUNT)
+            check_positive_int(count, _LEGACY_COUNT, maximum=len(MEASURES))
+            kwargs["measures"] = MEASURES[:count]
         if "levels" in kwargs:
             levels = kwargs["levels"]
             if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping)
@@ -256,6 +276,47 @@ class ModelConfig:
                                      f"got {short_repr(kwargs[key])}")
                 kwargs[key] = tuple(kwargs[key])
         return cls(**kwargs)
+
+
+def check_measure_names(names: Any, *, text: bool = False,
+                        predicted: bool = False) -> tuple[str, ...]:
+    """Return ``names`` as a tuple of distinct registered measure names, or raise.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Measure names, in order.
+    text : bool
+        Also take one string as :func:`~vptoolkit.measures.registry.resolve_measures`
+        reads it: comma-separated names, ``"all"`` or ``"paper"`` (default: False).
+    predicted : bool
+        Also require names that a network's answers can carry as
+        :class:`~vptoolkit.predictions.Predictions`
+        (:func:`~vptoolkit.predictions.check_prediction_measures`: the
+        paper's four in their order among themselves), as the heads of a
+        network must be (default: False).
+
+    Raises
+    ------
+    InputError
+        ``measures: ...`` for something other than a sequence of strings, an
+        empty one, an unknown name (:func:`~vptoolkit.measures.registry.get_measure`),
+        a repeated one, or, with ``predicted``, names out of that order.
+    """
+    from vptoolkit.measures.registry import resolve_measures
+    from vptoolkit.predictions import check_prediction_measures
+
+    if not (text and isinstance(names, str)) and (
+            isinstance(names, str) or not isinstance(names, (list, tuple))
+            or not all(isinstance(name, str) for name in names)):
+        raise InputError(f"measures: expected a list of measure names, got {short_repr(names)}")
+    try:
+        resolved = resolve_measures(names)
+        return check_prediction_measures(resolved) if predicted else resolved
+    except InputError as err:
+        message = str(err)
+        raise InputError(message if message.startswith("measures:")
+                         else f"measures: {message}") from err
 
 
 def check_positive_int(value: Any, name: str, *, maximum: int | None = None) -> None:

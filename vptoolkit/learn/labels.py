@@ -5,8 +5,9 @@ network is trained towards matters (Schelling et al. 2021, section 4.1). A
 model has ``V`` sampled views ``v`` with a normalised quality
 ``q(v) = VQ*(v)`` in [0, 1] per measure (1 = best); a prediction is a unit
 vector ``v_hat``. Every loss below is per sample and per measure, shape
-``(B, M)`` for ``B`` models and ``M`` measures (4, in ``MEASURES`` order);
-the training loop takes the mean.
+``(B, M)`` for ``B`` models and ``M`` measures (the network's, in its head
+order: ``quality`` holds one column per measure, however many); the training
+loop takes the mean.
 
 =========  =====================================================================
 method     loss

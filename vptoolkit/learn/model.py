@@ -40,7 +40,7 @@ Encoder (:class:`PointEncoder`), default :class:`ModelConfig`
     level-1 cells. The paper's network has four levels too, with conv radii
     0.05, 0.2, 0.3 and sqrt(3) and 128, 256, 1024 and 2048 channels.
 
-Heads, one per measure (4), on the 512-vector
+Heads, one per measure of ``ModelConfig.measures`` (the paper's four by default), on the 512-vector
     - ``"direction"`` (SL, ML, GL, ML+GL): MLP 512-256-64-3 with batch norm,
       ReLU and dropout 0.5 after each hidden layer (148,611 parameters),
       normalised to unit length (the paper: 2048-1024-256-3).
@@ -51,7 +51,7 @@ Heads, one per measure (4), on the 512-vector
       blocks, 4 x 4 stride-4 deconvolution, two residual blocks, 2 x 2
       stride-2 deconvolution) with 64 and 16 channels instead of 1024 and 256.
 
-Parameter counts of the default configuration (checked by the tests)
+Parameter counts of the default configuration, four heads (checked by the tests)
 
     ==========  ==========
     head        parameters
@@ -76,7 +76,6 @@ from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import CheckpointError, InputError
 from vptoolkit.files import write_json_atomic
 from vptoolkit.learn.checkpoint import (
@@ -91,6 +90,7 @@ from vptoolkit.learn.config import (
     MAX_PARAMETERS,
     ModelConfig,
     check_input_sizes,
+    check_measure_names,
     check_positive_int,
 )
 from vptoolkit.learn.frame import canonical_frame, from_frame, to_frame
@@ -125,6 +125,7 @@ __all__ = [
 class ViewpointNet(nn.Module):
     """The viewpoint network: :class:`PointEncoder` and one head per measure.
 
+    Head ``m`` predicts measure ``config.measures[m]`` (:attr:`measures`).
     Parameters are initialised from a :class:`torch.Generator` seeded with
     ``seed`` (uniform in ``+-1/sqrt(fan_in)``, PyTorch's default bounds; batch
     norm at identity), never from the global random state.
@@ -139,7 +140,7 @@ class ViewpointNet(nn.Module):
         - **output:** a dict with
 
           - ``"directions"``: :math:`(B, M, 3)` unit predictions, in the
-            input's frame, one per measure (always)
+            input's frame, one per measure of :attr:`measures` (always)
           - ``"abs_directions"``: :math:`(B, M, 3)` and ``"sign_logits"``:
             :math:`(B, M, 8)` (``head="sr"``)
           - ``"maps"``: :math:`(B, M, 32, 32)` predicted quality maps (``head="dldl"``)
@@ -181,6 +182,11 @@ class ViewpointNet(nn.Module):
         self.to_empty(device="cpu")
         self.reset_parameters(seed=seed)
         self._generator: torch.Generator | None = None
+
+    @property
+    def measures(self) -> tuple[str, ...]:
+        """The measure of each head, in the order of the outputs' axis ``M``."""
+        return self.config.measures
 
     def reset_parameters(self, *, seed: int = 0) -> None:
         """Initialise every weight from a generator seeded with ``seed``.
@@ -320,9 +326,9 @@ def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
         folder is created.
     metadata : mapping, optional
         More JSON entries for the configuration (label method, training
-        arguments, scores, ...). ``format``, ``architecture``, ``measures``,
-        ``n_parameters`` and ``weights_dtype`` are always written by this
-        function.
+        arguments, scores, ...). ``format``, ``architecture``, ``measures``
+        (the heads' measure names, as in the architecture), ``n_parameters``
+        and ``weights_dtype`` are always written by this function.
     half : bool
         Store floating-point tensors as float16 (half the file size; they
         are loaded back into the float32 network). Default: False.
@@ -340,7 +346,7 @@ def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
         "format": MODEL_FORMAT,
         "format_version": 1,
         "architecture": model.config.to_dict(),
-        "measures": list(MEASURES[: model.config.n_measures]),
+        "measures": list(model.measures),
         "n_parameters": count_parameters(model),
         "weights_dtype": "float16" if half else "float32",
     })
@@ -374,9 +380,11 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     InputError
         If ``path`` does not exist (naming it), a file is missing or
         unreadable, the configuration is not a
-        vptoolkit model, has no ``architecture``, lists its measures in
-        another order than ``MEASURES`` or asks for sizes beyond the bounds
-        of :mod:`vptoolkit.learn.config`, or a weight is NaN or infinite.
+        vptoolkit model, has no ``architecture``, names a measure the
+        registry does not know (:func:`vptoolkit.measures.registry.resolve_measures`)
+        or other measures than its architecture's heads, or asks for sizes
+        beyond the bounds of :mod:`vptoolkit.learn.config`, or a weight is
+        NaN or infinite.
     CheckpointError
         If the weights do not match the architecture.
     """
@@ -392,13 +400,6 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         raise InputError(f"{config_path.name}: format_version "
                          f"{config.get('format_version')!r} is not 1, "
                          "the only one this vptoolkit reads")
-    measures = config.get("measures", [])
-    if not isinstance(measures, list) or len(measures) > len(MEASURES):
-        raise InputError(f"{config_path.name}: measures: expected a list of at most "
-                         f"{len(MEASURES)} names")
-    if measures != list(MEASURES[: len(measures)]):
-        raise InputError(f"{config_path.name}: measure order {measures} "
-                         f"differs from {list(MEASURES)}")
     try:
         trained = config.get("input", {})
         if not isinstance(trained, Mapping):
@@ -408,12 +409,17 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
                           prefix="input.")
         if "architecture" not in config:
             raise InputError("architecture: missing; a checkpoint names its network's architecture")
-        architecture = config["architecture"]
-        if not isinstance(architecture, Mapping):
-            raise InputError(f"architecture: expected an object, got {type(architecture).__name__}")
-        # a configuration without the option is of raw inputs
-        architecture = {"input_frame": "none", **architecture}
-        model = ViewpointNet(ModelConfig.from_dict(architecture))
+        described = config["architecture"]
+        if not isinstance(described, Mapping):
+            raise InputError(f"architecture: expected an object, got {type(described).__name__}")
+        # a configuration without the input frame is of raw inputs
+        architecture = ModelConfig.from_dict({"input_frame": "none", **described})
+        # The names of the heads: the architecture's; older checkpoints name them only here.
+        named = check_measure_names(config.get("measures", list(architecture.measures)))
+        if named != architecture.measures:
+            raise InputError(f"measures: the measure order {', '.join(named)} is not that of "
+                             f"the architecture's heads ({', '.join(architecture.measures)})")
+        model = ViewpointNet(architecture)
     except InputError as err:
         raise InputError(f"{config_path.name}: {err}") from err
     state = read_safetensors(weights_path)  # float16 weights are cast on loading

@@ -4,7 +4,8 @@ A :class:`TrainOptions` holds everything that defines a run's result: the
 label method, the optimisation (epochs, batch size, learning rate and its
 schedule), the seed, the models (validation split, ``max_models``,
 categories), the inputs (points, farthest-point picks, rotation, the
-farthest-point pool), the validation rotations and the architecture. It is
+farthest-point pool), the validation rotations, the measures the heads learn
+and the architecture. It is
 checked once, when it is made; :meth:`TrainOptions.to_dict` is what a run
 records (in ``model.json`` and its resumable state) and
 :meth:`TrainOptions.from_dict` reads it back, so resuming compares two
@@ -21,7 +22,7 @@ making options does, to check the label method and the architecture.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import TYPE_CHECKING, Any, Final
 
 from vptoolkit.checks import (
@@ -122,11 +123,20 @@ class TrainOptions:
     val_rotations : int
         Fixed rotations per validation model (default:
         :data:`DEFAULT_VAL_ROTATIONS`; 0 validates in the stored orientation).
+    measures : sequence of str or str, optional
+        The measures the network learns, one head each, in head order: names
+        the dataset records (its ``measures`` attribute), as a sequence or one
+        comma-separated string (:func:`vptoolkit.measures.registry.resolve_measures`),
+        the paper's four among them in their order; kept as a tuple. None
+        (default): every measure the dataset records, which
+        :func:`~vptoolkit.learn.train.train_model` fills in when the run
+        starts (its record keeps None; the architecture names the heads).
     architecture : ModelConfig, optional
         Network configuration; None gives ``ModelConfig(head=...)`` for the
         label method, and a mapping is read with
         :meth:`ModelConfig.from_dict` (its ``head`` defaults to the method's).
-        Kept as a :class:`ModelConfig` whose head fits ``labels``.
+        Kept as a :class:`ModelConfig` whose head fits ``labels`` and whose
+        ``measures`` are ``measures`` when those are given.
 
     Raises
     ------
@@ -157,6 +167,7 @@ class TrainOptions:
     rotate: bool = True
     fps_pool: int = DEFAULT_FPS_POOL
     val_rotations: int = DEFAULT_VAL_ROTATIONS
+    measures: Sequence[str] | str | None = None
     architecture: ModelConfig | None = None
 
     def __post_init__(self) -> None:
@@ -164,6 +175,7 @@ class TrainOptions:
         from vptoolkit.learn.labels import check_label_method
 
         labels = check_label_method(self.labels)
+        measures = _measures(self.measures)
         epochs = check_int(self.epochs, "epochs", minimum=1)
         n_points, n_fps = check_input_sizes(self.n_points, self.n_fps)
         values = {
@@ -185,7 +197,8 @@ class TrainOptions:
             "rotate": check_bool(self.rotate, "rotate"),
             "fps_pool": check_int(self.fps_pool, "fps_pool", minimum=0),
             "val_rotations": check_int(self.val_rotations, "val_rotations", minimum=0),
-            "architecture": _architecture(self.architecture, labels),
+            "measures": measures,
+            "architecture": _architecture(self.architecture, labels, measures),
         }
         for name, value in values.items():  # frozen: the checked values replace the given ones
             object.__setattr__(self, name, value)
@@ -206,6 +219,7 @@ class TrainOptions:
         """The options as JSON types: what a run records and :meth:`from_dict` reads."""
         values = {item.name: getattr(self, item.name) for item in fields(self)}
         values["categories"] = None if self.categories is None else list(self.categories)
+        values["measures"] = None if self.measures is None else list(self.measures)
         values["architecture"] = self.model_config.to_dict()
         return values
 
@@ -227,13 +241,24 @@ class TrainOptions:
         Every option but ``epochs``, which may grow, must be the recorded one;
         so must ``lr_step`` unless both are the default of their ``epochs``
         (a default step grows with the run). A differing architecture is
-        named by its field, e.g. ``architecture.head_channels``.
+        named by its field, e.g. ``architecture.head_channels``; differing
+        measures as ``measures`` alone. Options without ``measures`` (a run
+        recorded before they were chosen) stand for their architecture's.
         """
-        conflicts = changed_values(recorded.to_dict(), self.to_dict())
+        conflicts = changed_values(_named(recorded).to_dict(), _named(self).to_dict())
+        if "measures" in conflicts:  # the architecture's heads follow them
+            conflicts.pop("architecture.measures", None)
         conflicts.pop("epochs", None)
         if _default_step(self) and _default_step(recorded):
             conflicts.pop("lr_step", None)
         return conflicts
+
+
+def _named(options: TrainOptions) -> TrainOptions:
+    """``options`` with ``measures`` filled in from their architecture where None."""
+    if options.measures is not None:
+        return options
+    return replace(options, measures=options.model_config.measures)
 
 
 def _default_step(options: TrainOptions) -> bool:
@@ -262,13 +287,22 @@ def _categories(categories: Any) -> tuple[str, ...] | None:
     return tuple(sorted(set(categories)))
 
 
-def _architecture(architecture: Any, labels: str) -> ModelConfig:
+def _measures(measures: Any) -> tuple[str, ...] | None:
+    from vptoolkit.learn.config import check_measure_names
+
+    return None if measures is None else check_measure_names(measures, text=True,
+                                                             predicted=True)
+
+
+def _architecture(architecture: Any, labels: str,
+                  measures: tuple[str, ...] | None) -> ModelConfig:
     from vptoolkit.learn.config import ModelConfig
     from vptoolkit.learn.labels import head_for_method
 
     head = head_for_method(labels)
     if architecture is None:
-        return ModelConfig(head=head)
+        return ModelConfig(head=head) if measures is None else ModelConfig(head=head,
+                                                                           measures=measures)
     if isinstance(architecture, ModelConfig):
         config = architecture
     elif isinstance(architecture, Mapping):
@@ -279,4 +313,6 @@ def _architecture(architecture: Any, labels: str) -> ModelConfig:
     if config.head != head:
         raise InputError(f"architecture: head {config.head!r} does not fit labels {labels!r} "
                          f"(needs {head!r})")
+    if measures is not None and config.measures != measures:
+        config = replace(config, measures=measures)
     return config

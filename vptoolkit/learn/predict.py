@@ -25,9 +25,13 @@ same input wherever it appears. Nothing is rotated: networks with the
 canonical input frame (:mod:`vptoolkit.learn.frame`) answer in the input's
 own orientation, whatever it is.
 
+The predictions name the network's measures (its heads, as its
+``model.json`` lists them), in its order.
+
 Per-category networks (:func:`vptoolkit.learn.train.train_per_category`, a
 folder with ``categories.json``) route every dataset model to its category's
-network; meshes and point files need ``category``.
+network; meshes and point files need ``category``; they must all predict the
+same measures.
 """
 
 from __future__ import annotations
@@ -41,7 +45,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import short_repr
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
@@ -142,7 +145,7 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
             outputs = model(inputs[start : start + batch_size].to(where))
             parts.append(outputs["directions"].to(torch.float64).cpu())
     if not parts:
-        return np.zeros((0, model.config.n_measures, 3))
+        return np.zeros((0, len(model.measures), 3))
     directions = torch.cat(parts).numpy()
     lengths = np.linalg.norm(directions, axis=-1, keepdims=True)
     is_bad = ~(np.isfinite(lengths) & (lengths > 0.0)).all(axis=(1, 2))
@@ -163,8 +166,8 @@ def load_networks(
     Raises
     ------
     InputError
-        If a checkpoint is missing or unreadable, or ``categories.json`` is not a
-        per-category index.
+        If a checkpoint is missing or unreadable, ``categories.json`` is not a
+        per-category index, or its networks predict different measures.
     """
     from vptoolkit.learn.checkpoint import read_json
 
@@ -180,8 +183,14 @@ def load_networks(
         if not isinstance(folder, str) or not is_inside_folder(folder):
             raise InputError(f"{index}: category {short_repr(name)} names {short_repr(folder)}, "
                              "not a folder inside the model folder")
-    return {str(name): load_model(Path(model_path) / folder)
-            for name, folder in sorted(entries["categories"].items())}
+    networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]] = {
+        str(name): load_model(Path(model_path) / folder)
+        for name, folder in sorted(entries["categories"].items())}
+    heads = {name: model.measures for name, (model, _) in networks.items()}
+    if len(set(heads.values())) > 1:
+        listed = "; ".join(f"{name}: {', '.join(measures)}" for name, measures in heads.items())
+        raise InputError(f"{index}: its networks predict different measures ({listed})")
+    return networks
 
 
 def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name: str,
@@ -260,7 +269,7 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
                     model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
     """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
     first_model = next(iter(networks.values()))[0]
-    directions = np.zeros((len(prepared), first_model.config.n_measures, 3))
+    directions = np.zeros((len(prepared), len(first_model.measures), 3))
     for route, (model, _) in networks.items():
         rows = [i for i, chosen in enumerate(routes) if chosen == route]
         if rows:
@@ -291,11 +300,18 @@ class MeshPredictor:
     category : str, optional
         The category whose network predicts (required for a per-category folder).
 
+    Attributes
+    ----------
+    measures : tuple of str
+        The measure of each row of a call's answer (the network's heads).
+
     Examples
     --------
     >>> predictor = MeshPredictor("default")          # doctest: +SKIP
     >>> predictor(load_mesh("chair.off")).shape        # doctest: +SKIP
     (4, 3)
+    >>> predictor.measures                              # doctest: +SKIP
+    ('VE', 'VR', 'VKL', 'VMI')
     """
 
     def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
@@ -307,7 +323,7 @@ class MeshPredictor:
         self.model, self.config = networks[route]
         self.checkpoint = _checkpoint_name(model_path, route)
         self.n_points, self.n_fps = _input_sizes(self.config, None, None)
-        self.measures = tuple(self.config.get("measures", MEASURES[: self.model.config.n_measures]))
+        self.measures = self.model.measures
         self.seed = seed
         self.threads = threads
 
@@ -379,7 +395,9 @@ def predict(
     Returns
     -------
     Predictions
-        In input order; names are file stems or dataset model names.
+        In input order; names are file stems or dataset model names;
+        ``directions`` ``(n_models, M, 3)`` for the network's ``M`` measures,
+        which ``measures`` names in head order.
 
     Raises
     ------
@@ -411,8 +429,7 @@ def predict(
             routes.append(route)
             prepared.append(network_points(source.points(seed=seed), n_points=size, n_fps=fps,
                                            seed=seed, name=source.name))
-    first_model, first_config = next(iter(networks.values()))
-    measures = tuple(first_config.get("measures", MEASURES[: first_model.config.n_measures]))
+    measures = next(iter(networks.values()))[0].measures
     with torch_threads(threads):
         directions = _predict_routed(networks, prepared, routes, batch_size=batch_size,
                                      device=device, model_path=model_path)

@@ -5,6 +5,11 @@ directions first and keeps what the drawing says is best, so a prior only
 has to put a good direction among a few candidates, not to be right.
 :class:`NetworkPrior` asks a checkpoint for them:
 
+Only the heads of the measures the search looks for count (``measures``;
+default: every head): a searched measure the network has no head for gets no
+candidate, and a search none of whose measures it has gets none at all, so
+it runs as without a prior.
+
 1. the network's answer per measure in the input's canonical frame
    (:mod:`vptoolkit.learn.frame`), as :func:`vptoolkit.learn.predict.predict`
    gives it;
@@ -17,8 +22,8 @@ has to put a good direction among a few candidates, not to be right.
    highest cells at least ``mode_angle_deg`` from every higher one kept.
 
 Directions closer than ``min_angle_deg`` to an earlier candidate are
-dropped; the order is by mode rank, then frame, then measure (``MEASURES``
-order).
+dropped; the order is by mode rank, then frame, then measure (the
+network's head order).
 Directions point from the bounding-box centre towards the camera, in the
 mesh's own coordinates.
 """
@@ -28,6 +33,7 @@ from __future__ import annotations
 import itertools
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -36,6 +42,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
+from vptoolkit.learn.config import check_measure_names
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor, predict_directions
@@ -68,12 +75,24 @@ class NetworkPrior:
         Smallest angle between two modes of one map (default: 30).
     threads : int, optional
         Torch threads during each call (default: torch's setting).
+    measures : sequence of str or str, optional
+        The measures the search looks for (registered names, or one
+        comma-separated string: :func:`vptoolkit.measures.registry.resolve_measures`);
+        only the network's heads for these propose candidates (default:
+        every head).
+
+    Attributes
+    ----------
+    heads : tuple of str
+        The network's measures that propose candidates, in head order
+        (empty: the prior proposes nothing).
 
     Raises
     ------
     InputError
         If ``model_path`` does not exist, is not a checkpoint or is a
-        per-category folder, or if the network's weights are broken (it
+        per-category folder, ``measures`` names an unknown measure, or if
+        the network's weights are broken (it
         answers no direction for the points of a sphere); a call raises it
         for a mesh the network answers no direction for.
 
@@ -81,11 +100,14 @@ class NetworkPrior:
     --------
     >>> prior = NetworkPrior("default")                       # doctest: +SKIP
     >>> search_best_views(mesh, 8, prior=prior(mesh))          # doctest: +SKIP
+    >>> NetworkPrior("net/", measures="NVT,SL").heads          # doctest: +SKIP
+    ('NVT', 'SL')
     """
 
     def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
                  min_angle_deg: float = 5.0, modes: int = 3, mode_angle_deg: float = 30.0,
-                 threads: int | None = None) -> None:
+                 threads: int | None = None,
+                 measures: Sequence[str] | str | None = None) -> None:
         for name, angle in (("min_angle_deg", min_angle_deg), ("mode_angle_deg", mode_angle_deg)):
             if not 0.0 <= float(angle) < 180.0:
                 raise InputError(f"{name}: expected an angle in [0, 180), got {angle!r}")
@@ -95,7 +117,11 @@ class NetworkPrior:
             raise InputError(f"{model_path}: holds one network per category, and a prior is one "
                              "network for every mesh (best-view has no --category); give the "
                              "folder of one category's network inside it")
+        searched = None if measures is None else check_measure_names(measures, text=True)
         self.predictor = MeshPredictor(model_path, seed=seed, threads=threads)
+        own = self.predictor.measures
+        self.heads = own if searched is None else tuple(name for name in own if name in searched)
+        self._columns = [own.index(name) for name in self.heads]
         probe = fibonacci_sphere(self.predictor.n_points).astype(np.float32)
         with torch_threads(threads):  # broken weights answer no direction at all: say so once
             predict_directions(self.predictor.model, probe[None],
@@ -127,8 +153,10 @@ class NetworkPrior:
         return torch.stack(choices).to(points.dtype), centre
 
     def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
-        """Candidate unit directions ``(k, 3)``, most promising first."""
+        """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` without heads."""
         mesh = as_mesh(mesh)
+        if not self.heads:
+            return np.zeros((0, 3))
         model = self.predictor.model
         points = torch.as_tensor(self.predictor.inputs(mesh))
         with torch_threads(self.predictor.threads), torch.inference_mode():
@@ -139,9 +167,11 @@ class NetworkPrior:
             else:
                 frames, centre = self.frames(points)
             outputs = model.forward_in_frames(points, frames, centre)
-        ranked = [outputs["directions"].to(torch.float64).numpy()]  # (F, M, 3): rank 1
+        # (F, M, 3), the searched measures' heads: rank 1
+        ranked = [outputs["directions"][:, self._columns].to(torch.float64).numpy()]
         if "maps" in outputs and self.modes > 1:
-            ranked += map_modes(outputs["maps"], frames, self.modes, self.mode_angle_deg)[1:]
+            ranked += map_modes(outputs["maps"][:, self._columns], frames, self.modes,
+                                self.mode_angle_deg)[1:]
         candidates = np.concatenate([rank.reshape(-1, 3) for rank in ranked])
         lengths = np.linalg.norm(candidates, axis=1, keepdims=True)
         if not (np.isfinite(lengths) & (lengths > 0.0)).all():

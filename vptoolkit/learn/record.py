@@ -1,12 +1,13 @@
 """The training record a checkpoint's ``model.json`` carries.
 
 What a trained network was made from and how: the dataset and its
-attributes, the models trained and validated on, the arguments (the run's
-:class:`~vptoolkit.learn.options.TrainOptions` as ``to_dict`` writes them,
-beside its paths and machine settings) and the command, the epochs run, and
-the best epoch with its validation scores (:func:`training_record`); when a
-run ends, its whole per-epoch history is added to the best checkpoint's
-configuration (:func:`update_best_record`).
+attributes (with the measures it records), the models trained and validated
+on, the arguments (the run's :class:`~vptoolkit.learn.options.TrainOptions`
+as ``to_dict`` writes them, beside its paths and machine settings) and the
+command, the epochs run, and the best epoch with its validation scores per
+measure (:func:`training_record`); when a run ends, its whole per-epoch
+history is added to the best checkpoint's configuration
+(:func:`update_best_record`).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ def training_record(arguments: Mapping[str, Any], command: str | None, dataset: 
         "dataset": str(dataset.path),
         "dataset_attrs": {key: dataset.attrs.get(key)
                           for key in ("format", "schema_version", "n_models", "n_views",
-                                      "toolkit_version", "created")},
+                                      "measures", "toolkit_version", "created")},
         "n_train": n_train,
         "n_val": n_val,
         "arguments": dict(arguments),

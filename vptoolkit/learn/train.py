@@ -23,7 +23,18 @@ rotated protocol (:mod:`vptoolkit.evaluate.protocol`): each model under
 input points as :func:`vptoolkit.learn.predict.predict` would choose; each
 prediction scores the normalised quality of its nearest sampled view
 (:func:`vptoolkit.learn.labels.nearest_view_quality`). The checkpoint with
-the best mean over the four measures is kept.
+the best mean over the measures is kept.
+
+Measures
+    The network has one head per measure of the options' ``measures``
+    (default: every measure the dataset records, its ``measures``
+    attribute), in that order; its labels are those columns of the stored
+    normalised quality (1 = best view, whichever way the raw measure is
+    better) and those entries of the stored best views. ``model.json``
+    names them (``measures``, and the architecture's), and so do the
+    validation scores and the history. The recorded options keep
+    ``measures`` as given (None: the dataset's), so a resumed run compares
+    the names its architecture learnt.
 
 The options that define a run are one value,
 :class:`vptoolkit.learn.options.TrainOptions`, recorded in the files below;
@@ -82,9 +93,8 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import MEASURES
-from vptoolkit.data import open_dataset
-from vptoolkit.errors import ExistingRunError, InputError, VerificationError
+from vptoolkit.data import ViewpointDataset, open_dataset
+from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_path_part, write_json_atomic
 from vptoolkit.learn.checkpoint import checkpoint_paths
 from vptoolkit.learn.labels import label_loss, label_phase
@@ -154,7 +164,7 @@ class TrainResult:
     best_score : float
         Its mean validation score over the measures, in [0, 1].
     best_scores : dict of str to float
-        Its validation score per measure.
+        Its validation score per measure, in the network's head order.
     history : tuple of dict
         Per epoch: ``epoch`` (1-based), ``phase`` (loss used), ``lr``,
         ``loss`` (mean training loss), ``val_scores`` (per measure),
@@ -189,6 +199,50 @@ def _seed(*keys: int) -> int:
 
 def _generator(*keys: int, device: torch.device | str = "cpu") -> torch.Generator:
     return torch.Generator(device=device).manual_seed(_seed(*keys))
+
+
+def _measure_columns(dataset: ViewpointDataset,
+                     options: TrainOptions) -> tuple[TrainOptions, tuple[int, ...]]:
+    """The options with their measures filled in, and those measures' columns in the dataset.
+
+    ``options.measures`` None stands for every measure the dataset records.
+
+    Raises
+    ------
+    InputError
+        ``measures: ...`` for a name the dataset does not record; for a
+        default that would learn a recorded name the registry does not know.
+    """
+    from vptoolkit.measures.registry import all_measures
+
+    recorded = tuple(dataset.measures)
+    names = recorded if options.measures is None else tuple(options.measures)
+    unknown = [name for name in names if name not in all_measures()]
+    if unknown:  # only the dataset's own names can be unknown here: options are checked
+        raise InputError(f"{dataset.path.name}: records {', '.join(map(repr, unknown))}, which "
+                         "this vptoolkit does not know as measures; name the ones to learn")
+    missing = [name for name in names if name not in recorded]
+    if missing:
+        raise InputError(f"measures: {dataset.path.name} does not record {', '.join(missing)} "
+                         f"(it records {', '.join(recorded)})")
+    return replace(options, measures=names), tuple(recorded.index(name) for name in names)
+
+
+@dataclass(frozen=True)
+class _TakeMeasures:
+    """A training item's labels for some of the dataset's measures, in the network's order.
+
+    ``quality`` ``(V, M_all)`` keeps the columns ``columns``; ``best_views``
+    ``(M_all, 3)`` and ``best_index`` ``(M_all,)`` keep those rows. A class,
+    not a closure, so that data-loading workers can unpickle it.
+    """
+
+    columns: tuple[int, ...]
+
+    def __call__(self, item: dict[str, Any]) -> dict[str, Any]:
+        index = list(self.columns)
+        return {**item, "quality": item["quality"][:, index],
+                "best_views": item["best_views"][index], "best_index": item["best_index"][index]}
 
 
 def _collate(items: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
@@ -268,14 +322,14 @@ def train_model(
     Raises
     ------
     InputError
-        On invalid keywords, an empty split or a resumed run with other options.
+        On invalid keywords, an empty split, a measure the dataset does not
+        record (or one the registry does not know) or a resumed run with
+        other options.
     ExistingRunError
         If ``output`` holds a run and neither ``resume`` (with a state to
         resume from) nor ``overwrite`` is given.
     CheckpointError
         If the state to resume from does not fit the network.
-    VerificationError
-        If the dataset's measure order differs from ``MEASURES``.
     """
     if options is None:
         options = TrainOptions()
@@ -295,7 +349,6 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
            save_every: int, workers: int, device: torch.device,
            command: str | None) -> TrainResult:
     started = time.perf_counter()
-    config = options.model_config
     epochs, labels, seed = options.epochs, options.labels, options.seed
     weights_path, config_path = checkpoint_paths(output)
     last_weights, last_json = state_paths(output)
@@ -304,13 +357,15 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
     dataset = open_dataset(dataset_path)
     try:
         chosen = select_categories(dataset, options.categories)
+        # Recorded as given (None: the dataset's); the architecture names the heads learnt.
+        given = options.to_dict()["measures"]
+        options, columns = _measure_columns(dataset, options)
+        config = options.model_config
         arguments = {
-            "dataset_path": str(dataset_path), "output": str(output), **options.to_dict(),
+            "dataset_path": str(dataset_path), "output": str(output),
+            **options.to_dict(), "measures": given,
             "save_every": save_every, "workers": workers, "device": str(device),
         }
-        if tuple(dataset.measures) != tuple(MEASURES[: config.n_measures]):
-            raise VerificationError(f"{dataset.path.name}: measures {dataset.measures} differ "
-                                    f"from {MEASURES}")
         train_set, n_train = select_models(dataset, "train", chosen, options.max_models,
                                            "dataset_path")
         val_set, n_val = select_models(dataset, options.val_split, chosen, options.max_models,
@@ -325,12 +380,15 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                     else "pass resume=True to continue it or overwrite=True to replace it")
             raise ExistingRunError(f"{weights_path.parent}: already holds a training run "
                                    f"({weights_path.name}); {hint}")
+        every = columns == tuple(range(len(dataset.measures)))
         train_data = ViewpointTorchDataset(train_set, n_points=options.n_points,
                                            n_fps=options.n_fps, rotate=options.rotate, seed=seed,
-                                           fps_pool=options.fps_pool)
+                                           fps_pool=options.fps_pool,
+                                           transform=None if every else _TakeMeasures(columns))
         validation = validation_inputs(val_set, n_val, n_points=options.n_points,
                                        n_fps=options.n_fps, seed=seed,
-                                       rotations=options.val_rotations, device=device)
+                                       rotations=options.val_rotations, device=device,
+                                       columns=columns)
 
         model = ViewpointNet(config, seed=_seed(seed, 0)).to(device)
         optimizer = torch.optim.Adam(model.parameters(), lr=options.lr, fused=True)
@@ -368,7 +426,7 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
                 entry = {
                     "epoch": epoch + 1, "phase": phase, "lr": rate, "loss": loss,
                     "val_scores": {name: float(value)
-                                   for name, value in zip(MEASURES, scores.tolist())},
+                                   for name, value in zip(config.measures, scores.tolist())},
                     "val_score": score, "seconds": time.perf_counter() - epoch_started,
                 }
                 history.append(entry)
@@ -393,7 +451,9 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             checkpoint=weights_path, config_path=config_path, state_path=last_weights,
             labels=labels,
             epochs=len(history), best_epoch=int(best["epoch"]), best_score=float(best["score"]),
-            best_scores=dict(best["scores"]), history=tuple(history), n_train=n_train,
+            best_scores={name: best["scores"][name] for name in config.measures
+                         if name in best["scores"]},  # head order (JSON sorts a resumed state's)
+            history=tuple(history), n_train=n_train,
             n_val=n_val, n_parameters=count_parameters(model),
             seconds=time.perf_counter() - started,
         )

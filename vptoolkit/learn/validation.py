@@ -5,12 +5,13 @@ its name (:func:`vptoolkit.rotations.fixed_rotations`; none gives the stored
 orientation), with the input points :func:`vptoolkit.learn.predict.predict`
 would choose; a prediction scores the normalised quality of its nearest
 sampled view (:func:`vptoolkit.learn.labels.nearest_view_quality`), in
-[0, 1], higher is better.
+[0, 1], higher is better, per measure the network learns (the dataset's
+quality columns it was trained on).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -35,8 +36,14 @@ _BATCH = 32  # validation inputs per forward pass
 
 
 def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int,
-                    seed: int, rotations: int, device: torch.device) -> dict[str, Tensor]:
-    """The validation inputs under the rotated protocol (as stored for ``rotations=0``)."""
+                      seed: int, rotations: int, device: torch.device,
+                      columns: Sequence[int] | None = None) -> dict[str, Tensor]:
+    """The validation inputs under the rotated protocol (as stored for ``rotations=0``).
+
+    Returns ``points`` ``(n, n_points, 3)``, ``views`` ``(n, V, 3)`` and
+    ``quality`` ``(n, V, M)``: the stored normalised quality's ``columns``
+    (default: all), one per measure of the network, in its order.
+    """
     points, views, quality = [], [], []
     for index in range(n_models):
         item = subset[index]
@@ -47,13 +54,14 @@ def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int,
         for rotation in turns:
             points.append(base @ rotation.T)
             views.append(item["views"] @ rotation.T)
-            quality.append(item["quality"])
+            quality.append(item["quality"] if columns is None
+                           else item["quality"][:, list(columns)])
     return {key: torch.from_numpy(np.stack(values).astype(np.float32)).to(device)
             for key, values in (("points", points), ("views", views), ("quality", quality))}
 
 
 def validation_scores(model: ViewpointNet, validation: Mapping[str, Tensor]) -> Tensor:
-    """(4,) mean score per measure of ``model`` (put in eval mode) on :func:`validation_inputs`."""
+    """(M,) mean score per measure of ``model`` (put in eval mode) on :func:`validation_inputs`."""
     model.eval()
     scores = []
     with torch.inference_mode():

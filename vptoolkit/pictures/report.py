@@ -3,10 +3,13 @@
 :func:`write_report` writes ``index.html`` and its pictures into a folder
 that any browser opens from disk (no server, no network, no external
 script): one card per model with a picture from the best view of each
-measure, the four quality maps (:func:`vptoolkit.pictures.sphere_map.sphere_maps`),
+measure, the quality maps (:func:`vptoolkit.pictures.sphere_map.sphere_maps`),
 the scores of predictions if given, filters by category and split (also
 settable in the address, e.g. ``index.html#category=chair&split=test``)
-and a summary table per category.
+and a summary table per category. The measures are those the dataset
+records (:attr:`ViewpointDataset.measures
+<vptoolkit.data.ViewpointDataset.measures>`: the paper's four unless it
+was built with others), in its order.
 """
 
 from __future__ import annotations
@@ -27,7 +30,6 @@ from tqdm import tqdm
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_int, one_line
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
@@ -38,6 +40,8 @@ __all__ = ["write_report"]
 
 REPORT_SIZE = 256
 """Side in pixels of a report's pictures unless one is given."""
+
+_MAP_DPI = 80  # a row of four maps is 960 x 272 pixels
 
 
 _SAFE = re.compile(r"[^A-Za-z0-9._-]+")
@@ -58,6 +62,7 @@ class _Card:
     best_index: list[int]
     best_images: list[str | None]
     sphere_map: str
+    map_size: tuple[int, int] = (0, 0)
     predicted_images: list[str | None] | None = None
     scores: list[float] | None = None
     view_set: list[int] = field(default_factory=list)
@@ -86,9 +91,11 @@ def write_report(
 
     The folder gets ``index.html`` (inline CSS and script, nothing
     external), ``thumbs/`` (one PNG per distinct best view, and per
-    predicted view) and ``maps/`` (one PNG of the four Mercator quality maps
-    per model). Each model's card shows its name, category, split and face
-    count, its pictures from the best view of VE, VR, VKL and VMI, the maps
+    predicted view) and ``maps/`` (one PNG of the Mercator quality maps of
+    every measure the dataset records, four to a row, per model). Each
+    model's card shows its name, category, split and face count, its
+    pictures from the best view of each recorded measure (VE, VR, VKL and
+    VMI for the paper's four), the maps
     with the best view starred and the prediction crossed, and, with
     predictions, the pictures from the predicted views and their scores (the
     normalised quality of the nearest sampled view, in percent, as
@@ -173,6 +180,7 @@ def write_report(
         folder.mkdir(parents=True, exist_ok=True)
 
     views = selected.views
+    measures = selected.measures
     names = selected.names
     categories = selected.categories
     splits = selected.splits
@@ -192,7 +200,7 @@ def write_report(
                 best_index = [int(i) for i in item["best_index"]]
                 card = _Card(name=name, category=categories[position], split=splits[position],
                              slug=slug, n_faces=int(records[position].get("n_faces", 0)),
-                             best_index=best_index, best_images=[None] * len(MEASURES),
+                             best_index=best_index, best_images=[None] * len(measures),
                              sphere_map=f"maps/{slug}.png")
                 rows = None if predicted is None else predicted[position]
                 if evaluation is not None:
@@ -200,11 +208,14 @@ def write_report(
                 if view_set is not None:
                     _find_view_set(selected, position, view_set, card)
                 if active is not None:
-                    _draw_card_pictures(active, selected, position, card, views, rows, target)
-                figure = sphere_maps(views, item["quality"], predicted=rows,
+                    _draw_card_pictures(active, selected, position, card, views, rows, target,
+                                        measures)
+                figure = sphere_maps(views, item["quality"], measures=measures, predicted=rows,
                                      title=f"{name} ({card.category}, {card.split})",
                                      view_set=views[card.view_set] if card.view_set else None)
-                save_figure(figure, target / card.sphere_map, dpi=80)
+                save_figure(figure, target / card.sphere_map, dpi=_MAP_DPI)
+                width, height = figure.get_size_inches() * _MAP_DPI
+                card.map_size = (round(width), round(height))
                 cards.append(card)
                 bar.update(1)
         finally:
@@ -233,7 +244,7 @@ def _find_view_set(dataset: Any, position: int, k: int, card: _Card) -> None:
 
 def _draw_card_pictures(renderer: Engine, dataset: Any, position: int, card: _Card,
                         views: NDArray[np.float64], predicted: NDArray[np.float64] | None,
-                        target: Path) -> None:
+                        target: Path, measures: Sequence[str]) -> None:
     """Render a model's best (and predicted) views into ``thumbs/``; note failures on the card."""
     try:
         mesh = _model_mesh(dataset, position, card.name)
@@ -251,8 +262,8 @@ def _draw_card_pictures(renderer: Engine, dataset: Any, position: int, card: _Ca
         card.problems.append(f"pictures: {one_line(err)}")
     if predicted is None:
         return
-    card.predicted_images = [None] * len(MEASURES)
-    for column, measure in enumerate(MEASURES):
+    card.predicted_images = [None] * len(measures)
+    for column, measure in enumerate(measures):
         if np.isnan(predicted[column]).any():
             continue
         try:
@@ -381,14 +392,15 @@ def _summary_table(dataset: Any, cards: list[_Card], evaluation: Any) -> str:
         total = sum(counts[(category, s)] for s in SPLITS)
         cells = "".join(f"<td>{counts[(category, s)]}</td>" for s in SPLITS)
         for measure in scored:
-            value = category_scores[category][MEASURES.index(measure)]
+            value = category_scores[category][evaluation.measures.index(measure)]
             cells += f"<td>{value:.1f}</td>"
         rows.append(f'<tr data-category="{_e(category)}"><td>{_e(category)}</td>'
                     f"<td>{total}</td>{cells}</tr>")
     totals = "".join(f"<td>{sum(counts[(c, s)] for c in categories)}</td>" for s in SPLITS)
     mean_cells = ""
     if evaluation is not None:
-        mean_cells = "".join(f"<td>{evaluation.mean[MEASURES.index(m)]:.1f}</td>" for m in scored)
+        mean_cells = "".join(f"<td>{evaluation.mean[evaluation.measures.index(m)]:.1f}</td>"
+                             for m in scored)
     label = "all (scores: mean over categories)" if scored else "all"
     rows.append(f'<tr class="mean"><td>{label}</td><td>{len(cards)}</td>{totals}{mean_cells}</tr>')
     caption = ("Models per category and split" + (
@@ -405,7 +417,8 @@ def _figure(image: str | None, caption: str, alt: str) -> str:
     return f"<figure>{picture}<figcaption>{caption}</figcaption></figure>"
 
 
-def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
+def _card_html(card: _Card, n_views: int, has_pictures: bool,
+               measures: Sequence[str]) -> str:
     parts = [
         f'<article class="card" id="model-{_e(card.slug)}" data-name="{_e(card.name)}" '
         f'data-category="{_e(card.category)}" data-split="{_e(card.split)}">',
@@ -418,7 +431,7 @@ def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
     ]
     if has_pictures:
         parts.append('<div class="row-label">best views</div><div class="views">')
-        for column, measure in enumerate(MEASURES):
+        for column, measure in enumerate(measures):
             caption = f"{_e(measure)} · view {card.best_index[column]} of {n_views}"
             parts.append(_figure(card.best_images[column], caption,
                                  f"{card.name} from its best {measure} view"))
@@ -438,7 +451,7 @@ def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
     if card.scores is not None:
         label = "predicted views" if has_pictures and card.predicted_images else "predictions"
         parts.append(f'<div class="row-label">{label}</div><div class="views">')
-        for column, measure in enumerate(MEASURES):
+        for column, measure in enumerate(measures):
             score = card.scores[column]
             text = "not predicted" if np.isnan(score) else f"{score:.1f} %"
             caption = f"{_e(measure)} · <span class=\"score\">{text}</span>"
@@ -448,8 +461,9 @@ def _card_html(card: _Card, n_views: int, has_pictures: bool) -> str:
             else:
                 parts.append(f"<figure><figcaption>{caption}</figcaption></figure>")
         parts.append("</div>")
+    width, height = card.map_size
     parts.append(f'<img class="map" src="{_e(card.sphere_map)}" loading="lazy" '
-                 f'alt="quality maps of {_e(card.name)}" width="960" height="272">')
+                 f'alt="quality maps of {_e(card.name)}" width="{width}" height="{height}">')
     if card.problems:
         parts.append('<p class="problems">' + "<br>".join(_e(p) for p in card.problems) + "</p>")
     parts.append("</article>")
@@ -478,7 +492,8 @@ def _page(dataset: Any, cards: list[_Card], evaluation: Any, *, has_pictures: bo
         items = "".join(f"<li>{_e(f.get('source'))}: {_e(f.get('reason'))}</li>" for f in failures)
         failure_html = (f"<details><summary>{len(failures)} source files were not built"
                         f"</summary><ul>{items}</ul></details>")
-    body = "\n".join(_card_html(card, n_views, has_pictures) for card in cards)
+    body = "\n".join(_card_html(card, n_views, has_pictures, dataset.measures)
+                     for card in cards)
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>

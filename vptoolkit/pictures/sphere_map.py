@@ -1,9 +1,15 @@
 """Viewpoint quality over the view sphere, drawn as a Mercator map.
 
 The paper (Schelling et al. 2021, fig. 2) shows quality spheres as Mercator
-projections; :func:`sphere_map` draws one measure, :func:`sphere_maps` all
-four side by side, with the best sampled view (star) and an optional
-predicted view (cross) marked.
+projections; :func:`sphere_map` draws one measure, :func:`sphere_maps` every
+measure of a quality array on a grid of panels (four to a row: the paper's
+four side by side, all 22 of the registry on six rows), with the best
+sampled view (star) and an optional predicted view (cross) marked. Columns
+are named by ``measures`` (by default the paper's four, ``MEASURES``); each
+panel is titled with the registry's name for its measure
+(:attr:`Measure.title <vptoolkit.measures.registry.Measure.title>`).
+:func:`sphere_map_file` and :func:`sphere_maps_file` draw the ``.npz`` of
+``vptool measures -o``, whatever measures it records.
 
 Map frame
     A view direction ``v = (x, y, z)`` (unit, from the model centre towards
@@ -33,6 +39,13 @@ Values
 
 matplotlib is imported inside the functions; nothing is drawn through
 ``pyplot``, so no display and no global figure state are involved.
+
+Size
+    About 700 lines for one concept, the Mercator map: its coordinates and
+    nearest-view grid, one panel, the one-measure and the many-measure
+    figures, and the ``.npz`` files they are drawn from. Both figures draw
+    the same panel from the same checked inputs, and both files read the
+    same ``.npz``, so they stay beside them.
 """
 
 from __future__ import annotations
@@ -40,6 +53,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -47,9 +61,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.conventions import MEASURES, measure_index
+from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
+from vptoolkit.measures.registry import all_measures
 from vptoolkit.optional import require
 from vptoolkit.sphere import as_directions, nearest_view
 
@@ -69,6 +84,7 @@ __all__ = [
     "sphere_maps",
     "save_figure",
     "sphere_map_file",
+    "sphere_maps_file",
 ]
 
 BEST_COLOR = "#ff0000"
@@ -85,6 +101,9 @@ _GRID_WIDTH = 360  # map columns: one per degree of longitude
 _QUERY_CHUNK = 4096  # grid directions per nearest-view query (a 4096 x n_views matrix)
 _GRID_CACHE: dict[tuple[str, int, float], NDArray[np.int64]] = {}
 _GRID_CACHE_SIZE = 8
+_PER_ROW = 4  # panels per row of sphere_maps
+_TITLE_CHARACTERS = 42  # characters of a measure's words that fit a panel's width at full size
+_ROW_INCHES = 3.4  # height of one row of sphere_maps
 
 
 # --------------------------------------------------------------------------- coordinates
@@ -207,24 +226,52 @@ def sphere_grid(
 # --------------------------------------------------------------------------- inputs
 
 
-def _quality_matrix(quality: ArrayLike, n_views: int) -> NDArray[np.float64]:
-    """``(n_views, k) float64`` from an (n_views, 4) array or one (n_views,) column."""
+def _measure_names(measures: Sequence[str] | None) -> tuple[str, ...]:
+    """The column names: as given (distinct), by default the paper's four."""
+    if measures is None:
+        return MEASURES
+    names = tuple(str(name) for name in measures)
+    if not names or len(set(names)) != len(names):
+        raise InputError(f"measures: expected distinct names, got {list(names)}")
+    return names
+
+
+def _quality_matrix(quality: ArrayLike, n_views: int, n_measures: int) -> NDArray[np.float64]:
+    """``(n_views, k) float64`` from an (n_views, n_measures) array or one (n_views,) column."""
     try:
         values = np.array(quality, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise InputError(f"quality: not a numeric array ({err})") from err
     if values.ndim == 1:
         values = values[:, None]
-    if values.ndim != 2 or values.shape[0] != n_views or values.shape[1] not in (1, len(MEASURES)):
-        raise InputError(f"quality: expected shape ({n_views}, {len(MEASURES)}) or ({n_views},), "
+    if values.ndim != 2 or values.shape[0] != n_views or values.shape[1] not in (1, n_measures):
+        raise InputError(f"quality: expected shape ({n_views}, {n_measures}) or ({n_views},), "
                          f"got {np.shape(quality)}")
     if np.isinf(values).any():
         raise InputError("quality: contains infinite values")
     return values
 
 
+def _column(measure: str, names: Sequence[str]) -> int:
+    """Column of ``measure`` (any case) among ``names``; one line naming what is drawn."""
+    folded = [name.upper() for name in names]
+    if not isinstance(measure, str) or measure.upper() not in folded:
+        known = {name.upper() for name in all_measures()}
+        problem = ("unknown measure" if not isinstance(measure, str)
+                   or measure.upper() not in known else "no column for measure")
+        raise InputError(f"measure: {problem} {measure!r}; the quality has "
+                         f"{', '.join(names)}")
+    return folded.index(measure.upper())
+
+
+def _title(name: str) -> str:
+    """The registry's words for a measure (``"viewpoint entropy"``); the name if unknown."""
+    found = all_measures().get(name)
+    return name if found is None else found.title
+
+
 def _predicted_rows(predicted: ArrayLike | None, n_measures: int) -> NDArray[np.float64] | None:
-    """``(n_measures, 3)`` predicted directions (NaN rows: none), from (3,) or (4, 3)."""
+    """``(n_measures, 3)`` predicted directions (NaN rows: none), from (3,) or (M, 3)."""
     if predicted is None:
         return None
     try:
@@ -263,8 +310,12 @@ def _draw_panel(
     max_latitude_deg: float,
     limits: tuple[float, float],
     view_set: NDArray[np.float64] | None = None,
+    fontsize: float = 9.0,
 ) -> AxesImage:
-    """Draw one map on ``axes``; return the image artist (for a colour bar)."""
+    """Draw one map on ``axes``; return the image artist (for a colour bar).
+
+    The title is the measure's words from the registry, then ``label:
+    best view i`` (and the prediction's value)."""
     y_max = float(mercator_y([max_latitude_deg])[0])
     shown = np.where(np.isnan(values), limits[0], values)
     image = axes.imshow(
@@ -286,7 +337,8 @@ def _draw_panel(
     axes.plot([lon], mercator_y([lat]), linestyle="none", marker="*", markersize=15,
               markerfacecolor=BEST_COLOR, markeredgecolor="black", markeredgewidth=0.8,
               label=f"best: view {best}", gid="best", zorder=4)
-    title = f"{label}: best view {best}"
+    words = _title(label)
+    title = f"{words}\n{label}: best view {best}"
     if predicted is not None and not np.isnan(predicted).all():
         nearest = int(nearest_view(predicted, views)[0])
         lon, lat = view_coordinates(predicted)[0]
@@ -303,7 +355,9 @@ def _draw_panel(
                       markeredgewidth=0.8, gid=f"view-set-{pick}", zorder=5)
             axes.text(lon, float(mercator_y([lat])[0]), str(pick), ha="center", va="center",
                       fontsize=6, color="black", zorder=6)
-    axes.set_title(title, fontsize=9)
+    # a long name shrinks its title to the panel's width rather than run into the next
+    axes.set_title(title, fontsize=fontsize * min(1.0, _TITLE_CHARACTERS / len(words)),
+                   linespacing=1.1)
     return image
 
 
@@ -321,7 +375,8 @@ def sphere_map(
     views: ArrayLike,
     quality: ArrayLike,
     *,
-    measure: str = "VE",
+    measure: str | None = None,
+    measures: Sequence[str] | None = None,
     predicted: ArrayLike | None = None,
     title: str | None = None,
     width: int = _GRID_WIDTH,
@@ -333,19 +388,22 @@ def sphere_map(
     ----------
     views : (n_views, 3) array_like
         Sampled view directions (e.g. ``ViewQuality.views``).
-    quality : (n_views, 4) or (n_views,) array_like
-        Quality per view, higher is better: normalised quality in
-        ``MEASURES`` order (``ViewQuality.normalized``, a dataset item's
-        ``quality``), of which column ``measure`` is drawn; or one column,
-        drawn as it is with ``measure`` as its label. NaN is drawn as the
-        lowest colour.
-    measure : str
-        ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"``, case-insensitive
-        (default: "VE").
-    predicted : (3,) or (4, 3) array_like, optional
-        A predicted direction, or one per measure in ``MEASURES`` order (a NaN
-        row draws no cross); marked with a white cross and its quality (that
-        of the nearest sampled view) in the title.
+    quality : (n_views, M) or (n_views,) array_like
+        Quality per view, higher is better: normalised quality, one column
+        per name of ``measures`` (``ViewQuality.normalized``, a dataset
+        item's ``quality``), of which column ``measure`` is drawn; or one
+        column, drawn as it is with ``measure`` as its label. NaN is drawn
+        as the lowest colour.
+    measure : str, optional
+        The measure to draw, one of ``measures`` in any case (default: the
+        first of them; for the paper's four, VE).
+    measures : sequence of str, optional
+        The names of the columns of ``quality`` (default: the paper's four,
+        ``MEASURES``, which needs four columns or one).
+    predicted : (3,) or (M, 3) array_like, optional
+        A predicted direction, or one per measure in ``measures`` order (a
+        NaN row draws no cross); marked with a white cross and its quality
+        (that of the nearest sampled view) in the title.
     title : str, optional
         Figure title, e.g. the model name.
     width : int
@@ -358,34 +416,37 @@ def sphere_map(
     figure : matplotlib.figure.Figure
         One map axes with gid ``"map"`` plus a colour bar; the best view is a
         red star (line gid ``"best"``), the prediction a white cross (gid
-        ``"predicted"``). Save it with :func:`save_figure`.
+        ``"predicted"``). The map's title is the registry's words for the
+        measure, then ``VE: best view i``. Save it with :func:`save_figure`.
 
     Raises
     ------
     InputError
-        On an unknown measure or wrong shapes.
+        On a measure that is unknown or not among ``measures``, or wrong shapes.
     MissingDependencyError
         If matplotlib is not installed.
     """
-    column = measure_index(measure)
     view_array = as_directions(views, name="views")
-    values = _quality_matrix(quality, len(view_array))
+    names = _measure_names(measures)
+    column = 0 if measure is None else _column(measure, names)
+    values = _quality_matrix(quality, len(view_array), len(names))
     values = values[:, column] if values.shape[1] > 1 else values[:, 0]
-    rows = _predicted_rows(predicted, len(MEASURES))
+    name = names[column]
+    rows = _predicted_rows(predicted, len(names))
     grid = sphere_grid(view_array, width=width, max_latitude_deg=max_latitude_deg)
     figure = _new_figure((6.4, 5.4))
     axes = figure.add_axes((0.1, 0.1, 0.7, 0.78), gid="map")
     limits = _limits(values)
     image = _draw_panel(
-        axes, grid, view_array, values, label=MEASURES[column],
+        axes, grid, view_array, values, label=name,
         predicted=None if rows is None else rows[column],
         max_latitude_deg=_check_max_latitude(max_latitude_deg), limits=limits,
     )
     axes.set_xlabel("longitude atan2(z, x)", fontsize=8)
     axes.set_ylabel("latitude asin(y)", fontsize=8)
     colorbar = figure.colorbar(image, cax=figure.add_axes((0.84, 0.1, 0.03, 0.78)))
-    colorbar.set_label(f"{MEASURES[column]} quality (1 = best)" if limits == (0.0, 1.0)
-                       else MEASURES[column], fontsize=8)
+    colorbar.set_label(f"{name} quality (1 = best)" if limits == (0.0, 1.0) else name,
+                       fontsize=8)
     colorbar.ax.tick_params(labelsize=7)
     if title:
         figure.suptitle(title, fontsize=10, y=0.99)
@@ -396,21 +457,25 @@ def sphere_maps(
     views: ArrayLike,
     quality: ArrayLike,
     *,
+    measures: Sequence[str] | None = None,
     predicted: ArrayLike | None = None,
     title: str | None = None,
     width: int = 180,
     max_latitude_deg: float = _MAX_LATITUDE_DEG,
     view_set: ArrayLike | None = None,
 ) -> Figure:
-    """The four measures' Mercator maps side by side, as in a report card.
+    """Every measure's Mercator map on one figure, four to a row, as in a report card.
 
     Parameters
     ----------
     views : (n_views, 3) array_like
         Sampled view directions.
-    quality : (n_views, 4) array_like
-        Normalised quality in ``MEASURES`` order, 1 = best.
-    predicted : (3,) or (4, 3) array_like, optional
+    quality : (n_views, M) array_like
+        Normalised quality, 1 = best, one column per name of ``measures``.
+    measures : sequence of str, optional
+        The names of the columns (default: the paper's four, ``MEASURES``,
+        which needs ``M = 4``).
+    predicted : (3,) or (M, 3) array_like, optional
         Predicted directions (one for all, or one per measure; NaN rows: none).
     title : str, optional
         Figure title.
@@ -425,32 +490,42 @@ def sphere_maps(
     Returns
     -------
     figure : matplotlib.figure.Figure
-        Four map axes with gids ``"map-VE"`` ... ``"map-VMI"`` and one shared
-        colour bar for [0, 1].
+        ``M`` map axes with gids ``"map-VE"`` ... (in ``measures`` order, row
+        by row, four to a row), each titled with the registry's words for its
+        measure, and one shared colour bar for [0, 1]. Each row is 3.4 inches
+        high and the figure 12 inches wide, so the paper's four make one row
+        of 12 x 3.4 inches, the registry's 22 six rows.
     """
     view_array = as_directions(views, name="views")
-    values = _quality_matrix(quality, len(view_array))
-    if values.shape[1] != len(MEASURES):
-        raise InputError(f"quality: expected shape ({len(view_array)}, {len(MEASURES)}), "
+    names = _measure_names(measures)
+    values = _quality_matrix(quality, len(view_array), len(names))
+    if values.shape[1] != len(names):
+        raise InputError(f"quality: expected shape ({len(view_array)}, {len(names)}), "
                          f"got {np.shape(quality)}")
-    rows = _predicted_rows(predicted, len(MEASURES))
+    rows = _predicted_rows(predicted, len(names))
     chosen = None if view_set is None else as_directions(view_set, name="view_set")
     max_latitude_deg = _check_max_latitude(max_latitude_deg)
     grid = sphere_grid(view_array, width=width, max_latitude_deg=max_latitude_deg)
-    figure = _new_figure((12.0, 3.4))
+    n_rows = math.ceil(len(names) / _PER_ROW)
+    figure = _new_figure((12.0, _ROW_INCHES * n_rows))
     limits = _limits(values)
-    for column, measure in enumerate(MEASURES):
-        axes = figure.add_axes((0.035 + 0.226 * column, 0.1, 0.19, 0.74), gid=f"map-{measure}")
+    height = 1.0 / n_rows  # one row, in figure fractions
+    for column, measure in enumerate(names):
+        row, place = divmod(column, _PER_ROW)
+        bottom = 1.0 - (row + 1) * height + 0.1 * height
+        axes = figure.add_axes((0.035 + 0.226 * place, bottom, 0.19, 0.74 * height),
+                               gid=f"map-{measure}")
         image = _draw_panel(
             axes, grid, view_array, values[:, column], label=measure,
             predicted=None if rows is None else rows[column],
-            max_latitude_deg=max_latitude_deg, limits=limits, view_set=chosen,
+            max_latitude_deg=max_latitude_deg, limits=limits, view_set=chosen, fontsize=8.0,
         )
-    colorbar = figure.colorbar(image, cax=figure.add_axes((0.945, 0.1, 0.012, 0.74)))
+    colorbar = figure.colorbar(image, cax=figure.add_axes(
+        (0.945, 0.1 * height, 0.012, 1.0 - 0.26 * height)))
     colorbar.set_label("quality (1 = best)", fontsize=8)
     colorbar.ax.tick_params(labelsize=7)
     if title:
-        figure.suptitle(title, fontsize=10, y=0.99)
+        figure.suptitle(title, fontsize=10, y=1.0 - 0.01 / n_rows)
     return figure
 
 
@@ -484,40 +559,14 @@ def save_figure(figure: Figure, path: str | os.PathLike[str], *, dpi: int = 100)
     return target
 
 
-def sphere_map_file(
-    quality_path: str | os.PathLike[str],
-    output: str | os.PathLike[str],
-    *,
-    measure: str = "VE",
-    predicted: ArrayLike | None = None,
-) -> Path:
-    """Draw the map of a ``.npz`` written by ``ViewQuality.save_npz`` into a PNG.
+def _read_quality(source: Path) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                         tuple[str, ...], str]:
+    """``views``, ``normalized``, the column names and the title of a ``ViewQuality`` .npz.
 
-    Parameters
-    ----------
-    quality_path : path-like
-        ``vptool measures -o`` output: ``views`` (n_views, 3) and
-        ``normalized`` (n_views, 4), read with ``allow_pickle=False``; its
-        ``name`` (if present) becomes the title.
-    output : path-like
-        Target ``.png``.
-    measure : str
-        Measure to draw (default: "VE").
-    predicted : (3,) or (4, 3) array_like, optional
-        A predicted direction to mark.
-
-    Returns
-    -------
-    path : pathlib.Path
-        The written PNG.
-
-    Raises
-    ------
-    InputError
-        If the file cannot be read or lacks ``views`` or ``normalized``.
+    A file without ``measures`` (written before measures were named) holds
+    the paper's four; a file naming a measure the registry does not know is
+    refused (``ViewQuality.save_npz`` writes registered names only).
     """
-    source = as_path(quality_path, "quality_path")
-    measure_index(measure)
     try:
         with open(source, "rb") as stream:
             is_zip = stream.read(4) == b"PK\x03\x04"
@@ -535,18 +584,118 @@ def sphere_map_file(
             views = np.asarray(archive["views"], dtype=np.float64)
             normalized = np.asarray(archive["normalized"], dtype=np.float64)
             name = str(archive["name"]) if "name" in archive.files else source.stem
-            stored_measures = ([str(item) for item in archive["measures"]]
-                               if "measures" in archive.files else list(MEASURES))
+            names = (tuple(str(item) for item in np.atleast_1d(archive["measures"]))
+                     if "measures" in archive.files else MEASURES)
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{source.name}: cannot be read as .npz ({err})") from err
-    if stored_measures != list(MEASURES):
-        raise InputError(f"{source.name}: measures {stored_measures} are not {list(MEASURES)}")
-    column = measure_index(measure)
-    if normalized.ndim == 2 and normalized.shape[1] == len(MEASURES) \
-            and not np.isfinite(normalized[:, column]).any():
-        raise InputError(f"{source.name}: no finite {MEASURES[column]} value to draw (all NaN)")
+    unknown = [name for name in names if name not in all_measures()]
+    if unknown:
+        raise InputError(f"{source.name}: unknown measure(s) "
+                         f"{', '.join(repr(name) for name in unknown[:3])} (not in the registry; "
+                         "expected the .npz of vptool measures)")
+    if normalized.ndim != 2 or normalized.shape[1] != len(names):
+        raise InputError(f"{source.name}: normalized has shape {normalized.shape}, expected "
+                         f"(n_views, {len(names)}) for its measures {', '.join(names)}")
+    return views, normalized, names, name
+
+
+def sphere_map_file(
+    quality_path: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    measure: str | None = None,
+    predicted: ArrayLike | None = None,
+    dpi: int = 100,
+) -> Path:
+    """Draw one measure's map of a ``.npz`` written by ``ViewQuality.save_npz`` into a PNG.
+
+    Parameters
+    ----------
+    quality_path : path-like
+        ``vptool measures -o`` output: ``views`` (n_views, 3),
+        ``normalized`` (n_views, M) and ``measures`` (M names; the paper's
+        four where absent), read with ``allow_pickle=False``; its ``name``
+        (if present) becomes the title.
+    output : path-like
+        Target ``.png``.
+    measure : str, optional
+        Measure to draw, one the file records, in any case (default: the
+        first it records; VE for the paper's four).
+    predicted : (3,) or (M, 3) array_like, optional
+        A predicted direction to mark.
+    dpi : int
+        Pixels per inch (default: 100, 640 x 540 pixels).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written PNG.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be read, lacks ``views`` or ``normalized``, or
+        does not record ``measure``, or that measure has no finite value.
+    """
+    source = as_path(quality_path, "quality_path")
+    views, normalized, names, name = _read_quality(source)
     try:
-        figure = sphere_map(views, normalized, measure=measure, predicted=predicted, title=name)
+        column = 0 if measure is None else _column(measure, names)
+    except InputError as err:
+        raise InputError(f"{source.name}: {err}") from err
+    if not np.isfinite(normalized[:, column]).any():
+        raise InputError(f"{source.name}: no finite {names[column]} value to draw (all NaN)")
+    try:
+        figure = sphere_map(views, normalized, measure=names[column], measures=names,
+                            predicted=predicted, title=name)
     except InputError as err:  # "quality: ..." and "views: ..." name the file too
         raise InputError(f"{source.name}: {err}") from err
-    return save_figure(figure, output)
+    return save_figure(figure, output, dpi=dpi)
+
+
+def sphere_maps_file(
+    quality_path: str | os.PathLike[str],
+    output: str | os.PathLike[str],
+    *,
+    measures: Sequence[str] | None = None,
+    predicted: ArrayLike | None = None,
+    dpi: int = 100,
+) -> Path:
+    """Draw the maps of several measures a ``ViewQuality`` ``.npz`` records into one PNG.
+
+    Parameters
+    ----------
+    quality_path : path-like
+        ``vptool measures -o`` output, as :func:`sphere_map_file` reads it.
+    output : path-like
+        Target ``.png``.
+    measures : sequence of str, optional
+        The measures to draw, each one the file records (any case), in this
+        order (default: every measure it records, in its order).
+    predicted : (3,) array_like, optional
+        A predicted direction to mark on every map.
+    dpi : int
+        Pixels per inch (default: 100: 1200 pixels wide, 340 high per row of four).
+
+    Returns
+    -------
+    path : pathlib.Path
+        The written PNG (:func:`sphere_maps`: four maps to a row).
+
+    Raises
+    ------
+    InputError
+        If the file cannot be read, lacks ``views`` or ``normalized``, or
+        does not record one of ``measures``.
+    """
+    source = as_path(quality_path, "quality_path")
+    views, normalized, names, name = _read_quality(source)
+    try:
+        columns = (list(range(len(names))) if measures is None
+                   else [_column(measure, names) for measure in measures])
+        figure = sphere_maps(views, normalized[:, columns],
+                             measures=[names[c] for c in columns], predicted=predicted,
+                             title=name)
+    except InputError as err:
+        raise InputError(f"{source.name}: {err}") from err
+    return save_figure(figure, output, dpi=dpi)
