@@ -8,7 +8,8 @@ centre-surround differences of the Gaussian-weighted mean curvature at five
 scales, each after Itti's normalisation). Lee et al. sum the saliency of the
 surface points a view sees, here the faces (their centroids carry the
 saliency), each once whatever its pixels. Higher is better (Lee et al.
-choose the view that maximises it). A view that sees nothing: 0.
+choose the view that maximises it). A view that sees nothing: NaN (not 0,
+which would tie it with the seen views of a mesh without saliency).
 
 This is the survey's measure that quoniam does not implement.
 
@@ -26,7 +27,7 @@ from vptoolkit.measures.saliency import mesh_saliency
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
     _, faces, _ = data.entries
-    return data.per_view(mesh_saliency(data)[faces])
+    return np.where(data.seen, data.per_view(mesh_saliency(data)[faces]), np.nan)
 
 
 MEASURE = Measure(

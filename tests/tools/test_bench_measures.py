@@ -1,0 +1,35 @@
+"""tools/bench_measures.py --quick: the measure bench prints its tables, the cost of all
+measures against the paper's four, and writes its section."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from fixtures.scripts import RunTool, assert_section_holds
+from vptoolkit.measures.registry import FAMILIES, all_measures
+
+
+@pytest.mark.slow
+def test_quick_bench_prints_the_cost_of_all_measures_and_writes_its_section(
+        tmp_path: Path, run_tool: RunTool) -> None:
+    results = tmp_path / "benchmarks.md"
+    results.write_text("# Benchmarks\n\nkept\n")
+    result = run_tool("bench_measures.py", "--quick", "--results", str(results))
+    assert result.returncode == 0, result.stderr[-2000:]
+    lines = result.stdout.splitlines()
+    assert any(line.startswith("torus ") for line in lines)
+    assert (f"all {len(all_measures())} measures against the paper's four: torus, 8700 faces, "
+            "100 views at 256 px") in result.stdout
+    assert re.search(r"^  the four: [\d.]+ s; all: [\d.]+ s; ratio [\d.]+$", result.stdout,
+                     re.MULTILINE)
+    assert re.search(r"^  drawing: [\d.]+ s; with depth and silhouette statistics: [\d.]+ s",
+                     result.stdout, re.MULTILINE)
+    for family in FAMILIES:
+        names = ", ".join(m.name for m in all_measures().values() if m.family == family)
+        assert re.search(rf"^  {family} +[\d.]+ s on the drawn views  \({names}\)$",
+                         result.stdout, re.MULTILINE), family
+    assert_section_holds(results, "measures", result.stdout)
+    assert results.read_text().startswith("# Benchmarks\n\nkept\n")
