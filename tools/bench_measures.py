@@ -31,6 +31,9 @@ Usage::
     python tools/bench_measures.py --max-faces 200000 --baseline /tmp/base --repeat 2
     # write section ``measures``:
     python tools/bench_measures.py --max-faces 200000 --results docs/benchmarks.md
+    # all measures against the four, alone, into section ``measure_costs``:
+    python tools/bench_measures.py --costs-only --results docs/benchmarks.md \
+        --section measure_costs
 """
 
 from __future__ import annotations
@@ -204,6 +207,9 @@ def main() -> None:
     parser.add_argument("--baseline", type=Path,
                         help="a checkout of other vptoolkit code to time beside this one")
     parser.add_argument("--json", help="also write the results to this JSON file")
+    parser.add_argument("--costs-only", action="store_true",
+                        help="only the cost of all measures against the paper's four "
+                             "(the torus at the finest resolution)")
     add_results_option(parser, "measures")
     args = parser.parse_args()
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
@@ -223,6 +229,10 @@ def main() -> None:
         if args.max_faces is not None:
             meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
         views = fibonacci_sphere(n_views)
+        if args.costs_only:
+            compute_view_quality(torus, MeasureSettings(views=2, resolution=16), measures="all")
+            print_measure_costs(torus, views, resolutions[-1], args.repeat)
+            return
         cold, warm = jit_seconds()
         # imports and JIT load happen here, not in the timings
         for backend in ("raster", "raycast"):
