@@ -33,3 +33,13 @@ def test_quick_bench_prints_the_cost_of_all_measures_and_writes_its_section(
                          result.stdout, re.MULTILINE), family
     assert_section_holds(results, "measures", result.stdout)
     assert results.read_text().startswith("# Benchmarks\n\nkept\n")
+
+
+def test_costs_only_prints_the_comparison_alone_into_its_own_section(
+        tmp_path: Path, run_tool: RunTool) -> None:
+    results = tmp_path / "benchmarks.md"
+    result = run_tool("bench_measures.py", "--quick", "--costs-only", "--repeat", "1",
+                      "--results", str(results), "--section", "measure_costs")
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "the four:" in result.stdout and "JIT" not in result.stdout
+    assert_section_holds(results, "measure_costs", result.stdout)
