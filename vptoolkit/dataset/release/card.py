@@ -2,8 +2,9 @@
 
 :func:`render_card` fills ``vptoolkit/dataset_card/template.md`` with numbers computed
 from the store (nothing is typed by hand), in the sections of "Datasheets for
-Datasets" (Gebru et al.), under the YAML header of :func:`hub_yaml` in the
-style of dataset hubs (configurations, features, size category).
+Datasets" (Gebru et al.), under the YAML header of
+:func:`~vptoolkit.dataset.release.hub.hub_yaml` in the style of dataset hubs
+(configurations, features, size category).
 
 A card is a function of three values, as Hugging Face ``datasets`` derives a
 card's data from one ``DatasetInfo``: the store (its summary,
@@ -17,11 +18,6 @@ returning the template placeholders it fills.
 The summary the card is written from lives in :mod:`vptoolkit.dataset.store.info`
 and the Croissant metadata in :mod:`vptoolkit.dataset.release.croissant`.
 
-Size
-    About 660 lines for one concept, the card: a function per part of it,
-    the hub YAML header (:func:`hub_yaml`) and the datasheet's sentences.
-    The parts share the Markdown and YAML helpers at the end; the prose
-    itself is in the template.
 """
 
 from __future__ import annotations
@@ -38,15 +34,10 @@ import numpy as np
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.release.contents import ReleaseFiles, check_described
+from vptoolkit.dataset.release.hub import hub_yaml, yaml_str
 from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
 from vptoolkit.dataset.release.options import ReleaseOptions
-from vptoolkit.dataset.release.parquet import (
-    VIEWS_CONFIG,
-    Column,
-    ParquetShard,
-    model_columns,
-    view_columns,
-)
+from vptoolkit.dataset.release.parquet import model_columns
 from vptoolkit.dataset.store.info import (
     CITATION,
     camera_sentence,
@@ -66,7 +57,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "render_card",
-    "hub_yaml",
 ]
 
 _ARRAY_MEANINGS = {name: spec.description for name, spec in ARRAY_SPECS.items()}
@@ -104,7 +94,7 @@ def render_card(
         (the suffixes present name the formats; ``LICENSES.csv`` among them
         points the licence fields at it), and the Parquet shards: with
         shards the YAML header carries the hub's ``configs`` and a full
-        ``dataset_info`` (:func:`hub_yaml`) and the card shows how
+        ``dataset_info`` (:func:`~vptoolkit.dataset.release.hub.hub_yaml`) and the card shows how
         ``datasets`` and ``mlcroissant`` load them.
     options : ReleaseOptions, optional
         What the publisher said (default: ``ReleaseOptions()``). The card
@@ -161,17 +151,17 @@ def render_card(
 def _header(info: dict[str, Any], files: ReleaseFiles, options: ReleaseOptions,
             title: str) -> dict[str, Any]:
     """The YAML header: title, the hub's licence fields, size category and, with shards,
-    the hub's configurations (:func:`hub_yaml`; without shards ``datasets`` has nothing
+    the hub's configurations (:func:`~vptoolkit.dataset.release.hub.hub_yaml`; without shards ``datasets`` has nothing
     to load: no configs, no splits)."""
     hub = hub_license(options.license, options.license_name, options.license_link,
                       table=LICENSES_NAME in files.digests)
     yaml_license = hub.pop("license")
     return {
-        "yaml_pretty_name": _yaml_str(title),
-        "yaml_license": _yaml_str(yaml_license),
-        "yaml_license_extra": "".join(f"\n{key}: {_yaml_str(value)}"
+        "yaml_pretty_name": yaml_str(title),
+        "yaml_license": yaml_str(yaml_license),
+        "yaml_license_extra": "".join(f"\n{key}: {yaml_str(value)}"
                                       for key, value in hub.items()),
-        "yaml_size_category": _yaml_str(size_category(info["n_models"])),
+        "yaml_size_category": yaml_str(size_category(info["n_models"])),
         "yaml_hub": (hub_yaml(files.shards, n_points=int(info["n_points"] or 0),
                               n_views=int(info["n_views"]), class_names=info["class_names"],
                               measures=info["measures"]["order"])
@@ -490,88 +480,6 @@ def _same_data_sentence(files: Mapping[str, str]) -> str:
     return f" {listed[0].upper()}{listed[1:]} hold the same data; use whichever your tools read."
 
 
-def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
-             class_names: Sequence[str] = (), measures: Sequence[str] = MEASURES) -> str:
-    """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
-
-    Two configurations: ``default`` (the Parquet shards of each split, one row
-    per model, columns :func:`~vptoolkit.dataset.release.parquet.model_columns`) and
-    ``views`` (the shared view directions, as split ``train``, the hub's
-    name for a configuration's only split). ``datasets.load_dataset(release)``
-    then reads the shards, offline or streaming, with the declared features.
-
-    Parameters
-    ----------
-    shards : sequence of ParquetShard
-        What :func:`~vptoolkit.dataset.release.parquet.write_parquet_shards` wrote.
-    n_points, n_views : int
-        Points and views per model, the shapes of the array features.
-    class_names : sequence of str
-        The store's ``class_names``: the ``label`` feature is a
-        ``ClassLabel`` with these names.
-    measures : sequence of str
-        The store's ``measures``: the measure features hold one column per
-        name (default: the paper's four).
-
-    Returns
-    -------
-    str
-        YAML lines without a trailing newline.
-    """
-    by_split: dict[str, list[ParquetShard]] = {}
-    for shard in shards:
-        by_split.setdefault(shard.split, []).append(shard)
-    model_splits = {split: files for split, files in by_split.items() if split != VIEWS_CONFIG}
-    view_splits = {"train": by_split[VIEWS_CONFIG]} if VIEWS_CONFIG in by_split else {}
-    lines = ["configs:", "- config_name: default", "  default: true", "  data_files:"]
-    lines += _data_files(model_splits)
-    if view_splits:
-        lines += [f"- config_name: {VIEWS_CONFIG}", "  data_files:", *_data_files(view_splits)]
-    lines.append("dataset_info:")
-    configs = [("default", model_columns(n_points, n_views, class_names, measures=measures),
-                model_splits),
-               (VIEWS_CONFIG, view_columns(), view_splits)]
-    for config_name, columns, chosen in configs:
-        if not chosen:
-            continue
-        lines += [f"- config_name: {config_name}", "  features:"]
-        lines += [_yaml_feature(column) for column in columns]
-        lines.append("  splits:")
-        for split, files in chosen.items():
-            lines += [f"  - name: {split}", f"    num_bytes: {sum(s.num_bytes for s in files)}",
-                      f"    num_examples: {sum(s.n_rows for s in files)}"]
-        total = sum(s.num_bytes for files in chosen.values() for s in files)
-        lines.append(f"  dataset_size: {total}")
-    return "\n".join(lines)
-
-
-def _data_files(splits: Mapping[str, Sequence[ParquetShard]]) -> list[str]:
-    """The ``data_files`` entries of a configuration: one path, or the list of a split's shards."""
-    lines = []
-    for split, files in splits.items():
-        if len(files) == 1:
-            lines.append(f"  - split: {split}\n    path: {files[0].path}")
-        else:
-            lines += [f"  - split: {split}", "    path:", *(f"    - {s.path}" for s in files)]
-    return lines
-
-
-def _yaml_feature(column: Column) -> str:
-    """One feature of a hub ``dataset_info``, as the hub's YAML writes it."""
-    head = f"  - name: {column.name}\n"
-    if column.class_names is not None:
-        names = "\n".join(f"          '{label}': {_yaml_str(name)}"
-                          for label, name in enumerate(column.class_names))
-        return head + "    dtype:\n      class_label:\n        names:\n" + names
-    if not column.shape:
-        return head + f"    dtype: {column.dtype}"
-    if len(column.shape) == 1:
-        return head + f"    list: {column.dtype}\n    length: {column.shape[0]}"
-    dims = "\n".join(f"        - {'null' if d is None else d}" for d in column.shape)
-    return (head + f"    dtype:\n      array{len(column.shape)}_d:\n        shape:\n{dims}\n"
-            f"        dtype: {column.dtype}")
-
-
 def _load_template(name: str) -> str:
     resource = importlib.resources.files("vptoolkit.dataset_card").joinpath(name)
     return resource.read_text(encoding="utf-8")
@@ -607,11 +515,6 @@ def _array_rows(reader: StoreReader) -> list[list[str]]:
 def _cell(text: Any) -> str:
     """Escape a value for a Markdown table cell."""
     return str(text).replace("|", "\\|").replace("\n", " ")
-
-
-def _yaml_str(text: str) -> str:
-    """Quote a string for YAML (a JSON string is a valid YAML double-quoted scalar)."""
-    return json.dumps(text, ensure_ascii=False)
 
 
 def _method_sentences(info: dict[str, Any], split_sentence: str,
