@@ -45,6 +45,31 @@ def test_back_faces_are_culled_and_reveal_what_lies_behind(triangle):
     assert face_pixel_counts(triangle, no_culling, view_directions=BACK).sum() > 0
 
 
+@pytest.mark.parametrize("backend", ["raster", "raycast"])
+@pytest.mark.parametrize("reversed_first", [False, True], ids=["front-first", "reversed-first"])
+def test_a_reversed_copy_in_the_same_place_leaves_each_side_its_pixels(triangle, backend,
+                                                                      reversed_first):
+    # A triangle and a reversed copy of it on the same vertices (bunny.ply holds 81 such
+    # pairs): from either side the face turned to the eye has every pixel it has alone,
+    # and the culled copy, met at the same distance, hides nothing.
+    if backend == "raycast":
+        require_package("open3d")
+    front, back = triangle.faces[0], triangle.faces[0][::-1]
+    faces = np.array([back, front] if reversed_first else [front, back])
+    two_sided = Mesh(triangle.vertices, faces, "two-sided")
+    front_index, back_index = (1, 0) if reversed_first else (0, 1)
+    settings = MeasureSettings(resolution=64, backend=backend)
+    for side, lone_face, seen, culled in ((1, front, front_index, back_index),
+                                          (-1, back, back_index, front_index)):
+        views = [[0.0, 0.0, side], [0.3, 0.2, side], [-0.2, 0.4, side]]
+        alone = face_pixel_counts(Mesh(triangle.vertices, lone_face[None], "lone"), settings,
+                                  view_directions=views)[:, 0]
+        counts = face_pixel_counts(two_sided, settings, view_directions=views)
+        assert (alone > 100).all()
+        np.testing.assert_array_equal(counts[:, seen], alone)
+        np.testing.assert_array_equal(counts[:, culled], 0)
+
+
 def test_inner_shell_facing_inwards_is_invisible_and_outward_is_hidden():
     outer = box_mesh((2.0, 2.0, 2.0))
     inner = box_mesh((1.0, 1.0, 1.0))
@@ -89,8 +114,11 @@ def test_raster_agrees_with_open3d_raycasting(name):
     raster = face_pixel_counts(mesh, settings)
     raycast = face_pixel_counts(mesh, replace(settings, backend="raycast"))
     covered_raster, covered_raycast = raster.sum(axis=1), raycast.sum(axis=1)
-    # covered pixels per view agree to 0.2 %, per-face counts to 0.5 % in L1
-    np.testing.assert_allclose(covered_raster, covered_raycast, rtol=2e-3)
+    # Covered pixels per view agree to two of about 20 000: only pixel centres within a
+    # fraction of a subpixel of a silhouette edge differ (the ray caster that stepped past
+    # culled faces lost up to 4 on the bunny). Per-face counts agree to 0.5 % in L1: edges
+    # between faces, and which of two identical faces takes a pixel.
+    np.testing.assert_allclose(covered_raster, covered_raycast, rtol=0, atol=2)
     l1 = np.abs(raster - raycast).sum(axis=1) / covered_raycast
     assert l1.max() < 5e-3, l1
 

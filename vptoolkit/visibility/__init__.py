@@ -403,10 +403,8 @@ def _raycast_views(
 ) -> Iterator[ViewHistograms]:
     from vptoolkit.visibility._raycast import RaycastScene
 
-    scene = RaycastScene(
-        mesh, face_normals=normals, face_offsets=offsets, is_drawable=is_drawable,
-        diagonal=diagonal,
-    )
+    scene = RaycastScene(mesh, face_normals=normals, face_offsets=offsets,
+                         is_drawable=is_drawable)
     near, far = _depth_range(camera, diagonal)
     for view in range(len(poses.eyes)):
         ids = scene.face_ids(poses, view, cull_back_faces=camera.cull_back_faces)
