@@ -12,6 +12,9 @@ Modules, one concept each:
 - ``curvature``: the per-face mean curvature of a mesh, computed once per mesh.
 - ``saliency``: per-face saliency (Feixas et al.'s from the views, Lee et al.'s
   from the curvature), computed once per mesh.
+- ``_kernels``: the compiled sums (numba, imported lazily by the functions
+  that use them) of the pairwise divergences of the saliency and of INS,
+  of Lee et al.'s Gaussian weights and of the per-view sums.
 - ``catalog``: one module per measure, found by the registry.
 
 The names of the former single module stay importable from here

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from functools import cached_property
-from typing import Any
+from typing import Any, Final
 
 import numpy as np
 from numpy.typing import NDArray
@@ -25,7 +25,10 @@ from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import ViewHistograms
 from vptoolkit.visibility.features import ViewFeatures
 
-__all__ = ["ViewData"]
+__all__ = ["XLOGX_TABLE_SIZE", "ViewData"]
+
+XLOGX_TABLE_SIZE: Final = 1 << 16
+"""Most entries of :attr:`ViewData.xlogx_table`."""
 
 
 class ViewData:
@@ -61,15 +64,53 @@ class ViewData:
     @cached_property
     def entries(self) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
         """Every non-zero ``a_z(v)`` as ``(view, face, pixels)`` arrays, views in order."""
-        views = np.concatenate([run.view_index() + run.first_view for run in self.histograms])
-        faces = np.concatenate([run.face_ids for run in self.histograms]).astype(np.int64)
-        counts = np.concatenate([run.pixel_counts for run in self.histograms])
-        return views, faces, counts.astype(np.float64)
+        runs = self.histograms
+        first = np.concatenate([np.arange(run.n_views) + run.first_view for run in runs])
+        views = np.repeat(first.astype(np.int64), np.concatenate([np.diff(run.offsets)
+                                                                  for run in runs]))
+        faces = np.concatenate([run.face_ids for run in runs], dtype=np.int64)
+        counts = np.concatenate([run.pixel_counts for run in runs], dtype=np.float64)
+        return views, faces, counts
+
+    @cached_property
+    def entry_xlogx(self) -> NDArray[np.float64]:
+        """``a_z(v) log2 a_z(v)`` of every entry of :attr:`entries`."""
+        counts = self.entries[2]
+        result: NDArray[np.float64] = counts * np.log2(counts)
+        return result
+
+    @cached_property
+    def view_starts(self) -> NDArray[np.int64]:
+        """Entries of view ``v`` are ``view_starts[v]:view_starts[v + 1]`` of :attr:`entries`."""
+        starts = np.searchsorted(self.entries[0], np.arange(self.n_views + 1, dtype=np.int64))
+        return np.asarray(starts, dtype=np.int64)
+
+    @cached_property
+    def xlogx_table(self) -> NDArray[np.float64]:
+        """``g(n) = n log2 n`` of the integers ``0 <= n <= 2 max a_z(v)``, ``g(0) = 0``.
+
+        The pixels of two entries summed are such integers; the table stops
+        at :data:`XLOGX_TABLE_SIZE` entries, so that it stays in the cache.
+        """
+        counts = self.entries[2]
+        largest = 2 * int(counts.max()) if len(counts) else 0
+        n = np.arange(min(largest + 1, XLOGX_TABLE_SIZE), dtype=np.float64)
+        table: NDArray[np.float64] = n * np.log2(np.maximum(n, 1.0))
+        return table
 
     def per_view(self, weights: NDArray[np.float64]) -> NDArray[np.float64]:
-        """``sum_z w`` per view, for ``weights`` aligned with :attr:`entries`."""
-        return np.asarray(np.bincount(self.entries[0], weights=weights, minlength=self.n_views),
-                          dtype=np.float64)
+        """``sum_z w`` per view, for ``weights`` aligned with :attr:`entries`.
+
+        The weights of each view are added in the order of its entries
+        (:func:`vptoolkit.measures._kernels.segment_sums`); 0 for a view that
+        sees nothing.
+        """
+        from vptoolkit.measures._kernels import segment_sums
+
+        weights = np.ascontiguousarray(weights, dtype=np.float64)
+        if weights.shape != self.entries[2].shape:
+            raise ValueError(f"weights of shape {weights.shape}, entries {self.entries[2].shape}")
+        return segment_sums(self.view_starts, weights)
 
     @cached_property
     def projected(self) -> NDArray[np.float64]:
@@ -115,14 +156,24 @@ class ViewData:
     def neighbours(self, count: int) -> NDArray[np.int64]:
         """The ``count`` nearest other views of each view by angle, ``(n_views, count)``.
 
-        Ties are broken by the lower view index.
+        Ties are broken by the lower view index: row ``v`` is the start of
+        ``argsort(-cos(v, .))``, stably, the view itself left out. Only the
+        views at least as near as the ``count``-th nearest (found by a
+        partial sort) are sorted.
         """
         key = f"neighbours:{count}"
         if key not in self.cache:
             count = min(count, self.n_views - 1)
             cosines = self.views @ self.views.T
             np.fill_diagonal(cosines, -np.inf)
-            order = np.argsort(-cosines, axis=1, kind="stable")[:, :count]
-            self.cache[key] = order.astype(np.int64)
+            if count <= 0:
+                self.cache[key] = np.empty((self.n_views, 0), dtype=np.int64)
+            else:
+                farthest = -np.partition(-cosines, count - 1, axis=1)[:, count - 1]
+                rows, columns = np.nonzero(cosines >= farthest[:, None])
+                order = np.lexsort((columns, -cosines[rows, columns], rows))
+                first = np.searchsorted(rows[order], np.arange(self.n_views))
+                taken = order[first[:, None] + np.arange(count)]
+                self.cache[key] = columns[taken].astype(np.int64)
         result: NDArray[np.int64] = self.cache[key]
         return result

@@ -28,8 +28,7 @@ Polygonal saliency (Feixas, Sbert and González 2009)
     + g(A_z + A_z') - g(A_z) - g(A_z')] / (A_z + A_z')``,
 
     so each pair costs the views that see its first face, whose pixel
-    counts are looked up in a dense (views by faces) block of a batch of
-    views.
+    counts are looked up in a dense per-face row of each view.
 
 Mesh saliency (Lee, Varshney and Jacobs 2005)
     Computed on the face centroids ``x_z`` with the per-face mean curvature
@@ -67,6 +66,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CACHE_KEY",
     "LEE_CACHE_KEY",
+    "PAIRS_CACHE_KEY",
     "face_neighbours",
     "lee_saliency",
     "mesh_saliency",
@@ -79,15 +79,16 @@ CACHE_KEY: Final = "saliency"
 LEE_CACHE_KEY: Final = "saliency:lee"
 """Key of the per-face mesh saliency of Lee et al. in :attr:`ViewData.cache`."""
 
+PAIRS_CACHE_KEY: Final = "saliency:pairs"
+"""Key of the mesh's :func:`face_neighbours` in :attr:`ViewData.cache` (both saliencies)."""
+
 LEE_SCALES: Final = (2.0, 3.0, 4.0, 5.0, 6.0)
 """Lee et al.'s scales ``sigma_i / eps``."""
 
 LEE_EPSILON: Final = 0.003
 """Lee et al.'s ``eps`` as a fraction of the bounding-box diagonal."""
 
-_CANDIDATES: Final = 1 << 22  # neighbour candidates examined at once by the Gaussian sums
 _PEAK_TOLERANCE: Final = 1e-9  # a local maximum stands this far above its neighbours (max = 1)
-_DENSE: Final = 1 << 22  # pixel counts laid out densely at once by the divergences
 
 
 def face_neighbours(mesh: MeshLike) -> NDArray[np.int64]:
@@ -122,41 +123,34 @@ def face_neighbours(mesh: MeshLike) -> NDArray[np.int64]:
     return np.unique(pairs, axis=0).astype(np.int64).reshape(-1, 2)
 
 
-def _x_log_x(values: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``x log2 x`` of positive values."""
-    result: NDArray[np.float64] = values * np.log2(values)
-    return result
+def _mesh_face_neighbours(data: ViewData) -> NDArray[np.int64]:
+    """:func:`face_neighbours` of ``data.mesh``, kept in ``data.cache``: :data:`PAIRS_CACHE_KEY`."""
+    if PAIRS_CACHE_KEY not in data.cache:
+        data.cache[PAIRS_CACHE_KEY] = face_neighbours(data.mesh)
+    pairs: NDArray[np.int64] = data.cache[PAIRS_CACHE_KEY]
+    return pairs
 
 
 def _divergences(data: ViewData, pairs: NDArray[np.int64]) -> NDArray[np.float64]:
     """``D(z, z')`` of each pair of seen faces, ``(n_pairs,)`` (module docstring).
 
-    ``pairs`` are sorted, first face lower. Views go in batches: the batch's
-    pixel counts are laid out densely, views by faces, and every entry
-    ``a_z(v)`` looks up ``a_z'(v)`` of each neighbour ``z' > z`` there.
+    ``pairs`` are sorted, first face lower. The sum over the views that see
+    both faces is :func:`vptoolkit.measures._kernels.pair_divergence_sums`:
+    view by view, every entry ``a_z(v)`` looks up ``a_z'(v)`` of each
+    neighbour ``z' > z`` in a dense per-face row of the view.
     """
-    views, faces, counts = data.entries
-    n_views, n_faces, totals = data.n_views, data.n_faces, data.face_totals
-    following = np.bincount(pairs[:, 0], minlength=n_faces)
-    first_pair = np.cumsum(following) - following
-    shared = np.zeros(len(pairs))
-    batch = max(1, _DENSE // n_faces)
-    bounds = np.searchsorted(views, np.arange(0, n_views + batch, batch))
-    for low, start, stop in zip(range(0, n_views, batch), bounds[:-1], bounds[1:]):
-        dense = np.zeros((min(batch, n_views - low), n_faces))
-        dense[views[start:stop] - low, faces[start:stop]] = counts[start:stop]
-        lengths = following[faces[start:stop]]
-        entry = np.repeat(np.arange(start, stop, dtype=np.int64), lengths)
-        pair = np.arange(len(entry), dtype=np.int64) \
-            + np.repeat(first_pair[faces[start:stop]] - (np.cumsum(lengths) - lengths), lengths)
-        theirs = dense[views[entry] - low, pairs[pair, 1]]
-        both = theirs > 0
-        mine, theirs = counts[entry[both]], theirs[both]
-        shared += np.bincount(pair[both], minlength=len(pairs),
-                              weights=_x_log_x(mine) + _x_log_x(theirs) - _x_log_x(mine + theirs))
+    from vptoolkit.measures._kernels import pair_divergence_sums
+
+    _, faces, counts = data.entries
+    n_faces, totals = data.n_faces, data.face_totals
+    pair_starts = np.searchsorted(pairs[:, 0], np.arange(n_faces + 1))
+    shared = pair_divergence_sums(data.view_starts, faces, counts, data.entry_xlogx,
+                                  data.xlogx_table, pair_starts,
+                                  np.ascontiguousarray(pairs[:, 1]), n_faces)
     first, second = totals[pairs[:, 0]], totals[pairs[:, 1]]
     joint = first + second
-    divergence = (shared + _x_log_x(joint) - _x_log_x(first) - _x_log_x(second)) / joint
+    divergence = (shared + joint * np.log2(joint) - first * np.log2(first)
+                  - second * np.log2(second)) / joint
     return np.clip(divergence, 0.0, 1.0)  # rounding only: D is in [0, 1] bits
 
 
@@ -182,7 +176,7 @@ def polygon_saliency(
     """
     if CACHE_KEY not in data.cache:
         totals = data.face_totals
-        pairs = face_neighbours(data.mesh)
+        pairs = _mesh_face_neighbours(data)
         pairs = pairs[(totals[pairs[:, 0]] > 0) & (totals[pairs[:, 1]] > 0)]
         divergence = _divergences(data, pairs)
         ends = pairs.T.ravel()
@@ -205,41 +199,22 @@ def _gaussian_means(points: NDArray[np.float64], values: NDArray[np.float64],
     """``G(z, sigma)`` of the module docstring for every point and sigma, ``(n_points, n_sigmas)``.
 
     The points within ``2 max(sigmas)`` of each point are found in a grid of
-    cells of that side: those of its own cell and the 26 around it.
+    cells of that side: those of its own cell and the 26 around it
+    (:func:`vptoolkit.measures._kernels.gaussian_sums` adds their weights).
     """
+    from vptoolkit.measures._kernels import gaussian_sums
+
     radius = 2.0 * float(sigmas.max())
     cell = np.floor((points - points.min(axis=0)) / radius).astype(np.int64) + 1
     shape = cell.max(axis=0) + 2
     keys = (cell[:, 0] * shape[1] + cell[:, 1]) * shape[2] + cell[:, 2]
     order = np.argsort(keys, kind="stable")
-    sorted_keys = keys[order]
-    offsets = [(dx * shape[1] + dy) * shape[2] + dz
-               for dx, dy, dz in itertools.product((-1, 0, 1), repeat=3)]
-    crowd = int(np.unique(keys, return_counts=True)[1].max())
-    chunk = max(1, _CANDIDATES // (27 * crowd))
-    limits = (2.0 * sigmas) ** 2
-    weights = np.zeros((len(points), len(sigmas)))
-    weighted = np.zeros((len(points), len(sigmas)))
-    for start in range(0, len(points), chunk):
-        query = np.arange(start, min(start + chunk, len(points)), dtype=np.int64)
-        near_parts, far_parts = [], []
-        for offset in offsets:
-            low = np.searchsorted(sorted_keys, keys[query] + offset, side="left")
-            lengths = np.searchsorted(sorted_keys, keys[query] + offset, side="right") - low
-            near_parts.append(np.repeat(query, lengths))
-            far_parts.append(order[np.arange(int(lengths.sum()), dtype=np.int64)
-                                   + np.repeat(low - (np.cumsum(lengths) - lengths), lengths)])
-        near, far = np.concatenate(near_parts), np.concatenate(far_parts)
-        step = points[near] - points[far]
-        squared = np.einsum("ij,ij->i", step, step)
-        inside = squared < limits.max()
-        near, squared, far_values = near[inside], squared[inside], values[far[inside]]
-        for column, (sigma, limit) in enumerate(zip(sigmas, limits)):
-            within = squared < limit
-            weight = np.exp(squared[within] / (-2.0 * sigma**2))
-            weights[:, column] += np.bincount(near[within], weight, minlength=len(points))
-            weighted[:, column] += np.bincount(near[within], weight * far_values[within],
-                                               minlength=len(points))
+    offsets = np.array([(dx * shape[1] + dy) * shape[2] + dz
+                        for dx, dy, dz in itertools.product((-1, 0, 1), repeat=3)], dtype=np.int64)
+    weights, weighted = gaussian_sums(np.ascontiguousarray(points, dtype=np.float64),
+                                      np.ascontiguousarray(values, dtype=np.float64),
+                                      (2.0 * sigmas) ** 2, -2.0 * sigmas**2, keys, keys[order],
+                                      order.astype(np.int64), offsets)
     means: NDArray[np.float64] = weighted / weights  # each point weighs 1 in its own sums
     return means
 
@@ -264,7 +239,8 @@ def _itti_normalised(values: NDArray[np.float64], pairs: NDArray[np.int64]) -> N
     return result
 
 
-def lee_saliency(mesh: MeshLike, curvature: NDArray[np.float64]) -> NDArray[np.float64]:
+def lee_saliency(mesh: MeshLike, curvature: NDArray[np.float64], *,
+                 pairs: NDArray[np.int64] | None = None) -> NDArray[np.float64]:
     """Lee et al.'s mesh saliency of every face from its mean curvature.
 
     Parameters
@@ -274,6 +250,8 @@ def lee_saliency(mesh: MeshLike, curvature: NDArray[np.float64]) -> NDArray[np.f
     curvature : (n_faces,) float64
         Mean curvature of every face (as
         :func:`vptoolkit.measures.curvature.face_mean_curvature` gives it).
+    pairs : (n_pairs, 2) int64, optional
+        :func:`face_neighbours` of ``mesh``, where already computed.
 
     Returns
     -------
@@ -291,7 +269,8 @@ def lee_saliency(mesh: MeshLike, curvature: NDArray[np.float64]) -> NDArray[np.f
     means = _gaussian_means(centroids, np.asarray(curvature, dtype=np.float64),
                             LEE_EPSILON * diagonal * sigmas)
     centre, surround = column[:len(scales)], column[len(scales):]
-    pairs = face_neighbours(mesh)
+    if pairs is None:
+        pairs = face_neighbours(mesh)
     saliency = np.zeros(mesh.n_faces)
     for inner, outer in zip(centre, surround):
         saliency += _itti_normalised(np.abs(means[:, inner] - means[:, outer]), pairs)
@@ -311,6 +290,7 @@ def mesh_saliency(data: ViewData) -> NDArray[np.float64]:
         ``S(z) >= 0`` of every face.
     """
     if LEE_CACHE_KEY not in data.cache:
-        data.cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data))
+        data.cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data),
+                                                 pairs=_mesh_face_neighbours(data))
     saliency: NDArray[np.float64] = data.cache[LEE_CACHE_KEY]
     return saliency

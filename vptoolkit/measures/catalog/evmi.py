@@ -29,12 +29,15 @@ from vptoolkit.measures.saliency import polygon_saliency
 def _compute(data: ViewData) -> NDArray[np.float64]:
     views, faces, counts = data.entries
     importance = polygon_saliency(data, undefined="highest") * data.face_totals
-    total = importance.sum()
-    salient = importance[faces] > 0
-    views, faces, counts = views[salient], faces[salient], counts[salient]
+    weight = importance[faces]
+    salient = weight > 0
     p_view = counts / data.projected[views]
-    terms = p_view * np.log2(p_view * total / importance[faces])
-    values = np.bincount(views, weights=terms, minlength=data.n_views)
+    terms = p_view * importance.sum()
+    np.divide(terms, weight, out=terms, where=salient)
+    terms[~salient] = 1.0  # log2 1 = 0: a face of no saliency adds nothing
+    np.log2(terms, out=terms)
+    terms *= p_view
+    values = data.per_view(terms)
     return np.where(data.seen, values, np.nan)
 
 

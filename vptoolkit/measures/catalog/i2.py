@@ -26,12 +26,11 @@ from vptoolkit.measures.registry import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
-    _, _, counts = data.entries
     p_face = data.face_probability[data.face_probability > 0]
     face_entropy = -float(np.sum(p_face * np.log2(p_face)))
     a_t = data.projected
     seen = data.seen
-    sum_a_log_a = data.per_view(counts * np.log2(counts))
+    sum_a_log_a = data.per_view(data.entry_xlogx)
     values = np.full(data.n_views, np.nan)
     values[seen] = face_entropy - (np.log2(a_t[seen]) - sum_a_log_a[seen] / a_t[seen])
     return values

@@ -29,7 +29,7 @@ def _compute(data: ViewData) -> NDArray[np.float64]:
     p_view = data.view_probability[data.seen]
     view_entropy = -float(np.sum(p_view * np.log2(p_view)))
     totals = data.face_totals  # sum_v a_z(v)
-    sum_a_log_a = np.bincount(faces, weights=counts * np.log2(counts), minlength=data.n_faces)
+    sum_a_log_a = np.bincount(faces, weights=data.entry_xlogx, minlength=data.n_faces)
     seen_faces = totals > 0
     face_information = np.zeros(data.n_faces)  # I2(z; V), 0 where no view sees z
     face_information[seen_faces] = view_entropy - (

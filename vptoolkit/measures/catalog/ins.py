@@ -49,34 +49,21 @@ def _xlogx(x: NDArray[np.float64]) -> NDArray[np.float64]:
 def _shared_faces_term(data: ViewData, pairs: NDArray[np.int64]) -> NDArray[np.float64]:
     """``sum_z [f(a_z(v) + a_z(v')) - f(a_z(v)) - f(a_z(v'))]`` per pair, over shared faces.
 
-    One view at a time, its counts are spread over a dense per-face row, and
-    the faces of every view paired with it that has no more visible faces
-    are looked up in that row: a gather per entry, no search.
+    :func:`vptoolkit.measures._kernels.view_pair_sums`: one view at a time,
+    its counts are spread over a dense per-face row, and the faces of every
+    view paired with it that has no more visible faces are looked up in that
+    row: a gather per entry, no search.
     """
-    views, faces, counts = data.entries  # grouped by view, in view order
-    starts = np.searchsorted(views, np.arange(data.n_views + 1))
+    from vptoolkit.measures._kernels import view_pair_sums
+
+    _, faces, counts = data.entries
+    starts = data.view_starts
     sizes = np.diff(starts)
     walk = np.where(sizes[pairs[:, 0]] <= sizes[pairs[:, 1]], pairs[:, 0], pairs[:, 1])
     other = pairs[:, 0] + pairs[:, 1] - walk
-    order = np.argsort(other, kind="stable")
-    groups = np.searchsorted(other[order], np.arange(data.n_views + 1))
-    row = np.zeros(data.n_faces)
-    shared = np.zeros(len(pairs))
-    for view in np.unique(other):
-        members = order[groups[view]:groups[view + 1]]
-        own = slice(starts[view], starts[view + 1])
-        row[faces[own]] = counts[own]
-        lengths = sizes[walk[members]]
-        member = np.repeat(np.arange(len(members)), lengths)
-        first = np.cumsum(lengths) - lengths
-        position = starts[walk[members]][member] + np.arange(int(lengths.sum())) - first[member]
-        there = row[faces[position]]
-        match = there > 0
-        a, b = counts[position[match]], there[match]
-        shared[members] = np.bincount(member[match], minlength=len(members),
-                                      weights=_xlogx(a + b) - _xlogx(a) - _xlogx(b))
-        row[faces[own]] = 0.0
-    return shared
+    order = np.argsort(other, kind="stable").astype(np.int64)
+    return view_pair_sums(starts, faces, counts, data.entry_xlogx, data.xlogx_table, walk, other,
+                          order, data.n_faces)
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:

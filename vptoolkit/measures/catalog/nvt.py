@@ -16,8 +16,7 @@ from vptoolkit.measures.registry import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
-    views, _, _ = data.entries
-    return np.bincount(views, minlength=data.n_views).astype(np.float64)
+    return np.diff(data.view_starts).astype(np.float64)
 
 
 MEASURE = Measure(
