@@ -7,7 +7,7 @@ intersects in float32) and in which of two identical front faces takes a
 pixel. The measures that read only the pixel counts and the per-view depth
 and silhouette statistics must rank the views alike: Spearman's rank
 correlation between the two backends' raw values over 1000 views at least
-:data:`BAR` (issue 31).
+:data:`BAR`.
 
 The silhouette measures that histogram turning angles react most to those
 few edge pixels: one pixel more or less on a contour changes the turning
@@ -31,7 +31,7 @@ from vptoolkit.samples import sample_names, sample_path
 from vptoolkit.settings import Backend, MeasureSettings
 
 BAR = 0.97
-"""The issue's bar on the rank correlation between the backends."""
+"""The least rank correlation between the backends' raw values that every measure must reach."""
 
 IMAGE_MEASURES = ("NVT", "PA", "HM", "VR", "VE", "VKL", "VMI", "I2", "I3",
                   "SL", "SE", "SC", "SCE", "MD", "DD", "SS")

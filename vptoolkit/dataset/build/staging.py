@@ -42,11 +42,11 @@ from vptoolkit.dataset.build.sources import SourceModel
 from vptoolkit.dataset.store.schema import (
     ENTRY_ARRAYS,
     FAILURE_KEYS,
-    LazyEntries,
     ModelEntry,
     from_json_bytes,
     json_bytes,
 )
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, read_json_file
 

@@ -77,11 +77,11 @@ from vptoolkit.dataset.release.manifest import (
 )
 from vptoolkit.dataset.release.options import ReleaseOptions, release_created
 from vptoolkit.dataset.store.schema import (
-    LazyEntries,
     ModelEntry,
     published_split,
     registered_measures,
 )
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     errors_named,

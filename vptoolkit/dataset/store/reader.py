@@ -31,13 +31,13 @@ from vptoolkit.dataset.store.schema import (
     FORMAT_NAME,
     SCHEMA_VERSION,
     STRING_ARRAYS,
-    LazyEntries,
     ModelEntry,
     class_labels,
     class_names,
     from_json_bytes,
     registered_measures,
 )
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
 from vptoolkit.files import check_path_part
 
