@@ -238,7 +238,7 @@ def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path)
     assert np.allclose(np.linalg.norm(predictions.directions, axis=-1), 1.0)
     # (N, 6) and (N, 3) files of the same points give the same prediction; so does a rerun
     three = predict(trained.checkpoint, tmp_path / "three" / "duck.npy")
-    assert np.array_equal(three.directions[0], predictions.directions[-1])
+    assert np.allclose(three.directions[0], predictions.directions[-1], atol=1e-5)  # batches differ
     again = predict(trained.checkpoint, [duck], seed=0)
     assert np.allclose(again.directions[0], predictions.directions[8], atol=1e-5)  # batch of 1 vs 3
 

@@ -69,8 +69,10 @@ def tiny_options(**changes: Any) -> TrainOptions:
 
 def nearest_view_scores(dataset_dir: Path, checkpoint: Path, seed: int) -> dict[str, float]:
     """Mean normalised quality of the stored view nearest to the network's answer, per measure
-    of the network, over the train split, scored with the dataset's own columns by name."""
-    predictions = predict(checkpoint, dataset_dir, split="train", seed=seed, device="cpu")
+    of the network, over the train split, scored with the dataset's own columns by name; one
+    input per model, as the validation draws it."""
+    predictions = predict(checkpoint, dataset_dir, split="train", seed=seed, device="cpu",
+                          n_inputs=1)
     with open_dataset(dataset_dir) as dataset:
         scores = {name: [] for name in predictions.measures}
         for name, directions in zip(predictions.names, predictions.directions):

@@ -19,7 +19,8 @@ nothing, so ``import vptoolkit.learn`` never loads torch):
 - ``vptoolkit.learn.predict``: :func:`~vptoolkit.learn.predict.predict` on
   meshes, point files or a dataset split (read through
   :func:`vptoolkit.inputs.open_inputs`), returning
-  :class:`~vptoolkit.predictions.Predictions`.
+  :class:`~vptoolkit.predictions.Predictions`; ``vptoolkit.learn.consensus``:
+  one answer from the network's answers to several inputs of a model.
 - ``vptoolkit.learn.config``: ``ModelConfig`` and ``LevelConfig``, the
   architecture as data (no torch); ``vptoolkit.learn.hierarchy`` and
   ``vptoolkit.learn.layers``: the point hierarchy (grid levels,

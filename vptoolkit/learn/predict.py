@@ -18,12 +18,17 @@ point files (``.npy``)
 dataset stores or folders
     the stored surface points of every model of ``split``.
 
-Then :func:`vptoolkit.points.network_input` picks the checkpoint's input
-size (4096 points, 1024 of them by farthest point sampling) with a
-generator seeded from ``seed`` and the model's name, so a model gets the
-same input wherever it appears. Nothing is rotated: networks with the
-canonical input frame (:mod:`vptoolkit.learn.frame`) answer in the input's
-own orientation, whatever it is.
+Then :func:`vptoolkit.points.network_input` picks ``n_inputs`` inputs of the
+checkpoint's input size (4096 points, 1024 of them by farthest point
+sampling) with generators seeded from ``seed``, the model's name and the
+input's number, so a model gets the same inputs wherever it appears
+(:func:`network_points`). The network answers each, and the answer per
+measure is their consensus (:func:`vptoolkit.learn.consensus.consensus_directions`:
+the answer most of the others agree with), which does not move with the
+sampling as a single input's answer does. ``n_inputs=1`` asks the network
+once (:data:`N_INPUTS` = 8 by default). Nothing is rotated: networks with
+the canonical input frame (:mod:`vptoolkit.learn.frame`) answer in the
+input's own orientation, whatever it is.
 
 The predictions name the network's measures (its heads, as its
 ``model.json`` lists them), in its order.
@@ -44,11 +49,12 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.checks import short_repr
+from vptoolkit.checks import check_int, check_int_range, short_repr
 from vptoolkit.errors import InputError
 from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
 from vptoolkit.learn.config import check_input_sizes
+from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
@@ -62,19 +68,29 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["MeshPredictor", "predict", "predict_directions", "network_points",
-           "network_predictor", "load_networks"]
+__all__ = ["MeshPredictor", "N_INPUTS", "predict", "predict_directions", "network_points",
+           "network_inputs", "network_predictor", "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of per-category networks
 (:func:`vptoolkit.learn.train.train_per_category`)."""
 
+N_INPUTS: Final = 8
+"""Network inputs drawn per model, whose answers' consensus is the prediction.
+
+Eight inputs bring the median angle between the answers for a model and for
+a resampled, rotated copy of it to a few degrees on real meshes, at no cost
+in score (``docs/results.md``).
+"""
+
+_MAX_INPUTS = 64
+_MODELS_HELD = 256  # models whose inputs predict() holds before it runs the network
 _SEED_INPUT = 3
 
 
 def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
-                   seed: int, name: str) -> NDArray[np.float32]:
-    """One network input from a sampled surface, seeded from ``seed`` and ``name``.
+                   seed: int, name: str, draw: int = 0) -> NDArray[np.float32]:
+    """One network input from a sampled surface, seeded from ``seed``, ``name`` and ``draw``.
 
     Parameters
     ----------
@@ -85,7 +101,11 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     seed : int
         Base seed.
     name : str
-        Model name; the generator is ``SeedSequence([seed, 3, model_key(name)])``.
+        Model name.
+    draw : int
+        Number of the input, non-negative (default: 0). The generator is
+        ``SeedSequence([seed, 3, model_key(name)])`` for input 0 and
+        ``SeedSequence([seed, 3, model_key(name), draw])`` for the others.
 
     Returns
     -------
@@ -94,9 +114,28 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     from vptoolkit.points import network_input
     from vptoolkit.rotations import model_key
 
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), _SEED_INPUT, model_key(name)]))
+    draw = check_int(draw, "draw", minimum=0)
+    entropy = [int(seed), _SEED_INPUT, model_key(name)] + ([draw] if draw else [])
+    rng = np.random.default_rng(np.random.SeedSequence(entropy))
     chosen = network_input(points, n_points, min(n_fps, len(points)), rng=rng)
     return chosen.astype(np.float32)
+
+
+def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
+                   seed: int, name: str, n_inputs: int = N_INPUTS) -> NDArray[np.float32]:
+    """The ``n_inputs`` network inputs of one model, draws ``0 .. n_inputs - 1``.
+
+    Returns
+    -------
+    inputs : (n_inputs, n_points, 3) float32
+        Input ``k`` is :func:`network_points` with ``draw=k``.
+    """
+    return np.stack([network_points(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
+                                    draw=k) for k in range(_check_n_inputs(n_inputs))])
+
+
+def _check_n_inputs(n_inputs: Any) -> int:
+    return check_int_range(n_inputs, "n_inputs", 1, _MAX_INPUTS)
 
 
 def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | torch.Tensor, *,
@@ -111,7 +150,7 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     points : (n_models, n_points, 3) float
         Network inputs.
     batch_size : int
-        Models per forward pass (default: 64).
+        Network inputs per forward pass (default: 64; 8 models at the default ``n_inputs``).
     device : {"cpu", "cuda", "auto"}
         Where the network runs (default: "cpu"; the model is moved there).
     checkpoint : str
@@ -219,14 +258,15 @@ def _input_sizes(config: dict[str, Any], n_points: int | None,
 
 def network_predictor(
     model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
-    seed: int = 0, batch_size: int = 64, device: str = "auto",
+    seed: int = 0, batch_size: int = 64, device: str = "auto", n_inputs: int = N_INPUTS,
 ) -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
     """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`.
 
     It turns surface points and names into directions.
 
-    Each cloud becomes a network input as in :func:`predict` (the
-    checkpoint's input size, seeded from ``seed`` and the model's name).
+    Each cloud becomes ``n_inputs`` network inputs as in :func:`predict` (the
+    checkpoint's input size, seeded from ``seed`` and the model's name), and
+    the answer is their consensus.
 
     Parameters
     ----------
@@ -234,7 +274,7 @@ def network_predictor(
         A checkpoint, a per-category folder or ``"default"``.
     categories : mapping of str to str, optional
         Model name to category, to route models to a per-category folder's networks.
-    seed, batch_size, device
+    seed, batch_size, device, n_inputs
         As for :func:`predict`.
 
     Returns
@@ -242,6 +282,7 @@ def network_predictor(
     predictor : callable
         ``predictor(points, names) -> (n_models, n_measures, 3)`` unit directions.
     """
+    n_inputs = _check_n_inputs(n_inputs)
     networks = load_networks(model_path)
     lookup = dict(categories or {})
 
@@ -250,8 +291,8 @@ def network_predictor(
         prepared = []
         for cloud, name, route in zip(points, names, routes):
             n_points, n_fps = _input_sizes(networks[route][1], None, None)
-            prepared.append(network_points(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
-                                           name=name))
+            prepared.append(network_inputs(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
+                                           name=name, n_inputs=n_inputs))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
@@ -267,16 +308,21 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
                     prepared: Sequence[NDArray[np.float32]], routes: Sequence[str | None], *,
                     batch_size: int, device: str,
                     model_path: str | os.PathLike[str]) -> NDArray[np.float64]:
-    """Each prepared input through the network its route names: (n_models, n_measures, 3)."""
+    """Each model's inputs ``(K, n_points, 3)`` through the network its route names.
+
+    Returns the consensus of each model's ``K`` answers, ``(n_models, n_measures, 3)``.
+    """
     first_model = next(iter(networks.values()))[0]
-    directions = np.zeros((len(prepared), len(first_model.measures), 3))
+    n_inputs = len(prepared[0]) if prepared else 1
+    answers = np.zeros((len(prepared), n_inputs, len(first_model.measures), 3))
     for route, (model, _) in networks.items():
         rows = [i for i, chosen in enumerate(routes) if chosen == route]
         if rows:
-            directions[rows] = predict_directions(model, np.stack([prepared[i] for i in rows]),
-                                                  batch_size=batch_size, device=device,
-                                                  checkpoint=_checkpoint_name(model_path, route))
-    return directions
+            stacked = np.concatenate([prepared[i] for i in rows])
+            found = predict_directions(model, stacked, batch_size=batch_size, device=device,
+                                       checkpoint=_checkpoint_name(model_path, route))
+            answers[rows] = found.reshape(len(rows), n_inputs, *found.shape[1:])
+    return consensus_directions(answers)
 
 
 class MeshPredictor:
@@ -284,9 +330,10 @@ class MeshPredictor:
 
     The hook behind ``vptool render --model`` and ``vptool thumbnails
     --model`` (a :data:`vptoolkit.pictures.views.DirectionSource`). A mesh becomes
-    a network input as in :func:`predict`: 20000 surface points (seed
-    ``seed``), then the checkpoint's input size chosen with a generator
-    seeded from ``seed`` and the mesh's name.
+    network inputs as in :func:`predict`: 20000 surface points (seed
+    ``seed``), then ``n_inputs`` inputs of the checkpoint's input size chosen
+    with generators seeded from ``seed``, the mesh's name and the input's
+    number; the answer is the consensus of the network's answers to them.
 
     Parameters
     ----------
@@ -299,6 +346,8 @@ class MeshPredictor:
         Torch threads during each call (default: torch's setting).
     category : str, optional
         The category whose network predicts (required for a per-category folder).
+    n_inputs : int
+        Network inputs per mesh (default: :data:`N_INPUTS`).
 
     Attributes
     ----------
@@ -315,9 +364,11 @@ class MeshPredictor:
     """
 
     def __init__(self, model_path: str | os.PathLike[str] = DEFAULT_MODEL, *, seed: int = 0,
-                 threads: int | None = None, category: str | None = None) -> None:
+                 threads: int | None = None, category: str | None = None,
+                 n_inputs: int = N_INPUTS) -> None:
         if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
             raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+        self.n_inputs = _check_n_inputs(n_inputs)
         networks = load_networks(model_path)
         route = _route(networks, Path(model_path).name, category)
         self.model, self.config = networks[route]
@@ -328,19 +379,20 @@ class MeshPredictor:
         self.threads = threads
 
     def inputs(self, mesh: MeshLike) -> NDArray[np.float32]:
-        """The network input of a mesh, ``(n_points, 3) float32`` (the class docstring)."""
+        """The network inputs of a mesh, ``(n_inputs, n_points, 3) float32`` (the class docstring)."""
         mesh = as_mesh(mesh)
         from vptoolkit.points import sample_surface
 
         surface = sample_surface(mesh, N_SURFACE_POINTS, seed=self.seed).points
-        return network_points(surface, n_points=self.n_points, n_fps=self.n_fps,
-                              seed=self.seed, name=mesh.name)
+        return network_inputs(surface, n_points=self.n_points, n_fps=self.n_fps,
+                              seed=self.seed, name=mesh.name, n_inputs=self.n_inputs)
 
     def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
         points = self.inputs(mesh)
         with torch_threads(self.threads):
-            return predict_directions(self.model, points[None], checkpoint=self.checkpoint)[0]
+            answers = predict_directions(self.model, points, checkpoint=self.checkpoint)
+        return consensus_directions(answers[None])[0]
 
 
 def predict(
@@ -357,6 +409,7 @@ def predict(
     threads: int | None = None,
     category: str | None = None,
     device: str = "auto",
+    n_inputs: int = N_INPUTS,
 ) -> Predictions:
     """Predict the best view of every input model for each measure.
 
@@ -374,7 +427,7 @@ def predict(
         Split of dataset inputs: ``"train"``, ``"validation"``, ``"test"`` or None
         for every model (default: "test").
     batch_size : int
-        Models per forward pass (default: 64).
+        Network inputs per forward pass (default: 64; 8 models at the default ``n_inputs``).
     seed : int
         Seed of the surface sampling of meshes and of the input point
         selection (default: 0).
@@ -391,6 +444,9 @@ def predict(
         (dataset models carry their own).
     device : {"auto", "cpu", "cuda"}
         Where the network runs (default: "auto", CUDA when available).
+    n_inputs : int
+        Network inputs per model, 1 to 64, whose answers' consensus is the
+        prediction (default: :data:`N_INPUTS`; 1 asks the network once).
 
     Returns
     -------
@@ -411,6 +467,7 @@ def predict(
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise InputError(f"seed: expected a non-negative integer, got {seed!r}")
+    n_inputs = _check_n_inputs(n_inputs)
     networks = load_networks(model_path)
     tqdm = require("tqdm").tqdm
     from vptoolkit.inputs import claim_name, open_inputs
@@ -419,6 +476,15 @@ def predict(
     seen: set[str] = set()
     routes: list[str | None] = []
     prepared: list[NDArray[np.float32]] = []
+    found: list[NDArray[np.float64]] = []
+
+    def answer_prepared() -> None:  # the inputs held so far, then let them go
+        with torch_threads(threads):
+            found.append(_predict_routed(networks, prepared, routes, batch_size=batch_size,
+                                         device=device, model_path=model_path))
+        prepared.clear()
+        routes.clear()
+
     with open_inputs(inputs, split=split) as sources:
         for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
             claim_name(seen, source.name)
@@ -427,10 +493,12 @@ def predict(
             size, fps = _input_sizes(networks[route][1], n_points, n_fps)
             names.append(source.name)
             routes.append(route)
-            prepared.append(network_points(source.points(seed=seed), n_points=size, n_fps=fps,
-                                           seed=seed, name=source.name))
+            prepared.append(network_inputs(source.points(seed=seed), n_points=size, n_fps=fps,
+                                           seed=seed, name=source.name, n_inputs=n_inputs))
+            if len(prepared) == _MODELS_HELD:
+                answer_prepared()
+    if prepared or not found:
+        answer_prepared()
     measures = next(iter(networks.values()))[0].measures
-    with torch_threads(threads):
-        directions = _predict_routed(networks, prepared, routes, batch_size=batch_size,
-                                     device=device, model_path=model_path)
+    directions = np.concatenate(found)
     return Predictions(tuple(names), directions.reshape(len(names), len(measures), 3), measures)

@@ -10,9 +10,10 @@ default: every head): a searched measure the network has no head for gets no
 candidate, and a search none of whose measures it has gets none at all, so
 it runs as without a prior.
 
-1. the network's answer per measure in the input's canonical frame
-   (:mod:`vptoolkit.learn.frame`), as :func:`vptoolkit.learn.predict.predict`
-   gives it;
+1. the network's answer per measure to one input (``n_inputs=1`` of
+   :func:`vptoolkit.learn.predict.predict`: the search, not a consensus,
+   settles between the answers that input noise moves between) in its
+   canonical frame (:mod:`vptoolkit.learn.frame`);
 2. the answers in the frames that differ from it by the sign of an
    ambiguous axis (``|mu_3| < SIGN_AMBIGUITY sigma^3``: a mirror-symmetric
    model, whose frame sign is decided by sampling noise), one frame after
@@ -118,7 +119,7 @@ class NetworkPrior:
                              "network for every mesh (best-view has no --category); give the "
                              "folder of one category's network inside it")
         searched = None if measures is None else check_measure_names(measures, text=True)
-        self.predictor = MeshPredictor(model_path, seed=seed, threads=threads)
+        self.predictor = MeshPredictor(model_path, seed=seed, threads=threads, n_inputs=1)
         own = self.predictor.measures
         self.heads = own if searched is None else tuple(name for name in own if name in searched)
         self._columns = [own.index(name) for name in self.heads]
@@ -158,7 +159,7 @@ class NetworkPrior:
         if not self.heads:
             return np.zeros((0, 3))
         model = self.predictor.model
-        points = torch.as_tensor(self.predictor.inputs(mesh))
+        points = torch.as_tensor(self.predictor.inputs(mesh)[0])
         with torch_threads(self.predictor.threads), torch.inference_mode():
             model.eval()
             if model.config.input_frame != "pca":

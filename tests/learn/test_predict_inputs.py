@@ -1,0 +1,105 @@
+"""Several network inputs per model: the bundled network's answers and their consensus."""
+
+import numpy as np
+import pytest
+
+from fixtures.environment import require_package
+from vptoolkit.errors import InputError
+from vptoolkit.io import load_mesh
+from vptoolkit.points import N_SURFACE_POINTS, sample_surface
+from vptoolkit.samples import sample_path
+
+require_package("torch")
+
+from vptoolkit.learn.consensus import consensus_directions  # noqa: E402
+from vptoolkit.learn.predict import (  # noqa: E402
+    N_INPUTS,
+    MeshPredictor,
+    network_inputs,
+    network_points,
+    network_predictor,
+    predict,
+    predict_directions,
+)
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+MESHES = ("mug.obj", "teapot.stl")
+
+
+@pytest.fixture(scope="module")
+def predictor() -> MeshPredictor:
+    return MeshPredictor("default")
+
+
+def surface(name: str) -> np.ndarray:
+    """The surface points that predict and MeshPredictor sample from a mesh (seed 0)."""
+    return sample_surface(load_mesh(sample_path(name)), N_SURFACE_POINTS, seed=0).points
+
+
+def test_one_input_is_the_single_draw_zero_answer(predictor):
+    single = MeshPredictor("default", n_inputs=1)
+    for name in MESHES:
+        mesh = load_mesh(sample_path(name))
+        draw_zero = network_points(surface(name), n_points=predictor.n_points,
+                                   n_fps=predictor.n_fps, seed=0, name=mesh.name, draw=0)
+        expected = predict_directions(predictor.model, draw_zero[None])[0]
+        assert np.allclose(single(mesh), expected, atol=1e-5)
+        answered = predict("default", sample_path(name), n_inputs=1, device="cpu")
+        assert np.allclose(answered.directions[0], expected, atol=1e-5)
+
+
+def test_the_inputs_are_distinct_draws_the_first_being_draw_zero(predictor):
+    points = surface("mug.obj")
+    sizes = {"n_points": predictor.n_points, "n_fps": predictor.n_fps, "seed": 0, "name": "mug"}
+    inputs = network_inputs(points, n_inputs=5, **sizes)
+    assert inputs.shape == (5, predictor.n_points, 3) and inputs.dtype == np.float32
+    np.testing.assert_array_equal(inputs[0], network_points(points, draw=0, **sizes))
+    np.testing.assert_array_equal(inputs[3], network_points(points, draw=3, **sizes))
+    chosen = [{tuple(point) for point in draw} for draw in inputs]
+    assert all(chosen[i] != chosen[j] for i in range(5) for j in range(i))
+    assert network_inputs(points, **sizes).shape[0] == N_INPUTS == 8
+    # the same draws from the same seed and name; another name draws others
+    np.testing.assert_array_equal(network_inputs(points, n_inputs=5, **sizes), inputs)
+    other = network_inputs(points, n_inputs=5, **{**sizes, "name": "cup"})
+    assert not np.array_equal(other, inputs)
+    np.testing.assert_array_equal(predictor.inputs(load_mesh(sample_path("mug.obj"))),
+                                  network_inputs(points, **sizes))
+
+
+def test_the_consensus_is_one_of_the_single_input_answers(predictor):
+    for name in MESHES:
+        mesh = load_mesh(sample_path(name))
+        answers = predict_directions(predictor.model, predictor.inputs(mesh))
+        assert answers.shape == (N_INPUTS, len(predictor.measures), 3)
+        chosen = predictor(mesh)
+        assert chosen.shape == (len(predictor.measures), 3)
+        for measure in range(len(predictor.measures)):
+            # the same vector up to the rounding of normalising a unit vector again
+            gaps = np.abs(answers[:, measure] - chosen[measure]).max(axis=-1)
+            assert gaps.min() < 1e-12, (name, predictor.measures[measure], gaps)
+        np.testing.assert_array_equal(chosen, consensus_directions(answers[None])[0])
+
+
+def test_predict_and_the_mesh_predictor_agree_and_repeat(predictor):
+    paths = [sample_path(name) for name in MESHES]
+    answered = predict("default", paths, device="cpu")
+    assert answered.names == ("mug", "teapot") and answered.measures == predictor.measures
+    for path, directions in zip(paths, answered.directions):
+        assert np.allclose(directions, predictor(load_mesh(path)), atol=1e-5)
+    again = predict("default", paths, device="cpu")
+    assert again.directions.tobytes() == answered.directions.tobytes()
+    from_clouds = network_predictor("default", device="cpu")
+    clouds = [surface(name) for name in MESHES]
+    assert np.allclose(from_clouds(clouds, ["mug", "teapot"]), answered.directions, atol=1e-5)
+
+
+@pytest.mark.parametrize("n_inputs", [0, 65, 1.5, True, "8", None])
+def test_a_bad_number_of_inputs_is_refused(n_inputs):
+    mug = sample_path("mug.obj")
+    calls = (lambda: predict("default", mug, n_inputs=n_inputs),
+             lambda: MeshPredictor("default", n_inputs=n_inputs),
+             lambda: network_predictor("default", n_inputs=n_inputs))
+    for call in calls:
+        with pytest.raises(InputError, match="^n_inputs: expected an integer from 1 to 64"):
+            call()
