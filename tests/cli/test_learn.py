@@ -90,3 +90,38 @@ def test_predict_with_the_bundled_network_prints_directions(runner):
     assert result.exit_code == 0, result.output
     line = result.stdout.strip().splitlines()[0]
     assert line.startswith("bunny: VE (") and "VMI (" in line
+
+
+def test_predict_asks_the_network_about_as_many_inputs_as_told(runner, tmp_path):
+    require_package("torch")
+    from vptoolkit.cli.learn import predict_command
+    from vptoolkit.learn.predict import N_INPUTS, predict
+
+    mug = sample_path("mug.obj")
+    found = {}
+    for n_inputs in (1, 8):
+        written = tmp_path / f"mug{n_inputs}.npz"
+        result = runner.invoke(main, ["predict", str(mug), "--inputs", str(n_inputs),
+                                      "--device", "cpu", "-o", str(written)])
+        assert result.exit_code == 0, result.output
+        with np.load(written, allow_pickle=False) as stored:
+            found[n_inputs] = stored["directions"]
+        expected = predict("default", mug, n_inputs=n_inputs, device="cpu").directions
+        np.testing.assert_allclose(found[n_inputs], expected, rtol=0, atol=1e-5)
+    # the command changes what the library changes: one input or the consensus of eight
+    api_same = np.allclose(predict("default", mug, n_inputs=1, device="cpu").directions,
+                           predict("default", mug, n_inputs=8, device="cpu").directions)
+    assert np.allclose(found[1], found[8]) == api_same
+    # no --inputs is the library's default, which the help states without importing torch
+    plain = runner.invoke(main, ["predict", str(mug), "--device", "cpu",
+                                 "-o", str(tmp_path / "plain.npz")])
+    assert plain.exit_code == 0, plain.output
+    with np.load(tmp_path / "plain.npz", allow_pickle=False) as stored:
+        np.testing.assert_array_equal(stored["directions"], found[N_INPUTS])
+    option = next(param for param in predict_command.params if param.name == "n_inputs")
+    assert option.show_default == str(N_INPUTS)
+    for bad in (["--inputs", "0"], ["--inputs", "65"], ["--inputs", "2", "-m", "unoccluded"]):
+        refused = runner.invoke(main, ["predict", str(mug), *bad])
+        assert refused.exit_code == 2 and refused.stdout == ""
+        assert refused.stderr.startswith("vptool: error: ") and "--inputs" in refused.stderr
+        assert refused.stderr.count("\n") == 1, refused.stderr

@@ -181,22 +181,28 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @seed_option("Seed of the surface sampling and input point choice.")
 @click.option("--category",
               help="Category of mesh and point-file inputs, for a per-category model folder.")
+# shown, not set: N_INPUTS of vptoolkit.learn.predict, which imports torch (tests/cli/test_learn.py)
+@click.option("--inputs", "n_inputs", type=click.IntRange(1, 64), show_default="8",
+              help="Network inputs per model; the prediction is the consensus of the network's "
+                   "answers to them (1: ask once).")
 @device_option()
 @cache_dir_option()
 def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | str | None,
                     split: str, output: Path | None, seed: int, category: str | None,
-                    device: str, cache_dir: Path | None) -> None:
+                    n_inputs: int | None, device: str, cache_dir: Path | None) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
     INPUTS are mesh files or .npy point files ((N, 3) or (N, 6) as written by
     vptool sample). Directions come back in each input's own frame, from the
     model centre towards the camera, one per measure the network learnt.
     Without --model the network bundled with vptoolkit predicts (trained on
-    procedural shapes; see docs/results.md).
+    real meshes; see docs/results.md). A network answers --inputs draws of
+    each model's points; the prediction is the answer most of the others
+    agree with.
     --model unoccluded answers in closed form from normals with occlusion
     ignored (vptoolkit.unoccluded; a mesh's faces, an (N, 6) point file's
     normals, a dataset's stored normals): no network, a few ms, and on real
-    meshes better than the bundled network.
+    meshes often as good as the bundled network (docs/results.md).
 
     \b
     Example:
@@ -204,6 +210,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
       vptool predict --model unoccluded scan.npy
       vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
     """
+    if model == "unoccluded" and n_inputs is not None:
+        raise InputError("--inputs: --model unoccluded asks no network; drop one of them")
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
@@ -218,7 +226,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
         predictions = predict_unoccluded(sources, split=chosen)
     else:
-        predictions = _network_predictions(model, sources, chosen, seed, category, device)
+        predictions = _network_predictions(model, sources, chosen, seed, category, device,
+                                           n_inputs)
     if output is not None:
         predictions.save_npz(output)
     names, directions, measures = predictions.names, predictions.directions, predictions.measures
@@ -233,9 +242,9 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
 
 def _network_predictions(model: str, sources: list[Path], split: str | None, seed: int,
-                         category: str | None, device: str) -> Predictions:
-    """A network's predictions for ``predict``."""
-    from vptoolkit.learn.predict import predict
+                         category: str | None, device: str, n_inputs: int | None) -> Predictions:
+    """A network's predictions for ``predict``; ``n_inputs`` None takes the library's default."""
+    from vptoolkit.learn.predict import N_INPUTS, predict
     from vptoolkit.points import read_point_file
 
     for source in sources:  # refused before the network is loaded
@@ -243,7 +252,8 @@ def _network_predictions(model: str, sources: list[Path], split: str | None, see
             read_point_file(source)
     with options_named(category_="--category"):
         return predict(model, sources, split=split, seed=seed, progress=True,
-                       category=category, device=device)
+                       category=category, device=device,
+                       n_inputs=N_INPUTS if n_inputs is None else n_inputs)
 
 
 COMMANDS = (train, predict_command, evaluate)
