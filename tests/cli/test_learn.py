@@ -99,7 +99,7 @@ def test_predict_asks_the_network_about_as_many_inputs_as_told(runner, tmp_path)
 
     mug = sample_path("mug.obj")
     found = {}
-    for n_inputs in (1, 8):
+    for n_inputs in (1, 16):
         written = tmp_path / f"mug{n_inputs}.npz"
         result = runner.invoke(main, ["predict", str(mug), "--inputs", str(n_inputs),
                                       "--device", "cpu", "-o", str(written)])
@@ -108,10 +108,10 @@ def test_predict_asks_the_network_about_as_many_inputs_as_told(runner, tmp_path)
             found[n_inputs] = stored["directions"]
         expected = predict("default", mug, n_inputs=n_inputs, device="cpu").directions
         np.testing.assert_allclose(found[n_inputs], expected, rtol=0, atol=1e-5)
-    # the command changes what the library changes: one input or the consensus of eight
+    # the command changes what the library changes: one input or the consensus of sixteen
     api_same = np.allclose(predict("default", mug, n_inputs=1, device="cpu").directions,
-                           predict("default", mug, n_inputs=8, device="cpu").directions)
-    assert np.allclose(found[1], found[8]) == api_same
+                           predict("default", mug, n_inputs=16, device="cpu").directions)
+    assert np.allclose(found[1], found[16]) == api_same
     # no --inputs is the library's default, which the help states without importing torch
     plain = runner.invoke(main, ["predict", str(mug), "--device", "cpu",
                                  "-o", str(tmp_path / "plain.npz")])

@@ -58,7 +58,7 @@ def test_the_inputs_are_distinct_draws_the_first_being_draw_zero(predictor):
     np.testing.assert_array_equal(inputs[3], network_points(points, draw=3, **sizes))
     chosen = [{tuple(point) for point in draw} for draw in inputs]
     assert all(chosen[i] != chosen[j] for i in range(5) for j in range(i))
-    assert network_inputs(points, **sizes).shape[0] == N_INPUTS == 8
+    assert network_inputs(points, **sizes).shape[0] == N_INPUTS
     # the same draws from the same seed and name; another name draws others
     np.testing.assert_array_equal(network_inputs(points, n_inputs=5, **sizes), inputs)
     other = network_inputs(points, n_inputs=5, **{**sizes, "name": "cup"})

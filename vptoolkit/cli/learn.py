@@ -182,7 +182,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @click.option("--category",
               help="Category of mesh and point-file inputs, for a per-category model folder.")
 # shown, not set: N_INPUTS of vptoolkit.learn.predict, which imports torch (tests/cli/test_learn.py)
-@click.option("--inputs", "n_inputs", type=click.IntRange(1, 64), show_default="8",
+@click.option("--inputs", "n_inputs", type=click.IntRange(1, 64), show_default="16",
               help="Network inputs per model; the prediction is the consensus of the network's "
                    "answers to them (1: ask once).")
 @device_option()

@@ -26,7 +26,7 @@ input's number, so a model gets the same inputs wherever it appears
 measure is their consensus (:func:`vptoolkit.learn.consensus.consensus_directions`:
 the answer most of the others agree with), which does not move with the
 sampling as a single input's answer does. ``n_inputs=1`` asks the network
-once (:data:`N_INPUTS` = 8 by default). Nothing is rotated: networks with
+once (:data:`N_INPUTS` = 16 by default). Nothing is rotated: networks with
 the canonical input frame (:mod:`vptoolkit.learn.frame`) answer in the
 input's own orientation, whatever it is.
 
@@ -75,12 +75,13 @@ CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of per-category networks
 (:func:`vptoolkit.learn.train.train_per_category`)."""
 
-N_INPUTS: Final = 8
+N_INPUTS: Final = 16
 """Network inputs drawn per model, whose answers' consensus is the prediction.
 
-Eight inputs bring the median angle between the answers for a model and for
-a resampled, rotated copy of it to a few degrees on real meshes, at no cost
-in score (``docs/results.md``).
+Sixteen inputs bring the median angle between the answers for a model and for
+a resampled, rotated copy of it to a few degrees on real meshes, and cost no
+score (``docs/results.md``); where the answers still differ, most are views of
+about the same quality, such as mirror images on a mirror-symmetric model.
 """
 
 _MAX_INPUTS = 64
@@ -150,7 +151,7 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     points : (n_models, n_points, 3) float
         Network inputs.
     batch_size : int
-        Network inputs per forward pass (default: 64; 8 models at the default ``n_inputs``).
+        Network inputs per forward pass (default: 64; 4 models at the default ``n_inputs``).
     device : {"cpu", "cuda", "auto"}
         Where the network runs (default: "cpu"; the model is moved there).
     checkpoint : str
@@ -427,7 +428,7 @@ def predict(
         Split of dataset inputs: ``"train"``, ``"validation"``, ``"test"`` or None
         for every model (default: "test").
     batch_size : int
-        Network inputs per forward pass (default: 64; 8 models at the default ``n_inputs``).
+        Network inputs per forward pass (default: 64; 4 models at the default ``n_inputs``).
     seed : int
         Seed of the surface sampling of meshes and of the input point
         selection (default: 0).
