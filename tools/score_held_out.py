@@ -8,11 +8,19 @@ a dataset, the best constant direction of its training split, each under
 standard error over meshes and the paired difference of the network to each
 baseline.
 
+``--inputs 1,8`` scores the network once per count of network inputs per
+mesh (:func:`vptoolkit.learn.predict.predict`, the consensus of the answers
+to that many inputs) and adds its rotation consistency: the angle between
+the answer for each cleaned mesh and the answer for a copy resampled with
+another seed and turned by a fixed rotation, turned back, per measure; the
+median and the share of meshes within 10 degrees.
+
 Usage::
 
     python tools/score_held_out.py vptoolkit/samples --model default
     python tools/score_held_out.py MESH_FOLDER --model runs/ml_gl \\
         --out reproduction/held_out/mine --json scores.json
+    python tools/score_held_out.py MESH_FOLDER --inputs 1,8
 
 The bundled samples are the check that ships; keep any other held-out folder
 out of training and tuning.
@@ -26,7 +34,7 @@ import sys
 from collections.abc import Sequence
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import NoReturn
+from typing import NamedTuple, NoReturn
 
 import numpy as np
 from results_doc import (
@@ -53,8 +61,10 @@ from vptoolkit.evaluate.protocol import (
     random_view_scores,
     score_protocol,
 )
-from vptoolkit.learn.predict import network_predictor
+from vptoolkit.learn.predict import N_INPUTS, MeshPredictor, network_predictor
+from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS
+from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
 
 
@@ -81,6 +91,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--train", type=Path,
                         help="a dataset whose train split gives the best constant direction")
     parser.add_argument("--rotations", type=int, default=8, help="fixed rotations per mesh")
+    parser.add_argument("--inputs", default=str(N_INPUTS),
+                        help="network inputs per mesh, a comma-separated list of counts: one "
+                        f"network row and rotation consistency per count (default: {N_INPUTS})")
     parser.add_argument("--views", type=int, default=1000)
     parser.add_argument("--resolution", type=int, default=256)
     parser.add_argument("--workers", type=int, default=1)
@@ -98,6 +111,13 @@ def check_args(args: argparse.Namespace) -> None:
     for name in ("rotations", "views", "resolution", "workers"):
         if getattr(args, name) < 1:
             fail(f"--{name}: {getattr(args, name)} is not a positive integer")
+    try:
+        args.inputs = [int(count) for count in str(args.inputs).split(",")]
+    except ValueError:
+        fail(f"--inputs: {args.inputs}: expected comma-separated counts, e.g. 1,8")
+    if not all(1 <= count <= 64 for count in args.inputs) or len(set(args.inputs)) < len(
+            args.inputs):
+        fail(f"--inputs: {args.inputs}: expected distinct counts from 1 to 64")
     if args.out is not None and args.out.exists() and not args.out.is_dir():
         fail(f"--out: {args.out}: exists and is not a folder")
     if args.out is not None and args.out.is_dir() and any(args.out.iterdir()) and not (
@@ -117,16 +137,24 @@ def check_args(args: argparse.Namespace) -> None:
                 fail(f"--{name}: {path}: folder {path.parent} does not exist")
 
 
+def network_label(n_inputs: int, counts: Sequence[int]) -> str:
+    """The row of the network asked ``n_inputs`` times: ``network``, or with its count."""
+    return "network" if len(counts) == 1 else f"network, {n_inputs} input{'s' * (n_inputs > 1)}"
+
+
 def score(
-    dataset_path: Path, model: str, *, rotations: int, train: Path | None = None
+    dataset_path: Path, model: str, *, rotations: int, train: Path | None = None,
+    inputs: Sequence[int] = (N_INPUTS,),
 ) -> dict[str, ProtocolScores]:
     """Every row under the rotated protocol on all models of ``dataset_path``."""
     rows: dict[str, ProtocolScores] = {}
     with open_dataset(dataset_path) as dataset:
         # A per-category folder routes each mesh to its category's network.
         categories = dict(zip(dataset.names, dataset.categories))
-        rows["network"] = score_protocol(dataset, network_predictor(model, categories=categories),
-                                         n_rotations=rotations)
+        for count in inputs:
+            predictor = network_predictor(model, categories=categories, n_inputs=count)
+            rows[network_label(count, inputs)] = score_protocol(dataset, predictor,
+                                                                n_rotations=rotations)
         rows["random view (expectation)"] = random_view_scores(dataset)
         rows["PCA axis"] = score_protocol(dataset, pca_predictor, n_rotations=rotations)
         if train is not None:
@@ -137,14 +165,83 @@ def score(
     return rows
 
 
-def table(rows: dict[str, ProtocolScores]) -> str:
+CONSISTENT_DEG = 10.0
+"""An answer within this angle of the resampled, rotated copy's counts as the same."""
+
+
+class Consistency(NamedTuple):
+    """How far a network's answers for a mesh and for its resampled, rotated copy lie apart.
+
+    ``angles``: degrees; ``gaps``: the absolute difference of their scores
+    (normalised quality of the nearest sampled view, percentage points), which
+    is about 0 where the two answers are mirror images on a symmetric model.
+    Both ``(n_meshes, n_measures)``.
+    """
+
+    angles: np.ndarray
+    gaps: np.ndarray
+
+
+def consistency(dataset_path: Path, model: str, inputs: Sequence[int]) -> dict[int, Consistency]:
+    """Rotation consistency per count of network inputs.
+
+    Compares the answer for each stored cleaned mesh (surface sampled with seed
+    0) with the answer for the mesh sampled with seed 1 and turned by
+    ``fixed_rotations(name, 1, seed=1)``, turned back.
+    """
+    per_category = model != "default" and (Path(model) / "categories.json").is_file()
+    predictors: dict[tuple[int, int, str | None], MeshPredictor] = {}
+
+    def answer(mesh: Mesh, category: str, count: int, seed: int) -> np.ndarray:
+        key = (count, seed, category if per_category else None)
+        if key not in predictors:
+            predictors[key] = MeshPredictor(model, seed=seed, n_inputs=count, category=key[2])
+        return predictors[key](mesh)
+
+    angles: dict[int, list[np.ndarray]] = {count: [] for count in inputs}
+    gaps: dict[int, list[np.ndarray]] = {count: [] for count in inputs}
+    with open_dataset(dataset_path) as dataset:
+        for i, (name, category) in enumerate(zip(dataset.names, dataset.categories)):
+            vertices, faces = dataset.mesh(i)
+            mesh = Mesh(np.asarray(vertices, dtype=np.float64), np.asarray(faces, dtype=np.int64),
+                        name=name)
+            turn = fixed_rotations(name, 1, seed=1)[0]
+            turned = Mesh(mesh.vertices @ turn.T, mesh.faces, name=name)
+            for count in inputs:
+                first = answer(mesh, category, count, 0)
+                second = answer(turned, category, count, 1) @ turn
+                cosines = np.sum(first * second, axis=-1)
+                angles[count].append(np.degrees(np.arccos(np.clip(cosines, -1.0, 1.0))))
+                scores = [np.diagonal(dataset.quality_of(i, found)) for found in (first, second)]
+                gaps[count].append(100.0 * np.abs(scores[0] - scores[1]))
+    return {count: Consistency(np.stack(angles[count]), np.stack(gaps[count]))
+            for count in inputs}
+
+
+def table(rows: dict[str, ProtocolScores],
+          angles: dict[int, Consistency] | None = None) -> str:
     """Markdown: every row ± standard error, then the network minus each baseline.
 
-    ``*`` marks a difference beyond two standard errors.
+    ``*`` marks a difference beyond two standard errors. With ``angles``, a
+    last table of rotation consistency per count of inputs.
     """
     scores = markdown_table(["method", *MEASURES],
                             [[label, *score_cells(row)] for label, row in rows.items()])
-    return "\n".join([*scores, "", *comparison_table(rows, "network")])
+    reference = next(label for label in reversed(rows) if label.startswith("network"))
+    lines = [*scores, "", *comparison_table(rows, reference)]
+    if angles:
+        def cell(angle: np.ndarray, gap: np.ndarray) -> str:
+            return (f"{np.median(angle):.1f} ({100 * np.mean(angle <= CONSISTENT_DEG):.0f} %), "
+                    f"{np.mean(gap):.1f}")
+
+        lines += ["", "Rotation consistency between the answer for a mesh and for a resampled, "
+                  "rotated copy: the median angle in degrees (the share of meshes within "
+                  f"{CONSISTENT_DEG:g} degrees), then the mean difference of the two answers' "
+                  "scores in points.", "",
+                  *markdown_table(["network inputs", *MEASURES],
+                                  [[str(count), *map(cell, found.angles.T, found.gaps.T)]
+                                   for count, found in angles.items()])]
+    return "\n".join(lines)
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -165,28 +262,30 @@ def run(args: argparse.Namespace) -> None:
     options = BuildOptions(MeasureSettings(views=args.views, resolution=args.resolution),
                            n_points=N_SURFACE_POINTS, clean=True, split_seed=0)
     built = build_dataset(args.meshes, out, options, workers=args.workers, progress=True)
-    rows = score(built.path, args.model, rotations=args.rotations, train=args.train)
+    rows = score(built.path, args.model, rotations=args.rotations, train=args.train,
+                 inputs=args.inputs)
+    angles = consistency(built.path, args.model, args.inputs)
     heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes "
                f"({built.n_failures} failed to build), cleaned, {args.views} views at "
                f"{args.resolution} px, each under {args.rotations} fixed rotations; "
                "normalised quality of the nearest sampled view in %, mean over meshes ± "
                "standard error; * marks a paired difference beyond two standard errors.")
     print(heading)
-    print(table(rows))
+    print(table(rows, angles))
     if args.results is not None:
         write_section(args.results, args.section,
                       f"Command: `{command_line(__file__)}`; "
                       f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
-                      f"{heading}\n\n{table(rows)}")
+                      f"{heading}\n\n{table(rows, angles)}")
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"names": list(s.names),
                                                  "per_model": s.scores.tolist(),
                                                  "mean": s.mean.tolist(), "sem": s.sem.tolist()}
                                          for label, s in rows.items()}, indent=2))
-    per_model = rows["network"].scores - rows["PCA axis"].scores
+    network = rows[network_label(args.inputs[-1], args.inputs)]
+    per_model = network.scores - rows["PCA axis"].scores
     print("network minus PCA per mesh (mean over measures):",
-          ", ".join(f"{n} {v:+.0f}"
-                    for n, v in zip(rows["network"].names, np.mean(per_model, axis=1))))
+          ", ".join(f"{n} {v:+.0f}" for n, v in zip(network.names, np.mean(per_model, axis=1))))
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ def tool(monkeypatch) -> ModuleType:
 
 @pytest.mark.parametrize("case", ["missing-folder", "rotations-0", "views-0", "out-is-a-file",
                                   "out-holds-no-build", "json-in-a-missing-folder",
-                                  "not-an-integer"])
+                                  "not-an-integer", "inputs-0", "inputs-text", "inputs-twice"])
 def test_bad_arguments_are_one_line_with_exit_2(tool: ModuleType, tmp_path: Path, capsys,
                                                 case: str) -> None:
     meshes = tmp_path / "meshes"
@@ -45,6 +45,9 @@ def test_bad_arguments_are_one_line_with_exit_2(tool: ModuleType, tmp_path: Path
         "out-holds-no-build": [str(meshes), "--out", str(tmp_path / "other")],
         "json-in-a-missing-folder": [str(meshes), "--json", str(tmp_path / "no" / "s.json")],
         "not-an-integer": [str(meshes), "--views", "many"],
+        "inputs-0": [str(meshes), "--inputs", "0,8"],
+        "inputs-text": [str(meshes), "--inputs", "eight"],
+        "inputs-twice": [str(meshes), "--inputs", "8,8"],
     }[case]
     with pytest.raises(SystemExit) as caught:
         tool.main(argv)
@@ -62,7 +65,7 @@ def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, small_bui
         expected = dict(zip(dataset.names, dataset.categories))
     seen = {}
 
-    def network_predictor(model, *, categories=None):
+    def network_predictor(model, *, categories=None, n_inputs=None):
         seen.update(categories or {})
 
         def predictor(points, names):
@@ -74,3 +77,21 @@ def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, small_bui
     monkeypatch.setattr(tool, "network_predictor", network_predictor)
     rows = tool.score(small_build, "per-category", rotations=1)
     assert seen == expected and len(rows["network"].names) == len(expected)
+
+
+def test_consistency_compares_a_mesh_with_its_resampled_rotated_copy(tool: ModuleType,
+                                                                     tiny_dataset: Path) -> None:
+    """Angles per mesh and measure for each count of inputs, and a table that reports them; the
+    network's answers are unit directions, so every angle lies in [0, 180]."""
+    angles = tool.consistency(tiny_dataset, "default", [1, 16])
+    assert set(angles) == {1, 16}
+    for found in angles.values():
+        assert found.angles.shape == found.gaps.shape == (4, 4)
+        assert np.all((found.angles >= 0.0) & (found.angles <= 180.0))
+        assert np.all((found.gaps >= 0.0) & (found.gaps <= 100.0))
+        assert np.all(found.gaps[found.angles < 1e-6] == 0.0)  # one answer, one score
+    rows = tool.score(tiny_dataset, "default", rotations=1, inputs=[1, 16])
+    assert list(rows)[:2] == ["network, 1 input", "network, 16 inputs"]
+    text = tool.table(rows, angles)
+    assert "| network, 16 inputs minus |" in text and "Rotation consistency" in text
+    assert text.count("\n| 1 |") == 1 and text.count("\n| 16 |") == 1
