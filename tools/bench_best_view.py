@@ -177,17 +177,23 @@ def labels(mesh_dir: Path, cache: Path, *, quick: bool) -> Path:
     return out
 
 
+def network_label(model: str) -> str:
+    """The rows' name of a network: ``network``, or with its folder's name."""
+    return "network" if model == "default" else f"network {Path(model).name}"
+
+
 def network_priors(models: list[str]) -> dict[str, Any]:
     """Row label of each network -> its :class:`~vptoolkit.learn.prior.NetworkPrior`,
-    loaded once for the answers and the ceilings."""
+    loaded once for the prior rows and the ceilings."""
     from vptoolkit.learn.prior import NetworkPrior
 
-    return {"network" if model == "default" else f"network {Path(model).name}":
-            NetworkPrior(model) for model in models}
+    return {network_label(model): NetworkPrior(model) for model in models}
 
 
-def drawless_answers(networks: dict[str, Any]) -> dict[str, Answer]:
-    """Row label -> an answer that draws no image: PCA, the unoccluded estimate, the networks."""
+def drawless_answers(models: list[str]) -> dict[str, Answer]:
+    """Row label -> an answer that draws no image: PCA, the unoccluded estimate, the networks
+    (each as ``vptool predict`` asks it, about its default count of inputs)."""
+    from vptoolkit.learn.predict import MeshPredictor
 
     def pca(mesh: Mesh) -> np.ndarray:
         return pca_directions(sample_surface(mesh, 20000, seed=0).points[None])[0]
@@ -204,8 +210,8 @@ def drawless_answers(networks: dict[str, Any]) -> dict[str, Answer]:
         "unoccluded estimate, faces": unoccluded_faces,
         f"unoccluded estimate, {SCAN_POINTS} points with normals": unoccluded_points,
     }
-    for label, prior in networks.items():  # the prior's predictor is the network alone
-        rows[f"{label} alone"] = prior.predictor
+    for model in models:
+        rows[f"{network_label(model)} alone"] = MeshPredictor(model)
     return rows
 
 
@@ -380,7 +386,7 @@ def main(argv: list[str] | None = None) -> int:
         meshes = {name: load_mesh(sources[name]) for name in dataset.names}
         networks = network_priors(args.models)
         priors = {"unoccluded": UnoccludedPrior(), **networks}
-        rows = answers(args.budget_list, args.resolution, drawless_answers(networks), priors)
+        rows = answers(args.budget_list, args.resolution, drawless_answers(args.models), priors)
         scored = score(dataset, meshes, args.rotations, {label: answer for label, (_, answer)
                                                          in rows.items()})
         random_scores = random_view_scores(dataset)
