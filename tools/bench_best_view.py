@@ -220,16 +220,20 @@ def answers(budgets: list[int], resolution: int, drawless: dict[str, Answer],
     """Row label -> (views drawn, answer), in table order."""
     rows: dict[str, tuple[str, Answer]] = {label: ("–", answer)
                                            for label, answer in drawless.items()}
+    def plain(budget: int) -> Answer:
+        return lambda mesh: compute_view_quality(
+            mesh, MeasureSettings(views=budget, resolution=resolution)).best_views
+
+    def searched(budget: int, prior: Any = None) -> Answer:
+        return lambda mesh: search_best_views(
+            mesh, budget, resolution, prior=None if prior is None else prior(mesh)).directions
+
     for budget in budgets:
-        rows[f"plain search {budget} @ {resolution}"] = (str(budget), (
-            lambda mesh, b=budget: compute_view_quality(
-                mesh, MeasureSettings(views=b, resolution=resolution)).best_views))
-        rows[f"coarse-to-fine {budget} @ {resolution}"] = (str(budget), (
-            lambda mesh, b=budget: search_best_views(mesh, b, resolution).directions))
+        rows[f"plain search {budget} @ {resolution}"] = (str(budget), plain(budget))
+        rows[f"coarse-to-fine {budget} @ {resolution}"] = (str(budget), searched(budget))
         for label, prior in priors.items():
-            rows[f"{label} prior + search {budget} @ {resolution}"] = (str(budget), (
-                lambda mesh, b=budget, p=prior: search_best_views(mesh, b, resolution,
-                                                                  prior=p(mesh)).directions))
+            rows[f"{label} prior + search {budget} @ {resolution}"] = (str(budget),
+                                                                         searched(budget, prior))
     return rows
 
 
