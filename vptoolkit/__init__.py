@@ -21,8 +21,11 @@ module, layer by layer):
   Open3D ray casting).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
   model; complementary view sets.
-- ``clean``, ``points``, ``synthetic``: the pymeshlab cleaning pipeline;
-  surface and farthest point sampling; procedural category-like shapes.
+- ``clean``, ``points``, ``point_features``, ``synthetic``: the pymeshlab
+  cleaning pipeline; surface and farthest point sampling; what each point
+  carries from its mesh (the relative area of its face, found again for
+  stored points by ``_face_location`` (private), a numba nearest-face
+  kernel); procedural category-like shapes.
 - ``dataset``, ``data``, ``inputs``: building, packing and verifying datasets
   and releases; the light loader (numpy with zarr or h5py) and its torch
   adapter; the one router of mesh files, point files and datasets.

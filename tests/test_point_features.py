@@ -1,0 +1,297 @@
+"""Tests of vptoolkit.point_features: the face-area feature and the face under a stored point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fixtures.environment import require_package
+from fixtures.meshes import box_mesh, primitive_mesh
+from vptoolkit.errors import InputError
+from vptoolkit.io import load_mesh
+from vptoolkit.mesh import Mesh
+from vptoolkit.point_features import (
+    FACE_AREA_CLIP,
+    POINT_FEATURES,
+    check_feature_names,
+    face_area_feature,
+    locate_faces,
+    point_features,
+)
+from vptoolkit.points import sample_surface
+from vptoolkit.rotations import random_rotation
+from vptoolkit.samples import sample_path
+
+# Three tessellations: the bunny's 16k faces, welded, with some faces stored twice (both
+# windings); the torus's 8.7k faces of unwelded vertices (an STL); the teapot's 894 faces
+# of very different sizes.
+SAMPLES = ("bunny.ply", "torus.STL", "teapot.stl")
+
+
+def square() -> Mesh:
+    """The docstring's 2 x 2 square: faces of areas 1, 1 and 2 (their mean 4/3)."""
+    vertices = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0], [1, 1, 0]], float)
+    return Mesh(vertices, np.array([[0, 1, 4], [1, 2, 4], [2, 3, 0]]), "square")
+
+
+def face_areas(mesh: Mesh) -> np.ndarray:
+    """Face areas in float64, half the norm of the edge cross product."""
+    corners = mesh.vertices[mesh.faces]
+    return 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                         corners[:, 2] - corners[:, 0]), axis=1)
+
+
+def diagonal(mesh: Mesh) -> float:
+    return float(np.linalg.norm(mesh.vertices.max(axis=0) - mesh.vertices.min(axis=0)))
+
+
+def distances(mesh: Mesh, faces: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Distance from each point to its face: to the face's plane where the point's foot on it
+    lies inside the face, else to the nearest of the face's three edges (zero-area faces have
+    no plane, only edges). Written out here, since trimesh's closest points stray by 1e-4 of
+    the bunny's size on its slivers."""
+    a, b, c = np.moveaxis(mesh.vertices[mesh.faces[faces]], 1, 0)
+    normal = np.cross(b - a, c - a)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        unit = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        height = np.einsum("ij,ij->i", points - a, unit)
+        foot = points - height[:, None] * unit
+        inside = np.ones(len(points), bool)
+        edges = np.full(len(points), np.inf)
+        for start, end in ((a, b), (b, c), (c, a)):
+            inside &= np.einsum("ij,ij->i", np.cross(end - start, foot - start), normal) >= 0
+            along = end - start
+            length = np.einsum("ij,ij->i", along, along)
+            share = np.clip(np.einsum("ij,ij->i", points - start, along) / length, 0.0, 1.0)
+            share[length == 0] = 0.0
+            edges = np.minimum(edges, np.linalg.norm(points - start - share[:, None] * along,
+                                                     axis=1))
+    return np.where(inside, np.abs(height), edges)
+
+
+@pytest.fixture()
+def kernel() -> None:
+    """locate_faces runs a numba kernel; trimesh makes the boxes and spheres."""
+    require_package("numba")
+    require_package("trimesh")
+
+
+# face_area_feature
+
+
+def test_the_docstring_square_by_hand():
+    feature = face_area_feature(square(), np.array([0, 1, 2, 0]))
+    assert feature.dtype == np.float32 and feature.shape == (4,)
+    small, large = np.log(1 / (4 / 3)) / 2, np.log(2 / (4 / 3)) / 2  # ln(A_f / A_mean) / 2
+    np.testing.assert_allclose(feature, [small, small, large, small], rtol=1e-6)
+    # the docstring's values (rounded in float64: float32's 0.144 prints as 0.14399999...)
+    assert feature.astype(np.float64).round(3).tolist() == [-0.144, -0.144, 0.203, -0.144]
+    assert face_area_feature(square(), [2]).tolist() == feature[2:3].tolist()  # a list is read too
+
+
+def test_a_mesh_of_equal_faces_is_zero_everywhere():
+    cube = box_mesh()
+    assert len(cube.faces) == 12 and np.allclose(face_areas(cube), 0.5)
+    np.testing.assert_array_equal(face_area_feature(cube, np.arange(12)), np.zeros(12))
+
+
+def test_moving_turning_and_scaling_the_mesh_changes_nothing(bunny):
+    index = np.arange(len(bunny.faces))
+    feature = face_area_feature(bunny, index)
+    assert feature.std() > 0.2  # the bunny's faces differ, so the comparison means something
+    rotation = random_rotation(np.random.default_rng(4))
+    moved = Mesh(7.3 * bunny.vertices @ rotation.T + [10.0, -4.0, 2.5], bunny.faces, "moved")
+    np.testing.assert_allclose(face_area_feature(moved, index), feature, atol=1e-5)
+    shrunk = Mesh(1e-3 * bunny.vertices, bunny.faces, "shrunk")
+    np.testing.assert_allclose(face_area_feature(shrunk, index), feature, atol=1e-5)
+
+
+def test_the_feature_is_clipped_at_three():
+    """One face of area 5e5, one of 5000 and 999 of 5e-7: the mean is about 504.5, so the
+    large face's ln(A / A_mean) / 2 is 3.45 and the tiny ones' -6.9, both clipped; the
+    5000 face's 1.15 is not."""
+    vertices = [[0.0, 0, 0], [1000, 0, 0], [0, 1000, 0], [0, 0, 5], [100, 0, 5], [0, 100, 5]]
+    faces = [[0, 1, 2], [3, 4, 5]]
+    for i in range(999):
+        corner = np.array([i * 0.01, 0.0, 10.0])
+        faces.append([len(vertices), len(vertices) + 1, len(vertices) + 2])
+        vertices += [corner, corner + [1e-3, 0, 0], corner + [0, 1e-3, 0]]
+    mesh = Mesh(np.array(vertices), np.array(faces), "uneven")
+    feature = face_area_feature(mesh, np.arange(len(faces)))
+    assert feature[0] == FACE_AREA_CLIP == 3.0
+    assert (feature[2:] == -FACE_AREA_CLIP).all()
+    areas = face_areas(mesh)
+    unclipped = np.log(areas[1] / areas.mean()) / 2
+    assert 1.1 < unclipped < 1.2 and feature[1] == pytest.approx(unclipped, rel=1e-6)
+
+
+def test_a_face_of_zero_area_gets_minus_three():
+    flat = square()
+    vertices = np.vstack([flat.vertices, [[1.0, 0.0, 0.0]]])  # on the edge from 0 to 1
+    faces = np.vstack([flat.faces, [[0, 5, 1]]])  # its three corners on one line
+    mesh = Mesh(vertices, faces, "with_sliver")
+    feature = face_area_feature(mesh, np.arange(4))
+    assert feature[3] == -3.0
+    np.testing.assert_allclose(feature[:3], np.log([1.0, 1.0, 2.0]) / 2, atol=1e-7)  # mean 1
+
+
+@pytest.mark.parametrize("index, problem", [
+    (np.array([0, 3]), "expected indices in [0, 3), got 0 to 3"),
+    (np.array([-1, 2]), "expected indices in [0, 3), got -1 to 2"),
+    (np.array([[0, 1]]), "expected a 1-d integer array, got int64 of shape (1, 2)"),
+    (np.array([0.0, 1.0]), "expected a 1-d integer array, got float64 of shape (2,)"),
+])
+def test_a_bad_face_index_is_refused_in_one_line_naming_the_mesh(index, problem):
+    with pytest.raises(InputError) as info:
+        face_area_feature(square(), index)
+    message = str(info.value)
+    assert message.startswith("square: face_index: ") and problem in message
+    assert "\n" not in message
+
+
+def test_a_mesh_of_zero_area_is_refused():
+    line = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]), "line")
+    with pytest.raises(InputError, match="^line: mesh has zero surface area"):
+        face_area_feature(line, [0])
+
+
+# check_feature_names and point_features
+
+
+@pytest.mark.parametrize("names, problem", [
+    (["curvature"], "unknown ['curvature']"),
+    (["face_area", "face_area"], "names a feature twice"),
+    ("face_area", "expected a list of names"),
+    ([1], "expected a list of names"),
+    (None, "expected a list of names"),
+])
+def test_bad_feature_names_are_refused(names, problem):
+    with pytest.raises(InputError, match="^point_features: ") as info:
+        check_feature_names(names)
+    assert problem in str(info.value)
+
+
+@pytest.mark.parametrize("names", [["curvature"], ["face_area", "face_area"], "face_area"])
+def test_point_features_refuses_bad_names(names):
+    with pytest.raises(InputError, match="^point_features: "):
+        point_features(square(), np.array([0, 1]), names)
+
+
+def test_good_names_come_back_as_a_tuple():
+    assert check_feature_names(["face_area"]) == ("face_area",)
+    assert check_feature_names(()) == ()
+    assert check_feature_names(list(POINT_FEATURES)) == POINT_FEATURES
+
+
+def test_no_names_give_an_empty_float32_block():
+    features = point_features(square(), np.array([0, 2, 1]), ())
+    assert features.shape == (3, 0) and features.dtype == np.float32
+
+
+def test_the_columns_follow_the_names():
+    index = np.array([2, 0, 1, 2])
+    features = point_features(square(), index, ["face_area"])
+    assert features.shape == (4, 1) and features.dtype == np.float32
+    np.testing.assert_array_equal(features[:, 0], face_area_feature(square(), index))
+    every = point_features(square(), index, POINT_FEATURES)
+    backwards = point_features(square(), index, POINT_FEATURES[::-1])
+    for column, name in enumerate(POINT_FEATURES):
+        alone = point_features(square(), index, [name])[:, 0]
+        np.testing.assert_array_equal(every[:, column], alone)
+        np.testing.assert_array_equal(backwards[:, len(POINT_FEATURES) - 1 - column], alone)
+
+
+# locate_faces
+
+
+@pytest.mark.usefixtures("kernel")
+@pytest.mark.parametrize("name", SAMPLES)
+def test_float32_points_get_their_face_or_an_equal_face_they_lie_on(name):
+    mesh = load_mesh(sample_path(name))
+    sample = sample_surface(mesh, 5000, seed=5)
+    rounded = sample.points.astype(np.float32).astype(np.float64)
+    found = locate_faces(mesh, rounded)
+    assert found.dtype == np.int64 and found.shape == (5000,)
+    assert (found == sample.face_index).mean() > 0.99
+    other = found != sample.face_index
+    areas = face_areas(mesh)
+    np.testing.assert_allclose(areas[found[other]], areas[sample.face_index[other]], rtol=1e-9)
+    np.testing.assert_array_equal(face_area_feature(mesh, found),
+                                  face_area_feature(mesh, sample.face_index))
+    # every point lies on its located face, no farther than from the face it was drawn on
+    gaps = distances(mesh, found, rounded)
+    assert gaps.max() < 1e-6 * diagonal(mesh)
+    assert (gaps <= distances(mesh, sample.face_index, rounded) + 1e-12 * diagonal(mesh)).all()
+
+
+@pytest.mark.usefixtures("kernel")
+@pytest.mark.parametrize("name", SAMPLES)
+def test_exact_points_get_their_sampled_face(name):
+    mesh = load_mesh(sample_path(name))
+    sample = sample_surface(mesh, 5000, seed=6)
+    found = locate_faces(mesh, sample.points)
+    assert (found == sample.face_index).mean() > 0.99
+    # the others are the same face stored again (the bunny's faces of both windings)
+    other = found != sample.face_index
+    np.testing.assert_array_equal(np.sort(mesh.faces[found[other]], axis=1),
+                                  np.sort(mesh.faces[sample.face_index[other]], axis=1))
+
+
+@pytest.mark.usefixtures("kernel")
+def test_degenerate_faces_and_duplicated_vertices_are_never_located():
+    """A 1 x 2 x 3 box of unwelded vertices (36, three per face) after three faces of zero
+    area, which win ties by their lower index: a point at a corner, a sliver along an edge
+    and a sliver along the diagonal that two faces of a side share."""
+    box = box_mesh((1.0, 2.0, 3.0))
+    corners = box.vertices[box.faces].reshape(-1, 3)
+    a, b = box.vertices[box.faces[0, 0]], box.vertices[box.faces[0, 1]]
+    c = box.vertices[box.faces[0, 2]]
+    slivers = np.array([a, a, a, a, (a + b) / 2, b, b, (b + c) / 2, c])
+    vertices = np.vstack([slivers, corners])
+    faces = np.vstack([np.arange(9).reshape(3, 3), 9 + np.arange(36).reshape(12, 3)])
+    mesh = Mesh(vertices, faces, "slivered_box")
+    assert (face_areas(mesh)[:3] == 0).all() and (face_areas(mesh)[3:] > 0).all()
+    sample = sample_surface(mesh, 5000, seed=7)
+    for points in (sample.points, sample.points.astype(np.float32).astype(np.float64)):
+        found = locate_faces(mesh, points)
+        assert found.min() >= 3
+        assert (found == sample.face_index).mean() > 0.99
+        assert distances(mesh, found, points).max() < 1e-6
+
+
+@pytest.mark.usefixtures("kernel")
+def test_points_just_off_a_convex_surface_get_the_face_below_them():
+    box = box_mesh((1.0, 2.0, 3.0))
+    sample = sample_surface(box, 5000, seed=8)
+    lifted = sample.points + 1e-3 * diagonal(box) * sample.normals
+    np.testing.assert_array_equal(locate_faces(box, lifted), sample.face_index)
+
+
+@pytest.mark.usefixtures("kernel")
+def test_points_off_the_surface_get_their_nearest_face():
+    sphere = primitive_mesh("icosphere", {"subdivisions": 2}, "icosphere")
+    points = np.random.default_rng(0).uniform(-1.0, 1.0, (300, 3))
+    found = locate_faces(sphere, points)
+    every = np.stack([distances(sphere, np.full(len(points), face), points)
+                      for face in range(len(sphere.faces))], axis=1)
+    np.testing.assert_allclose(every[np.arange(len(points)), found], every.min(axis=1),
+                               atol=1e-12)
+
+
+@pytest.mark.usefixtures("kernel")
+def test_no_points_give_no_faces(bunny):
+    found = locate_faces(bunny, np.zeros((0, 3)))
+    assert found.shape == (0,) and found.dtype == np.int64
+
+
+@pytest.mark.usefixtures("kernel")
+@pytest.mark.parametrize("points", [
+    np.array([[0.0, np.nan, 0.0]]),
+    np.array([[np.inf, 0.0, 0.0]]),
+    np.zeros((4, 2)),
+    np.zeros(3),
+])
+def test_bad_points_are_refused_naming_the_mesh(points):
+    with pytest.raises(InputError,
+                       match=r"^square: points: expected an \(n, 3\) array of finite numbers"):
+        locate_faces(square(), points)

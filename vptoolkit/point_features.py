@@ -1,0 +1,187 @@
+"""Per-point features that a point cloud alone does not carry: the tessellation under each point.
+
+Points sampled uniformly by area (:func:`vptoolkit.points.sample_surface`)
+describe the shape, not how it is cut into faces. Viewpoint entropy and
+viewpoint mutual information weigh each face's projected area, so of two
+views showing the same area the one showing more, smaller faces scores
+higher; a network that reads points alone cannot tell the two apart. A
+point feature gives each point a number from its mesh:
+
+``"face_area"``
+    ``clip(ln(A_f / A_mean) / 2, -3, 3)`` for the face ``f`` the point lies
+    on, with ``A_mean`` the mean face area of the mesh (total area over the
+    number of faces): 0 on a mesh of equal faces, +1 on a face ``e^2`` (about
+    7.4) times the mean, -1 on one 7.4 times smaller. Unitless and unchanged
+    by rotating, moving or scaling the mesh.
+
+:func:`point_features` stacks named features, ``(n, F)``, in the order
+given; :data:`POINT_FEATURES` lists the names. The face each point lies on is
+known when the points are sampled (``sample_surface(...).face_index``); for
+stored points it is found again by :func:`locate_faces` (the nearest face,
+with numba, from the ``measures`` extra). Numpy only otherwise.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Final
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vptoolkit.errors import InputError
+from vptoolkit.mesh import MeshLike, as_mesh
+
+__all__ = ["POINT_FEATURES", "FACE_AREA_CLIP", "check_feature_names", "face_area_feature",
+           "locate_faces", "point_features"]
+
+POINT_FEATURES: Final = ("face_area",)
+"""Names :func:`point_features` computes."""
+
+FACE_AREA_CLIP: Final = 3.0
+"""``"face_area"`` is clipped to ``[-FACE_AREA_CLIP, FACE_AREA_CLIP]``."""
+
+_GRID_CELLS = 64  # most grid cells along an axis in locate_faces
+_SLACK = 1e-4  # faces are searched for points within this share of the mesh's diagonal
+
+
+def check_feature_names(names: Any) -> tuple[str, ...]:
+    """Return ``names`` as a tuple of distinct names of :data:`POINT_FEATURES`, or raise.
+
+    Raises
+    ------
+    InputError
+        ``point_features: ...`` for something other than a sequence of
+        strings, an unknown name or a repeated one.
+    """
+    if isinstance(names, str) or not isinstance(names, (list, tuple)) or not all(
+            isinstance(name, str) for name in names):
+        raise InputError(f"point_features: expected a list of names, got {names!r}")
+    unknown = [name for name in names if name not in POINT_FEATURES]
+    if unknown:
+        raise InputError(f"point_features: unknown {unknown}, expected names of "
+                         f"{list(POINT_FEATURES)}")
+    if len(set(names)) != len(names):
+        raise InputError(f"point_features: {list(names)} names a feature twice")
+    return tuple(names)
+
+
+def _face_areas(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
+    corners = vertices[faces]
+    return 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                         corners[:, 2] - corners[:, 0]), axis=1)
+
+
+def _check_face_index(face_index: ArrayLike, n_faces: int, name: str) -> NDArray[np.int64]:
+    index = np.asarray(face_index)
+    if index.ndim != 1 or not np.issubdtype(index.dtype, np.integer):
+        raise InputError(f"{name}: face_index: expected a 1-d integer array, got "
+                         f"{index.dtype} of shape {index.shape}")
+    if len(index) and (index.min() < 0 or index.max() >= n_faces):
+        raise InputError(f"{name}: face_index: expected indices in [0, {n_faces}), got "
+                         f"{int(index.min())} to {int(index.max())}")
+    return index.astype(np.int64, copy=False)
+
+
+def face_area_feature(mesh: MeshLike, face_index: ArrayLike) -> NDArray[np.float32]:
+    """The ``"face_area"`` feature of points lying on the faces ``face_index`` of ``mesh``.
+
+    Parameters
+    ----------
+    mesh : MeshLike
+        The mesh; its total area must be positive.
+    face_index : (n,) int
+        The face each point lies on.
+
+    Returns
+    -------
+    feature : (n,) float32
+        ``clip(ln(A_f / A_mean) / 2, -3, 3)`` (module docstring); a face of
+        zero area gets -3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = (np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0], [1, 1, 0]], float),
+    ...           np.array([[0, 1, 4], [1, 2, 4], [2, 3, 0]]))
+    >>> face_area_feature(square, [0, 2]).astype(float).round(3).tolist()  # areas 1, 2; mean 4/3
+    [-0.144, 0.203]
+    """
+    mesh = as_mesh(mesh)
+    index = _check_face_index(face_index, len(mesh.faces), mesh.name)
+    areas = _face_areas(mesh.vertices, mesh.faces)
+    mean = float(areas.sum()) / len(areas)
+    if not mean > 0.0:
+        raise InputError(f"{mesh.name}: mesh has zero surface area, no face areas to compare")
+    with np.errstate(divide="ignore"):
+        logs = np.log(areas[index] / mean) / 2.0
+    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)
+
+
+def point_features(mesh: MeshLike, face_index: ArrayLike,
+                   names: Sequence[str]) -> NDArray[np.float32]:
+    """The named features of points lying on the faces ``face_index`` of ``mesh``.
+
+    Returns
+    -------
+    features : (n, len(names)) float32
+        One column per name, in the order given (``(n, 0)`` for no names).
+    """
+    names = check_feature_names(names)
+    columns = {"face_area": face_area_feature}
+    n = len(np.asarray(face_index))
+    return np.stack([columns[name](mesh, face_index) for name in names], axis=1) if names else (
+        np.zeros((n, 0), np.float32))
+
+
+def locate_faces(mesh: MeshLike, points: ArrayLike) -> NDArray[np.int64]:
+    """The face of ``mesh`` nearest to each point: the face a surface point lies on.
+
+    Exact Euclidean point-to-triangle distances. A point within 1e-4 of the
+    diagonal (of the mesh and points together) of the surface is compared
+    with the faces whose bounding box, widened by that much, holds it (found
+    through a uniform grid over the points); a point farther off, with every
+    face. So any point gets its nearest face, and surface points get it
+    quickly (about 0.03 s for 20000 points on 10000 faces). Ties go to the
+    lower face index, so a point on an edge gets the first of its faces. For
+    points sampled on
+    a mesh and stored in float32 this gives back the sampled face, or a face
+    sharing the point (on an edge) when rounding moved it there.
+
+    Parameters
+    ----------
+    mesh : MeshLike
+        The mesh, with at least one face.
+    points : (n, 3) float
+        Points, in the mesh's coordinates.
+
+    Returns
+    -------
+    face_index : (n,) int64
+
+    Raises
+    ------
+    InputError
+        If ``points`` is not an ``(n, 3)`` array of finite numbers.
+    """
+    from vptoolkit._face_location import nearest_faces
+
+    mesh = as_mesh(mesh)
+    query = np.asarray(points, dtype=np.float64)
+    if query.ndim != 2 or query.shape[1] != 3 or not np.isfinite(query).all():
+        raise InputError(f"{mesh.name}: points: expected an (n, 3) array of finite numbers, "
+                         f"got shape {query.shape}")
+    if not len(query):
+        return np.zeros(0, np.int64)
+    low = np.minimum(query.min(axis=0), mesh.vertices.min(axis=0))
+    high = np.maximum(query.max(axis=0), mesh.vertices.max(axis=0))
+    slack = _SLACK * max(float(np.linalg.norm(high - low)), 1e-12)
+    cells = max(1, min(_GRID_CELLS, round(len(query) ** (1 / 3))))
+    size = max(float((high - low).max()) / cells, 1e-12)
+    shape = np.minimum(np.floor((high - low) / size).astype(np.int64) + 1, _GRID_CELLS)
+    cell = np.minimum(np.floor((query - low) / size).astype(np.int64), shape - 1)
+    keys = (cell[:, 0] * shape[1] + cell[:, 1]) * shape[2] + cell[:, 2]
+    order = np.argsort(keys, kind="stable")
+    starts = np.searchsorted(keys[order], np.arange(int(np.prod(shape)) + 1))
+    return nearest_faces(mesh.vertices, mesh.faces.astype(np.int64), query, low, size, shape,
+                          order.astype(np.int64), starts.astype(np.int64), slack)
