@@ -49,6 +49,15 @@ def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
                                    "--batch-size", "2", "--threads", "1", "--val-split", "train"])
     assert trained.exit_code == 0, trained.output
     assert model.exists() and model.with_suffix(".json").exists()
+    record = json.loads(model.with_suffix(".json").read_text())
+    assert record["architecture"]["point_features"] == ["face_area"]
+    plain = tmp_path / "plain.safetensors"
+    trained_plain = runner.invoke(main, ["train", str(out), "-o", str(plain), "--epochs", "1",
+                                         "--batch-size", "2", "--threads", "1", "--val-split",
+                                         "train", "--point-features", "none"])
+    assert trained_plain.exit_code == 0, trained_plain.output
+    assert json.loads(plain.with_suffix(".json").read_text())["architecture"][
+        "point_features"] == []
     predictions = tmp_path / "predictions.npz"
     predicted = runner.invoke(main, ["predict", "--model", str(model), "--dataset", str(out),
                                      "--split", "all", "-o", str(predictions)])

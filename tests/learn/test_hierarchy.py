@@ -24,7 +24,7 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_input_level_is_sorted_by_morton_code(clouds):
-    level = input_level(clouds)
+    level, _ = input_level(clouds)
     assert level.points.shape == (2 * 2048, 3) and level.n_models == 2
     for model in range(2):
         codes = level.codes[level.batch == model]
@@ -35,7 +35,7 @@ def test_input_level_is_sorted_by_morton_code(clouds):
 
 
 def test_grid_subsample_gives_one_barycentre_per_occupied_cell(clouds):
-    level = input_level(clouds)
+    level, _ = input_level(clouds)
     cells = grid_subsample(level, 4)
     for model in range(2):
         points = level.points[level.batch == model].numpy()
@@ -47,7 +47,7 @@ def test_grid_subsample_gives_one_barycentre_per_occupied_cell(clouds):
 
 
 def test_ball_query_finds_exactly_the_points_in_the_ball(clouds):
-    source = grid_subsample(input_level(clouds), 5)
+    source = grid_subsample(input_level(clouds)[0], 5)
     centres = grid_subsample(source, 3)
     radius = 1 / 8
     neighbourhood = ball_query(source, centres, radius, 1024)
@@ -61,7 +61,7 @@ def test_ball_query_finds_exactly_the_points_in_the_ball(clouds):
 
 
 def test_crowded_neighbourhoods_are_thinned_evenly(clouds):
-    level = input_level(clouds)
+    level, _ = input_level(clouds)
     neighbourhood = cell_neighbourhood(level, 2, 8)
     full = cell_neighbourhood(level, 2, 4096)
     assert neighbourhood.index.shape[1] == 8
@@ -77,14 +77,14 @@ def test_crowded_neighbourhoods_are_thinned_evenly(clouds):
 
 
 def test_cell_neighbourhoods_partition_the_points(clouds):
-    level = input_level(clouds)
+    level, _ = input_level(clouds)
     neighbourhood = cell_neighbourhood(level, 4, 4096)
     members = neighbourhood.index[neighbourhood.mask]
     assert torch.equal(members.sort().values, torch.arange(len(level.points)))
 
 
 def test_point_density_counts_points_per_cell(clouds):
-    level = input_level(clouds[:1])
+    level, _ = input_level(clouds[:1])
     density = point_density(level, 3)
     cells = np.floor((level.points.double().numpy() + 0.5) * 8).clip(0, 7)
     _, inverse, counts = np.unique(cells, axis=0, return_inverse=True, return_counts=True)

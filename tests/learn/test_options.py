@@ -57,7 +57,8 @@ def test_training_options_keep_their_checked_values_and_read_back():
     assert options.labels == "sr" and options.val_split == "validation"
     assert options.categories == ("cup", "mug")
     assert options.lr_step == options.decay_step == scaled_lr_step(300) == 20
-    assert options.architecture == ModelConfig(head="sr", head_channels=(32,))
+    assert options.architecture == ModelConfig(head="sr", head_channels=(32,),
+                                               point_features=("face_area",))
     recorded = json.loads(json.dumps(options.to_dict()))
     assert TrainOptions.from_dict(recorded) == options
     assert TrainOptions() == TrainOptions(labels="ml+gl", epochs=PAPER_EPOCHS,

@@ -26,7 +26,12 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_output_folder
-from vptoolkit.learn.options import DEFAULT_FPS_POOL, DEFAULT_LABELS, DEFAULT_VAL_SPLIT
+from vptoolkit.learn.options import (
+    DEFAULT_FPS_POOL,
+    DEFAULT_LABELS,
+    DEFAULT_POINT_FEATURES,
+    DEFAULT_VAL_SPLIT,
+)
 from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 if TYPE_CHECKING:
@@ -101,19 +106,26 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
                    "slower).")
 @measures_option("Measures to learn, one head each: names the dataset records (VE,NVT,SL), "
                  "'paper' or 'all' [default: every measure the dataset records].", default=None)
+@click.option("--point-features", type=click.Choice(["face_area", "none"]),
+              default=DEFAULT_POINT_FEATURES[0], show_default=True,
+              help="What each input point carries besides its coordinates: face_area, the "
+                   "relative area of the mesh face under it (the tessellation VE and VMI "
+                   "weigh); none, coordinates alone (the paper's input).")
 @device_option()
 @click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
 @cache_dir_option()
 def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_size: int,
           lr: float, seed: int, val_split: str, per_category: bool, categories: str | None,
-          fps_pool: int, measures: tuple[str, ...] | None, device: str, threads: int | None,
-          resume: bool, cache_dir: Path | None) -> None:
+          fps_pool: int, measures: tuple[str, ...] | None, point_features: str, device: str,
+          threads: int | None, resume: bool, cache_dir: Path | None) -> None:
     """Train a viewpoint network on the train split of DATASET (a path or a release's URL).
 
     Inputs are put in their canonical principal-axis frame, so the network's
-    answer turns with the model. The network has one head per measure the
-    dataset records (or per --measures name), named in its model.json. Keeps
+    answer turns with the model; each point also carries the relative area of
+    the mesh face it lies on (--point-features), found from the stored mesh.
+    The network has one head per measure the dataset records (or per
+    --measures name), named in its model.json. Keeps
     the checkpoint with the best mean validation score (normalised quality of
     the nearest sampled view, under fixed rotations); the checkpoint is
     safetensors plus a JSON config, never a pickle.
@@ -126,6 +138,8 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     """
     from vptoolkit.dataset.store.containers import find_store
     from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.learn.config import ModelConfig
+    from vptoolkit.learn.labels import head_for_method
     from vptoolkit.learn.options import TrainOptions
     from vptoolkit.learn.train import train_model, train_per_category
     from vptoolkit.points import N_FPS_POINTS, N_SURFACE_POINTS
@@ -151,7 +165,11 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
                            categories="--categories", measures="--measures"):
             options = TrainOptions(labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
                                    seed=seed, val_split=val_split, categories=chosen,
-                                   fps_pool=fps_pool, measures=measures)
+                                   fps_pool=fps_pool, measures=measures,
+                                   architecture=ModelConfig(
+                                       head=head_for_method(labels),
+                                       point_features=() if point_features == "none"
+                                       else (point_features,)))
             if per_category:
                 results = train_per_category(dataset, output, options, **run)
             else:

@@ -7,7 +7,8 @@ HDF5; see ``vptoolkit/dataset_card/SCHEMA.md``) and returns a lazy
 read at once, everything else only when an item is asked for.
 
 This module needs numpy plus ``zarr`` or ``h5py`` for the container in use,
-and never imports torch, open3d, pymeshlab, numba or trimesh. The torch
+and never imports torch, open3d, pymeshlab, numba or trimesh at import time
+(:meth:`ViewpointDataset.point_features` uses numba when called). The torch
 adapter lives in :mod:`vptoolkit.data.torch`, which is not imported here.
 
 Examples
@@ -25,6 +26,13 @@ serves byte ranges is read by ranges instead, only the parts asked for
 (:mod:`vptoolkit.data.ranges`):
 
 >>> dataset = open_dataset("https://example.org/viewpoints/")   # doctest: +SKIP
+
+Size
+    About 610 lines for one concept, the light loader: opening a store or a
+    release, the lazy dataset and what it reads per model (items, arrays,
+    meshes, view sets, point features, quality lookups). The remote,
+    download and range readers are their own modules; what stays here shares
+    the one open reader and the per-model records.
 """
 
 from __future__ import annotations
@@ -430,6 +438,37 @@ class ViewpointDataset:
         vertices = reader.array("mesh_vertices")[vertex_offsets[row] : vertex_offsets[row + 1]]
         faces = reader.array("mesh_faces")[face_offsets[row] : face_offsets[row + 1]]
         return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
+
+    def point_features(self, key: int | str, names: Sequence[str]) -> NDArray[np.float32]:
+        """Features of one model's stored surface points, from its stored mesh.
+
+        Each point's face is the nearest face of the cleaned mesh
+        (:func:`vptoolkit.point_features.locate_faces`, numba from the
+        ``measures`` extra); the features are
+        :func:`vptoolkit.point_features.point_features` of those faces.
+
+        Parameters
+        ----------
+        key : int or str
+            Item index or model name.
+        names : sequence of str
+            Names of :data:`vptoolkit.point_features.POINT_FEATURES`, in order.
+
+        Returns
+        -------
+        features : (n_points, len(names)) float32
+            Row ``i`` belongs to ``self[key]["points"][i]``.
+        """
+        from vptoolkit.mesh import Mesh
+        from vptoolkit.point_features import check_feature_names, locate_faces, point_features
+
+        names = check_feature_names(names)
+        row = self.row(key)
+        vertices, faces = self.mesh(key)
+        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64),
+                    name=str(self._shared.records[row]["name"]))
+        points = np.asarray(self._shared.reader().array("points")[row], dtype=np.float64)
+        return point_features(mesh, locate_faces(mesh, points), names)
 
     def view_set(self, key: int | str, k: int | None = None) -> ViewSet | None:
         """The model's greedy coverage view set, as the build stored it.

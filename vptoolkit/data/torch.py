@@ -102,9 +102,16 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         fresh every epoch. Farthest point sampling is most of the cost of an
         item, so a pool makes training several times faster while a model
         still shows ``k`` different structured subsets.
+    point_features : sequence of str
+        Features each input point carries after its coordinates, names of
+        :data:`vptoolkit.point_features.POINT_FEATURES` (default: none), as a
+        network whose ``ModelConfig.point_features`` names them reads them;
+        made once per model from its stored mesh
+        (:meth:`~vptoolkit.data.ViewpointDataset.point_features`) and not rotated.
     cache : bool
-        Keep every model's points, quality and best views in memory after
-        the first read (default: True; about 0.3 MB per model).
+        Keep every model's points, quality, best views and point features in
+        memory after the first read (default: True; about 0.3 MB per model,
+        0.08 MB more per point feature).
     transform : callable, optional
         Called on every item dict (below) and returning the item the
         dataset gives, e.g. to add noise or drop keys; it runs in the
@@ -118,7 +125,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     ==============  ======================  =============================================
     key             value                   meaning
     ==============  ======================  =============================================
-    ``points``      (n_points, 3) float32   input points, rotated
+    ``points``      (n_points, 3 + F)       input points, rotated, then their ``F``
+                    float32                 point features
     ``views``       (n_views, 3) float32    all view directions, rotated
     ``quality``     (n_views, K) float32    normalised quality per view, 1 = best
     ``best_views``  (K, 3) float32          best view per measure, rotated
@@ -146,7 +154,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     def __init__(self, dataset: ViewpointDataset | str | os.PathLike[str], *,
                  split: str | None = None,
                  n_points: int = N_NETWORK_POINTS, n_fps: int = N_FPS_POINTS, rotate: bool = True,
-                 seed: int = 0, fps_pool: int = 0, cache: bool = True,
+                 seed: int = 0, fps_pool: int = 0, point_features: Sequence[str] = (),
+                 cache: bool = True,
                  transform: Callable[[dict[str, Any]], Any] | None = None) -> None:
         if isinstance(dataset, (str, os.PathLike)):
             dataset = open_dataset(dataset)
@@ -169,6 +178,9 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         self.rotate = bool(rotate)
         self.seed = check_int(seed, "seed", minimum=0, expected=_NON_NEGATIVE)
         self.fps_pool = check_int(fps_pool, "fps_pool", minimum=0, expected=_NON_NEGATIVE)
+        from vptoolkit.point_features import check_feature_names
+
+        self.point_features = check_feature_names(point_features)
         self.cache = bool(cache)
         if transform is not None and not callable(transform):
             raise InputError(f"transform: expected a callable, got {type(transform).__name__}")
@@ -222,6 +234,8 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         kept = {key: item[key]
                 for key in ("points", "quality", "best_index", "name", "category", "label",
                             "views")}
+        if self.point_features:
+            kept["features"] = self.dataset.point_features(index, self.point_features)
         if self.cache:
             self._items[row] = kept
         return kept
@@ -264,8 +278,11 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         points = item["points"][chosen]
         views = item["views"] @ rotation.T
         best_index = item["best_index"]
+        turned = (points @ rotation.T).astype(np.float32)
+        if self.point_features:
+            turned = np.concatenate([turned, item["features"][chosen]], axis=1)
         result = {
-            "points": torch.from_numpy((points @ rotation.T).astype(np.float32)),
+            "points": torch.from_numpy(turned),
             "views": torch.from_numpy(views.astype(np.float32)),
             "quality": torch.from_numpy(np.array(item["quality"], dtype=np.float32)),
             "best_views": torch.from_numpy(views[best_index].astype(np.float32)),

@@ -17,6 +17,7 @@ from vptoolkit.checks import check_float, check_int, check_keys, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
+from vptoolkit.point_features import check_feature_names
 
 __all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL",
            "MAX_LAYERS", "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig",
@@ -156,6 +157,12 @@ class ModelConfig:
         so a rotated input gets a rotated prediction; ``"none"``: the input's
         own frame (:func:`load_model` gives it to a checkpoint whose
         configuration has no ``input_frame``). Default: "pca".
+    point_features : tuple of str
+        Features each input point carries after its coordinates, in order,
+        names of :data:`vptoolkit.point_features.POINT_FEATURES` (default: none,
+        coordinates alone). ``("face_area",)`` tells the network the size of the
+        face under each point, which the tessellation-weighted measures (VE,
+        VMI) depend on and uniform points do not show.
     """
 
     head: str = "direction"
@@ -169,8 +176,10 @@ class ModelConfig:
     dropout: float = 0.5
     decoder_channels: tuple[int, int] = field(default=(64, 16))
     input_frame: str = "pca"
+    point_features: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "point_features", check_feature_names(self.point_features))
         if self.input_frame not in INPUT_FRAMES:
             raise InputError(f"input_frame: expected one of {list(INPUT_FRAMES)}, "
                              f"got {self.input_frame!r}")
@@ -225,6 +234,11 @@ class ModelConfig:
         check_float(self.dropout, "dropout", minimum=0.0, below=1.0, expected="a rate in [0, 1)")
 
     @property
+    def input_channels(self) -> int:
+        """Channels of one input point: 3 coordinates and ``len(point_features)`` features."""
+        return 3 + len(self.point_features)
+
+    @property
     def n_measures(self) -> int:
         """Heads: one per measure, ``len(measures)``."""
         return len(self.measures)
@@ -236,6 +250,7 @@ class ModelConfig:
         result["levels"] = [asdict(level) for level in self.levels]
         result["head_channels"] = list(self.head_channels)
         result["decoder_channels"] = list(self.decoder_channels)
+        result["point_features"] = list(self.point_features)
         return result
 
     @classmethod

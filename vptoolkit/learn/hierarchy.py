@@ -120,6 +120,8 @@ class Hierarchy(NamedTuple):
     ----------
     levels : list of PointLevel
         Level 0 (the input) to the last subsampled level.
+    order : (B, N) int64
+        Level 0 holds the input points ``points[b, order[b]]`` of each model ``b``.
     neighbourhoods : list of Neighbourhood
         One per convolution: from level ``i`` to level ``i + 1``, then the
         global one from the last level to the bounding-box centre.
@@ -129,6 +131,7 @@ class Hierarchy(NamedTuple):
     """
 
     levels: list[PointLevel]
+    order: Tensor
     neighbourhoods: list[Neighbourhood]
     densities: list[Tensor]
 
@@ -155,15 +158,17 @@ def normalize_points(points: Tensor) -> Tensor:
     return (points - (low + high) / 2.0) / diagonal
 
 
-def check_clouds(points: Tensor) -> None:
-    """Raise :class:`InputError` unless ``points`` is a floating ``(B, N, 3)`` tensor.
+def check_clouds(points: Tensor, channels: int = 3) -> None:
+    """Raise :class:`InputError` unless ``points`` is a floating ``(B, N, channels)`` tensor.
 
-    ``B`` and ``N`` must be at least 1.
+    ``B`` and ``N`` must be at least 1; ``channels`` is 3 for coordinates
+    alone, more with point features after them.
     """
     if not isinstance(points, torch.Tensor):
         raise InputError(f"points: expected a torch.Tensor, got {type(points).__name__}")
-    if points.ndim != 3 or points.shape[-1] != 3 or points.shape[0] < 1 or points.shape[1] < 1:
-        raise InputError("points: expected shape (B, N, 3) with B, N >= 1, "
+    if (points.ndim != 3 or points.shape[-1] != channels or points.shape[0] < 1
+            or points.shape[1] < 1):
+        raise InputError(f"points: expected shape (B, N, {channels}) with B, N >= 1, "
                          f"got {tuple(points.shape)}")
     if not points.is_floating_point():
         raise InputError(f"points: expected a floating dtype, got {points.dtype}")
@@ -210,7 +215,7 @@ def morton_codes(points: Tensor) -> Tensor:
     return _interleave(_grid_coordinates(points))
 
 
-def input_level(points: Tensor) -> PointLevel:
+def input_level(points: Tensor) -> tuple[PointLevel, Tensor]:
     """Level 0: the normalised input points of every model, sorted by Morton code.
 
     Parameters
@@ -220,9 +225,11 @@ def input_level(points: Tensor) -> PointLevel:
 
     Returns
     -------
-    PointLevel
+    level : PointLevel
         ``B * N`` points, model by model, each model's sorted by code (stable,
         so only points closer than ``2^-21`` diagonals can swap places).
+    order : (B, N) int64
+        The sort: model ``b``'s points are ``points[b, order[b]]``, normalised.
     """
     normalised = normalize_points(points)
     n_models, n_points, _ = normalised.shape
@@ -230,9 +237,10 @@ def input_level(points: Tensor) -> PointLevel:
     order = torch.argsort(codes, dim=1, stable=True)
     sorted_points = torch.gather(normalised, 1, order.unsqueeze(-1).expand(-1, -1, 3))
     batch = torch.arange(n_models, device=points.device).repeat_interleave(n_points)
-    return PointLevel(
+    level = PointLevel(
         sorted_points.reshape(-1, 3), batch, torch.gather(codes, 1, order).reshape(-1), n_models
     )
+    return level, order
 
 
 def _cell_keys(level: PointLevel, grid_level: int) -> Tensor:
@@ -427,7 +435,8 @@ def build_hierarchy(points: Tensor, config: ModelConfig) -> Hierarchy:
     Hierarchy
     """
     with torch.no_grad():
-        levels = [input_level(points)]
+        first, order = input_level(points)
+        levels = [first]
         neighbourhoods = []
         densities = []
         source_level = MAX_GRID_LEVEL
@@ -444,6 +453,6 @@ def build_hierarchy(points: Tensor, config: ModelConfig) -> Hierarchy:
             source_level = spec.grid_level
         neighbourhoods.append(whole_model_neighbourhood(levels[-1]))
         densities.append(point_density(levels[-1], min(_GLOBAL_BALL_LEVEL + 1, source_level)))
-    return Hierarchy(levels, neighbourhoods, densities)
+    return Hierarchy(levels, order, neighbourhoods, densities)
 
 

@@ -145,13 +145,16 @@ class PointEncoder(nn.Module):
     points of the previous level to the cell barycentres of the next
     (:func:`build_hierarchy`); the last one integrates the whole model around
     its bounding-box centre. The input features are the normalised
-    coordinates. See the module docstring for the default sizes.
+    coordinates, followed by the point features ``config.point_features``
+    (:mod:`vptoolkit.point_features`) when it names any. See the module
+    docstring for the default sizes.
 
     Args:
         config (ModelConfig): The architecture.
 
     Shapes:
-        - **input:** points :math:`(B, N, 3)`
+        - **input:** points :math:`(B, N, 3 + F)`: coordinates, then the
+          :math:`F` point features
         - **output:** :math:`(B, C_{latent})`
     """
 
@@ -160,7 +163,7 @@ class PointEncoder(nn.Module):
         self.config = config
         convs = []
         norms = []
-        in_channels = 3
+        in_channels = config.input_channels
         for spec in config.levels:
             convs.append(MonteCarloConv(in_channels, spec.channels, radius=spec.radius,
                                         kernel_size=config.kernel_size,
@@ -175,12 +178,18 @@ class PointEncoder(nn.Module):
         self.norms = nn.ModuleList(norms)
 
     def forward(self, points: Tensor) -> Tensor:
-        check_clouds(points)
+        check_clouds(points, self.config.input_channels)
         dtype = cast(MonteCarloConv, self.convs[0]).linear.weight.dtype
-        hierarchy = build_hierarchy(points.to(dtype), self.config)
+        points = points.to(dtype)
+        hierarchy = build_hierarchy(points[..., :3], self.config)
         levels = hierarchy.levels
         features = levels[0].points
         n_models = levels[0].n_models
+        if points.shape[-1] > 3:  # point features, put in level 0's order
+            extra = points[..., 3:]
+            order = hierarchy.order.unsqueeze(-1).expand(-1, -1, extra.shape[-1])
+            features = torch.cat([features, torch.gather(extra, 1, order).reshape(
+                -1, extra.shape[-1])], dim=1)
         centre = torch.zeros(n_models, 3, dtype=features.dtype, device=features.device)
         targets = [level.points for level in levels[1:]] + [centre]
         for i, (conv, norm) in enumerate(zip(self.convs, self.norms)):

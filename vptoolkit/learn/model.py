@@ -81,7 +81,7 @@ from vptoolkit.files import write_json_atomic
 from vptoolkit.learn.checkpoint import (
     MODEL_FORMAT,
     checkpoint_paths,
-    is_default_model,
+    is_bundled_model,
     read_json,
     read_safetensors,
     write_safetensors_atomic,
@@ -135,8 +135,10 @@ class ViewpointNet(nn.Module):
         seed (int): Seed of the initial weights. (default: 0)
 
     Shapes:
-        - **input:** points :math:`(B, N, 3)`, any position and scale,
-          :math:`B \\ge 2` in training mode (batch norm)
+        - **input:** points :math:`(B, N, 3 + F)`, coordinates at any position
+          and scale, then the :math:`F` features of ``config.point_features``
+          (:mod:`vptoolkit.point_features`); :math:`B \\ge 2` in training
+          mode (batch norm)
         - **output:** a dict with
 
           - ``"directions"``: :math:`(B, M, 3)` unit predictions, in the
@@ -216,10 +218,11 @@ class ViewpointNet(nn.Module):
     def forward(self, points: Tensor) -> dict[str, Tensor]:
         frame = None
         if self.config.input_frame == "pca":
-            check_clouds(points)
+            check_clouds(points, self.config.input_channels)
+            coordinates, features = points[..., :3], points[..., 3:]
             frame, centre = canonical_frame(
-                points, generator=self._generator if self.training else None)
-            points = to_frame(points, frame, centre)
+                coordinates, generator=self._generator if self.training else None)
+            points = torch.cat([to_frame(coordinates, frame, centre), features], dim=-1)
         outputs = self._heads(self.encoder(points))
         if frame is not None:
             outputs["directions"] = from_frame(outputs["directions"], frame)
@@ -228,15 +231,17 @@ class ViewpointNet(nn.Module):
 
     def forward_in_frames(self, points: Tensor, frames: Tensor,
                           centre: Tensor) -> dict[str, Tensor]:
-        """The heads' outputs for one cloud ``(N, 3)`` put in each of ``frames`` ``(F, 3, 3)``.
+        """The heads' outputs for one cloud ``(N, 3 + F)`` put in each of ``frames`` ``(K, 3, 3)``.
 
-        The network sees ``(x - centre) C_f^T`` for every frame ``C_f``;
-        ``"directions"`` ``(F, M, 3)`` come back in the input's frame (``d C_f``),
+        The network sees ``(x - centre) C_f^T`` for every frame ``C_f`` (the
+        point features, if any, unchanged);
+        ``"directions"`` ``(K, M, 3)`` come back in the input's frame (``d C_f``),
         every other output (``"maps"`` of a DLDL head) stays in its frame:
         :meth:`forward` is the case of the one canonical frame. For the frames of
         ambiguous axis signs (:class:`vptoolkit.learn.prior.NetworkPrior`).
         """
-        inputs = to_frame(points[None].expand(len(frames), -1, -1), frames, centre)
+        clouds = points[None].expand(len(frames), -1, -1)
+        inputs = torch.cat([to_frame(clouds[..., :3], frames, centre), clouds[..., 3:]], dim=-1)
         outputs = self._heads(self.encoder(inputs))
         outputs["directions"] = from_frame(outputs["directions"], frames)
         return outputs
@@ -388,9 +393,9 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
     CheckpointError
         If the weights do not match the architecture.
     """
-    if not is_default_model(path) and not Path(path).exists():
+    if not is_bundled_model(path) and not Path(path).exists():
         raise InputError(f"{path}: no such checkpoint (a folder, *.safetensors or *.json file, "
-                         "or 'default')")
+                         "or a bundled name: 'default', 'points')")
     weights_path, config_path = checkpoint_paths(path)
     config = read_json(config_path, "model configuration")
     if config.get("format") != MODEL_FORMAT:

@@ -53,6 +53,7 @@ __all__ = [
     "DEFAULT_VAL_SPLIT",
     "DEFAULT_FPS_POOL",
     "DEFAULT_VAL_ROTATIONS",
+    "DEFAULT_POINT_FEATURES",
     "TrainOptions",
 ]
 
@@ -67,6 +68,10 @@ DEFAULT_FPS_POOL: Final = 8
 
 DEFAULT_VAL_ROTATIONS: Final = 3
 """Fixed rotations per validation model (0: the stored orientation only)."""
+
+DEFAULT_POINT_FEATURES: Final = ("face_area",)
+"""Point features of a network made from no architecture: the relative area of the
+face under each point, which lifts VE and VMI on real meshes (``docs/results.md``)."""
 
 _POSITIVE = "a positive finite number"
 
@@ -132,9 +137,11 @@ class TrainOptions:
         :func:`~vptoolkit.learn.train.train_model` fills in when the run
         starts (its record keeps None; the architecture names the heads).
     architecture : ModelConfig, optional
-        Network configuration; None gives ``ModelConfig(head=...)`` for the
-        label method, and a mapping is read with
-        :meth:`ModelConfig.from_dict` (its ``head`` defaults to the method's).
+        Network configuration; None gives ``ModelConfig(head=...,
+        point_features=DEFAULT_POINT_FEATURES)`` for the label method (each
+        point carries the relative area of its face), and a mapping is read with
+        :meth:`ModelConfig.from_dict` (its ``head`` defaults to the method's, its
+        ``point_features`` to :data:`DEFAULT_POINT_FEATURES`).
         Kept as a :class:`ModelConfig` whose head fits ``labels`` and whose
         ``measures`` are ``measures`` when those are given.
 
@@ -301,12 +308,13 @@ def _architecture(architecture: Any, labels: str,
 
     head = head_for_method(labels)
     if architecture is None:
-        return ModelConfig(head=head) if measures is None else ModelConfig(head=head,
-                                                                           measures=measures)
+        config = ModelConfig(head=head, point_features=DEFAULT_POINT_FEATURES)
+        return config if measures is None else replace(config, measures=measures)
     if isinstance(architecture, ModelConfig):
         config = architecture
     elif isinstance(architecture, Mapping):
-        config = ModelConfig.from_dict({"head": head, **architecture})
+        config = ModelConfig.from_dict({"head": head, "point_features": DEFAULT_POINT_FEATURES,
+                                        **architecture})
     else:
         raise InputError(f"architecture: expected a ModelConfig or a mapping, got "
                          f"{short_repr(architecture)}")

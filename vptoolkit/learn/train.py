@@ -384,11 +384,12 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         train_data = ViewpointTorchDataset(train_set, n_points=options.n_points,
                                            n_fps=options.n_fps, rotate=options.rotate, seed=seed,
                                            fps_pool=options.fps_pool,
+                                           point_features=config.point_features,
                                            transform=None if every else _TakeMeasures(columns))
         validation = validation_inputs(val_set, n_val, n_points=options.n_points,
                                        n_fps=options.n_fps, seed=seed,
                                        rotations=options.val_rotations, device=device,
-                                       columns=columns)
+                                       columns=columns, point_features=config.point_features)
 
         model = ViewpointNet(config, seed=_seed(seed, 0)).to(device)
         optimizer = torch.optim.Adam(model.parameters(), lr=options.lr, fused=True)

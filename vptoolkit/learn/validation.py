@@ -19,7 +19,7 @@ import numpy as np
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.learn.labels import nearest_view_quality
 from vptoolkit.learn.model import ViewpointNet
-from vptoolkit.learn.predict import network_points
+from vptoolkit.learn.predict import network_indices
 from vptoolkit.optional import require
 from vptoolkit.rotations import fixed_rotations
 
@@ -37,22 +37,28 @@ _BATCH = 32  # validation inputs per forward pass
 
 def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int, n_fps: int,
                       seed: int, rotations: int, device: torch.device,
-                      columns: Sequence[int] | None = None) -> dict[str, Tensor]:
+                      columns: Sequence[int] | None = None,
+                      point_features: Sequence[str] = ()) -> dict[str, Tensor]:
     """The validation inputs under the rotated protocol (as stored for ``rotations=0``).
 
-    Returns ``points`` ``(n, n_points, 3)``, ``views`` ``(n, V, 3)`` and
+    Returns ``points`` ``(n, n_points, 3 + F)`` (the coordinates, then the
+    ``F`` named ``point_features``, not rotated), ``views`` ``(n, V, 3)`` and
     ``quality`` ``(n, V, M)``: the stored normalised quality's ``columns``
     (default: all), one per measure of the network, in its order.
     """
     points, views, quality = [], [], []
     for index in range(n_models):
         item = subset[index]
-        base = network_points(item["points"], n_points=n_points, n_fps=n_fps, seed=seed,
-                              name=item["name"])
+        features = subset.point_features(index, point_features) if point_features else None
+        chosen = network_indices(item["points"], n_points=n_points, n_fps=n_fps, seed=seed,
+                                 name=item["name"])
+        base = item["points"][chosen].astype(np.float32)
         turns = (fixed_rotations(item["name"], rotations, seed=seed) if rotations
                  else np.eye(3)[None])
         for rotation in turns:
-            points.append(base @ rotation.T)
+            turned = base @ rotation.T
+            points.append(turned if features is None
+                          else np.concatenate([turned, features[chosen]], axis=1))
             views.append(item["views"] @ rotation.T)
             quality.append(item["quality"] if columns is None
                            else item["quality"][:, list(columns)])
