@@ -166,15 +166,31 @@ def test_a_checkpoint_without_an_input_frame_sees_raw_inputs(tmp_path):
         ModelConfig(input_frame="octant")
 
 
-def test_the_shipped_network_turns_with_its_input(clouds):
-    network, _ = M.load_model("default")
+def face_areas(name: str) -> np.ndarray:
+    """The face_area feature of the points of ``clouds[name]``, in their order."""
+    from vptoolkit.point_features import face_area_feature
+    from vptoolkit.points import network_input_indices
+
+    mesh = load_mesh(sample_path(name))
+    sample = sample_surface(mesh, 6000, seed=0)
+    chosen = network_input_indices(sample.points, 2048, 512, rng=np.random.default_rng(0))
+    return face_area_feature(mesh, sample.face_index[chosen])[:, None]
+
+
+@pytest.mark.parametrize("bundled", ["default", "points"])
+def test_the_shipped_networks_turn_with_their_input(clouds, bundled):
+    network, _ = M.load_model(bundled)
     assert network.config.input_frame == "pca"
     errors = []
     with torch.no_grad():
         for name, cloud in clouds.items():
-            reference = network(
-                torch.tensor(cloud[None], dtype=torch.float32))["directions"][0].numpy()
+            features = face_areas(name) if network.config.point_features else cloud[:, :0]
+
+            def ask(points: np.ndarray) -> np.ndarray:
+                inputs = torch.tensor(np.hstack([points, features])[None], dtype=torch.float32)
+                return network(inputs)["directions"][0].numpy()
+
+            reference = ask(cloud)
             for rotation in fixed_rotations(name, 3, seed=2):
-                turned = network(torch.tensor((cloud @ rotation.T)[None], dtype=torch.float32))
-                errors.extend(angles(turned["directions"][0].numpy() @ rotation, reference))
+                errors.extend(angles(ask(cloud @ rotation.T) @ rotation, reference))
     assert np.median(errors) < 10.0, np.round(errors, 1)

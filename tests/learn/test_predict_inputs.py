@@ -15,6 +15,7 @@ from vptoolkit.learn.consensus import consensus_directions  # noqa: E402
 from vptoolkit.learn.predict import (  # noqa: E402
     N_INPUTS,
     MeshPredictor,
+    mesh_surface,
     network_inputs,
     network_points,
     network_predictor,
@@ -37,13 +38,19 @@ def surface(name: str) -> np.ndarray:
     return sample_surface(load_mesh(sample_path(name)), N_SURFACE_POINTS, seed=0).points
 
 
+def face_areas(name: str) -> np.ndarray:
+    """The bundled network's point features of :func:`surface`'s points."""
+    return mesh_surface(load_mesh(sample_path(name)), ("face_area",), seed=0)[1]
+
+
 def test_one_input_is_the_single_draw_zero_answer(predictor):
     single = MeshPredictor("default", n_inputs=1)
     for name in MESHES:
         mesh = load_mesh(sample_path(name))
-        draw_zero = network_points(surface(name), n_points=predictor.n_points,
-                                   n_fps=predictor.n_fps, seed=0, name=mesh.name, draw=0)
-        expected = predict_directions(predictor.model, draw_zero[None])[0]
+        draw_zero = network_inputs(surface(name), n_points=predictor.n_points,
+                                   n_fps=predictor.n_fps, seed=0, name=mesh.name, n_inputs=1,
+                                   features=face_areas(name))
+        expected = predict_directions(predictor.model, draw_zero)[0]
         assert np.allclose(single(mesh), expected, atol=1e-5)
         answered = predict("default", sample_path(name), n_inputs=1, device="cpu")
         assert np.allclose(answered.directions[0], expected, atol=1e-5)
@@ -64,7 +71,7 @@ def test_the_inputs_are_distinct_draws_the_first_being_draw_zero(predictor):
     other = network_inputs(points, n_inputs=5, **{**sizes, "name": "cup"})
     assert not np.array_equal(other, inputs)
     np.testing.assert_array_equal(predictor.inputs(load_mesh(sample_path("mug.obj"))),
-                                  network_inputs(points, **sizes))
+                                  network_inputs(points, **sizes, features=face_areas("mug.obj")))
 
 
 def test_the_consensus_is_one_of_the_single_input_answers(predictor):
@@ -89,9 +96,11 @@ def test_predict_and_the_mesh_predictor_agree_and_repeat(predictor):
         assert np.allclose(directions, predictor(load_mesh(path)), atol=1e-5)
     again = predict("default", paths, device="cpu")
     assert again.directions.tobytes() == answered.directions.tobytes()
-    from_clouds = network_predictor("default", device="cpu")
+    # a network of coordinates alone answers bare clouds as predict answers their meshes
+    from_clouds = network_predictor("points", device="cpu")
     clouds = [surface(name) for name in MESHES]
-    assert np.allclose(from_clouds(clouds, ["mug", "teapot"]), answered.directions, atol=1e-5)
+    assert np.allclose(from_clouds(clouds, ["mug", "teapot"]),
+                       predict("points", paths, device="cpu").directions, atol=1e-5)
 
 
 @pytest.mark.parametrize("n_inputs", [0, 65, 1.5, True, "8", None])

@@ -41,7 +41,7 @@ def test_candidates_hold_the_networks_own_answer(prior):
 
 def test_a_symmetric_box_is_tried_in_every_frame_of_its_ambiguous_signs(prior):
     box = box_mesh((1.0, 2.0, 4.0))
-    points = torch.as_tensor(prior.predictor.inputs(box)[0])
+    points = torch.as_tensor(prior.predictor.inputs(box)[0])[:, :3]  # coordinates, not features
     frames, centre = prior.frames(points)
     assert len(frames) == 8  # three axes with a third moment of about 0
     canonical, _ = canonical_frame(points[None])
@@ -54,7 +54,7 @@ def test_a_symmetric_box_is_tried_in_every_frame_of_its_ambiguous_signs(prior):
 def test_forward_in_the_canonical_frame_is_forward(prior):
     model = prior.predictor.model.eval()
     points = torch.as_tensor(prior.predictor.inputs(load_mesh(sample_path("teapot.stl")))[0])
-    frame, centre = canonical_frame(points[None])
+    frame, centre = canonical_frame(points[None, :, :3])
     with torch.inference_mode():
         torch.testing.assert_close(model.forward_in_frames(points, frame, centre)["directions"],
                                    model(points[None])["directions"])
@@ -108,7 +108,7 @@ def test_a_missing_checkpoint_file_is_said_not_to_exist(tmp_path, command):
         code, errors = result.exit_code, result.stderr.splitlines()
     assert code == 2
     assert errors == [f"vptool: error: {missing}: no such checkpoint (a folder, *.safetensors "
-                      "or *.json file, or 'default')"]
+                      "or *.json file, or a bundled name: 'default', 'points')"]
 
 
 def test_a_per_category_folder_as_prior_says_best_view_takes_one_network(tmp_path):

@@ -75,7 +75,8 @@ def test_tiny_run_lowers_the_loss_and_beats_a_random_view(trained, dataset_dir):
     # under rotations it never saw: it must beat a random view on the models it learned.
     with open_dataset(dataset_dir) as dataset:
         train = dataset.split("train")
-        scores = score_protocol(train, network_predictor(trained.checkpoint, seed=7), n_rotations=3,
+        scores = score_protocol(train, network_predictor(trained.checkpoint, seed=7, dataset=train),
+                                n_rotations=3,
                                 seed=11)
         random = random_view_scores(train)
     assert scores.mean.mean() > random.mean.mean() + 5.0, (scores.mean, random.mean)
@@ -89,7 +90,7 @@ def test_checkpoint_configuration_records_the_run(trained):
     config = json.loads(trained.config_path.read_text())
     assert config["format"] == "vptoolkit-viewpoint-model"
     assert config["labels"] == "ml+gl" and config["measures"] == ["VE", "VR", "VKL", "VMI"]
-    assert config["architecture"] == ModelConfig().to_dict()
+    assert config["architecture"] == ModelConfig(point_features=("face_area",)).to_dict()
     assert config["input"] == {"n_points": 512, "n_fps": 128}
     training = config["training"]
     assert training["arguments"]["lr"] == 1e-3 and training["arguments"]["labels"] == "ml+gl"
@@ -220,6 +221,7 @@ def test_every_label_method_trains_and_predicts(labels, dataset_dir, tmp_path):
 
 def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path):
     from vptoolkit.io import load_mesh
+    from vptoolkit.learn.model import ViewpointNet, save_model
     from vptoolkit.points import sample_surface
 
     duck = sample_path("Duck")
@@ -229,18 +231,23 @@ def test_predict_meshes_point_files_and_datasets(trained, dataset_dir, tmp_path)
     np.save(tmp_path / "six" / "duck.npy",
             np.hstack([surface.points, surface.normals]).astype(np.float32))
     np.save(tmp_path / "three" / "duck.npy", surface.points.astype(np.float32))
-    predictions = predict(trained.checkpoint, [dataset_dir, duck, tmp_path / "six" / "duck.npy"],
-                          split=None, batch_size=3)
+    predictions = predict(trained.checkpoint, [dataset_dir, duck], split=None, batch_size=3)
     with open_dataset(dataset_dir) as dataset:
-        assert predictions.names == (*dataset.names, "Duck", "duck")
+        assert predictions.names == (*dataset.names, "Duck")
     assert predictions.measures == ("VE", "VR", "VKL", "VMI")
-    assert predictions.directions.shape == (10, 4, 3) and predictions.directions.dtype == np.float64
+    assert predictions.directions.shape == (9, 4, 3) and predictions.directions.dtype == np.float64
     assert np.allclose(np.linalg.norm(predictions.directions, axis=-1), 1.0)
-    # (N, 6) and (N, 3) files of the same points give the same prediction; so does a rerun
-    three = predict(trained.checkpoint, tmp_path / "three" / "duck.npy")
-    assert np.allclose(three.directions[0], predictions.directions[-1], atol=1e-5)  # batches differ
     again = predict(trained.checkpoint, [duck], seed=0)
     assert np.allclose(again.directions[0], predictions.directions[8], atol=1e-5)  # batch of 1 vs 3
+    # The trained network reads face areas, which a point file does not carry: one line says so
+    with pytest.raises(InputError, match=r"duck.npy: the network reads point features \(face_"):
+        predict(trained.checkpoint, tmp_path / "six" / "duck.npy")
+    # A network of coordinates alone reads point files: (N, 6) and (N, 3) files of the same
+    # points give the same prediction
+    plain, _ = save_model(ViewpointNet(ModelConfig(), seed=3), tmp_path / "plain.safetensors")
+    six = predict(plain, tmp_path / "six" / "duck.npy")
+    three = predict(plain, tmp_path / "three" / "duck.npy")
+    assert np.allclose(three.directions, six.directions, atol=1e-5)
 
     path = predictions.save_npz(tmp_path / "predictions.npz")
     with np.load(path, allow_pickle=False) as archive:
@@ -269,19 +276,23 @@ def test_mesh_predictor_matches_predict_on_the_file(trained):
 
 
 def test_predict_rejects_bad_inputs(trained, tmp_path):
-    with pytest.raises(InputError, match="no such mesh file"):
+    with pytest.raises(InputError, match="missing.obj: no such file"):
         predict(trained.checkpoint, [tmp_path / "missing.obj"])
     (tmp_path / "notes.txt").write_text("hello")
     with pytest.raises(InputError, match="notes.txt: not a mesh"):
         predict(trained.checkpoint, [tmp_path / "notes.txt"])
+    # point files, for a network of coordinates alone
+    from vptoolkit.learn.model import ViewpointNet, save_model
+
+    plain, _ = save_model(ViewpointNet(ModelConfig()), tmp_path / "plain.safetensors")
     np.save(tmp_path / "bad.npy", np.zeros((10, 4)))
     with pytest.raises(InputError, match=r"bad.npy: expected an \(N, 3\) or \(N, 6\)"):
-        predict(trained.checkpoint, [tmp_path / "bad.npy"])
+        predict(plain, [tmp_path / "bad.npy"])
     np.save(tmp_path / "a.npy", np.random.default_rng(0).normal(size=(500, 3)))
     (tmp_path / "b").mkdir()
     np.save(tmp_path / "b" / "a.npy", np.random.default_rng(1).normal(size=(500, 3)))
     with pytest.raises(InputError, match="two models are named 'a'"):
-        predict(trained.checkpoint, [tmp_path / "a.npy", tmp_path / "b" / "a.npy"])
+        predict(plain, [tmp_path / "a.npy", tmp_path / "b" / "a.npy"])
     with pytest.raises(InputError, match=r"\.npz"):
         Predictions(("a",), np.zeros((1, 4, 3))).save_npz(tmp_path / "out.npy")
 

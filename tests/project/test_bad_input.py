@@ -536,11 +536,19 @@ def test_a_default_file_in_the_working_directory_does_not_shadow_the_bundled_net
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "default").write_text("not a checkpoint")
+    (tmp_path / "points").write_text("not a checkpoint")
     cloud = tmp_path / "cloud.npy"
     np.save(cloud, np.random.default_rng(0).normal(size=(2000, 3)))
     assert checkpoint_paths("default")[0] == PRETRAINED / "model.safetensors"
-    code, text = _run("predict", cloud, "--model", "default")
+    assert checkpoint_paths("points")[0] == PRETRAINED / "points" / "model.safetensors"
+    code, text = _run("predict", sample_path("mug.obj"), "--model", "default")
     assert code == 0, text
+    code, text = _run("predict", cloud, "--model", "points")
+    assert code == 0, text
+    # the default network reads face areas, which a point file lacks: one line says what to do
+    code, text = _run("predict", cloud, "--model", "default")
+    _assert_one_line_bad_input(code, text, "cloud.npy: the network reads point features",
+                               "--model points")
     code, text = _run("predict", cloud, "--model", "./default")
     assert code == 2 and "default/model.json" in text, text
 

@@ -229,8 +229,9 @@ def measures_option(help: str, *, default: str | None = "paper",
     return click.option("--measures", dest, default=default,
                         show_default=default is not None, callback=check, help=help)
 
-MODEL_HELP = ("Checkpoint (folder or .safetensors), or 'default' for the bundled network "
-              "(./default for a checkpoint of that name).")
+MODEL_HELP = ("Checkpoint (folder or .safetensors), or a bundled network: 'default' (reads "
+              "face areas: meshes, datasets) or 'points' (coordinates alone: also point files); "
+              "./default for a checkpoint of that name.")
 PREDICT_MODEL_HELP = (MODEL_HELP[:-1] + "; 'unoccluded' for the closed form from normals, "
                       "no network.")
 

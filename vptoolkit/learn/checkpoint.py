@@ -1,8 +1,8 @@
 """Checkpoint files: where a network's weights and configuration live, read and written safely.
 
 A checkpoint is ``<stem>.safetensors`` (weights) beside ``<stem>.json`` (the
-configuration); ``"default"`` names the network bundled with the package
-(:data:`PRETRAINED`). Every write is atomic and nothing is ever unpickled.
+configuration); ``"default"`` and ``"points"`` name the networks bundled with
+the package (:data:`BUNDLED_MODELS`). Every write is atomic and nothing is ever unpickled.
 :func:`vptoolkit.learn.model.save_model` and ``load_model`` use these.
 """
 
@@ -24,8 +24,9 @@ __all__ = [
     "MODEL_FORMAT",
     "DEFAULT_MODEL",
     "PRETRAINED",
+    "BUNDLED_MODELS",
     "checkpoint_paths",
-    "is_default_model",
+    "is_bundled_model",
     "read_json",
     "read_safetensors",
     "write_safetensors_atomic",
@@ -38,19 +39,26 @@ DEFAULT_MODEL: Final = "default"
 """Name that stands for the bundled pretrained checkpoint wherever a checkpoint path is taken."""
 
 PRETRAINED: Final = Path(__file__).parent / "pretrained"
-"""Folder of the bundled pretrained checkpoint (``model.safetensors``, float16, and
+"""Folder of the bundled default checkpoint (``model.safetensors``, float16, and
 ``model.json`` with the command that trained it); see ``docs/results.md``."""
 
+BUNDLED_MODELS: Final = {DEFAULT_MODEL: PRETRAINED, "points": PRETRAINED / "points"}
+"""Names that stand for the bundled checkpoints wherever a checkpoint path is taken.
 
-def is_default_model(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` stands for the bundled checkpoint: the string ``"default"``.
+``"default"`` reads each point's face area (``ModelConfig.point_features``),
+so it answers meshes and datasets; ``"points"`` reads coordinates alone, the
+paper's input, and also answers bare point files."""
 
-    The bundled network always wins over a file or folder named ``default``
-    in the working directory, so the meaning of ``--model default`` does not
-    depend on where the command runs; that file is reached as ``./default``
-    (or as a :class:`~pathlib.Path`, which always names a file).
+
+def is_bundled_model(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` stands for a bundled checkpoint: a string key of :data:`BUNDLED_MODELS`.
+
+    A bundled network always wins over a file or folder of that name in the
+    working directory, so the meaning of ``--model default`` does not depend
+    on where the command runs; that file is reached as ``./default`` (or as
+    a :class:`~pathlib.Path`, which always names a file).
     """
-    return isinstance(path, str) and path == DEFAULT_MODEL
+    return isinstance(path, str) and path in BUNDLED_MODELS
 
 
 def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
@@ -60,17 +68,17 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     ----------
     path : path-like
         A folder (``model.safetensors`` and ``model.json`` inside it), a
-        ``*.safetensors`` file or its ``*.json`` configuration, or
-        ``"default"`` for the pretrained checkpoint bundled with the package
-        (:data:`PRETRAINED`, see :func:`is_default_model`).
+        ``*.safetensors`` file or its ``*.json`` configuration, or the name
+        of a checkpoint bundled with the package (:data:`BUNDLED_MODELS`, see
+        :func:`is_bundled_model`).
 
     Returns
     -------
     weights, config : Path
         ``<stem>.safetensors`` and ``<stem>.json`` side by side.
     """
-    if is_default_model(path):
-        path = PRETRAINED
+    if is_bundled_model(path):
+        path = BUNDLED_MODELS[str(path)]
     path = Path(path)
     if path.suffix == ".safetensors":
         return path, path.with_suffix(".json")

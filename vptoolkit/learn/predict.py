@@ -37,6 +37,19 @@ Per-category networks (:func:`vptoolkit.learn.train.train_per_category`, a
 folder with ``categories.json``) route every dataset model to its category's
 network; meshes and point files need ``category``; they must all predict the
 same measures.
+
+A network that reads point features (``ModelConfig.point_features``, such as
+the bundled ``default``) gets them from the faces the points were sampled on
+for meshes, from the stored mesh for datasets
+(:meth:`vptoolkit.data.ViewpointDataset.point_features`); a point file has
+none, and such a network refuses it.
+
+Size
+    About 600 lines for one concept, asking a network: the inputs made the
+    way training made them, the routing to a category's network, the
+    consensus, and the three ways in (:func:`predict`,
+    :func:`network_predictor`, :class:`MeshPredictor`), which share those
+    rules and so stay beside them.
 """
 
 from __future__ import annotations
@@ -52,7 +65,7 @@ from numpy.typing import NDArray
 from vptoolkit.checks import check_int, check_int_range, short_repr
 from vptoolkit.errors import InputError
 from vptoolkit.files import is_inside_folder
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
@@ -65,11 +78,13 @@ if TYPE_CHECKING:
     import torch
 
     from vptoolkit.data import ViewpointDataset
+    from vptoolkit.inputs import ModelSource
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["MeshPredictor", "N_INPUTS", "predict", "predict_directions", "network_points",
-           "network_inputs", "network_predictor", "load_networks"]
+__all__ = ["MeshPredictor", "N_INPUTS", "predict", "predict_directions", "mesh_surface",
+           "network_indices", "network_points", "network_inputs", "network_predictor",
+           "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of per-category networks
@@ -89,9 +104,9 @@ _MODELS_HELD = 256  # models whose inputs predict() holds before it runs the net
 _SEED_INPUT = 3
 
 
-def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
-                   seed: int, name: str, draw: int = 0) -> NDArray[np.float32]:
-    """One network input from a sampled surface, seeded from ``seed``, ``name`` and ``draw``.
+def network_indices(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
+                    seed: int, name: str, draw: int = 0) -> NDArray[np.int64]:
+    """Which surface points make one network input, seeded from ``seed``, ``name`` and ``draw``.
 
     Parameters
     ----------
@@ -110,29 +125,65 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
 
     Returns
     -------
-    input_points : (n_points, 3) float32
+    indices : (n_points,) int64
+        Rows of ``points`` (:func:`vptoolkit.points.network_input_indices`).
     """
-    from vptoolkit.points import network_input
+    from vptoolkit.points import network_input_indices
     from vptoolkit.rotations import model_key
 
     draw = check_int(draw, "draw", minimum=0)
     entropy = [int(seed), _SEED_INPUT, model_key(name)] + ([draw] if draw else [])
     rng = np.random.default_rng(np.random.SeedSequence(entropy))
-    chosen = network_input(points, n_points, min(n_fps, len(points)), rng=rng)
-    return chosen.astype(np.float32)
+    return network_input_indices(points, n_points, min(n_fps, len(points)), rng=rng)
 
 
-def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
-                   seed: int, name: str, n_inputs: int = N_INPUTS) -> NDArray[np.float32]:
-    """The ``n_inputs`` network inputs of one model, draws ``0 .. n_inputs - 1``.
+def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
+                   seed: int, name: str, draw: int = 0) -> NDArray[np.float32]:
+    """One network input from a sampled surface: ``points[network_indices(...)]``.
+
+    Parameters are those of :func:`network_indices`.
 
     Returns
     -------
-    inputs : (n_inputs, n_points, 3) float32
-        Input ``k`` is :func:`network_points` with ``draw=k``.
+    input_points : (n_points, 3) float32
     """
-    return np.stack([network_points(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
-                                    draw=k) for k in range(_check_n_inputs(n_inputs))])
+    chosen = network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
+                             draw=draw)
+    return np.asarray(points)[chosen].astype(np.float32)
+
+
+def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
+                   seed: int, name: str, n_inputs: int = N_INPUTS,
+                   features: NDArray[np.floating[Any]] | None = None) -> NDArray[np.float32]:
+    """The ``n_inputs`` network inputs of one model, draws ``0 .. n_inputs - 1``.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    n_points, n_fps, seed, name
+        As for :func:`network_indices`.
+    n_inputs : int
+        How many inputs, 1 to 64 (default: :data:`N_INPUTS`).
+    features : (n, F) float, optional
+        Point features of ``points`` (:mod:`vptoolkit.point_features`), put
+        after the coordinates of each chosen point.
+
+    Returns
+    -------
+    inputs : (n_inputs, n_points, 3 + F) float32
+        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``.
+    """
+    cloud = np.asarray(points)
+    if features is not None:
+        features = np.asarray(features)
+        if features.ndim != 2 or len(features) != len(cloud):
+            raise InputError(f"{name}: features: expected ({len(cloud)}, F) for {len(cloud)} "
+                             f"points, got shape {features.shape}")
+        cloud = np.concatenate([cloud, features], axis=1)
+    return np.stack([cloud[network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed,
+                                           name=name, draw=k)]
+                     for k in range(_check_n_inputs(n_inputs))]).astype(np.float32)
 
 
 def _check_n_inputs(n_inputs: Any) -> int:
@@ -174,8 +225,9 @@ def predict_directions(model: ViewpointNet, points: NDArray[np.floating[Any]] | 
     inputs = torch.as_tensor(np.asarray(points, dtype=np.float32)
                              if not isinstance(points, torch.Tensor)
                              else points.to(torch.float32))
-    if inputs.ndim != 3 or inputs.shape[-1] != 3:
-        raise InputError("points: expected shape (n_models, n_points, 3), "
+    channels = model.config.input_channels
+    if inputs.ndim != 3 or inputs.shape[-1] != channels:
+        raise InputError(f"points: expected shape (n_models, n_points, {channels}), "
                          f"got {tuple(inputs.shape)}")
     where = resolve_device(device)
     model.to(where).eval()
@@ -212,7 +264,7 @@ def load_networks(
     from vptoolkit.learn.checkpoint import read_json
 
     index = Path(model_path) / "categories.json"
-    if is_default_model(model_path) or not index.is_file():
+    if is_bundled_model(model_path) or not index.is_file():
         return {None: load_model(model_path)}
     entries = read_json(index, "per-category index")
     if (entries.get("format") != CATEGORY_MODELS_FORMAT
@@ -260,6 +312,7 @@ def _input_sizes(config: dict[str, Any], n_points: int | None,
 def network_predictor(
     model_path: str | os.PathLike[str], *, categories: Mapping[str, str] | None = None,
     seed: int = 0, batch_size: int = 64, device: str = "auto", n_inputs: int = N_INPUTS,
+    dataset: ViewpointDataset | None = None,
 ) -> Callable[[Sequence[NDArray[Any]], Sequence[str]], NDArray[np.float64]]:
     """A checkpoint as a :data:`vptoolkit.evaluate.protocol.Predictor`.
 
@@ -267,7 +320,11 @@ def network_predictor(
 
     Each cloud becomes ``n_inputs`` network inputs as in :func:`predict` (the
     checkpoint's input size, seeded from ``seed`` and the model's name), and
-    the answer is their consensus.
+    the answer is their consensus. A network that reads point features
+    (``ModelConfig.point_features``) takes them from ``dataset``: the clouds
+    must be its models' stored points, in stored order, turned or not, as
+    :func:`vptoolkit.evaluate.protocol.score_protocol` gives them (the
+    features do not turn).
 
     Parameters
     ----------
@@ -277,6 +334,9 @@ def network_predictor(
         Model name to category, to route models to a per-category folder's networks.
     seed, batch_size, device, n_inputs
         As for :func:`predict`.
+    dataset : ViewpointDataset, optional
+        The models the clouds come from, for the point features of a network
+        that reads them (:meth:`vptoolkit.data.ViewpointDataset.point_features`).
 
     Returns
     -------
@@ -286,14 +346,29 @@ def network_predictor(
     n_inputs = _check_n_inputs(n_inputs)
     networks = load_networks(model_path)
     lookup = dict(categories or {})
+    reads = _features_read(networks)
+    if reads and dataset is None:
+        raise InputError(f"{model_path}: the network reads point features ({', '.join(reads)}); "
+                         "pass the dataset the points come from")
+    cached: dict[tuple[str, tuple[str, ...]], NDArray[np.float32]] = {}
+
+    def features_of(name: str, wanted: tuple[str, ...]) -> NDArray[np.float32] | None:
+        if not wanted:
+            return None
+        if (name, wanted) not in cached:
+            assert dataset is not None
+            cached[name, wanted] = dataset.point_features(name, wanted)
+        return cached[name, wanted]
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
         prepared = []
         for cloud, name, route in zip(points, names, routes):
             n_points, n_fps = _input_sizes(networks[route][1], None, None)
+            wanted = networks[route][0].config.point_features
             prepared.append(network_inputs(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
-                                           name=name, n_inputs=n_inputs))
+                                           name=name, n_inputs=n_inputs,
+                                           features=features_of(name, wanted)))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
@@ -324,6 +399,49 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
                                        checkpoint=_checkpoint_name(model_path, route))
             answers[rows] = found.reshape(len(rows), n_inputs, *found.shape[1:])
     return consensus_directions(answers)
+
+
+def mesh_surface(mesh: MeshLike, point_features: Sequence[str], *,
+                 seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
+    """A mesh's 20000 surface points (:func:`vptoolkit.points.sample_surface`, ``seed``), and
+    their ``point_features`` from the faces they were sampled on (None for no features)."""
+    from vptoolkit.point_features import point_features as features_of
+    from vptoolkit.points import sample_surface
+
+    mesh = as_mesh(mesh)
+    sample = sample_surface(mesh, N_SURFACE_POINTS, seed=seed)
+    features = (features_of(mesh, sample.face_index, point_features) if point_features
+                else None)
+    return sample.points, features
+
+
+def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]]) -> list[str]:
+    """The point features any of the networks reads, sorted."""
+    return sorted({name for model, _ in networks.values() for name in model.config.point_features})
+
+
+def _source_features_refused(source: ModelSource,
+                             networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]]
+                             ) -> None:
+    """Raise the one message for a point file given to networks that read point features."""
+    wanted = _features_read(networks)
+    if wanted:
+        raise InputError(f"{source.origin}: the network reads point features "
+                         f"({', '.join(wanted)}) that a point file does not carry; "
+                         "give the mesh, or a network of coordinates alone (--model points)")
+
+
+def _source_surface(source: ModelSource, point_features: Sequence[str], *,
+                    seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
+    """An input model's surface points and their ``point_features`` (None for no features;
+    a point file has none, see :func:`_source_features_refused`)."""
+    if not point_features:
+        return source.points(seed=seed), None
+    if source.kind == "mesh":
+        return mesh_surface(source.mesh(), point_features, seed=seed)
+    assert source.dataset is not None
+    return source.points(seed=seed), source.dataset.point_features(source.position,
+                                                                   point_features)
 
 
 class MeshPredictor:
@@ -380,13 +498,16 @@ class MeshPredictor:
         self.threads = threads
 
     def inputs(self, mesh: MeshLike) -> NDArray[np.float32]:
-        """The network inputs of a mesh, ``(n_inputs, n_points, 3) float32`` (the class docstring)."""
-        mesh = as_mesh(mesh)
-        from vptoolkit.points import sample_surface
+        """The network inputs of a mesh, ``(n_inputs, n_points, 3 + F) float32``.
 
-        surface = sample_surface(mesh, N_SURFACE_POINTS, seed=self.seed).points
-        return network_inputs(surface, n_points=self.n_points, n_fps=self.n_fps,
-                              seed=self.seed, name=mesh.name, n_inputs=self.n_inputs)
+        As the class docstring says, with the ``F`` point features the network
+        reads (``model.config.point_features``) after the coordinates.
+        """
+        points, features = mesh_surface(as_mesh(mesh), self.model.config.point_features,
+                                        seed=self.seed)
+        return network_inputs(points, n_points=self.n_points, n_fps=self.n_fps,
+                              seed=self.seed, name=as_mesh(mesh).name, n_inputs=self.n_inputs,
+                              features=features)
 
     def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
@@ -487,15 +608,21 @@ def predict(
         routes.clear()
 
     with open_inputs(inputs, split=split) as sources:
+        for source in sources:  # refused before any work: a point file for features
+            if source.kind == "points":
+                _source_features_refused(source, networks)
         for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
             claim_name(seen, source.name)
             route = _route(networks, source.name,
                            source.category if source.category is not None else category)
             size, fps = _input_sizes(networks[route][1], n_points, n_fps)
+            points, features = _source_surface(source, networks[route][0].config.point_features,
+                                               seed=seed)
             names.append(source.name)
             routes.append(route)
-            prepared.append(network_inputs(source.points(seed=seed), n_points=size, n_fps=fps,
-                                           seed=seed, name=source.name, n_inputs=n_inputs))
+            prepared.append(network_inputs(points, n_points=size, n_fps=fps, seed=seed,
+                                           name=source.name, n_inputs=n_inputs,
+                                           features=features))
             if len(prepared) == _MODELS_HELD:
                 answer_prepared()
     if prepared or not found:

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_default_model
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_measure_names
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
@@ -114,7 +114,7 @@ class NetworkPrior:
                 raise InputError(f"{name}: expected an angle in [0, 180), got {angle!r}")
         if isinstance(modes, bool) or not isinstance(modes, int) or modes < 1:
             raise InputError(f"modes: expected a positive integer, got {modes!r}")
-        if not is_default_model(model_path) and (Path(model_path) / "categories.json").is_file():
+        if not is_bundled_model(model_path) and (Path(model_path) / "categories.json").is_file():
             raise InputError(f"{model_path}: holds one network per category, and a prior is one "
                              "network for every mesh (best-view has no --category); give the "
                              "folder of one category's network inside it")
@@ -123,7 +123,9 @@ class NetworkPrior:
         own = self.predictor.measures
         self.heads = own if searched is None else tuple(name for name in own if name in searched)
         self._columns = [own.index(name) for name in self.heads]
-        probe = fibonacci_sphere(self.predictor.n_points).astype(np.float32)
+        probe = np.zeros((self.predictor.n_points, self.predictor.model.config.input_channels),
+                         np.float32)  # a sphere, its point features 0
+        probe[:, :3] = fibonacci_sphere(self.predictor.n_points)
         with torch_threads(threads):  # broken weights answer no direction at all: say so once
             predict_directions(self.predictor.model, probe[None],
                                checkpoint=self.predictor.checkpoint)
@@ -166,7 +168,7 @@ class NetworkPrior:
                 frames = torch.eye(3, dtype=points.dtype)[None]
                 centre = torch.zeros((1, 1, 3), dtype=points.dtype)
             else:
-                frames, centre = self.frames(points)
+                frames, centre = self.frames(points[:, :3])
             outputs = model.forward_in_frames(points, frames, centre)
         # (F, M, 3), the searched measures' heads: rank 1
         ranked = [outputs["directions"][:, self._columns].to(torch.float64).numpy()]
