@@ -79,13 +79,14 @@ from results_doc import (
 
 from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION, coarse_directions, search_best_views
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build.run import build_dataset
 from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.build.run import build_dataset
 from vptoolkit.dataset.build.sources import discover_models
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
+from vptoolkit.learn.checkpoint import BUNDLED_MODELS
 from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS, sample_surface
@@ -118,13 +119,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="px of the searches")
     parser.add_argument("--rotations", type=int, default=4, help="fixed rotations per mesh")
     parser.add_argument("--model", action="append", default=None,
-                        help="network checkpoint, repeatable (default: the bundled one)")
+                        help="network checkpoint or bundled name, repeatable (default: the "
+                             "bundled ones, default and points)")
     add_results_option(parser, "best_view")
     parser.add_argument("--readme", type=Path,
                         help=f"also write the short table of which answer to use into the "
                              f"{README_SECTION} section of this file, README.md (needs "
                              f"--budgets with {FEW_VIEWS}, {BUDGET} and {FLAT_VIEWS}, the "
-                             f"default --resolution and the bundled network)")
+                             f"default --resolution and both bundled networks)")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
     parser.add_argument("--ceiling-views", type=int, default=8,
                         help="directions of the sphere whose ceiling is shown (default: 8)")
@@ -145,12 +147,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error(f"--results: {args.results} is not a file")
     if args.quick:
         args.budget_list, args.rotations, args.ceiling_views = [4, 16], 1, 4
-    args.models = args.model or ["default"]
+    args.models = args.model or list(BUNDLED_MODELS)
     if args.readme is not None and ({FEW_VIEWS, BUDGET, FLAT_VIEWS} - set(args.budget_list)
                                     or args.resolution != SEARCH_RESOLUTION
-                                    or "default" not in args.models):
+                                    or set(BUNDLED_MODELS) - set(args.models)):
         parser.error(f"--readme: its table needs --budgets with {FEW_VIEWS}, {BUDGET} and "
-                     f"{FLAT_VIEWS}, --resolution {SEARCH_RESOLUTION} and the bundled network "
+                     f"{FLAT_VIEWS}, --resolution {SEARCH_RESOLUTION} and both bundled networks "
                      f"(no --quick)")
     return args
 
@@ -324,8 +326,9 @@ def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: s
         the coarse-to-fine search at :data:`FEW_VIEWS` and
         :data:`~vptoolkit.best_view.BUDGET` views and the plain search at
         :data:`FLAT_VIEWS`, all at :data:`~vptoolkit.best_view.SEARCH_RESOLUTION`,
-        the unoccluded estimate from points, the bundled network alone, the
-        PCA axis and the random view.
+        the unoccluded estimate from points, both bundled networks alone
+        (``"network alone"``, ``"network points alone"``), the PCA axis and the
+        random view.
     meshes : str
         What was scored, for the text (``"the 12 bundled meshes"``).
     rotations, views, resolution : int
@@ -358,7 +361,10 @@ def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: s
         ["a scan: points with normals",
          "`vptool predict -m unoccluded scan.npy` (an (N, 6) array: x y z nx ny nz)",
          *cells(f"unoccluded estimate, {SCAN_POINTS} points with normals")],
-        ["points without normals", "`vptool predict`: the network", *cells("network alone")],
+        ["a mesh, and no time to draw it", "`vptool predict`: the network",
+         *cells("network alone")],
+        ["points without normals", "`vptool predict -m points`: the network of coordinates alone",
+         *cells("network points alone")],
         ["nothing but an axis", "the PCA axis (`vptoolkit.evaluate.baselines.pca_directions`)",
          *cells("PCA axis")],
     ], align="llll")

@@ -45,7 +45,7 @@ import multiprocessing
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -65,8 +65,8 @@ from results_doc import (
 
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build.run import build_dataset
 from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.build.run import build_dataset
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -79,7 +79,7 @@ from vptoolkit.evaluate.protocol import (
 )
 from vptoolkit.learn.config import ModelConfig
 from vptoolkit.learn.labels import head_for_method
-from vptoolkit.learn.options import TrainOptions
+from vptoolkit.learn.options import DEFAULT_POINT_FEATURES, TrainOptions
 from vptoolkit.learn.predict import network_predictor
 from vptoolkit.learn.schedule import scaled_lr_step
 from vptoolkit.learn.train import train_model, train_per_category
@@ -143,6 +143,13 @@ def parse_args() -> argparse.Namespace:
                              "another")
     parser.add_argument("--pretrained-epochs", type=int,
                         help="epochs of the exported network (default: --epochs)")
+    parser.add_argument("--point-features", choices=["face_area", "none"],
+                        default=DEFAULT_POINT_FEATURES[0],
+                        help="what each input point carries besides its coordinates, for every "
+                             "network trained here (none: the paper's input; models/<method> "
+                             "then, else models/<method>_<feature>)")
+    parser.add_argument("--pretrained-only", action="store_true",
+                        help="train and export the shipped network alone, without the table")
     parser.add_argument("--pretrained-head", default="256,64",
                         help="hidden widths of its head MLPs (the default network's 256,64; "
                              "SR's two heads per measure need 128,64 to stay under 5 MB)")
@@ -155,7 +162,8 @@ class LabelSizes:
 
     ``n_views`` Fibonacci views at ``resolution`` px per model, ``n_points``
     stored surface points, ``clean`` runs the paper's cleaning, and every
-    method trains ``epochs`` epochs on ``train_points`` input points, the
+    method trains ``epochs`` epochs on ``train_points`` input points (each with
+    ``point_features``, :mod:`vptoolkit.point_features`), the
     first ``train_fps`` of them by farthest point sampling. Test models are
     scored under ``rotations`` fixed rotations each. ``remesh`` remeshes the
     shapes isotropically when cleaning them (``build_dataset(BuildOptions(remesh=True))``).
@@ -171,6 +179,12 @@ class LabelSizes:
     train_fps: int = 1024
     rotations: int = 4
     remesh: bool = False
+    point_features: tuple[str, ...] = DEFAULT_POINT_FEATURES
+
+    @property
+    def suffix(self) -> str:
+        """What a model folder's name adds for the point features: ``""`` for none."""
+        return "".join(f"_{name}" for name in self.point_features)
 
 
 QUICK = LabelSizes(per_category=3, epochs=2, resolution=64, n_views=100, n_points=2000,
@@ -180,36 +194,41 @@ QUICK = LabelSizes(per_category=3, epochs=2, resolution=64, n_views=100, n_point
 
 def main() -> None:
     args = parse_args()
-    sizes = QUICK if args.quick else LabelSizes(
+    features = () if args.point_features == "none" else (args.point_features,)
+    sizes = replace(QUICK, point_features=features) if args.quick else LabelSizes(
         per_category=args.per_category, epochs=args.epochs, resolution=args.resolution,
-        rotations=args.rotations, remesh=args.remesh)
+        rotations=args.rotations, remesh=args.remesh, point_features=features)
     command = command_line(__file__)
     category_methods = args.category_methods.split(",") if args.category_networks else []
-    table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers,
-                jobs=args.jobs, category_methods=category_methods,
-                searches=parse_searches(args.searches), dataset=args.dataset,
-                command=command)
-    print(table)
-    if not args.quick:
-        write_section(args.results, args.section, table)
+    if not args.pretrained_only:
+        table = run(args.out, sizes, methods=args.methods.split(","), workers=args.workers,
+                    jobs=args.jobs, category_methods=category_methods,
+                    searches=parse_searches(args.searches), dataset=args.dataset,
+                    command=command)
+        print(table)
+        if not args.quick:
+            write_section(args.results, args.section, table)
     if args.export_pretrained is None:
         return
     data = training_data(args.dataset or args.out / "dataset", sizes,
                          real=args.dataset is not None)
     if args.pretrained_from_table:
-        checkpoint = args.out / "models" / args.pretrained_method.replace("+", "_")
+        checkpoint = args.out / "models" / (args.pretrained_method.replace("+", "_")
+                                            + sizes.suffix)
         export_pretrained(checkpoint / "model.safetensors", args.export_pretrained, command, data)
     else:
         method, epochs = args.pretrained_method, args.pretrained_epochs or sizes.epochs
         head = [int(width) for width in args.pretrained_head.split(",")]
-        folder = f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
+        folder = (f"export_{method.replace('+', '_')}_{epochs}e_head{'-'.join(map(str, head))}"
+                  f"{sizes.suffix}")
         dataset = args.dataset or args.out / "dataset"
         with open_dataset(dataset) as opened:
             val_split = "validation" if len(opened.split("validation")) else "train"
         options = TrainOptions(labels=method, epochs=epochs, seed=0, n_points=sizes.train_points,
                                n_fps=sizes.train_fps, val_split=val_split,
                                architecture=ModelConfig(head=head_for_method(method),
-                                                        head_channels=tuple(head)))
+                                                        head_channels=tuple(head),
+                                                        point_features=sizes.point_features))
         checkpoint = train_model(dataset, args.out / "models" / folder, options,
                                  resume=True, progress=True, threads=1).checkpoint
         export_pretrained(checkpoint, args.export_pretrained, command, data)
@@ -296,14 +315,15 @@ def train_all(dataset: Path, out: Path, sizes: LabelSizes, methods: Sequence[str
 
     Every training resumes a stopped run.
     """
-    common = {"epochs": sizes.epochs, "seed": 0, "n_points": sizes.train_points,
-              "n_fps": sizes.train_fps, "val_split": val_split}
+    common: dict[str, Any] = {"epochs": sizes.epochs, "seed": 0, "n_points": sizes.train_points,
+              "n_fps": sizes.train_fps, "val_split": val_split,
+              "architecture": {"point_features": list(sizes.point_features)}}
     work = [{"label": LABELS[method], "dataset": dataset,
-             "output": out / "models" / method.replace("+", "_"),
+             "output": out / "models" / (method.replace("+", "_") + sizes.suffix),
              "per_category": False, "options": TrainOptions(**common, labels=method)}
             for method in methods]
     work += [{"label": LABELS[method] + PER_CATEGORY, "dataset": dataset,
-              "output": out / "models" / f"{method.replace('+', '_')}_per_category",
+              "output": out / "models" / f"{method.replace('+', '_')}{sizes.suffix}_per_category",
               "per_category": True, "options": TrainOptions(**common, labels=method)}
              for method in category_methods]
     # The longest runs (ML+GL, the per-category networks) start first;
@@ -362,7 +382,7 @@ def run(out: Path, sizes: LabelSizes = LabelSizes(), *, methods: Sequence[str] =
     with open_dataset(dataset) as opened:
         scored, train = opened.split(scored_split), opened.split("train")
         categories = dict(zip(scored.names, scored.categories))
-        predictors = {label: network_predictor(checkpoint, categories=categories)
+        predictors = {label: network_predictor(checkpoint, categories=categories, dataset=scored)
                       for label, (checkpoint, _) in trained.items()}
         predictors["PCA axis"] = pca_predictor
         predictors["best constant direction"] = constant_predictor(best_constant_directions(train))
@@ -444,7 +464,8 @@ def render(tables: dict[str, dict[str, ProtocolScores]], timings: dict[str, floa
         f"Every method trains {sizes.epochs} epochs with the paper's other settings (Adam, "
         f"batch 8, lr 0.001, x0.75 every {scaled_lr_step(sizes.epochs)} epochs, i.e. the "
         f"paper's schedule scaled to the run, ML+GL switching at half, {sizes.train_points} "
-        "input points, random rotations), in the canonical principal-axis input frame; the "
+        f"input points{' with ' + ', '.join(sizes.point_features) if sizes.point_features else ''}"
+        ", random rotations), in the canonical principal-axis input frame; the "
         "paper trains 3000 epochs on ModelNet40. Each method keeps its best validation epoch "
         "(validation under 3 fixed rotations per model).")
     if real is None:

@@ -62,7 +62,7 @@ import os
 import statistics
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -132,7 +132,8 @@ class PaperSizes:
     Attributes
     ----------
     labels : reproduce_labels.LabelSizes
-        Table 2's benchmark and training budget.
+        Table 2's benchmark and training budget; its networks read coordinates
+        alone (no ``point_features``), the paper's input.
     label_methods : tuple of str
         Label methods of table 2 (ML+GL must be among them for table 4).
     timing_faces : tuple of int
@@ -163,7 +164,8 @@ class PaperSizes:
         Views of the resolution study.
     """
 
-    labels: reproduce_labels.LabelSizes = field(default_factory=reproduce_labels.LabelSizes)
+    labels: reproduce_labels.LabelSizes = field(
+        default_factory=lambda: reproduce_labels.LabelSizes(point_features=()))
     label_methods: tuple[str, ...] = reproduce_labels.METHODS
     timing_faces: tuple[int, ...] = (10_000, 50_000, 100_000, 400_000, 1_000_000)
     timing_views: tuple[int, ...] = (250, 500, 1000)
@@ -185,7 +187,7 @@ class PaperSizes:
 
 FULL = PaperSizes()
 QUICK = PaperSizes(
-    labels=reproduce_labels.QUICK,
+    labels=replace(reproduce_labels.QUICK, point_features=()),
     timing_faces=(10_000, 50_000),
     timing_resolution=256,
     timing_batches=(1, 64),
@@ -589,8 +591,8 @@ def section_robustness(options: RunOptions) -> Section:
     from tqdm import tqdm
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.build.run import build_dataset
     from vptoolkit.dataset.build.options import BuildOptions
+    from vptoolkit.dataset.build.run import build_dataset
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,
@@ -649,7 +651,8 @@ def section_robustness(options: RunOptions) -> Section:
     held_out: dict[str, ProtocolScores] = {}
     with open_dataset(built.path) as samples:
         held_out["network (ML+GL)"] = score_protocol(
-            samples, network_predictor(checkpoint_path(options)), n_rotations=HELD_OUT_ROTATIONS)
+            samples, network_predictor(checkpoint_path(options), dataset=samples),
+            n_rotations=HELD_OUT_ROTATIONS)
         held_out["random view (expectation)"] = random_view_scores(samples)
         held_out["PCA axis"] = score_protocol(samples, pca_predictor,
                                               n_rotations=HELD_OUT_ROTATIONS)

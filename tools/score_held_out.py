@@ -152,7 +152,8 @@ def score(
         # A per-category folder routes each mesh to its category's network.
         categories = dict(zip(dataset.names, dataset.categories))
         for count in inputs:
-            predictor = network_predictor(model, categories=categories, n_inputs=count)
+            predictor = network_predictor(model, categories=categories, n_inputs=count,
+                                          dataset=dataset)
             rows[network_label(count, inputs)] = score_protocol(dataset, predictor,
                                                                 n_rotations=rotations)
         rows["random view (expectation)"] = random_view_scores(dataset)

@@ -68,17 +68,18 @@ def test_the_readme_table_takes_its_rows_from_one_run() -> None:
               f"coarse-to-fine {bench.FEW_VIEWS} {search}",
               f"plain search {bench.FLAT_VIEWS} {search}",
               f"unoccluded estimate, {bench.SCAN_POINTS} points with normals", "network alone",
-              "PCA axis", "random view (expectation)"]
+              "network points alone", "PCA axis", "random view (expectation)"]
     rows = {label: ([10.0 * i + 1, 10.0 * i + 2, 10.0 * i + 3, 10.0 * i + 4],
                     None if label.startswith("random") else 5.0 * (i + 1))
             for i, label in enumerate(labels)}
     text = bench.readme_table(rows, meshes="two meshes", rotations=4, views=1000,
                               resolution=256, source="a test")
     table = [line for line in text.splitlines() if line.startswith("|")]
-    assert len(table) == 2 + 6  # header, rule and six answers
+    assert len(table) == 2 + 7  # header, rule and seven answers
     assert "1.0 / 2.0 / 3.0 / 4.0" in table[2] and "5 ms" in table[2]  # the full budget's row
     assert "11.0 / 12.0 / 13.0 / 14.0" in table[3]  # the few views' row
-    assert "A random view scores 61.0 / 62.0 / 63.0 / 64.0" in text
+    assert "`vptool predict -m points`" in table[7] and "51.0 / 52.0" in table[7]
+    assert "A random view scores 71.0 / 72.0 / 73.0 / 74.0" in text
     assert text.endswith("From a test.")
 
 

@@ -32,8 +32,8 @@ def test_searches_are_parsed(tool: ModuleType) -> None:
 @pytest.mark.slow
 def test_a_built_dataset_is_trained_and_scored_on_its_validation_split(
         tool: ModuleType, tmp_path: Path) -> None:
-    from vptoolkit.dataset.build.run import build_dataset
     from vptoolkit.dataset.build.options import BuildOptions, SplitFile
+    from vptoolkit.dataset.build.run import build_dataset
     from vptoolkit.dataset.build.split_files import class_split, write_split_file
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.synthetic import write_collection
@@ -59,3 +59,7 @@ def test_a_built_dataset_is_trained_and_scored_on_its_validation_split(
     numbers = json.loads((tmp_path / "out" / "table2.json").read_text())
     assert numbers["sizes"] == {"train": 4, "validation": 2, "test": 0}
     assert len(numbers["rotated"]["SR"]["per_model"]) == 2  # the validation models
+    # the networks read each point's face area, and their folders say so
+    assert "512 input points with face_area" in table
+    record = json.loads((tmp_path / "out" / "models" / "sr_face_area" / "model.json").read_text())
+    assert record["architecture"]["point_features"] == ["face_area"]

@@ -89,7 +89,8 @@ def test_quick_options_stay_out_of_docs(tool: ModuleType, tmp_path: Path) -> Non
 
 
 def _tiny(tool: ModuleType) -> object:
-    labels = replace(tool.reproduce_labels.QUICK, epochs=1, n_views=40, resolution=32, n_points=600)
+    labels = replace(tool.reproduce_labels.QUICK, epochs=1, n_views=40, resolution=32, n_points=600,
+                     point_features=())
     return replace(
         tool.QUICK, labels=labels, label_methods=("ml+gl",),
         timing_faces=(2000, 10_000), timing_views=(20, 250), timing_resolution=64,

@@ -65,7 +65,8 @@ def test_a_per_category_folder_is_routed_by_category(tool: ModuleType, small_bui
         expected = dict(zip(dataset.names, dataset.categories))
     seen = {}
 
-    def network_predictor(model, *, categories=None, n_inputs=None):
+    def network_predictor(model, *, categories=None, n_inputs=None, dataset=None):
+        assert dataset is not None  # the features of a network that reads them come from it
         seen.update(categories or {})
 
         def predictor(points, names):
