@@ -8,7 +8,12 @@ a dataset, the best constant direction of its training split, each under
 standard error over meshes and the paired difference of the network to each
 baseline.
 
-``--inputs 1,8`` scores the network once per count of network inputs per
+``--model`` may be given again: the first network is compared with the
+others (and with the baselines); ``--searches 16@32,64@64`` adds plain
+searches of N views at R px (:func:`reproduce_labels.search_answer`) on the
+cleaned meshes under the same rotations.
+
+``--inputs 1,8`` scores the first network once per count of network inputs per
 mesh (:func:`vptoolkit.learn.predict.predict`, the consensus of the answers
 to that many inputs) and adds its rotation consistency: the angle between
 the answer for each cleaned mesh and the answer for a copy resampled with
@@ -21,6 +26,7 @@ Usage::
     python tools/score_held_out.py MESH_FOLDER --model runs/ml_gl \\
         --out reproduction/held_out/mine --json scores.json
     python tools/score_held_out.py MESH_FOLDER --inputs 1,8
+    python tools/score_held_out.py MESH_FOLDER --model default --model points --searches 16@32
 
 The bundled samples are the check that ships; keep any other held-out folder
 out of training and tuning.
@@ -37,6 +43,7 @@ from pathlib import Path
 from typing import NamedTuple, NoReturn
 
 import numpy as np
+from reproduce_labels import parse_searches, search_answer
 from results_doc import (
     add_results_option,
     command_line,
@@ -59,8 +66,10 @@ from vptoolkit.evaluate.protocol import (
     constant_predictor,
     pca_predictor,
     random_view_scores,
+    score_mesh_protocol,
     score_protocol,
 )
+from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.predict import N_INPUTS, MeshPredictor, network_predictor
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS
@@ -84,8 +93,13 @@ def fail(message: str) -> NoReturn:
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = _Parser(description=__doc__.splitlines()[0])
     parser.add_argument("meshes", type=Path, help="folder of mesh files (category = parent folder)")
-    parser.add_argument("--model", default="default",
-                        help="checkpoint, per-category folder or 'default'")
+    parser.add_argument("--model", action="append", default=None,
+                        help="checkpoint, per-category folder or bundled name ('default', "
+                        "'points'); repeatable, the first is compared with the rest "
+                        "(default: default)")
+    parser.add_argument("--searches", default="",
+                        help="plain searches scored beside, N@R views at px, comma-separated "
+                        "(default: none)")
     parser.add_argument("--out", type=Path, help="dataset folder, new or a build to resume "
                         "(default: reproduction/held_out/<folder name>)")
     parser.add_argument("--train", type=Path,
@@ -124,8 +138,14 @@ def check_args(args: argparse.Namespace) -> None:
             (args.out / ".staging").is_dir() or (args.out / "dataset.zarr").exists()
             or (args.out / "dataset.h5").exists()):
         fail(f"--out: {args.out}: exists and holds no build to resume; give a new folder")
-    if args.model != "default" and not Path(args.model).exists():
-        fail(f"--model: {args.model}: no such checkpoint or folder")
+    args.model = args.model or [DEFAULT_MODEL]
+    for model in args.model:
+        if not is_bundled_model(model) and not Path(model).exists():
+            fail(f"--model: {model}: no such checkpoint or folder")
+    try:
+        args.searches = parse_searches(args.searches)
+    except SystemExit:
+        fail(f"--searches: {args.searches}: expected N@R views at px, e.g. 16@32")
     if args.train is not None and not args.train.exists():
         fail(f"--train: {args.train}: no such dataset")
     for name in ("json", "results"):
@@ -137,25 +157,32 @@ def check_args(args: argparse.Namespace) -> None:
                 fail(f"--{name}: {path}: folder {path.parent} does not exist")
 
 
-def network_label(n_inputs: int, counts: Sequence[int]) -> str:
-    """The row of the network asked ``n_inputs`` times: ``network``, or with its count."""
-    return "network" if len(counts) == 1 else f"network, {n_inputs} input{'s' * (n_inputs > 1)}"
+def network_label(n_inputs: int, counts: Sequence[int], name: str = "") -> str:
+    """The row of the network asked ``n_inputs`` times: ``network``, or with its count; a
+    compared network's rows carry its ``name``."""
+    label = f"network {name}" if name else "network"
+    return label if len(counts) == 1 else f"{label}, {n_inputs} input{'s' * (n_inputs > 1)}"
 
 
 def score(
     dataset_path: Path, model: str, *, rotations: int, train: Path | None = None,
-    inputs: Sequence[int] = (N_INPUTS,),
+    inputs: Sequence[int] = (N_INPUTS,), others: Sequence[str] = (),
+    searches: Sequence[tuple[int, int]] = (),
 ) -> dict[str, ProtocolScores]:
-    """Every row under the rotated protocol on all models of ``dataset_path``."""
+    """Every row under the rotated protocol on all models of ``dataset_path``: ``model`` per
+    count of ``inputs``, each of ``others`` at the last count, the baselines and the
+    ``searches`` (views, px) on the stored cleaned meshes."""
     rows: dict[str, ProtocolScores] = {}
     with open_dataset(dataset_path) as dataset:
         # A per-category folder routes each mesh to its category's network.
         categories = dict(zip(dataset.names, dataset.categories))
-        for count in inputs:
-            predictor = network_predictor(model, categories=categories, n_inputs=count,
+        asked = [(model, count, network_label(count, inputs)) for count in inputs]
+        asked += [(other, inputs[-1], network_label(inputs[-1], inputs, Path(other).name))
+                  for other in others]
+        for checkpoint, count, label in asked:
+            predictor = network_predictor(checkpoint, categories=categories, n_inputs=count,
                                           dataset=dataset)
-            rows[network_label(count, inputs)] = score_protocol(dataset, predictor,
-                                                                n_rotations=rotations)
+            rows[label] = score_protocol(dataset, predictor, n_rotations=rotations)
         rows["random view (expectation)"] = random_view_scores(dataset)
         rows["PCA axis"] = score_protocol(dataset, pca_predictor, n_rotations=rotations)
         if train is not None:
@@ -163,6 +190,9 @@ def score(
                 constant = best_constant_directions(source.split("train"))
             rows["best constant direction"] = score_protocol(dataset, constant_predictor(constant),
                                                              n_rotations=rotations)
+        for views, px in searches:
+            rows[f"plain search {views} @ {px}"] = score_mesh_protocol(
+                dataset, search_answer(views, px), n_rotations=rotations)
     return rows
 
 
@@ -190,7 +220,7 @@ def consistency(dataset_path: Path, model: str, inputs: Sequence[int]) -> dict[i
     0) with the answer for the mesh sampled with seed 1 and turned by
     ``fixed_rotations(name, 1, seed=1)``, turned back.
     """
-    per_category = model != "default" and (Path(model) / "categories.json").is_file()
+    per_category = not is_bundled_model(model) and (Path(model) / "categories.json").is_file()
     predictors: dict[tuple[int, int, str | None], MeshPredictor] = {}
 
     def answer(mesh: Mesh, category: str, count: int, seed: int) -> np.ndarray:
@@ -219,16 +249,15 @@ def consistency(dataset_path: Path, model: str, inputs: Sequence[int]) -> dict[i
             for count in inputs}
 
 
-def table(rows: dict[str, ProtocolScores],
+def table(rows: dict[str, ProtocolScores], reference: str,
           angles: dict[int, Consistency] | None = None) -> str:
-    """Markdown: every row ± standard error, then the network minus each baseline.
+    """Markdown: every row ± standard error, then the ``reference`` row minus each other.
 
     ``*`` marks a difference beyond two standard errors. With ``angles``, a
     last table of rotation consistency per count of inputs.
     """
     scores = markdown_table(["method", *MEASURES],
                             [[label, *score_cells(row)] for label, row in rows.items()])
-    reference = next(label for label in reversed(rows) if label.startswith("network"))
     lines = [*scores, "", *comparison_table(rows, reference)]
     if angles:
         def cell(angle: np.ndarray, gap: np.ndarray) -> str:
@@ -263,27 +292,29 @@ def run(args: argparse.Namespace) -> None:
     options = BuildOptions(MeasureSettings(views=args.views, resolution=args.resolution),
                            n_points=N_SURFACE_POINTS, clean=True, split_seed=0)
     built = build_dataset(args.meshes, out, options, workers=args.workers, progress=True)
-    rows = score(built.path, args.model, rotations=args.rotations, train=args.train,
-                 inputs=args.inputs)
-    angles = consistency(built.path, args.model, args.inputs)
+    first, *others = args.model
+    rows = score(built.path, first, rotations=args.rotations, train=args.train,
+                 inputs=args.inputs, others=others, searches=args.searches)
+    angles = consistency(built.path, first, args.inputs)
+    reference = network_label(args.inputs[-1], args.inputs)
     heading = (f"`{args.meshes.name}`: {len(next(iter(rows.values())).names)} meshes "
                f"({built.n_failures} failed to build), cleaned, {args.views} views at "
                f"{args.resolution} px, each under {args.rotations} fixed rotations; "
                "normalised quality of the nearest sampled view in %, mean over meshes ± "
                "standard error; * marks a paired difference beyond two standard errors.")
     print(heading)
-    print(table(rows, angles))
+    print(table(rows, reference, angles))
     if args.results is not None:
         write_section(args.results, args.section,
                       f"Command: `{command_line(__file__)}`; "
                       f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}.\n\n"
-                      f"{heading}\n\n{table(rows, angles)}")
+                      f"{heading}\n\n{table(rows, reference, angles)}")
     if args.json is not None:
         args.json.write_text(json.dumps({label: {"names": list(s.names),
                                                  "per_model": s.scores.tolist(),
                                                  "mean": s.mean.tolist(), "sem": s.sem.tolist()}
                                          for label, s in rows.items()}, indent=2))
-    network = rows[network_label(args.inputs[-1], args.inputs)]
+    network = rows[reference]
     per_model = network.scores - rows["PCA axis"].scores
     print("network minus PCA per mesh (mean over measures):",
           ", ".join(f"{n} {v:+.0f}" for n, v in zip(network.names, np.mean(per_model, axis=1))))

@@ -91,8 +91,11 @@ def test_consistency_compares_a_mesh_with_its_resampled_rotated_copy(tool: Modul
         assert np.all((found.angles >= 0.0) & (found.angles <= 180.0))
         assert np.all((found.gaps >= 0.0) & (found.gaps <= 100.0))
         assert np.all(found.gaps[found.angles < 1e-6] == 0.0)  # one answer, one score
-    rows = tool.score(tiny_dataset, "default", rotations=1, inputs=[1, 16])
-    assert list(rows)[:2] == ["network, 1 input", "network, 16 inputs"]
-    text = tool.table(rows, angles)
+    rows = tool.score(tiny_dataset, "default", rotations=1, inputs=[1, 16], others=["points"],
+                      searches=[(4, 16)])
+    assert list(rows)[:3] == ["network, 1 input", "network, 16 inputs", "network points, 16 inputs"]
+    assert "plain search 4 @ 16" in rows
+    text = tool.table(rows, "network, 16 inputs", angles)
     assert "| network, 16 inputs minus |" in text and "Rotation consistency" in text
+    assert "| network points, 16 inputs |" in text and "| plain search 4 @ 16 |" in text
     assert text.count("\n| 1 |") == 1 and text.count("\n| 16 |") == 1
