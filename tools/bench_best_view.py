@@ -361,7 +361,7 @@ def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: s
         ["a scan: points with normals",
          "`vptool predict -m unoccluded scan.npy` (an (N, 6) array: x y z nx ny nz)",
          *cells(f"unoccluded estimate, {SCAN_POINTS} points with normals")],
-        ["a mesh, and no time to draw it", "`vptool predict`: the network",
+        ["a mesh, without drawing it", "`vptool predict`: the network",
          *cells("network alone")],
         ["points without normals", "`vptool predict -m points`: the network of coordinates alone",
          *cells("network points alone")],

@@ -214,9 +214,11 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     vptool sample). Directions come back in each input's own frame, from the
     model centre towards the camera, one per measure the network learnt.
     Without --model the network bundled with vptoolkit predicts (trained on
-    real meshes; see docs/results.md). A network answers --inputs draws of
-    each model's points; the prediction is the answer most of the others
-    agree with.
+    real meshes; see docs/results.md); its points carry the area of their
+    mesh faces, so it answers meshes and datasets, and --model points, the
+    bundled network of coordinates alone, answers point files. A network
+    answers --inputs draws of each model's points; the prediction is the
+    answer most of the others agree with.
     --model unoccluded answers in closed form from normals with occlusion
     ignored (vptoolkit.unoccluded; a mesh's faces, an (N, 6) point file's
     normals, a dataset's stored normals): no network, a few ms, and on real
@@ -225,6 +227,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     \b
     Example:
       vptool predict chair.off table.ply
+      vptool predict --model points points.npy
       vptool predict --model unoccluded scan.npy
       vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
     """
