@@ -28,7 +28,7 @@ serves byte ranges is read by ranges instead, only the parts asked for
 >>> dataset = open_dataset("https://example.org/viewpoints/")   # doctest: +SKIP
 
 Size
-    About 610 lines for one concept, the light loader: opening a store or a
+    About 620 lines for one concept, the light loader: opening a store or a
     release, the lazy dataset and what it reads per model (items, arrays,
     meshes, view sets, point features, quality lookups). The remote,
     download and range readers are their own modules; what stays here shares

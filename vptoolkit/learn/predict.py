@@ -45,7 +45,7 @@ for meshes, from the stored mesh for datasets
 none, and such a network refuses it.
 
 Size
-    About 600 lines for one concept, asking a network: the inputs made the
+    About 630 lines for one concept, asking a network: the inputs made the
     way training made them, the routing to a category's network, the
     consensus, and the three ways in (:func:`predict`,
     :func:`network_predictor`, :class:`MeshPredictor`), which share those
