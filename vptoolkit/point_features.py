@@ -30,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.geometry import face_areas
 from vptoolkit.mesh import MeshLike, as_mesh
 
 __all__ = ["POINT_FEATURES", "FACE_AREA_CLIP", "check_feature_names", "face_area_feature",
@@ -64,12 +65,6 @@ def check_feature_names(names: Any) -> tuple[str, ...]:
     if len(set(names)) != len(names):
         raise InputError(f"point_features: {list(names)} names a feature twice")
     return tuple(names)
-
-
-def _face_areas(vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> NDArray[np.float64]:
-    corners = vertices[faces]
-    return 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
-                                         corners[:, 2] - corners[:, 0]), axis=1)
 
 
 def _check_face_index(face_index: ArrayLike, n_faces: int, name: str) -> NDArray[np.int64]:
@@ -109,7 +104,7 @@ def face_area_feature(mesh: MeshLike, face_index: ArrayLike) -> NDArray[np.float
     """
     mesh = as_mesh(mesh)
     index = _check_face_index(face_index, len(mesh.faces), mesh.name)
-    areas = _face_areas(mesh.vertices, mesh.faces)
+    areas = face_areas(mesh)
     mean = float(areas.sum()) / len(areas)
     if not mean > 0.0:
         raise InputError(f"{mesh.name}: mesh has zero surface area, no face areas to compare")

@@ -503,10 +503,10 @@ class MeshPredictor:
         As the class docstring says, with the ``F`` point features the network
         reads (``model.config.point_features``) after the coordinates.
         """
-        points, features = mesh_surface(as_mesh(mesh), self.model.config.point_features,
-                                        seed=self.seed)
+        mesh = as_mesh(mesh)  # once: a trimesh or Open3D mesh is converted here
+        points, features = mesh_surface(mesh, self.model.config.point_features, seed=self.seed)
         return network_inputs(points, n_points=self.n_points, n_fps=self.n_fps,
-                              seed=self.seed, name=as_mesh(mesh).name, n_inputs=self.n_inputs,
+                              seed=self.seed, name=mesh.name, n_inputs=self.n_inputs,
                               features=features)
 
     def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
