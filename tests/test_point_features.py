@@ -1,4 +1,5 @@
-"""Tests of vptoolkit.point_features: the face-area feature and the face under a stored point."""
+"""Tests of vptoolkit.point_features: the face-area and normal features, how features turn,
+and the face under a stored point."""
 
 from __future__ import annotations
 
@@ -12,11 +13,15 @@ from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_features import (
     FACE_AREA_CLIP,
+    FEATURE_WIDTHS,
     POINT_FEATURES,
     check_feature_names,
     face_area_feature,
+    feature_width,
     locate_faces,
+    normal_feature,
     point_features,
+    turn_features,
 )
 from vptoolkit.points import sample_surface
 from vptoolkit.rotations import random_rotation
@@ -183,6 +188,15 @@ def test_good_names_come_back_as_a_tuple():
     assert check_feature_names(list(POINT_FEATURES)) == POINT_FEATURES
 
 
+def test_names_read_from_a_command_line():
+    assert check_feature_names("face_area, normal", text=True) == ("face_area", "normal")
+    assert check_feature_names("none", text=True) == ()
+    with pytest.raises(InputError, match=r"^point_features: unknown \['none'\]"):
+        check_feature_names("face_area,none", text=True)
+    with pytest.raises(InputError, match="expected a list of names"):
+        check_feature_names("face_area")  # a string only where a command line gives one
+
+
 def test_no_names_give_an_empty_float32_block():
     features = point_features(square(), np.array([0, 2, 1]), ())
     assert features.shape == (3, 0) and features.dtype == np.float32
@@ -193,12 +207,68 @@ def test_the_columns_follow_the_names():
     features = point_features(square(), index, ["face_area"])
     assert features.shape == (4, 1) and features.dtype == np.float32
     np.testing.assert_array_equal(features[:, 0], face_area_feature(square(), index))
-    every = point_features(square(), index, POINT_FEATURES)
-    backwards = point_features(square(), index, POINT_FEATURES[::-1])
-    for column, name in enumerate(POINT_FEATURES):
-        alone = point_features(square(), index, [name])[:, 0]
-        np.testing.assert_array_equal(every[:, column], alone)
-        np.testing.assert_array_equal(backwards[:, len(POINT_FEATURES) - 1 - column], alone)
+    assert feature_width(POINT_FEATURES) == sum(FEATURE_WIDTHS.values()) == 4
+    for order in (POINT_FEATURES, POINT_FEATURES[::-1]):
+        every = point_features(square(), index, order)
+        assert every.shape == (4, feature_width(order)) and every.dtype == np.float32
+        start = 0
+        for name in order:
+            alone = point_features(square(), index, [name])
+            np.testing.assert_array_equal(every[:, start:start + FEATURE_WIDTHS[name]], alone)
+            start += FEATURE_WIDTHS[name]
+
+
+# normal_feature and turn_features
+
+
+def test_normals_are_the_sampled_faces_normals(bunny):
+    sample = sample_surface(bunny, 5000, seed=3)
+    normals = normal_feature(bunny, sample.face_index)
+    assert normals.shape == (5000, 3) and normals.dtype == np.float32
+    np.testing.assert_allclose(normals, sample.normals, atol=1e-6)
+
+
+def test_normals_follow_the_winding_and_a_degenerate_face_gets_zero():
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [2, 0, 0]], float)
+    mesh = Mesh(vertices, np.array([[0, 1, 2], [0, 2, 1], [0, 1, 3]]), "flat")
+    np.testing.assert_array_equal(normal_feature(mesh, [0, 1, 2]),
+                                  [[0, 0, 1], [0, 0, -1], [0, 0, 0]])
+
+
+def test_normals_turn_with_the_mesh_and_ignore_moving_and_scaling(bunny):
+    index = sample_surface(bunny, 2000, seed=0).face_index
+    rotation = random_rotation(np.random.default_rng(8))
+    turned = Mesh(3.0 * bunny.vertices @ rotation.T + 5.0, bunny.faces, "turned")
+    np.testing.assert_allclose(normal_feature(turned, index),
+                               normal_feature(bunny, index) @ rotation.T, atol=1e-5)
+    features = point_features(bunny, index, POINT_FEATURES)
+    np.testing.assert_allclose(point_features(turned, index, POINT_FEATURES),
+                               turn_features(features, POINT_FEATURES, rotation.T), atol=1e-5)
+
+
+def test_turning_features_turns_vectors_and_keeps_numbers():
+    rotation = random_rotation(np.random.default_rng(2))
+    features = np.random.default_rng(0).normal(size=(6, 4)).astype(np.float32)
+    turned = turn_features(features, ["face_area", "normal"], rotation.T)
+    assert turned.dtype == np.float32 and turned is not features
+    np.testing.assert_array_equal(turned[:, 0], features[:, 0])
+    np.testing.assert_allclose(turned[:, 1:], features[:, 1:] @ rotation.T, rtol=1e-6)
+    backwards = turn_features(features[:, [1, 2, 3, 0]], ["normal", "face_area"], rotation.T)
+    np.testing.assert_allclose(backwards[:, [3, 0, 1, 2]], turned, rtol=1e-6)
+    numbers = features[:, :1]
+    assert turn_features(numbers, ["face_area"], rotation.T) is numbers  # nothing to turn
+
+
+def test_turning_torch_features_one_turn_per_cloud():
+    torch = pytest.importorskip("torch")
+    turns = np.stack([random_rotation(np.random.default_rng(seed)) for seed in range(3)])
+    features = np.random.default_rng(1).normal(size=(3, 5, 4))
+    turned = turn_features(torch.from_numpy(features), ["face_area", "normal"],
+                           torch.from_numpy(turns))
+    for cloud in range(3):
+        np.testing.assert_allclose(turned[cloud].numpy(),
+                                   turn_features(features[cloud], ["face_area", "normal"],
+                                                 turns[cloud]))
 
 
 # locate_faces

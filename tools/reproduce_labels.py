@@ -67,6 +67,7 @@ from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.errors import InputError
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,
     best_constant_directions,
@@ -85,6 +86,7 @@ from vptoolkit.learn.schedule import scaled_lr_step
 from vptoolkit.learn.train import train_model, train_per_category
 from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_features import check_feature_names
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.synthetic import CATEGORIES, write_collection
 
@@ -143,11 +145,12 @@ def parse_args() -> argparse.Namespace:
                              "another")
     parser.add_argument("--pretrained-epochs", type=int,
                         help="epochs of the exported network (default: --epochs)")
-    parser.add_argument("--point-features", choices=["face_area", "none"],
-                        default=DEFAULT_POINT_FEATURES[0],
-                        help="what each input point carries besides its coordinates, for every "
-                             "network trained here (none: the paper's input; models/<method> "
-                             "then, else models/<method>_<feature>)")
+    parser.add_argument("--point-features", type=feature_names,
+                        default=DEFAULT_POINT_FEATURES,
+                        help="what each input point carries besides its coordinates, "
+                             "comma-separated names, for every network trained here (none: the "
+                             "paper's input; models/<method> then, else "
+                             "models/<method>_<feature>_...)")
     parser.add_argument("--pretrained-only", action="store_true",
                         help="train and export the shipped network alone, without the table")
     parser.add_argument("--pretrained-head", default="256,64",
@@ -194,7 +197,7 @@ QUICK = LabelSizes(per_category=3, epochs=2, resolution=64, n_views=100, n_point
 
 def main() -> None:
     args = parse_args()
-    features = () if args.point_features == "none" else (args.point_features,)
+    features = args.point_features
     sizes = replace(QUICK, point_features=features) if args.quick else LabelSizes(
         per_category=args.per_category, epochs=args.epochs, resolution=args.resolution,
         rotations=args.rotations, remesh=args.remesh, point_features=features)
@@ -232,6 +235,14 @@ def main() -> None:
         checkpoint = train_model(dataset, args.out / "models" / folder, options,
                                  resume=True, progress=True, threads=1).checkpoint
         export_pretrained(checkpoint, args.export_pretrained, command, data)
+
+
+def feature_names(text: str) -> tuple[str, ...]:
+    """``--point-features``: ``"face_area,normal"`` or ``"none"``, checked."""
+    try:
+        return check_feature_names(text, text=True)
+    except InputError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def parse_searches(text: str) -> list[tuple[int, int]]:

@@ -12,10 +12,19 @@ point feature gives each point a number from its mesh:
     on, with ``A_mean`` the mean face area of the mesh (total area over the
     number of faces): 0 on a mesh of equal faces, +1 on a face ``e^2`` (about
     7.4) times the mean, -1 on one 7.4 times smaller. Unitless and unchanged
-    by rotating, moving or scaling the mesh.
+    by rotating, moving or scaling the mesh. One column.
 
-:func:`point_features` stacks named features, ``(n, F)``, in the order
-given; :data:`POINT_FEATURES` lists the names. The face each point lies on is
+``"normal"``
+    The unit normal of that face by the right-hand rule on its winding
+    (:func:`vptoolkit.geometry.face_normals`), in the mesh's coordinates; the
+    zero vector on a degenerate face. Three columns, a vector: it turns with
+    the points (:func:`turn_features`), and a mesh wound inconsistently
+    gives normals of both signs, as it is.
+
+:func:`point_features` stacks named features, ``(n, F)`` with ``F =``
+:func:`feature_width`, in the order given; :data:`POINT_FEATURES` lists the
+names. Whoever turns points turns their vector features alike
+(:func:`turn_features`). The face each point lies on is
 known when the points are sampled (``sample_surface(...).face_index``); for
 stored points it is found again by :func:`locate_faces` (the nearest face,
 with numba, from the ``measures`` extra). Numpy only otherwise.
@@ -30,14 +39,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
-from vptoolkit.geometry import face_areas
+from vptoolkit.geometry import face_areas, face_normals
 from vptoolkit.mesh import MeshLike, as_mesh
 
-__all__ = ["POINT_FEATURES", "FACE_AREA_CLIP", "check_feature_names", "face_area_feature",
-           "locate_faces", "point_features"]
+__all__ = ["POINT_FEATURES", "FEATURE_WIDTHS", "FACE_AREA_CLIP", "check_feature_names",
+           "face_area_feature", "feature_width", "locate_faces", "normal_feature",
+           "point_features", "turn_features"]
 
-POINT_FEATURES: Final = ("face_area",)
+POINT_FEATURES: Final = ("face_area", "normal")
 """Names :func:`point_features` computes."""
+
+FEATURE_WIDTHS: Final = {"face_area": 1, "normal": 3}
+"""Columns of each feature: 1 for a number, 3 for a vector that turns with the points."""
 
 FACE_AREA_CLIP: Final = 3.0
 """``"face_area"`` is clipped to ``[-FACE_AREA_CLIP, FACE_AREA_CLIP]``."""
@@ -46,8 +59,16 @@ _GRID_CELLS = 64  # most grid cells along an axis in locate_faces
 _SLACK = 1e-4  # faces are searched for points within this share of the mesh's diagonal
 
 
-def check_feature_names(names: Any) -> tuple[str, ...]:
+def check_feature_names(names: Any, *, text: bool = False) -> tuple[str, ...]:
     """Return ``names`` as a tuple of distinct names of :data:`POINT_FEATURES`, or raise.
+
+    Parameters
+    ----------
+    names : sequence of str
+        Feature names, in order.
+    text : bool
+        Also take one string, as a command line gives it: comma-separated
+        names, or ``"none"`` for no feature (default: False).
 
     Raises
     ------
@@ -55,6 +76,8 @@ def check_feature_names(names: Any) -> tuple[str, ...]:
         ``point_features: ...`` for something other than a sequence of
         strings, an unknown name or a repeated one.
     """
+    if text and isinstance(names, str):
+        names = [] if names.strip() == "none" else [name.strip() for name in names.split(",")]
     if isinstance(names, str) or not isinstance(names, (list, tuple)) or not all(
             isinstance(name, str) for name in names):
         raise InputError(f"point_features: expected a list of names, got {names!r}")
@@ -113,19 +136,78 @@ def face_area_feature(mesh: MeshLike, face_index: ArrayLike) -> NDArray[np.float
     return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)
 
 
+def normal_feature(mesh: MeshLike, face_index: ArrayLike) -> NDArray[np.float32]:
+    """The ``"normal"`` feature of points lying on the faces ``face_index`` of ``mesh``.
+
+    Returns
+    -------
+    feature : (n, 3) float32
+        The unit normal of each point's face by its winding, in the mesh's
+        coordinates; zero for a degenerate face.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> square = (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float),
+    ...           np.array([[0, 1, 2], [0, 3, 2]]))
+    >>> normal_feature(square, [0, 1]).tolist()  # counter-clockwise seen from +z, then clockwise
+    [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]
+    """
+    mesh = as_mesh(mesh)
+    index = _check_face_index(face_index, len(mesh.faces), mesh.name)
+    return face_normals(mesh)[index].astype(np.float32)
+
+
+def feature_width(names: Sequence[str]) -> int:
+    """Columns of the named features together: the ``F`` of :func:`point_features`."""
+    return sum(FEATURE_WIDTHS[name] for name in check_feature_names(names))
+
+
+def turn_features(features: Any, names: Sequence[str], turn: Any) -> Any:
+    """Features of turned points: each vector feature's columns ``v`` become ``v @ turn``.
+
+    Points turned as ``x @ turn`` (``turn = R.T`` for a rotation ``R``, the
+    canonical frame's ``C.T``) keep their features this way: numbers stay,
+    vectors turn alike. Numpy arrays or torch tensors, ``(..., n, F)``, with
+    ``turn`` ``(3, 3)`` or one per leading index, ``(..., 3, 3)``; the
+    input is not changed, and with no vector feature it comes back as is.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> quarter = np.array([[0.0, 1.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # x -> y
+    >>> turn_features(np.array([[0.5, 1.0, 0.0, 0.0]]), ["face_area", "normal"], quarter).tolist()
+    [[0.5, 0.0, 1.0, 0.0]]
+    """
+    names = check_feature_names(names)
+    starts, offset = [], 0
+    for name in names:
+        if FEATURE_WIDTHS[name] == 3:
+            starts.append(offset)
+        offset += FEATURE_WIDTHS[name]
+    if not starts:
+        return features
+    turned = features.clone() if hasattr(features, "clone") else np.array(features)
+    for start in starts:
+        turned[..., start:start + 3] = features[..., start:start + 3] @ turn
+    return turned
+
+
 def point_features(mesh: MeshLike, face_index: ArrayLike,
                    names: Sequence[str]) -> NDArray[np.float32]:
     """The named features of points lying on the faces ``face_index`` of ``mesh``.
 
     Returns
     -------
-    features : (n, len(names)) float32
-        One column per name, in the order given (``(n, 0)`` for no names).
+    features : (n, F) float32
+        The columns of each name (:data:`FEATURE_WIDTHS`), in the order given
+        (``(n, 0)`` for no names).
     """
     names = check_feature_names(names)
-    columns = {"face_area": face_area_feature}
+    columns = {"face_area": lambda: face_area_feature(mesh, face_index)[:, None],
+               "normal": lambda: normal_feature(mesh, face_index)}
     n = len(np.asarray(face_index))
-    return np.stack([columns[name](mesh, face_index) for name in names], axis=1) if names else (
+    return np.concatenate([columns[name]() for name in names], axis=1) if names else (
         np.zeros((n, 0), np.float32))
 
 

@@ -31,6 +31,15 @@ def test_evaluate_scores_the_oracle_at_100_and_rejects_bad_files(runner, tmp_pat
     assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: bad.npy: ")
 
 
+def test_train_refuses_unknown_point_features_before_any_work(runner, tmp_path):
+    result = runner.invoke(main, ["train", str(tmp_path / "missing"), "-o", str(tmp_path / "m"),
+                                  "--point-features", "face_area,curvature"])
+    assert result.exit_code == 2
+    assert result.stderr == ("vptool: error: --point-features: unknown ['curvature'], expected "
+                             "names of ['face_area', 'normal']\n")
+    assert not (tmp_path / "m").exists()
+
+
 @pytest.mark.slow
 def test_train_predict_evaluate_from_the_command_line(runner, tmp_path):
     import shutil

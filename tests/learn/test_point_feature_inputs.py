@@ -11,9 +11,8 @@ from typing import Any
 import numpy as np
 import pytest
 
-from fixtures.builds import build_samples
 from fixtures.environment import require_package
-from fixtures.networks import TINY_CONFIG
+from fixtures.networks import TINY_CONFIG, calibrated
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.point_features import face_area_feature
@@ -59,22 +58,11 @@ def surface_cloud(name: str, n: int, seed: int) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def network(one_thread: None) -> ViewpointNet:
-    """The untrained face-area network, in eval mode, its batch norms set to the statistics
-    of four sample meshes' clouds: with batch norm at identity an untrained network answers
-    nearly the same for every input (its answers move by 1e-5 when the features do), with
-    them its answers follow its input as a trained network's do."""
-    model = ViewpointNet(FACE_AREA_CONFIG, seed=0)
+    """The untrained face-area network, its batch norms set to the statistics of four sample
+    meshes' clouds (:func:`calibrated`)."""
     clouds = np.stack([surface_cloud(name, 2048, seed=1)
                        for name in ("teapot.stl", "mug.obj", "bunny.ply", "suzanne.ply")])
-    for module in model.modules():
-        if isinstance(module, (torch.nn.BatchNorm1d, torch.nn.BatchNorm2d)):
-            module.momentum = None  # the plain mean of what the batch shows
-            module.reset_running_stats()
-    model.set_generator(torch.Generator().manual_seed(0))  # the dropout masks of this pass
-    with torch.no_grad():
-        model.train()(torch.from_numpy(clouds.astype(np.float32)))
-    model.set_generator(None)
-    return model.eval()
+    return calibrated(ViewpointNet(FACE_AREA_CONFIG, seed=0), clouds)
 
 
 @pytest.fixture(scope="module")
@@ -94,16 +82,9 @@ def checkpoint(network: ViewpointNet, tmp_path_factory: pytest.TempPathFactory) 
 
 
 @pytest.fixture(scope="module")
-def dataset_dir(tmp_path_factory: pytest.TempPathFactory, one_thread: None) -> Path:
-    """The mug and the teapot measured from 50 views at 32 px, 1000 stored points each."""
-    from vptoolkit.dataset.build.options import BuildOptions
-    from vptoolkit.settings import MeasureSettings
-
-    options = BuildOptions(MeasureSettings(views=50, resolution=32), n_points=1000, clean=False)
-    out = build_samples(tmp_path_factory.mktemp("features"), ("mug", "teapot"), category="shapes",
-                        options=options)
-    torch.set_num_threads(1)  # numba.set_num_threads in the build sets torch's OpenMP threads too
-    return out
+def dataset_dir(features_dataset: Path) -> Path:
+    """The mug and the teapot, 1000 stored points each (``features_dataset``)."""
+    return features_dataset
 
 
 def answers(model: ViewpointNet, clouds: torch.Tensor) -> torch.Tensor:

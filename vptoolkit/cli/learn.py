@@ -22,6 +22,7 @@ from vptoolkit.cli.options import (
     device_option,
     local_dataset,
     measures_option,
+    parse_point_features,
     seed_option,
 )
 from vptoolkit.errors import ExistingRunError, InputError
@@ -106,18 +107,20 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
                    "slower).")
 @measures_option("Measures to learn, one head each: names the dataset records (VE,NVT,SL), "
                  "'paper' or 'all' [default: every measure the dataset records].", default=None)
-@click.option("--point-features", type=click.Choice(["face_area", "none"]),
-              default=DEFAULT_POINT_FEATURES[0], show_default=True,
-              help="What each input point carries besides its coordinates: face_area, the "
-                   "relative area of the mesh face under it (the tessellation VE and VMI "
-                   "weigh); none, coordinates alone (the paper's input).")
+@click.option("--point-features", default=",".join(DEFAULT_POINT_FEATURES), show_default=True,
+              callback=lambda ctx, param, value: parse_point_features(value),
+              help="What each input point carries besides its coordinates, comma-separated: "
+                   "face_area, the relative area of the mesh face under it (the tessellation "
+                   "VE and VMI weigh); normal, that face's normal; or none, coordinates alone "
+                   "(the paper's input).")
 @device_option()
 @click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")
 @cache_dir_option()
 def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_size: int,
           lr: float, seed: int, val_split: str, per_category: bool, categories: str | None,
-          fps_pool: int, measures: tuple[str, ...] | None, point_features: str, device: str,
+          fps_pool: int, measures: tuple[str, ...] | None, point_features: tuple[str, ...],
+          device: str,
           threads: int | None, resume: bool, cache_dir: Path | None) -> None:
     """Train a viewpoint network on the train split of DATASET (a path or a release's URL).
 
@@ -168,8 +171,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
                                    fps_pool=fps_pool, measures=measures,
                                    architecture=ModelConfig(
                                        head=head_for_method(labels),
-                                       point_features=() if point_features == "none"
-                                       else (point_features,)))
+                                       point_features=point_features))
             if per_category:
                 results = train_per_category(dataset, output, options, **run)
             else:

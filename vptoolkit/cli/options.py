@@ -212,6 +212,19 @@ def parse_measures(value: str,
         raise InputError(f"--measures: {str(err).removeprefix('measures: ')}") from None
 
 
+def parse_point_features(value: str) -> tuple[str, ...]:
+    """The feature names of a ``--point-features`` value (``NAME,...`` or ``none``,
+    :func:`vptoolkit.point_features.check_feature_names`); a refusal is one line naming the
+    option."""
+    from vptoolkit.point_features import check_feature_names
+
+    try:
+        return check_feature_names(value, text=True)
+    except InputError as err:
+        raise InputError(f"--point-features: {str(err).removeprefix('point_features: ')}"
+                         ) from None
+
+
 def measures_option(help: str, *, default: str | None = "paper",
                     resolve: Callable[[str], tuple[str, ...]] | None = None,
                     dest: str = "measures") -> Callable[[Decorated], Decorated]:

@@ -456,8 +456,10 @@ class ViewpointDataset:
 
         Returns
         -------
-        features : (n_points, len(names)) float32
-            Row ``i`` belongs to ``self[key]["points"][i]``.
+        features : (n_points, F) float32
+            The names' columns (:func:`vptoolkit.point_features.feature_width`),
+            in the stored points' coordinates; row ``i`` belongs to
+            ``self[key]["points"][i]``.
         """
         from vptoolkit.mesh import Mesh
         from vptoolkit.point_features import check_feature_names, locate_faces, point_features

@@ -107,11 +107,12 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         :data:`vptoolkit.point_features.POINT_FEATURES` (default: none), as a
         network whose ``ModelConfig.point_features`` names them reads them;
         made once per model from its stored mesh
-        (:meth:`~vptoolkit.data.ViewpointDataset.point_features`) and not rotated.
+        (:meth:`~vptoolkit.data.ViewpointDataset.point_features`); vector
+        features (``"normal"``) are rotated with the points, numbers are not.
     cache : bool
         Keep every model's points, quality, best views and point features in
         memory after the first read (default: True; about 0.3 MB per model,
-        0.08 MB more per point feature).
+        0.08 MB more per point feature column).
     transform : callable, optional
         Called on every item dict (below) and returning the item the
         dataset gives, e.g. to add noise or drop keys; it runs in the
@@ -126,7 +127,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
     key             value                   meaning
     ==============  ======================  =============================================
     ``points``      (n_points, 3 + F)       input points, rotated, then their ``F``
-                    float32                 point features
+                    float32                 point feature columns (vectors rotated)
     ``views``       (n_views, 3) float32    all view directions, rotated
     ``quality``     (n_views, K) float32    normalised quality per view, 1 = best
     ``best_views``  (K, 3) float32          best view per measure, rotated
@@ -280,7 +281,10 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
         best_index = item["best_index"]
         turned = (points @ rotation.T).astype(np.float32)
         if self.point_features:
-            turned = np.concatenate([turned, item["features"][chosen]], axis=1)
+            from vptoolkit.point_features import turn_features
+
+            features = turn_features(item["features"][chosen], self.point_features, rotation.T)
+            turned = np.concatenate([turned, features.astype(np.float32)], axis=1)
         result = {
             "points": torch.from_numpy(turned),
             "views": torch.from_numpy(views.astype(np.float32)),

@@ -17,7 +17,7 @@ from vptoolkit.checks import check_float, check_int, check_keys, short_repr
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
-from vptoolkit.point_features import check_feature_names
+from vptoolkit.point_features import check_feature_names, feature_width
 
 __all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL",
            "MAX_LAYERS", "MAX_NEIGHBOURS", "MAX_PARAMETERS", "DEFAULT_LEVELS", "LevelConfig",
@@ -162,7 +162,8 @@ class ModelConfig:
         names of :data:`vptoolkit.point_features.POINT_FEATURES` (default: none,
         coordinates alone). ``("face_area",)`` tells the network the size of the
         face under each point, which the tessellation-weighted measures (VE,
-        VMI) depend on and uniform points do not show.
+        VMI) depend on and uniform points do not show; ``"normal"`` adds its
+        normal, a vector that turns with the canonical frame.
     """
 
     head: str = "direction"
@@ -235,8 +236,9 @@ class ModelConfig:
 
     @property
     def input_channels(self) -> int:
-        """Channels of one input point: 3 coordinates and ``len(point_features)`` features."""
-        return 3 + len(self.point_features)
+        """Channels of one input point: 3 coordinates and the point features' columns
+        (:func:`vptoolkit.point_features.feature_width`)."""
+        return 3 + feature_width(self.point_features)
 
     @property
     def n_measures(self) -> int:

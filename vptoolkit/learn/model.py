@@ -102,6 +102,7 @@ from vptoolkit.learn.labels import (
 )
 from vptoolkit.learn.layers import DirectionHead, GeneratorDropout, PointEncoder, SphereMapDecoder
 from vptoolkit.optional import require
+from vptoolkit.point_features import turn_features
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 
 if TYPE_CHECKING:
@@ -136,8 +137,9 @@ class ViewpointNet(nn.Module):
 
     Shapes:
         - **input:** points :math:`(B, N, 3 + F)`, coordinates at any position
-          and scale, then the :math:`F` features of ``config.point_features``
-          (:mod:`vptoolkit.point_features`); :math:`B \\ge 2` in training
+          and scale, then the :math:`F` feature columns of ``config.point_features``
+          (:mod:`vptoolkit.point_features`; vectors turn with the canonical
+          frame); :math:`B \\ge 2` in training
           mode (batch norm)
         - **output:** a dict with
 
@@ -222,6 +224,7 @@ class ViewpointNet(nn.Module):
             coordinates, features = points[..., :3], points[..., 3:]
             frame, centre = canonical_frame(
                 coordinates, generator=self._generator if self.training else None)
+            features = turn_features(features, self.config.point_features, frame.transpose(1, 2))
             points = torch.cat([to_frame(coordinates, frame, centre), features], dim=-1)
         outputs = self._heads(self.encoder(points))
         if frame is not None:
@@ -234,14 +237,16 @@ class ViewpointNet(nn.Module):
         """The heads' outputs for one cloud ``(N, 3 + F)`` put in each of ``frames`` ``(K, 3, 3)``.
 
         The network sees ``(x - centre) C_f^T`` for every frame ``C_f`` (the
-        point features, if any, unchanged);
+        point features, if any, with their vectors turned alike, ``v C_f^T``);
         ``"directions"`` ``(K, M, 3)`` come back in the input's frame (``d C_f``),
         every other output (``"maps"`` of a DLDL head) stays in its frame:
         :meth:`forward` is the case of the one canonical frame. For the frames of
         ambiguous axis signs (:class:`vptoolkit.learn.prior.NetworkPrior`).
         """
         clouds = points[None].expand(len(frames), -1, -1)
-        inputs = torch.cat([to_frame(clouds[..., :3], frames, centre), clouds[..., 3:]], dim=-1)
+        features = turn_features(clouds[..., 3:], self.config.point_features,
+                                 frames.transpose(1, 2))
+        inputs = torch.cat([to_frame(clouds[..., :3], frames, centre), features], dim=-1)
         outputs = self._heads(self.encoder(inputs))
         outputs["directions"] = from_frame(outputs["directions"], frames)
         return outputs

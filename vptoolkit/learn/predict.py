@@ -71,6 +71,7 @@ from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
+from vptoolkit.point_features import FEATURE_WIDTHS, turn_features
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS
 from vptoolkit.predictions import Predictions
 
@@ -322,9 +323,10 @@ def network_predictor(
     checkpoint's input size, seeded from ``seed`` and the model's name), and
     the answer is their consensus. A network that reads point features
     (``ModelConfig.point_features``) takes them from ``dataset``: the clouds
-    must be its models' stored points, in stored order, turned or not, as
-    :func:`vptoolkit.evaluate.protocol.score_protocol` gives them (the
-    features do not turn).
+    must be its models' stored points, in stored order, turned about the
+    origin or not, as :func:`vptoolkit.evaluate.protocol.score_protocol`
+    gives them. Vector features (``"normal"``) are turned as each cloud is,
+    the turn found from the stored points by least squares.
 
     Parameters
     ----------
@@ -352,13 +354,17 @@ def network_predictor(
                          "pass the dataset the points come from")
     cached: dict[tuple[str, tuple[str, ...]], NDArray[np.float32]] = {}
 
-    def features_of(name: str, wanted: tuple[str, ...]) -> NDArray[np.float32] | None:
+    def features_of(cloud: NDArray[Any], name: str,
+                    wanted: tuple[str, ...]) -> NDArray[np.float32] | None:
         if not wanted:
             return None
+        assert dataset is not None
         if (name, wanted) not in cached:
-            assert dataset is not None
             cached[name, wanted] = dataset.point_features(name, wanted)
-        return cached[name, wanted]
+        stored = cached[name, wanted]
+        if all(FEATURE_WIDTHS[feature] == 1 for feature in wanted):  # numbers: nothing turns
+            return stored
+        return turn_features(stored, wanted, stored_turn(dataset[name]["points"], cloud, name))
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
@@ -368,11 +374,35 @@ def network_predictor(
             wanted = networks[route][0].config.point_features
             prepared.append(network_inputs(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
                                            name=name, n_inputs=n_inputs,
-                                           features=features_of(name, wanted)))
+                                           features=features_of(cloud, name, wanted)))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
     return predictor
+
+
+def stored_turn(stored: NDArray[Any], cloud: NDArray[Any], name: str) -> NDArray[np.float64]:
+    """The turn ``T`` with ``cloud = stored @ T``: how a model's stored points were turned.
+
+    Least squares over the points, checked to reproduce ``cloud`` within
+    1e-4 of its extent (float32 rounding passes, other points do not).
+
+    Raises
+    ------
+    InputError
+        If ``cloud`` is not ``stored`` turned about the origin.
+    """
+    source = np.asarray(stored, dtype=np.float64)
+    target = np.asarray(cloud, dtype=np.float64)
+    if source.shape != target.shape:
+        raise InputError(f"{name}: expected the dataset's {len(source)} stored points, turned "
+                         f"or not, got shape {target.shape}")
+    turn = np.asarray(np.linalg.lstsq(source, target, rcond=None)[0], dtype=np.float64)
+    extent = max(float(np.abs(target).max(initial=0.0)), 1e-12)
+    if not np.abs(source @ turn - target).max(initial=0.0) <= 1e-4 * extent:
+        raise InputError(f"{name}: the points are not the dataset's stored points turned about "
+                         "the origin, so their point normals cannot be turned with them")
+    return turn
 
 
 def _checkpoint_name(model_path: str | os.PathLike[str], route: str | None) -> str:

@@ -21,6 +21,7 @@ from vptoolkit.learn.labels import nearest_view_quality
 from vptoolkit.learn.model import ViewpointNet
 from vptoolkit.learn.predict import network_indices
 from vptoolkit.optional import require
+from vptoolkit.point_features import turn_features
 from vptoolkit.rotations import fixed_rotations
 
 if TYPE_CHECKING:
@@ -42,7 +43,8 @@ def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int,
     """The validation inputs under the rotated protocol (as stored for ``rotations=0``).
 
     Returns ``points`` ``(n, n_points, 3 + F)`` (the coordinates, then the
-    ``F`` named ``point_features``, not rotated), ``views`` ``(n, V, 3)`` and
+    ``F`` columns of the named ``point_features``, vectors rotated with the
+    points), ``views`` ``(n, V, 3)`` and
     ``quality`` ``(n, V, M)``: the stored normalised quality's ``columns``
     (default: all), one per measure of the network, in its order.
     """
@@ -57,8 +59,8 @@ def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int,
                  else np.eye(3)[None])
         for rotation in turns:
             turned = base @ rotation.T
-            points.append(turned if features is None
-                          else np.concatenate([turned, features[chosen]], axis=1))
+            points.append(turned if features is None else np.concatenate(
+                [turned, turn_features(features[chosen], point_features, rotation.T)], axis=1))
             views.append(item["views"] @ rotation.T)
             quality.append(item["quality"] if columns is None
                            else item["quality"][:, list(columns)])
