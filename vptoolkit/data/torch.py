@@ -284,7 +284,7 @@ class ViewpointTorchDataset(torch.utils.data.Dataset[dict[str, Any]]):
             from vptoolkit.point_features import turn_features
 
             features = turn_features(item["features"][chosen], self.point_features, rotation.T)
-            turned = np.concatenate([turned, features.astype(np.float32)], axis=1)
+            turned = np.concatenate([turned, features.astype(np.float32, copy=False)], axis=1)
         result = {
             "points": torch.from_numpy(turned),
             "views": torch.from_numpy(views.astype(np.float32)),

@@ -352,7 +352,9 @@ def network_predictor(
     if reads and dataset is None:
         raise InputError(f"{model_path}: the network reads point features ({', '.join(reads)}); "
                          "pass the dataset the points come from")
-    cached: dict[tuple[str, tuple[str, ...]], NDArray[np.float32]] = {}
+    # per model and features: the stored features, and the stored points where a vector turns
+    cached: dict[tuple[str, tuple[str, ...]],
+                 tuple[NDArray[np.float32], NDArray[Any] | None]] = {}
 
     def features_of(cloud: NDArray[Any], name: str,
                     wanted: tuple[str, ...]) -> NDArray[np.float32] | None:
@@ -360,11 +362,13 @@ def network_predictor(
             return None
         assert dataset is not None
         if (name, wanted) not in cached:
-            cached[name, wanted] = dataset.point_features(name, wanted)
-        stored = cached[name, wanted]
-        if all(FEATURE_WIDTHS[feature] == 1 for feature in wanted):  # numbers: nothing turns
+            turns = any(FEATURE_WIDTHS[feature] > 1 for feature in wanted)
+            cached[name, wanted] = (dataset.point_features(name, wanted),
+                                    dataset[name]["points"] if turns else None)
+        stored, points = cached[name, wanted]
+        if points is None:  # numbers alone: nothing turns
             return stored
-        return turn_features(stored, wanted, stored_turn(dataset[name]["points"], cloud, name))
+        return turn_features(stored, wanted, stored_turn(points, cloud, name))
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
