@@ -120,22 +120,6 @@ def test_the_predicted_view_is_crossed_with_its_score(matplotlib_available):
     assert axes.get_title().endswith(f"predicted {score:.2f}")
 
 
-def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
-    from vptoolkit.pictures.sphere_map import save_figure, sphere_maps
-
-    views = fibonacci_sphere(N_VIEWS)
-    quality = smooth_quality(views, preferred_directions("four"))
-    predicted = np.full((4, 3), np.nan)
-    predicted[2] = [0, 0, 1]
-    figure = sphere_maps(views, quality, predicted=predicted, title="four")
-    gids = [a.get_gid() for a in figure.axes]
-    assert gids[:4] == [f"map-{m}" for m in MEASURES]
-    crosses = [any(line.get_gid() == "predicted" for line in a.lines) for a in figure.axes[:4]]
-    assert crosses == [False, False, True, False]
-    image = read_png(save_figure(figure, tmp_path / "maps.png"))
-    assert image.shape[:2] == (340, 1200)
-
-
 def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: Path, cube):
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map_file

@@ -143,12 +143,8 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
       vptool sphere-map bunny.npz --measures all -o bunny_maps.png
       vptool sphere-map bunny.ply --measures all --views 500 --resolution 128 -o all.png
     """
-    from vptoolkit.pictures.sphere_map import (
-        save_figure,
-        sphere_map_file,
-        sphere_maps,
-        sphere_maps_file,
-    )
+    from vptoolkit.pictures.sphere_map import save_figure, sphere_map_file
+    from vptoolkit.pictures.sphere_panels import sphere_maps, sphere_maps_file
 
     if measure is not None and measures_text is not None:
         raise InputError("sphere-map: give --measure or --measures, not both")

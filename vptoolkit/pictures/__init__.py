@@ -15,8 +15,10 @@ One concept per module:
 * :mod:`~vptoolkit.pictures.views`: pictures from given, best or predicted
   directions;
 * :mod:`~vptoolkit.pictures.png`: PNG encoding and atomic writing;
-* :mod:`~vptoolkit.pictures.sphere_map`: quality over the view sphere as
-  Mercator maps;
+* :mod:`~vptoolkit.pictures.sphere_map`: quality over the view sphere as a
+  Mercator map;
+* :mod:`~vptoolkit.pictures.sphere_panels`: every measure's map on one
+  figure, a grid of panels;
 * :mod:`~vptoolkit.pictures.contact_sheet`: a view set as one captioned picture;
 * :mod:`~vptoolkit.pictures.thumbnails`: a thumbnail per mesh of a folder;
 * :mod:`~vptoolkit.pictures.report`: the static HTML report of a dataset.

@@ -3,7 +3,7 @@
 :func:`write_report` writes ``index.html`` and its pictures into a folder
 that any browser opens from disk (no server, no network, no external
 script): one card per model with a picture from the best view of each
-measure, the quality maps (:func:`vptoolkit.pictures.sphere_map.sphere_maps`),
+measure, the quality maps (:func:`vptoolkit.pictures.sphere_panels.sphere_maps`),
 the scores of predictions if given, filters by category and split (also
 settable in the address, e.g. ``index.html#category=chair&split=test``)
 and a summary table per category. The measures are those the dataset
@@ -160,7 +160,8 @@ def write_report(
             )
     from vptoolkit.evaluate.scores import load_predictions, score_directions
     from vptoolkit.optional import require
-    from vptoolkit.pictures.sphere_map import save_figure, sphere_maps
+    from vptoolkit.pictures.sphere_map import save_figure
+    from vptoolkit.pictures.sphere_panels import sphere_maps
 
     require("matplotlib")
     target = as_path(out_dir, "out_dir")

@@ -1,15 +1,14 @@
 """Viewpoint quality over the view sphere, drawn as a Mercator map.
 
 The paper (Schelling et al. 2021, fig. 2) shows quality spheres as Mercator
-projections; :func:`sphere_map` draws one measure, :func:`sphere_maps` every
-measure of a quality array on a grid of panels (four to a row: the paper's
-four side by side, all 22 of the registry on six rows), with the best
-sampled view (star) and an optional predicted view (cross) marked. Columns
-are named by ``measures`` (by default the paper's four, ``MEASURES``); each
-panel is titled with the registry's name for its measure
+projections; :func:`sphere_map` draws one measure, with the best sampled
+view (star) and an optional predicted view (cross) marked. Columns of the
+quality are named by ``measures`` (by default the paper's four,
+``MEASURES``); each map is titled with the registry's name for its measure
 (:attr:`Measure.title <vptoolkit.measures.registry.Measure.title>`).
-:func:`sphere_map_file` and :func:`sphere_maps_file` draw the ``.npz`` of
-``vptool measures -o``, whatever measures it records.
+:func:`sphere_map_file` draws the ``.npz`` of ``vptool measures -o``,
+whatever measures it records. :mod:`vptoolkit.pictures.sphere_panels` lays
+the same map out once per measure on a grid of panels.
 
 Map frame
     A view direction ``v = (x, y, z)`` (unit, from the model centre towards
@@ -39,13 +38,6 @@ Values
 
 matplotlib is imported inside the functions; nothing is drawn through
 ``pyplot``, so no display and no global figure state are involved.
-
-Size
-    About 700 lines for one concept, the Mercator map: its coordinates and
-    nearest-view grid, one panel, the one-measure and the many-measure
-    figures, and the ``.npz`` files they are drawn from. Both figures draw
-    the same panel from the same checked inputs, and both files read the
-    same ``.npz``, so they stay beside them.
 """
 
 from __future__ import annotations
@@ -81,10 +73,8 @@ __all__ = [
     "mercator_y",
     "sphere_grid",
     "sphere_map",
-    "sphere_maps",
     "save_figure",
     "sphere_map_file",
-    "sphere_maps_file",
 ]
 
 BEST_COLOR = "#ff0000"
@@ -101,9 +91,7 @@ _GRID_WIDTH = 360  # map columns: one per degree of longitude
 _QUERY_CHUNK = 4096  # grid directions per nearest-view query (a 4096 x n_views matrix)
 _GRID_CACHE: dict[tuple[str, int, float], NDArray[np.int64]] = {}
 _GRID_CACHE_SIZE = 8
-_PER_ROW = 4  # panels per row of sphere_maps
 _TITLE_CHARACTERS = 42  # characters of a measure's words that fit a panel's width at full size
-_ROW_INCHES = 3.4  # height of one row of sphere_maps
 
 
 # --------------------------------------------------------------------------- coordinates
@@ -453,82 +441,6 @@ def sphere_map(
     return figure
 
 
-def sphere_maps(
-    views: ArrayLike,
-    quality: ArrayLike,
-    *,
-    measures: Sequence[str] | None = None,
-    predicted: ArrayLike | None = None,
-    title: str | None = None,
-    width: int = 180,
-    max_latitude_deg: float = _MAX_LATITUDE_DEG,
-    view_set: ArrayLike | None = None,
-) -> Figure:
-    """Every measure's Mercator map on one figure, four to a row, as in a report card.
-
-    Parameters
-    ----------
-    views : (n_views, 3) array_like
-        Sampled view directions.
-    quality : (n_views, M) array_like
-        Normalised quality, 1 = best, one column per name of ``measures``.
-    measures : sequence of str, optional
-        The names of the columns (default: the paper's four, ``MEASURES``,
-        which needs ``M = 4``).
-    predicted : (3,) or (M, 3) array_like, optional
-        Predicted directions (one for all, or one per measure; NaN rows: none).
-    title : str, optional
-        Figure title.
-    width : int
-        Columns of each map over 360 degrees (default: 180, two degrees each).
-    max_latitude_deg : float
-        Latitude of the maps' edges (default: 85).
-    view_set : (k, 3) array_like, optional
-        A view set (:mod:`vptoolkit.view_sets`), drawn on every map as
-        orange circles numbered in selection order (gids ``"view-set-1"`` ...).
-
-    Returns
-    -------
-    figure : matplotlib.figure.Figure
-        ``M`` map axes with gids ``"map-VE"`` ... (in ``measures`` order, row
-        by row, four to a row), each titled with the registry's words for its
-        measure, and one shared colour bar for [0, 1]. Each row is 3.4 inches
-        high and the figure 12 inches wide, so the paper's four make one row
-        of 12 x 3.4 inches, the registry's 22 six rows.
-    """
-    view_array = as_directions(views, name="views")
-    names = _measure_names(measures)
-    values = _quality_matrix(quality, len(view_array), len(names))
-    if values.shape[1] != len(names):
-        raise InputError(f"quality: expected shape ({len(view_array)}, {len(names)}), "
-                         f"got {np.shape(quality)}")
-    rows = _predicted_rows(predicted, len(names))
-    chosen = None if view_set is None else as_directions(view_set, name="view_set")
-    max_latitude_deg = _check_max_latitude(max_latitude_deg)
-    grid = sphere_grid(view_array, width=width, max_latitude_deg=max_latitude_deg)
-    n_rows = math.ceil(len(names) / _PER_ROW)
-    figure = _new_figure((12.0, _ROW_INCHES * n_rows))
-    limits = _limits(values)
-    height = 1.0 / n_rows  # one row, in figure fractions
-    for column, measure in enumerate(names):
-        row, place = divmod(column, _PER_ROW)
-        bottom = 1.0 - (row + 1) * height + 0.1 * height
-        axes = figure.add_axes((0.035 + 0.226 * place, bottom, 0.19, 0.74 * height),
-                               gid=f"map-{measure}")
-        image = _draw_panel(
-            axes, grid, view_array, values[:, column], label=measure,
-            predicted=None if rows is None else rows[column],
-            max_latitude_deg=max_latitude_deg, limits=limits, view_set=chosen, fontsize=8.0,
-        )
-    colorbar = figure.colorbar(image, cax=figure.add_axes(
-        (0.945, 0.1 * height, 0.012, 1.0 - 0.26 * height)))
-    colorbar.set_label("quality (1 = best)", fontsize=8)
-    colorbar.ax.tick_params(labelsize=7)
-    if title:
-        figure.suptitle(title, fontsize=10, y=1.0 - 0.01 / n_rows)
-    return figure
-
-
 # --------------------------------------------------------------------------- files
 
 
@@ -649,53 +561,5 @@ def sphere_map_file(
         figure = sphere_map(views, normalized, measure=names[column], measures=names,
                             predicted=predicted, title=name)
     except InputError as err:  # "quality: ..." and "views: ..." name the file too
-        raise InputError(f"{source.name}: {err}") from err
-    return save_figure(figure, output, dpi=dpi)
-
-
-def sphere_maps_file(
-    quality_path: str | os.PathLike[str],
-    output: str | os.PathLike[str],
-    *,
-    measures: Sequence[str] | None = None,
-    predicted: ArrayLike | None = None,
-    dpi: int = 100,
-) -> Path:
-    """Draw the maps of several measures a ``ViewQuality`` ``.npz`` records into one PNG.
-
-    Parameters
-    ----------
-    quality_path : path-like
-        ``vptool measures -o`` output, as :func:`sphere_map_file` reads it.
-    output : path-like
-        Target ``.png``.
-    measures : sequence of str, optional
-        The measures to draw, each one the file records (any case), in this
-        order (default: every measure it records, in its order).
-    predicted : (3,) array_like, optional
-        A predicted direction to mark on every map.
-    dpi : int
-        Pixels per inch (default: 100: 1200 pixels wide, 340 high per row of four).
-
-    Returns
-    -------
-    path : pathlib.Path
-        The written PNG (:func:`sphere_maps`: four maps to a row).
-
-    Raises
-    ------
-    InputError
-        If the file cannot be read, lacks ``views`` or ``normalized``, or
-        does not record one of ``measures``.
-    """
-    source = as_path(quality_path, "quality_path")
-    views, normalized, names, name = _read_quality(source)
-    try:
-        columns = (list(range(len(names))) if measures is None
-                   else [_column(measure, names) for measure in measures])
-        figure = sphere_maps(views, normalized[:, columns],
-                             measures=[names[c] for c in columns], predicted=predicted,
-                             title=name)
-    except InputError as err:
         raise InputError(f"{source.name}: {err}") from err
     return save_figure(figure, output, dpi=dpi)
