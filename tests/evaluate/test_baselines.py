@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from fixtures.builds import THREE_MESHES
 from fixtures.stores import SCORED_ENTRIES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
@@ -93,3 +94,16 @@ def test_oracle_directions_are_the_stored_best_views(scored_dataset: ViewpointDa
     oracle = oracle_directions(scored_dataset)
     for entry, row in zip(SCORED_ENTRIES, oracle):
         np.testing.assert_array_equal(row, scored_dataset.views[entry.best_index])
+
+
+def test_baselines_give_one_direction_per_recorded_measure(three_dataset):
+    random = random_directions(len(three_dataset), seed=0, n_measures=3)
+    assert random.shape == (len(THREE_MESHES), 3, 3)
+    np.testing.assert_allclose(np.linalg.norm(random, axis=2), 1.0)
+    assert np.isfinite(score_directions(three_dataset, random).scores).all()
+    clouds = [three_dataset[i]["points"] for i in range(len(three_dataset))]
+    pca = pca_directions(clouds, n_measures=3)
+    assert pca.shape == (len(THREE_MESHES), 3, 3)
+    np.testing.assert_array_equal(pca, pca[:, :1].repeat(3, axis=1))
+    with pytest.raises(InputError, match="n_measures"):
+        random_directions(2, seed=0, n_measures=0)

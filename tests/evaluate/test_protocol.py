@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fixtures.builds import build_samples
+from fixtures.builds import THREE_MEASURES, THREE_MESHES, build_samples
 from fixtures.environment import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.build.options import BuildOptions
@@ -143,3 +143,30 @@ def test_bad_predictors_and_empty_inputs_are_refused(dataset, tmp_path):
         constant_predictor(np.zeros(3))
     with pytest.raises(InputError, match="dataset: expected a ViewpointDataset"):
         score_protocol(Path("nowhere"), pca_predictor)  # type: ignore[arg-type]
+
+
+def test_the_protocol_scores_every_recorded_measure(three_dataset):
+    expected = random_view_scores(three_dataset)
+    assert expected.measures == THREE_MEASURES
+    assert expected.scores.shape == (len(THREE_MESHES), 3)
+    qualities = np.stack([three_dataset[i]["quality"] for i in range(len(three_dataset))])
+    np.testing.assert_allclose(expected.scores, 100.0 * qualities.mean(axis=1), rtol=1e-6)
+    rotated = score_protocol(three_dataset, pca_predictor, n_rotations=2)
+    stored = score_protocol(three_dataset, pca_predictor, rotate=False)
+    assert rotated.measures == THREE_MEASURES
+    assert rotated.scores.shape == (len(THREE_MESHES), 3)
+    np.testing.assert_allclose(rotated.scores, stored.scores, atol=1e-9)  # PCA turns along
+    constant = best_constant_directions(three_dataset)
+    assert constant.shape == (3, 3)
+    total = qualities.sum(axis=0)
+    np.testing.assert_array_equal(constant, three_dataset.views[total.argmax(axis=0)])
+    upright = score_protocol(three_dataset, constant_predictor(constant), rotate=False)
+    np.testing.assert_allclose(upright.mean, 100.0 * total.max(axis=0) / len(three_dataset),
+                               atol=1e-4)
+    by_mesh = score_mesh_protocol(three_dataset, lambda mesh: constant, n_rotations=2)
+    by_points = score_protocol(three_dataset, constant_predictor(constant), n_rotations=2)
+    np.testing.assert_allclose(by_mesh.scores, by_points.scores)
+    delta, sem = paired_difference(upright, stored)
+    assert delta.shape == sem.shape == (3,)
+    with pytest.raises(InputError, match=r"predictor: expected directions of shape \(4, 3, 3\)"):
+        score_protocol(three_dataset, lambda points, names: np.zeros((len(names), 4, 3)))
