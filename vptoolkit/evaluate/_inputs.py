@@ -1,4 +1,5 @@
-"""What both kinds of evaluation check in their inputs: splits, prediction arrays, messages.
+"""What both kinds of evaluation check in their inputs: models, splits, prediction arrays,
+messages.
 
 Private to :mod:`vptoolkit.evaluate`: :mod:`~vptoolkit.evaluate.scores` (one
 direction per model and measure) and :mod:`~vptoolkit.evaluate.coverage`
@@ -66,3 +67,18 @@ def select_split(dataset: ViewpointDataset, split: str) -> ViewpointDataset:
     if len(selected) == 0:
         raise InputError(f"{dataset.path.name}: split {split!r} has no models")
     return selected
+
+
+def check_models(dataset: ViewpointDataset) -> int:
+    """The number of models to evaluate; an empty dataset is refused, naming its store."""
+    if len(dataset) == 0:
+        raise InputError(f"{dataset.path.name}: no models to evaluate")
+    return len(dataset)
+
+
+def split_label(dataset: ViewpointDataset, split: str | None) -> str:
+    """A report's split: ``split`` as given, else the one split of every model, else ``"all"``."""
+    if split is not None:
+        return split
+    present = set(dataset.splits)
+    return present.pop() if len(present) == 1 else "all"

@@ -21,7 +21,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
-from vptoolkit.evaluate._inputs import check_directions, counted, quoted, select_split
+from vptoolkit.evaluate._inputs import (
+    check_directions,
+    check_models,
+    counted,
+    quoted,
+    select_split,
+    split_label,
+)
 from vptoolkit.predictions import read_arrays, unicode_vector
 
 __all__ = [
@@ -256,9 +263,7 @@ def score_view_sets(
     from vptoolkit.sphere import nearest_view
     from vptoolkit.view_sets.search import best_view_set, set_coverage
 
-    n_models = len(dataset)
-    if n_models == 0:
-        raise InputError(f"{dataset.path.name}: no models to evaluate")
+    n_models = check_models(dataset)
     values = np.asarray(directions, dtype=np.float64)
     if values.ndim != 3 or values.shape[0] != n_models or values.shape[2] != 3:
         raise InputError(f"directions: expected shape ({n_models}, k, 3), got {values.shape}")
@@ -278,9 +283,7 @@ def score_view_sets(
             predicted[model] = set_coverage(visibility, nearest)
             best = best_view_set(visibility, k).coverage
         greedy[model] = np.concatenate([best, np.full(k - len(best), best[-1])])
-    if split is None:
-        present = set(dataset.splits)
-        split = present.pop() if len(present) == 1 else "all"
+    split = split_label(dataset, split)
     return ViewSetReport(dataset.path.name, split, predictions, tuple(dataset.names),
                          tuple(dataset.categories), predicted, greedy)
 

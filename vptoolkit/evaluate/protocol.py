@@ -134,6 +134,12 @@ def _check_dataset(dataset: ViewpointDataset) -> None:
         raise InputError(f"{dataset.path.name}: no models to score")
 
 
+def _models_and_rotations(dataset: ViewpointDataset, n_rotations: int) -> tuple[list[str], int]:
+    """The names of the models to score (at least one) and the checked rotations per model."""
+    _check_dataset(dataset)
+    return list(dataset.names), check_int(n_rotations, "n_rotations", minimum=1)
+
+
 def _per_measure(directions: NDArray[np.float64], n_measures: int, what: str,
                  ) -> NDArray[np.float64]:
     """``(..., n_measures, 3)`` directions: as given, or one direction (``(..., 1, 3)``)
@@ -179,10 +185,10 @@ def score_protocol(dataset: ViewpointDataset, predictor: Predictor, *, n_rotatio
     Returns
     -------
     ProtocolScores
+        Each model's score averaged over its rotations (``n_rotations`` 0:
+        the stored orientation).
     """
-    _check_dataset(dataset)
-    n_rotations = check_int(n_rotations, "n_rotations", minimum=1)
-    names = list(dataset.names)
+    names, n_rotations = _models_and_rotations(dataset, n_rotations)
     points = [np.asarray(dataset[i]["points"], dtype=np.float64) for i in range(len(dataset))]
     if rotate:
         rotations = np.stack([fixed_rotations(name, n_rotations, seed=seed) for name in names])
@@ -224,10 +230,9 @@ def score_mesh_protocol(dataset: ViewpointDataset,
     Returns
     -------
     ProtocolScores
+        Each model's score averaged over the answers for its rotated meshes.
     """
-    _check_dataset(dataset)
-    n_rotations = check_int(n_rotations, "n_rotations", minimum=1)
-    names = list(dataset.names)
+    names, n_rotations = _models_and_rotations(dataset, n_rotations)
     measures = dataset.measures
     totals = np.zeros((len(names), len(measures)))
     for i, name in enumerate(names):

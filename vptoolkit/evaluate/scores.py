@@ -59,9 +59,11 @@ from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
     check_directions,
+    check_models,
     counted,
     quoted,
     select_split,
+    split_label,
 )
 from vptoolkit.measures.registry import all_measures
 from vptoolkit.predictions import parse_predictions, read_arrays
@@ -467,9 +469,7 @@ def score_directions(
         a measure is predicted for some models only, or a direction is
         infinite or zero.
     """
-    n_models = len(dataset)
-    if n_models == 0:
-        raise InputError(f"{dataset.path.name}: no models to evaluate")
+    n_models = check_models(dataset)
     measures = dataset.measures
     values = np.asarray(directions, dtype=np.float64)
     if values.shape != (n_models, len(measures), 3):
@@ -493,9 +493,7 @@ def score_directions(
     for model in range(n_models):
         quality = dataset.quality_of(model, values[model, columns])  # (n_scored, M)
         scores[model, columns] = 100.0 * quality[np.arange(len(columns)), columns]
-    if split is None:
-        present = set(dataset.splits)
-        split = present.pop() if len(present) == 1 else "all"
+    split = split_label(dataset, split)
     return EvaluationReport(
         dataset=dataset.path.name,
         split=split,

@@ -124,12 +124,10 @@ def open_renderer(engine: str = "software", *, size: int = PICTURE_SIZE,
         second for any view; ``"open3d"`` uses Filament's physically based
         shading through Vulkan, whose frame time on Mesa's software driver
         ranges from 0.1 s to minutes depending on the view.
-    size : int
-        Side of the square pictures in pixels, 16 to 4096 (default: 512).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``, those of the measures).
-    style : RenderStyle, optional
-        Shading (default: ``RenderStyle()``).
+    size, camera, style
+        Picture side in pixels (default: 512), camera (default: the
+        measures') and shading (default: ``RenderStyle()``), checked by
+        :func:`~vptoolkit.pictures.shading.engine_setup`.
 
     Returns
     -------

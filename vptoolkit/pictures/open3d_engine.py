@@ -59,12 +59,11 @@ from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures._open3d_child import read_message, write_message
 from vptoolkit.pictures.shading import (
-    MAX_PICTURE_SIZE,
-    MIN_PICTURE_SIZE,
     PICTURE_SIZE,
     CreaseNormals,
     RenderStyle,
     crease_normals,
+    engine_setup,
     light_direction,
     picture_camera,
 )
@@ -230,12 +229,8 @@ class Renderer:
 
     Parameters
     ----------
-    size : int
-        Side of the square pictures in pixels, 16 to 4096 (default: 512).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``, those of the measures).
-    style : RenderStyle, optional
-        Shading (default: ``RenderStyle()``).
+    size, camera, style
+        As :func:`~vptoolkit.pictures.engine.open_renderer` takes them.
     start_timeout : float
         Seconds the child may take for each stage of its start: importing
         Open3D and creating its renderer, then drawing a warm-up frame
@@ -265,9 +260,7 @@ class Renderer:
         frame_timeout: float = _FRAME_TIMEOUT,
         attempts: int = _ATTEMPTS,
     ) -> None:
-        self.size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
-        self.camera = camera or Camera()
-        self.style = style or RenderStyle()
+        self.size, self.camera, self.style = engine_setup(size, camera, style)
         for name, value in (("start_timeout", start_timeout), ("frame_timeout", frame_timeout)):
             if not (isinstance(value, (int, float)) and value > 0):
                 raise InputError(f"{name}: expected a positive number of seconds, got {value!r}")
@@ -406,20 +399,9 @@ class Renderer:
         return image.copy()
 
     def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
-        """Draw a mesh from each of several view directions.
-
-        Parameters
-        ----------
-        mesh : MeshLike
-            The model.
-        directions : (n, 3) or (3,) array_like
-            View directions from the model centre towards the camera (any
-            non-zero length).
-
-        Returns
-        -------
-        images : (n, size, size, 3) uint8
-            sRGB pictures, row 0 at the top (a single direction gives ``n = 1``).
+        """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
+        sRGB pictures, as :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
+        specifies (a single direction gives ``n = 1``).
 
         Raises
         ------

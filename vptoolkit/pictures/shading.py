@@ -4,6 +4,7 @@
 :class:`vptoolkit.pictures.software_engine.SoftwareRenderer` (numpy over the
 measures' rasteriser) draw the same pictures because they take these from one place:
 
+* :func:`engine_setup`: an engine's checked picture size, camera and style;
 * :class:`RenderStyle`: colours, crease angle, sun and image up;
 * :func:`crease_normals`: unshared face corners with crease-aware normals
   (:class:`CreaseNormals`);
@@ -24,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.camera import Camera
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import MeshLike, as_mesh
 
@@ -32,6 +34,7 @@ __all__ = [
     "MIN_PICTURE_SIZE",
     "MAX_PICTURE_SIZE",
     "RenderStyle",
+    "engine_setup",
     "CreaseNormals",
     "crease_normals",
     "picture_camera",
@@ -110,6 +113,33 @@ class RenderStyle:
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe record of the style."""
         return asdict(self)
+
+
+def engine_setup(size: int, camera: Camera | None,
+                 style: RenderStyle | None) -> tuple[int, Camera, RenderStyle]:
+    """The picture size, camera and style every engine starts from.
+
+    Parameters
+    ----------
+    size : int
+        Side of the square pictures in pixels, :data:`MIN_PICTURE_SIZE` to
+        :data:`MAX_PICTURE_SIZE` (16 to 4096).
+    camera : Camera or None
+        Camera conventions; None gives ``Camera()``, those of the measures.
+    style : RenderStyle or None
+        Shading and image up; None gives ``RenderStyle()``.
+
+    Returns
+    -------
+    size, camera, style : int, Camera, RenderStyle
+
+    Raises
+    ------
+    InputError
+        If ``size`` is not a whole number in range.
+    """
+    size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
+    return size, camera or Camera(), style or RenderStyle()
 
 
 class CreaseNormals(NamedTuple):

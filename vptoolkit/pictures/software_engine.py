@@ -36,11 +36,10 @@ from vptoolkit.checks import check_int
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.shading import (
-    MAX_PICTURE_SIZE,
-    MIN_PICTURE_SIZE,
     PICTURE_SIZE,
     RenderStyle,
     crease_normals,
+    engine_setup,
     light_direction,
     linear_to_srgb,
     picture_camera,
@@ -70,12 +69,8 @@ class SoftwareRenderer:
 
     Parameters
     ----------
-    size : int
-        Side of the square pictures in pixels, 16 to 4096 (default: 512).
-    camera : Camera, optional
-        Camera conventions (default: ``Camera()``, those of the measures).
-    style : RenderStyle, optional
-        Shading and image up (default: ``RenderStyle()``).
+    size, camera, style
+        As :func:`~vptoolkit.pictures.engine.open_renderer` takes them.
     supersampling : int
         Samples per pixel along each axis, 1 to 4 (default: 2); pictures
         wider than 2048 px get fewer, so the rasterised side stays <= 4096.
@@ -88,9 +83,7 @@ class SoftwareRenderer:
 
     def __init__(self, *, size: int = PICTURE_SIZE, camera: Camera | None = None,
                  style: RenderStyle | None = None, supersampling: int = 2) -> None:
-        self.size = check_int(size, "size", minimum=MIN_PICTURE_SIZE, maximum=MAX_PICTURE_SIZE)
-        self.camera = camera or Camera()
-        self.style = style or RenderStyle()
+        self.size, self.camera, self.style = engine_setup(size, camera, style)
         self.supersampling = check_int(supersampling, "supersampling", minimum=1, maximum=4)
         self._mesh: Mesh | None = None
         self._corners: NDArray[np.float64] | None = None
@@ -122,20 +115,9 @@ class SoftwareRenderer:
         self._mesh = mesh
 
     def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
-        """Draw a mesh from each of several view directions.
-
-        Parameters
-        ----------
-        mesh : MeshLike
-            The model.
-        directions : (n, 3) or (3,) array_like
-            View directions from the model centre towards the camera.
-
-        Returns
-        -------
-        images : (n, size, size, 3) uint8
-            sRGB pictures, row 0 at the top.
-        """
+        """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
+        sRGB pictures, as :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
+        specifies."""
         mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)

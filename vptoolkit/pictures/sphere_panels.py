@@ -129,8 +129,6 @@ def sphere_maps(
     return figure
 
 
-
-
 def sphere_maps_file(
     quality_path: str | os.PathLike[str],
     output: str | os.PathLike[str],
