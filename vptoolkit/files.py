@@ -384,7 +384,7 @@ def parse_json(data: str | bytes, label: str) -> Any:
 
 
 def read_json_file(path: str | os.PathLike[str], label: str | None = None) -> Any:
-    """Read and decode a JSON file.
+    """Read a JSON file and decode it with :func:`parse_json`.
 
     Parameters
     ----------
@@ -396,7 +396,7 @@ def read_json_file(path: str | os.PathLike[str], label: str | None = None) -> An
     Returns
     -------
     value : Any
-        The decoded value; callers check its type.
+        As :func:`parse_json` gives it.
 
     Raises
     ------

@@ -277,7 +277,7 @@ def run_on_cluster(
     Yields
     ------
     object
-        One result per task, in the order the tasks complete.
+        As :func:`run_tasks` does.
 
     Raises
     ------
