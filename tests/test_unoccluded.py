@@ -7,7 +7,8 @@ import pytest
 import trimesh
 from click.testing import CliRunner
 
-from vptoolkit.best_view import coarse_directions, search_best_views
+from vptoolkit.best_view.search import search_best_views
+from vptoolkit.sphere import coarse_directions
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError

@@ -5,7 +5,9 @@ import json
 import numpy as np
 import pytest
 
-from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
+from vptoolkit.best_view.search import search_best_views
+from vptoolkit.geometry import principal_frame
+from vptoolkit.sphere import coarse_directions
 from vptoolkit.best_view.search import _Renderer
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES

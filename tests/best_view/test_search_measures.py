@@ -10,12 +10,13 @@ import pytest
 
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
-from vptoolkit.best_view import coarse_directions, search_best_views
+from vptoolkit.best_view.search import search_best_views
+from vptoolkit.sphere import coarse_directions
 from vptoolkit.best_view.run import recorded_searchable, search_inputs
 from vptoolkit.best_view.search import searchable_measures
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.scores import evaluate_predictions
 from vptoolkit.io import load_mesh

@@ -14,7 +14,7 @@ from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from vptoolkit.cli import main
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import oracle_directions, pca_directions, random_directions
 from vptoolkit.evaluate.protocol import (
