@@ -1,4 +1,4 @@
-"""Other libraries' meshes in (trimesh, Open3D, (vertices, faces)), cameras out to their renderers."""
+"""Other libraries' meshes in (trimesh, Open3D, (vertices, faces)); cameras out to renderers."""
 
 import subprocess
 import sys

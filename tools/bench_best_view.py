@@ -78,7 +78,6 @@ from results_doc import (
 )
 
 from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION, search_best_views
-from vptoolkit.sphere import coarse_directions
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import build_dataset
@@ -94,6 +93,7 @@ from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import coarse_directions
 from vptoolkit.unoccluded import (
     UNOCCLUDED_DIRECTIONS,
     UnoccludedPrior,

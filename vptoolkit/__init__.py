@@ -60,7 +60,6 @@ from vptoolkit.measures.quality import ViewQuality, compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
-
 __all__ = [
     "BestViews",
     "MEASURES",

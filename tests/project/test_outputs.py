@@ -113,8 +113,8 @@ def test_names_up_to_255_bytes_can_be_written(tmp_path: Path, n_bytes: int) -> N
 def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
     small_build: Path, tmp_path: Path
 ) -> None:
-    from vptoolkit.dataset.store.reader import open_store
     from vptoolkit.dataset.release.pack import pack_release
+    from vptoolkit.dataset.store.reader import open_store
     from vptoolkit.dataset.store.writer import write_dataset
 
     beside = tmp_path / ".release.k9x2ab.partial"

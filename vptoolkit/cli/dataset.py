@@ -28,7 +28,6 @@ from vptoolkit.cli.options import (
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors.importer import AUTHORS_RESOLUTION
 from vptoolkit.dataset.builder.options import DEFAULT_FORMAT, FORMATS
-from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.dataset.builder.plan import CALIBRATION_MODELS
 from vptoolkit.dataset.release.options import (
     DEFAULT_FORMATS,
@@ -36,6 +35,7 @@ from vptoolkit.dataset.release.options import (
     DEFAULT_NAME,
     ReleaseOptions,
 )
+from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.errors import InputError
 from vptoolkit.settings import MAX_RESOLUTION
 
@@ -100,8 +100,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
     """
-    from vptoolkit.dataset.builder.run import build_dataset as build
     from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+    from vptoolkit.dataset.builder.run import build_dataset as build
     from vptoolkit.settings import MeasureSettings
 
     if remesh and no_clean:

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.authors.export import export_authors, order_for_paper_rule
+from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.builder.options import BuildOptions
-from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.builder.split_files import paper_split, paper_splits, read_model_list
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.samples import sample_path

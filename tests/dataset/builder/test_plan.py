@@ -19,11 +19,11 @@ from click.testing import CliRunner
 
 from vptoolkit.cli import main
 from vptoolkit.dataset.builder import run as build_module
-from vptoolkit.dataset.builder.run import COMPILE_NOTICE, build_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.plan import plan_build
-from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.builder.run import COMPILE_NOTICE, build_dataset
 from vptoolkit.dataset.builder.sources import discover_models, split_of, spread_over_categories
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.errors import InputError
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings

@@ -11,10 +11,10 @@ from click.testing import CliRunner
 
 from fixtures.paths import REPO
 from vptoolkit.cli import main
-from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
-from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.dataset.builder.split_files import read_split_file
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.errors import InputError
 from vptoolkit.samples import SAMPLE_SPLITS, sample_names, sample_path
 from vptoolkit.settings import MeasureSettings

@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
-from vptoolkit.dataset.store.reader import open_store
-from vptoolkit.dataset.store.schema import ARRAY_NAMES
+from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.dataset.builder.sources import discover_models
 from vptoolkit.dataset.builder.staging import STAGING_DIR, scan_staging, source_signature
+from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.dataset.store.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 

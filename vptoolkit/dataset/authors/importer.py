@@ -42,12 +42,12 @@ from numpy.typing import NDArray
 from vptoolkit.checks import as_path, check_bool, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
 from vptoolkit.dataset.builder.split_files import ListedModel, paper_splits, read_model_list
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
     ModelEntry,
     normal_length_problem,
     published_split,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import check_path_part, sha256_file, stale_partials

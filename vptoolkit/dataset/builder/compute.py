@@ -29,8 +29,8 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.builder.options import BuildOptions
-from vptoolkit.files import sha256_file
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
+from vptoolkit.files import sha256_file
 
 if TYPE_CHECKING:
     from vptoolkit.measures.quality import ViewQuality

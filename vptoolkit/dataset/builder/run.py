@@ -47,7 +47,6 @@ from pathlib import Path
 from typing import Any
 
 from vptoolkit.checks import as_path, check_bool, check_int
-from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
 from vptoolkit.dataset.builder.compute import (
     FailedModel,
     ModelTask,
@@ -55,7 +54,7 @@ from vptoolkit.dataset.builder.compute import (
     process_model,
     worker_died,
 )
-from vptoolkit.dataset.store.schema import published_split
+from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
 from vptoolkit.dataset.builder.sources import (
     SPLIT_FRACTIONS,
     SourceModel,
@@ -79,6 +78,7 @@ from vptoolkit.dataset.builder.staging import (
     staged_entries,
     warn_about_models_left_out,
 )
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require

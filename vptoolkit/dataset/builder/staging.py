@@ -39,6 +39,7 @@ from vptoolkit.checks import changed_values, one_line
 from vptoolkit.dataset.builder.compute import FailedModel, MeasuredModel
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.sources import SourceModel
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
     ENTRY_ARRAYS,
     FAILURE_KEYS,
@@ -46,7 +47,6 @@ from vptoolkit.dataset.store.schema import (
     from_json_bytes,
     json_bytes,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, read_json_file
 
