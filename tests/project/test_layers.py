@@ -77,6 +77,18 @@ def test_dataset_stages_import_only_lower_stages():
     assert not violations, violations
 
 
+SKIPPED_FOLDERS = {"build", "dist", "venv", "node_modules"}
+"""Folder names that pytest, ruff and packaging tools pass over by default."""
+
+
+def test_no_source_folder_has_a_name_tools_skip():
+    # tests and lint would silently miss a package, test or tool folder of such a name
+    named = [str(path.relative_to(PACKAGE.parent)) for top in ("vptoolkit", "tests", "tools")
+             for path in (PACKAGE.parent / top).rglob("*")
+             if path.is_dir() and path.name in SKIPPED_FOLDERS]
+    assert not named, named
+
+
 def module_name(path: Path) -> str:
     parts = ("vptoolkit", *path.relative_to(PACKAGE).with_suffix("").parts)
     return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
