@@ -150,8 +150,7 @@ class ModelConfig:
         ``"pca"``: the network sees each input in its canonical principal-axis
         frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
         so a rotated input gets a rotated prediction; ``"none"``: the input's
-        own frame (:func:`load_model` gives it to a checkpoint whose
-        configuration has no ``input_frame``). Default: "pca".
+        own frame. Default: "pca".
     point_features : tuple of str
         Features each input point carries after its coordinates, in order,
         names of :data:`vptoolkit.point_features.POINT_FEATURES` (default: none,
