@@ -1,4 +1,4 @@
-"""Other libraries' meshes in (trimesh, Open3D, (vertices, faces)), cameras out to their renderers."""
+"""Other libraries' meshes in (trimesh, Open3D, (vertices, faces)); cameras out to renderers."""
 
 import subprocess
 import sys
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fixtures.environment import require_package
-from vptoolkit.best_view import search_best_views
+from vptoolkit.best_view.search import search_best_views
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_areas
 from vptoolkit.io import load_mesh, save_mesh
@@ -142,7 +142,7 @@ import numpy as np
 import open3d as o3d
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
-from vptoolkit.best_view import search_best_views
+from vptoolkit.best_view.search import search_best_views
 
 mug = load_mesh(sample_path("mug.obj"))
 found = search_best_views(mug, budget=16, resolution=64)

@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from click.testing import CliRunner
 
-from vptoolkit.best_view import coarse_directions, search_best_views
+from vptoolkit.best_view.search import search_best_views
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
@@ -19,7 +19,7 @@ from vptoolkit.predictions import read_predictions
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
-from vptoolkit.sphere import fibonacci_sphere
+from vptoolkit.sphere import coarse_directions, fibonacci_sphere
 from vptoolkit.unoccluded import (
     UnoccludedPrior,
     mesh_elements,

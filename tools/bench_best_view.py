@@ -1,7 +1,7 @@
 """Benchmark of best-view answers: quality against cost, under rotation, in one run.
 
 For every mesh file under MESH_DIR (the bundled samples by default) the labels
-are built once with :func:`vptoolkit.dataset.build.run.build_dataset` (cleaned, 1000
+are built once with :func:`vptoolkit.dataset.builder.run.build_dataset` (cleaned, 1000
 views at 256 px, the paper's scoring grid) and cached under ``--cache``. Then
 every answer below sees the user's raw file under ``--rotations`` fixed
 rotations per mesh (:func:`vptoolkit.rotations.fixed_rotations`), its answer is
@@ -17,9 +17,9 @@ Answers:
   the mesh's faces, and from 2000 surface points with their normals (what a
   scan gives);
 * the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
-* plain search N @ R: :func:`vptoolkit.measures.compute_view_quality` on N
+* plain search N @ R: :func:`vptoolkit.measures.quality.compute_view_quality` on N
   Fibonacci views at R px, each measure's best view;
-* coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search_best_views`;
+* coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search.search_best_views`;
 * prior-guided search N @ R: the same with the candidates of
   :class:`vptoolkit.unoccluded.UnoccludedPrior` and of
   :class:`vptoolkit.learn.prior.NetworkPrior` (per ``--model``);
@@ -29,7 +29,7 @@ best of a set of candidate directions as the labels score them (an oracle
 choice), which no search that draws those candidates can beat:
 
 * a sphere of ``--ceiling-views`` directions in the principal frame
-  (:func:`vptoolkit.best_view.coarse_directions`), what a search of that
+  (:func:`vptoolkit.sphere.coarse_directions`), what a search of that
   budget draws;
 * the candidates of each prior, all of them, however many it proposes (their
   mean count is the row's views).
@@ -77,11 +77,11 @@ from results_doc import (
     write_section,
 )
 
-from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION, coarse_directions, search_best_views
+from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION, search_best_views
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.run import build_dataset
-from vptoolkit.dataset.build.sources import discover_models
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import build_dataset
+from vptoolkit.dataset.builder.sources import discover_models
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
@@ -93,6 +93,7 @@ from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import coarse_directions
 from vptoolkit.unoccluded import (
     UNOCCLUDED_DIRECTIONS,
     UnoccludedPrior,
@@ -324,8 +325,8 @@ def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: s
         alone"``, ...) -> (mean score per measure in %, VE, VR, VKL, VMI; median
         ms per mesh and rotation, None for an expectation). Needs the rows of
         the coarse-to-fine search at :data:`FEW_VIEWS` and
-        :data:`~vptoolkit.best_view.BUDGET` views and the plain search at
-        :data:`FLAT_VIEWS`, all at :data:`~vptoolkit.best_view.SEARCH_RESOLUTION`,
+        :data:`~vptoolkit.best_view.search.BUDGET` views and the plain search at
+        :data:`FLAT_VIEWS`, all at :data:`~vptoolkit.best_view.search.SEARCH_RESOLUTION`,
         the unoccluded estimate from points, both bundled networks alone
         (``"network alone"``, ``"network points alone"``), the PCA axis and the
         random view.

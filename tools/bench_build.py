@@ -1,4 +1,4 @@
-"""Benchmark of :func:`vptoolkit.dataset.build.run.build_dataset`: models per hour and bytes
+"""Benchmark of :func:`vptoolkit.dataset.builder.run.build_dataset`: models per hour and bytes
 per model.
 
 Makes a ModelNet-style tree from the bundled sample meshes (every sample,
@@ -59,9 +59,9 @@ from typing import Any
 
 from results_doc import add_results_option, printed_section
 
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.run import BuildResult, build_dataset
-from vptoolkit.dataset.build.staging import STAGING_DIR
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import BuildResult, build_dataset
+from vptoolkit.dataset.builder.staging import STAGING_DIR
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.io import find_mesh_files
@@ -113,7 +113,7 @@ def cpu_seconds() -> float:
 _CHILD_BUILD = """
 import json, resource, sys, time
 import vptoolkit
-from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.builder.run import build_dataset
 def cpu_seconds():
     own = resource.getrusage(resource.RUSAGE_SELF)
     children = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -121,7 +121,7 @@ def cpu_seconds():
 options = json.loads(sys.argv[3])
 started, cpu_started = time.perf_counter(), cpu_seconds()
 try:
-    from vptoolkit.dataset.build.options import BuildOptions
+    from vptoolkit.dataset.builder.options import BuildOptions
     from vptoolkit.settings import MeasureSettings
 except ImportError:  # a baseline whose build_dataset takes the options as keywords
     result = build_dataset(sys.argv[1], sys.argv[2], **options)

@@ -10,7 +10,7 @@ process):
   directions (the mesh already prepared); Open3D frames that hang past 60 s
   count as failures;
 * beside them, in the same run, the seconds of the measures for 1000 views at
-  1024 px (:func:`vptoolkit.measures.compute_view_quality`), and the ratio
+  1024 px (:func:`vptoolkit.measures.quality.compute_view_quality`), and the ratio
   "one picture / all the measures", so the cost of a thumbnail can be read
   against the cost of finding its view on this machine, whatever its load;
 * the 1-minute load average before and after.

@@ -47,8 +47,8 @@ def parse_args() -> argparse.Namespace:
 
 def build(folder: Path, per_category: int, quick: bool) -> Path:
     """A small procedural dataset with the paper's 20000 stored points."""
-    from vptoolkit.dataset.build.run import build_dataset
-    from vptoolkit.dataset.build.options import BuildOptions
+    from vptoolkit.dataset.builder.options import BuildOptions
+    from vptoolkit.dataset.builder.run import build_dataset
     from vptoolkit.points import N_SURFACE_POINTS
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.synthetic import write_collection

@@ -2,7 +2,7 @@
 
 For each mesh, in one run and with the same views and resolution:
 
-* ``quality s``: :func:`vptoolkit.measures.compute_view_quality` alone;
+* ``quality s``: :func:`vptoolkit.measures.quality.compute_view_quality` alone;
 * ``both s``: :func:`vptoolkit.view_sets.search.measure_view_set` (the measures and a
   4-view coverage set from one drawing of the views) and its extra time over
   ``quality s`` in percent (target: under 10 % at 1000 views);

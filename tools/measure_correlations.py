@@ -38,8 +38,14 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from results_doc import (add_results_option, command_line, format_seconds, machine,
-                         markdown_table, write_section)
+from results_doc import (
+    add_results_option,
+    command_line,
+    format_seconds,
+    machine,
+    markdown_table,
+    write_section,
+)
 
 from vptoolkit.io import find_mesh_files, load_mesh
 from vptoolkit.measures.quality import compute_view_quality

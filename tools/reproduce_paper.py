@@ -13,7 +13,7 @@ with ``--sections``:
     (its working folder is ``--labels-out``; the other sections reuse its
     dataset and ML+GL checkpoint).
 ``timings``
-    Table 3: brute-force measures (:func:`vptoolkit.measures.compute_view_quality`,
+    Table 3: brute-force measures (:func:`vptoolkit.measures.quality.compute_view_quality`,
     raster backend, 250 / 500 / 1000 views at the library's default
     resolution) against the network (an untrained :class:`ViewpointNet`; the
     weights do not change the cost) at batch 1 / 64 / 256 on 4096 points, for
@@ -591,8 +591,8 @@ def section_robustness(options: RunOptions) -> Section:
     from tqdm import tqdm
 
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.build.options import BuildOptions
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.options import BuildOptions
+    from vptoolkit.dataset.builder.run import build_dataset
     from vptoolkit.evaluate.protocol import (
         ProtocolScores,
         pca_predictor,

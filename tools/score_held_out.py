@@ -57,8 +57,8 @@ from results_doc import (
 from vptoolkit.cli.group import exit_code, one_line_error
 from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.errors import VptoolkitError
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,

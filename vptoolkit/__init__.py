@@ -8,8 +8,7 @@ module, layer by layer):
   camera defaults and splits; lazy optional packages; argument checks;
   atomic writes and the JSON reader; the progress bar; the process pool.
   ``_numba`` (private): numba, imported once with the package's threading
-  layer. ``deprecation``: old import paths of moved names, with a warning.
-  ``_version`` (private): the version, written once.
+  layer. ``_version`` (private): the version, written once.
 - ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
   and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
@@ -60,7 +59,6 @@ from vptoolkit.io import load_mesh, save_mesh
 from vptoolkit.measures.quality import ViewQuality, compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
-
 
 __all__ = [
     "BestViews",

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from vptoolkit.best_view import search_inputs
+from vptoolkit.best_view.run import search_inputs
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
 from vptoolkit.predictions import read_predictions

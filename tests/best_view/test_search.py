@@ -5,17 +5,18 @@ import json
 import numpy as np
 import pytest
 
-from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
-from vptoolkit.best_view.search import _Renderer
+from vptoolkit.best_view.search import _Renderer, search_best_views
 from vptoolkit.camera import Camera
 from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.geometry import principal_frame
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import coarse_directions
 
 
 @pytest.fixture(scope="module")

@@ -10,12 +10,11 @@ import pytest
 
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
-from vptoolkit.best_view import coarse_directions, search_best_views
 from vptoolkit.best_view.run import recorded_searchable, search_inputs
-from vptoolkit.best_view.search import searchable_measures
+from vptoolkit.best_view.search import search_best_views, searchable_measures
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.scores import evaluate_predictions
 from vptoolkit.io import load_mesh
@@ -25,6 +24,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import read_predictions
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import coarse_directions
 
 UNSEARCHABLE = ("INS", "DVS", "SAL", "EVMI", "MS")
 

@@ -28,8 +28,8 @@ import pytest
 
 from fixtures.environment import DASK_DASHBOARD, require_package
 from fixtures.paths import ASSETS
-from vptoolkit.dataset.build.run import build_dataset
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.schema import ARRAY_NAMES
 from vptoolkit.samples import sample_path

@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 import pytest
 
-from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION
+from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION
 from vptoolkit.cli import main
 from vptoolkit.cli.options import Direction
 from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED

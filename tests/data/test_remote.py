@@ -22,8 +22,7 @@ from click.testing import CliRunner, Result
 from fixtures.environment import require_package
 from fixtures.releases import write_release_build
 from vptoolkit.cli import main
-from vptoolkit.data import open_dataset
-from vptoolkit.data import download, ranges, remote
+from vptoolkit.data import download, open_dataset, ranges, remote
 from vptoolkit.data.remote import default_cache_dir, fetch_release, is_remote
 from vptoolkit.dataset.release.manifest import write_sha256sums
 from vptoolkit.dataset.release.options import ReleaseOptions
@@ -533,7 +532,8 @@ def test_a_complete_cache_opens_offline_with_one_notice(
             np.testing.assert_array_equal(remote_set[3]["quality"], local[3]["quality"])
     assert [record.getMessage() for record in caplog.records] == [notice]  # once per process
     (_release_folder(served, cache) / _archive_name(served)).unlink()  # no longer complete
-    with pytest.raises(InputError, match=r"release/SHA256SUMS: cannot be fetched .*gave up after 4"):
+    with pytest.raises(InputError,
+                       match=r"release/SHA256SUMS: cannot be fetched .*gave up after 4"):
         open_dataset(served.url, cache_dir=cache)
 
 

@@ -128,7 +128,7 @@ def test_report_shows_each_models_view_set_and_marks_it_on_the_maps(tiny_dataset
 
 def test_the_build_stores_each_models_coverage_set_and_the_loader_reads_it(tiny_dataset):
     from vptoolkit.data import open_dataset
-    from vptoolkit.dataset.build.compute import VIEW_SET_VIEWS
+    from vptoolkit.dataset.builder.compute import VIEW_SET_VIEWS
 
     with open_dataset(tiny_dataset) as dataset:
         for position in range(len(dataset)):

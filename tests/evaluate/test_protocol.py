@@ -11,7 +11,7 @@ import pytest
 from fixtures.builds import THREE_MEASURES, THREE_MESHES, build_samples
 from fixtures.environment import require_package
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.protocol import (
     ProtocolScores,

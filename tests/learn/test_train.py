@@ -13,7 +13,7 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.settings import MeasureSettings
 
 require_package("torch")

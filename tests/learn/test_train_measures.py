@@ -15,7 +15,7 @@ from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.settings import MeasureSettings
 
 require_package("torch")
@@ -193,17 +193,11 @@ def rewrite(folder: Path, change: Any) -> None:
     path.write_text(json.dumps(config))
 
 
-@pytest.mark.parametrize("where", ["architecture", "legacy"])
-def test_a_checkpoint_naming_an_unknown_measure_is_one_line(tmp_path, runner, where):
+def test_a_checkpoint_naming_an_unknown_measure_is_one_line(tmp_path, runner):
     folder = saved(tmp_path, MEASURED)
 
     def name_xyz(config: dict[str, Any]) -> None:
-        if where == "architecture":
-            config["architecture"]["measures"][1] = config["measures"][1] = "XYZ"
-        else:  # as written before heads were named: a count, and the names beside it
-            del config["architecture"]["measures"]
-            config["architecture"]["n_measures"] = 3
-            config["measures"] = ["VE", "VR", "XYZ"]
+        config["architecture"]["measures"][1] = config["measures"][1] = "XYZ"
 
     rewrite(folder, name_xyz)
     with pytest.raises(InputError, match=r"^model\.json: measures: unknown measure 'XYZ'; "
@@ -224,19 +218,18 @@ def test_a_checkpoint_whose_names_are_not_its_heads_is_refused(tmp_path):
         load_model(folder)
 
 
-def test_a_checkpoint_of_before_named_heads_loads_and_predicts_as_before(tmp_path, clouds):
+def test_an_architecture_that_counts_its_heads_is_refused_in_one_line(tmp_path):
+    # the heads are named (architecture.measures); a bare count is no key of ModelConfig
     folder = saved(tmp_path, MEASURES)
-    model, _ = load_model(folder)
-    expected = model(clouds)["directions"]
 
-    def as_before(config: dict[str, Any]) -> None:
+    def counted(config: dict[str, Any]) -> None:
         del config["architecture"]["measures"]
         config["architecture"]["n_measures"] = 4
 
-    rewrite(folder, as_before)
-    old, config = load_model(folder)
-    assert old.measures == MEASURES and config["measures"] == list(MEASURES)
-    assert torch.equal(old(clouds)["directions"], expected)
+    rewrite(folder, counted)
+    with pytest.raises(InputError, match=r"n_measures") as raised:
+        load_model(folder)
+    assert "\n" not in str(raised.value)
 
 
 @pytest.mark.parametrize("bundled", ["default", "points"])
@@ -245,9 +238,7 @@ def test_the_bundled_networks_keep_the_papers_four(bundled):
     assert model.measures == MEASURES == MeshPredictor(bundled).measures
     predictions = predict(bundled, [sample_path("table")], device="cpu")
     assert predictions.measures == MEASURES and predictions.directions.shape == (1, 4, 3)
-    if bundled == "points":  # a checkpoint from before the heads were named: read by count
-        assert config["architecture"]["n_measures"] == 4
-        assert "measures" not in config["architecture"]
+    assert config["architecture"]["measures"] == list(MEASURES)
 
 
 def test_per_category_networks_must_predict_the_same_measures(tmp_path):

@@ -6,9 +6,9 @@ import pytest
 
 from fixtures.meshes import box_mesh, primitive_mesh
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.measures.catalog import dvs, ins
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere

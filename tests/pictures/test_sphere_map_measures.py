@@ -11,7 +11,7 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.pictures import MUG_MEASURES, read_png
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import oracle_directions
 from vptoolkit.predictions import write_predictions

@@ -24,7 +24,7 @@ from click.testing import CliRunner
 
 from fixtures.environment import require_package
 from vptoolkit.cli import main
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 
@@ -72,7 +72,7 @@ def test_underflowing_coordinates_are_bad_input(tmp_path: Path, command: str) ->
 
 
 def test_a_build_records_an_underflowing_mesh_as_a_failure(tmp_path: Path) -> None:
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.run import build_dataset
 
     src = tmp_path / "src"
     src.mkdir()
@@ -331,8 +331,8 @@ def test_the_json_reader_turns_every_decoding_failure_into_one_line(tmp_path: Pa
 
 
 def test_a_deeply_nested_build_record_is_one_line(tmp_path: Path) -> None:
-    from vptoolkit.dataset.build.run import build_dataset
-    from vptoolkit.dataset.build.staging import STAGING_DIR
+    from vptoolkit.dataset.builder.run import build_dataset
+    from vptoolkit.dataset.builder.staging import STAGING_DIR
     from vptoolkit.errors import InputError
 
     src = tmp_path / "src"

@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 import pytest
-
 from check_install_docs import CPU_INDEX, install_doc_problems
+
 from fixtures.paths import REPO
 
 SCRIPT = REPO / "tools" / "check_install_docs.py"

@@ -11,7 +11,7 @@ import vptoolkit
 
 LAYERS = {
     "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0, "progress": 0,
-    "parallel": 0, "_numba": 0, "deprecation": 0, "_version": 0,
+    "parallel": 0, "_numba": 0, "_version": 0,
     "mesh": 1, "io": 1, "samples": 1, "predictions": 4,
     "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2, "settings": 2,
     "visibility": 3,
@@ -57,13 +57,15 @@ def test_no_module_imports_from_a_higher_layer():
     assert not violations, violations
 
 
-DATASET_STAGES = {"store": {"store"}, "build": {"store", "build"},
-                  "release": {"store", "release"}, "authors": {"store", "build", "authors"}}
+DATASET_STAGES = {"store": {"store"}, "builder": {"store", "builder"},
+                  "release": {"store", "release"}, "authors": {"store", "builder", "authors"}}
 """Which stages of ``vptoolkit.dataset`` each stage may import (its own and those below)."""
 
 
 def test_dataset_stages_import_only_lower_stages():
     violations = []
+    assert {p.name for p in (PACKAGE / "dataset").iterdir() if p.is_dir()} - {"__pycache__"} \
+        == set(DATASET_STAGES)
     for stage, allowed in DATASET_STAGES.items():
         for path in sorted((PACKAGE / "dataset" / stage).rglob("*.py")):
             for node in ast.walk(ast.parse(path.read_text())):
@@ -73,6 +75,18 @@ def test_dataset_stages_import_only_lower_stages():
                             and parts[2] not in allowed:
                         violations.append(f"{path.relative_to(PACKAGE)} imports {node.module}")
     assert not violations, violations
+
+
+SKIPPED_FOLDERS = {"build", "dist", "venv", "node_modules"}
+"""Folder names that pytest, ruff and packaging tools pass over by default."""
+
+
+def test_no_source_folder_has_a_name_tools_skip():
+    # tests and lint would silently miss a package, test or tool folder of such a name
+    named = [str(path.relative_to(PACKAGE.parent)) for top in ("vptoolkit", "tests", "tools")
+             for path in (PACKAGE.parent / top).rglob("*")
+             if path.is_dir() and path.name in SKIPPED_FOLDERS]
+    assert not named, named
 
 
 def module_name(path: Path) -> str:
@@ -181,6 +195,16 @@ def test_names_are_exported_only_by_the_module_that_defines_them():
                 exported = [ast.literal_eval(element) for element in node.value.elts]
                 re_exported += [f"{name}.{item}" for item in exported if item in imported]
     assert not re_exported, f"__all__ lists imported names: {', '.join(re_exported)}"
+
+
+def test_no_module_re_exports_a_name_as_itself():
+    # "from m import X as X" (and "import X as X") is the re-export form of type checkers:
+    # a face that __all__ does not show. vptoolkit itself, the one face, uses __all__.
+    re_exported = [f"{name}: {alias.name} as {alias.asname}" for name, path in MODULES.items()
+                   for node in ast.walk(ast.parse(path.read_text()))
+                   if isinstance(node, (ast.Import, ast.ImportFrom))
+                   for alias in node.names if alias.asname == alias.name]
+    assert not re_exported, f"names re-exported as themselves: {', '.join(re_exported)}"
 
 
 def _defined_names(tree: ast.Module) -> set[str]:

@@ -14,7 +14,7 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, write_bytes_atomic
 from vptoolkit.samples import sample_path
@@ -113,8 +113,8 @@ def test_names_up_to_255_bytes_can_be_written(tmp_path: Path, n_bytes: int) -> N
 def test_stale_partials_of_killed_writes_are_removed_by_the_next_success(
     small_build: Path, tmp_path: Path
 ) -> None:
-    from vptoolkit.dataset.store.reader import open_store
     from vptoolkit.dataset.release.pack import pack_release
+    from vptoolkit.dataset.store.reader import open_store
     from vptoolkit.dataset.store.writer import write_dataset
 
     beside = tmp_path / ".release.k9x2ab.partial"
@@ -162,14 +162,14 @@ def test_frame_buffers_are_capped_by_a_memory_budget() -> None:
 
 
 def test_a_rerun_with_fewer_categories_says_the_store_shrinks(tmp_path: Path, caplog) -> None:
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.run import build_dataset
 
     for relative in ("cup/teapot.stl", "shape/suzanne.ply"):
         (tmp_path / "src" / relative).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(sample_path(Path(relative).name), tmp_path / "src" / relative)
     options = BuildOptions(MeasureSettings(views=20, resolution=32), n_points=50, clean=False)
     build_dataset(tmp_path / "src", tmp_path / "out", options)
-    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.build.staging"):
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.builder.staging"):
         result = build_dataset(tmp_path / "src", tmp_path / "out", options, categories=["cup"])
     assert result.n_models == 1
     assert any("1 staged models are not part of this run" in r.getMessage()

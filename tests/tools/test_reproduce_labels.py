@@ -32,9 +32,9 @@ def test_searches_are_parsed(tool: ModuleType) -> None:
 @pytest.mark.slow
 def test_a_built_dataset_is_trained_and_scored_on_its_validation_split(
         tool: ModuleType, tmp_path: Path) -> None:
-    from vptoolkit.dataset.build.options import BuildOptions, SplitFile
-    from vptoolkit.dataset.build.run import build_dataset
-    from vptoolkit.dataset.build.split_files import class_split, write_split_file
+    from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+    from vptoolkit.dataset.builder.run import build_dataset
+    from vptoolkit.dataset.builder.split_files import class_split, write_split_file
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.synthetic import write_collection
 

@@ -328,7 +328,7 @@ class SearchSettings:
     budget : int
         Views drawn over all stages, 1 to :data:`MAX_BUDGET` (default:
         :data:`BUDGET` = 64). A view at ``resolution`` px costs about what one
-        of the 1000 views of :func:`~vptoolkit.measures.compute_view_quality`
+        of the 1000 views of :func:`~vptoolkit.measures.quality.compute_view_quality`
         costs there; views of a smaller ``coarse_resolution`` cost less.
     resolution : int
         Image side in pixels of the views that decide the answer, 1 to

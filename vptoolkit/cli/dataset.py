@@ -27,15 +27,15 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import DATASET_VERSION, SEED
 from vptoolkit.dataset.authors.importer import AUTHORS_RESOLUTION
-from vptoolkit.dataset.build.options import DEFAULT_FORMAT, FORMATS
-from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
-from vptoolkit.dataset.build.plan import CALIBRATION_MODELS
+from vptoolkit.dataset.builder.options import DEFAULT_FORMAT, FORMATS
+from vptoolkit.dataset.builder.plan import CALIBRATION_MODELS
 from vptoolkit.dataset.release.options import (
     DEFAULT_FORMATS,
     DEFAULT_LICENSE,
     DEFAULT_NAME,
     ReleaseOptions,
 )
+from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.errors import InputError
 from vptoolkit.settings import MAX_RESOLUTION
 
@@ -100,8 +100,8 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
     """
-    from vptoolkit.dataset.build.run import build_dataset as build
-    from vptoolkit.dataset.build.options import BuildOptions, SplitFile
+    from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+    from vptoolkit.dataset.builder.run import build_dataset as build
     from vptoolkit.settings import MeasureSettings
 
     if remesh and no_clean:
@@ -116,7 +116,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
         splits=None if split_file is None else SplitFile.read(split_file),
         max_models=max_models, format=store_format)
     if dry_run:
-        from vptoolkit.dataset.build.plan import plan_build
+        from vptoolkit.dataset.builder.plan import plan_build
 
         plan = plan_build(src, out, options, categories=chosen, progress=True,
                           calibrate=CALIBRATION_MODELS if calibrate is None else calibrate,
@@ -395,8 +395,8 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
       vptool split meshes/ -o splits.csv --validation 0.1
       vptool build-dataset meshes/ out/ --splits splits.csv --workers 2
     """
-    from vptoolkit.dataset.build.sources import discover_models
-    from vptoolkit.dataset.build.split_files import class_split, write_split_file
+    from vptoolkit.dataset.builder.sources import discover_models
+    from vptoolkit.dataset.builder.split_files import class_split, write_split_file
 
     chosen = comma_list(categories)
     models = discover_models(src, chosen)

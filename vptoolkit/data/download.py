@@ -51,9 +51,8 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, BinaryIO, NamedTuple, TypeVar
 
 from vptoolkit.checks import one_line
-from vptoolkit.files import BLOCK_SIZE
 from vptoolkit.errors import InputError, MissingDependencyError, VerificationError
-from vptoolkit.files import atomic_write, remove_stale_partials, temporary_prefix
+from vptoolkit.files import BLOCK_SIZE, atomic_write, remove_stale_partials, temporary_prefix
 from vptoolkit.optional import require
 from vptoolkit.progress import Bar, progress_bar
 
@@ -284,7 +283,7 @@ class FsspecSource:
         return f"{self.base}/{relative}"
 
     def open(self, relative: str, limit: int, why: str, start: int = 0) -> Body:
-        """The content of ``relative`` from byte ``start`` on, in blocks of :data:`BLOCK_SIZE` bytes.
+        """The content of ``relative`` from byte ``start`` on, in :data:`BLOCK_SIZE`-byte blocks.
 
         Refused at once when the file system reports more than ``limit`` bytes.
         """

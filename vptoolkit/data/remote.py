@@ -73,15 +73,15 @@ from vptoolkit.data.download import (
     source_of,
 )
 from vptoolkit.data.ranges import RemoteArchive
-from vptoolkit.dataset.store.containers import archive_preference, store_kind
 from vptoolkit.dataset.release.descriptions import CROISSANT_NAME
 from vptoolkit.dataset.release.licenses import LICENSES_NAME
 from vptoolkit.dataset.release.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums
-from vptoolkit.files import sha256_file
+from vptoolkit.dataset.store.containers import archive_preference, store_kind
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     parse_json,
     read_json_file,
+    sha256_file,
     write_bytes_atomic,
     write_json_atomic,
     write_text_atomic,

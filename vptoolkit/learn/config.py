@@ -51,9 +51,6 @@ MAX_LAYERS: Final = 16
 MAX_PARAMETERS: Final = 1 << 27
 """Most parameters of a network (134 million, 512 MiB in float32)."""
 
-_LEGACY_COUNT = "n_measures"  # how checkpoints before named heads said how many heads they had
-
-
 @dataclass(frozen=True)
 class LevelConfig:
     """One level of the point hierarchy and its convolution.
@@ -133,8 +130,6 @@ class ModelConfig:
         number of them, the paper's four among them in their order, as
         :class:`~vptoolkit.predictions.Predictions` carry them (default:
         ``MEASURES``, the paper's four). A sequence is kept as a tuple.
-        :meth:`from_dict` reads the ``n_measures`` of older checkpoints as
-        the first ``n_measures`` of ``MEASURES``.
     levels : tuple of LevelConfig
         The hierarchy below the global level (default: :data:`DEFAULT_LEVELS`).
     latent_channels : int
@@ -155,8 +150,7 @@ class ModelConfig:
         ``"pca"``: the network sees each input in its canonical principal-axis
         frame and rotates its predictions back (:mod:`vptoolkit.learn.frame`),
         so a rotated input gets a rotated prediction; ``"none"``: the input's
-        own frame (:func:`load_model` gives it to a checkpoint whose
-        configuration has no ``input_frame``). Default: "pca".
+        own frame. Default: "pca".
     point_features : tuple of str
         Features each input point carries after its coordinates, in order,
         names of :data:`vptoolkit.point_features.POINT_FEATURES` (default: none,
@@ -266,14 +260,8 @@ class ModelConfig:
             (``MAX_CHANNELS``, ``MAX_KERNEL``, ``MAX_NEIGHBOURS``, ``MAX_LAYERS``),
             naming the field.
         """
-        kwargs = check_keys(values, (*cls.__dataclass_fields__, _LEGACY_COUNT), "architecture",
+        kwargs = check_keys(values, tuple(cls.__dataclass_fields__), "architecture",
                             missing_ok=True)
-        if _LEGACY_COUNT in kwargs:  # a checkpoint from before the heads were named
-            if "measures" in kwargs:
-                raise InputError(f"architecture: give measures or {_LEGACY_COUNT}, not both")
-            count = kwargs.pop(_LEGACY_COUNT)
-            check_positive_int(count, _LEGACY_COUNT, maximum=len(MEASURES))
-            kwargs["measures"] = MEASURES[:count]
         if "levels" in kwargs:
             levels = kwargs["levels"]
             if not isinstance(levels, (list, tuple)) or not all(isinstance(level, Mapping)

@@ -4,9 +4,10 @@ A network sees a model through one input, a few thousand points drawn from
 its sampled surface (:func:`vptoolkit.learn.predict.network_points`), and
 its answer moves with that draw: on real meshes a resampled copy of a model
 may get an answer tens of degrees away (``docs/results.md``), mostly a jump
-between two views that score alike (views on opposite sides for VKL). Asking the network about ``K`` independent inputs and
-keeping the answer most of the others agree with removes that noise
-without changing what the network prefers.
+between two views that score alike (views on opposite sides for VKL).
+Asking the network about ``K`` independent inputs and keeping the answer
+most of the others agree with removes that noise without changing what the
+network prefers.
 
 For one measure with candidate unit directions ``d_1 .. d_K`` the consensus
 is the candidate of highest kernel density

@@ -422,9 +422,8 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         described = config["architecture"]
         if not isinstance(described, Mapping):
             raise InputError(f"architecture: expected an object, got {type(described).__name__}")
-        # a configuration without the input frame is of raw inputs
-        architecture = ModelConfig.from_dict({"input_frame": "none", **described})
-        # The names of the heads: the architecture's; older checkpoints name them only here.
+        architecture = ModelConfig.from_dict(described)
+        # The top-level names, where given, must be the heads' (the architecture's order).
         named = check_measure_names(config.get("measures", list(architecture.measures)))
         if named != architecture.measures:
             raise InputError(f"measures: the measure order {', '.join(named)} is not that of "

@@ -249,8 +249,8 @@ class TrainOptions:
         so must ``lr_step`` unless both are the default of their ``epochs``
         (a default step grows with the run). A differing architecture is
         named by its field, e.g. ``architecture.head_channels``; differing
-        measures as ``measures`` alone. Options without ``measures`` (a run
-        recorded before they were chosen) stand for their architecture's.
+        measures as ``measures`` alone. Options whose ``measures`` is None
+        stand for their architecture's.
         """
         conflicts = changed_values(_named(recorded).to_dict(), _named(self).to_dict())
         if "measures" in conflicts:  # the architecture's heads follow them

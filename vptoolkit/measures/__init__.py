@@ -17,14 +17,6 @@ Modules, one concept each:
   of Lee et al.'s Gaussian weights and of the per-view sums.
 - ``catalog``: one module per measure, found by the registry.
 
-The names of the former single module stay importable from here
-(``from vptoolkit.measures import compute_view_quality``); inside vptoolkit
-each name is imported from its own module.
+Import each name from its module (``from vptoolkit.measures.quality import
+compute_view_quality``); this package imports nothing.
 """
-
-from vptoolkit.measures.quality import ViewQuality as ViewQuality
-from vptoolkit.measures.quality import compute_view_quality as compute_view_quality
-from vptoolkit.measures.quality import normalize_quality as normalize_quality
-from vptoolkit.measures.quality import progress_runs as progress_runs
-from vptoolkit.measures.quality import quality_from_histograms as quality_from_histograms
-from vptoolkit.measures.quality import ranked_views as ranked_views

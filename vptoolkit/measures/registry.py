@@ -7,7 +7,7 @@ adding one module. Names are the short names of Bonaventura et al. (2018)
 (``"VE"``, ``"SL"``, ...) and are the names stored in files.
 
 What a measure reads is declared in :attr:`Measure.needs`, one or more of
-:data:`NEEDS`; :func:`vptoolkit.measures.compute_view_quality` draws and
+:data:`NEEDS`; :func:`vptoolkit.measures.quality.compute_view_quality` draws and
 computes only what the requested measures need.
 """
 

@@ -1,7 +1,7 @@
 """Thumbnails for a folder of meshes, from each mesh's best (or a predicted) view.
 
 :func:`render_thumbnails` draws one picture per mesh file below a folder:
-the measures (:func:`vptoolkit.measures.compute_view_quality`) run in
+the measures (:func:`vptoolkit.measures.quality.compute_view_quality`) run in
 parallel worker processes while one renderer (an
 :class:`~vptoolkit.pictures.engine.Engine`) draws, so a start-up such as
 that of Open3D's render child is paid once. The picture of ``SRC/a/b.off``
@@ -206,7 +206,7 @@ def render_thumbnails(
 
     Every file below ``src`` with a suffix :func:`vptoolkit.io.load_mesh`
     reads (:func:`vptoolkit.io.find_mesh_files`: hidden files and folders are
-    skipped) is loaded, measured (:func:`vptoolkit.measures.compute_view_quality`)
+    skipped) is loaded, measured (:func:`vptoolkit.measures.quality.compute_view_quality`)
     and drawn from its best view for ``measure``; with ``predictor`` the
     direction comes from it instead and nothing is measured. The picture of
     ``src/a/b.off`` is ``out/a/b.png``. Measuring runs in ``workers``

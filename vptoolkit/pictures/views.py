@@ -185,7 +185,7 @@ def render_best(
 ) -> RenderedView:
     """Draw a mesh from its best view for one measure.
 
-    The measures are computed first (:func:`vptoolkit.measures.compute_view_quality`
+    The measures are computed first (:func:`vptoolkit.measures.quality.compute_view_quality`
     with ``settings``) unless ``quality`` is given; the picture uses their camera.
 
     Parameters

@@ -382,7 +382,7 @@ def measure_view_set(
     k : int or None
         As for :func:`best_view_set`.
     settings : MeasureSettings
-        As for :func:`vptoolkit.measures.compute_view_quality`.
+        As for :func:`vptoolkit.measures.quality.compute_view_quality`.
     progress : bool
         Show a progress bar while the views are drawn (default: False).
     **options
@@ -392,7 +392,7 @@ def measure_view_set(
     Returns
     -------
     quality : ViewQuality
-        Exactly what :func:`vptoolkit.measures.compute_view_quality` returns.
+        Exactly what :func:`vptoolkit.measures.quality.compute_view_quality` returns.
     view_set : ViewSet
         The set, searched over the same views.
     """

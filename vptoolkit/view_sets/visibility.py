@@ -87,7 +87,7 @@ class FaceVisibility:
     ) -> FaceVisibility:
         """Draw every view of a mesh once and keep its pixel counts.
 
-        Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
+        Parameters are those of :func:`vptoolkit.measures.quality.compute_view_quality`.
         """
         mesh = as_mesh(mesh)
         settings = check_settings(settings)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.authors.export import export_authors, order_for_paper_rule
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.split_files import paper_split, paper_splits, read_model_list
 from vptoolkit.dataset.store.reader import open_store
-from vptoolkit.dataset.build.split_files import paper_split, paper_splits, read_model_list
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.samples import sample_path
@@ -159,7 +159,7 @@ def test_a_tree_not_in_the_layout_is_refused_with_one_line(tmp_path, damage):
 
 @pytest.fixture(scope="module")
 def built(tmp_path_factory):
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.run import build_dataset
 
     src = tmp_path_factory.mktemp("src")
     for category, sample in (("bottle", "bottle.obj"), ("mug", "mug.obj"), ("table", "table.obj")):
@@ -205,7 +205,7 @@ def test_import_is_repeatable_byte_for_byte(tmp_path):
 
 
 def test_export_refuses_a_store_without_the_authors_views(tmp_path):
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.run import build_dataset
 
     src = tmp_path / "src" / "mug"
     src.mkdir(parents=True)

@@ -14,7 +14,7 @@ from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.authors.export import export_authors
 from vptoolkit.dataset.authors.importer import import_authors
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -24,7 +24,7 @@ FIVE = ("SL", "VMI", "VE", "VKL", "VR")
 
 
 def _build(root: Path, measures: str, views: int) -> Path:
-    from vptoolkit.dataset.build.run import build_dataset
+    from vptoolkit.dataset.builder.run import build_dataset
 
     src = root / "src"
     for category, sample in (("bottle", "bottle.obj"), ("mug", "mug.obj")):

@@ -6,8 +6,3 @@ Modules:
 - ``check``: comparing our measures with the ones they stored.
 - ``export``: writing a store in their tree.
 """
-
-from vptoolkit.deprecation import moved_module
-
-# The names of ``vptoolkit.dataset.authors`` when it was one module (now ``importer``).
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.authors.importer")

@@ -24,13 +24,13 @@ from numpy.typing import NDArray
 from vptoolkit.checks import as_path, check_bool
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
 from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, MODEL_LIST, VIEW_TOLERANCE
+from vptoolkit.dataset.builder.split_files import paper_split
 from vptoolkit.dataset.store.schema import published_split
-from vptoolkit.dataset.build.split_files import paper_split
 from vptoolkit.errors import InputError
 from vptoolkit.files import (
     check_path_part,
-    held,
     errors_named,
+    held,
     named_os_error,
     remove_stale_partials,
     temporary_prefix,

@@ -10,7 +10,7 @@ The authors' tree (one folder per data set, e.g. ``data/ModelNet40``)::
     best_views/vq<k>/best/<cat>/<folder>/<name>.txt      max, min, best view x, y, z (5 lines)
 
 ``<folder>`` is ModelNet's ``train`` or ``test`` folder, not the paper's split
-(that is :func:`vptoolkit.dataset.build.split_files.paper_split` of the line's
+(that is :func:`vptoolkit.dataset.builder.split_files.paper_split` of the line's
 position in ``small.txt``). Every file is comma-separated text.
 
 Measures
@@ -18,7 +18,7 @@ Measures
     (:data:`AUTHORS_FOLDERS`, in :data:`~vptoolkit.conventions.MEASURES`
     order); VKL and VMI are lower-is-better. The authors normalise each list
     per model by taking ``max - v`` for VKL and VMI, then ``(v - min) /
-    (max - min)``, which is :func:`vptoolkit.measures.normalize_quality`.
+    (max - min)``, which is :func:`vptoolkit.measures.quality.normalize_quality`.
 
 Views
     Their views are the Fibonacci sphere of 1000 samples, in the order of
@@ -41,13 +41,13 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, one_line
 from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
-from vptoolkit.dataset.build.split_files import ListedModel, paper_splits, read_model_list
+from vptoolkit.dataset.builder.split_files import ListedModel, paper_splits, read_model_list
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
     ModelEntry,
     normal_length_problem,
     published_split,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import check_path_part, sha256_file, stale_partials
@@ -267,7 +267,7 @@ def import_authors(
         Import only these categories (default: all). The paper's split index
         counts only their lines of ``small.txt``, as in the authors' loader,
         so the paper's eight categories
-        (:data:`~vptoolkit.dataset.build.split_files.PAPER_CATEGORIES`) give the
+        (:data:`~vptoolkit.dataset.builder.split_files.PAPER_CATEGORIES`) give the
         paper's split.
     meshes : bool
         Read and store ``objfiles/`` (default: True); without, each model

@@ -12,8 +12,3 @@ Modules:
   the Croissant metadata; ``licenses``: per-model licences; ``descriptions``:
   the card and Croissant rewritten after a release changes.
 """
-
-from vptoolkit.deprecation import moved_module
-
-# The names of ``vptoolkit.dataset.release`` when it was one module (now ``pack``).
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.release.pack")

@@ -151,8 +151,8 @@ def render_card(
 def _header(info: dict[str, Any], files: ReleaseFiles, options: ReleaseOptions,
             title: str) -> dict[str, Any]:
     """The YAML header: title, the hub's licence fields, size category and, with shards,
-    the hub's configurations (:func:`~vptoolkit.dataset.release.hub.hub_yaml`; without shards ``datasets`` has nothing
-    to load: no configs, no splits)."""
+    the hub's configurations (:func:`~vptoolkit.dataset.release.hub.hub_yaml`; without
+    shards ``datasets`` has nothing to load: no configs, no splits)."""
     hub = hub_license(options.license, options.license_name, options.license_link,
                       table=LICENSES_NAME in files.digests)
     yaml_license = hub.pop("license")

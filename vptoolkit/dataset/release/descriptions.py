@@ -19,7 +19,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vptoolkit.dataset.release.croissant import croissant_jsonld, rai_field_sources, rai_fields
-from vptoolkit.files import sha256_file
 from vptoolkit.dataset.release.manifest import (
     CARD_NAME,
     MANIFEST_NAME,
@@ -27,7 +26,13 @@ from vptoolkit.dataset.release.manifest import (
     read_sha256sums,
 )
 from vptoolkit.errors import InputError, VerificationError
-from vptoolkit.files import json_text, parse_json, write_bytes_atomic, write_json_atomic
+from vptoolkit.files import (
+    json_text,
+    parse_json,
+    sha256_file,
+    write_bytes_atomic,
+    write_json_atomic,
+)
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.release.contents import ReleaseFiles

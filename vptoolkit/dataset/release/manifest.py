@@ -14,10 +14,8 @@ stream of 1 MiB blocks, so memory stays flat for archives of any size.
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
-import stat
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path

@@ -102,9 +102,9 @@ class ReleaseOptions:
         (:func:`~vptoolkit.dataset.release.licenses.read_licenses`), or its parsed
         mapping (model name to ``license``, ``author``, ``url``), checked
         here as a file's rows are
-        (:func:`~vptoolkit.dataset.release.licenses.check_licenses`); each model's record then carries
-        ``provenance``, the card tables it and the release ships it as
-        ``LICENSES.csv``.
+        (:func:`~vptoolkit.dataset.release.licenses.check_licenses`); each
+        model's record then carries ``provenance``, the card tables it and the
+        release ships it as ``LICENSES.csv``.
     license_name, license_link : str, optional
         The hub's ``license_name`` / ``license_link``; with ``license="other"``
         the release says ``"source-mesh-licenses"`` and ``LICENSES.csv`` (with

@@ -66,9 +66,7 @@ from vptoolkit.dataset.release.descriptions import (
     write_descriptions,
     write_json,
 )
-from vptoolkit.dataset.store.info import info_from_reader
 from vptoolkit.dataset.release.licenses import LICENSES_NAME, check_release_license, write_licenses
-from vptoolkit.files import sha256_file
 from vptoolkit.dataset.release.manifest import (
     CARD_NAME,
     MANIFEST_NAME,
@@ -76,18 +74,20 @@ from vptoolkit.dataset.release.manifest import (
     write_sha256sums,
 )
 from vptoolkit.dataset.release.options import ReleaseOptions, release_created
+from vptoolkit.dataset.store.entries import LazyEntries
+from vptoolkit.dataset.store.info import info_from_reader
 from vptoolkit.dataset.store.schema import (
     ModelEntry,
     published_split,
     registered_measures,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
     errors_named,
     held,
     named_os_error,
     remove_stale_partials,
+    sha256_file,
     temporary_prefix,
 )
 

@@ -9,5 +9,5 @@ Modules:
 - ``entries``: ``LazyEntries``, models made on access, none kept.
 - ``info``: the summary of a store (``vptool info``).
 
-Nothing here imports from the other stages (``build``, ``release``, ``authors``).
+Nothing here imports from the other stages (``builder``, ``release``, ``authors``).
 """

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
-from typing import Any, overload
+from collections.abc import Callable, Sequence
+from typing import overload
 
 import numpy as np
-
 
 from vptoolkit.dataset.store.schema import ModelEntry
 from vptoolkit.errors import InputError

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
     ARRAY_NAMES,
     ARRAY_SPECS,
@@ -37,7 +38,6 @@ from vptoolkit.dataset.store.schema import (
     from_json_bytes,
     registered_measures,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError, VerificationError, VptoolkitError
 from vptoolkit.files import check_path_part
 

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 
 from vptoolkit.cli import main
 from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings

@@ -17,12 +17,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.dataset.build.run import build_dataset
-from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import build_dataset
+from vptoolkit.dataset.builder.sources import discover_models
+from vptoolkit.dataset.builder.staging import STAGING_DIR, scan_staging, source_signature
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.schema import ARRAY_NAMES
-from vptoolkit.dataset.build.sources import discover_models
-from vptoolkit.dataset.build.staging import STAGING_DIR, scan_staging, source_signature
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 
@@ -103,7 +103,7 @@ def test_an_unreadable_staged_model_is_computed_again_with_one_warning(tmp_path,
     content[len(content) // 3] ^= 0x10  # inside a compressed member: a bad CRC
     staged.write_bytes(bytes(content))
 
-    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.build.staging"):
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.builder.staging"):
         again = build_dataset(src, out, SMALL)
     warnings = [record.getMessage() for record in caplog.records
                 if record.levelno >= logging.WARNING]
@@ -179,7 +179,7 @@ def test_a_staged_file_that_decodes_wrong_is_computed_again(
     damage(staged, src)
     models = discover_models(src)
 
-    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.build.staging"):
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.dataset.builder.staging"):
         done, failed, todo = scan_staging(staging, models)
     assert (done, failed, todo) == ({}, {}, models)
     assert not list(staging.glob("m-*")), "the unreadable staged file is deleted"
@@ -211,7 +211,7 @@ def test_a_named_pipe_in_the_source_is_a_failure_not_a_hang(tmp_path: Path) -> N
 
 
 def test_the_build_reports_seconds_per_stage_and_stores_none(tmp_path: Path) -> None:
-    from vptoolkit.dataset.build.run import STAGES
+    from vptoolkit.dataset.builder.run import STAGES
 
     src = tmp_path / "src"
     src.mkdir()

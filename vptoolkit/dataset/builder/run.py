@@ -2,7 +2,7 @@
 
 :func:`build_dataset` turns a source tree into one store (see
 ``vptoolkit/dataset_card/SCHEMA.md``) as one
-:class:`~vptoolkit.dataset.build.options.BuildOptions` value says. Per model
+:class:`~vptoolkit.dataset.builder.options.BuildOptions` value says. Per model
 it loads the mesh, cleans it (unless ``options.clean`` is False), samples
 ``options.n_points`` surface points with their normals, computes VE, VR,
 VKL and VMI over the ``options.measure`` views and keeps the result; then
@@ -10,13 +10,13 @@ it writes ``OUT/dataset.zarr`` or ``OUT/dataset.h5`` with
 :func:`vptoolkit.dataset.store.writer.write_dataset`. This module is the
 orchestration; its parts live beside it:
 
-- :mod:`vptoolkit.dataset.build.sources`: finding the mesh files, model ids,
+- :mod:`vptoolkit.dataset.builder.sources`: finding the mesh files, model ids,
   categories, duplicate names, splits and per-model seeds;
-- :mod:`vptoolkit.dataset.build.split_files`: a published split read from a file
+- :mod:`vptoolkit.dataset.builder.split_files`: a published split read from a file
   (``splits``) instead of the seeded one;
-- :mod:`vptoolkit.dataset.build.staging`: the resumable ``OUT/.staging`` folder,
+- :mod:`vptoolkit.dataset.builder.staging`: the resumable ``OUT/.staging`` folder,
   its files and their validation (how a killed build resumes);
-- :mod:`vptoolkit.dataset.build.compute`: what one model's task does (load,
+- :mod:`vptoolkit.dataset.builder.compute`: what one model's task does (load,
   clean, measure, sample) and the seconds of each stage;
 - :mod:`vptoolkit.parallel`: the process pool and the Dask runner.
 
@@ -47,16 +47,15 @@ from pathlib import Path
 from typing import Any
 
 from vptoolkit.checks import as_path, check_bool, check_int
-from vptoolkit.dataset.build.options import BuildOptions, SplitFile
-from vptoolkit.dataset.build.compute import (
+from vptoolkit.dataset.builder.compute import (
     FailedModel,
     ModelTask,
     cluster_lost,
     process_model,
     worker_died,
 )
-from vptoolkit.dataset.store.schema import published_split
-from vptoolkit.dataset.build.sources import (
+from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+from vptoolkit.dataset.builder.sources import (
     SPLIT_FRACTIONS,
     SourceModel,
     discover_models,
@@ -66,8 +65,8 @@ from vptoolkit.dataset.build.sources import (
     split_of,
     spread_over_categories,
 )
-from vptoolkit.dataset.build.split_files import read_split_file
-from vptoolkit.dataset.build.staging import (
+from vptoolkit.dataset.builder.split_files import read_split_file
+from vptoolkit.dataset.builder.staging import (
     build_lock,
     prepare_out,
     resume_or_start,
@@ -79,6 +78,7 @@ from vptoolkit.dataset.build.staging import (
     staged_entries,
     warn_about_models_left_out,
 )
+from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.optional import is_available, require

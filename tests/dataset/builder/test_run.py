@@ -26,11 +26,11 @@ from fixtures.builds import make_tree
 from fixtures.environment import DASK_DASHBOARD, require_package
 from fixtures.paths import MALFORMED
 from vptoolkit import parallel
-from vptoolkit.dataset.build import compute
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.run import BuildResult, build_dataset
-from vptoolkit.dataset.build.sources import assign_split
-from vptoolkit.dataset.build.staging import STAGING_DIR
+from vptoolkit.dataset.builder import compute
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.run import BuildResult, build_dataset
+from vptoolkit.dataset.builder.sources import assign_split
+from vptoolkit.dataset.builder.staging import STAGING_DIR
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
 from vptoolkit.errors import InputError, MissingDependencyError
@@ -191,8 +191,8 @@ def test_killed_build_resumes_to_the_same_dataset(src, reference, tmp_path):
     staging = out / STAGING_DIR
     code = (
         "import json\n"
-        "from vptoolkit.dataset.build.run import build_dataset\n"
-        "from vptoolkit.dataset.build.options import BuildOptions\n"
+        "from vptoolkit.dataset.builder.run import build_dataset\n"
+        "from vptoolkit.dataset.builder.options import BuildOptions\n"
         f"options = BuildOptions.from_dict(json.loads({json.dumps(SMALL.to_dict())!r}))\n"
         f"build_dataset({str(src)!r}, {str(out)!r}, options)\n"
     )

@@ -11,10 +11,10 @@ from click.testing import CliRunner
 
 from fixtures.paths import REPO
 from vptoolkit.cli import main
-from vptoolkit.dataset.build.run import build_dataset
-from vptoolkit.dataset.build.options import BuildOptions, SplitFile
+from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+from vptoolkit.dataset.builder.run import build_dataset
+from vptoolkit.dataset.builder.split_files import read_split_file
 from vptoolkit.dataset.store.reader import open_store
-from vptoolkit.dataset.build.split_files import read_split_file
 from vptoolkit.errors import InputError
 from vptoolkit.samples import SAMPLE_SPLITS, sample_names, sample_path
 from vptoolkit.settings import MeasureSettings
@@ -162,7 +162,7 @@ def test_build_dataset_says_how_many_the_file_placed(tmp_path):
 
 
 def test_the_samples_split_file_places_every_sample_in_all_three_splits(tmp_path):
-    from vptoolkit.dataset.build.plan import plan_build
+    from vptoolkit.dataset.builder.plan import plan_build
 
     splits = read_split_file(SAMPLE_SPLITS)
     assert sorted(splits) == sorted(Path(name).stem for name in sample_names())
@@ -176,7 +176,7 @@ def test_the_samples_split_file_places_every_sample_in_all_three_splits(tmp_path
 
 
 def test_class_split_is_stratified_and_ignores_order():
-    from vptoolkit.dataset.build.split_files import class_split
+    from vptoolkit.dataset.builder.split_files import class_split
 
     models = [(category, f"{category}{i}") for category, n in (("jet", 40), ("cup", 5),
                                                                ("hat", 2), ("one", 1))

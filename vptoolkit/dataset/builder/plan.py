@@ -1,7 +1,7 @@
 """Size a build before it runs: its models per category and split, and an estimate.
 
-:func:`plan_build` finds the models a :func:`~vptoolkit.dataset.build.run.build_dataset`
-call with the same :class:`~vptoolkit.dataset.build.options.BuildOptions` would
+:func:`plan_build` finds the models a :func:`~vptoolkit.dataset.builder.run.build_dataset`
+call with the same :class:`~vptoolkit.dataset.builder.options.BuildOptions` would
 take, counts them per category and split, and builds a few of them
 (``calibrate``) into a temporary folder with the same options. The
 calibration models are spread over the file sizes: with the ``n`` models
@@ -32,8 +32,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.sources import SourceModel
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.sources import SourceModel
 
 __all__ = ["CALIBRATION_MODELS", "BuildPlan", "plan_build", "size_strata"]
 
@@ -144,7 +144,7 @@ def plan_build(
     """List the models a build would take and estimate its hours and disk.
 
     ``options`` and ``categories`` are those of
-    :func:`~vptoolkit.dataset.build.run.build_dataset`; ``out`` is only read
+    :func:`~vptoolkit.dataset.builder.run.build_dataset`; ``out`` is only read
     (models inside it are left out, as the build leaves them out).
     ``calibrate`` models are built into a temporary folder that is deleted
     afterwards (0: count only). ``workers`` is the build's process count,
@@ -158,11 +158,11 @@ def plan_build(
     Raises
     ------
     InputError
-        As :func:`~vptoolkit.dataset.build.run.build_dataset` for bad options or
+        As :func:`~vptoolkit.dataset.builder.run.build_dataset` for bad options or
         sources.
     """
     from vptoolkit._numba import max_threads, threads
-    from vptoolkit.dataset.build.run import _check_build_options, build_dataset, select_models
+    from vptoolkit.dataset.builder.run import _check_build_options, build_dataset, select_models
 
     options = _check_build_options(options)
     calibrate = check_int(calibrate, "calibrate", minimum=0)

@@ -5,7 +5,7 @@ file (arrays plus a JSON ``meta`` member as ``uint8``; nothing pickled),
 and each failed one as one ``.failed.json``, both atomically (temporary
 file in the same folder, fsync, :func:`os.replace`). ``build.json`` there
 holds the options (:meth:`BuildOptions.to_dict
-<vptoolkit.dataset.build.options.BuildOptions.to_dict>`), the toolkit version
+<vptoolkit.dataset.builder.options.BuildOptions.to_dict>`), the toolkit version
 and the time the build was first started, and ``lock``
 keeps a second build out. A build killed at any point (even ``kill -9``) is
 resumed by running the same command again (:func:`scan_staging`): staged
@@ -36,9 +36,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import changed_values, one_line
-from vptoolkit.dataset.build.compute import FailedModel, MeasuredModel
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.sources import SourceModel
+from vptoolkit.dataset.builder.compute import FailedModel, MeasuredModel
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.sources import SourceModel
+from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
     ENTRY_ARRAYS,
     FAILURE_KEYS,
@@ -46,7 +47,6 @@ from vptoolkit.dataset.store.schema import (
     from_json_bytes,
     json_bytes,
 )
-from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write, read_json_file
 

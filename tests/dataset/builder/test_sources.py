@@ -9,7 +9,7 @@ import pytest
 
 from fixtures.builds import make_tree
 from fixtures.paths import MALFORMED
-from vptoolkit.dataset.build.sources import assign_split, discover_models
+from vptoolkit.dataset.builder.sources import assign_split, discover_models
 from vptoolkit.errors import InputError
 from vptoolkit.samples import sample_path
 

@@ -7,7 +7,7 @@ returns a :class:`MeasuredModel` (the arrays of one
 :class:`~vptoolkit.dataset.store.schema.ModelEntry` in schema dtypes, its record
 and the seconds per stage) or a :class:`FailedModel` with a one-line reason;
 it never raises. The caller stages the result
-(:mod:`vptoolkit.dataset.build.staging`).
+(:mod:`vptoolkit.dataset.builder.staging`).
 
 Determinism
     Everything comes from the task: the point sample is seeded with
@@ -28,9 +28,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.files import sha256_file
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
+from vptoolkit.files import sha256_file
 
 if TYPE_CHECKING:
     from vptoolkit.measures.quality import ViewQuality

@@ -112,7 +112,7 @@ def discover_models(
     -------
     list of SourceModel
         Sorted by ``(category, name, source)``. Duplicate names are kept
-        here; :func:`~vptoolkit.dataset.build.run.build_dataset` records them as failures.
+        here; :func:`~vptoolkit.dataset.builder.run.build_dataset` records them as failures.
 
     Raises
     ------

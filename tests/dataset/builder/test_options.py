@@ -9,8 +9,8 @@ import pytest
 
 from vptoolkit.clean.simplify import MAX_FACES
 from vptoolkit.conventions import SEED
-from vptoolkit.dataset.build.options import DEFAULT_FORMAT, BuildOptions, SplitFile
-from vptoolkit.dataset.build.staging import resume_or_start
+from vptoolkit.dataset.builder.options import DEFAULT_FORMAT, BuildOptions, SplitFile
+from vptoolkit.dataset.builder.staging import resume_or_start
 from vptoolkit.errors import InputError
 from vptoolkit.points import N_SURFACE_POINTS
 from vptoolkit.samples import SAMPLE_SPLITS

@@ -18,12 +18,12 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.dataset.build import run as build_module
-from vptoolkit.dataset.build.run import COMPILE_NOTICE, build_dataset
-from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.build.plan import plan_build
+from vptoolkit.dataset.builder import run as build_module
+from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.dataset.builder.plan import plan_build
+from vptoolkit.dataset.builder.run import COMPILE_NOTICE, build_dataset
+from vptoolkit.dataset.builder.sources import discover_models, split_of, spread_over_categories
 from vptoolkit.dataset.store.reader import open_store
-from vptoolkit.dataset.build.sources import discover_models, split_of, spread_over_categories
 from vptoolkit.errors import InputError
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -181,7 +181,7 @@ def test_will_compile_reads_numbas_cache_of_a_function(tmp_path):
 
 
 def test_calibration_models_are_spread_over_the_file_sizes(src, tmp_path):
-    from vptoolkit.dataset.build.plan import size_strata
+    from vptoolkit.dataset.builder.plan import size_strata
 
     models = discover_models(src)
     by_size = sorted(models, key=lambda model: model.path.stat().st_size)

@@ -11,8 +11,3 @@ Modules:
 - ``split_files``: published splits read from a ``name,split`` CSV or the
   paper's ``small.txt``.
 """
-
-from vptoolkit.deprecation import moved_module
-
-# The names of ``vptoolkit.dataset.build`` when it was one module (now ``run``).
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.build.run")

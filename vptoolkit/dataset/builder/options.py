@@ -1,8 +1,8 @@
 """What defines a built dataset: one frozen, validated value, ``BuildOptions``.
 
-The same value is the argument of :func:`~vptoolkit.dataset.build.run.build_dataset`
-and :func:`~vptoolkit.dataset.build.plan.plan_build`, the options of every
-model's task (:class:`~vptoolkit.dataset.build.compute.ModelTask`), the record
+The same value is the argument of :func:`~vptoolkit.dataset.builder.run.build_dataset`
+and :func:`~vptoolkit.dataset.builder.plan.plan_build`, the options of every
+model's task (:class:`~vptoolkit.dataset.builder.compute.ModelTask`), the record
 of the staging folder (``build.json``: :meth:`BuildOptions.to_dict`; a
 resumed build compares ``BuildOptions.from_dict(recorded) == options``)
 and the options part of the store's attributes
@@ -131,13 +131,13 @@ class BuildOptions:
         Seed of the split and of every model's point sample (default: ``SEED`` = 0).
     splits : SplitFile, optional
         A published split to use instead of the seeded one
-        (:func:`~vptoolkit.dataset.build.split_files.read_split_file`; made with
+        (:func:`~vptoolkit.dataset.builder.split_files.read_split_file`; made with
         :meth:`SplitFile.read`): a ``name,split`` CSV, or the paper authors'
         ``small.txt`` with their rule over the lines of the build's
         ``categories`` (default: None, the seeded split).
     max_models : int, optional
         Build only this many models, taken in turn from each category
-        (:func:`~vptoolkit.dataset.build.sources.spread_over_categories`); their
+        (:func:`~vptoolkit.dataset.builder.sources.spread_over_categories`); their
         splits are those of the whole source, and models with duplicate names
         are left out instead of recorded as failures (default: None, every model).
     format : {"zarr", "hdf5"}

@@ -1,5 +1,0 @@
-"""Deprecated: moved to :mod:`vptoolkit.dataset.authors.check`; importing from here warns."""
-
-from vptoolkit.deprecation import moved_module
-
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.authors.check")

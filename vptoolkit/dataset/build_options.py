@@ -1,5 +1,0 @@
-"""Deprecated: moved to :mod:`vptoolkit.dataset.build.options`; importing from here warns."""
-
-from vptoolkit.deprecation import moved_module
-
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.build.options")

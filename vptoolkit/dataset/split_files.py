@@ -1,5 +1,0 @@
-"""Deprecated: moved to :mod:`vptoolkit.dataset.build.split_files`; importing from here warns."""
-
-from vptoolkit.deprecation import moved_module
-
-__getattr__ = moved_module(__name__, "vptoolkit.dataset.build.split_files")
