@@ -17,7 +17,7 @@ from vptoolkit.mesh import Mesh, as_mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
-from vptoolkit.unoccluded import UnoccludedPrior
+from vptoolkit.best_view.prior import UnoccludedPrior
 from vptoolkit.view_sets.search import best_view_set
 from vptoolkit.visibility import face_id_images
 

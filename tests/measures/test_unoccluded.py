@@ -20,8 +20,8 @@ from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
-from vptoolkit.unoccluded import (
-    UnoccludedPrior,
+from vptoolkit.best_view.prior import UnoccludedPrior
+from vptoolkit.measures.unoccluded import (
     mesh_elements,
     unoccluded_best_views,
     unoccluded_quality,
