@@ -13,7 +13,7 @@ Answers:
 
 * random view (an expectation: the mean quality over the 1000 views);
 * PCA axis (:func:`vptoolkit.evaluate.baselines.pca_directions` of 20000 surface points);
-* the unoccluded estimate (:mod:`vptoolkit.unoccluded`), no image drawn: from
+* the unoccluded estimate (:mod:`vptoolkit.measures.unoccluded`), no image drawn: from
   the mesh's faces, and from 2000 surface points with their normals (what a
   scan gives);
 * the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
@@ -21,7 +21,7 @@ Answers:
   Fibonacci views at R px, each measure's best view;
 * coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search_best_views`;
 * prior-guided search N @ R: the same with the candidates of
-  :class:`vptoolkit.unoccluded.UnoccludedPrior` and of
+  :class:`vptoolkit.best_view.prior.UnoccludedPrior` and of
   :class:`vptoolkit.learn.prior.NetworkPrior` (per ``--model``);
 
 at every budget of ``--budgets``. Two more rows are ceilings, not answers: the
@@ -78,6 +78,7 @@ from results_doc import (
 )
 
 from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION, coarse_directions, search_best_views
+from vptoolkit.best_view.prior import resolve_prior
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.build.run import build_dataset
@@ -93,9 +94,8 @@ from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
-from vptoolkit.unoccluded import (
+from vptoolkit.measures.unoccluded import (
     UNOCCLUDED_DIRECTIONS,
-    UnoccludedPrior,
     mesh_elements,
     unoccluded_best_views,
 )
@@ -187,9 +187,7 @@ def network_label(model: str) -> str:
 def network_priors(models: list[str]) -> dict[str, Any]:
     """Row label of each network -> its :class:`~vptoolkit.learn.prior.NetworkPrior`,
     loaded once for the prior rows and the ceilings."""
-    from vptoolkit.learn.prior import NetworkPrior
-
-    return {network_label(model): NetworkPrior(model) for model in models}
+    return {network_label(model): resolve_prior(model) for model in models}
 
 
 def drawless_answers(models: list[str]) -> dict[str, Answer]:
@@ -395,7 +393,7 @@ def main(argv: list[str] | None = None) -> int:
         sources = {source.name: source.path for source in discover_models(folder / "meshes")}
         meshes = {name: load_mesh(sources[name]) for name in dataset.names}
         networks = network_priors(args.models)
-        priors = {"unoccluded": UnoccludedPrior(), **networks}
+        priors = {"unoccluded": resolve_prior("unoccluded"), **networks}
         rows = answers(args.budget_list, args.resolution, drawless_answers(args.models), priors)
         scored = score(dataset, meshes, args.rotations, {label: answer for label, (_, answer)
                                                          in rows.items()})
