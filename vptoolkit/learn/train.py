@@ -94,7 +94,7 @@ import numpy as np
 
 from vptoolkit.checks import check_int
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.errors import ExistingRunError, InputError
+from vptoolkit.errors import ArgumentError, ExistingRunError, InputError
 from vptoolkit.files import check_path_part, write_json_atomic
 from vptoolkit.learn.checkpoint import checkpoint_paths
 from vptoolkit.learn.labels import label_loss, label_phase
@@ -223,8 +223,8 @@ def _measure_columns(dataset: ViewpointDataset,
                          "this vptoolkit does not know as measures; name the ones to learn")
     missing = [name for name in names if name not in recorded]
     if missing:
-        raise InputError(f"measures: {dataset.path.name} does not record {', '.join(missing)} "
-                         f"(it records {', '.join(recorded)})")
+        raise ArgumentError(f"{{argument}}: {dataset.path.name} does not record "
+                            f"{', '.join(missing)} (it records {', '.join(recorded)})", "measures")
     return replace(options, measures=names), tuple(recorded.index(name) for name in names)
 
 
@@ -358,7 +358,8 @@ def _train(dataset_path: str | os.PathLike[str] | ViewpointDataset,
     from vptoolkit.data.torch import ViewpointTorchDataset
 
     is_owner = not isinstance(dataset_path, ViewpointDataset)
-    dataset = open_dataset(dataset_path) if is_owner else dataset_path
+    dataset = (dataset_path if isinstance(dataset_path, ViewpointDataset)
+               else open_dataset(dataset_path))
     try:
         _check_point_count(dataset, options.n_fps)
         chosen = select_categories(dataset, options.categories)
@@ -377,8 +378,8 @@ def _train(dataset_path: str | os.PathLike[str] | ViewpointDataset,
         val_set, n_val = select_models(dataset, options.val_split, chosen, options.max_models,
                                        "val_split")
         if n_train < 2:
-            raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; "
-                             "need at least 2")
+            raise ArgumentError(f"{{argument}}: {dataset.path.name} has {n_train} training "
+                                "model; need at least 2", "dataset_path")
         is_resuming = bool(resume) and last_json.exists()
         if not is_resuming and not overwrite and (weights_path.exists() or last_json.exists()):
             hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to "
