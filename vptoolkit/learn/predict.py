@@ -63,6 +63,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int, check_int_range, short_repr
+from vptoolkit.conventions import Split
 from vptoolkit.errors import ArgumentError, InputError
 from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
@@ -556,7 +557,7 @@ def predict(
     inputs: (str | os.PathLike[str] | ViewpointDataset
              | Sequence[str | os.PathLike[str] | ViewpointDataset]),
     *,
-    split: str | None = "test",
+    split: Split = "test",
     batch_size: int = 64,
     seed: int = 0,
     n_points: int | None = None,
