@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from fixtures.environment import require_package
+from vptoolkit.best_view.prior import UnoccludedPrior
 from vptoolkit.best_view.search import search_best_views
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_areas
@@ -17,7 +18,6 @@ from vptoolkit.mesh import Mesh, as_mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
-from vptoolkit.unoccluded import UnoccludedPrior
 from vptoolkit.view_sets.search import best_view_set
 from vptoolkit.visibility import face_id_images
 

@@ -13,7 +13,7 @@ Answers:
 
 * random view (an expectation: the mean quality over the 1000 views);
 * PCA axis (:func:`vptoolkit.evaluate.baselines.pca_directions` of 20000 surface points);
-* the unoccluded estimate (:mod:`vptoolkit.unoccluded`), no image drawn: from
+* the unoccluded estimate (:mod:`vptoolkit.measures.unoccluded`), no image drawn: from
   the mesh's faces, and from 2000 surface points with their normals (what a
   scan gives);
 * the network alone (:class:`vptoolkit.learn.predict.MeshPredictor`, per ``--model``);
@@ -21,7 +21,7 @@ Answers:
   Fibonacci views at R px, each measure's best view;
 * coarse-to-fine search N @ R: :func:`vptoolkit.best_view.search.search_best_views`;
 * prior-guided search N @ R: the same with the candidates of
-  :class:`vptoolkit.unoccluded.UnoccludedPrior` and of
+  :class:`vptoolkit.best_view.prior.UnoccludedPrior` and of
   :class:`vptoolkit.learn.prior.NetworkPrior` (per ``--model``);
 
 at every budget of ``--budgets``. Two more rows are ceilings, not answers: the
@@ -77,6 +77,7 @@ from results_doc import (
     write_section,
 )
 
+from vptoolkit.best_view.prior import resolve_prior
 from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION, search_best_views
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
@@ -88,18 +89,17 @@ from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
 from vptoolkit.io import load_mesh
 from vptoolkit.learn.checkpoint import BUNDLED_MODELS
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.unoccluded import (
+    UNOCCLUDED_DIRECTIONS,
+    mesh_elements,
+    unoccluded_best_views,
+)
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 from vptoolkit.progress import progress_bar
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import coarse_directions
-from vptoolkit.unoccluded import (
-    UNOCCLUDED_DIRECTIONS,
-    UnoccludedPrior,
-    mesh_elements,
-    unoccluded_best_views,
-)
 
 SAMPLES = Path(__file__).resolve().parent.parent / "vptoolkit" / "samples"
 Answer = Callable[[Mesh], np.ndarray]
@@ -188,9 +188,7 @@ def network_label(model: str) -> str:
 def network_priors(models: list[str]) -> dict[str, Any]:
     """Row label of each network -> its :class:`~vptoolkit.learn.prior.NetworkPrior`,
     loaded once for the prior rows and the ceilings."""
-    from vptoolkit.learn.prior import NetworkPrior
-
-    return {network_label(model): NetworkPrior(model) for model in models}
+    return {network_label(model): resolve_prior(model) for model in models}
 
 
 def drawless_answers(models: list[str]) -> dict[str, Answer]:
@@ -396,7 +394,7 @@ def main(argv: list[str] | None = None) -> int:
         sources = {source.name: source.path for source in discover_models(folder / "meshes")}
         meshes = {name: load_mesh(sources[name]) for name in dataset.names}
         networks = network_priors(args.models)
-        priors = {"unoccluded": UnoccludedPrior(), **networks}
+        priors = {"unoccluded": resolve_prior("unoccluded"), **networks}
         rows = answers(args.budget_list, args.resolution, drawless_answers(args.models), priors)
         scored = score(dataset, meshes, args.rotations, {label: answer for label, (_, answer)
                                                          in rows.items()})

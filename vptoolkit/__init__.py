@@ -19,7 +19,7 @@ module, layer by layer):
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
-  model; complementary view sets.
+  model, and with occlusion ignored, in closed form; complementary view sets.
 - ``clean``, ``points``, ``point_features``, ``synthetic``: the pymeshlab
   cleaning pipeline; surface and farthest point sampling; what each point
   carries from its mesh (the relative area of its face, found again for
@@ -31,10 +31,10 @@ module, layer by layer):
   ``dataset_card`` holds no code: the dataset card template and
   ``SCHEMA.md``, the stores' data contract.
 - ``learn``: the point network, its labels, training, prediction and prior.
-- ``evaluate``, ``best_view``, ``unoccluded``: scoring directions the
+- ``evaluate``, ``best_view``, ``predictors``: scoring directions the
   authors' way and the rotated protocol; the anytime best-view search within
-  a budget of views (``search``) and over many inputs (``run``); the
-  measures with occlusion ignored, in closed form.
+  a budget of views (``search``), its priors by name (``prior``) and over
+  many inputs (``run``); every predictor behind one call, found by name.
 - ``pictures``: shaded pictures, sphere maps, contact sheets, thumbnails and
   the HTML report.
 - ``cli``: the ``vptool`` command line.

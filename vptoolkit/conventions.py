@@ -10,7 +10,8 @@ Measures
 
 Splits
     ``SPLITS = ("train", "validation", "test")`` names the splits everywhere
-    a user sees one.
+    a user sees one; :data:`Split` is the one type of every ``split``
+    argument, with None for every model.
 
 Views
     ``N_VIEWS = 1000`` directions on the authors' Fibonacci sphere
@@ -33,7 +34,7 @@ Camera (defaults of :class:`vptoolkit.camera.Camera`)
 from __future__ import annotations
 
 import math
-from typing import Final
+from typing import Final, Literal, TypeAlias
 
 from vptoolkit.errors import InputError
 
@@ -44,6 +45,7 @@ __all__ = [
     "RESOLUTION",
     "SEED",
     "SPLITS",
+    "Split",
     "DATASET_VERSION",
     "FOV_DEG",
     "DISTANCE_FACTOR",
@@ -76,6 +78,11 @@ hub does. A store or build of schema 1 may record ``"val"``;
 :func:`vptoolkit.dataset.store.schema.published_split` maps it, and every API that
 takes a split accepts ``"val"`` as an alias.
 """
+
+Split: TypeAlias = Literal["train", "validation", "val", "test"] | None
+"""A ``split`` argument: one split of :data:`SPLITS` (``"val"`` an alias of
+``"validation"``), or None for every model. The command line's ``--split all``
+is None (:func:`vptoolkit.cli.options.split_option`)."""
 
 DATASET_VERSION: Final = "1.0.0"
 """Version ``MAJOR.MINOR.PATCH`` of a release packed without one."""

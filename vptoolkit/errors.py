@@ -8,8 +8,9 @@ This module imports nothing else from the package, so catching an error never
 loads the heavy parts of the stack.
 
 The command line maps the tree onto exit codes by class alone:
-:class:`InputError` (with its subclasses :class:`MeshLoadError`,
-:class:`CheckpointError` and :class:`ExistingRunError`) and
+:class:`InputError` (with its subclasses :class:`ArgumentError`,
+:class:`MeshLoadError`, :class:`CheckpointError` and
+:class:`ExistingRunError`) and
 :class:`MissingDependencyError` exit with 2, :class:`MeasurementError` and
 :class:`VerificationError` with 1.
 """
@@ -19,6 +20,7 @@ from __future__ import annotations
 __all__ = [
     "VptoolkitError",
     "InputError",
+    "ArgumentError",
     "MeshLoadError",
     "CheckpointError",
     "ExistingRunError",
@@ -34,6 +36,40 @@ class VptoolkitError(Exception):
 
 class InputError(VptoolkitError, ValueError):
     """A bad file, array or option given by the caller."""
+
+
+class ArgumentError(InputError):
+    """A bad value of one named argument, whose message names it wherever it is said.
+
+    The message is a template in which ``{argument}`` stands for the
+    argument's name: ``ArgumentError("{argument}: split 'test' of
+    dataset.zarr has no models; choose another with {argument}",
+    "val_split")`` reads ``val_split: split 'test' ...; choose another with
+    val_split`` from Python, and :meth:`named` says the same with another
+    name for the argument, such as the command line's ``--val-split``.
+
+    Parameters
+    ----------
+    template : str
+        The one-line message, ``{argument}`` where the argument is named
+        (nothing else in it is a placeholder).
+    argument : str
+        The argument's name (``val_split``; ``category=`` where Python
+        passes it by keyword).
+    """
+
+    def __init__(self, template: str, argument: str) -> None:
+        super().__init__(template.replace("{argument}", argument))
+        self.template = template
+        self.argument = argument
+
+    def __reduce__(self) -> tuple[type[ArgumentError], tuple[str, str]]:
+        """Pickled with its template, so a worker process's error reaches the caller whole."""
+        return type(self), (self.template, self.argument)
+
+    def named(self, name: str) -> ArgumentError:
+        """The same error with the argument called ``name`` (its class kept)."""
+        return type(self)(self.template, name)
 
 
 class MeshLoadError(InputError):

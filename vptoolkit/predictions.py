@@ -2,7 +2,7 @@
 
 Every predictor returns a :class:`Predictions` (a network's
 :func:`vptoolkit.learn.predict.predict`, the occlusion-free
-:func:`vptoolkit.unoccluded.predict_unoccluded`, the best-view search's
+:func:`vptoolkit.predictors.predict_unoccluded`, the best-view search's
 :attr:`vptoolkit.best_view.run.SearchRun.predictions`), and
 :func:`write_predictions` is the one writer of the file.
 

@@ -1,8 +1,12 @@
-"""The vptool group: every command's help, and a missing extra as one error line."""
+"""The vptool group: every command's help, a missing extra as one error line, options named."""
 
 from __future__ import annotations
 
+import pytest
+
 from vptoolkit.cli import main
+from vptoolkit.cli.group import options_named
+from vptoolkit.errors import ArgumentError, InputError
 
 
 def test_every_command_has_help_with_an_example(runner):
@@ -28,3 +32,18 @@ def test_a_command_needing_an_extra_says_which_in_one_line(monkeypatch, tmp_path
     assert result.exit_code == 2
     assert result.stderr == ("vptool: error: trimesh: not installed; this command needs it: "
                              "pip install 'vptoolkit[measures]'\n")
+
+
+def test_options_named_says_the_option_where_the_library_names_its_argument() -> None:
+    template = "{argument}: split 'test' of d.zarr has no models; choose another with {argument}"
+    with pytest.raises(ArgumentError) as said:
+        with options_named(val_split="--val-split"):
+            raise ArgumentError(template, "val_split")
+    assert str(said.value) == ("--val-split: split 'test' of d.zarr has no models; choose "
+                               "another with --val-split")
+    with pytest.raises(ArgumentError, match="pass --category here"):
+        with options_named(category_="--category"):
+            raise ArgumentError("pass {argument} here", "category=")
+    with pytest.raises(InputError, match="^val_split: as written$"):  # not an ArgumentError
+        with options_named(val_split="--val-split"):
+            raise InputError("val_split: as written")

@@ -65,3 +65,14 @@ def test_a_zero_up_is_one_error_line_with_exit_2(command, tmp_path):
     assert result.exit_code == 2
     assert result.stderr.strip().splitlines() == [
         "vptool: error: --up: expected a finite, non-zero direction x,y,z, got '0,0,0'"]
+
+
+def test_every_split_option_is_the_one_split_option():
+    found = options_named("--split")
+    assert set(found) == {"evaluate", "predict", "best-view", "report"}
+    for option in found.values():
+        assert list(option.type.choices) == ["train", "validation", "test", "val", "all"]
+        context = click.Context(click.Command("x"))
+        assert option.process_value(context, "all") is None  # the library's every model
+        assert option.process_value(context, "val") == "val"
+    assert found["report"].default == "all" and found["evaluate"].default == "test"

@@ -94,7 +94,7 @@ def test_bad_view_set_files_are_one_line_errors(tiny_dataset, tmp_path):
     flat = tmp_path / "flat.npy"
     np.save(flat, np.ones((4, 3)))
     with pytest.raises(InputError, match=r"flat.npy: expected view sets of shape \(n_models, k"):
-        evaluate_view_sets(tiny_dataset, flat, split="all")
+        evaluate_view_sets(tiny_dataset, flat, split=None)
     short = tmp_path / "short.npy"
     np.save(short, np.ones((1, 2, 3)))
     result = CliRunner().invoke(main, ["evaluate", str(short), "--dataset", str(tiny_dataset),

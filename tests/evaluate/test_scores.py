@@ -169,12 +169,12 @@ def test_npz_with_a_subset_of_measures(scored_store: Path, tmp_path: Path,
 
 
 def test_other_splits_and_an_open_dataset(scored_dataset: ViewpointDataset, tmp_path: Path) -> None:
-    for split in ("train", "val", "all"):
-        subset = scored_dataset if split == "all" else scored_dataset.split(split)
-        path = save_predictions(tmp_path / f"{split}.npz", subset.names,
+    for split, label in (("train", "train"), ("val", "val"), (None, "all")):
+        subset = scored_dataset if split is None else scored_dataset.split(split)
+        path = save_predictions(tmp_path / f"{label}.npz", subset.names,
                                 oracle_directions(subset))
         report = evaluate_predictions(scored_dataset, path, split=split)
-        assert report.split == split and report.n_models == len(subset)
+        assert report.split == label and report.n_models == len(subset)
         np.testing.assert_array_equal(report.mean, 100.0)
 
 

@@ -30,7 +30,7 @@ def test_the_oracle_scores_100_percent_on_every_recorded_measure(three_build, th
     assert oracle.shape == (len(THREE_MESHES), 3, 3)
     path = write_predictions(tmp_path / "oracle.npz", three_dataset.names, oracle,
                              measures=THREE_MEASURES)
-    report = evaluate_predictions(three_build, path, split="all")
+    report = evaluate_predictions(three_build, path, split=None)
     assert report.measures == THREE_MEASURES and report.scored_measures == THREE_MEASURES
     assert report.scores.shape == (len(THREE_MESHES), 3)
     np.testing.assert_array_equal(report.scores, 100.0)
@@ -52,19 +52,19 @@ def test_a_file_naming_some_measures_in_its_own_order_is_matched_by_name(three_b
     reversed_names = list(reversed(three_dataset.names))
     path = write_predictions(tmp_path / "some.npz", reversed_names,
                              oracle[::-1][:, [2, 1]], measures=("SL", "NVT"))
-    report = evaluate_predictions(three_build, path, split="all")
+    report = evaluate_predictions(three_build, path, split=None)
     assert report.scored_measures == ("NVT", "SL")
     assert np.isnan(report.scores[:, 0]).all()
     np.testing.assert_array_equal(report.scores[:, 1:], 100.0)
     assert report.format_table().split("\n")[-1].split()[2:] == ["-", "100.0", "100.0"]
-    only = evaluate_predictions(three_build, path, split="all", measure="sl")
+    only = evaluate_predictions(three_build, path, split=None, measure="sl")
     assert only.scored_measures == ("SL",)
     np.save(tmp_path / "sl.npy", oracle[:, 2])
-    by_row = evaluate_predictions(three_build, tmp_path / "sl.npy", split="all", measure="SL")
+    by_row = evaluate_predictions(three_build, tmp_path / "sl.npy", split=None, measure="SL")
     np.testing.assert_array_equal(by_row.scores[:, 2], 100.0)
     np.save(tmp_path / "all.npy", oracle)
     np.testing.assert_array_equal(
-        evaluate_predictions(three_build, tmp_path / "all.npy", split="all").scores, 100.0)
+        evaluate_predictions(three_build, tmp_path / "all.npy", split=None).scores, 100.0)
 
 
 @pytest.mark.parametrize(("measures", "measure", "message"), [
@@ -80,7 +80,7 @@ def test_an_unknown_or_unrecorded_measure_is_one_line(three_build, three_dataset
              directions=np.ones((len(THREE_MESHES), len(measures), 3)),
              measures=np.array(measures, dtype=str))
     with pytest.raises(InputError) as caught:
-        evaluate_predictions(three_build, path, split="all", measure=measure)
+        evaluate_predictions(three_build, path, split=None, measure=measure)
     assert message in str(caught.value) and "\n" not in str(caught.value)
 
 

@@ -5,6 +5,10 @@
     coarse sphere, prior, confirmation and pattern-search refinement, with
     its settings as one checked value (``SearchSettings``) and its answer
     (``BestViews``).
+``prior``
+    Who proposes the first candidates: the ``Prior`` protocol,
+    ``UnoccludedPrior`` and :func:`~vptoolkit.best_view.prior.resolve_prior`,
+    a prior by name.
 ``run``
     The search over mesh files and a dataset split, as ``vptool best-view``
     runs it (:func:`~vptoolkit.best_view.run.search_inputs`, ``SearchRun``).

@@ -10,7 +10,9 @@ evaluate`` scores. This is what ``vptool best-view`` runs.
 
 Every mesh is searched for the same measures: those asked for, else a
 dataset's recorded measures that a search can evaluate
-(:func:`recorded_searchable`), else the paper's four.
+(:func:`recorded_searchable`), else the paper's four. The prior is named
+or given as :func:`vptoolkit.best_view.prior.resolve_prior` takes it, and
+made once for those measures.
 """
 
 from __future__ import annotations
@@ -19,10 +21,12 @@ import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from vptoolkit.best_view.prior import resolve_prior
 from vptoolkit.best_view.search import (
     UNSEARCHABLE_NEEDS,
     BestViews,
@@ -32,7 +36,7 @@ from vptoolkit.best_view.search import (
     searchable_measures,
 )
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import MEASURES
+from vptoolkit.conventions import MEASURES, Split
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
 from vptoolkit.measures.registry import all_measures
@@ -40,6 +44,9 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
 from vptoolkit.visibility import RasterScene
+
+if TYPE_CHECKING:
+    from vptoolkit.data import ViewpointDataset
 
 __all__ = ["SearchRun", "recorded_searchable", "search_inputs"]
 
@@ -101,9 +108,9 @@ def search_inputs(
     inputs: Sequence[str | os.PathLike[str]] = (),
     *,
     settings: SearchSettings | None = None,
-    dataset: str | os.PathLike[str] | None = None,
-    split: str | None = "test",
-    prior: Callable[[Mesh], ArrayLike] | None = None,
+    dataset: str | os.PathLike[str] | ViewpointDataset | None = None,
+    split: Split = "test",
+    prior: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
     progress: bool = False,
     budget: int | None = None,
@@ -119,15 +126,18 @@ def search_inputs(
     settings : SearchSettings, optional
         Budget, resolution, coarse pass and camera of every search (default:
         ``SearchSettings()``).
-    dataset : path-like, optional
-        A dataset (store, build or release folder, or a release's URL) whose
-        stored, cleaned meshes of ``split`` are searched (names: the dataset's).
+    dataset : path-like or ViewpointDataset, optional
+        A dataset (store, build or release folder, a release's URL, or one
+        opened by :func:`vptoolkit.data.open_dataset`) whose stored, cleaned
+        meshes of ``split`` are searched (names: the dataset's).
     split : str, optional
         ``"train"``, ``"validation"``, ``"test"`` or None for all (default: "test").
-    prior : callable, optional
-        ``prior(mesh) -> (k, 3)`` candidate directions, most promising first,
-        e.g. :class:`vptoolkit.unoccluded.UnoccludedPrior` or
-        :class:`vptoolkit.learn.prior.NetworkPrior` (default: None).
+    prior : str, path-like or callable, optional
+        ``"none"``, ``"unoccluded"``, ``"default"``, a checkpoint's path, or
+        a :class:`~vptoolkit.best_view.prior.Prior`, ``prior(mesh) -> (k, 3)``
+        candidate directions, most promising first
+        (:func:`vptoolkit.best_view.prior.resolve_prior`, made once for the
+        searched measures; default: None, no prior).
     measures : str or sequence of str, optional
         The measures to search
         (:func:`~vptoolkit.best_view.search.searchable_measures`); default:
@@ -143,7 +153,8 @@ def search_inputs(
     ------
     InputError
         On an invalid option, an unknown measure or one a search cannot
-        evaluate, an input that is no mesh, point file or dataset
+        evaluate, a prior that cannot be made (an unknown name, a missing
+        checkpoint), an input that is no mesh, point file or dataset
         (:func:`vptoolkit.inputs.open_inputs`), a dataset that cannot be
         opened or a split of it without models. A mesh that cannot be read
         or measured, or a second model of the same name, is recorded in
@@ -158,7 +169,8 @@ def search_inputs(
                           None)
             names = (searchable_measures(None) if stored is None
                      else recorded_searchable(stored.measures, stored.path.name))
-        return _search_all(sources, chosen, prior, progress, names)
+        return _search_all(sources, chosen, resolve_prior(prior, measures=names), progress,
+                           names)
 
 
 def _load_kernels() -> None:

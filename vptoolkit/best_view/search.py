@@ -13,7 +13,7 @@ VE, VR, VKL and VMI; any other that a few views can evaluate, see
    the axis of least spread), so the pattern turns with the model and any
    input orientation is searched alike;
 2. **prior** (optional): the first candidate directions proposed by someone
-   else, e.g. the occlusion-free estimate (:class:`vptoolkit.unoccluded.UnoccludedPrior`)
+   else, e.g. the occlusion-free estimate (:class:`vptoolkit.best_view.prior.UnoccludedPrior`)
    or a network (:mod:`vptoolkit.learn.prior`), drawn at
    ``resolution``: at most an eighth of the budget (one view at least), since
    on real meshes a larger share cost the sphere more than the network's
@@ -562,7 +562,7 @@ def search_best_views(
     prior : (k, 3) array_like, optional
         Candidate directions, most promising first, drawn first at
         ``resolution`` (an eighth of the budget, at least one view; e.g. from
-        :class:`vptoolkit.unoccluded.UnoccludedPrior` or
+        :class:`vptoolkit.best_view.prior.UnoccludedPrior` or
         :class:`vptoolkit.learn.prior.NetworkPrior`); each competes for
         every searched measure. No candidate (``(0, 3)``) is no prior.
     measures : str or sequence of str, optional

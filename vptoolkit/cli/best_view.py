@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import sys
-from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import click
 
@@ -17,17 +16,13 @@ from vptoolkit.cli.options import (
     MESH,
     budget_option,
     cache_dir_option,
-    local_dataset,
     measures_option,
     search_resolution_option,
+    split_option,
 )
+from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import check_output_folder
-
-if TYPE_CHECKING:
-    from numpy.typing import ArrayLike
-
-    from vptoolkit.mesh import Mesh
 
 
 def _searchable(value: str) -> tuple[str, ...]:
@@ -46,9 +41,7 @@ def _searchable(value: str) -> tuple[str, ...]:
                    "proposes the first candidates.")
 @click.option("--dataset", "dataset_path", type=DATASET,
               help="Search the stored meshes of a dataset split (a path or a release's URL).")
-@click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "validation", "val", "test", "all"]),
-              help="Split of --dataset.")
+@split_option("Split of --dataset.")
 @measures_option("Measures to search: names (VE,NVT,SL) or 'paper' [default: with "
                  "--dataset, the measures it records that a search can evaluate; else "
                  "paper]. INS, DVS, SAL, EVMI and MS need all views of the sphere and are "
@@ -60,7 +53,7 @@ def _searchable(value: str) -> tuple[str, ...]:
               help="Print per mesh the directions, views drawn, resolutions and seconds.")
 @cache_dir_option()
 def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str,
-              dataset_path: Path | str | None, split: str, measures: tuple[str, ...] | None,
+              dataset_path: Path | str | None, split: Split, measures: tuple[str, ...] | None,
               output: Path | None, as_json: bool, cache_dir: Path | None) -> None:
     """Find the best view per measure of MESHES within a budget of drawn views.
 
@@ -82,34 +75,21 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
       vptool best-view scan.ply --views 8 --prior unoccluded
       vptool best-view --dataset release/ --split test --prior default -o test.npz
     """
-    from vptoolkit.best_view.run import recorded_searchable, search_inputs
-    from vptoolkit.best_view.search import SearchSettings, searchable_measures
+    from vptoolkit.best_view.run import search_inputs
+    from vptoolkit.best_view.search import SearchSettings
+    from vptoolkit.data import open_dataset
 
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
     if not meshes and dataset_path is None:
         raise InputError("inputs: give mesh files or --dataset")
-    if dataset_path is not None:
-        dataset_path = local_dataset(dataset_path, cache_dir)
-    if measures is None and dataset_path is not None:
-        from vptoolkit.data import open_dataset
-
-        with open_dataset(dataset_path) as opened:
-            measures = recorded_searchable(opened.measures, opened.path.name)
-    names = measures or searchable_measures(None)
-    propose: Callable[[Mesh], ArrayLike] | None = None
-    if prior == "unoccluded":
-        from vptoolkit.unoccluded import UnoccludedPrior
-
-        propose = UnoccludedPrior()
-    elif prior != "none":
-        from vptoolkit.learn.prior import NetworkPrior
-
-        propose = NetworkPrior(prior, measures=names)
-    run = search_inputs(meshes, settings=SearchSettings(budget=budget, resolution=resolution),
-                        dataset=dataset_path, split=None if split == "all" else split,
-                        prior=propose, measures=names, progress=True)
+    with contextlib.ExitStack() as stack:
+        dataset = (None if dataset_path is None
+                   else stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
+        run = search_inputs(meshes, settings=SearchSettings(budget=budget, resolution=resolution),
+                            dataset=dataset, split=split, prior=prior, measures=measures,
+                            progress=True)
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:

@@ -17,7 +17,6 @@ from vptoolkit.cli.options import (
     ExistingPath,
     cache_dir_option,
     comma_list,
-    local_dataset,
     max_faces_option,
     measures_option,
     points_option,
@@ -250,9 +249,13 @@ def verify(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
       vptool verify release/
       vptool verify https://example.org/viewpoints/ --cache-dir cache/
     """
+    from vptoolkit.data.remote import fetch_release, is_remote
     from vptoolkit.dataset.release.manifest import verify as verify_path
 
-    report = verify_path(local_dataset(path, cache_dir, everything=True))
+    # verifying reads every file: a URL is fetched whole, not read by open_dataset
+    local = (fetch_release(str(path), cache_dir=cache_dir, everything=True) if is_remote(path)
+             else path)
+    report = verify_path(local)
     # The summary is printed once: on stdout when all is well, else as the error line.
     if as_json:
         click.echo(json.dumps(report.to_dict(), indent=2))
@@ -272,16 +275,18 @@ def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     """Show counts per category and split, conventions and failures of a dataset.
 
     PATH is a store, a build or release folder, or a release's URL
-    (downloaded into --cache-dir and verified first).
+    (opened as vptoolkit.data.open_dataset opens it, cached in --cache-dir).
 
     \b
     Example:
       vptool info release/
       vptool info https://example.org/viewpoints/
     """
+    from vptoolkit.data import open_dataset
     from vptoolkit.dataset.store.info import dataset_info, format_info
 
-    details = dataset_info(local_dataset(path, cache_dir))
+    with open_dataset(path, cache_dir=cache_dir, partial=False) as opened:
+        details = dataset_info(opened.path)
     click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
 
 

@@ -7,7 +7,6 @@ toolkit errors read ``vptool: error: ...`` with the error's own message.
 
 from __future__ import annotations
 
-import re
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -16,7 +15,7 @@ from typing import Any
 import click
 
 from vptoolkit.checks import one_line
-from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
+from vptoolkit.errors import ArgumentError, InputError, MissingDependencyError, VptoolkitError
 
 __all__ = ["EXIT_FAILURE", "EXIT_BAD_INPUT", "VptoolGroup", "exit_code", "one_line_error",
            "options_named"]
@@ -100,20 +99,21 @@ def _missing_module_line(error: ModuleNotFoundError) -> str:
 
 @contextmanager
 def options_named(**names: str) -> Iterator[None]:
-    """Say the command line's names in the bad-input errors of the library calls inside.
+    """Say the command line's option for a library argument in the errors of the calls inside.
 
-    The library names its Python arguments (``val_split``, ``category=``); a
-    command maps each on to its option, e.g. ``options_named(val_split="--val-split")``.
-    A key ending in ``_`` stands for the argument written with ``=`` (``category_``
-    for ``category=``). The error keeps its class, so the exit code is unchanged.
+    The library's :class:`~vptoolkit.errors.ArgumentError` names the argument
+    it is about (``val_split``, ``category=``) as a template; a command maps
+    each argument on to its option, e.g. ``options_named(val_split="--val-split")``,
+    and the error is said again with the option in the argument's places
+    (:meth:`~vptoolkit.errors.ArgumentError.named`). A key ending in ``_``
+    stands for the argument written with ``=`` (``category_`` for
+    ``category=``). The error keeps its class, so the exit code is unchanged.
     """
     try:
         yield
-    except InputError as error:
-        message = str(error)
-        for name, option in names.items():
-            word = f"{name[:-1]}=" if name.endswith("_") else name
-            message = re.sub(rf"(?<![\w.-]){re.escape(word)}(?![\w=])", option, message)
-        if message == str(error):
+    except ArgumentError as error:
+        options = {(f"{name[:-1]}=" if name.endswith("_") else name): option
+                   for name, option in names.items()}
+        if error.argument not in options:
             raise
-        raise type(error)(message) from error
+        raise error.named(options[error.argument]) from error

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sys
@@ -20,11 +21,12 @@ from vptoolkit.cli.options import (
     ExistingPath,
     cache_dir_option,
     device_option,
-    local_dataset,
     measures_option,
     parse_point_features,
     seed_option,
+    split_option,
 )
+from vptoolkit.conventions import Split
 from vptoolkit.errors import ExistingRunError, InputError
 from vptoolkit.files import check_output_folder
 from vptoolkit.learn.options import (
@@ -36,7 +38,7 @@ from vptoolkit.learn.options import (
 from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 if TYPE_CHECKING:
-    from vptoolkit.predictions import Predictions
+    from vptoolkit.data import ViewpointDataset
 
 
 @click.command()
@@ -44,9 +46,7 @@ if TYPE_CHECKING:
 @click.option("--dataset", "dataset_path", required=True, type=DATASET,
               help="Dataset built by build-dataset (store, build folder or release folder, "
                    "or a release's URL).")
-@click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "validation", "val", "test", "all"]),
-              help="Models to score.")
+@split_option("Models to score.")
 @click.option("--measure", type=MEASURE_NAME,
               help="The measure of an (N, 3) predictions.npy, or the only one to score.")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
@@ -54,7 +54,7 @@ if TYPE_CHECKING:
               help="PREDICTIONS holds k directions per model, (N, k, 3): report the coverage "
                    "they reach against the greedy k-view set's.")
 @cache_dir_option()
-def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: str | None,
+def evaluate(predictions: Path, dataset_path: Path | str, split: Split, measure: str | None,
              as_json: bool, view_sets: bool, cache_dir: Path | None) -> None:
     """Score predicted view directions against a dataset.
 
@@ -69,15 +69,16 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
       vptool evaluate predictions.npz --dataset release/ --split test
       vptool evaluate sets.npz --dataset release/ --view-sets
     """
+    from vptoolkit.data import open_dataset
     from vptoolkit.evaluate.coverage import evaluate_view_sets
     from vptoolkit.evaluate.scores import evaluate_predictions
 
-    dataset_path = local_dataset(dataset_path, cache_dir)
-    if view_sets:
-        sets = evaluate_view_sets(dataset_path, predictions, split=split)
-        click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
-        return
-    report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
+    with open_dataset(dataset_path, cache_dir=cache_dir) as dataset:
+        if view_sets:
+            sets = evaluate_view_sets(dataset, predictions, split=split)
+            click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+            return
+        report = evaluate_predictions(dataset, predictions, split=split, measure=measure)
     click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
 
 
@@ -139,25 +140,16 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
       vptool train release/ -o per_category/ --per-category --epochs 300
       vptool train release/ -o ve_sl/ --measures VE,SL --epochs 200
     """
-    from vptoolkit.dataset.store.containers import find_store
-    from vptoolkit.dataset.store.reader import open_store
+    from vptoolkit.data import open_dataset
     from vptoolkit.learn.config import ModelConfig
     from vptoolkit.learn.labels import head_for_method
     from vptoolkit.learn.options import TrainOptions
     from vptoolkit.learn.train import train_model, train_per_category
-    from vptoolkit.points import N_FPS_POINTS, N_SURFACE_POINTS
 
     most_threads = 8 * (os.cpu_count() or 1)
     if threads is not None and threads > most_threads:
         raise InputError(f"--threads: at most {most_threads} (8 per CPU of this machine), "
                          f"got {threads}")
-    dataset = local_dataset(dataset, cache_dir)
-    with open_store(find_store(dataset)) as store:
-        n_points = int(store.attrs["n_points"])
-    if n_points < N_FPS_POINTS:  # the network input takes that many by farthest point sampling
-        raise InputError(f"{dataset}: models have {n_points} points; training needs at least "
-                         f"{N_FPS_POINTS} per model (build with --points {N_FPS_POINTS} "
-                         f"or more; the paper uses {N_SURFACE_POINTS})")
     run: dict[str, Any] = {
         "resume": resume, "progress": True, "threads": threads, "device": device,
         "command": " ".join(["vptool", *sys.argv[1:]]),
@@ -165,7 +157,8 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
     chosen = [name.strip() for name in categories.split(",")] if categories else None
     try:
         with options_named(val_split="--val-split", dataset_path="DATASET",
-                           categories="--categories", measures="--measures"):
+                           categories="--categories", measures="--measures"), \
+                open_dataset(dataset, cache_dir=cache_dir) as opened:
             options = TrainOptions(labels=labels, epochs=epochs, batch_size=batch_size, lr=lr,
                                    seed=seed, val_split=val_split, categories=chosen,
                                    fps_pool=fps_pool, measures=measures,
@@ -173,9 +166,9 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
                                        head=head_for_method(labels),
                                        point_features=point_features))
             if per_category:
-                results = train_per_category(dataset, output, options, **run)
+                results = train_per_category(opened, output, options, **run)
             else:
-                results = {"": train_model(dataset, output, options, **run)}
+                results = {"": train_model(opened, output, options, **run)}
     except ExistingRunError as error:
         how = ("it has nothing to resume from" if resume
                else "add --resume to continue it")
@@ -192,9 +185,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @click.option("-m", "--model", default="default", show_default=True, help=PREDICT_MODEL_HELP)
 @click.option("--dataset", "dataset_path", type=DATASET,
               help="Predict the models of a dataset (a path or a release's URL).")
-@click.option("--split", default="test", show_default=True,
-              type=click.Choice(["train", "validation", "val", "test", "all"]),
-              help="Split of --dataset.")
+@split_option("Split of --dataset.")
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="Write names, directions (N, M, 3) and the network's M measures to this "
                    ".npz.")
@@ -208,7 +199,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @device_option()
 @cache_dir_option()
 def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | str | None,
-                    split: str, output: Path | None, seed: int, category: str | None,
+                    split: Split, output: Path | None, seed: int, category: str | None,
                     n_inputs: int | None, device: str, cache_dir: Path | None) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
@@ -222,7 +213,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     answers --inputs draws of each model's points; the prediction is the
     answer most of the others agree with.
     --model unoccluded answers in closed form from normals with occlusion
-    ignored (vptoolkit.unoccluded; a mesh's faces, an (N, 6) point file's
+    ignored (vptoolkit.measures.unoccluded; a mesh's faces, an (N, 6) point file's
     normals, a dataset's stored normals): no network, a few ms, and on real
     meshes often as good as the bundled network (docs/results.md).
 
@@ -233,24 +224,21 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
       vptool predict --model unoccluded scan.npy
       vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
     """
-    if model == "unoccluded" and n_inputs is not None:
-        raise InputError("--inputs: --model unoccluded asks no network; drop one of them")
+    from vptoolkit.data import open_dataset
+    from vptoolkit.predictors import resolve_predictor
+
+    predictor = resolve_predictor(model, seed=seed, category=category, device=device,
+                                  n_inputs=n_inputs, progress=True)
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
-    if dataset_path is not None:
-        dataset_path = local_dataset(dataset_path, cache_dir)
-    sources: list[Path] = list(inputs) + ([dataset_path] if dataset_path is not None else [])
-    if not sources:
+    if not inputs and dataset_path is None:
         raise InputError("inputs: give mesh or point files, or --dataset")
-    chosen = None if split == "all" else split
-    if model == "unoccluded":
-        from vptoolkit.unoccluded import predict_unoccluded
-
-        predictions = predict_unoccluded(sources, split=chosen)
-    else:
-        predictions = _network_predictions(model, sources, chosen, seed, category, device,
-                                           n_inputs)
+    with contextlib.ExitStack() as stack, options_named(category_="--category"):
+        sources: list[Path | ViewpointDataset] = list(inputs)
+        if dataset_path is not None:
+            sources.append(stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
+        predictions = predictor(sources, split=split)
     if output is not None:
         predictions.save_npz(output)
     names, directions, measures = predictions.names, predictions.directions, predictions.measures
@@ -262,21 +250,6 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
         click.echo(f"... and {len(names) - 10} more")
     if output is not None:
         click.echo(f"wrote {output} ({len(names)} models)")
-
-
-def _network_predictions(model: str, sources: list[Path], split: str | None, seed: int,
-                         category: str | None, device: str, n_inputs: int | None) -> Predictions:
-    """A network's predictions for ``predict``; ``n_inputs`` None takes the library's default."""
-    from vptoolkit.learn.predict import N_INPUTS, predict
-    from vptoolkit.points import read_point_file
-
-    for source in sources:  # refused before the network is loaded
-        if source.suffix.lower() == ".npy" and source.is_file():
-            read_point_file(source)
-    with options_named(category_="--category"):
-        return predict(model, sources, split=split, seed=seed, progress=True,
-                       category=category, device=device,
-                       n_inputs=N_INPUTS if n_inputs is None else n_inputs)
 
 
 COMMANDS = (train, predict_command, evaluate)

@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 import click
 
-from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED
+from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED, SPLITS
 from vptoolkit.errors import InputError
 from vptoolkit.settings import MAX_RESOLUTION
 from vptoolkit.sphere import as_directions
@@ -33,7 +33,7 @@ __all__ = [
     "DATASET",
     "cache_dir_option",
     "comma_list",
-    "local_dataset",
+    "split_option",
     "MEASURE_CHOICE",
     "MEASURE_NAME",
     "MeasureName",
@@ -142,24 +142,27 @@ DATASET = DatasetSource(exists=True, path_type=Path)
 
 
 def cache_dir_option() -> Callable[[Decorated], Decorated]:
-    """``--cache-dir``: where a dataset given as a URL is downloaded."""
+    """``--cache-dir``: the ``cache_dir`` of :func:`vptoolkit.data.open_dataset` for a URL."""
     return click.option(
         "--cache-dir", type=click.Path(file_okay=False, path_type=Path),
-        help="Where a dataset given as a URL is downloaded and verified "
+        help="Where a dataset given as a URL is cached and verified "
              "(default: $XDG_CACHE_HOME/vptoolkit, else ~/.cache/vptoolkit).")
 
 
-def local_dataset(source: Path | str, cache_dir: Path | None, *,
-                  everything: bool = False) -> Path:
-    """A :data:`DATASET` value as a local path: a URL is fetched into the cache first.
+def split_option(help: str, *, default: str = "test") -> Callable[[Decorated], Decorated]:
+    """``--split train|validation|val|test|all``: which models of a dataset.
 
-    ``everything`` fetches every file of the release, not only what reading needs.
+    The one place the command line's ``all`` becomes the library's None (every
+    model, :data:`vptoolkit.conventions.Split`); the command receives the
+    library's value.
     """
-    from vptoolkit.data.remote import fetch_release, is_remote
 
-    if is_remote(source):
-        return fetch_release(str(source), cache_dir=cache_dir, everything=everything)
-    return Path(source)
+    def library_split(ctx: click.Context, param: click.Parameter, value: str) -> str | None:
+        return None if value == "all" else value
+
+    return click.option("--split", default=default, show_default=True,
+                        type=click.Choice([*SPLITS, "val", "all"]), callback=library_split,
+                        help=help)
 
 
 MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)

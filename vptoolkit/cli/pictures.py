@@ -14,6 +14,7 @@ import click
 from vptoolkit.checks import check_suffix
 from vptoolkit.cli.group import EXIT_FAILURE
 from vptoolkit.cli.options import (
+    DATASET,
     EXISTING,
     MEASURE_CHOICE,
     MEASURE_NAME,
@@ -21,14 +22,17 @@ from vptoolkit.cli.options import (
     MODEL_HELP,
     Direction,
     ExistingPath,
+    cache_dir_option,
     engine_option,
     parse_measures,
     resolution_option,
     size_option,
+    split_option,
     up_option,
     views_option,
     workers_option,
 )
+from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_output_folder
 from vptoolkit.pictures.report import REPORT_SIZE
@@ -180,11 +184,10 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
 
 
 @click.command()
-@click.argument("dataset", type=EXISTING)
+@click.argument("dataset", type=DATASET)
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for index.html and its pictures.")
-@click.option("--split", type=click.Choice(["train", "validation", "val", "test"]),
-              help="Report one split only (default: every model).")
+@split_option("Report one split only, or all models.", default="all")
 @click.option("--predictions", type=ExistingPath(exists=True, dir_okay=False, path_type=Path),
               help="Predictions (.npz of vptool predict) to score and draw.")
 @size_option(REPORT_SIZE)
@@ -193,10 +196,13 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
               help="Views in each model's coverage view set (0 leaves it out).")
 @up_option()
 @engine_option()
-def report(dataset: Path, output: Path, split: str | None, predictions: Path | None, size: int,
-           no_pictures: bool, view_set_k: int, up: Vector, engine: str) -> None:
+@cache_dir_option()
+def report(dataset: Path | str, output: Path, split: Split, predictions: Path | None, size: int,
+           no_pictures: bool, view_set_k: int, up: Vector, engine: str,
+           cache_dir: Path | None) -> None:
     """Write a static HTML page with one card per model of DATASET.
 
+    DATASET is a store, a build or release folder, or a release's URL.
     Pictures from each measure's best view, the quality maps of every
     measure DATASET records (the paper's four unless it was built with
     others), the scores of --predictions, filters by category and split, and
@@ -213,7 +219,7 @@ def report(dataset: Path, output: Path, split: str | None, predictions: Path | N
     from vptoolkit.pictures.report import write_report
     from vptoolkit.pictures.shading import RenderStyle
 
-    with open_dataset(dataset) as opened, open_renderer(
+    with open_dataset(dataset, cache_dir=cache_dir) as opened, open_renderer(
             engine, size=size, camera=opened.camera, style=RenderStyle(up=up)) as drawing:
         index = write_report(opened, output, split=split, predictions=predictions,
                              thumbnails=not no_pictures, engine=drawing, progress=True,

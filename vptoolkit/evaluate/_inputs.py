@@ -14,14 +14,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import SPLITS
+from vptoolkit.conventions import SPLITS, Split
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.sphere import is_zero_length
-
-EVALUATION_SPLITS = (*SPLITS, "all")
-"""Splits an evaluation may select: the published ones, or ``"all"``."""
 
 _MAX_LISTED = 3  # names quoted in an error message before "..."
 
@@ -57,15 +54,20 @@ def check_directions(file_name: str, directions: NDArray[Any], names: Sequence[s
     return values
 
 
-def select_split(dataset: ViewpointDataset, split: str) -> ViewpointDataset:
-    """The models of ``split`` (a name of ``EVALUATION_SPLITS`` or an alias); never empty."""
-    split = published_split(split)
-    if split not in EVALUATION_SPLITS:
+def split_label(split: Split) -> str:
+    """How a report names ``split``: as given, or ``"all"`` for None (every model)."""
+    return "all" if split is None else split
+
+
+def select_split(dataset: ViewpointDataset, split: Split) -> ViewpointDataset:
+    """The models of ``split`` (a :data:`~vptoolkit.conventions.Split`: one of ``SPLITS``,
+    the alias ``"val"``, or None for every model); never empty."""
+    if split is not None and published_split(split) not in SPLITS:
         raise InputError(f"split: unknown split {split!r}, expected one of "
-                         f"{', '.join(EVALUATION_SPLITS)}")
-    selected = dataset if split == "all" else dataset.split(split)
+                         f"{', '.join(SPLITS)}, or None for every model")
+    selected = dataset if split is None else dataset.split(published_split(split))
     if len(selected) == 0:
-        raise InputError(f"{dataset.path.name}: split {split!r} has no models")
+        raise InputError(f"{dataset.path.name}: split {split_label(split)!r} has no models")
     return selected
 
 
@@ -76,7 +78,7 @@ def check_models(dataset: ViewpointDataset) -> int:
     return len(dataset)
 
 
-def split_label(dataset: ViewpointDataset, split: str | None) -> str:
+def report_split(dataset: ViewpointDataset, split: str | None) -> str:
     """A report's split: ``split`` as given, else the one split of every model, else ``"all"``."""
     if split is not None:
         return split

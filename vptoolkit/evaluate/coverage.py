@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.conventions import Split
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
@@ -26,6 +27,7 @@ from vptoolkit.evaluate._inputs import (
     check_models,
     counted,
     quoted,
+    report_split,
     select_split,
     split_label,
 )
@@ -283,7 +285,7 @@ def score_view_sets(
             predicted[model] = set_coverage(visibility, nearest)
             best = best_view_set(visibility, k).coverage
         greedy[model] = np.concatenate([best, np.full(k - len(best), best[-1])])
-    split = split_label(dataset, split)
+    split = report_split(dataset, split)
     return ViewSetReport(dataset.path.name, split, predictions, tuple(dataset.names),
                          tuple(dataset.categories), predicted, greedy)
 
@@ -292,7 +294,7 @@ def evaluate_view_sets(
     dataset: ViewpointDataset | str | os.PathLike[str],
     predictions_path: str | os.PathLike[str],
     *,
-    split: str = "test",
+    split: Split = "test",
 ) -> ViewSetReport:
     """Score a file of predicted view sets on one split (see :func:`score_view_sets`).
 
@@ -303,8 +305,9 @@ def evaluate_view_sets(
     predictions_path : path-like
         ``*.npz`` with ``names`` (n_models,) and ``directions`` (n_models, k, 3),
         or a ``*.npy`` of shape (n_models, k, 3) in the split's order.
-    split : str
-        ``"train"``, ``"val"``, ``"test"`` (default) or ``"all"``.
+    split : str or None
+        ``"train"``, ``"validation"`` (alias ``"val"``), ``"test"`` (default)
+        or None for every model (reported as ``"all"``).
 
     Returns
     -------
@@ -314,7 +317,8 @@ def evaluate_view_sets(
         with open_dataset(dataset) as opened:
             return evaluate_view_sets(opened, predictions_path, split=split)
     selected = select_split(dataset, split)
+    label = split_label(split)
     directions = _load_view_sets(predictions_path, selected,
-                                 f"split {split!r} of {dataset.path.name}")
-    return score_view_sets(selected, directions, split=split,
+                                 f"split {label!r} of {dataset.path.name}")
+    return score_view_sets(selected, directions, split=label,
                            predictions=Path(predictions_path).name)

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES
+from vptoolkit.conventions import MEASURES, Split
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
@@ -62,6 +62,7 @@ from vptoolkit.evaluate._inputs import (
     check_models,
     counted,
     quoted,
+    report_split,
     select_split,
     split_label,
 )
@@ -493,7 +494,7 @@ def score_directions(
     for model in range(n_models):
         quality = dataset.quality_of(model, values[model, columns])  # (n_scored, M)
         scores[model, columns] = 100.0 * quality[np.arange(len(columns)), columns]
-    split = split_label(dataset, split)
+    split = report_split(dataset, split)
     return EvaluationReport(
         dataset=dataset.path.name,
         split=split,
@@ -509,7 +510,7 @@ def evaluate_predictions(
     dataset: ViewpointDataset | str | os.PathLike[str],
     predictions_path: str | os.PathLike[str],
     *,
-    split: str = "test",
+    split: Split = "test",
     measure: str | None = None,
 ) -> EvaluationReport:
     """Score a predictions file on one split of a dataset.
@@ -520,8 +521,9 @@ def evaluate_predictions(
         An open dataset, or a store path to open (and close again).
     predictions_path : path-like
         ``*.npz`` or ``*.npy``; see :func:`load_predictions`.
-    split : str
-        ``"train"``, ``"val"``, ``"test"`` (default) or ``"all"``.
+    split : str or None
+        ``"train"``, ``"validation"`` (alias ``"val"``), ``"test"`` (default)
+        or None for every model (reported as ``"all"``).
     measure : str, optional
         Score only this measure, one the dataset records; required for an
         (n_models, 3) ``.npy``.
@@ -548,7 +550,8 @@ def evaluate_predictions(
             return evaluate_predictions(opened, predictions_path, split=split, measure=measure)
     recorded_measure(dataset, measure)
     selected = select_split(dataset, split)
+    label = split_label(split)
     _, directions = _load(predictions_path, selected, measure,
-                          f"split {split!r} of {dataset.path.name}")
-    return score_directions(selected, directions, split=split,
+                          f"split {label!r} of {dataset.path.name}")
+    return score_directions(selected, directions, split=label,
                             predictions=Path(predictions_path).name)

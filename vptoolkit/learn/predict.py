@@ -63,7 +63,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int, check_int_range, short_repr
-from vptoolkit.errors import InputError
+from vptoolkit.conventions import Split
+from vptoolkit.errors import ArgumentError, InputError
 from vptoolkit.files import is_inside_folder
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_input_sizes
@@ -292,9 +293,9 @@ def _route(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]], name
     if None in networks:
         return None
     if category is None:
-        raise InputError(f"{name}: the model folder holds one network per category "
-                         f"({', '.join(map(str, networks))}); "
-                         "pass category= for meshes and point files")
+        raise ArgumentError(f"{name}: the model folder holds one network per category "
+                            f"({', '.join(map(str, networks))}); "
+                            "pass {argument} for meshes and point files", "category=")
     if category not in networks:
         raise InputError(f"{name}: no network for category {category!r} "
                          f"(have {', '.join(map(str, networks))})")
@@ -556,7 +557,7 @@ def predict(
     inputs: (str | os.PathLike[str] | ViewpointDataset
              | Sequence[str | os.PathLike[str] | ViewpointDataset]),
     *,
-    split: str | None = "test",
+    split: Split = "test",
     batch_size: int = 64,
     seed: int = 0,
     n_points: int | None = None,

@@ -3,7 +3,9 @@
 :func:`vptoolkit.best_view.search.search_best_views` draws a prior's candidate
 directions first and keeps what the drawing says is best, so a prior only
 has to put a good direction among a few candidates, not to be right.
-:class:`NetworkPrior` asks a checkpoint for them:
+:class:`NetworkPrior` is a :class:`~vptoolkit.best_view.prior.Prior` that
+asks a checkpoint for them (``resolve_prior("default")`` or a checkpoint's
+path, :func:`vptoolkit.best_view.prior.resolve_prior`):
 
 Only the heads of the measures the search looks for count (``measures``;
 default: every head): a searched measure the network has no head for gets no

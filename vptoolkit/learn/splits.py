@@ -2,7 +2,8 @@
 
 The training split, the validation split and, optionally, some categories
 only; ``max_models`` keeps the first models of a split in store order. An
-empty choice is an :class:`~vptoolkit.errors.InputError` naming the option.
+empty choice is an :class:`~vptoolkit.errors.ArgumentError` naming the
+argument, which the command line says with its option.
 """
 
 from __future__ import annotations
@@ -10,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from vptoolkit.data import ViewpointDataset
-from vptoolkit.errors import InputError
+from vptoolkit.errors import ArgumentError
 
 __all__ = ["select_categories", "select_models"]
 
@@ -20,9 +21,10 @@ def _split(dataset: ViewpointDataset, split: str, max_models: int | None,
     """A split and how many of its models (the first, in store order) to use."""
     subset = dataset.split(split)
     if len(subset) == 0:
-        hint = ("; choose another with val_split (\"train\" for a tiny dataset)"
+        hint = ("; choose another with {argument} (\"train\" for a tiny dataset)"
                 if what == "val_split" else "")
-        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models{hint}")
+        raise ArgumentError(f"{{argument}}: split {split!r} of {dataset.path.name} has no "
+                            f"models{hint}", what)
     return subset, len(subset) if max_models is None else min(len(subset), max_models)
 
 
@@ -36,8 +38,9 @@ def select_categories(dataset: ViewpointDataset,
     chosen = sorted({str(name) for name in categories})
     unknown = sorted(set(chosen) - set(dataset.categories))
     if not chosen or unknown:
-        raise InputError(f"categories: {unknown or 'none given'} not in {dataset.path.name} "
-                         f"(it has {sorted(set(dataset.categories))})")
+        raise ArgumentError(f"{{argument}}: {unknown or 'none given'} not in "
+                            f"{dataset.path.name} (it has {sorted(set(dataset.categories))})",
+                            "categories")
     return chosen
 
 
@@ -50,7 +53,7 @@ def select_models(dataset: ViewpointDataset, split: str, categories: list[str] |
     keep = [name for name, category in zip(subset.names, subset.categories)
             if category in categories]
     if not keep:
-        raise InputError(f"{what}: split {split!r} of {dataset.path.name} has no models of "
-                         f"{categories}")
+        raise ArgumentError(f"{{argument}}: split {split!r} of {dataset.path.name} has no "
+                            f"models of {categories}", what)
     chosen = subset.subset(keep)
     return chosen, len(chosen) if max_models is None else min(len(chosen), max_models)

@@ -94,7 +94,7 @@ import numpy as np
 
 from vptoolkit.checks import check_int
 from vptoolkit.data import ViewpointDataset, open_dataset
-from vptoolkit.errors import ExistingRunError, InputError
+from vptoolkit.errors import ArgumentError, ExistingRunError, InputError
 from vptoolkit.files import check_path_part, write_json_atomic
 from vptoolkit.learn.checkpoint import checkpoint_paths
 from vptoolkit.learn.labels import label_loss, label_phase
@@ -223,8 +223,8 @@ def _measure_columns(dataset: ViewpointDataset,
                          "this vptoolkit does not know as measures; name the ones to learn")
     missing = [name for name in names if name not in recorded]
     if missing:
-        raise InputError(f"measures: {dataset.path.name} does not record {', '.join(missing)} "
-                         f"(it records {', '.join(recorded)})")
+        raise ArgumentError(f"{{argument}}: {dataset.path.name} does not record "
+                            f"{', '.join(missing)} (it records {', '.join(recorded)})", "measures")
     return replace(options, measures=names), tuple(recorded.index(name) for name in names)
 
 
@@ -261,7 +261,7 @@ def _batches(n_models: int, batch_size: int, generator: torch.Generator) -> list
 
 
 def train_model(
-    dataset_path: str | os.PathLike[str],
+    dataset_path: str | os.PathLike[str] | ViewpointDataset,
     output: str | os.PathLike[str],
     options: TrainOptions | None = None,
     *,
@@ -282,9 +282,11 @@ def train_model(
 
     Parameters
     ----------
-    dataset_path : path-like
-        A dataset store or build/release folder
-        (:func:`vptoolkit.data.open_dataset`); trains on its ``train`` split.
+    dataset_path : path-like or ViewpointDataset
+        A dataset store, build/release folder or release URL, or a dataset
+        opened by :func:`vptoolkit.data.open_dataset` (left open); trains on
+        its ``train`` split, whose models need at least ``options.n_fps``
+        stored points each.
     output : path-like
         Folder for ``model.safetensors`` and friends, or a ``*.safetensors``
         path (see the module docstring).
@@ -344,7 +346,8 @@ def train_model(
                       command=command)
 
 
-def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
+def _train(dataset_path: str | os.PathLike[str] | ViewpointDataset,
+           output: str | os.PathLike[str],
            options: TrainOptions, *, resume: bool, overwrite: bool, progress: bool,
            save_every: int, workers: int, device: torch.device,
            command: str | None) -> TrainResult:
@@ -354,15 +357,19 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
     last_weights, last_json = state_paths(output)
     from vptoolkit.data.torch import ViewpointTorchDataset
 
-    dataset = open_dataset(dataset_path)
+    is_owner = not isinstance(dataset_path, ViewpointDataset)
+    dataset = (dataset_path if isinstance(dataset_path, ViewpointDataset)
+               else open_dataset(dataset_path))
     try:
+        _check_point_count(dataset, options.n_fps)
         chosen = select_categories(dataset, options.categories)
         # Recorded as given (None: the dataset's); the architecture names the heads learnt.
         given = options.to_dict()["measures"]
         options, columns = _measure_columns(dataset, options)
         config = options.model_config
         arguments = {
-            "dataset_path": str(dataset_path), "output": str(output),
+            "dataset_path": str(dataset_path if is_owner else dataset.path),
+            "output": str(output),
             **options.to_dict(), "measures": given,
             "save_every": save_every, "workers": workers, "device": str(device),
         }
@@ -371,8 +378,8 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
         val_set, n_val = select_models(dataset, options.val_split, chosen, options.max_models,
                                        "val_split")
         if n_train < 2:
-            raise InputError(f"dataset_path: {dataset.path.name} has {n_train} training model; "
-                             "need at least 2")
+            raise ArgumentError(f"{{argument}}: {dataset.path.name} has {n_train} training "
+                                "model; need at least 2", "dataset_path")
         is_resuming = bool(resume) and last_json.exists()
         if not is_resuming and not overwrite and (weights_path.exists() or last_json.exists()):
             hint = (f"it has no resumable state ({last_json.name}); pass overwrite=True to "
@@ -459,11 +466,32 @@ def _train(dataset_path: str | os.PathLike[str], output: str | os.PathLike[str],
             seconds=time.perf_counter() - started,
         )
     finally:
-        dataset.close()
+        if is_owner:
+            dataset.close()
+
+
+def _check_point_count(dataset: ViewpointDataset, n_fps: int) -> None:
+    """Refuse a dataset whose models have fewer stored points than a network input's
+    farthest-point part (``TrainOptions.n_fps``, :data:`~vptoolkit.points.N_FPS_POINTS`
+    by default)."""
+    from vptoolkit.points import N_SURFACE_POINTS
+
+    n_points = int(dataset.attrs["n_points"])
+    if n_points < n_fps:
+        raise InputError(f"{dataset.path}: models have {n_points} points; training needs at "
+                         f"least {n_fps} per model (build with --points {n_fps} "
+                         f"or more; the paper uses {N_SURFACE_POINTS})")
+
+
+def _trained_categories(dataset: ViewpointDataset, options: TrainOptions) -> list[str]:
+    """The categories of a per-category run: those asked for, else every one with training
+    models, sorted."""
+    chosen = select_categories(dataset, options.categories)
+    return list(chosen) if chosen is not None else sorted(set(dataset.split("train").categories))
 
 
 def train_per_category(
-    dataset_path: str | os.PathLike[str],
+    dataset_path: str | os.PathLike[str] | ViewpointDataset,
     output: str | os.PathLike[str],
     options: TrainOptions | None = None,
     **run: Any,
@@ -483,7 +511,8 @@ def train_per_category(
     Parameters
     ----------
     dataset_path, output : path-like
-        As for :func:`train_model`; ``output`` is a folder.
+        As for :func:`train_model` (``dataset_path`` may be an open dataset);
+        ``output`` is a folder.
     options : TrainOptions, optional
         The options of every category's run (default: ``TrainOptions()``);
         their ``categories`` are the categories to train (default: every
@@ -503,10 +532,12 @@ def train_per_category(
     if folder.suffix == ".safetensors":
         raise InputError(f"{folder}: per-category training writes a folder, not one "
                          ".safetensors file")
-    with open_dataset(dataset_path) as dataset:
-        chosen = select_categories(dataset, options.categories)
-        names = chosen if chosen is not None else sorted(set(dataset.split("train").categories))
-    folders = {name: check_path_part(name, f"{dataset_path}: category") for name in names}
+    if isinstance(dataset_path, ViewpointDataset):
+        where, names = dataset_path.path, _trained_categories(dataset_path, options)
+    else:
+        with open_dataset(dataset_path) as dataset:
+            where, names = Path(dataset_path), _trained_categories(dataset, options)
+    folders = {name: check_path_part(name, f"{where}: category") for name in names}
     index = _category_index(folder)
     results = {}
     for name, part in folders.items():

@@ -10,6 +10,8 @@ Modules, one concept each:
   ``ViewQuality``, any registered measures of a mesh's views (the paper's four,
   by default, streamed from the pixel counts), normalisation and ranking.
 - ``curvature``: the per-face mean curvature of a mesh, computed once per mesh.
+- ``unoccluded``: VE, VR, VKL and VMI with occlusion ignored, in closed form
+  from normals and areas, and the zero-view best directions they give.
 - ``saliency``: per-face saliency (Feixas et al.'s from the views, Lee et al.'s
   from the curvature), computed once per mesh.
 - ``_kernels``: the compiled sums (numba, imported lazily by the functions

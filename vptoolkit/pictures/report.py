@@ -30,6 +30,7 @@ from tqdm import tqdm
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_text_atomic
 from vptoolkit.mesh import Mesh
@@ -80,7 +81,7 @@ def write_report(
     dataset: Any,
     out_dir: str | os.PathLike[str],
     *,
-    split: str | None = None,
+    split: Split = None,
     predictions: str | os.PathLike[str] | None = None,
     thumbnails: bool = True,
     engine: Engine | None = None,

@@ -33,7 +33,7 @@ from typing import Any
 from packaging.licenses import InvalidLicenseExpression, canonicalize_license_expression
 
 from vptoolkit.dataset.release.manifest import CARD_NAME
-from vptoolkit.errors import InputError
+from vptoolkit.errors import ArgumentError, InputError
 
 __all__ = ["AUTHORS_SOURCE", "LICENSES_NAME", "LICENSE_COLUMNS", "MODELNET_SOURCE",
            "SHAPENET_SOURCE", "SourceTerms", "check_license", "check_licenses",
@@ -71,9 +71,9 @@ def check_license(value: str, label: str) -> str:
     try:
         canonicalize_license_expression(text)
     except InvalidLicenseExpression as err:
-        raise InputError(f"{label}: {value!r} is not an SPDX licence identifier or expression "
-                         "(e.g. CC-BY-4.0, MIT OR Apache-2.0, LicenseRef-...) or the URL of "
-                         "the licence") from err
+        raise ArgumentError(f"{{argument}}: {value!r} is not an SPDX licence identifier or "
+                            "expression (e.g. CC-BY-4.0, MIT OR Apache-2.0, LicenseRef-...) or "
+                            "the URL of the licence", label) from err
     return text
 
 

@@ -58,7 +58,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.conventions import MEASURES, SPLITS
 from vptoolkit.dataset.store.schema import ARRAY_SPECS, ENTRY_ARRAYS, published_split
-from vptoolkit.errors import InputError
+from vptoolkit.errors import ArgumentError
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -189,7 +189,7 @@ def parse_size(text: str | int, label: str = "--shard-size") -> int:
 
     Raises
     ------
-    InputError
+    ArgumentError
         For anything else, or a size under one byte, naming ``label``.
     """
     if isinstance(text, int) and not isinstance(text, bool):
@@ -198,10 +198,11 @@ def parse_size(text: str | int, label: str = "--shard-size") -> int:
         match = _SIZE.fullmatch(str(text))
         unit = match[2].upper() if match else ""
         if match is None or unit not in _UNITS:
-            raise InputError(f"{label}: {text!r} is not a size such as 200KB, 500MB or 1GB")
+            raise ArgumentError(f"{{argument}}: {text!r} is not a size such as 200KB, 500MB "
+                                "or 1GB", label)
         value = float(match[1]) * _UNITS[unit]
     if value < 1:
-        raise InputError(f"{label}: {text!r} is under one byte")
+        raise ArgumentError(f"{{argument}}: {text!r} is under one byte", label)
     return int(value)
 
 

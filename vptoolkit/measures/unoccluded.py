@@ -33,9 +33,12 @@ every element.
 
 The estimate needs no image: it is the zero-view answer of
 :func:`unoccluded_best_views` (points with normals suffice, so a scan without a
-mesh has one) and the candidate proposer of :class:`UnoccludedPrior` for
-:func:`vptoolkit.best_view.search.search_best_views`. It is exact for a convex surface
+mesh has one), the prior :class:`vptoolkit.best_view.prior.UnoccludedPrior` of
+the best-view search and the predictor ``"unoccluded"`` of
+:func:`vptoolkit.predictors.resolve_predictor`. It is exact for a convex surface
 seen from afar (orthographically) and misleads where parts hide each other.
+Only these four measures have a closed form here (:data:`UNOCCLUDED_MEASURES`);
+:func:`unoccluded_measures` refuses any other registered name in one line.
 
 Directions are unit vectors from the model's centre towards the camera, in the
 model's own coordinates. Numpy only.
@@ -44,36 +47,28 @@ model's own coordinates. Numpy only.
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Sequence
-from typing import TYPE_CHECKING, Final
+from collections.abc import Iterable
+from typing import Final
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
 from vptoolkit.measures.quality import ranked_views
+from vptoolkit.measures.registry import resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.predictions import Predictions
-from vptoolkit.sphere import (
-    as_directions,
-    coarse_directions,
-    distinct_directions,
-    fibonacci_sphere,
-)
-
-if TYPE_CHECKING:
-    from vptoolkit.data import ViewpointDataset
+from vptoolkit.sphere import as_directions, fibonacci_sphere
 
 __all__ = [
     "NORMAL_CELLS",
     "UNOCCLUDED_DIRECTIONS",
-    "UnoccludedPrior",
+    "UNOCCLUDED_MEASURES",
+    "face_elements",
     "mesh_elements",
-    "predict_unoccluded",
+    "unit_normals",
     "unoccluded_best_views",
+    "unoccluded_measures",
     "unoccluded_quality",
 ]
 
@@ -83,9 +78,39 @@ UNOCCLUDED_DIRECTIONS: Final = 128
 NORMAL_CELLS: Final = 32
 """Side of the octahedral grid the elements' normals are pooled on (1024 cells)."""
 
+UNOCCLUDED_MEASURES: Final = ("VE", "VR", "VKL", "VMI")
+"""The measures the estimate has a closed form for, in the column order of
+:func:`unoccluded_quality` (the paper's four)."""
+
 _CHUNK_ENTRIES = 1 << 21  # elements x directions per block of the product (16 MiB of float64)
 _TINY = np.finfo(np.float64).tiny
-_RANKED = 32  # best directions per measure looked through for distinct candidates
+
+
+def unoccluded_measures(measures: str | Iterable[str] | None = None) -> tuple[str, ...]:
+    """The measure names of ``measures`` the estimate answers, in the order given.
+
+    Parameters
+    ----------
+    measures : str, iterable of str or None
+        Registered names, ``"paper"`` or ``"all"``
+        (:func:`vptoolkit.measures.registry.resolve_measures`; default: the
+        paper's four).
+
+    Raises
+    ------
+    InputError
+        For an unknown name, or in one line for a registered measure without
+        a closed form, e.g. ``measures: the unoccluded estimate has no closed
+        form for SL, MD (it needs the drawn image); it estimates VE, VR, VKL,
+        VMI``.
+    """
+    names = resolve_measures(measures)
+    missing = [name for name in names if name not in UNOCCLUDED_MEASURES]
+    if missing:
+        raise InputError(f"measures: the unoccluded estimate has no closed form for "
+                         f"{', '.join(missing)} (it needs the drawn image); it estimates "
+                         f"{', '.join(UNOCCLUDED_MEASURES)}")
+    return names
 
 
 def mesh_elements(mesh: MeshLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -101,14 +126,20 @@ def mesh_elements(mesh: MeshLike) -> tuple[NDArray[np.float64], NDArray[np.float
     -------
     normals : (k, 3) float64, areas : (k,) float64
     """
-    mesh = as_mesh(mesh)
-    normals, areas, _ = _face_elements(mesh)
+    normals, areas, _ = face_elements(as_mesh(mesh))
     return normals, areas
 
 
-def _face_elements(mesh: Mesh,
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """:func:`mesh_elements`, and the area of every face (zero for degenerate ones)."""
+def face_elements(mesh: Mesh,
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`mesh_elements`, and the area of every face (zero for degenerate ones).
+
+    Returns
+    -------
+    normals : (k, 3) float64, areas : (k,) float64, face_areas : (n_faces,) float64
+        ``face_areas`` weighs :func:`vptoolkit.sphere.coarse_directions`, the
+        sphere the estimate of a mesh is evaluated on.
+    """
     cross = face_cross_products(mesh)
     double_areas = np.sqrt(np.einsum("ij,ij->i", cross, cross))
     keep = double_areas > 0
@@ -145,7 +176,7 @@ def _pool(normals: NDArray[np.float64], areas: NDArray[np.float64], cells: int,
     return summed[used] / lengths[used, None], weights[used], a_log_a[used]
 
 
-def _unit_normals(normals: NDArray[np.float64], label: str) -> NDArray[np.float64]:
+def unit_normals(normals: NDArray[np.float64], label: str) -> NDArray[np.float64]:
     """``normals`` made unit length, each finite and of positive length.
 
     Each row is divided by its largest absolute component before its length
@@ -198,7 +229,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
     Returns
     -------
     raw : (n, 4) float64
-        In ``MEASURES`` order; NaN where no element faces the direction.
+        In :data:`UNOCCLUDED_MEASURES` order; NaN where no element faces the direction.
     """
     vectors = np.asarray(normals, dtype=np.float64)
     element_areas = np.asarray(areas, dtype=np.float64)
@@ -208,7 +239,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
                          f"got {vectors.shape} and {element_areas.shape}")
     if not np.isfinite(element_areas).all() or (element_areas < 0).any():
         raise InputError("areas: expected finite values >= 0")
-    unit = _unit_normals(vectors, "normals")
+    unit = unit_normals(vectors, "normals")
     total = float(element_areas.sum())
     if not total > 0.0:
         raise InputError("areas: the surface has zero area")
@@ -218,7 +249,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
         unit, weights, a_log_a = _pool(unit, element_areas, int(cells))
     else:
         weights, a_log_a = element_areas, _x_log2_x(element_areas)
-    raw = np.full((len(views), len(MEASURES)), np.nan)
+    raw = np.full((len(views), len(UNOCCLUDED_MEASURES)), np.nan)
     step = max(1, _CHUNK_ENTRIES // len(weights))
     for start in range(0, len(views), step):
         facing = np.maximum(unit @ views[start:start + step].T, 0.0)  # c_z(d)
@@ -235,6 +266,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
 
 def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
                           directions: ArrayLike | int = UNOCCLUDED_DIRECTIONS,
+                          measures: str | Iterable[str] | None = None,
                           ) -> NDArray[np.float64]:
     """The best direction per measure of the occlusion-free estimate: no image drawn.
 
@@ -248,11 +280,21 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
     directions : (n, 3) array_like or int
         Directions to choose from, or how many Fibonacci directions
         (:func:`vptoolkit.sphere.fibonacci_sphere`) (default: 128).
+    measures : str, iterable of str or None
+        The measures to answer, any of :data:`UNOCCLUDED_MEASURES` in any
+        order (:func:`unoccluded_measures`; default: the paper's four).
 
     Returns
     -------
-    directions : (4, 3) float64
-        Best unit direction per measure in ``MEASURES`` order (VMI's equals VKL's).
+    directions : (M, 3) float64
+        Best unit direction per measure, in the order of ``measures`` (VMI's
+        equals VKL's).
+
+    Raises
+    ------
+    InputError
+        For a measure without a closed form (:func:`unoccluded_measures`),
+        or bad normals, areas or directions.
 
     Examples
     --------
@@ -262,6 +304,7 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
     >>> unoccluded_best_views(normals, areas).shape
     (4, 3)
     """
+    names = unoccluded_measures(measures)
     normals = np.asarray(normals, dtype=np.float64)
     if isinstance(directions, (int, np.integer)) and not isinstance(directions, bool):
         candidates = fibonacci_sphere(int(directions))
@@ -269,114 +312,5 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
         candidates = as_directions(directions)
     weights = np.ones(len(normals)) if areas is None else areas
     raw = unoccluded_quality(normals, weights, candidates)
-    return np.stack([candidates[ranked_views(raw, column)[0]] for column in range(len(MEASURES))])
-
-
-class UnoccludedPrior:
-    """Candidate directions of a mesh from the occlusion-free estimate, for the search.
-
-    The estimate is evaluated on ``n_directions`` directions of the mesh's
-    principal-frame Fibonacci sphere (:func:`vptoolkit.sphere.coarse_directions`,
-    so it turns with the mesh); the candidates are each of VE, VR and VKL's
-    best ``per_measure`` directions at least ``min_angle_deg`` apart, rank by
-    rank in ``MEASURES`` order (VMI's estimate is VKL's), duplicates dropped.
-    No image is drawn; the cost is a pass over the faces and one product of at
-    most 1024 pooled normals with ``n_directions`` directions.
-
-    Parameters
-    ----------
-    n_directions : int
-        Directions evaluated (default: 128).
-    per_measure : int
-        Candidates per measure (default: 2).
-    min_angle_deg : float
-        Smallest angle between two candidates of one measure (default: 30).
-
-    Examples
-    --------
-    >>> search_best_views(mesh, 16, prior=UnoccludedPrior()(mesh))   # doctest: +SKIP
-    """
-
-    def __init__(self, n_directions: int = UNOCCLUDED_DIRECTIONS, *, per_measure: int = 2,
-                 min_angle_deg: float = 30.0) -> None:
-        for name, value in (("n_directions", n_directions), ("per_measure", per_measure)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-                raise InputError(f"{name}: expected a positive integer, got {value!r}")
-        if not 0.0 <= float(min_angle_deg) < 180.0:
-            raise InputError(f"min_angle_deg: expected an angle in [0, 180), got {min_angle_deg!r}")
-        self.n_directions = int(n_directions)
-        self.per_measure = int(per_measure)
-        self.min_angle_deg = float(min_angle_deg)
-
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
-        """Candidate unit directions ``(k, 3)``, most promising first."""
-        mesh = as_mesh(mesh)
-        normals, areas, face_areas = _face_elements(mesh)
-        directions = coarse_directions(mesh, self.n_directions, face_areas)
-        raw = unoccluded_quality(normals, areas, directions)
-        measures = [MEASURES.index(name) for name in ("VE", "VR", "VKL")]
-        per_measure = [distinct_directions(directions[ranked_views(raw, column)[:_RANKED]],
-                                           self.min_angle_deg)[:self.per_measure]
-                       for column in measures]
-        ranked = [found[rank] for rank in range(self.per_measure)
-                  for found in per_measure if rank < len(found)]
-        return distinct_directions(np.array(ranked).reshape(-1, 3), 1.0)
-
-
-def predict_unoccluded(
-    inputs: (str | os.PathLike[str] | ViewpointDataset
-             | Sequence[str | os.PathLike[str] | ViewpointDataset]),
-    *,
-    split: str | None = "test",
-    n_directions: int = UNOCCLUDED_DIRECTIONS,
-) -> Predictions:
-    """:func:`unoccluded_best_views` of mesh files, point files with normals and dataset splits.
-
-    Parameters
-    ----------
-    inputs : path-like, ViewpointDataset or a sequence of them
-        Mesh files (their faces, on the mesh's principal-frame sphere of
-        ``n_directions``, :func:`vptoolkit.sphere.coarse_directions`),
-        ``(N, 6)`` ``.npy`` point files (``x y z nx ny nz``; on the Fibonacci
-        sphere of ``n_directions``) and datasets (their stored points' normals,
-        likewise), in any mix, told apart by :func:`vptoolkit.inputs.open_inputs`.
-        Names: file stems, or the dataset's.
-    split : str, optional
-        Split of dataset inputs, or None for every model (default: "test").
-    n_directions : int
-        Directions the estimate is evaluated at (default: 128).
-
-    Returns
-    -------
-    Predictions
-        ``names`` and ``directions (n_models, 4, 3) float64``: unit directions
-        in ``MEASURES`` order, each in its input's own frame.
-
-    Raises
-    ------
-    InputError
-        Naming the input, on an unreadable file, a point file without normals,
-        an unknown file type or split, two models of one name, or a normal
-        that is NaN, infinite or of zero length (naming the dataset and model
-        for a stored one).
-    """
-    from vptoolkit.inputs import claim_name, open_inputs
-
-    names: set[str] = set()
-    answers: list[NDArray[np.float64]] = []
-    with open_inputs(inputs, split=split) as sources:
-        for source in sources:
-            claim_name(names, source.name)
-            if source.kind == "mesh":
-                mesh = source.mesh()
-                normals, areas, face_areas = _face_elements(mesh)
-                answers.append(unoccluded_best_views(
-                    normals, areas, directions=coarse_directions(mesh, n_directions, face_areas)))
-            elif source.kind == "points":
-                answers.append(unoccluded_best_views(source.normals(), directions=n_directions))
-            else:
-                answers.append(unoccluded_best_views(
-                    _unit_normals(source.normals(), f"{source.origin}: model {source.name!r}"),
-                    directions=n_directions))
-        ordered = tuple(source.name for source in sources)
-    return Predictions(ordered, np.array(answers).reshape(-1, len(MEASURES), 3))
+    return np.stack([candidates[ranked_views(raw, UNOCCLUDED_MEASURES.index(name))[0]]
+                     for name in names])
