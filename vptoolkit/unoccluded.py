@@ -337,8 +337,9 @@ def predict_unoccluded(
     inputs : path-like, ViewpointDataset or a sequence of them
         Mesh files (their faces, on the mesh's principal-frame sphere of
         ``n_directions``, :func:`vptoolkit.sphere.coarse_directions`),
-        ``(N, 6)`` ``.npy`` point files (``x y z nx ny nz``; on the Fibonacci
-        sphere of ``n_directions``) and datasets (their stored points' normals,
+        point clouds with normals (an ``(N, 6)`` ``.npy`` array ``x y z nx ny
+        nz``, a PLY with ``nx ny nz``; on the Fibonacci sphere of
+        ``n_directions``) and datasets (their stored points' normals,
         likewise), in any mix, told apart by :func:`vptoolkit.inputs.open_inputs`.
         Names: file stems, or the dataset's.
     split : str, optional
@@ -367,12 +368,12 @@ def predict_unoccluded(
     with open_inputs(inputs, split=split) as sources:
         for source in sources:
             claim_name(names, source.name)
-            if source.kind == "mesh":
-                mesh = source.mesh()
-                normals, areas, face_areas = _face_elements(mesh)
+            model = source.model() if source.kind == "file" else None
+            if isinstance(model, Mesh):
+                normals, areas, face_areas = _face_elements(model)
                 answers.append(unoccluded_best_views(
-                    normals, areas, directions=coarse_directions(mesh, n_directions, face_areas)))
-            elif source.kind == "points":
+                    normals, areas, directions=coarse_directions(model, n_directions, face_areas)))
+            elif model is not None:
                 answers.append(unoccluded_best_views(source.normals(), directions=n_directions))
             else:
                 answers.append(unoccluded_best_views(

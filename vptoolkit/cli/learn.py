@@ -267,12 +267,13 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 def _network_predictions(model: str, sources: list[Path], split: str | None, seed: int,
                          category: str | None, device: str, n_inputs: int | None) -> Predictions:
     """A network's predictions for ``predict``; ``n_inputs`` None takes the library's default."""
+    from vptoolkit.inputs import read_model
+    from vptoolkit.io import POINT_SUFFIXES
     from vptoolkit.learn.predict import N_INPUTS, predict
-    from vptoolkit.points import read_point_file
 
-    for source in sources:  # refused before the network is loaded
-        if source.suffix.lower() == ".npy" and source.is_file():
-            read_point_file(source)
+    for source in sources:  # point files are small: refused before the network is loaded
+        if source.suffix.lower() in POINT_SUFFIXES and source.is_file():
+            read_model(source)
     with options_named(category_="--category"):
         return predict(model, sources, split=split, seed=seed, progress=True,
                        category=category, device=device,
