@@ -36,6 +36,7 @@ EXTRAS = {
     "matplotlib": "pictures",
     "PIL": "pictures",
     "fsspec": "remote",
+    "laspy": "las",
 }
 """The vptoolkit extra that installs each optional top-level module.
 

@@ -1,8 +1,9 @@
 """The point cloud container of vptoolkit: points without faces, with normals if known.
 
 A :class:`PointCloud` is what :func:`vptoolkit.io.load` returns for a file or
-object that holds points and no faces (a PLY without a face element, an
-``.npy`` point array, an Open3D or trimesh point cloud). Like
+object that holds points and no faces (a PLY without a face element, a
+points-only format such as NPY, PCD or LAS, an Open3D or trimesh point
+cloud); :func:`voxel_subset` thins a cloud too large to keep. Like
 :class:`~vptoolkit.mesh.Mesh` it is checked once, when it is made, so every
 function that receives one can trust its arrays. Colours are not geometry and
 live apart, in :class:`vptoolkit.appearance.Appearance`.
@@ -19,7 +20,16 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import check_coordinate_range
 
-__all__ = ["PointCloud"]
+__all__ = ["MAX_POINTS", "PointCloud", "voxel_subset"]
+
+MAX_POINTS = 20_000_000
+"""Most points a loaded cloud keeps by default (:func:`vptoolkit.io.load`'s ``max_points``).
+
+20 million points are 480 MB of float64 coordinates, and about as much again
+for normals; every use of a cloud here (the network's 4096 points, normals
+for the unoccluded estimate) needs far fewer. A larger cloud is thinned by
+:func:`voxel_subset`, with a warning.
+"""
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,6 +104,43 @@ class PointCloud:
     def __repr__(self) -> str:
         return (f"PointCloud(name={self.name!r}, n_points={self.n_points}, "
                 f"normals={self.normals is not None})")
+
+
+def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int64]:
+    """Indices of at most ``max_points`` points, one per cell of the finest fitting voxel grid.
+
+    The grid's cubic cells start at the side ``extent / max_points^(1/3)``
+    (``extent`` the largest side of the bounding box) and grow by a factor
+    of 1.25 until at most ``max_points`` cells hold points; each occupied
+    cell keeps its first point in input order. The result is deterministic
+    and spreads the kept points evenly over the shape, unlike a random subset
+    that keeps dense regions dense.
+
+    Parameters
+    ----------
+    points : (n_points, 3) float64
+        Finite coordinates.
+    max_points : int
+        At least 1.
+
+    Returns
+    -------
+    (n_kept,) int64
+        Sorted indices into ``points``, ``n_kept <= max_points``; all of them
+        when there are no more than ``max_points`` points.
+    """
+    if len(points) <= max_points:
+        return np.arange(len(points), dtype=np.int64)
+    low = points.min(axis=0)
+    extent = float(np.ptp(points, axis=0).max())
+    scaled = (points - low) / extent if extent > 0 else np.zeros_like(points)
+    side = 1.0 / max(max_points, 1) ** (1.0 / 3.0)
+    while True:
+        cells = np.floor(scaled / side).astype(np.int64)
+        _, first = np.unique(cells, axis=0, return_index=True)
+        if len(first) <= max_points:
+            return np.sort(first).astype(np.int64)
+        side *= 1.25
 
 
 def _on_one_line(points: NDArray[np.float64]) -> bool:

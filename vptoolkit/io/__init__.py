@@ -1,11 +1,15 @@
-"""Read models (meshes and point clouds) and write meshes: OFF, OBJ, PLY, STL, glTF, GLB, NPY.
+"""Read models (meshes and point clouds) and write meshes.
+
+Meshes: OFF, OBJ, PLY, STL, glTF, GLB. Points only: NPY, NPZ, XYZ, XYZN,
+XYZRGB, PTS, PCD, LAS and LAZ (:data:`POINT_SUFFIXES`).
 
 :func:`load` is the one reader of a model: it turns a file, or another
 library's object, into a :class:`~vptoolkit.mesh.Mesh` or a
 :class:`~vptoolkit.point_cloud.PointCloud`, decided by what it holds, not by
 its suffix: a PLY, OBJ or OFF with faces is a mesh, one with vertices and no
-faces is a point cloud (as trimesh's loader decides), an ``.npy`` array is
-always points. :func:`require_surface` is the one check (and message) where a
+faces is a point cloud (as trimesh's loader decides), a points-only
+format is always one. A point cloud larger than ``max_points`` is thinned,
+with a warning (:func:`load`). :func:`require_surface` is the one check (and message) where a
 surface is needed, and :func:`load_mesh` is the two together.
 :func:`load_with_appearance` also returns the
 :class:`~vptoolkit.appearance.Appearance` (colours, texture coordinates,
@@ -41,24 +45,26 @@ whose one-line message starts with the file name, e.g.
 
 from __future__ import annotations
 
+import logging
 import os
 import stat
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from vptoolkit.appearance import Appearance
-from vptoolkit.checks import as_path, one_line
-from vptoolkit.errors import InputError, MeshLoadError
+from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.errors import InputError, MeshLoadError, MissingDependencyError
 from vptoolkit.files import write_bytes_atomic
 from vptoolkit.io import gltf, obj, off, ply, stl
 from vptoolkit.io._polygons import FormatError, Reading, check_and_triangulate, triangle_rows
 from vptoolkit.io.objects import model_of
-from vptoolkit.io.point_files import read_npy_points
+from vptoolkit.io.point_files import PATH_SUFFIXES, POINT_READERS
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud, voxel_subset
 
 __all__ = ["MODEL_SUFFIXES", "POINT_SUFFIXES", "SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES",
            "find_mesh_files", "load", "load_mesh", "load_with_appearance", "require_surface",
@@ -68,14 +74,17 @@ __all__ = ["MODEL_SUFFIXES", "POINT_SUFFIXES", "SUPPORTED_SUFFIXES", "WRITABLE_S
 #: (compared case-insensitively); PLY, OBJ and OFF may hold points only.
 SUPPORTED_SUFFIXES: tuple[str, ...] = (".off", ".obj", ".ply", ".stl", ".glb", ".gltf")
 
-#: Suffixes of the formats that hold points only, read by :func:`load`.
-POINT_SUFFIXES: tuple[str, ...] = (".npy",)
+#: Suffixes of the formats that hold points only, read by :func:`load`
+#: (:mod:`~vptoolkit.io.point_files`; LAS and LAZ need the ``las`` extra).
+POINT_SUFFIXES: tuple[str, ...] = tuple(POINT_READERS)
 
 #: Every suffix :func:`load` reads.
 MODEL_SUFFIXES: tuple[str, ...] = SUPPORTED_SUFFIXES + POINT_SUFFIXES
 
 #: File suffixes :func:`save_mesh` writes (compared case-insensitively).
 WRITABLE_SUFFIXES: tuple[str, ...] = (".off", ".ply", ".obj", ".stl")
+
+_log = logging.getLogger(__name__)
 
 _FORMAT_LABELS = {
     ".off": "OFF",
@@ -85,7 +94,21 @@ _FORMAT_LABELS = {
     ".glb": "GLB",
     ".gltf": "glTF",
     ".npy": "NPY",
+    ".npz": "NPZ",
+    ".xyz": "XYZ",
+    ".xyzn": "XYZN",
+    ".xyzrgb": "XYZRGB",
+    ".pts": "PTS",
+    ".pcd": "PCD",
+    ".las": "LAS",
+    ".laz": "LAZ",
 }
+
+def _points_only(read: Callable[[Path, bytes], Reading], path: Path, data: bytes,
+                 appearance: bool) -> Reading:
+    """A points-only reader called as the others are (it reads colours either way)."""
+    return read(path, data)
+
 
 #: The reader of each suffix, given the file's path, its bytes and whether the
 #: appearance is wanted (OBJ reads its material files only then).
@@ -96,7 +119,7 @@ _READERS: dict[str, Callable[[Path, bytes, bool], Reading]] = {
     ".stl": lambda path, data, look: stl.read_stl(data),
     ".glb": lambda path, data, look: gltf.read_gltf(path, data),
     ".gltf": lambda path, data, look: gltf.read_gltf(path, data),
-    ".npy": lambda path, data, look: read_npy_points(path),
+    **{suffix: partial(_points_only, read) for suffix, read in POINT_READERS.items()},
 }
 
 
@@ -137,7 +160,8 @@ def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
     return sorted(found)
 
 
-def load(source: str | os.PathLike[str] | Any, *, name: str | None = None) -> Mesh | PointCloud:
+def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
+         max_points: int = MAX_POINTS) -> Mesh | PointCloud:
     """Read a model: a :class:`~vptoolkit.mesh.Mesh` if it has faces, else a :class:`~vptoolkit.point_cloud.PointCloud`.
 
     Parameters
@@ -153,6 +177,12 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None) -> Me
     name : str, optional
         The name of a model made from an object (default: "mesh" or
         "points"); a file's model is named by its stem.
+    max_points : int
+        Most points a point cloud file keeps (default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`, 20 million). A larger
+        cloud is thinned to at most this many by
+        :func:`~vptoolkit.point_cloud.voxel_subset`, never silently: a
+        warning names the file and both counts. Meshes are never thinned.
 
     Returns
     -------
@@ -177,7 +207,8 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None) -> Me
     if not isinstance(source, (str, os.PathLike)):
         return model_of(source, name)
     path = as_path(source, "path")
-    return _model(path, _read(path))[0]
+    max_points = check_int(max_points, "max_points", minimum=1)
+    return _model(path, _read(path), max_points)[0]
 
 
 def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointCloud,
@@ -212,7 +243,7 @@ def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointClou
     """
     path = as_path(path, "path")
     reading = _read(path, appearance=True)
-    model, faces = _model(path, reading)
+    model, faces = _model(path, reading, MAX_POINTS)
     file_name = path.name or str(path)
     try:
         return model, _appearance(reading, faces)
@@ -283,6 +314,8 @@ def _read(path: Path, *, appearance: bool = False) -> Reading:
         return _READERS[suffix](path, data, appearance)
     except FormatError as err:
         raise MeshLoadError(f"{file_name}: {err}") from err.__cause__
+    except MissingDependencyError:
+        raise
     except Exception as err:  # any parser failure, chained as the cause
         raise MeshLoadError(
             f"{file_name}: cannot parse {_FORMAT_LABELS[suffix]} file "
@@ -292,10 +325,12 @@ def _read(path: Path, *, appearance: bool = False) -> Reading:
         ply.file_label.reset(label)
 
 
-def _model(path: Path, reading: Reading) -> tuple[Mesh | PointCloud, Any]:
+def _model(path: Path, reading: Reading, max_points: int) -> tuple[Mesh | PointCloud, Any]:
     """The checked model of a reading, with its triangles (None for a point cloud)."""
     file_name = path.name or str(path)
     if len(reading.polygons[1]) == 0 and len(reading.vertices):  # vertices and no faces
+        if len(reading.vertices) > max_points and np.isfinite(reading.vertices).all():
+            reading = _thinned(reading, max_points, file_name)
         try:
             return PointCloud(reading.vertices, reading.normals, name=path.stem), None
         except InputError as err:
@@ -308,6 +343,18 @@ def _model(path: Path, reading: Reading) -> tuple[Mesh | PointCloud, Any]:
         return Mesh(vertices=reading.vertices, faces=faces, name=path.stem), faces
     except InputError as err:  # pragma: no cover - the checks above are stricter
         raise MeshLoadError(f"{file_name}: invalid mesh ({err})") from err
+
+
+def _thinned(reading: Reading, max_points: int, file_name: str) -> Reading:
+    """A point cloud reading thinned to at most ``max_points`` (:func:`voxel_subset`), warned."""
+    kept = voxel_subset(reading.vertices, max_points)
+    _log.warning("%s: %s points, more than max_points=%s; kept %s, one per voxel "
+                 "(vptoolkit.point_cloud.voxel_subset)", file_name, f"{len(reading.vertices):,}",
+                 f"{max_points:,}", f"{len(kept):,}")
+    return reading._replace(
+        vertices=reading.vertices[kept],
+        normals=None if reading.normals is None else reading.normals[kept],
+        vertex_colors=None if reading.vertex_colors is None else reading.vertex_colors[kept])
 
 
 def _appearance(reading: Reading, faces: Any) -> Appearance:
@@ -385,8 +432,8 @@ def _encode(mesh: Mesh, suffix: str) -> bytes:
 def _read_file(path: Path, file_name: str) -> bytes:
     """Return the bytes of a regular file with a suffix :func:`load` reads, or raise.
 
-    A point-only file (:data:`POINT_SUFFIXES`) is checked the same way but
-    not read here: its reader reads it from the path, and ``b""`` is returned.
+    A file whose reader reads it from the path (NPY, NPZ, PCD, LAS, LAZ) is
+    checked the same way but not read here, and ``b""`` is returned.
     """
     try:
         info = path.stat()
@@ -404,7 +451,7 @@ def _read_file(path: Path, file_name: str) -> bytes:
         raise MeshLoadError(f"{file_name}: {found}; supported: {', '.join(MODEL_SUFFIXES)}")
     if info.st_size == 0:
         raise MeshLoadError(f"{file_name}: file is empty (0 bytes)")
-    if suffix in POINT_SUFFIXES:
+    if suffix in PATH_SUFFIXES:
         return b""
     try:
         return path.read_bytes()
