@@ -133,8 +133,9 @@ def test_open3d_meshes_and_point_clouds_are_read(bunny_sample):
     import open3d as o3d
 
     mesh = load_mesh(sample_path("teapot.stl"))
-    triangles = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(np.array(mesh.vertices)),
-                                          o3d.utility.Vector3iVector(np.array(mesh.faces, np.int32)))
+    triangles = o3d.geometry.TriangleMesh(
+        o3d.utility.Vector3dVector(np.array(mesh.vertices)),
+        o3d.utility.Vector3iVector(np.array(mesh.faces, np.int32)))
     assert isinstance(load(triangles), Mesh)
     points = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(bunny_sample.points))
     assert load(points).normals is None

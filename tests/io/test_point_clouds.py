@@ -1,4 +1,4 @@
-"""Point cloud files: every format read with its normals and colours, and bad input refused in one line."""
+"""Point cloud files: each format read with its normals and colours; bad input is one line."""
 
 from __future__ import annotations
 

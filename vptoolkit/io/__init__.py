@@ -86,23 +86,9 @@ WRITABLE_SUFFIXES: tuple[str, ...] = (".off", ".ply", ".obj", ".stl")
 
 _log = logging.getLogger(__name__)
 
-_FORMAT_LABELS = {
-    ".off": "OFF",
-    ".obj": "OBJ",
-    ".ply": "PLY",
-    ".stl": "STL",
-    ".glb": "GLB",
-    ".gltf": "glTF",
-    ".npy": "NPY",
-    ".npz": "NPZ",
-    ".xyz": "XYZ",
-    ".xyzn": "XYZN",
-    ".xyzrgb": "XYZRGB",
-    ".pts": "PTS",
-    ".pcd": "PCD",
-    ".las": "LAS",
-    ".laz": "LAZ",
-}
+_FORMAT_LABELS = {".gltf": "glTF"}
+"""Format names in messages where the upper-case suffix is not the name."""
+
 
 def _points_only(read: Callable[[Path, bytes], Reading], path: Path, data: bytes,
                  appearance: bool) -> Reading:
@@ -162,7 +148,9 @@ def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
 
 def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
          max_points: int = MAX_POINTS) -> Mesh | PointCloud:
-    """Read a model: a :class:`~vptoolkit.mesh.Mesh` if it has faces, else a :class:`~vptoolkit.point_cloud.PointCloud`.
+    """Read a model: a :class:`~vptoolkit.mesh.Mesh` if it has faces, else a point cloud.
+
+    The point cloud is a :class:`~vptoolkit.point_cloud.PointCloud`.
 
     Parameters
     ----------
@@ -213,7 +201,9 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
 
 def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointCloud,
                                                                   Appearance]:
-    """Read a model file and how it looks: :func:`load`'s model and its :class:`~vptoolkit.appearance.Appearance`.
+    """Read a model file and how it looks: :func:`load`'s model and its appearance.
+
+    The appearance is an :class:`~vptoolkit.appearance.Appearance`.
 
     The appearance's arrays index the model's vertices (or points) and
     triangles: PLY and OFF vertex and face colours, OBJ material colours
@@ -278,7 +268,9 @@ def require_surface(model: Mesh | PointCloud, label: str | None = None) -> Mesh:
 
 
 def load_mesh(path: str | os.PathLike[str]) -> Mesh:
-    """Read a mesh file into a triangle :class:`~vptoolkit.mesh.Mesh`: :func:`load`, then :func:`require_surface`.
+    """Read a mesh file into a triangle :class:`~vptoolkit.mesh.Mesh`.
+
+    :func:`load`, then :func:`require_surface`.
 
     Parameters
     ----------
@@ -318,7 +310,7 @@ def _read(path: Path, *, appearance: bool = False) -> Reading:
         raise
     except Exception as err:  # any parser failure, chained as the cause
         raise MeshLoadError(
-            f"{file_name}: cannot parse {_FORMAT_LABELS[suffix]} file "
+            f"{file_name}: cannot parse {_FORMAT_LABELS.get(suffix, suffix[1:].upper())} file "
             f"({type(err).__name__}: {one_line(str(err))})"
         ) from err
     finally:

@@ -88,9 +88,9 @@ def rgba(channels: NDArray[np.float64], *, is_float: bool, what: str) -> NDArray
     """
     top = 1.0 if is_float else 255.0
     if not (np.isfinite(channels).all() and (channels >= 0).all() and (channels <= top).all()):
-        found = channels[np.isfinite(channels)]
-        span = f"{found.min():.4g}..{found.max():.4g}" if found.size else "NaN"
-        raise FormatError(f"{what} outside 0..{top:g} (found {span}, or NaN)")
+        found = ("NaN" if not np.isfinite(channels).all()
+                 else f"{channels.min():.4g}..{channels.max():.4g}")
+        raise FormatError(f"{what} outside 0..{top:g} (found {found})")
     scaled = np.rint(channels * (255.0 / top)).astype(np.uint8)
     if scaled.shape[1] == 4:
         return scaled

@@ -88,7 +88,8 @@ def _vertex_extras(keyword: str, table: list[list[str]], numbers: list[int]) -> 
     at = 3 * ("N" in flags)
     colors = None
     if "C" in flags:
-        is_float = any(not _is_integer(token) for row in table for token in row[3 + at:3 + at + n_colour])
+        is_float = any(not _is_integer(token)
+                       for row in table for token in row[3 + at:3 + at + n_colour])
         colors = rgba(columns[:, at:at + n_colour], is_float=is_float, what="vertex colours")
     uv = columns[:, -2:] if "ST" in flags else None
     return Reading(vertices, empty, normals=normals, vertex_colors=colors, vertex_uv=uv)
