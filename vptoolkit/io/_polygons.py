@@ -27,7 +27,7 @@ _Item = TypeVar("_Item", bound=np.generic)
 
 
 class FormatError(Exception):
-    """A reader's complaint about the file content; load_mesh prefixes the name."""
+    """A reader's complaint about the file content; :func:`vptoolkit.io.load` prefixes the name."""
 
 
 class Reading(NamedTuple):

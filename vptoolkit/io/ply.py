@@ -26,7 +26,7 @@ __all__ = ["ply_bytes", "read_ply"]
 _log = logging.getLogger(__name__)
 
 file_label: contextvars.ContextVar[str] = contextvars.ContextVar("file_label", default="PLY file")
-"""Name of the file being read, for warnings (set by :func:`vptoolkit.io.load_mesh`)."""
+"""Name of the file being read, for warnings (set by :func:`vptoolkit.io.load`)."""
 
 _TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",

@@ -10,11 +10,12 @@ Inputs become network inputs the way the training data did (Schelling et
 al. 2021, section 5.1):
 
 mesh files (``.off``, ``.obj``, ``.ply``, ``.stl``, ``.glb``, ``.gltf``)
-    :func:`vptoolkit.io.load_mesh`, then 20000 surface points by
+    read by :func:`vptoolkit.io.load`, then 20000 surface points by
     :func:`vptoolkit.points.sample_surface` (seed ``seed``);
-point files (``.npy``)
-    an ``(N, 3)`` or ``(N, 6)`` float array, ``x y z`` first (as ``vptool
-    sample`` writes);
+point cloud files (a PLY, OBJ or OFF without faces, and the points-only
+formats of :data:`vptoolkit.io.POINT_SUFFIXES`: NPY, NPZ, XYZ, PCD, LAS, ...)
+    their points as they are, e.g. an ``(N, 3)`` or ``(N, 6)`` ``.npy``
+    array as ``vptool sample`` writes;
 dataset stores or folders
     the stored surface points of every model of ``split``.
 
