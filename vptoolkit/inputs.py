@@ -36,9 +36,10 @@ from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
@@ -54,15 +55,17 @@ refused with one message) or None (a mesh or a point cloud)."""
 
 
 @overload
-def read_model(path: str | os.PathLike[str], *, requires: Literal["surface"]) -> Mesh: ...
+def read_model(path: str | os.PathLike[str], *, requires: Literal["surface"],
+               max_points: int = ...) -> Mesh: ...
 
 
 @overload
-def read_model(path: str | os.PathLike[str], *, requires: None = None) -> Mesh | PointCloud: ...
+def read_model(path: str | os.PathLike[str], *, requires: None = None,
+               max_points: int = ...) -> Mesh | PointCloud: ...
 
 
-def read_model(path: str | os.PathLike[str], *,
-               requires: Requirement = None) -> Mesh | PointCloud:
+def read_model(path: str | os.PathLike[str], *, requires: Requirement = None,
+               max_points: int = MAX_POINTS) -> Mesh | PointCloud:
     """The model of one file, a mesh or a point cloud as its content decides.
 
     Parameters
@@ -72,6 +75,10 @@ def read_model(path: str | os.PathLike[str], *,
     requires : {"surface", None}
         ``"surface"``: refuse a point cloud with the one message of
         :func:`vptoolkit.io.require_surface` (default: None, either).
+    max_points : int
+        Most points a point cloud keeps; a larger one is thinned, with a
+        warning (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
 
     Returns
     -------
@@ -90,7 +97,7 @@ def read_model(path: str | os.PathLike[str], *,
 
     if requires not in (None, "surface"):
         raise InputError(f"requires: expected 'surface' or None, got {requires!r}")
-    model = load(path if isinstance(path, os.PathLike) else str(path))
+    model = load(path if isinstance(path, os.PathLike) else str(path), max_points=max_points)
     if requires == "surface":
         return require_surface(model, Path(path).name)
     return model
@@ -119,6 +126,8 @@ class ModelSource:
         The stored model's row in ``dataset``; -1 for files.
     requires : {"surface", None}
         What the work needs of a file's model (:func:`read_model`).
+    max_points : int
+        Most points a file's point cloud keeps (:func:`read_model`).
     """
 
     name: str
@@ -128,6 +137,7 @@ class ModelSource:
     dataset: ViewpointDataset | None = field(default=None, repr=False, compare=False)
     position: int = -1
     requires: Requirement = None
+    max_points: int = MAX_POINTS
 
     @property
     def label(self) -> str:
@@ -145,7 +155,7 @@ class ModelSource:
         if self.kind == "stored":
             vertices, faces = self._stored().mesh(self.name)
             return Mesh(vertices.astype(np.float64), faces.astype(np.int64), name=self.name)
-        return read_model(self.origin, requires=self.requires)
+        return read_model(self.origin, requires=self.requires, max_points=self.max_points)
 
     def mesh(self) -> Mesh:
         """The model, which must be a mesh (:func:`vptoolkit.io.require_surface`)."""
@@ -216,7 +226,8 @@ def _stored_sources(dataset: ViewpointDataset, origin: str, split: str | None,
 def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
                          | Sequence[str | os.PathLike[str] | ViewpointDataset]),
                 *, split: str | None = "test", purpose: str | None = None,
-                requires: Requirement = None) -> Iterator[list[ModelSource]]:
+                requires: Requirement = None,
+                max_points: int = MAX_POINTS) -> Iterator[list[ModelSource]]:
     """The models of model files and datasets, in input order.
 
     Parameters
@@ -234,6 +245,10 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
         ``"surface"``: a file's point cloud is refused, when its model is
         read, with the one message of :func:`vptoolkit.io.require_surface`
         (default: None, a mesh or a point cloud).
+    max_points : int
+        Most points a file's point cloud keeps; a larger one is thinned, with
+        a warning (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
 
     Yields
     ------
@@ -245,7 +260,7 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
     InputError
         Naming the input: neither a model file nor a dataset; a dataset that
         cannot be opened, an unknown split or (with ``purpose``) an empty
-        one; a ``requires`` not in the list.
+        one; a ``requires`` not in the list or a ``max_points`` below 1.
     """
     from vptoolkit.data import ViewpointDataset, open_dataset
     from vptoolkit.data.remote import is_remote
@@ -253,6 +268,7 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
 
     if requires not in (None, "surface"):
         raise InputError(f"requires: expected 'surface' or None, got {requires!r}")
+    max_points = check_int(max_points, "max_points", minimum=1)
 
     entries = [inputs] if isinstance(inputs, (str, os.PathLike, ViewpointDataset)) else inputs
     with contextlib.ExitStack() as stack:
@@ -270,7 +286,8 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
                 opened = stack.enter_context(open_dataset(entry))
                 sources += _stored_sources(opened, entry, split, purpose, requires)
             elif suffix in MODEL_SUFFIXES and not path.is_dir():
-                sources.append(ModelSource(path.stem, "file", str(entry), requires=requires))
+                sources.append(ModelSource(path.stem, "file", str(entry), requires=requires,
+                                           max_points=max_points))
             elif _is_dataset(path):
                 opened = stack.enter_context(open_dataset(path))
                 sources += _stored_sources(opened, str(entry), split, purpose, requires)

@@ -9,7 +9,8 @@ import pytest
 
 from fixtures.environment import require_package
 from vptoolkit.cli import main
-from vptoolkit.errors import MeshLoadError
+from vptoolkit.errors import InputError, MeshLoadError
+from vptoolkit.inputs import open_inputs
 from vptoolkit.io import load, load_mesh, load_with_appearance
 from vptoolkit.point_cloud import PointCloud, voxel_subset
 from vptoolkit.points import sample_surface
@@ -199,6 +200,10 @@ def test_a_cloud_over_max_points_is_thinned_with_a_warning(tmp_path, sample, cap
     np.testing.assert_array_equal(cloud.points, points[kept])
     np.testing.assert_allclose(cloud.normals, normals[kept])
     assert len(voxel_subset(points, 5000)) == len(points)
+    with open_inputs(tmp_path / "dense.npz", max_points=200) as sources:
+        np.testing.assert_array_equal(sources[0].points(seed=0), points[kept])
+    with pytest.raises(InputError, match="max_points"):
+        load(tmp_path / "dense.npz", max_points=0)
 
 
 def test_commands_read_clouds_where_points_suffice_and_refuse_them_elsewhere(tmp_path, sample,
