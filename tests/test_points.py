@@ -333,19 +333,3 @@ def test_poisson_disk_points_rejects_bad_counts(two_triangles: Mesh) -> None:
 
     with pytest.raises(InputError, match="n"):
         poisson_disk_points(two_triangles, 0)
-
-
-def test_a_point_file_too_big_for_memory_is_one_line_naming_it(tmp_path, monkeypatch):
-    """A (sparse) multi-GB .npy under a memory cap: the file and its size, not a bare
-    'not enough memory'."""
-    from vptoolkit.points import read_point_file
-
-    path = tmp_path / "huge.npy"
-    np.save(path, np.random.default_rng(0).normal(size=(100, 3)))
-
-    def no_memory(*args, **kwargs):
-        raise MemoryError
-
-    monkeypatch.setattr(np, "load", no_memory)
-    with pytest.raises(InputError, match=r"huge\.npy: its [\d,]+ bytes of points do not fit"):
-        read_point_file(path)

@@ -9,8 +9,10 @@ module, layer by layer):
   atomic writes and the JSON reader; the progress bar; the process pool.
   ``_numba`` (private): numba, imported once with the package's threading
   layer. ``_version`` (private): the version, written once.
-- ``mesh``, ``io``, ``samples``, ``predictions``: the Mesh container; reading
-  and writing OFF/OBJ/PLY/STL/glTF; small licensed sample meshes;
+- ``mesh``, ``point_cloud``, ``appearance``, ``io``, ``samples``,
+  ``predictions``: the Mesh and PointCloud containers; a model's colours and
+  texture, kept apart; reading models (decided by content) and writing
+  meshes, OFF/OBJ/PLY/STL/glTF/NPY; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
 - ``geometry``, ``sphere``, ``camera``, ``rotations``, ``settings``: face
   areas, bounding and principal frames; Fibonacci view directions and the
@@ -27,7 +29,7 @@ module, layer by layer):
   kernel); procedural category-like shapes.
 - ``dataset``, ``data``, ``inputs``: building, packing and verifying datasets
   and releases; the light loader (numpy with zarr or h5py) and its torch
-  adapter; the one router of mesh files, point files and datasets.
+  adapter; the one router of model files (meshes, point clouds) and datasets.
   ``dataset_card`` holds no code: the dataset card template and
   ``SCHEMA.md``, the stores' data contract.
 - ``learn``: the point network, its labels, training, prediction and prior.

@@ -73,10 +73,11 @@ class ArgumentError(InputError):
 
 
 class MeshLoadError(InputError):
-    """A mesh file cannot be read into a valid triangle mesh.
+    """A model file cannot be read into a valid mesh or point cloud, or is not the one needed.
 
     The message names the file and the problem: unreadable, unknown format,
-    empty, no faces, non-finite coordinates or a face index out of range.
+    empty, non-finite coordinates, a face index out of range, or a point cloud
+    where a surface is needed.
     """
 
 

@@ -1,23 +1,27 @@
-"""The one input router: which inputs are mesh files, point files or datasets, and their models.
+"""The one input router: which inputs are model files or datasets, and their models.
 
-Every command that takes "meshes, point files or a dataset" (``vptool
-predict``, ``predict --model unoccluded``, ``best-view``) reads its inputs
-through :func:`open_inputs`, so one rule decides what an input is:
+Every command and library entry that reads a model reads it here: the
+commands that take "meshes, point clouds or a dataset" (``vptool predict``,
+``predict --model unoccluded``, ``best-view``) through :func:`open_inputs`,
+and those that take one model file (``measure``, ``clean``, ``sample``,
+``render``, ``thumbnails``) through :func:`read_model`, so one rule decides
+what an input is:
 
-``*.npy``
-    a point file: an ``(N, 3)`` or ``(N, 6)`` float array, ``x y z`` first
-    (``nx ny nz`` next when present; :mod:`vptoolkit.points`);
-mesh files (``.off``, ``.obj``, ``.ply``, ``.stl``, ``.glb``, ``.gltf``)
-    :func:`vptoolkit.io.load_mesh`;
-a :class:`~vptoolkit.data.ViewpointDataset`, a dataset store or folder, or a release's URL
+a :class:`~vptoolkit.data.ViewpointDataset`, a folder or dataset store, or a release's URL
     every model of ``split`` (``None``: every model), opened with
     :func:`vptoolkit.data.open_dataset` and closed when the ``with`` block ends;
+a file whose suffix :func:`vptoolkit.io.load` reads (:data:`vptoolkit.io.MODEL_SUFFIXES`)
+    one model, a :class:`~vptoolkit.mesh.Mesh` or a
+    :class:`~vptoolkit.point_cloud.PointCloud` as its content decides (a PLY
+    without faces is a point cloud; an ``.npy`` array is always one);
 
-anything else is an :class:`~vptoolkit.errors.InputError`. A model is named
-by its file's stem, or by its name in the dataset; names must be unique over
-all inputs, and :func:`claim_name` is the one check (and message) for that.
-Nothing is read until a :class:`ModelSource` is asked for its mesh, points or
-normals, so a caller can record a bad model and carry on.
+anything else is an :class:`~vptoolkit.errors.InputError`. Where the work
+needs a surface (``requires="surface"``), a point cloud is refused with the
+one message of :func:`vptoolkit.io.require_surface`. A model is named by its
+file's stem, or by its name in the dataset; names must be unique over all
+inputs, and :func:`claim_name` is the one check (and message) for that.
+Nothing is read until a :class:`ModelSource` is asked for its model, mesh,
+points or normals, so a caller can record a bad model and carry on.
 """
 
 from __future__ import annotations
@@ -27,21 +31,76 @@ import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, TypeAlias
+from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
 
-__all__ = ["InputKind", "ModelSource", "claim_name", "open_inputs"]
+__all__ = ["InputKind", "Requirement", "ModelSource", "claim_name", "open_inputs", "read_model"]
 
-InputKind: TypeAlias = Literal["mesh", "points", "stored"]
-"""What a model comes from: a mesh file, a point file or a dataset."""
+InputKind: TypeAlias = Literal["file", "stored"]
+"""What a model comes from: a model file (a mesh or a point cloud) or a dataset."""
+
+Requirement: TypeAlias = Literal["surface"] | None
+"""What the work needs of a model: ``"surface"`` (a mesh; a point cloud is
+refused with one message) or None (a mesh or a point cloud)."""
+
+
+@overload
+def read_model(path: str | os.PathLike[str], *, requires: Literal["surface"],
+               max_points: int = ...) -> Mesh: ...
+
+
+@overload
+def read_model(path: str | os.PathLike[str], *, requires: None = None,
+               max_points: int = ...) -> Mesh | PointCloud: ...
+
+
+def read_model(path: str | os.PathLike[str], *, requires: Requirement = None,
+               max_points: int = MAX_POINTS) -> Mesh | PointCloud:
+    """The model of one file, a mesh or a point cloud as its content decides.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A file :func:`vptoolkit.io.load` reads.
+    requires : {"surface", None}
+        ``"surface"``: refuse a point cloud with the one message of
+        :func:`vptoolkit.io.require_surface` (default: None, either).
+    max_points : int
+        Most points a point cloud keeps; a larger one is thinned, with a
+        warning (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
+
+    Returns
+    -------
+    Mesh or PointCloud
+        A Mesh whenever ``requires="surface"``.
+
+    Raises
+    ------
+    MeshLoadError
+        :func:`vptoolkit.io.load`'s messages, and ``FILE: a point cloud (N
+        points, no faces); this needs a surface (a mesh with faces)``.
+    InputError
+        If ``requires`` is not one of the above.
+    """
+    from vptoolkit.io import load, require_surface
+
+    if requires not in (None, "surface"):
+        raise InputError(f"requires: expected 'surface' or None, got {requires!r}")
+    model = load(path if isinstance(path, os.PathLike) else str(path), max_points=max_points)
+    if requires == "surface":
+        return require_surface(model, Path(path).name)
+    return model
 
 
 
@@ -53,8 +112,9 @@ class ModelSource:
     ----------
     name : str
         The file's stem, or the model's name in its dataset.
-    kind : {"mesh", "points", "stored"}
-        A mesh file, a point file or a model stored in a dataset.
+    kind : {"file", "stored"}
+        A model file (a mesh or a point cloud, as its content decides) or a
+        model stored in a dataset.
     origin : str
         The input as given: the file, or the dataset (for messages).
     category : str or None
@@ -64,6 +124,10 @@ class ModelSource:
         ``with`` block lasts); None for files.
     position : int
         The stored model's row in ``dataset``; -1 for files.
+    requires : {"surface", None}
+        What the work needs of a file's model (:func:`read_model`).
+    max_points : int
+        Most points a file's point cloud keeps (:func:`read_model`).
     """
 
     name: str
@@ -72,6 +136,8 @@ class ModelSource:
     category: str | None = None
     dataset: ViewpointDataset | None = field(default=None, repr=False, compare=False)
     position: int = -1
+    requires: Requirement = None
+    max_points: int = MAX_POINTS
 
     @property
     def label(self) -> str:
@@ -83,41 +149,46 @@ class ModelSource:
             raise InputError(f"{self.origin}: {self.name!r} is not a stored model")
         return self.dataset
 
-    def mesh(self) -> Mesh:
-        """The mesh: the file read by :func:`vptoolkit.io.load_mesh` (its errors), or the stored,
-        cleaned mesh."""
+    def model(self) -> Mesh | PointCloud:
+        """The model: a file's as :func:`read_model` reads it with ``requires``, or the
+        stored, cleaned mesh."""
         if self.kind == "stored":
             vertices, faces = self._stored().mesh(self.name)
             return Mesh(vertices.astype(np.float64), faces.astype(np.int64), name=self.name)
-        from vptoolkit.io import load_mesh
+        return read_model(self.origin, requires=self.requires, max_points=self.max_points)
 
-        return load_mesh(self.origin)
+    def mesh(self) -> Mesh:
+        """The model, which must be a mesh (:func:`vptoolkit.io.require_surface`)."""
+        from vptoolkit.io import require_surface
+
+        return require_surface(self.model(), Path(self.origin).name)
 
     def points(self, *, seed: int) -> NDArray[np.float64]:
-        """Surface points ``(n, 3) float64``: the stored ones, a point file's, or
-        ``N_SURFACE_POINTS`` sampled from a mesh file with ``seed``
+        """Surface points ``(n, 3) float64``: the stored ones, a point cloud's, or
+        ``N_SURFACE_POINTS`` sampled from a mesh with ``seed``
         (:func:`vptoolkit.points.sample_surface`)."""
-        from vptoolkit.points import N_SURFACE_POINTS, read_point_file, sample_surface
+        from vptoolkit.points import N_SURFACE_POINTS, sample_surface
 
         if self.kind == "stored":
             return np.asarray(self._stored()[self.position]["points"], dtype=np.float64)
-        path = Path(self.origin)
-        if not path.is_file():
-            raise InputError(f"{path}: no such {'point' if self.kind == 'points' else 'mesh'} file")
-        if self.kind == "points":
-            return np.asarray(read_point_file(path), dtype=np.float64)
-        return sample_surface(self.mesh(), N_SURFACE_POINTS, seed=seed).points
+        model = self.model()
+        if isinstance(model, PointCloud):
+            return np.array(model.points)
+        return sample_surface(model, N_SURFACE_POINTS, seed=seed).points
 
     def normals(self) -> NDArray[np.float64]:
-        """Point normals ``(n, 3) float64`` as stored or as in an ``(N, 6)`` point file (not
-        made unit length); a mesh file has face normals instead (:mod:`vptoolkit.geometry`)."""
+        """Point normals ``(n, 3) float64`` as stored or as a point cloud carries them (a
+        cloud's are unit length); a mesh has face normals instead (:mod:`vptoolkit.geometry`)."""
         if self.kind == "stored":
             return np.asarray(self._stored()[self.position]["normals"], dtype=np.float64)
-        if self.kind == "mesh":
+        model = self.model()
+        if isinstance(model, Mesh):
             raise InputError(f"{self.origin}: a mesh file has no point normals")
-        from vptoolkit.points import read_point_normals
-
-        return np.asarray(read_point_normals(Path(self.origin))[1], dtype=np.float64)
+        if model.normals is None:
+            raise InputError(f"{self.origin}: has no normals; give points "
+                             "with normals (an (N, 6) array x y z nx ny nz, as vptool sample "
+                             "writes, or a PLY with nx ny nz)")
+        return np.array(model.normals)
 
 
 def claim_name(names: set[str], name: str) -> None:
@@ -141,22 +212,23 @@ def _is_dataset(path: Path) -> bool:
 
 
 def _stored_sources(dataset: ViewpointDataset, origin: str, split: str | None,
-                    purpose: str | None) -> list[ModelSource]:
+                    purpose: str | None, requires: Requirement) -> list[ModelSource]:
     """The models of ``split`` of one dataset (every model for None): the one split rule."""
     subset = dataset.split(split) if split is not None else dataset
     if purpose is not None and not len(subset.names):
         which = "the dataset" if split is None else f"split {split!r}"
         raise InputError(f"{origin}: {which} holds no models; nothing to {purpose}")
-    return [ModelSource(str(name), "stored", origin, category, subset, position)
+    return [ModelSource(str(name), "stored", origin, category, subset, position, requires)
             for position, (name, category) in enumerate(zip(subset.names, subset.categories))]
 
 
 @contextlib.contextmanager
 def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
                          | Sequence[str | os.PathLike[str] | ViewpointDataset]),
-                *, split: str | None = "test",
-                purpose: str | None = None) -> Iterator[list[ModelSource]]:
-    """The models of mesh files, point files and datasets, in input order.
+                *, split: str | None = "test", purpose: str | None = None,
+                requires: Requirement = None,
+                max_points: int = MAX_POINTS) -> Iterator[list[ModelSource]]:
+    """The models of model files and datasets, in input order.
 
     Parameters
     ----------
@@ -169,6 +241,14 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
         What the models are for (``"search"``): a dataset with no model of
         ``split`` is then an error, ``<dataset>: split 'test' holds no
         models; nothing to search``.
+    requires : {"surface", None}
+        ``"surface"``: a file's point cloud is refused, when its model is
+        read, with the one message of :func:`vptoolkit.io.require_surface`
+        (default: None, a mesh or a point cloud).
+    max_points : int
+        Most points a file's point cloud keeps; a larger one is thinned, with
+        a warning (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
 
     Yields
     ------
@@ -178,20 +258,24 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
     Raises
     ------
     InputError
-        Naming the input: neither a mesh, a point file nor a dataset; a
-        dataset that cannot be opened, an unknown split or (with ``purpose``)
-        an empty one.
+        Naming the input: neither a model file nor a dataset; a dataset that
+        cannot be opened, an unknown split or (with ``purpose``) an empty
+        one; a ``requires`` not in the list or a ``max_points`` below 1.
     """
     from vptoolkit.data import ViewpointDataset, open_dataset
     from vptoolkit.data.remote import is_remote
-    from vptoolkit.io import SUPPORTED_SUFFIXES
+    from vptoolkit.io import MODEL_SUFFIXES
+
+    if requires not in (None, "surface"):
+        raise InputError(f"requires: expected 'surface' or None, got {requires!r}")
+    max_points = check_int(max_points, "max_points", minimum=1)
 
     entries = [inputs] if isinstance(inputs, (str, os.PathLike, ViewpointDataset)) else inputs
     with contextlib.ExitStack() as stack:
         sources: list[ModelSource] = []
         for entry in entries:
             if isinstance(entry, ViewpointDataset):
-                sources += _stored_sources(entry, str(entry.path), split, purpose)
+                sources += _stored_sources(entry, str(entry.path), split, purpose, requires)
                 continue
             if not isinstance(entry, (str, os.PathLike)):
                 raise InputError("inputs: expected paths or a ViewpointDataset, "
@@ -200,15 +284,14 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
             suffix = path.suffix.lower()
             if isinstance(entry, str) and is_remote(entry):
                 opened = stack.enter_context(open_dataset(entry))
-                sources += _stored_sources(opened, entry, split, purpose)
-            elif suffix == ".npy":
-                sources.append(ModelSource(path.stem, "points", str(entry)))
-            elif suffix in SUPPORTED_SUFFIXES:
-                sources.append(ModelSource(path.stem, "mesh", str(entry)))
+                sources += _stored_sources(opened, entry, split, purpose, requires)
+            elif suffix in MODEL_SUFFIXES and not path.is_dir():
+                sources.append(ModelSource(path.stem, "file", str(entry), requires=requires,
+                                           max_points=max_points))
             elif _is_dataset(path):
                 opened = stack.enter_context(open_dataset(path))
-                sources += _stored_sources(opened, str(entry), split, purpose)
+                sources += _stored_sources(opened, str(entry), split, purpose, requires)
             else:
-                raise InputError(f"{path.name}: not a mesh ({', '.join(SUPPORTED_SUFFIXES)}), "
-                                 "point file (.npy) or dataset")
+                raise InputError(f"{path.name}: not a model file ({', '.join(MODEL_SUFFIXES)}) "
+                                 "or dataset")
         yield sources

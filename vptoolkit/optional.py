@@ -20,7 +20,7 @@ from vptoolkit.errors import MissingDependencyError
 __all__ = ["require", "is_available", "install_hint", "EXTRAS"]
 
 # pip distribution name for each importable module, where they differ.
-_DISTRIBUTIONS = {"open3d": "open3d-cpu"}
+_DISTRIBUTIONS = {"open3d": "open3d-cpu", "PIL": "pillow"}
 
 EXTRAS = {
     "numba": "measures",
@@ -34,7 +34,9 @@ EXTRAS = {
     "torch": "learn",
     "safetensors": "learn",
     "matplotlib": "pictures",
+    "PIL": "pictures",
     "fsspec": "remote",
+    "laspy": "las",
 }
 """The vptoolkit extra that installs each optional top-level module.
 

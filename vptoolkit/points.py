@@ -16,15 +16,14 @@ global random state.
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.checks import check_int, check_npy_header, one_line
+from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import MeshLike, as_mesh, check_coordinate_range
+from vptoolkit.mesh import MeshLike, as_mesh
 
 __all__ = [
     "MAX_SURFACE_POINTS",
@@ -37,8 +36,6 @@ __all__ = [
     "network_input_indices",
     "network_input",
     "poisson_disk_points",
-    "read_point_file",
-    "read_point_normals",
 ]
 
 N_SURFACE_POINTS = 20_000
@@ -409,97 +406,6 @@ def poisson_disk_points(
     cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(candidates.points))
     cloud.normals = o3d.utility.Vector3dVector(candidates.normals)
     return np.asarray(triangles.sample_points_poisson_disk(n, pcl=cloud).points, dtype=np.float64)
-
-
-def read_point_file(path: Path) -> NDArray[np.float64]:
-    """Read the points of an ``.npy`` point file, checked as a mesh's vertices are.
-
-    Parameters
-    ----------
-    path : Path
-        An ``(N, 3)`` or ``(N, 6)`` float array, ``x y z`` first (as ``vptool
-        sample`` writes).
-
-    Returns
-    -------
-    points : (N, 3) float64
-
-    Raises
-    ------
-    InputError
-        Naming the file, if its header claims more than it holds, it is not a
-        float array of that shape, a coordinate is NaN or infinite, the
-        coordinates are beyond float32's range
-        (:func:`vptoolkit.mesh.check_coordinate_range`), or the points lie
-        on one line (two points, or all at one point) and so span no surface.
-    """
-    return _read_point_table(path)[0]
-
-
-def read_point_normals(path: Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Read the points and normals of an ``(N, 6)`` ``.npy`` point file (``x y z nx ny nz``).
-
-    Returns
-    -------
-    points, normals : (N, 3) float64
-
-    Raises
-    ------
-    InputError
-        Naming the file, as :func:`read_point_file` does, and if the file has
-        no normal columns or a normal is NaN, infinite or of zero length.
-    """
-    points, table = _read_point_table(path)
-    if table.shape[1] != 6:
-        raise InputError(f"{path.name}: has no normals; expected an (N, 6) point array "
-                         "(x y z nx ny nz, as vptool sample writes)")
-    normals = np.asarray(table[:, 3:], dtype=np.float64)
-    if not np.isfinite(normals).all() or not np.abs(normals).max(axis=1).all():
-        raise InputError(f"{path.name}: a normal is NaN, infinite or of zero length")
-    return points, normals
-
-
-def _read_point_table(path: Path) -> tuple[NDArray[np.float64], NDArray[Any]]:
-    """The checked points of a point file (:func:`read_point_file`) and its whole table."""
-    try:
-        with open(path, "rb") as stream:
-            check_npy_header(stream, path.name, path.stat().st_size)
-            table = np.load(stream, allow_pickle=False)
-    except (OSError, ValueError, EOFError) as err:
-        raise InputError(f"{path.name}: cannot read a numpy array ({one_line(err)})") from err
-    except MemoryError as err:
-        raise InputError(f"{path.name}: its {path.stat().st_size:,} bytes of points do not fit "
-                         "in memory; subsample it first") from err
-    if table.ndim != 2 or table.shape[1] not in (3, 6) or table.shape[0] < 1:
-        raise InputError(
-            f"{path.name}: expected an (N, 3) or (N, 6) point array, got shape {table.shape}"
-        )
-    if not np.issubdtype(table.dtype, np.floating):
-        raise InputError(f"{path.name}: expected float columns, got {table.dtype}")
-    points = np.asarray(table[:, :3], dtype=np.float64)
-    if not np.isfinite(points).all():
-        raise InputError(f"{path.name}: contains NaN or infinite coordinates")
-    check_coordinate_range(points, path.name, "point cloud")
-    if _on_one_line(points):
-        raise InputError(
-            f"{path.name}: its {len(points)} point(s) lie on one line, without the extent of "
-            "a surface; a view can only be predicted for a shape (points not all on a line)"
-        )
-    return points, table
-
-
-def _on_one_line(points: NDArray[np.float64]) -> bool:
-    """Whether ``points`` lie on a line (or at one point) up to rounding.
-
-    The second principal variance is compared with the first, after scaling
-    the cloud to a unit box so that squares neither overflow nor underflow.
-    """
-    extent = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
-    if len(points) < 3 or extent == 0.0:
-        return True
-    centred = (points - points.mean(axis=0)) / extent
-    variances = np.linalg.eigvalsh(centred.T @ centred / len(points))
-    return bool(variances[1] <= 1e-10 * variances[2])
 
 
 def _as_points(points: ArrayLike, what: str) -> NDArray[np.float64]:

@@ -119,13 +119,13 @@ def predict_unoccluded(
     with open_inputs(inputs, split=split) as sources:
         for source in sources:
             claim_name(seen, source.name)
-            if source.kind == "mesh":
-                mesh = source.mesh()
-                normals, areas, face_areas = face_elements(mesh)
+            model = source.model() if source.kind == "file" else None
+            if isinstance(model, Mesh):
+                normals, areas, face_areas = face_elements(model)
                 answers.append(unoccluded_best_views(
-                    normals, areas, directions=coarse_directions(mesh, n_directions, face_areas),
+                    normals, areas, directions=coarse_directions(model, n_directions, face_areas),
                     measures=names))
-            elif source.kind == "points":
+            elif model is not None:
                 answers.append(unoccluded_best_views(source.normals(), directions=n_directions,
                                                      measures=names))
             else:
@@ -187,14 +187,15 @@ def _predict_network(model: str | os.PathLike[str], inputs: Inputs, *, split: Sp
     """A network's predictions; point files are checked before the network is loaded."""
     from pathlib import Path
 
+    from vptoolkit.inputs import read_model
+    from vptoolkit.io import POINT_SUFFIXES
     from vptoolkit.learn.predict import N_INPUTS, predict
-    from vptoolkit.points import read_point_file
 
     entries = [inputs] if isinstance(inputs, (str, os.PathLike)) or not isinstance(
         inputs, Sequence) else inputs
     for entry in entries:
-        if isinstance(entry, (str, os.PathLike)) and Path(entry).suffix.lower() == ".npy" \
+        if isinstance(entry, (str, os.PathLike)) and Path(entry).suffix.lower() in POINT_SUFFIXES \
                 and Path(entry).is_file():
-            read_point_file(Path(entry))
+            read_model(Path(entry))
     return predict(model, inputs, split=split, seed=seed, progress=progress, category=category,
                    device=device, n_inputs=N_INPUTS if n_inputs is None else n_inputs)

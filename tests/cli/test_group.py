@@ -25,7 +25,7 @@ def test_a_command_needing_an_extra_says_which_in_one_line(monkeypatch, tmp_path
 
     import vptoolkit.io
 
-    monkeypatch.setattr(vptoolkit.io, "load_mesh", missing)
+    monkeypatch.setattr(vptoolkit.io, "load", missing)
     mesh = tmp_path / "a.off"
     mesh.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
     result = CliRunner().invoke(main, ["measures", str(mesh)])

@@ -267,7 +267,7 @@ def test_a_point_file_cannot_feed_a_network_that_reads_point_features(checkpoint
     path = tmp_path / "teapot.npy"
     np.save(path, sample_surface(load_mesh(sample_path("teapot.stl")), 2000).points)
     with pytest.raises(InputError, match="the network reads point features \\(face_area\\) that "
-                                         "a point file does not carry"):
+                                         "a point cloud does not carry"):
         predict(checkpoint, path, device="cpu")
 
 

@@ -279,7 +279,7 @@ def test_predict_rejects_bad_inputs(trained, tmp_path):
     with pytest.raises(InputError, match="missing.obj: no such file"):
         predict(trained.checkpoint, [tmp_path / "missing.obj"])
     (tmp_path / "notes.txt").write_text("hello")
-    with pytest.raises(InputError, match="notes.txt: not a mesh"):
+    with pytest.raises(InputError, match="notes.txt: not a model file"):
         predict(trained.checkpoint, [tmp_path / "notes.txt"])
     # point files, for a network of coordinates alone
     from vptoolkit.learn.model import ViewpointNet, save_model

@@ -22,7 +22,7 @@ def test_plain_install_needs_no_heavy_package() -> None:
     core = [re.split(r"[<>=;\[ ]", dep)[0] for dep in project["project"]["dependencies"]]
     assert sorted(core) == ["click", "h5py", "numpy", "packaging", "tqdm"]
     extras = project["project"]["optional-dependencies"]
-    assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures,remote]" in extras["all"]
+    assert "vptoolkit[measures,clean,dataset,cluster,learn,pictures,remote,las]" in extras["all"]
     for package in ("numba", "trimesh"):
         assert any(dep.startswith(package) for dep in extras["measures"])
     assert {"datasets", "mlcroissant"} <= {re.split(r"[<>=]", d)[0] for d in extras["dev"]}

@@ -163,7 +163,7 @@ def search_inputs(
     chosen = search_settings(settings, budget=budget, resolution=resolution)
     names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
-    with open_inputs(entries, split=split, purpose="search") as sources:
+    with open_inputs(entries, split=split, purpose="search", requires="surface") as sources:
         if names is None:
             stored = next((source.dataset for source in sources if source.dataset is not None),
                           None)

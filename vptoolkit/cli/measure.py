@@ -52,7 +52,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
       vptool measures bunny.ply --measures NVT,PA,I3,INS
       vptool measures bunny.ply --measures all --json
     """
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.settings import MeasureSettings
 
@@ -61,7 +61,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before the work, not after
-    loaded = load_mesh(mesh)
+    loaded = read_model(mesh, requires="surface")
     started = time.perf_counter()
     quality = compute_view_quality(loaded, settings, measures=names, progress=True)
     seconds = time.perf_counter() - started
@@ -118,7 +118,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
       vptool views bunny.ply --k 4 -o bunny_views.npz
       vptool views chair.off --coverage 0.95 --objective quality
     """
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.search import measure_view_set
 
@@ -128,7 +128,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before drawing the views
-    loaded = load_mesh(mesh)
+    loaded = read_model(mesh, requires="surface")
     started = time.perf_counter()
     _, view_set = measure_view_set(
         loaded, 4 if k is None and target is None else k, settings=settings,
@@ -179,12 +179,14 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
       vptool clean airplane_0001.off airplane_0001_clean.ply --report report.json
     """
     from vptoolkit.clean import clean_mesh
-    from vptoolkit.io import load_mesh, save_mesh
+    from vptoolkit.inputs import read_model
+    from vptoolkit.io import save_mesh
 
     check_output_folder(target, "TARGET")
     if report_path is not None:
         check_output_folder(report_path, "--report")  # before writing the mesh
-    cleaned, report = clean_mesh(load_mesh(source), max_faces=max_faces, remesh=remesh)
+    cleaned, report = clean_mesh(read_model(source, requires="surface"), max_faces=max_faces,
+                                 remesh=remesh)
     save_mesh(cleaned, target)
     record = report.to_dict()
     if report_path is not None:
@@ -213,12 +215,12 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
     """
     import numpy as np
 
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.points import sample_surface
 
     check_suffix(output, ".npy")
     check_output_folder(output, "--output")
-    surface = sample_surface(load_mesh(mesh), n_points, seed=seed)
+    surface = sample_surface(read_model(mesh, requires="surface"), n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
     with atomic_write(output) as handle:
         np.save(handle, table, allow_pickle=False)

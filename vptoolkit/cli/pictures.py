@@ -74,7 +74,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.png import save_png
     from vptoolkit.pictures.shading import RenderStyle
@@ -87,7 +87,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    loaded = load_mesh(mesh)
+    loaded = read_model(mesh, requires="surface")
     with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
         if view_set_k is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
@@ -163,13 +163,13 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
                              measures=None if every else parse_measures(measures_text))
         click.echo(f"wrote {output}")
         return
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map as one_map
     from vptoolkit.settings import MeasureSettings
 
     names = (measure,) if measure is not None else parse_measures(measures_text or "paper")
-    loaded = load_mesh(source)
+    loaded = read_model(source, requires="surface")
     quality = compute_view_quality(loaded, MeasureSettings(views=n_views, resolution=resolution),
                                    measures=names, progress=True)
     title = f"{quality.name}: {len(quality.views)} views at {quality.resolution} px"

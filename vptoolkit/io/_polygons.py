@@ -1,13 +1,18 @@
 """Helpers shared by the format readers: polygon lists, number parsing, errors.
 
-A reader returns ``(vertices, polygons)``: ``(n_vertices, 3) float64``
-coordinates and a :data:`Polygons` pair. :func:`check_and_triangulate` then
-validates both and fan-triangulates the polygons for every format alike.
+A reader returns a :class:`Reading`: ``(n_vertices, 3) float64`` coordinates,
+a :data:`Polygons` pair and what else the file holds (normals, colours,
+texture coordinates). :func:`check_and_triangulate` then validates the
+geometry and fan-triangulates the polygons for every format alike, and
+:func:`triangle_rows` carries per-polygon and per-corner values onto the
+triangles the same way.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -17,8 +22,103 @@ Polygons = tuple[NDArray[np.int64], NDArray[np.int64]]
 indices of every polygon in file order, and ``(n_polygons,) int64`` vertex
 counts per polygon."""
 
+
+_Item = TypeVar("_Item", bound=np.generic)
+
+
 class FormatError(Exception):
-    """A reader's complaint about the file content; load_mesh prefixes the name."""
+    """A reader's complaint about the file content; :func:`vptoolkit.io.load` prefixes the name."""
+
+
+class Reading(NamedTuple):
+    """What a reader found in one file; every field after ``polygons`` is None when absent.
+
+    Attributes
+    ----------
+    vertices : (n_vertices, 3) float64
+        Coordinates in file order.
+    polygons : Polygons
+        The faces; empty for a file of points.
+    normals : (n_vertices, 3) float64 or None
+        Per-vertex normals as stored (not yet unit length).
+    vertex_colors : (n_vertices, 4) uint8 or None
+        RGBA per vertex (:func:`rgba`).
+    polygon_colors : (n_polygons, 4) uint8 or None
+        RGBA per polygon.
+    vertex_uv : (n_vertices, 2) float64 or None
+        Texture coordinates per vertex, ``(0, 0)`` bottom-left.
+    corner_uv : (len(flat_indices), 2) float64 or None
+        Texture coordinates per polygon corner (OBJ's ``v/vt``), NaN where a
+        corner has none.
+    base_color : (4,) float64 or None
+        The one material colour, RGBA in 0..1.
+    texture : callable or None
+        Returns the base-colour image as ``(height, width, 4) uint8``; called
+        only when the appearance is asked for, so that reading geometry never
+        decodes images.
+    """
+
+    vertices: NDArray[np.float64]
+    polygons: Polygons
+    normals: NDArray[np.float64] | None = None
+    vertex_colors: NDArray[np.uint8] | None = None
+    polygon_colors: NDArray[np.uint8] | None = None
+    vertex_uv: NDArray[np.float64] | None = None
+    corner_uv: NDArray[np.float64] | None = None
+    base_color: NDArray[np.float64] | None = None
+    texture: Callable[[], NDArray[np.uint8]] | None = None
+
+
+def rgba(channels: NDArray[np.float64], *, is_float: bool, what: str) -> NDArray[np.uint8]:
+    """Colours as ``(n, 4) uint8``: 0..1 floats scaled by 255, integers 0..255 as they are.
+
+    Parameters
+    ----------
+    channels : (n, 3) or (n, 4) float64
+        Red, green, blue and maybe alpha (255 or 1.0 when absent).
+    is_float : bool
+        Whether the file stores them as floats in 0..1.
+    what : str
+        ``"vertex colours"`` or ``"face colours"``, for the message.
+
+    Raises
+    ------
+    FormatError
+        If a value is NaN or outside 0..1 (floats) or 0..255 (integers).
+    """
+    top = 1.0 if is_float else 255.0
+    if not (np.isfinite(channels).all() and (channels >= 0).all() and (channels <= top).all()):
+        found = ("NaN" if not np.isfinite(channels).all()
+                 else f"{channels.min():.4g}..{channels.max():.4g}")
+        raise FormatError(f"{what} outside 0..{top:g} (found {found})")
+    scaled = np.rint(channels * (255.0 / top)).astype(np.uint8)
+    if scaled.shape[1] == 4:
+        return scaled
+    return np.concatenate([scaled, np.full((len(scaled), 1), 255, np.uint8)], axis=1)
+
+
+def triangle_rows(values: NDArray[_Item], sizes: NDArray[np.int64], *,
+                  per_corner: bool) -> NDArray[_Item]:
+    """Carry per-polygon (or per-corner) values onto the fan triangles of :func:`fan_triangulate`.
+
+    Parameters
+    ----------
+    values : (n_polygons, ...) or (sum(sizes), ...) array
+        One row per polygon, or with ``per_corner`` one per polygon corner.
+    sizes : (n_polygons,) int64
+        The polygons' vertex counts.
+    per_corner : bool
+        Whether ``values`` has a row per corner.
+
+    Returns
+    -------
+    (n_triangles, ...) or (n_triangles, 3, ...) array
+        A polygon's row repeated for each of its triangles, or each triangle's
+        three corners' rows.
+    """
+    if per_corner:
+        return values[fan_triangulate(np.arange(len(values), dtype=np.int64), sizes)]
+    return np.repeat(values, np.maximum(sizes - 2, 0), axis=0)
 
 
 def plural(count: int, one: str, many: str) -> str:
@@ -37,7 +137,7 @@ def polygon_of(sizes: NDArray[np.int64], position: int) -> int:
 
 
 def check_and_triangulate(vertices: NDArray[np.float64], polygons: Polygons) -> NDArray[np.int64]:
-    """Validate vertices and polygons and return ``(n_faces, 3) int64`` triangles."""
+    """Validate vertices and (at least one) polygons; return ``(n_faces, 3) int64`` triangles."""
     flat, sizes = polygons
     n_vertices = len(vertices)
     if n_vertices == 0 and len(sizes) == 0:
@@ -49,10 +149,6 @@ def check_and_triangulate(vertices: NDArray[np.float64], polygons: Polygons) -> 
         raise FormatError(
             f"{plural(n_bad, 'vertex has', 'vertices have')} NaN or infinite coordinates "
             f"(first: vertex {first})"
-        )
-    if len(sizes) == 0:
-        raise FormatError(
-            f"no faces, only {plural(n_vertices, 'vertex', 'vertices')} (a point cloud?)"
         )
     is_bad = (flat < 0) | (flat >= n_vertices)
     if is_bad.any():

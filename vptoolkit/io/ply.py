@@ -14,9 +14,11 @@ from vptoolkit.errors import InputError
 from vptoolkit.io._polygons import (
     FormatError,
     Polygons,
+    Reading,
     parse_counted_polygons,
     parse_floats,
     plural,
+    rgba,
 )
 
 __all__ = ["ply_bytes", "read_ply"]
@@ -24,7 +26,7 @@ __all__ = ["ply_bytes", "read_ply"]
 _log = logging.getLogger(__name__)
 
 file_label: contextvars.ContextVar[str] = contextvars.ContextVar("file_label", default="PLY file")
-"""Name of the file being read, for warnings (set by :func:`vptoolkit.io.load_mesh`)."""
+"""Name of the file being read, for warnings (set by :func:`vptoolkit.io.load`)."""
 
 _TYPES = {
     "char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1",
@@ -52,11 +54,21 @@ class _Element(NamedTuple):
     properties: list[_Property]
 
 
-def read_ply(data: bytes) -> tuple[NDArray[np.float64], Polygons]:
-    """Read the ``vertex`` (x, y, z) and ``face`` elements of an ASCII or binary PLY.
+_NORMALS = ("nx", "ny", "nz")
+_COLORS = ("red", "green", "blue", "alpha")
+_UV_NAMES = (("s", "t"), ("u", "v"), ("texture_u", "texture_v"))
 
-    Other elements and properties are read past and dropped. The face list may
-    be called ``vertex_indices`` or ``vertex_index``.
+
+def read_ply(data: bytes) -> Reading:
+    """Read the ``vertex`` and ``face`` elements of an ASCII or binary PLY.
+
+    Besides x, y, z and the face index list, the reader keeps per-vertex
+    normals (``nx ny nz``), colours (``red green blue [alpha]``, integers
+    0..255 or floats 0..1) and texture coordinates (``s t``, ``u v`` or
+    ``texture_u texture_v``) and per-face colours; other elements and
+    properties are read past and dropped. The face list may be called
+    ``vertex_indices`` or ``vertex_index``. A file without a face element (or
+    with no face rows) is a point cloud: its vertices are the points.
 
     Parameters
     ----------
@@ -65,45 +77,73 @@ def read_ply(data: bytes) -> tuple[NDArray[np.float64], Polygons]:
 
     Returns
     -------
-    vertices : (n_vertices, 3) float64
-        The x, y, z properties of the vertex element, in file order.
-    polygons : Polygons
-        The face element's index lists as ``(flat_indices, sizes)``.
+    Reading
+        ``vertices (n_vertices, 3) float64`` in file order, the face
+        element's index lists as ``(flat_indices, sizes)``, and the normals,
+        colours and texture coordinates found.
 
     Raises
     ------
     FormatError
-        If the header is invalid, a needed property is missing, or the body
-        does not hold exactly the elements the header declares.
+        If the header is invalid, a needed property is missing, the body
+        does not hold exactly the elements the header declares, or a colour
+        is outside its range.
     """
     byte_order, elements, body_offset = _read_header(data)
     by_name = {element.name: element for element in elements}
     vertex_element = by_name.get("vertex")
     face_element = by_name.get("face")
+    vertex_names: list[str] = []
     if vertex_element is not None:
-        names = [prop.name for prop in vertex_element.properties]
-        missing = [axis for axis in ("x", "y", "z") if axis not in names]
+        vertex_names = [prop.name for prop in vertex_element.properties]
+        missing = [axis for axis in ("x", "y", "z") if axis not in vertex_names]
         if missing:
             raise FormatError(f"PLY vertex element has no {'/'.join(missing)} property")
     index_name = None
+    face_names: list[str] = []
     if face_element is not None:
-        names = [prop.name for prop in face_element.properties]
-        index_name = next((name for name in _INDEX_NAMES if name in names), None)
+        face_names = [prop.name for prop in face_element.properties]
+        index_name = next((name for name in _INDEX_NAMES if name in face_names), None)
         if index_name is None:
             raise FormatError("PLY face element has no vertex_indices list")
-    wanted = {"vertex": ("x", "y", "z"), "face": (index_name,)}
+    vertex_wanted = ("x", "y", "z", *_NORMALS, *_COLORS, *(n for pair in _UV_NAMES for n in pair))
+    wanted = {"vertex": tuple(name for name in vertex_wanted if name in vertex_names),
+              "face": (index_name, *(name for name in _COLORS if name in face_names))}
     if byte_order:
         tables = _read_binary(data, body_offset, elements, byte_order, wanted)
     else:
         tables = _read_ascii(data, body_offset, elements, wanted)
     vertices = np.zeros((0, 3), dtype=np.float64)
+    normals = vertex_colors = vertex_uv = polygon_colors = None
     if vertex_element is not None:
         columns = tables["vertex"]
-        vertices = np.stack([columns[axis] for axis in ("x", "y", "z")], axis=1).astype(np.float64)
+        vertices = _stack(columns, ("x", "y", "z"))
+        if all(name in columns for name in _NORMALS):
+            normals = _stack(columns, _NORMALS)
+        vertex_colors = _colors(vertex_element, columns, "vertex colours")
+        uv_names = next((pair for pair in _UV_NAMES if all(n in columns for n in pair)), None)
+        if uv_names is not None:
+            vertex_uv = _stack(columns, uv_names)
     polygons: Polygons = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
     if face_element is not None and index_name is not None:
         polygons = tables["face"][index_name]  # type: ignore[assignment]
-    return vertices, polygons
+        polygon_colors = _colors(face_element, tables["face"], "face colours")
+    return Reading(vertices, polygons, normals=normals, vertex_colors=vertex_colors,
+                   polygon_colors=polygon_colors, vertex_uv=vertex_uv)
+
+
+def _stack(columns: Table, names: tuple[str, ...]) -> NDArray[np.float64]:
+    """The scalar columns ``names`` side by side, ``(n_rows, len(names)) float64``."""
+    return np.stack([np.asarray(columns[name], dtype=np.float64) for name in names], axis=1)
+
+
+def _colors(element: _Element, columns: Table, what: str) -> NDArray[np.uint8] | None:
+    """The RGBA of an element's ``red green blue [alpha]`` columns, or None without them."""
+    if not all(name in columns for name in _COLORS[:3]):
+        return None
+    names = tuple(name for name in _COLORS if name in columns)
+    is_float = any(prop.dtype.startswith("f") for prop in element.properties if prop.name in names)
+    return rgba(_stack(columns, names), is_float=is_float, what=what)
 
 
 def ply_bytes(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, name: str) -> bytes:
@@ -235,7 +275,8 @@ def _ascii_element(
         return {prop.name: values[:, i] for i, prop in enumerate(props) if prop.name in names}
     # the face index list after `lead` scalars; anything else with lists is rare
     list_positions = [i for i, prop in enumerate(props) if prop.count_dtype is not None]
-    position = next((i for i, prop in enumerate(props) if prop.name in names), None)
+    position = next((i for i, prop in enumerate(props)
+                     if prop.name in names and prop.count_dtype is not None), None)
     if position is None or list_positions[0] != position:
         raise FormatError(f"PLY element {element.name!r} has an unsupported ASCII list layout")
     if len(list_positions) != 1:
@@ -252,9 +293,15 @@ def _ascii_element(
         )}
     n_trailing = len(props) - position - 1
     rows_without_tail = [row[: len(row) - n_trailing] for row in rows] if n_trailing else rows
-    return {props[position].name: parse_counted_polygons(
+    table: Table = {props[position].name: parse_counted_polygons(
         rows_without_tail, numbers, lead=position, is_exact=True, min_size=0
     )}
+    trailing = [prop.name for prop in props[position + 1:]]
+    if any(name in names for name in trailing):  # scalars after the list, e.g. face colours
+        tails = parse_floats([row[len(row) - n_trailing:] for row in rows], numbers, n_trailing,
+                             f"{element.name} values")
+        table.update({name: tails[:, i] for i, name in enumerate(trailing) if name in names})
+    return table
 
 
 # --------------------------------------------------------------------------

@@ -8,7 +8,7 @@ import struct
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.io._polygons import FormatError, Polygons, first_non_float_row, triangle_polygons
+from vptoolkit.io._polygons import FormatError, Reading, first_non_float_row, triangle_polygons
 
 __all__ = ["read_stl", "stl_bytes"]
 
@@ -16,7 +16,7 @@ _RECORD = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attri
 _VERTEX = re.compile(rb"(?i)\bvertex[ \t]+(\S+)[ \t]+(\S+)[ \t]+(\S+)")
 
 
-def read_stl(data: bytes) -> tuple[NDArray[np.float64], Polygons]:
+def read_stl(data: bytes) -> Reading:
     """Read binary or ASCII STL as triangle soup (three vertices per face).
 
     A file whose length matches its binary triangle count is binary, even if
@@ -29,10 +29,10 @@ def read_stl(data: bytes) -> tuple[NDArray[np.float64], Polygons]:
 
     Returns
     -------
-    vertices : (3 * n_faces, 3) float64
-        The corners of each triangle in turn; shared vertices are not merged.
-    polygons : Polygons
-        Triangle ``k`` is vertices ``3k, 3k + 1, 3k + 2``.
+    Reading
+        ``vertices (3 * n_faces, 3) float64``, the corners of each triangle in
+        turn (shared vertices are not merged), and the polygons: triangle
+        ``k`` is vertices ``3k, 3k + 1, 3k + 2``. STL has no colours.
 
     Raises
     ------
@@ -54,7 +54,8 @@ def read_stl(data: bytes) -> tuple[NDArray[np.float64], Polygons]:
             f"file has {len(data)} bytes"
         )
     n_faces = len(vertices) // 3
-    return vertices, triangle_polygons(np.arange(3 * n_faces, dtype=np.int64).reshape(-1, 3))
+    return Reading(vertices,
+                   triangle_polygons(np.arange(3 * n_faces, dtype=np.int64).reshape(-1, 3)))
 
 
 def stl_bytes(vertices: NDArray[np.float64], faces: NDArray[np.int64], *, name: str) -> bytes:

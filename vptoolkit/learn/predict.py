@@ -10,11 +10,12 @@ Inputs become network inputs the way the training data did (Schelling et
 al. 2021, section 5.1):
 
 mesh files (``.off``, ``.obj``, ``.ply``, ``.stl``, ``.glb``, ``.gltf``)
-    :func:`vptoolkit.io.load_mesh`, then 20000 surface points by
+    read by :func:`vptoolkit.io.load`, then 20000 surface points by
     :func:`vptoolkit.points.sample_surface` (seed ``seed``);
-point files (``.npy``)
-    an ``(N, 3)`` or ``(N, 6)`` float array, ``x y z`` first (as ``vptool
-    sample`` writes);
+point cloud files (a PLY, OBJ or OFF without faces, and the points-only
+formats of :data:`vptoolkit.io.POINT_SUFFIXES`: NPY, NPZ, XYZ, PCD, LAS, ...)
+    their points as they are, e.g. an ``(N, 3)`` or ``(N, 6)`` ``.npy``
+    array as ``vptool sample`` writes;
 dataset stores or folders
     the stored surface points of every model of ``split``.
 
@@ -72,6 +73,7 @@ from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.optional import require
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.point_features import FEATURE_WIDTHS, turn_features
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS
 from vptoolkit.predictions import Predictions
@@ -455,25 +457,24 @@ def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]
     return sorted({name for model, _ in networks.values() for name in model.config.point_features})
 
 
-def _source_features_refused(source: ModelSource,
-                             networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]]
-                             ) -> None:
-    """Raise the one message for a point file given to networks that read point features."""
-    wanted = _features_read(networks)
-    if wanted:
-        raise InputError(f"{source.origin}: the network reads point features "
-                         f"({', '.join(wanted)}) that a point file does not carry; "
-                         "give the mesh, or a network of coordinates alone (--model points)")
+def _features_refused(source: ModelSource, point_features: Sequence[str]) -> InputError:
+    """The one message for a point cloud given to a network that reads point features."""
+    return InputError(f"{source.origin}: the network reads point features "
+                      f"({', '.join(sorted(point_features))}) that a point cloud does not carry; "
+                      "give the mesh, or a network of coordinates alone (--model points)")
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *,
                     seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
     """An input model's surface points and their ``point_features`` (None for no features;
-    a point file has none, see :func:`_source_features_refused`)."""
+    a point cloud has none and is refused, :func:`_features_refused`)."""
     if not point_features:
         return source.points(seed=seed), None
-    if source.kind == "mesh":
-        return mesh_surface(source.mesh(), point_features, seed=seed)
+    if source.kind == "file":
+        model = source.model()
+        if isinstance(model, PointCloud):
+            raise _features_refused(source, point_features)
+        return mesh_surface(model, point_features, seed=seed)
     assert source.dataset is not None
     return source.points(seed=seed), source.dataset.point_features(source.position,
                                                                    point_features)
@@ -628,6 +629,7 @@ def predict(
     networks = load_networks(model_path)
     tqdm = require("tqdm").tqdm
     from vptoolkit.inputs import claim_name, open_inputs
+    from vptoolkit.io import POINT_SUFFIXES
 
     names: list[str] = []
     seen: set[str] = set()
@@ -643,9 +645,11 @@ def predict(
         routes.clear()
 
     with open_inputs(inputs, split=split) as sources:
-        for source in sources:  # refused before any work: a point file for features
-            if source.kind == "points":
-                _source_features_refused(source, networks)
+        wanted = _features_read(networks)
+        for source in sources:  # refused before any work: a points-only file for features
+            if (wanted and source.kind == "file"
+                    and Path(source.origin).suffix.lower() in POINT_SUFFIXES):
+                raise _features_refused(source, wanted)
         for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
             claim_name(seen, source.name)
             route = _route(networks, source.name,

@@ -118,11 +118,11 @@ class _Measured:
 
 def _best_direction_task(task: _MeasureTask) -> _Measured:
     """Worker: load a mesh and find its best view or view set (top level, so a pool can run it)."""
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
 
     try:
-        mesh = load_mesh(task.path)
+        mesh = read_model(task.path, requires="surface")
         if task.view_set:
             from vptoolkit.view_sets.search import measure_view_set
 
@@ -153,11 +153,11 @@ def _rounded(direction: Any) -> list[Any]:
 
 def _predicted_results(tasks: list[_MeasureTask], predictor: DirectionSource,
                        measure: str) -> Iterator[_Measured]:
-    from vptoolkit.io import load_mesh
+    from vptoolkit.inputs import read_model
 
     for task in tasks:
         try:
-            mesh = load_mesh(task.path)
+            mesh = read_model(task.path, requires="surface")
             direction = resolve_direction(mesh, predictor, measure=measure)
         except (VptoolkitError, OSError, MemoryError) as err:
             yield _Measured(task.source, error=one_line(err))
