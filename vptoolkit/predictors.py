@@ -44,6 +44,7 @@ from vptoolkit.measures.unoccluded import (
     unoccluded_best_views,
     unoccluded_measures,
 )
+from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.sphere import coarse_directions
 

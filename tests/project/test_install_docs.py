@@ -59,8 +59,8 @@ def test_an_extra_the_docs_name_must_exist(copy: Path) -> None:
     line = _line_of(guide, "vptoolkit[learning")
     problems = install_doc_problems(copy)
     assert problems == [f"docs/guide/learning.md:{line}: extra 'learning' is not in "
-                        "pyproject.toml (it has all, clean, cluster, dataset, dev, docs, las, learn, "
-                        "measures, pictures, remote, torch)"]
+                        "pyproject.toml (it has all, clean, cluster, dataset, dev, docs, las, "
+                        "learn, measures, pictures, remote, torch)"]
 
 
 def test_the_readme_table_of_extras_must_match_pyproject(copy: Path) -> None:
@@ -68,7 +68,8 @@ def test_the_readme_table_of_extras_must_match_pyproject(copy: Path) -> None:
     problems = install_doc_problems(copy)
     assert len(problems) == 2, problems
     assert problems[0].endswith("extra 'torch' is not in pyproject.toml (it has all, clean, "
-                                "cluster, dataset, dev, docs, las, learn, measures, pictures, remote)")
+                                "cluster, dataset, dev, docs, las, learn, measures, pictures, "
+                                "remote)")
     assert problems[1].endswith("the table of extras lists 'torch', which pyproject.toml does "
                                 "not define")
 

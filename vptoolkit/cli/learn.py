@@ -205,7 +205,8 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
     INPUTS are mesh files or point clouds, told apart by content: a PLY, OBJ
     or OFF without faces, .npy ((N, 3) or (N, 6) as written by vptool
-    sample), .npz, .xyz, .xyzn, .xyzrgb, .pts, .pcd, .las or .laz. Directions come back in each input's own frame, from the
+    sample), .npz, .xyz, .xyzn, .xyzrgb, .pts, .pcd, .las or .laz.
+    Directions come back in each input's own frame, from the
     model centre towards the camera, one per measure the network learnt.
     Without --model the network bundled with vptoolkit predicts (trained on
     real meshes; see docs/results.md); its points carry the area of their
