@@ -1,7 +1,7 @@
 """Point-ID z-buffer splatting on the CPU (numba): the points' counterpart of :mod:`._raster`.
 
 Each point ``p`` of radius ``R`` is drawn as a splat, the solid
-``|x|**2 + beta ((x . n) / R)**2 <= R**2`` around it (``x`` the offset from
+``|x|**2 + beta (x . n)**2 <= R**2`` around it (``x`` the offset from
 ``p``, ``n`` its unit normal, ``beta = 1 / thickness**2 - 1``): a spheroid
 of radius ``R`` across the surface and ``thickness * R`` along the normal,
 a ball without normals. It is seen through the camera of

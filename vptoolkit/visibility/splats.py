@@ -2,7 +2,8 @@
 
 Each point stands for a piece of surface of area ``A_i = pi r_i**2``, with
 ``r_i`` from its local spacing (:mod:`vptoolkit.point_areas`), and is drawn
-as a ball of radius ``splat_scale * r_i`` into a z-buffer of point IDs
+as a splat of radius ``splat_scale * r_i`` (a spheroid flattened along the
+point's normal, a ball without normals) into a z-buffer of point IDs
 (:mod:`._splat`), with the camera of :mod:`vptoolkit.camera` aimed at the
 bounding box of the points. The pixels of each point in each view come out
 as :class:`~vptoolkit.visibility.ViewHistograms` with point indices in
@@ -14,9 +15,9 @@ point areas the same way::
     raw = quality_from_histograms(scene.histograms(directions, 256), scene.areas,
                                   n_views=len(directions))
 
-Why balls, and why bigger than ``r_i``: the front surface of overlapping
-balls shares the overlaps out as the points' Voronoi cells (:mod:`._splat`),
-so a ball larger than the point's own disc takes little from its
+Why solids, and why bigger than ``r_i``: the front surface of overlapping
+splats shares the overlaps out as the points' Voronoi cells (:mod:`._splat`),
+so a splat larger than the point's own disc takes little from its
 neighbours; it must be larger, since discs of exactly the points' areas
 leave ``exp(-1)``, about 37 %, of a randomly sampled surface uncovered
 (the covered fraction of a Boolean model of discs of mean area ``1 /
@@ -34,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from vptoolkit.camera import Camera
-from vptoolkit.checks import check_int
+from vptoolkit.checks import check_float, check_int
 from vptoolkit.conventions import RESOLUTION
 from vptoolkit.errors import InputError
 from vptoolkit.point_areas import NEIGHBOURS, point_radii
@@ -74,6 +75,10 @@ class PointScene:
     splat_scale : float
         Splat radius over the radius of the point's piece of surface
         (default: :data:`SPLAT_SCALE`; the module docstring says why 2).
+    thickness : float
+        Splat thickness along the normal over its radius, in (0, 1]
+        (default: :data:`THICKNESS`); 1 draws balls. Without normals the
+        splats are balls.
 
     Attributes
     ----------
@@ -94,15 +99,15 @@ class PointScene:
 
         own_radii = point_radii(points, k=k)
         cloud = np.asarray(points, dtype=np.float64)
-        if not (np.isfinite(splat_scale) and splat_scale > 0.0):
-            raise InputError(f"splat_scale: expected a positive number, got {splat_scale!r}")
+        splat_scale = check_float(splat_scale, "splat_scale", expected="a positive number",
+                                  above=0.0)
+        thickness = check_float(thickness, "thickness", expected="a number in (0, 1]",
+                                above=0.0, maximum=1.0)
         low, high = cloud.min(axis=0), cloud.max(axis=0)
         self.centre = (low + high) / 2.0
         self.diagonal = float(np.linalg.norm(high - low))
         if not self.diagonal > 0.0:
             raise InputError("points: all points coincide, the cloud has no extent")
-        if not (np.isfinite(thickness) and 0.0 < thickness <= 1.0):
-            raise InputError(f"thickness: expected a number in (0, 1], got {thickness!r}")
         self.flatness = 1.0 / thickness**2 - 1.0
         self.camera = camera or Camera()
         self.areas = np.pi * own_radii**2
