@@ -104,8 +104,8 @@ def _splat_view(
         pixels_per_unit = focal / p_f
         pixels_per_radius = radius * pixels_per_unit
         cy = half - (dx * up[0] + dy * up[1] + dz * up[2]) * pixels_per_unit
-        y0 = max(np.int64(math.ceil(cy - pixels_per_radius - 0.5)), 0)
-        y1 = min(np.int64(math.floor(cy + pixels_per_radius - 0.5)), last)
+        y0 = max(math.ceil(cy - pixels_per_radius - 0.5), 0)
+        y1 = min(math.floor(cy + pixels_per_radius - 0.5), last)
         if y0 > y1:
             continue
         cx = half + (dx * right[0] + dy * right[1] + dz * right[2]) * pixels_per_unit
@@ -127,8 +127,8 @@ def _splat_view(
             if discriminant < 0.0:
                 continue
             root = math.sqrt(discriminant)
-            x0 = max(np.int64(math.ceil(cx - (row_b + root) * run_scale - 0.5)), 0)
-            x1 = min(np.int64(math.floor(cx + (root - row_b) * run_scale - 0.5)), last)
+            x0 = max(math.ceil(cx - (row_b + root) * run_scale - 0.5), 0)
+            x1 = min(math.floor(cx + (root - row_b) * run_scale - 0.5), last)
             if x0 > x1:
                 continue
             row_low[y] = min(row_low[y], x0)
