@@ -9,7 +9,8 @@ a ball without normals. It is seen through the camera of
 is a few pixels wide): the pixel whose centre lies ``o`` (in model units,
 along ``right`` and ``up``) from the point's projection, at the point's
 depth, covers the splat where the ray ``o + t forward`` meets it, at the
-depth of the nearer crossing (:func:`_splat_view` solves it row by row).
+depth of the nearer crossing (:func:`_splat_view` tests every pixel of a
+small splat's bounding box, and solves each row's run of a bigger one).
 The z-buffer keeps the nearest splat at each pixel. Where the splats of
 neighbouring points of one surface overlap, a point of the front surface of
 their union lies on splat ``i`` and outside splat ``j`` exactly when it is
@@ -46,6 +47,9 @@ from vptoolkit._numba import numba  # noqa: F401  (OpenMP before TBB, see vptool
 _DEPTH_LEVELS = float(1 << 30)
 """Quantisation of the normalised depth, as :mod:`._raster` quantises its inverse depth."""
 _ID_MASK = np.int64(0xFFFFFFFF)
+_SMALL_SPLAT = 2.0
+"""Splats at most this many pixels in radius are tested pixel by pixel over their bounding
+box; bigger ones solve each row's run first."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -83,6 +87,7 @@ def _splat_view(
     last = resolution - 1
     has_normals = normals.shape[1] == 3
     beta = flatness if has_normals else 0.0
+    shrink = 1.0 / (1.0 + beta)
     n_r = 0.0
     n_u = 0.0
     n_d = 0.0
@@ -103,13 +108,16 @@ def _splat_view(
             continue
         pixels_per_unit = focal / p_f
         pixels_per_radius = radius * pixels_per_unit
+        # the ellipse's half extents (unit normal: A + beta |n_screen|**2 = 1 + beta)
+        half_height = pixels_per_radius * math.sqrt(1.0 - beta * n_u * n_u * shrink)
         cy = half - (dx * up[0] + dy * up[1] + dz * up[2]) * pixels_per_unit
-        y0 = max(math.ceil(cy - pixels_per_radius - 0.5), 0)
-        y1 = min(math.floor(cy + pixels_per_radius - 0.5), last)
+        y0 = max(math.ceil(cy - half_height - 0.5), 0)
+        y1 = min(math.floor(cy + half_height - 0.5), last)
         if y0 > y1:
             continue
+        half_width = pixels_per_radius * math.sqrt(1.0 - beta * n_r * n_r * shrink)
         cx = half + (dx * right[0] + dy * right[1] + dz * right[2]) * pixels_per_unit
-        if cx + pixels_per_radius < 0.5 or cx - pixels_per_radius > last + 0.5:
+        if cx + half_width < 0.5 or cx - half_width > last + 0.5:
             continue
         step = 1.0 / pixels_per_radius  # one pixel in radii
         a = 1.0 + beta * n_d * n_d
@@ -118,6 +126,30 @@ def _splat_view(
         run_scale = pixels_per_radius / row_a
         depth_step = radius * inverse_a
         key_id = np.int64(i + 1)
+        if pixels_per_radius <= _SMALL_SPLAT:
+            # every pixel centre of the bounding box, with no branch but the loops
+            x0 = max(math.ceil(cx - half_width - 0.5), 0)
+            x1 = min(math.floor(cx + half_width - 0.5), last)
+            if x0 > x1:
+                continue
+            for y in range(y0, y1 + 1):
+                o_u = (cy - y - 0.5) * step
+                o_u_n = o_u * n_u
+                c_row = o_u * o_u - 1.0
+                base = y * resolution
+                for x in range(x0, x1 + 1):
+                    o_r = (x + 0.5 - cx) * step
+                    o_n = o_r * n_r + o_u_n
+                    b = beta * o_n * n_d
+                    discriminant = b * b - a * (o_r * o_r + c_row + beta * o_n * o_n)
+                    z = p_f - (b + math.sqrt(max(discriminant, 0.0))) * depth_step
+                    q = min(max((far - z) * depth_scale, 0.0), _DEPTH_LEVELS)
+                    key = (np.int64(q) << 32) | key_id
+                    j = uint64(base + x)
+                    frame[j] = max(frame[j], key if discriminant >= 0.0 else np.int64(0))
+                row_low[y] = min(row_low[y], x0)
+                row_high[y] = max(row_high[y], x1)
+            continue
         for y in range(y0, y1 + 1):
             o_u = (cy - y - 0.5) * step  # up is against the rows
             # the row's run: row_a o_r**2 + 2 row_b o_r + row_c <= 0
