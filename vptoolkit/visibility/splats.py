@@ -90,6 +90,8 @@ class PointScene:
         Centre of the points' bounding box, where the camera looks.
     diagonal : float
         Diagonal of that box.
+    n_points : int
+        Number of points.
     """
 
     def __init__(self, points: ArrayLike, normals: ArrayLike | None = None,
@@ -108,16 +110,16 @@ class PointScene:
         self.diagonal = float(np.linalg.norm(high - low))
         if not self.diagonal > 0.0:
             raise InputError("points: all points coincide, the cloud has no extent")
-        self.flatness = 1.0 / thickness**2 - 1.0
+        self._flatness = 1.0 / thickness**2 - 1.0
         self.camera = camera or Camera()
         self.areas = np.pi * own_radii**2
         self.radii = splat_scale * own_radii
         self.n_points = len(cloud)
         # each point as a degenerate face: the rasteriser's Morton order of points
-        self.order, _, _ = locality_order(cloud, np.repeat(np.arange(self.n_points)[:, None], 3,
+        self._order, _, _ = locality_order(cloud, np.repeat(np.arange(self.n_points)[:, None], 3,
                                                            axis=1))
-        self._points = np.ascontiguousarray(cloud[self.order])
-        self._radii = np.ascontiguousarray(self.radii[self.order])
+        self._points = np.ascontiguousarray(cloud[self._order])
+        self._radii = np.ascontiguousarray(self.radii[self._order])
         self._workspaces: dict[int, RasterWorkspace] = {}
         if normals is None:
             self._normals = np.zeros((self.n_points, 0))
@@ -128,7 +130,7 @@ class PointScene:
             lengths = np.linalg.norm(given, axis=1, keepdims=True)
             if not (np.isfinite(given).all() and (lengths > 0.0).all()):
                 raise InputError("normals: values must be finite and of non-zero length")
-            self._normals = np.ascontiguousarray((given / lengths)[self.order])
+            self._normals = np.ascontiguousarray((given / lengths)[self._order])
 
     def histograms(self, view_directions: ArrayLike,
                    resolution: int = RESOLUTION) -> Iterator[ViewHistograms]:
@@ -172,7 +174,7 @@ class PointScene:
             stop = min(start + batch, n_views)
             count = stop - start
             splat_batch(
-                self._points, self._radii, self._normals, self.flatness, cull, poses.eyes[start:stop],
+                self._points, self._radii, self._normals, self._flatness, cull, poses.eyes[start:stop],
                 poses.right[start:stop], poses.up[start:stop], poses.forward[start:stop],
                 poses.focal_px, resolution, near, far, workspace.frames, workspace.row_low,
                 workspace.row_high, workspace.id_counts, workspace.touched, out_ids, out_counts,
@@ -182,7 +184,7 @@ class PointScene:
             local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
             yield ViewHistograms(
                 offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-                face_ids=self.order[local_ids].astype(np.int32),
+                face_ids=self._order[local_ids].astype(np.int32),
                 pixel_counts=np.concatenate([out_counts[i, : lengths[i]] for i in range(count)]),
                 n_faces=self.n_points,
                 first_view=start,
