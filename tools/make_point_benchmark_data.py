@@ -60,12 +60,15 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("out", type=Path, help="output folder (resumed when it exists)")
     parser.add_argument("--meshes", type=Path, help="folder of the mesh collection")
     parser.add_argument("--splits", type=Path, help="name,split CSV of the collection")
-    parser.add_argument("--split", default="validation", help="split to take (default: validation)")
-    parser.add_argument("--views", type=int, default=1000, help="views of the labels (default: 1000)")
+    parser.add_argument("--split", default="validation",
+                        help="split to take (default: validation)")
+    parser.add_argument("--views", type=int, default=1000,
+                        help="views of the labels (default: 1000)")
     parser.add_argument("--resolution", type=int, default=256,
                         help="image side of the labels in px (default: 256)")
     parser.add_argument("--rotations", type=int, default=4, help="fixed rotations (default: 4)")
-    parser.add_argument("--scans", type=int, default=3, help="scanners per virtual scan (default: 3)")
+    parser.add_argument("--scans", type=int, default=3,
+                        help="scanners per virtual scan (default: 3)")
     parser.add_argument("--scan-resolution", type=int, default=SCAN_RESOLUTION,
                         help=f"range image side in px (default: {SCAN_RESOLUTION})")
     parser.add_argument("--noise", type=float, default=SCAN_NOISE,

@@ -44,7 +44,8 @@ from vptoolkit.optional import require
 __all__ = ["NEIGHBOURS", "point_radii", "point_areas"]
 
 NEIGHBOURS = 8
-"""Default ``k``: the ``k``-th nearest neighbour sets a point's area (relative error ``1 / sqrt(k)``)."""
+"""Default ``k``: the ``k``-th nearest neighbour sets a point's area (relative error
+``1 / sqrt(k)``)."""
 
 
 def point_radii(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64]:

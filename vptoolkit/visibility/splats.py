@@ -83,7 +83,8 @@ class PointScene:
     Attributes
     ----------
     areas : (n_points,) float64
-        Area of surface each point stands for, ``pi r_i**2`` (:func:`vptoolkit.point_areas.point_areas`).
+        Area of surface each point stands for, ``pi r_i**2``
+        (:func:`vptoolkit.point_areas.point_areas`).
     radii : (n_points,) float64
         Splat radius of each point, ``splat_scale * r_i``, in model units.
     centre : (3,) float64
@@ -174,9 +175,9 @@ class PointScene:
             stop = min(start + batch, n_views)
             count = stop - start
             splat_batch(
-                self._points, self._radii, self._normals, self._flatness, cull, poses.eyes[start:stop],
-                poses.right[start:stop], poses.up[start:stop], poses.forward[start:stop],
-                poses.focal_px, resolution, near, far, workspace.frames, workspace.row_low,
+                self._points, self._radii, self._normals, self._flatness, cull,
+                poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
+                poses.forward[start:stop], poses.focal_px, resolution, near, far, workspace.frames, workspace.row_low,
                 workspace.row_high, workspace.id_counts, workspace.touched, out_ids, out_counts,
                 out_lengths,
             )
