@@ -177,9 +177,9 @@ class PointScene:
             splat_batch(
                 self._points, self._radii, self._normals, self._flatness, cull,
                 poses.eyes[start:stop], poses.right[start:stop], poses.up[start:stop],
-                poses.forward[start:stop], poses.focal_px, resolution, near, far, workspace.frames, workspace.row_low,
-                workspace.row_high, workspace.id_counts, workspace.touched, out_ids, out_counts,
-                out_lengths,
+                poses.forward[start:stop], poses.focal_px, resolution, near, far,
+                workspace.frames, workspace.row_low, workspace.row_high, workspace.id_counts,
+                workspace.touched, out_ids, out_counts, out_lengths,
             )
             lengths = out_lengths[:count]
             local_ids = np.concatenate([out_ids[i, : lengths[i]] for i in range(count)])
