@@ -14,19 +14,21 @@ module, layer by layer):
   texture, kept apart; reading models (decided by content) and writing
   meshes, OFF/OBJ/PLY/STL/glTF/NPY; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
-- ``geometry``, ``sphere``, ``camera``, ``rotations``, ``settings``: face
-  areas, bounding and principal frames; Fibonacci view directions and the
+- ``geometry``, ``point_areas``, ``sphere``, ``camera``, ``rotations``,
+  ``settings``: face areas, bounding and principal frames; the surface area
+  each point of a cloud stands for; Fibonacci view directions and the
   principal-frame coarse sphere; the pinhole camera; seeded rotations;
   ``MeasureSettings``, how the measures draw a model.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
-  Open3D ray casting).
+  Open3D ray casting), and per-point ones of point clouds (splats).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per
   model, and with occlusion ignored, in closed form; complementary view sets.
-- ``clean``, ``points``, ``point_features``, ``synthetic``: the pymeshlab
-  cleaning pipeline; surface and farthest point sampling; what each point
-  carries from its mesh (the relative area of its face, found again for
+- ``clean``, ``points``, ``point_features``, ``scan``, ``synthetic``: the
+  pymeshlab cleaning pipeline; surface and farthest point sampling; what each
+  point carries from its mesh (the relative area of its face, found again for
   stored points by ``_face_location`` (private), a numba nearest-face
-  kernel); procedural category-like shapes.
+  kernel); partial, noisy clouds from virtual range scans; procedural
+  category-like shapes.
 - ``dataset``, ``data``, ``inputs``: building, packing and verifying datasets
   and releases; the light loader (numpy with zarr or h5py) and its torch
   adapter; the one router of model files (meshes, point clouds) and datasets.

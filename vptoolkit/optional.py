@@ -26,6 +26,7 @@ EXTRAS = {
     "numba": "measures",
     "trimesh": "measures",
     "open3d": "measures",
+    "scipy": "measures",
     "pymeshlab": "clean",
     "zarr": "dataset",
     "pyarrow": "dataset",
