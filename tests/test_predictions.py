@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.predictions import (
     PREDICTION_KEYS,
     read_arrays,
@@ -27,7 +27,7 @@ def test_round_trip_keeps_names_directions_and_measures(tmp_path):
         assert sorted(archive.namelist()) == sorted(f"{key}.npy" for key in PREDICTION_KEYS)
     names, read, measures = read_predictions(path)
     assert names == ("chair_1", "desk_2")
-    assert measures == MEASURES
+    assert measures == PAPER_MEASURES
     assert read.dtype == np.float64 and read.shape == (2, 4, 3)
     np.testing.assert_array_equal(read, directions)
 
@@ -65,10 +65,10 @@ def test_the_file_is_closed_after_reading(tmp_path):
                       "measures": np.array(["VX"])}, "unknown measure(s) 'VX'",
                      id="unknown-measure"),
         pytest.param({"names": np.array(["a"]), "directions": np.ones((2, 4, 3)),
-                      "measures": np.array(MEASURES)}, "directions must have shape (1, 4, 3)",
+                      "measures": np.array(PAPER_MEASURES)}, "directions must have shape (1, 4, 3)",
                      id="shape"),
         pytest.param({"names": np.array([1]), "directions": np.ones((1, 4, 3)),
-                      "measures": np.array(MEASURES)}, "'names' must be a 1-D unicode array",
+                      "measures": np.array(PAPER_MEASURES)}, "'names' must be a 1-D unicode array",
                      id="names-not-unicode"),
     ],
 )
@@ -83,7 +83,7 @@ def test_bad_archives_name_the_file_and_the_problem(tmp_path, arrays, message):
 def test_an_object_array_is_refused_not_unpickled(tmp_path):
     path = tmp_path / "p.npz"
     np.savez(path, names=np.array([{"x": 1}], dtype=object), directions=np.ones((1, 4, 3)),
-             measures=np.array(MEASURES))
+             measures=np.array(PAPER_MEASURES))
     with pytest.raises(InputError, match="allow_pickle=False"):
         read_arrays(path)
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.predictions import (
     Predictions,
     check_prediction_measures,
@@ -33,7 +33,7 @@ def test_other_measures_mix_with_the_paper_four_kept_in_order(tmp_path):
     measures = ("NVT", "VE", "SL", "VMI", "I3")
     path = write_predictions(tmp_path / "p.npz", ["a"], np.ones((1, 5, 3)), measures=measures)
     assert read_predictions(path).measures == measures
-    assert check_prediction_measures(MEASURES) == MEASURES
+    assert check_prediction_measures(PAPER_MEASURES) == PAPER_MEASURES
     assert check_prediction_measures(["VMI"]) == ("VMI",)
     # any order: the registry's "all" lists VR before VE
     assert check_prediction_measures(["NVT", "VKL", "VE"]) == ("NVT", "VKL", "VE")

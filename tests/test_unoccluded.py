@@ -9,10 +9,10 @@ from click.testing import CliRunner
 
 from vptoolkit.best_view import coarse_directions, search_best_views
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
 from vptoolkit.predictions import read_predictions
@@ -178,7 +178,7 @@ def test_predict_unoccluded_of_a_mesh_a_scan_and_a_dataset(tmp_path, tiny_datase
     assert result.exit_code == 0, result.output
     names, directions, measures = read_predictions(out)
     assert list(names[:2]) == ["teapot", "scan"] and len(names) == 6
-    assert directions.shape == (6, 4, 3) and list(measures) == list(MEASURES)
+    assert directions.shape == (6, 4, 3) and list(measures) == list(PAPER_MEASURES)
     np.testing.assert_allclose(np.linalg.norm(directions, axis=2), 1.0)
     np.testing.assert_array_equal(directions[1], unoccluded_best_views(sample.normals))
     only_dataset = tmp_path / "dataset.npz"

@@ -51,11 +51,10 @@ from pathlib import Path
 import numpy as np
 from results_doc import add_results_option, printed_section
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.quality import compute_view_quality
-from vptoolkit.measures.registry import FAMILIES, all_measures
+from vptoolkit.measures.registry import FAMILIES, PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -281,9 +280,9 @@ def main() -> None:
                 for resolution in resolutions[:-1]:
                     coarse = qualities[resolution]
                     angles = angle_between_deg(coarse.best_views, reference.best_views)
-                    lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
+                    lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(PAPER_MEASURES))]
                     cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}"
-                                      for m, a, q in zip(MEASURES, angles, lost))
+                                      for m, a, q in zip(PAPER_MEASURES, angles, lost))
                     print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
                     results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
                                     "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})

@@ -51,10 +51,10 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_cross_products
 from vptoolkit.measures.quality import ranked_views
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.sphere import (
@@ -198,7 +198,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
     Returns
     -------
     raw : (n, 4) float64
-        In ``MEASURES`` order; NaN where no element faces the direction.
+        In ``PAPER_MEASURES`` order; NaN where no element faces the direction.
     """
     vectors = np.asarray(normals, dtype=np.float64)
     element_areas = np.asarray(areas, dtype=np.float64)
@@ -218,7 +218,7 @@ def unoccluded_quality(normals: ArrayLike, areas: ArrayLike, directions: ArrayLi
         unit, weights, a_log_a = _pool(unit, element_areas, int(cells))
     else:
         weights, a_log_a = element_areas, _x_log2_x(element_areas)
-    raw = np.full((len(views), len(MEASURES)), np.nan)
+    raw = np.full((len(views), len(PAPER_MEASURES)), np.nan)
     step = max(1, _CHUNK_ENTRIES // len(weights))
     for start in range(0, len(views), step):
         facing = np.maximum(unit @ views[start:start + step].T, 0.0)  # c_z(d)
@@ -252,7 +252,7 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
     Returns
     -------
     directions : (4, 3) float64
-        Best unit direction per measure in ``MEASURES`` order (VMI's equals VKL's).
+        Best unit direction per measure in ``PAPER_MEASURES`` order (VMI's equals VKL's).
 
     Examples
     --------
@@ -269,7 +269,7 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
         candidates = as_directions(directions)
     weights = np.ones(len(normals)) if areas is None else areas
     raw = unoccluded_quality(normals, weights, candidates)
-    return np.stack([candidates[ranked_views(raw, column)[0]] for column in range(len(MEASURES))])
+    return np.stack([candidates[ranked_views(raw, column)[0]] for column in range(len(PAPER_MEASURES))])
 
 
 class UnoccludedPrior:
@@ -279,7 +279,7 @@ class UnoccludedPrior:
     principal-frame Fibonacci sphere (:func:`vptoolkit.sphere.coarse_directions`,
     so it turns with the mesh); the candidates are each of VE, VR and VKL's
     best ``per_measure`` directions at least ``min_angle_deg`` apart, rank by
-    rank in ``MEASURES`` order (VMI's estimate is VKL's), duplicates dropped.
+    rank in ``PAPER_MEASURES`` order (VMI's estimate is VKL's), duplicates dropped.
     No image is drawn; the cost is a pass over the faces and one product of at
     most 1024 pooled normals with ``n_directions`` directions.
 
@@ -314,7 +314,7 @@ class UnoccludedPrior:
         normals, areas, face_areas = _face_elements(mesh)
         directions = coarse_directions(mesh, self.n_directions, face_areas)
         raw = unoccluded_quality(normals, areas, directions)
-        measures = [MEASURES.index(name) for name in ("VE", "VR", "VKL")]
+        measures = [PAPER_MEASURES.index(name) for name in ("VE", "VR", "VKL")]
         per_measure = [distinct_directions(directions[ranked_views(raw, column)[:_RANKED]],
                                            self.min_angle_deg)[:self.per_measure]
                        for column in measures]
@@ -350,7 +350,7 @@ def predict_unoccluded(
     -------
     Predictions
         ``names`` and ``directions (n_models, 4, 3) float64``: unit directions
-        in ``MEASURES`` order, each in its input's own frame.
+        in ``PAPER_MEASURES`` order, each in its input's own frame.
 
     Raises
     ------
@@ -379,4 +379,4 @@ def predict_unoccluded(
                     _unit_normals(source.normals(), f"{source.origin}: model {source.name!r}"),
                     directions=n_directions))
         ordered = tuple(source.name for source in sources)
-    return Predictions(ordered, np.array(answers).reshape(-1, len(MEASURES), 3))
+    return Predictions(ordered, np.array(answers).reshape(-1, len(PAPER_MEASURES), 3))

@@ -8,14 +8,16 @@ import pytest
 from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
 from vptoolkit.best_view.search import _Renderer
 from vptoolkit.camera import Camera
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES, get_measure
 from vptoolkit.mesh import Mesh
 from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
+
+HIGHER_IS_BETTER = tuple(get_measure(name).higher_is_better for name in PAPER_MEASURES)
 
 
 @pytest.fixture(scope="module")
@@ -69,7 +71,7 @@ def test_stages_spend_the_budget_and_decide_at_the_resolution(teapot):
     assert [(s.name, s.n_views, s.resolution) for s in flat.stages] == [("coarse", 8, 96)]
     np.testing.assert_allclose(np.linalg.norm(found.directions, axis=1), 1.0)
     summary = json.loads(json.dumps(found.summary()))
-    assert list(summary["best"]) == list(MEASURES) and summary["views"] == 64
+    assert list(summary["best"]) == list(PAPER_MEASURES) and summary["views"] == 64
 
 
 def test_the_coarse_sphere_turns_with_the_mesh(teapot):

@@ -14,13 +14,12 @@ from vptoolkit.best_view import coarse_directions, search_best_views
 from vptoolkit.best_view.run import recorded_searchable, search_inputs
 from vptoolkit.best_view.search import searchable_measures
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.scores import evaluate_predictions
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.quality import compute_view_quality
-from vptoolkit.measures.registry import get_measure
+from vptoolkit.measures.registry import PAPER_MEASURES, get_measure
 from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import read_predictions
 from vptoolkit.samples import sample_path
@@ -75,7 +74,7 @@ def test_measures_a_few_views_cannot_give_are_refused_in_one_line(mug):
     assert "\n" not in text and text.startswith("measures: INS (")
     assert "neighbouring views" in text and "SAL (a saliency computed from all views)" in text
     assert "VE" not in text.split("cannot")[0]
-    assert searchable_measures(None) == MEASURES
+    assert searchable_measures(None) == PAPER_MEASURES
     for name in UNSEARCHABLE:
         with pytest.raises(InputError, match=f"measures: {name} "):
             searchable_measures(name)

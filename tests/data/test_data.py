@@ -23,10 +23,10 @@ from fixtures.stores import (
     synthetic_entries,
     write_synthetic,
 )
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.sphere import fibonacci_sphere
 
 LOADER_MUST_NOT_IMPORT = ("torch", "open3d", "pymeshlab", "numba", "trimesh")
@@ -45,7 +45,7 @@ def test_metadata(dataset: ViewpointDataset) -> None:
     assert dataset.categories == [category for category, _, _ in MODELS]
     assert dataset.splits == [published_split(split) for _, _, split in MODELS]
     assert set(dataset.splits) <= {"train", "validation", "test"}
-    assert dataset.measures == MEASURES
+    assert dataset.measures == PAPER_MEASURES
     assert dataset.views.dtype == np.float64 and dataset.views.shape == (N_VIEWS, 3)
     np.testing.assert_array_equal(dataset.views, fibonacci_sphere(N_VIEWS))
     assert not dataset.views.flags.writeable

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from fixtures.stores import SCORED_ENTRIES, SCORED_MODELS, synthetic_entry, write_synthetic
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import oracle_directions, random_directions
@@ -23,6 +22,7 @@ from vptoolkit.evaluate.scores import (
     load_predictions,
     score_directions,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.predictions import write_predictions as save_predictions
 
 TEST_NAMES = [name for _, name, split in SCORED_MODELS if split == "test"]
@@ -53,7 +53,7 @@ def test_oracle_scores_100_percent(scored_store: Path, test_split: ViewpointData
     np.testing.assert_array_equal(report.scores, 100.0)
     np.testing.assert_array_equal(report.category_scores, 100.0)
     np.testing.assert_array_equal(report.mean, 100.0)
-    assert report.scored_measures == MEASURES
+    assert report.scored_measures == PAPER_MEASURES
 
 
 def test_random_directions_score_the_mean_quality(scored_dataset: ViewpointDataset) -> None:
@@ -98,7 +98,7 @@ def test_report_shapes(test_split: ViewpointDataset) -> None:
     assert report.scores.shape == (6, 4) and report.scores.dtype == np.float64
     assert report.category_scores.shape == (3, 4) and report.category_counts.dtype == np.int64
     assert report.mean.shape == (4,) and report.model_mean.shape == (4,)
-    assert report.is_scored.shape == (4,) and report.measures == MEASURES
+    assert report.is_scored.shape == (4,) and report.measures == PAPER_MEASURES
 
 
 @pytest.fixture(scope="module")
@@ -132,18 +132,18 @@ def test_npz_is_matched_by_name(scored_store: Path, tmp_path: Path,
     np.testing.assert_array_equal(loaded, directions)
 
 
-@pytest.mark.parametrize("measure", MEASURES)
+@pytest.mark.parametrize("measure", PAPER_MEASURES)
 def test_npy_single_measure(scored_store: Path, tmp_path: Path, measure: str,
                             reference: tuple[np.ndarray, EvaluationReport]) -> None:
     directions, expected = reference
-    column = MEASURES.index(measure)
+    column = PAPER_MEASURES.index(measure)
     np.save(tmp_path / "one.npy", directions[:, column])
     report = evaluate_predictions(scored_store, tmp_path / "one.npy", measure=measure.lower())
     assert report.scored_measures == (measure,)
     np.testing.assert_array_equal(report.scores[:, column], expected.scores[:, column])
     assert np.isnan(np.delete(report.scores, column, axis=1)).all()
     assert report.to_dict()["mean"] == {
-        m: (float(expected.mean[column]) if m == measure else None) for m in MEASURES}
+        m: (float(expected.mean[column]) if m == measure else None) for m in PAPER_MEASURES}
 
 
 def test_measure_restricts_a_full_prediction(scored_store: Path, tmp_path: Path,
@@ -180,7 +180,7 @@ def test_other_splits_and_an_open_dataset(scored_dataset: ViewpointDataset, tmp_
 
 def _npz(**arrays: np.ndarray) -> Callable[[Path], Path]:
     def write(folder: Path) -> Path:
-        fields = {"names": np.array(TEST_NAMES), "measures": np.array(MEASURES),
+        fields = {"names": np.array(TEST_NAMES), "measures": np.array(PAPER_MEASURES),
                   "directions": random_directions(len(TEST_NAMES), seed=1), **arrays}
         path = folder / "bad.npz"
         np.savez(path, **{key: value for key, value in fields.items() if value is not None})
@@ -332,7 +332,7 @@ def test_to_dict_is_json_safe(test_split: ViewpointDataset) -> None:
     as_dict = report.to_dict(per_model=True)
     text = json.dumps(as_dict, allow_nan=False)
     assert json.loads(text) == as_dict
-    assert as_dict["measures"] == list(MEASURES) and as_dict["scored_measures"] == [
+    assert as_dict["measures"] == list(PAPER_MEASURES) and as_dict["scored_measures"] == [
         "VE", "VR", "VMI"]
     assert list(as_dict["categories"]) == ["airplane", "chair", "table"]
     assert as_dict["categories"]["airplane"]["n_models"] == 3
@@ -348,7 +348,7 @@ def test_format_table_follows_the_paper_layout(test_split: ViewpointDataset) -> 
     report = score_directions(test_split, directions)
     lines = report.format_table().split("\n")
     assert "split 'test' of dataset.zarr" in lines[0]
-    assert lines[1].split() == ["category", "n", *MEASURES]
+    assert lines[1].split() == ["category", "n", *PAPER_MEASURES]
     rows = [line.split() for line in lines[3:6]]
     assert [row[:2] for row in rows] == [["airplane", "3"], ["chair", "1"], ["table", "2"]]
     assert rows[0][2:] == [f"{v:.1f}" for v in report.category_scores[0, :3]] + ["-"]

@@ -14,8 +14,8 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.build.options import BuildOptions
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.settings import MeasureSettings
 
 require_package("torch")
@@ -225,7 +225,7 @@ def test_a_checkpoint_whose_names_are_not_its_heads_is_refused(tmp_path):
 
 
 def test_a_checkpoint_of_before_named_heads_loads_and_predicts_as_before(tmp_path, clouds):
-    folder = saved(tmp_path, MEASURES)
+    folder = saved(tmp_path, PAPER_MEASURES)
     model, _ = load_model(folder)
     expected = model(clouds)["directions"]
 
@@ -235,16 +235,16 @@ def test_a_checkpoint_of_before_named_heads_loads_and_predicts_as_before(tmp_pat
 
     rewrite(folder, as_before)
     old, config = load_model(folder)
-    assert old.measures == MEASURES and config["measures"] == list(MEASURES)
+    assert old.measures == PAPER_MEASURES and config["measures"] == list(PAPER_MEASURES)
     assert torch.equal(old(clouds)["directions"], expected)
 
 
 @pytest.mark.parametrize("bundled", ["default", "points"])
 def test_the_bundled_networks_keep_the_papers_four(bundled):
     model, config = load_model(bundled)
-    assert model.measures == MEASURES == MeshPredictor(bundled).measures
+    assert model.measures == PAPER_MEASURES == MeshPredictor(bundled).measures
     predictions = predict(bundled, [sample_path("table")], device="cpu")
-    assert predictions.measures == MEASURES and predictions.directions.shape == (1, 4, 3)
+    assert predictions.measures == PAPER_MEASURES and predictions.directions.shape == (1, 4, 3)
     if bundled == "points":  # a checkpoint from before the heads were named: read by count
         assert config["architecture"]["n_measures"] == 4
         assert "measures" not in config["architecture"]

@@ -2,7 +2,6 @@ import numpy as np
 import pytest
 
 from fixtures.meshes import box_mesh
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import MeasurementError
 from vptoolkit.geometry import face_areas
 from vptoolkit.measures.quality import (
@@ -10,6 +9,7 @@ from vptoolkit.measures.quality import (
     normalize_quality,
     quality_from_histograms,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
@@ -55,7 +55,7 @@ def test_vmi_second_pass_gives_the_same_result_when_histograms_do_not_fit(bunny)
 
 def test_cube_visibility_ratio_spans_one_sixth_to_one_half(cube):
     quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=128))
-    vr = quality.raw[:, MEASURES.index("VR")]
+    vr = quality.raw[:, PAPER_MEASURES.index("VR")]
     assert vr.min() == pytest.approx(1 / 6) and vr.max() == pytest.approx(1 / 2)
     on_axis = compute_view_quality(cube, MeasureSettings(resolution=64),
                                    view_directions=[[0, 0, 1], [0, -1, 0]])
@@ -65,9 +65,9 @@ def test_cube_visibility_ratio_spans_one_sixth_to_one_half(cube):
 @pytest.mark.parametrize("measure", ["VE", "VKL"])
 def test_cube_entropy_and_kl_are_best_at_a_corner(cube, measure):
     quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=256))
-    best = quality.best_views[MEASURES.index(measure)]
+    best = quality.best_views[PAPER_MEASURES.index(measure)]
     assert angle_between_deg(np.tile(best, (8, 1)), CORNERS).min() < 4.0
-    worst = quality.views[quality.worst_index[MEASURES.index(measure)]]
+    worst = quality.views[quality.worst_index[PAPER_MEASURES.index(measure)]]
     assert np.abs(worst).max() > np.cos(np.radians(20))  # worst looks nearly straight at a side
 
 
@@ -139,9 +139,9 @@ def test_subdividing_part_of_a_mesh_moves_ve_but_not_vr_or_vmi():
     before = compute_view_quality(box, MeasureSettings(views=500, resolution=256)).normalized
     after = compute_view_quality(finer, MeasureSettings(views=500, resolution=256)).normalized
     change = np.abs(after - before).mean(axis=0)
-    assert change[MEASURES.index("VR")] < 0.01
-    assert change[MEASURES.index("VMI")] < 0.03
-    assert change[MEASURES.index("VE")] > 0.1
+    assert change[PAPER_MEASURES.index("VR")] < 0.01
+    assert change[PAPER_MEASURES.index("VMI")] < 0.03
+    assert change[PAPER_MEASURES.index("VE")] > 0.1
     views = fibonacci_sphere(500)
     ve_best_after = views[np.argmax(after[:, 0])]
     assert ve_best_after[0] > 0.5  # VE now prefers the finely meshed +x side
@@ -180,6 +180,6 @@ def test_real_mesh_result_is_complete_and_saves_without_pickle(bunny, tmp_path):
     assert quality.best_views.shape == (4, 3)
     path = quality.save_npz(tmp_path / "bunny.npz")
     with np.load(path, allow_pickle=False) as stored:
-        assert tuple(stored["measures"]) == MEASURES
+        assert tuple(stored["measures"]) == PAPER_MEASURES
         np.testing.assert_array_equal(stored["raw"], quality.raw)
         assert "fov_deg" in str(stored["camera"]) and int(stored["resolution"]) == 128

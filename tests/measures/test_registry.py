@@ -9,11 +9,13 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.measures import catalog
 from vptoolkit.measures.quality import compute_view_quality, normalize_quality, ranked_views
 from vptoolkit.measures.registry import (
+    PAPER_MEASURES,
+    canonical_name,
+    measure_index,
     FAMILIES,
     NEEDS,
     Measure,
@@ -58,8 +60,9 @@ def test_all_lists_by_family_then_rank_with_one_measure_per_place():
 
 
 def test_paper_and_none_give_the_four_in_their_order():
-    assert resolve_measures(None) == resolve_measures("paper") == MEASURES
-    assert tuple(get_measure(name).higher_is_better for name in MEASURES) == HIGHER_IS_BETTER
+    assert resolve_measures(None) == resolve_measures("paper") == PAPER_MEASURES
+    assert tuple(get_measure(name).higher_is_better for name in PAPER_MEASURES) == (
+        True, True, False, False)
 
 
 def test_names_keep_the_order_given():
@@ -67,9 +70,18 @@ def test_names_keep_the_order_given():
     assert resolve_measures(["INS", "PA"]) == ("INS", "PA")
 
 
+def test_names_are_taken_in_any_case_and_given_in_the_registry_spelling():
+    assert resolve_measures("ve, sl,Vkl") == ("VE", "SL", "VKL")
+    assert resolve_measures("PAPER") == resolve_measures("Paper") == PAPER_MEASURES
+    assert canonical_name("evmi") == "EVMI" and get_measure("nvt").name == "NVT"
+    assert measure_index("vmi") == 3 and measure_index("sl", ("NVT", "SL")) == 1
+    with pytest.raises(InputError, match=r"^measure: SL is not among the measures here"):
+        measure_index("SL")
+
+
 @pytest.mark.parametrize("spec, message", [
     ("VE,NOPE", "unknown measure 'NOPE'"),
-    ("ve", "unknown measure 've'"),
+    ("ve,VE", "VE named twice"),
     (",", "no measure named"),
     ("NVT,PA,NVT", "NVT named twice"),
 ])

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from fixtures.pictures import preferred_directions, read_png, smooth_quality
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
@@ -75,7 +75,7 @@ def test_sphere_grid_holds_the_nearest_view_of_each_pixel():
         assert grid[row, column] == nearest_view(direction, views)[0]
 
 
-@pytest.mark.parametrize("measure", MEASURES)
+@pytest.mark.parametrize("measure", PAPER_MEASURES)
 def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_available, measure):
     from vptoolkit.pictures.sphere_map import sphere_map, view_coordinates
 
@@ -86,7 +86,7 @@ def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_availab
     axes = next(a for a in figure.axes if a.get_gid() == "map")
     region = axes_region(figure, axes, pixels)
     inside = pixels[region]
-    column = MEASURES.index(measure)
+    column = PAPER_MEASURES.index(measure)
     best = int(np.argmax(quality[:, column]))
     lon, lat = view_coordinates(views[best])[0]
     expected = display_to_pixel(figure, axes, lon, lat)
@@ -129,7 +129,7 @@ def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
     predicted[2] = [0, 0, 1]
     figure = sphere_maps(views, quality, predicted=predicted, title="four")
     gids = [a.get_gid() for a in figure.axes]
-    assert gids[:4] == [f"map-{m}" for m in MEASURES]
+    assert gids[:4] == [f"map-{m}" for m in PAPER_MEASURES]
     crosses = [any(line.get_gid() == "predicted" for line in a.lines) for a in figure.axes[:4]]
     assert crosses == [False, False, True, False]
     image = read_png(save_figure(figure, tmp_path / "maps.png"))

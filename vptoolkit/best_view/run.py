@@ -32,10 +32,9 @@ from vptoolkit.best_view.search import (
     searchable_measures,
 )
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
@@ -64,7 +63,7 @@ class SearchRun:
     results: tuple[BestViews, ...]
     failures: tuple[tuple[str, str], ...]
     is_bad_input: bool = True
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     @property
     def predictions(self) -> Predictions:

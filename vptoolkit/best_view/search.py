@@ -88,12 +88,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.measures.curvature import CACHE_KEY as CURVATURE_KEY
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.quality import quality_from_histograms, ranked_views
-from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, Measure, get_measure, resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
@@ -182,7 +181,7 @@ class BestViews:
         The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
     measures : tuple of str
         The searched measures, the row order of ``directions`` and ``raw``
-        (default: the paper's four, ``MEASURES``).
+        (default: the paper's four, ``PAPER_MEASURES``).
     """
 
     name: str
@@ -192,7 +191,7 @@ class BestViews:
     stages: tuple[SearchStage, ...]
     seconds: float
     poses: ViewPoses
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     def camera_pose(self, measure: str, *,
                     convention: Convention = "opencv") -> NDArray[np.float64]:
@@ -455,12 +454,12 @@ class _Renderer:
         if not total > 0.0:
             raise InputError(f"{mesh.name}: the mesh has zero surface area")
         self.face_probability = self.areas / total
-        chosen = [get_measure(name) for name in MEASURES] if measures is None else list(measures)
+        chosen = [get_measure(name) for name in PAPER_MEASURES] if measures is None else list(measures)
         self.measures = chosen
-        self.paper = [c for c, measure in enumerate(chosen) if measure.name in MEASURES]
+        self.paper = [c for c, measure in enumerate(chosen) if measure.name in PAPER_MEASURES]
         """Columns of the paper's four, measured from each stage's own pixel counts."""
-        self.paper_source = [MEASURES.index(chosen[c].name) for c in self.paper]
-        self.others = [c for c, measure in enumerate(chosen) if measure.name not in MEASURES]
+        self.paper_source = [PAPER_MEASURES.index(chosen[c].name) for c in self.paper]
+        self.others = [c for c, measure in enumerate(chosen) if measure.name not in PAPER_MEASURES]
         """Columns of the measures the registry computes."""
         self.features = any(chosen[c].needs_image_statistics for c in self.others)
         self.kept_directions = np.zeros((0, 3))

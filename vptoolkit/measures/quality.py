@@ -54,12 +54,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_suffix
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, Measure, get_measure, resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.progress import progress_bar
 from vptoolkit.settings import MeasureSettings, check_settings
@@ -94,7 +93,7 @@ class ViewQuality:
         Per-model normalised measures in [0, 1], 1 = best.
     measures : tuple of str
         The measures' names, in column order; by default
-        :data:`~vptoolkit.conventions.MEASURES`, ``("VE", "VR", "VKL", "VMI")``.
+        :data:`~vptoolkit.measures.registry.PAPER_MEASURES`, ``("VE", "VR", "VKL", "VMI")``.
     best_index : (M,) int64
         Index of the best view per measure (the first one on ties).
     worst_index : (M,) int64
@@ -121,7 +120,7 @@ class ViewQuality:
     resolution: int
     backend: str
     camera: Camera = field(default_factory=Camera)
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     @property
     def best_views(self) -> NDArray[np.float64]:
@@ -131,7 +130,7 @@ class ViewQuality:
     @property
     def higher_is_better(self) -> tuple[bool, ...]:
         """For each of :attr:`measures`: is a higher raw value better?"""
-        return tuple(get_measure(name).higher_is_better for name in self.measures)
+        return _higher_is_better(self.measures)
 
     def summary(self) -> dict[str, Any]:
         """JSON-safe summary: per measure, by name, the best view's index, direction and
@@ -182,6 +181,11 @@ class ViewQuality:
         return target
 
 
+def _higher_is_better(names: Sequence[str]) -> tuple[bool, ...]:
+    """For each named measure: is a higher raw value better (the registry's word)?"""
+    return tuple(get_measure(name).higher_is_better for name in names)
+
+
 def ranked_views(raw: NDArray[np.float64], column: int,
                  higher_is_better: Sequence[bool] | None = None) -> NDArray[np.intp]:
     """Row indices of ``raw`` from the best to the worst value of one measure.
@@ -194,7 +198,7 @@ def ranked_views(raw: NDArray[np.float64], column: int,
         The measure's column.
     higher_is_better : sequence of bool, optional
         For each column, whether a higher value is better; by default the
-        paper's four (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`: the
+        paper's four (:data:`~vptoolkit.measures.registry.PAPER_MEASURES`: the
         largest value is best for VE and VR, the smallest for VKL and VMI).
 
     Returns
@@ -202,7 +206,8 @@ def ranked_views(raw: NDArray[np.float64], column: int,
     (n_views,) intp
         NaN rows last; equal values keep their order (a stable sort).
     """
-    higher = (HIGHER_IS_BETTER if higher_is_better is None else higher_is_better)[column]
+    higher = (_higher_is_better(PAPER_MEASURES) if higher_is_better is None
+              else higher_is_better)[column]
     values = raw[:, column]
     if higher:
         return np.argsort(-np.where(np.isfinite(values), values, -np.inf), kind="stable")
@@ -220,8 +225,8 @@ def normalize_quality(raw: ArrayLike,
         measure is undefined (one that sees nothing).
     higher_is_better : sequence of M bool, optional
         For each column, whether a higher raw value is better; by default
-        the paper's four in :data:`MEASURES` order
-        (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, so ``M = 4``).
+        the paper's four in :data:`~vptoolkit.measures.registry.PAPER_MEASURES`
+        order (higher is better for VE and VR, not for VKL and VMI; ``M = 4``).
 
     Returns
     -------
@@ -230,7 +235,8 @@ def normalize_quality(raw: ArrayLike,
         a column whose higher values are better and the minimum otherwise;
         0 for NaN entries; 1 for every finite entry of a constant column.
     """
-    directions = HIGHER_IS_BETTER if higher_is_better is None else tuple(higher_is_better)
+    directions = (_higher_is_better(PAPER_MEASURES) if higher_is_better is None
+                  else tuple(higher_is_better))
     values = np.asarray(raw, dtype=np.float64)
     if values.ndim != 2 or values.shape[1] != len(directions):
         raise InputError(f"raw: expected shape (n_views, {len(directions)}), got {values.shape}")
@@ -345,7 +351,7 @@ def quality_from_histograms(
             )
     elif not np.isfinite(sum_a_log_p_face).all():
         raise InputError("face_probability: a face these views see has p(z) = 0")
-    raw = np.full((n_views, len(MEASURES)), np.nan)
+    raw = np.full((n_views, len(PAPER_MEASURES)), np.nan)
     seen = projected > 0
     a_t = projected[seen]
     sum_p_log_p = sum_a_log_a[seen] / a_t - np.log2(a_t)
@@ -451,7 +457,7 @@ def compute_view_quality(
     if progress:
         first_pass = progress_runs(first_pass, len(directions), mesh.name)
     try:
-        if names == MEASURES:
+        if names == PAPER_MEASURES:
             raw = quality_from_histograms(
                 first_pass, areas, n_views=len(directions), recompute=draw()
             )

@@ -6,6 +6,14 @@ registry finds the modules of that package itself, so adding a measure is
 adding one module. Names are the short names of Bonaventura et al. (2018)
 (``"VE"``, ``"SL"``, ...) and are the names stored in files.
 
+The registry is the one vocabulary of measures: every function, file and
+command-line flag that takes a measure takes any registered name, or refuses
+one that cannot serve there in one line with the reason. Names are accepted
+in any case and reported in the registry's spelling (``"ve"`` is ``"VE"``,
+:func:`canonical_name`). Two presets name several measures at once
+(:data:`PRESETS`): ``"paper"``, the paper's four (:data:`PAPER_MEASURES`),
+and ``"all"``, every registered measure.
+
 What a measure reads is declared in :attr:`Measure.needs`, one or more of
 :data:`NEEDS`; :func:`vptoolkit.measures.compute_view_quality` draws and
 computes only what the requested measures need.
@@ -23,7 +31,6 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES as PAPER_MEASURES
 from vptoolkit.errors import InputError
 
 if TYPE_CHECKING:
@@ -33,11 +40,27 @@ __all__ = [
     "FAMILIES",
     "IMAGE_NEEDS",
     "NEEDS",
+    "PAPER_MEASURES",
+    "PRESETS",
     "Measure",
     "all_measures",
+    "canonical_name",
     "get_measure",
+    "measure_index",
     "resolve_measures",
 ]
+
+PAPER_MEASURES: Final = ("VE", "VR", "VKL", "VMI")
+"""The paper's four measures, the preset ``"paper"``, in the fixed order of every
+``(..., 4)`` array of the paper's measures and of the dataset store's stored arrays:
+VE (viewpoint entropy) and VR (visibility ratio), higher is better; VKL
+(viewpoint Kullback-Leibler divergence) and VMI (viewpoint mutual information),
+lower is better."""
+
+PRESETS: Final = ("paper", "all")
+"""Words that name several measures (:func:`resolve_measures`), in any case:
+``"paper"`` the paper's four (:data:`PAPER_MEASURES`), ``"all"`` every registered
+measure in the registry's order."""
 
 FAMILIES: Final = ("area", "information", "silhouette", "depth", "stability", "surface")
 """The survey's families, in the order ``--measures all`` lists them."""
@@ -131,12 +154,60 @@ def all_measures() -> Mapping[str, Measure]:
     return {m.name: m for m in found}
 
 
+@cache
+def _folded_names() -> Mapping[str, str]:
+    """Every registered name by its upper-case form."""
+    return {name.upper(): name for name in all_measures()}
+
+
+def canonical_name(name: str, argument: str = "measure") -> str:
+    """The registry's spelling of a measure name given in any case (``"vkl"``: ``"VKL"``).
+
+    Raises
+    ------
+    InputError
+        One line, starting with ``argument`` (the argument or option that
+        gave the name), naming the unknown measure and the known ones.
+    """
+    known = _folded_names()
+    if not isinstance(name, str) or name.strip().upper() not in known:
+        raise InputError(f"{argument}: unknown measure {name!r}; "
+                         f"known: {', '.join(known.values())}")
+    return known[name.strip().upper()]
+
+
 def get_measure(name: str) -> Measure:
-    """The measure called ``name``; :class:`~vptoolkit.errors.InputError` if none is."""
-    measures = all_measures()
-    if name not in measures:
-        raise InputError(f"unknown measure {name!r}; known: {', '.join(measures)}")
-    return measures[name]
+    """The measure called ``name``, in any case; :class:`~vptoolkit.errors.InputError` if none is."""
+    return all_measures()[canonical_name(name)]
+
+
+def measure_index(name: str, measures: Iterable[str] = PAPER_MEASURES) -> int:
+    """Position of a measure, named in any case, among ``measures``.
+
+    Parameters
+    ----------
+    name : str
+        A registered measure name, in any case.
+    measures : iterable of str
+        The names of the columns (or rows) to look in, in the registry's
+        spelling (default: :data:`PAPER_MEASURES`).
+
+    Returns
+    -------
+    int
+        The index of the measure in ``measures``.
+
+    Raises
+    ------
+    InputError
+        One line: an unknown name, or a registered one not among ``measures``.
+    """
+    wanted = canonical_name(name)
+    names = list(measures)
+    if wanted not in names:
+        raise InputError(f"measure: {wanted} is not among the measures here "
+                         f"({', '.join(names)})")
+    return names.index(wanted)
 
 
 def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]:
@@ -146,14 +217,14 @@ def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]
     ----------
     spec : str, iterable of str or None
         ``None`` or ``"paper"``: the paper's four (:data:`PAPER_MEASURES`);
-        ``"all"``: every registered measure; otherwise names, as an iterable
-        or one comma-separated string (``"VE,SL,MD"``), kept in the order
-        given.
+        ``"all"``: every registered measure; otherwise names in any case, as
+        an iterable or one comma-separated string (``"VE,SL,MD"``), kept in
+        the order given.
 
     Returns
     -------
     tuple of str
-        Known, distinct names.
+        Known, distinct names in the registry's spelling.
 
     Raises
     ------
@@ -173,8 +244,7 @@ def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]
         names = [str(part) for part in spec]
     if not names:
         raise InputError("measures: no measure named")
-    for name in names:
-        get_measure(name)
+    names = [canonical_name(name, "measures") for name in names]
     repeated = sorted({name for name in names if names.count(name) > 1})
     if repeated:
         raise InputError(f"measures: {', '.join(repeated)} named twice")

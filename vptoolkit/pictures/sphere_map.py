@@ -5,7 +5,7 @@ projections; :func:`sphere_map` draws one measure, :func:`sphere_maps` every
 measure of a quality array on a grid of panels (four to a row: the paper's
 four side by side, all 22 of the registry on six rows), with the best
 sampled view (star) and an optional predicted view (cross) marked. Columns
-are named by ``measures`` (by default the paper's four, ``MEASURES``); each
+are named by ``measures`` (by default the paper's four, ``PAPER_MEASURES``); each
 panel is titled with the registry's name for its measure
 (:attr:`Measure.title <vptoolkit.measures.registry.Measure.title>`).
 :func:`sphere_map_file` and :func:`sphere_maps_file` draw the ``.npz`` of
@@ -61,10 +61,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.optional import require
 from vptoolkit.sphere import as_directions, nearest_view
 
@@ -229,7 +228,7 @@ def sphere_grid(
 def _measure_names(measures: Sequence[str] | None) -> tuple[str, ...]:
     """The column names: as given (distinct), by default the paper's four."""
     if measures is None:
-        return MEASURES
+        return PAPER_MEASURES
     names = tuple(str(name) for name in measures)
     if not names or len(set(names)) != len(names):
         raise InputError(f"measures: expected distinct names, got {list(names)}")
@@ -399,7 +398,7 @@ def sphere_map(
         first of them; for the paper's four, VE).
     measures : sequence of str, optional
         The names of the columns of ``quality`` (default: the paper's four,
-        ``MEASURES``, which needs four columns or one).
+        ``PAPER_MEASURES``, which needs four columns or one).
     predicted : (3,) or (M, 3) array_like, optional
         A predicted direction, or one per measure in ``measures`` order (a
         NaN row draws no cross); marked with a white cross and its quality
@@ -473,7 +472,7 @@ def sphere_maps(
     quality : (n_views, M) array_like
         Normalised quality, 1 = best, one column per name of ``measures``.
     measures : sequence of str, optional
-        The names of the columns (default: the paper's four, ``MEASURES``,
+        The names of the columns (default: the paper's four, ``PAPER_MEASURES``,
         which needs ``M = 4``).
     predicted : (3,) or (M, 3) array_like, optional
         Predicted directions (one for all, or one per measure; NaN rows: none).
@@ -585,7 +584,7 @@ def _read_quality(source: Path) -> tuple[NDArray[np.float64], NDArray[np.float64
             normalized = np.asarray(archive["normalized"], dtype=np.float64)
             name = str(archive["name"]) if "name" in archive.files else source.stem
             names = (tuple(str(item) for item in np.atleast_1d(archive["measures"]))
-                     if "measures" in archive.files else MEASURES)
+                     if "measures" in archive.files else PAPER_MEASURES)
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{source.name}: cannot be read as .npz ({err})") from err
     unknown = [name for name in names if name not in all_measures()]

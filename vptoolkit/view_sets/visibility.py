@@ -84,17 +84,20 @@ class FaceVisibility:
         *,
         view_directions: ArrayLike | None = None,
         progress: bool = False,
+        features: bool = False,
     ) -> FaceVisibility:
         """Draw every view of a mesh once and keep its pixel counts.
 
-        Parameters are those of :func:`vptoolkit.measures.compute_view_quality`.
+        Parameters are those of :func:`vptoolkit.measures.compute_view_quality`;
+        ``features`` keeps each run's depth and silhouette statistics too (for
+        a measure that reads them, :func:`vptoolkit.visibility.iter_view_histograms`).
         """
         mesh = as_mesh(mesh)
         settings = check_settings(settings)
         directions = (settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))
         runs: Iterable[ViewHistograms] = iter_view_histograms(
-            mesh, settings, view_directions=directions)
+            mesh, settings, view_directions=directions, features=features)
         if progress:
             runs = progress_runs(runs, len(directions), mesh.name)
         return cls(directions, face_areas(mesh), tuple(runs), mesh.name)

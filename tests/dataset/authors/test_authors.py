@@ -8,14 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vptoolkit.conventions import MEASURES
-from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.authors.export import export_authors, order_for_paper_rule
+from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, import_authors
 from vptoolkit.dataset.build.options import BuildOptions
-from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.build.split_files import paper_split, paper_splits, read_model_list
+from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import normalize_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere
@@ -94,7 +94,7 @@ def test_imported_measures_follow_the_authors_normalisation(tmp_path):
     result = import_authors(tree, tmp_path / "out", meshes=False)
     with open_store(result.path) as store:
         entry = store.entry(0)
-    for column, measure in enumerate(MEASURES):
+    for column, measure in enumerate(PAPER_MEASURES):
         theirs = np.loadtxt(tree / "best_views" / AUTHORS_FOLDERS[measure] / "3D/chair/train"
                             / "chair_0001_vq_list.txt")
         np.testing.assert_allclose(entry.quality_raw[:, column], theirs, rtol=1e-6)
@@ -251,7 +251,7 @@ def test_import_and_export_from_the_command_line(tmp_path):
     scored = runner.invoke(main, ["evaluate", str(tmp_path / "oracle.npy"), "--dataset",
                                   str(out), "--json"])
     assert scored.exit_code == 0, scored.output
-    assert json.loads(scored.stdout)["mean"] == {m: 100.0 for m in MEASURES}
+    assert json.loads(scored.stdout)["mean"] == {m: 100.0 for m in PAPER_MEASURES}
     only = runner.invoke(main, ["import-authors", str(tree), str(tmp_path / "chairs"),
                                 "--categories", "chair", "--no-meshes"])
     assert only.exit_code == 0 and "10 models (8 train, 1 validation, 1 test)" in only.stdout

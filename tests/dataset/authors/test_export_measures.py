@@ -11,11 +11,11 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.authors.export import export_authors
 from vptoolkit.dataset.authors.importer import import_authors
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 
@@ -47,9 +47,9 @@ def test_the_paper_four_are_exported_from_among_more(five: Path, tmp_path: Path)
     exported = export_authors(five, tmp_path / "set")
     assert exported.n_models == 2
     imported = import_authors(tmp_path / "set", tmp_path / "back")
-    columns = [FIVE.index(measure) for measure in MEASURES]
+    columns = [FIVE.index(measure) for measure in PAPER_MEASURES]
     with open_store(five) as ours, open_store(imported.path) as back:
-        assert back.measures == MEASURES
+        assert back.measures == PAPER_MEASURES
         ours_by_name = {r["name"]: row for row, r in enumerate(ours.models())}
         for row, record in enumerate(back.models()):
             mine = ours_by_name[record["name"]]

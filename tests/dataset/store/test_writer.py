@@ -27,7 +27,6 @@ from fixtures.stores import (
     synthetic_entry,
     write_synthetic,
 )
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.store.containers import store_kind
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.schema import (
@@ -42,6 +41,7 @@ from vptoolkit.dataset.store.schema import (
 )
 from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VerificationError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.sphere import fibonacci_sphere
 
 KINDS = list(STORE_NAMES)
@@ -108,7 +108,7 @@ def test_root_attributes_follow_the_schema(stores: dict[str, Path], kind: str) -
     with open_store(stores[kind]) as reader:
         attrs = reader.attrs
     assert attrs["format"] == FORMAT_NAME and attrs["schema_version"] == SCHEMA_VERSION
-    assert attrs["measures"] == list(MEASURES)
+    assert attrs["measures"] == list(PAPER_MEASURES)
     assert attrs["higher_is_better"] == [True, True, False, False]
     assert (attrs["n_models"], attrs["n_views"], attrs["n_points"]) == (5, N_VIEWS, N_POINTS)
     assert attrs["n_failures"] == 1
@@ -194,7 +194,7 @@ def test_hdf5_keeps_scalars_and_lists_native_and_objects_as_json(stores: dict[st
         assert int(handle.attrs["n_models"]) == len(MODELS)
         assert handle.attrs["backend"] == "raster"
         assert json.loads(handle.attrs["camera"]) == BUILD["camera"]
-        assert handle.attrs["measures"].tolist() == list(MEASURES)
+        assert handle.attrs["measures"].tolist() == list(PAPER_MEASURES)
         assert handle.attrs["higher_is_better"].tolist() == [True, True, False, False]
         assert handle.attrs["class_names"].tolist() == ["airplane", "chair"]
         assert set(json.loads(handle.attrs["json_attributes"])) == {

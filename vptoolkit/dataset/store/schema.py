@@ -39,9 +39,9 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import parse_json
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 if TYPE_CHECKING:
     from vptoolkit.measures.registry import Measure
@@ -106,7 +106,7 @@ class ArraySpec:
         The shape of one model's value (``"model"``), of one model's rows
         (``"mesh"``, first axis None) or of the whole array (``"root"``). A
         string names a size: ``"n_points"``, ``"n_views"``, ``"n_measures"``
-        (the length of the root attribute ``measures``, ``len(MEASURES)`` by
+        (the length of the root attribute ``measures``, ``len(PAPER_MEASURES)`` by
         default); None is a length set by the content (the rows of a mesh,
         the bytes of a JSON text, ``n_models + 1`` offsets).
     chunk_rows : int or None
@@ -153,7 +153,7 @@ class ArraySpec:
         ----------
         sizes : mapping of str to int or None
             ``"n_points"``, ``"n_views"`` and ``"n_measures"`` (the
-            number of the store's measures, ``len(MEASURES)`` unless given);
+            number of the store's measures, ``len(PAPER_MEASURES)`` unless given);
             a size of None stays None (any length).
 
         Returns
@@ -170,7 +170,7 @@ class ArraySpec:
         >>> ARRAY_SPECS["mesh_faces"].resolve({})
         (None, 3)
         """
-        known = {"n_measures": len(MEASURES), **sizes}
+        known = {"n_measures": len(PAPER_MEASURES), **sizes}
         return tuple(known[axis] if isinstance(axis, str) else axis for axis in self.shape)
 
     def column_for(self, measures: Sequence[str]) -> str:
@@ -445,7 +445,7 @@ class ModelEntry:
         Unit face normal at each point.
     quality : (n_views, K) float32
         Normalised quality in [0, 1], 1 = best, one column per measure of the
-        store's ``measures`` (by default ``MEASURES``, ``K = 4``).
+        store's ``measures`` (by default ``PAPER_MEASURES``, ``K = 4``).
     quality_raw : (n_views, K) float32
         Raw measures; NaN where a view sees nothing.
     best_index, worst_index : (K,) int64

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 
 def paper_column(data: ViewData, name: str) -> NDArray[np.float64]:
@@ -22,4 +22,4 @@ def paper_column(data: ViewData, name: str) -> NDArray[np.float64]:
         data.cache["paper"] = quality_from_histograms(
             data.histograms, data.areas, n_views=data.n_views, recompute=data.histograms)
     raw: NDArray[np.float64] = data.cache["paper"]
-    return raw[:, MEASURES.index(name)]
+    return raw[:, PAPER_MEASURES.index(name)]
