@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
-from vptoolkit.best_view.search import _Renderer
+from vptoolkit.best_view.search import _Measuring
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
@@ -50,7 +50,7 @@ def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
     found = search_best_views(teapot, budget, 256)
     coarse = next(stage for stage in found.stages if stage.name == "coarse")
     sphere = coarse_directions(teapot, coarse.n_views)
-    renderer = _Renderer(teapot, Camera())
+    renderer = _Measuring(teapot, Camera(), PAPER_MEASURES, 256)
     coarse_raw = renderer.measure(sphere, coarse.resolution, estimate_face_probability=True)
     coarse_best = compute_view_quality(teapot, MeasureSettings(resolution=coarse.resolution),
                                        view_directions=sphere).best_views

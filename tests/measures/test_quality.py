@@ -4,11 +4,8 @@ import pytest
 from fixtures.meshes import box_mesh
 from vptoolkit.errors import MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import (
-    compute_view_quality,
-    normalize_quality,
-    quality_from_histograms,
-)
+from vptoolkit.measures.quality import compute_view_quality, normalize_quality
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings

@@ -12,15 +12,13 @@ from vptoolkit.cli import main
 from vptoolkit.errors import InputError
 from vptoolkit.measures import catalog
 from vptoolkit.measures.quality import compute_view_quality, normalize_quality, ranked_views
+from vptoolkit.measures.measure import FAMILIES, NEEDS, Measure
 from vptoolkit.measures.registry import (
     PAPER_MEASURES,
-    canonical_name,
-    measure_index,
-    FAMILIES,
-    NEEDS,
-    Measure,
     all_measures,
+    canonical_name,
     get_measure,
+    measure_index,
     resolve_measures,
 )
 from vptoolkit.samples import sample_path
@@ -40,15 +38,19 @@ def test_every_catalog_module_declares_one_measure_and_names_are_unique():
         assert isinstance(module.MEASURE, Measure), name
         assert module.MEASURE.family in FAMILIES and module.MEASURE.needs <= NEEDS
         assert module.__doc__ and module.MEASURE.source, name  # formula, direction, source
+        assert module.MEASURE in catalog.CATALOG, f"{name} is not listed in CATALOG"
         names.append(module.MEASURE.name)
-    assert len(names) == len(set(names))
+    assert len(names) == len(set(names)) == len(catalog.CATALOG)
     assert sorted(all_measures()) == sorted(names)
 
 
-def test_all_lists_by_family_then_rank_with_one_measure_per_place():
-    order = [(FAMILIES.index(m.family), m.rank) for m in all_measures().values()]
+def test_all_lists_by_family_in_the_catalog_order():
+    order = [FAMILIES.index(m.family) for m in all_measures().values()]
     assert order == sorted(order)
-    assert len(set(order)) == len(order)
+    assert tuple(all_measures().values()) == catalog.CATALOG
+    assert resolve_measures("all") == (
+        "NVT", "PA", "HM", "VR", "VE", "VKL", "VMI", "I2", "I3", "SL", "SE", "SC", "SCE",
+        "MD", "DD", "SS", "INS", "DVS", "CE", "SAL", "EVMI", "MS")
     assert resolve_measures("all") == tuple(all_measures())
     assert resolve_measures(" ALL ") == tuple(all_measures())
     area = [name for name, m in all_measures().items() if m.family == "area"]

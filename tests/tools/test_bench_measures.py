@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from fixtures.scripts import RunTool, assert_section_holds
-from vptoolkit.measures.registry import FAMILIES, all_measures
+from vptoolkit.measures.measure import FAMILIES
+from vptoolkit.measures.registry import all_measures
 
 
 @pytest.mark.slow

@@ -89,14 +89,13 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.measures.curvature import CACHE_KEY as CURVATURE_KEY
-from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.quality import quality_from_histograms, ranked_views
-from vptoolkit.measures.registry import PAPER_MEASURES, Measure, get_measure, resolve_measures
+from vptoolkit.measures.quality import ranked_views
+from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
+from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
-from vptoolkit.visibility import RasterScene, ViewHistograms
+from vptoolkit.visibility import ViewHistograms
 
 __all__ = [
     "BUDGET",
@@ -440,31 +439,21 @@ def _face_probability(counts: NDArray[np.float64], n_views: int,
     return np.where(counts > 0, counts / total, pseudo * area_share / (total + pseudo))
 
 
-class _Renderer:
-    """Draws views of one mesh and measures them: the paper's four with one ``p(z)``
-    estimate, the others by the registry over the competing views."""
+class _Measuring:
+    """The views of one search and their measuring by a session: the paper's four of each
+    stage with one ``p(z)`` estimate, the others over the competing views."""
 
-    def __init__(self, mesh: Mesh, camera: Camera, measures: Sequence[Measure] | None = None,
+    def __init__(self, mesh: Mesh, camera: Camera, names: Sequence[str], resolution: int
                  ) -> None:
-        self.mesh = mesh
-        self.camera = camera
-        self.scene = RasterScene(mesh, camera)
-        self.areas = self.scene.areas
+        self.session = MeasuringSession(mesh, names,
+                                        MeasureSettings(resolution=resolution, camera=camera))
+        self.areas = self.session.areas
         total = float(self.areas.sum())
         if not total > 0.0:
             raise InputError(f"{mesh.name}: the mesh has zero surface area")
         self.face_probability = self.areas / total
-        chosen = [get_measure(name) for name in PAPER_MEASURES] if measures is None else list(measures)
-        self.measures = chosen
-        self.paper = [c for c, measure in enumerate(chosen) if measure.name in PAPER_MEASURES]
-        """Columns of the paper's four, measured from each stage's own pixel counts."""
-        self.paper_source = [PAPER_MEASURES.index(chosen[c].name) for c in self.paper]
-        self.others = [c for c, measure in enumerate(chosen) if measure.name not in PAPER_MEASURES]
-        """Columns of the measures the registry computes."""
-        self.features = any(chosen[c].needs_image_statistics for c in self.others)
         self.kept_directions = np.zeros((0, 3))
         self.kept_runs: list[ViewHistograms] = []
-        self.mesh_cache: dict[str, Any] = {}
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,
                 estimate_face_probability: bool = False, keep: bool = False,
@@ -472,55 +461,36 @@ class _Renderer:
         """Raw measures ``(n, M)`` of the directions at ``resolution``; NaN where none is seen.
 
         With ``keep``, the views join the competing ones (drawn at the
-        search's resolution) and the registry's columns are left NaN here:
-        :meth:`competing` measures them with the others.
+        search's resolution) and the columns the session computes from the
+        kept counts are left NaN here: :meth:`competing` measures them with
+        the others.
         """
-        runs = list(self.scene.histograms(directions, resolution, features=self.features))
-        raw = np.full((len(directions), len(self.measures)), np.nan)
-        if self.paper:
-            if estimate_face_probability:
-                counts = np.zeros(self.mesh.n_faces)
-                for run in runs:
-                    counts += np.bincount(run.face_ids, weights=run.pixel_counts,
-                                          minlength=self.mesh.n_faces)
-                self.face_probability = _face_probability(counts, len(directions), self.areas)
-            try:
-                four = quality_from_histograms(runs, self.areas, n_views=len(directions),
-                                               face_probability=self.face_probability)
-                raw[:, self.paper] = four[:, self.paper_source]
-            except MeasurementError:
-                pass
-        if self.others:
+        session = self.session
+        runs = list(session.draw(directions, resolution))
+        if session.sum_columns and estimate_face_probability:
+            counts = np.zeros(session.mesh.n_faces)
+            for run in runs:
+                counts += np.bincount(run.face_ids, weights=run.pixel_counts,
+                                      minlength=session.mesh.n_faces)
+            self.face_probability = _face_probability(counts, len(directions), self.areas)
+        columns = list(session.sum_columns)
+        if session.view_columns:
             if keep:
                 first = len(self.kept_directions)
                 self.kept_runs += [replace(run, first_view=first + run.first_view)
                                    for run in runs]
                 self.kept_directions = np.concatenate([self.kept_directions, directions])
             else:
-                raw[:, self.others] = self._registered(directions, runs, resolution)
-        return raw
+                columns += session.view_columns
+        return session.measure(directions, resolution, histograms=runs, columns=columns,
+                               face_probability=self.face_probability, require_seen=False)
 
     def competing(self, resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Every competing view so far and its raw values ``(n, M)`` of the registry's
-        columns (the others NaN), measured over them together."""
-        raw = np.full((len(self.kept_directions), len(self.measures)), np.nan)
-        raw[:, self.others] = self._registered(self.kept_directions, self.kept_runs, resolution)
+        """Every competing view so far and its raw values ``(n, M)`` of the columns the
+        session computes from the kept counts (the others NaN), measured over them together."""
+        raw = self.session.measure(self.kept_directions, resolution, histograms=self.kept_runs,
+                                   columns=self.session.view_columns, require_seen=False)
         return self.kept_directions, raw
-
-    def _registered(self, directions: NDArray[np.float64], runs: Sequence[ViewHistograms],
-                    resolution: int) -> NDArray[np.float64]:
-        """The registry's measures ``(n, len(others))`` of these views, computed together."""
-        settings = MeasureSettings(views=max(1, len(directions)), resolution=resolution,
-                                   camera=self.camera)
-        data = ViewData(self.mesh, directions, settings, self.areas, runs)
-        data.cache.update(self.mesh_cache)
-        values = np.full((len(directions), len(self.others)), np.nan)
-        if len(directions) and data.seen.any():
-            for column, index in enumerate(self.others):
-                values[:, column] = self.measures[index].compute(data)
-        if CURVATURE_KEY in data.cache:  # per mesh: computed once per search
-            self.mesh_cache[CURVATURE_KEY] = data.cache[CURVATURE_KEY]
-        return values
 
 
 def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
@@ -616,8 +586,8 @@ def search_best_views(
     coarse_size = chosen.coarse_resolution
     if coarse_size is None:
         coarse_size = resolution if flat else min(resolution, COARSE_RESOLUTION)
-    renderer = _Renderer(mesh, camera, [get_measure(name) for name in names])
-    higher = tuple(measure.higher_is_better for measure in renderer.measures)
+    renderer = _Measuring(mesh, camera, names, resolution)
+    higher = tuple(measure.higher_is_better for measure in renderer.session.measures)
     incumbents = _Incumbents.empty(higher)
     stages: list[SearchStage] = []
 
@@ -631,10 +601,10 @@ def search_best_views(
     def offer(directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
         """Views drawn at ``resolution`` compete: the paper's four as measured, the
         registry's measured again with every competing view."""
-        incumbents.offer(directions, raw, renderer.paper)
-        if renderer.others:
+        incumbents.offer(directions, raw, renderer.session.sum_columns)
+        if renderer.session.view_columns:
             every, again = renderer.competing(resolution)
-            incumbents.take_best(every, again, renderer.others)
+            incumbents.take_best(every, again, renderer.session.view_columns)
 
     sphere = (coarse_directions(mesh, n_coarse, renderer.areas) if n_coarse
               else np.zeros((0, 3)))

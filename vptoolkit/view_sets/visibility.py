@@ -17,11 +17,9 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import (
-    normalize_quality,
-    progress_runs,
-    quality_from_histograms,
-)
+from vptoolkit.measures.quality import normalize_quality
+from vptoolkit.measures.session import progress_runs
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions

@@ -53,7 +53,7 @@ from vptoolkit.measures.registry import PAPER_MEASURES
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store.reader import StoreReader
-    from vptoolkit.measures.registry import Measure
+    from vptoolkit.measures.measure import Measure
 
 __all__ = [
     "render_card",

@@ -44,7 +44,7 @@ from vptoolkit.files import parse_json
 from vptoolkit.measures.registry import PAPER_MEASURES
 
 if TYPE_CHECKING:
-    from vptoolkit.measures.registry import Measure
+    from vptoolkit.measures.measure import Measure
 
 __all__ = [
     "FORMAT_NAME",
