@@ -7,7 +7,7 @@ import pytest
 import trimesh
 from click.testing import CliRunner
 
-from vptoolkit.best_view import coarse_directions, search_best_views
+from vptoolkit.best_view import SearchSettings, coarse_directions, search_best_views
 from vptoolkit.cli import main
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
@@ -117,9 +117,10 @@ def test_the_prior_turns_with_the_mesh(teapot):
 
 def test_as_a_search_prior_its_first_candidate_is_drawn_at_full_resolution(teapot):
     candidates = UnoccludedPrior()(teapot)
-    found = search_best_views(teapot, 16, 64, prior=candidates)
+    found = search_best_views(teapot, SearchSettings(budget=16, resolution=64), prior=candidates)
     assert [(s.name, s.n_views) for s in found.stages][:2] == [("coarse", 7), ("prior", 2)]
-    again = search_best_views(teapot, 16, 64, prior=UnoccludedPrior()(teapot))
+    again = search_best_views(teapot, SearchSettings(budget=16, resolution=64),
+                              prior=UnoccludedPrior()(teapot))
     np.testing.assert_array_equal(found.directions, again.directions)
 
 

@@ -77,7 +77,13 @@ from results_doc import (
     write_section,
 )
 
-from vptoolkit.best_view import BUDGET, SEARCH_RESOLUTION, coarse_directions, search_best_views
+from vptoolkit.best_view import (
+    BUDGET,
+    SEARCH_RESOLUTION,
+    SearchSettings,
+    coarse_directions,
+    search_best_views,
+)
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.build.options import BuildOptions
 from vptoolkit.dataset.build.run import build_dataset
@@ -228,7 +234,8 @@ def answers(budgets: list[int], resolution: int, drawless: dict[str, Answer],
 
     def searched(budget: int, prior: Any = None) -> Answer:
         return lambda mesh: search_best_views(
-            mesh, budget, resolution, prior=None if prior is None else prior(mesh)).directions
+            mesh, SearchSettings(budget=budget, resolution=resolution),
+            prior=None if prior is None else prior(mesh)).directions
 
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), plain(budget))

@@ -44,7 +44,7 @@ module, layer by layer):
 from __future__ import annotations
 
 from vptoolkit._version import __version__
-from vptoolkit.best_view.search import BestViews, search_best_views
+from vptoolkit.best_view.search import BestViews, SearchSettings, search_best_views
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import (
     CheckpointError,
@@ -66,6 +66,7 @@ from vptoolkit.sphere import fibonacci_sphere, nearest_view
 __all__ = [
     "BestViews",
     "PAPER_MEASURES",
+    "SearchSettings",
     "N_VIEWS",
     "CheckpointError",
     "ExistingRunError",

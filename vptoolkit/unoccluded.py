@@ -294,7 +294,8 @@ class UnoccludedPrior:
 
     Examples
     --------
-    >>> search_best_views(mesh, 16, prior=UnoccludedPrior()(mesh))   # doctest: +SKIP
+    >>> found = search_best_views(mesh, SearchSettings(budget=16),  # doctest: +SKIP
+    ...                           prior=UnoccludedPrior()(mesh))
     """
 
     def __init__(self, n_directions: int = UNOCCLUDED_DIRECTIONS, *, per_measure: int = 2,

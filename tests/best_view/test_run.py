@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from vptoolkit.best_view import search_inputs
+from vptoolkit.best_view import SearchSettings, search_inputs
 from vptoolkit.cli import main
 from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.predictions import read_predictions
@@ -17,7 +17,8 @@ from vptoolkit.samples import sample_path
 def test_a_batch_records_failures_and_carries_on(tmp_path):
     broken = tmp_path / "broken.off"
     broken.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
-    run = search_inputs([sample_path("mug.obj"), broken], budget=8, resolution=32)
+    run = search_inputs([sample_path("mug.obj"), broken],
+                        settings=SearchSettings(budget=8, resolution=32))
     assert [result.name for result in run.results] == ["mug"]
     assert len(run.failures) == 1 and run.failures[0][0] == str(broken)
     assert "broken.off" in run.failures[0][1] and "\n" not in run.failures[0][1]

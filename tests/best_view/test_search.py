@@ -5,7 +5,12 @@ import json
 import numpy as np
 import pytest
 
-from vptoolkit.best_view import coarse_directions, principal_frame, search_best_views
+from vptoolkit.best_view import (
+    SearchSettings,
+    coarse_directions,
+    principal_frame,
+    search_best_views,
+)
 from vptoolkit.best_view.search import _Measuring
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError
@@ -34,7 +39,8 @@ def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug):
     directions = coarse_directions(mug, 120)
     exhaustive = compute_view_quality(mug, MeasureSettings(resolution=64),
                                       view_directions=directions)
-    found = search_best_views(mug, 120, 64, coarse_views=120, coarse_resolution=64)
+    found = search_best_views(mug, SearchSettings(budget=120, resolution=64, coarse_views=120,
+                                                   coarse_resolution=64))
     assert found.n_views == 120 and [s.name for s in found.stages] == ["coarse"]
     np.testing.assert_allclose(found.directions, exhaustive.best_views, rtol=0, atol=1e-12)
     best = exhaustive.raw[exhaustive.best_index, np.arange(4)]
@@ -47,7 +53,7 @@ def _better_or_equal(first, second):
 
 @pytest.mark.parametrize("budget", [8, 16, 64])
 def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
-    found = search_best_views(teapot, budget, 256)
+    found = search_best_views(teapot, SearchSettings(budget=budget, resolution=256))
     coarse = next(stage for stage in found.stages if stage.name == "coarse")
     sphere = coarse_directions(teapot, coarse.n_views)
     renderer = _Measuring(teapot, Camera(), PAPER_MEASURES, 256)
@@ -61,13 +67,13 @@ def test_the_answer_is_never_worse_than_its_own_coarse_pass(teapot, budget):
 
 
 def test_stages_spend_the_budget_and_decide_at_the_resolution(teapot):
-    found = search_best_views(teapot, 64, 256)
+    found = search_best_views(teapot, SearchSettings(budget=64, resolution=256))
     assert [s.name for s in found.stages] == ["coarse", "confirm", "refine"]
     assert found.n_views == 64 and found.stages[0].n_views == 32
     assert [s.resolution for s in found.stages] == [128, 256, 256]
-    small = search_best_views(teapot, 64, 96)
+    small = search_best_views(teapot, SearchSettings(budget=64, resolution=96))
     assert [(s.name, s.resolution) for s in small.stages] == [("coarse", 96), ("refine", 96)]
-    flat = search_best_views(teapot, 8, 96)
+    flat = search_best_views(teapot, SearchSettings(budget=8, resolution=96))
     assert [(s.name, s.n_views, s.resolution) for s in flat.stages] == [("coarse", 8, 96)]
     np.testing.assert_allclose(np.linalg.norm(found.directions, axis=1), 1.0)
     summary = json.loads(json.dumps(found.summary()))
@@ -92,23 +98,25 @@ def test_any_orientation_finds_views_as_good(teapot):
         index = nearest_view(directions, labels.views)
         return labels.normalized[index, np.arange(4)]
 
-    upright = score(search_best_views(teapot, 64, 96).directions)
+    upright = score(search_best_views(teapot, SearchSettings(budget=64, resolution=96)).directions)
     turned = []
     for turn in fixed_rotations("teapot", 4):
         mesh = Mesh(teapot.vertices @ turn.T, teapot.faces, name="teapot")
-        turned.append(score(search_best_views(mesh, 64, 96).directions @ turn))
+        found = search_best_views(mesh, SearchSettings(budget=64, resolution=96))
+        turned.append(score(found.directions @ turn))
     assert np.mean(turned, axis=0).min() > 0.85 and upright.min() > 0.85
 
 
 def test_same_inputs_give_the_same_answer(mug):
-    first = search_best_views(mug, 32, 64)
-    second = search_best_views(mug, 32, 64)
+    first = search_best_views(mug, SearchSettings(budget=32, resolution=64))
+    second = search_best_views(mug, SearchSettings(budget=32, resolution=64))
     assert first.directions.tobytes() == second.directions.tobytes()
     assert first.raw.tobytes() == second.raw.tobytes()
 
 
 def test_a_prior_is_drawn_first_at_full_resolution(mug):
-    found = search_best_views(mug, 16, 64, prior=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
+    found = search_best_views(mug, SearchSettings(budget=16, resolution=64),
+                              prior=[[0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])
     assert [(s.name, s.n_views, s.resolution) for s in found.stages][:2] == [
         ("coarse", 7, 64), ("prior", 2, 64)]
     assert found.n_views == 16
@@ -125,12 +133,19 @@ def test_a_prior_is_drawn_first_at_full_resolution(mug):
 ])
 def test_bad_options_are_one_line_input_errors(mug, options, message):
     arguments = {"budget": 16, "resolution": 64, **options}
+    prior = arguments.pop("prior", None)
     with pytest.raises(InputError, match=message):
-        search_best_views(mug, **arguments)
+        search_best_views(mug, SearchSettings(**arguments), prior=prior)
+
+
+def test_settings_must_be_search_settings(mug):
+    with pytest.raises(InputError, match="^settings: expected SearchSettings, got int"):
+        search_best_views(mug, 16)
 
 
 def test_a_mesh_of_zero_area_is_named_without_numpy_warnings():
     line = Mesh(np.array([[0.0, 0, 0], [1, 0, 0], [2, 0, 0]]), np.array([[0, 1, 2]]),
                 name="line")
     with pytest.raises(InputError, match="^line: the mesh has zero surface area$"):
-        search_best_views(line, 8, 32)  # pytest turns a RuntimeWarning into an error
+        # pytest turns a RuntimeWarning into an error
+        search_best_views(line, SearchSettings(budget=8, resolution=32))

@@ -10,7 +10,7 @@ import pytest
 
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
-from vptoolkit.best_view import coarse_directions, search_best_views
+from vptoolkit.best_view import SearchSettings, coarse_directions, search_best_views
 from vptoolkit.best_view.run import recorded_searchable, search_inputs
 from vptoolkit.best_view.search import searchable_measures
 from vptoolkit.cli import main
@@ -41,7 +41,8 @@ def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug, measures):
     directions = coarse_directions(mug, 120)
     exhaustive = compute_view_quality(mug, MeasureSettings(resolution=64),
                                       view_directions=directions, measures=measures)
-    found = search_best_views(mug, 120, 64, coarse_views=120, coarse_resolution=64,
+    found = search_best_views(mug, SearchSettings(budget=120, resolution=64, coarse_views=120,
+                                                   coarse_resolution=64),
                               measures=measures)
     assert found.measures == exhaustive.measures == tuple(measures.split(","))
     assert found.directions.shape == (len(found.measures), 3)
@@ -51,7 +52,7 @@ def test_a_budget_covering_every_view_finds_the_exhaustive_best(mug, measures):
 
 
 def test_refinement_improves_on_the_coarse_sphere_for_registry_measures(mug):
-    found = search_best_views(mug, 64, 64, measures="NVT,SL")
+    found = search_best_views(mug, SearchSettings(budget=64, resolution=64), measures="NVT,SL")
     coarse = next(stage for stage in found.stages if stage.name == "coarse")
     sphere = coarse_directions(mug, coarse.n_views)
     on_sphere = compute_view_quality(mug, MeasureSettings(resolution=64),
@@ -69,7 +70,7 @@ def test_refinement_improves_on_the_coarse_sphere_for_registry_measures(mug):
 
 def test_measures_a_few_views_cannot_give_are_refused_in_one_line(mug):
     with pytest.raises(InputError) as caught:
-        search_best_views(mug, 16, 64, measures="VE,INS,SAL")
+        search_best_views(mug, SearchSettings(budget=16, resolution=64), measures="VE,INS,SAL")
     text = str(caught.value)
     assert "\n" not in text and text.startswith("measures: INS (")
     assert "neighbouring views" in text and "SAL (a saliency computed from all views)" in text
@@ -95,7 +96,7 @@ def test_the_command_searches_the_named_measures(mug, runner, tmp_path):
     assert [line.split()[0] for line in lines[1:3]] == ["NVT", "SL"]
     names, directions, measures = read_predictions(out)
     assert names == ("mug",) and measures == ("NVT", "SL") and directions.shape == (1, 2, 3)
-    expected = search_best_views(mug, 16, 64, measures="NVT,SL")
+    expected = search_best_views(mug, SearchSettings(budget=16, resolution=64), measures="NVT,SL")
     np.testing.assert_allclose(directions[0], expected.directions)
 
 
@@ -119,7 +120,8 @@ def test_with_a_dataset_the_search_follows_its_recorded_measures(runner, tmp_pat
                            n_points=200, clean=False)
     built = build_samples(tmp_path, ("mug.obj", "teapot.stl"), category="things",
                           options=options)
-    run = search_inputs(dataset=built, split=None, budget=16, resolution=48)
+    run = search_inputs(dataset=built, split=None,
+                        settings=SearchSettings(budget=16, resolution=48))
     assert run.measures == ("SL", "NVT") and run.predictions.measures == ("SL", "NVT")
     out = tmp_path / "found.npz"
     result = runner.invoke(main, ["best-view", "--dataset", str(built), "--split", "all",

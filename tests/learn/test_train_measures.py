@@ -264,7 +264,7 @@ def test_per_category_networks_must_predict_the_same_measures(tmp_path):
 
 
 def test_a_prior_proposes_only_for_the_measures_searched(tmp_path):
-    from vptoolkit.best_view.search import search_best_views
+    from vptoolkit.best_view.search import SearchSettings, search_best_views
     from vptoolkit.io import load_mesh
 
     folder = saved(tmp_path, MEASURED)
@@ -276,7 +276,7 @@ def test_a_prior_proposes_only_for_the_measures_searched(tmp_path):
 
     none = NetworkPrior(folder, measures="VMI,VKL")
     assert none.heads == () and none(mesh).shape == (0, 3)
-    found = search_best_views(mesh, 16, 32, prior=none(mesh))
+    found = search_best_views(mesh, SearchSettings(budget=16, resolution=32), prior=none(mesh))
     assert "prior" not in [stage.name for stage in found.stages]
     with pytest.raises(InputError, match="unknown measure 'XYZ'"):
         NetworkPrior(folder, measures=("XYZ",))

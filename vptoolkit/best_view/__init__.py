@@ -29,6 +29,5 @@ from vptoolkit.best_view.search import SearchSettings as SearchSettings
 from vptoolkit.best_view.search import SearchStage as SearchStage
 from vptoolkit.best_view.search import ring as ring
 from vptoolkit.best_view.search import search_best_views as search_best_views
-from vptoolkit.best_view.search import search_settings as search_settings
 from vptoolkit.geometry import principal_frame as principal_frame
 from vptoolkit.sphere import coarse_directions as coarse_directions

@@ -27,8 +27,8 @@ from vptoolkit.best_view.search import (
     UNSEARCHABLE_NEEDS,
     BestViews,
     SearchSettings,
+    check_search_settings,
     search_best_views,
-    search_settings,
     searchable_measures,
 )
 from vptoolkit.checks import one_line
@@ -99,14 +99,12 @@ def recorded_searchable(recorded: Sequence[str], where: str = "dataset") -> tupl
 def search_inputs(
     inputs: Sequence[str | os.PathLike[str]] = (),
     *,
-    settings: SearchSettings | None = None,
+    settings: SearchSettings = SearchSettings(),
     dataset: str | os.PathLike[str] | None = None,
     split: str | None = "test",
     prior: Callable[[Mesh], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
     progress: bool = False,
-    budget: int | None = None,
-    resolution: int | None = None,
 ) -> SearchRun:
     """:func:`~vptoolkit.best_view.search.search_best_views` over mesh files and a dataset split;
     failures recorded, not raised.
@@ -134,9 +132,6 @@ def search_inputs(
         (:func:`recorded_searchable`), else the paper's four.
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
-    budget, resolution : int, optional
-        The fields of :class:`~vptoolkit.best_view.search.SearchSettings`,
-        given loose instead of ``settings``.
 
     Raises
     ------
@@ -148,7 +143,7 @@ def search_inputs(
         or measured, or a second model of the same name, is recorded in
         ``failures`` instead.
     """
-    chosen = search_settings(settings, budget=budget, resolution=resolution)
+    chosen = check_search_settings(settings)
     names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
     with open_inputs(entries, split=split, purpose="search") as sources:

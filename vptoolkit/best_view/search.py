@@ -109,7 +109,7 @@ __all__ = [
     "SearchSettings",
     "SearchStage",
     "search_best_views",
-    "search_settings",
+    "check_search_settings",
     "searchable_measures",
 ]
 
@@ -381,39 +381,12 @@ class SearchSettings:
                 "camera": self.camera.to_dict()}
 
 
-def search_settings(
-    settings: SearchSettings | int | None = None,
-    *,
-    budget: int | None = None,
-    resolution: int | None = None,
-    coarse_views: int | None = None,
-    coarse_resolution: int | None = None,
-    camera: Camera | None = None,
-) -> SearchSettings:
-    """The :class:`SearchSettings` of a call: given whole, or built from the loose keywords.
-
-    ``settings`` may also be a number, the old positional ``budget`` of
-    ``search_best_views(mesh, 64, 128)``. Raises InputError when a
-    ``SearchSettings`` comes with loose values too, or on a value out of range.
-    """
-    loose = {"budget": budget, "resolution": resolution, "coarse_views": coarse_views,
-             "coarse_resolution": coarse_resolution, "camera": camera}
-    if isinstance(settings, SearchSettings):
-        given = [name for name, value in loose.items() if value is not None]
-        if given:
-            raise InputError(f"settings: give SearchSettings or {', '.join(given)}, not both")
-        return settings
-    if settings is not None:
-        if not isinstance(settings, (int, float, np.number)):
-            raise InputError(f"settings: expected SearchSettings, got {type(settings).__name__}")
-        if budget is not None:
-            raise InputError("budget: given twice (positionally and by keyword)")
-        budget = settings
-    return SearchSettings(
-        budget=BUDGET if budget is None else budget,
-        resolution=SEARCH_RESOLUTION if resolution is None else resolution,
-        coarse_views=coarse_views, coarse_resolution=coarse_resolution,
-        camera=Camera() if camera is None else camera)
+def check_search_settings(settings: Any) -> SearchSettings:
+    """``settings`` if it is a :class:`SearchSettings`; else InputError naming its type."""
+    if not isinstance(settings, SearchSettings):
+        raise InputError(f"settings: expected SearchSettings, got {type(settings).__name__} "
+                         "(SearchSettings(budget=..., resolution=...))")
+    return settings
 
 
 def ring(centre: NDArray[np.float64], angle: float, n: int, turn: float) -> NDArray[np.float64]:
@@ -508,15 +481,10 @@ def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64
 
 def search_best_views(
     mesh: MeshLike,
-    settings: SearchSettings | int | None = None,
-    resolution: int | None = None,
+    settings: SearchSettings = SearchSettings(),
     *,
     prior: ArrayLike | None = None,
     measures: str | Sequence[str] | None = None,
-    budget: int | None = None,
-    coarse_views: int | None = None,
-    coarse_resolution: int | None = None,
-    camera: Camera | None = None,
 ) -> BestViews:
     """Find the best view direction per measure within a budget of drawn views.
 
@@ -539,11 +507,6 @@ def search_best_views(
         ``"paper"`` for VE, VR, VKL and VMI, the default; names such as
         ``"NVT,SL"``; ``"all"`` names measures a search cannot evaluate and
         is refused).
-    budget, resolution, coarse_views, coarse_resolution, camera
-        The fields of :class:`SearchSettings`, given loose instead of
-        ``settings`` (``search_best_views(mesh, budget=64, resolution=128)``,
-        or positionally ``search_best_views(mesh, 64, 128)``); the settings
-        are built from them (:func:`search_settings`).
 
     Returns
     -------
@@ -554,7 +517,7 @@ def search_best_views(
     Raises
     ------
     InputError
-        On a budget, resolution or view count out of range, a bad prior, an
+        On settings that are no SearchSettings, a bad prior, an
         unknown measure or one a search cannot evaluate, or a mesh that is
         none of the above or has zero surface area.
 
@@ -565,15 +528,14 @@ def search_best_views(
     >>> found = search_best_views(box, SearchSettings(budget=16, resolution=64))
     >>> found.n_views, found.directions.shape, found.camera_pose("VE").shape
     (16, (4, 3), (4, 4))
-    >>> search_best_views(box, 16, 64, measures="NVT,SL").measures
+    >>> search_best_views(box, SearchSettings(budget=16, resolution=64),
+    ...                   measures="NVT,SL").measures
     ('NVT', 'SL')
     """
     started = time.perf_counter()
     names = searchable_measures(measures)
     mesh = as_mesh(mesh)
-    chosen = search_settings(settings, budget=budget, resolution=resolution,
-                             coarse_views=coarse_views, coarse_resolution=coarse_resolution,
-                             camera=camera)
+    chosen = check_search_settings(settings)
     budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
     n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
