@@ -1,4 +1,4 @@
-"""The measuring session gives the values frozen before it existed, bit for bit.
+"""The measuring session: its passes, and the values frozen before it existed, bit for bit.
 
 ``tests/assets/measured_values.npz`` holds the raw values of two sample meshes
 (``suzanne.ply``, ``mug.obj``; 60 Fibonacci views at 64 px) for the paper's
@@ -16,10 +16,15 @@ import pytest
 
 from fixtures.paths import ASSETS
 from vptoolkit.best_view.search import SearchSettings, search_best_views
+from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.io import load_mesh
+from vptoolkit.measures.curvature import CACHE_KEY
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.session import MeasuringSession
+from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
+from vptoolkit.sphere import fibonacci_sphere
 
 FROZEN_VALUES = ASSETS / "measured_values.npz"
 FROZEN_MESHES = ("suzanne.ply", "mug.obj")
@@ -61,6 +66,55 @@ def test_compute_view_quality_keeps_the_frozen_values(frozen, name, spec):
 def test_search_best_views_keeps_the_frozen_answers(frozen, name, spec, with_prior):
     for key, value in _search_case(name, spec, with_prior).items():
         assert np.array_equal(value, frozen[key], equal_nan=True), key
+
+
+@pytest.fixture(scope="module")
+def mug():
+    return load_mesh(sample_path("mug.obj"))
+
+
+def test_any_subset_of_the_paper_s_four_streams_in_one_pass(mug):
+    views = fibonacci_sphere(30)
+    paper = MeasuringSession(mug, "paper", MeasureSettings(resolution=64))
+    four = paper.measure(views)
+    for spec, columns in (("VE", [0]), ("vkl,VR", [2, 1]), ("VE,VR,VKL", [0, 1, 2])):
+        session = MeasuringSession(mug, spec, MeasureSettings(resolution=64))
+        assert session.streams and not session.view_columns
+        once = iter(list(paper.draw(views, 64)))  # runs that can be read only once
+        raw = session.measure(views, histograms=once)  # type: ignore[arg-type]
+        assert np.array_equal(raw, four[:, columns], equal_nan=True), spec
+
+
+def test_other_measures_read_the_kept_counts_and_the_four_keep_their_values(mug):
+    views = fibonacci_sphere(30)
+    session = MeasuringSession(mug, "NVT,VMI,CE,SL", MeasureSettings(resolution=64))
+    assert not session.streams and session.sum_columns == [1]
+    assert session.view_columns == [0, 2, 3] and session.features
+    raw = session.measure(views)
+    paper = MeasuringSession(mug, "paper", MeasureSettings(resolution=64)).measure(views)
+    assert np.array_equal(raw[:, 1], paper[:, 3], equal_nan=True)
+    assert np.isfinite(raw).all()
+    curvature = session.mesh_cache[CACHE_KEY]
+    only = session.measure(views[:5], columns=[2])
+    assert session.mesh_cache[CACHE_KEY] is curvature  # computed once per session
+    assert np.isnan(only[:, [0, 1, 3]]).all() and np.isfinite(only[:, 2]).all()
+
+
+def test_histograms_without_the_statistics_a_measure_reads_are_refused(mug):
+    views = fibonacci_sphere(4)
+    plain = MeasuringSession(mug, "VE", MeasureSettings(resolution=32))
+    session = MeasuringSession(mug, "SL", MeasureSettings(resolution=32))
+    with pytest.raises(InputError, match=r"^histograms: .* \(needed by SL\)$"):
+        session.measure(views, histograms=list(plain.draw(views)))
+
+
+def test_views_that_see_nothing_raise_or_are_nan():
+    triangle = Mesh(np.eye(3), np.array([[0, 1, 2]]), name="triangle")
+    behind = -np.ones((1, 3)) / np.sqrt(3.0)  # sees the culled back face only
+    session = MeasuringSession(triangle, "VE,NVT", MeasureSettings(resolution=16))
+    with pytest.raises(MeasurementError, match="no face is visible"):
+        session.measure(behind)
+    assert np.isnan(session.measure(behind, require_seen=False)).all()
 
 
 def _rewrite() -> None:
