@@ -2,11 +2,11 @@ import numpy as np
 import pytest
 
 from fixtures.meshes import box_mesh
-from vptoolkit.errors import MeasurementError
+from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import compute_view_quality, normalize_quality
-from vptoolkit.measures.sums import quality_from_histograms
+from vptoolkit.measures.quality import compute_view_quality, normalize_quality, ranked_views
 from vptoolkit.measures.registry import PAPER_MEASURES
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
@@ -180,3 +180,58 @@ def test_real_mesh_result_is_complete_and_saves_without_pickle(bunny, tmp_path):
         assert tuple(stored["measures"]) == PAPER_MEASURES
         np.testing.assert_array_equal(stored["raw"], quality.raw)
         assert "fov_deg" in str(stored["camera"]) and int(stored["resolution"]) == 128
+
+
+# --- measures chosen by name --------------------------------------------------------------
+
+
+def test_the_four_are_unchanged_through_the_general_path(bunny):
+    settings = MeasureSettings(resolution=96)
+    views = fibonacci_sphere(60)
+    paper = compute_view_quality(bunny, settings, view_directions=views)
+    more = compute_view_quality(bunny, settings, view_directions=views,
+                                measures="VE,VR,VKL,VMI,NVT")
+    assert more.measures == ("VE", "VR", "VKL", "VMI", "NVT")
+    assert more.raw.shape == more.normalized.shape == (60, 5)
+    np.testing.assert_array_equal(more.raw[:, :4], paper.raw)
+    np.testing.assert_array_equal(more.normalized[:, :4], paper.normalized)
+    np.testing.assert_array_equal(more.best_index[:4], paper.best_index)
+    reordered = compute_view_quality(bunny, settings, view_directions=views, measures="VMI,VE")
+    np.testing.assert_array_equal(reordered.raw, paper.raw[:, [3, 0]])
+
+
+def test_only_the_requested_columns_and_directions_follow_the_names(cube):
+    quality = compute_view_quality(cube, MeasureSettings(views=50, resolution=64),
+                                   measures="I2,NVT")
+    assert quality.measures == ("I2", "NVT")
+    assert quality.higher_is_better == (False, True)
+    assert quality.best_index.shape == quality.worst_index.shape == (2,)
+    assert quality.best_views.shape == (2, 3)
+    i2, nvt = quality.raw.T
+    assert i2[quality.best_index[0]] == np.nanmin(i2)
+    assert nvt[quality.best_index[1]] == nvt.max()
+    assert list(quality.summary()["best"]) == ["I2", "NVT"]
+    assert quality.summary()["best"]["I2"]["higher_is_better"] is False
+
+
+def test_normalisation_and_ranking_take_any_directions():
+    raw = np.array([[1.0, 5.0, 2.0], [3.0, 1.0, np.nan], [2.0, 3.0, 4.0]])
+    normalized = normalize_quality(raw, [True, False, False])
+    np.testing.assert_allclose(normalized, [[0, 0, 1], [1, 1, 0], [0.5, 0.5, 0]])
+    np.testing.assert_array_equal(ranked_views(raw, 1, [True, False, True]), [1, 2, 0])
+    np.testing.assert_array_equal(ranked_views(raw, 2, [True, True, True]), [2, 0, 1])
+    with pytest.raises(InputError, match=r"expected shape \(n_views, 4\)"):
+        normalize_quality(raw)  # the paper's four by default
+    four = np.array([[1.0, 0.2, 5.0, 3.0], [3.0, 0.6, 1.0, 1.0]])
+    np.testing.assert_array_equal(ranked_views(four, 2), [1, 0])  # VKL: lower is better
+
+
+def test_npz_stores_the_names_and_directions(tmp_path, cube):
+    quality = compute_view_quality(cube, MeasureSettings(views=40, resolution=64),
+                                   measures="PA,VMI,I3")
+    path = quality.save_npz(tmp_path / "cube.npz")
+    with np.load(path, allow_pickle=False) as stored:
+        assert tuple(stored["measures"]) == ("PA", "VMI", "I3")
+        np.testing.assert_array_equal(stored["higher_is_better"], [True, False, True])
+        np.testing.assert_array_equal(stored["raw"], quality.raw)
+        np.testing.assert_array_equal(stored["best_index"], quality.best_index)
