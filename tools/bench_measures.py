@@ -62,8 +62,8 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.measures.measure import FAMILIES
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path

@@ -42,8 +42,8 @@ from results_doc import (add_results_option, command_line, format_seconds, machi
                          markdown_table, write_section)
 
 from vptoolkit.io import find_mesh_files, load_mesh
-from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.measures.measure import FAMILIES
+from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_names, sample_path

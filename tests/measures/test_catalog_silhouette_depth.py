@@ -14,10 +14,10 @@ import pytest
 
 from fixtures.meshes import box_mesh, primitive_mesh
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.measures.catalog.ce import curvature_bins
 from vptoolkit.measures.curvature import CACHE_KEY, face_mean_curvature, mesh_curvature
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere

@@ -16,10 +16,10 @@ import pytest
 
 from fixtures.meshes import box_mesh, primitive_mesh
 from vptoolkit.geometry import face_areas, face_normals
-from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.measures.catalog._paper import paper_column
 from vptoolkit.measures.curvature import face_mean_curvature
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.measures.saliency import (
     CACHE_KEY,
     face_neighbours,

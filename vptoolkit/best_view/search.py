@@ -41,13 +41,14 @@ every face in proportion to its area (``mean_v a_t(v) A_z / A_t``, divided by
 which makes VMI equal VKL.
 
 Measures
-    The paper's four are measured from each stage's pixel counts as above
-    (:func:`vptoolkit.measures.quality.quality_from_histograms`, with the
-    estimated ``p(z)``). Any other registered measure is computed by the
-    registry (:attr:`Measure.compute <vptoolkit.measures.registry.Measure.compute>`)
-    from the same drawing, with the depth and silhouette statistics drawn
-    too where one needs them; the per-mesh curvature is computed once per
-    search. Where such a measure compares a view with the others drawn (I2
+    One measuring session (:class:`vptoolkit.measures.session.MeasuringSession`)
+    draws and measures every stage. The paper's four are measured from each
+    stage's streamed pixel counts as above (with the estimated ``p(z)``). Any
+    other registered measure is computed by the session from the same
+    drawing (:attr:`Measure.compute <vptoolkit.measures.measure.Measure.compute>`),
+    with the depth and silhouette statistics drawn too where one needs them;
+    the per-mesh curvature is computed once per search (the session's
+    ``mesh_cache``). Where such a measure compares a view with the others drawn (I2
     and I3 through the distributions over the views, SS through the largest
     projected area), the others are every view drawn at ``resolution`` so
     far, and the competing views are measured again after each stage, so
@@ -61,18 +62,18 @@ Measures
 Directions are unit vectors from the bounding-box centre towards the camera,
 in the mesh's own coordinates; raw values are in each measure's units (bits
 for VE, VKL, VMI; VR a fraction); which way is better is the registry's
-(:attr:`Measure.higher_is_better <vptoolkit.measures.registry.Measure.higher_is_better>`:
+(:attr:`Measure.higher_is_better <vptoolkit.measures.measure.Measure.higher_is_better>`:
 higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 
 Size
-    About 690 lines for one concept, the search of one mesh: its settings
+    About 620 lines for one concept, the search of one mesh: its settings
     (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
-    and what measures a stage's views (the paper's four with the estimated
-    ``p(z)``, the registry's measures over the competing views). The stages
-    and the measuring share the incumbents, the estimate and the competing
-    views, which a split would have to pass between modules; the search over
-    many inputs is :mod:`vptoolkit.best_view.run`.
+    and which views a session measures together (the paper's four per stage
+    with the estimated ``p(z)``, the others over the competing views). The
+    stages and the measuring share the incumbents, the estimate and the
+    competing views, which a split would have to pass between modules; the
+    search over many inputs is :mod:`vptoolkit.best_view.run`.
 """
 
 from __future__ import annotations

@@ -29,7 +29,7 @@ With ``p(z|v) = a_z(v) / a_t(v)`` and logarithms in base 2 (bits):
 Per model, each measure is normalised to [0, 1] over the sampled views with
 1 = best: ``(q - worst) / (best - worst)`` (paper, eq. 5), with best the
 maximum where :attr:`Measure.higher_is_better
-<vptoolkit.measures.registry.Measure.higher_is_better>` and the minimum
+<vptoolkit.measures.measure.Measure.higher_is_better>` and the minimum
 otherwise.
 
 Special cases

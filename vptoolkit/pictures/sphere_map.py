@@ -7,7 +7,7 @@ four side by side, all 22 of the registry on six rows), with the best
 sampled view (star) and an optional predicted view (cross) marked. Columns
 are named by ``measures`` (by default the paper's four, ``PAPER_MEASURES``); each
 panel is titled with the registry's name for its measure
-(:attr:`Measure.title <vptoolkit.measures.registry.Measure.title>`).
+(:attr:`Measure.title <vptoolkit.measures.measure.Measure.title>`).
 :func:`sphere_map_file` and :func:`sphere_maps_file` draw the ``.npz`` of
 ``vptool measures -o``, whatever measures it records.
 
