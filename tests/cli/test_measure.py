@@ -129,6 +129,19 @@ def test_views_until_a_coverage_target(runner):
     assert len(coverage) == 1 or coverage[-2] < 0.9 * summary["reachable"]
 
 
+def test_views_take_any_registered_measure_in_any_case(runner):
+    mug = str(sample_path("mug.obj"))
+    result = runner.invoke(main, ["views", mug, "--views", "40", "--resolution", "48", "--k",
+                                  "2", "--objective", "quality", "--measure", "sl", "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert summary["measure"] == "SL" and len(summary["picks"]) == 2
+    refused = runner.invoke(main, ["views", mug, "--objective", "quality", "--measure", "XX"])
+    assert refused.exit_code == 2
+    assert refused.stderr.startswith("vptool: error: --measure: unknown measure 'XX'; known: ")
+    assert refused.stderr.count("\n") == 1
+
+
 @pytest.mark.parametrize("name", ["empty.obj", "empty.stl", "ply_empty_header.ply", "README.md"])
 def test_views_of_a_malformed_file_is_one_line_and_exit_2(runner, name):
     result = runner.invoke(main, ["views", str(MALFORMED / name), "--views", "8"])
