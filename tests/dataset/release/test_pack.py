@@ -390,7 +390,7 @@ CREATED = "2026-02-03T04:05:06Z"
 
 
 @pytest.fixture(scope="module")
-def release(tmp_path_factory: pytest.TempPathFactory):
+def three_release(tmp_path_factory: pytest.TempPathFactory):
     """Four bundled samples built with three measures, packed in every format."""
     from vptoolkit.dataset.release.options import FORMATS, ReleaseOptions
     from vptoolkit.dataset.release.pack import pack_release
@@ -408,10 +408,10 @@ def release(tmp_path_factory: pytest.TempPathFactory):
                         ReleaseOptions(formats=FORMATS, created=CREATED))
 
 
-def test_the_card_describes_the_three_measures(release) -> None:
+def test_the_card_describes_the_three_measures(three_release) -> None:
     import yaml
 
-    card = release.card.read_text(encoding="utf-8")
+    card = three_release.card.read_text(encoding="utf-8")
     assert "the three\nviewpoint quality measures VE, NVT, SL evaluated for" in card
     assert "Columns of every last axis of size 3, in this order: VE, NVT, SL." in card
     assert "Raw values are in each measure's own unit" in card
@@ -430,8 +430,8 @@ def test_the_card_describes_the_three_measures(release) -> None:
             "SL, 1 = best |") in card
 
 
-def test_croissant_fields_name_the_columns_and_have_their_shapes(release) -> None:
-    document = json.loads(release.croissant.read_text(encoding="utf-8"))
+def test_croissant_fields_name_the_columns_and_have_their_shapes(three_release) -> None:
+    document = json.loads(three_release.croissant.read_text(encoding="utf-8"))
     assert "quality measures VE, NVT, SL for 60 views" in document["description"]
     models = next(r for r in document["recordSet"] if r["@id"] == "models")
     fields = {f["name"]: f for f in models["field"]}
@@ -441,13 +441,13 @@ def test_croissant_fields_name_the_columns_and_have_their_shapes(release) -> Non
     assert fields["worst_value"]["arrayShape"] == "3"
 
 
-def test_parquet_shards_hold_the_store_columns_with_their_features(release) -> None:
+def test_parquet_shards_hold_the_store_columns_with_their_features(three_release) -> None:
     import pyarrow.parquet as pq
 
     from vptoolkit.data import open_dataset
 
     rows = {}
-    for shard in release.parquet:
+    for shard in three_release.parquet:
         if shard.parent.name != "data":
             continue
         features = json.loads(pq.read_schema(shard).metadata[b"huggingface"])["info"]["features"]
@@ -457,7 +457,7 @@ def test_parquet_shards_hold_the_store_columns_with_their_features(release) -> N
                                           "feature": {"_type": "Value", "dtype": "float32"}}
         table = pq.read_table(shard).to_pylist()
         rows.update({row["name"]: row for row in table})
-    with open_dataset(release.path) as dataset:
+    with open_dataset(three_release.path) as dataset:
         assert sorted(rows) == sorted(dataset.names)
         for name, row in rows.items():
             item = dataset[name]
@@ -466,7 +466,8 @@ def test_parquet_shards_hold_the_store_columns_with_their_features(release) -> N
             assert row["best_index"] == item["best_index"].tolist()
 
 
-def test_datasets_loads_the_three_columns_offline(release, tmp_path: Path, monkeypatch) -> None:
+def test_datasets_loads_the_three_columns_offline(three_release, tmp_path: Path,
+                                                  monkeypatch) -> None:
     require_package("datasets")
     monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
     monkeypatch.setenv("HF_HUB_OFFLINE", "1")
@@ -474,8 +475,8 @@ def test_datasets_loads_the_three_columns_offline(release, tmp_path: Path, monke
 
     from vptoolkit.data import open_dataset
 
-    loaded = datasets.load_dataset(str(release.path), cache_dir=str(tmp_path / "cache"))
-    with open_dataset(release.path) as reference:
+    loaded = datasets.load_dataset(str(three_release.path), cache_dir=str(tmp_path / "cache"))
+    with open_dataset(three_release.path) as reference:
         for split, rows in loaded.items():
             first = rows.with_format("numpy")[0]
             expected = reference.split(split)[0]
@@ -486,12 +487,12 @@ def test_datasets_loads_the_three_columns_offline(release, tmp_path: Path, monke
                                               reference.names.index(first["name"])])
 
 
-def test_verify_passes_and_every_archive_holds_the_measures(release) -> None:
+def test_verify_passes_and_every_archive_holds_the_measures(three_release) -> None:
     from vptoolkit.dataset.store.reader import open_store
 
-    result = CliRunner().invoke(main, ["verify", str(release.path)])
+    result = CliRunner().invoke(main, ["verify", str(three_release.path)])
     assert result.exit_code == 0, result.output
-    for archive in (release.path / f"{release.name}.h5", release.zarr_zip):
+    for archive in (three_release.path / f"{three_release.name}.h5", three_release.zarr_zip):
         with open_store(archive) as store:
             assert store.measures == THREE and store.attrs["higher_is_better"] == [True] * 3
 
@@ -500,21 +501,22 @@ def test_verify_passes_and_every_archive_holds_the_measures(release) -> None:
 @pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:ConjunctiveGraph is deprecated:DeprecationWarning")
 @pytest.mark.filterwarnings("ignore:The inplace keyword in DataFrame.reset_index")
-def test_mlcroissant_reads_a_record_of_three_columns(release) -> None:
+def test_mlcroissant_reads_a_record_of_three_columns(three_release) -> None:
     require_package("mlcroissant")
     import mlcroissant
 
-    dataset = mlcroissant.Dataset(jsonld=str(release.croissant))
+    dataset = mlcroissant.Dataset(jsonld=str(three_release.croissant))
     model = next(iter(dataset.records(record_set="models")))
     assert np.asarray(model["models/quality"]).shape == (N_VIEWS, 3)
     assert np.asarray(model["models/best_index"]).shape == (3,)
 
 
-def test_a_store_with_a_measure_the_registry_does_not_know_is_not_packed(release,
+def test_a_store_with_a_measure_the_registry_does_not_know_is_not_packed(three_release,
                                                                          tmp_path: Path) -> None:
     import h5py
 
-    store = Path(shutil.copy(release.path / f"{release.name}.h5", tmp_path / "dataset.h5"))
+    store = Path(shutil.copy(three_release.path / f"{three_release.name}.h5",
+                             tmp_path / "dataset.h5"))
     with h5py.File(store, "a") as handle:
         handle.attrs["measures"] = np.array(["VE", "NVT", "FUTURE"], dtype=h5py.string_dtype())
     info = CliRunner().invoke(main, ["info", str(store)])
