@@ -5,11 +5,9 @@
 four, VE alone and every registered measure, and the answers of best-view
 searches (24 views at 64 px, with and without a prior, the paper's four and a
 mix of the paper's and other measures). Any change of a value fails; the file
-is rewritten, by running this module, only for a deliberate change of what a
-measure computes.
+is rewritten, by running this module (``tests`` on the path), only for a
+deliberate change of what a measure computes.
 """
-
-import sys
 
 import numpy as np
 import pytest
@@ -117,7 +115,7 @@ def test_views_that_see_nothing_raise_or_are_nan():
     assert np.isnan(session.measure(behind, require_seen=False)).all()
 
 
-def _rewrite() -> None:
+if __name__ == "__main__":  # rewrite the frozen values from the current code
     arrays: dict[str, np.ndarray] = {}
     for name in FROZEN_MESHES:
         for spec in QUALITY_SPECS:
@@ -126,7 +124,3 @@ def _rewrite() -> None:
             for with_prior in (False, True):
                 arrays.update(_search_case(name, spec, with_prior))
     np.savez_compressed(FROZEN_VALUES, **arrays)
-
-
-if __name__ == "__main__" and "--rewrite" in sys.argv:
-    _rewrite()
