@@ -798,7 +798,8 @@ def section_subdivision(options: RunOptions) -> Section:
         + ", ".join(f"{m} {v:.1f}" for m, v in zip(PAPER_MEASURES, noise)) + ".",
         "",
         *markdown_table(
-            ["level", "faces", *PAPER_MEASURES, "VE elevation", *(f"net {m}" for m in PAPER_MEASURES)],
+            ["level", "faces", *PAPER_MEASURES, "VE elevation",
+             *(f"net {m}" for m in PAPER_MEASURES)],
             [[str(level), str(n_faces[level]), *_one_decimal(measure_angles[level]),
               f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])]
              for level in levels],

@@ -269,7 +269,8 @@ def unoccluded_best_views(normals: ArrayLike, areas: ArrayLike | None = None, *,
         candidates = as_directions(directions)
     weights = np.ones(len(normals)) if areas is None else areas
     raw = unoccluded_quality(normals, weights, candidates)
-    return np.stack([candidates[ranked_views(raw, column)[0]] for column in range(len(PAPER_MEASURES))])
+    return np.stack([candidates[ranked_views(raw, column)[0]]
+                     for column in range(len(PAPER_MEASURES))])
 
 
 class UnoccludedPrior:

@@ -160,7 +160,8 @@ def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
     sources = image_sources(page)
     n_set = len(re.findall(r'alt="[^"]*, view \d+ of its set"', page))
     assert n_set >= len(MODELS)  # each model's view set has a picture per view
-    assert len(sources) == len(MODELS) * (len(PAPER_MEASURES) + 1) + n_set  # four views and the maps
+    # four views and the maps
+    assert len(sources) == len(MODELS) * (len(PAPER_MEASURES) + 1) + n_set
     for source in sources:
         assert not source.startswith(("/", "http")), source
         image = read_png(full_report.parent / source)

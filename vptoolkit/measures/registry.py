@@ -16,8 +16,9 @@ and ``"all"``, every registered measure.
 
 What a measure reads is declared in
 :attr:`Measure.needs <vptoolkit.measures.measure.Measure.needs>`, one or more
-of :data:`~vptoolkit.measures.measure.NEEDS`; :func:`vptoolkit.measures.compute_view_quality` draws and
-computes only what the requested measures need.
+of :data:`~vptoolkit.measures.measure.NEEDS`;
+:func:`vptoolkit.measures.compute_view_quality` draws and computes only what the
+requested measures need.
 """
 
 from __future__ import annotations
@@ -88,7 +89,8 @@ def canonical_name(name: str, argument: str = "measure") -> str:
 
 
 def get_measure(name: str) -> Measure:
-    """The measure called ``name``, in any case; :class:`~vptoolkit.errors.InputError` if none is."""
+    """The measure called ``name``, in any case; :class:`~vptoolkit.errors.InputError`
+    if none is."""
     return all_measures()[canonical_name(name)]
 
 

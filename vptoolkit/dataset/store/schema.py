@@ -105,8 +105,9 @@ class ArraySpec:
         The shape of one model's value (``"model"``), of one model's rows
         (``"mesh"``, first axis None) or of the whole array (``"root"``). A
         string names a size: ``"n_points"``, ``"n_views"``, ``"n_measures"``
-        (the length of the root attribute ``measures``); None is a length set by the content (the rows of a mesh,
-        the bytes of a JSON text, ``n_models + 1`` offsets).
+        (the length of the root attribute ``measures``); None is a length set
+        by the content (the rows of a mesh, the bytes of a JSON text,
+        ``n_models + 1`` offsets).
     chunk_rows : int or None
         Rows along the first axis per chunk (models, for ``"model"``); None
         stores the array as one chunk.
