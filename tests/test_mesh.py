@@ -9,7 +9,7 @@ import pytest
 
 from fixtures.environment import require_package
 from vptoolkit.best_view.prior import UnoccludedPrior
-from vptoolkit.best_view.search import search_best_views
+from vptoolkit.best_view.search import SearchSettings, search_best_views
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame, face_areas
 from vptoolkit.io import load_mesh, save_mesh
@@ -60,8 +60,8 @@ def test_as_mesh_keeps_the_arrays_as_float64_and_int64_copies(mug, kind):
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_every_input_gives_exactly_the_search_of_the_mesh(mug, kind):
-    expected = search_best_views(mug, 16, 64)
-    found = search_best_views(other_mesh(kind, mug), 16, 64)
+    expected = search_best_views(mug, SearchSettings(budget=16, resolution=64))
+    found = search_best_views(other_mesh(kind, mug), SearchSettings(budget=16, resolution=64))
     assert found.directions.tobytes() == expected.directions.tobytes()
     assert found.raw.tobytes() == expected.raw.tobytes()
     assert found.stages == expected.stages
@@ -98,7 +98,7 @@ def test_the_other_entry_points_take_every_input(mug, kind, tmp_path):
 ], ids=["path", "list", "triple", "array"])
 def test_anything_else_is_refused_in_one_line(value, got):
     with pytest.raises(InputError) as caught:
-        search_best_views(value, 8, 32)
+        search_best_views(value, SearchSettings(budget=8, resolution=32))
     assert str(caught.value) == (
         "mesh: expected a vptoolkit Mesh, a trimesh.Trimesh, an Open3D TriangleMesh or "
         f"(vertices, faces), got {got}")
@@ -111,7 +111,7 @@ def test_bad_arrays_are_named_by_the_mesh_check():
     import trimesh
 
     with pytest.raises(InputError, match="^mesh: mesh has no faces$"):
-        search_best_views(trimesh.Trimesh(), 8, 32)
+        search_best_views(trimesh.Trimesh(), SearchSettings(budget=8, resolution=32))
 
 
 def test_trimesh_scene_camera_with_the_opengl_pose_casts_through_our_pixels(mug):
@@ -120,7 +120,7 @@ def test_trimesh_scene_camera_with_the_opengl_pose_casts_through_our_pixels(mug)
     require_package("trimesh")
     import trimesh
 
-    found = search_best_views(mug, 16, 64)
+    found = search_best_views(mug, SearchSettings(budget=16, resolution=64))
     scene = trimesh.Scene(other_mesh("trimesh", mug))
     scene.camera.resolution = (48, 48)
     scene.camera.fov = (45.0, 45.0)
@@ -142,10 +142,10 @@ import numpy as np
 import open3d as o3d
 from vptoolkit.io import load_mesh
 from vptoolkit.samples import sample_path
-from vptoolkit.best_view.search import search_best_views
+from vptoolkit.best_view.search import SearchSettings, search_best_views
 
 mug = load_mesh(sample_path("mug.obj"))
-found = search_best_views(mug, budget=16, resolution=64)
+found = search_best_views(mug, SearchSettings(budget=16, resolution=64))
 mesh = o3d.geometry.TriangleMesh(o3d.utility.Vector3dVector(mug.vertices.copy()),
                                  o3d.utility.Vector3iVector(mug.faces.astype(np.int32)))
 mesh.compute_vertex_normals()
@@ -171,7 +171,7 @@ def test_open3d_draws_the_found_view_where_the_rasteriser_does(mug, tmp_path):
     subprocess.run([sys.executable, str(script), str(tmp_path / "picture.npy")], check=True,
                    capture_output=True, timeout=300, cwd=tmp_path)
     drawn = np.load(tmp_path / "picture.npy", allow_pickle=False)[:, :, :3].max(axis=2) > 127
-    found = search_best_views(mug, budget=16, resolution=64)
+    found = search_best_views(mug, SearchSettings(budget=16, resolution=64))
     seen = face_id_images(mug, MeasureSettings(views=1, resolution=256),
                           view_directions=found.directions[:1])[0] >= 0
     assert (drawn & seen).sum() / (drawn | seen).sum() > 0.97

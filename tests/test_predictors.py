@@ -5,9 +5,9 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.measures.unoccluded import unoccluded_best_views
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import sample_surface
@@ -32,7 +32,7 @@ def test_predict_unoccluded_of_a_mesh_a_scan_and_a_dataset(tmp_path, tiny_datase
     assert result.exit_code == 0, result.output
     names, directions, measures = read_predictions(out)
     assert list(names[:2]) == ["teapot", "scan"] and len(names) == 6
-    assert directions.shape == (6, 4, 3) and list(measures) == list(MEASURES)
+    assert directions.shape == (6, 4, 3) and list(measures) == list(PAPER_MEASURES)
     np.testing.assert_allclose(np.linalg.norm(directions, axis=2), 1.0)
     np.testing.assert_array_equal(directions[1], unoccluded_best_views(sample.normals))
     only_dataset = tmp_path / "dataset.npz"
@@ -87,7 +87,7 @@ def test_predict_unoccluded_of_broken_stored_normals_names_the_dataset_and_model
 def test_resolve_predictor_by_name_and_as_given(tiny_dataset):
     unoccluded = resolve_predictor("unoccluded")
     answered = unoccluded([sample_path("teapot.stl"), tiny_dataset], split=None)
-    assert answered.names[0] == "teapot" and answered.measures == MEASURES
+    assert answered.names[0] == "teapot" and answered.measures == PAPER_MEASURES
     np.testing.assert_array_equal(answered.directions,
                                   predict_unoccluded([sample_path("teapot.stl"), tiny_dataset],
                                                      split=None).directions)

@@ -78,7 +78,7 @@ from results_doc import (
 )
 
 from vptoolkit.best_view.prior import resolve_prior
-from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION, search_best_views
+from vptoolkit.best_view.search import BUDGET, SEARCH_RESOLUTION, SearchSettings, search_best_views
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import build_dataset
@@ -227,7 +227,8 @@ def answers(budgets: list[int], resolution: int, drawless: dict[str, Answer],
 
     def searched(budget: int, prior: Any = None) -> Answer:
         return lambda mesh: search_best_views(
-            mesh, budget, resolution, prior=None if prior is None else prior(mesh)).directions
+            mesh, SearchSettings(budget=budget, resolution=resolution),
+            prior=None if prior is None else prior(mesh)).directions
 
     for budget in budgets:
         rows[f"plain search {budget} @ {resolution}"] = (str(budget), plain(budget))

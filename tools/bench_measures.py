@@ -21,7 +21,13 @@ midpoint-subdivided to size):
   the depth and silhouette statistics; and the seconds each family adds on
   top of the drawn views (its measures computed on one ``ViewData``);
 * the JIT compile time (cold cache) and the cached start-up time, apart;
-* the peak resident memory of the process after the largest mesh.
+* the peak resident memory of the process after the largest mesh;
+* with ``--memory-only``, the peak memory of ``compute_view_quality`` with
+  ``--measures VE``, ``paper`` and ``VE,NVT`` on the bunny, each in a fresh
+  process: the peak of the memory Python and numpy allocate while measuring
+  (``tracemalloc``) and the process's peak resident memory; VE alone streams
+  like the paper's four, a measure that reads the kept pixel counts (NVT)
+  keeps them.
 
 Usage::
 
@@ -34,6 +40,9 @@ Usage::
     # all measures against the four, alone, into section ``measure_costs``:
     python tools/bench_measures.py --costs-only --results docs/benchmarks.md \
         --section measure_costs
+    # peak memory of one measure against the paper's four, into section ``measure_memory``:
+    python tools/bench_measures.py --memory-only --results docs/benchmarks.md \
+        --section measure_memory
 """
 
 from __future__ import annotations
@@ -51,11 +60,11 @@ from pathlib import Path
 import numpy as np
 from results_doc import add_results_option, printed_section
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.measure import FAMILIES
 from vptoolkit.measures.quality import compute_view_quality
-from vptoolkit.measures.registry import FAMILIES, all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
@@ -176,6 +185,53 @@ def print_measure_costs(mesh: Mesh, views: np.ndarray, resolution: int,
     return {"mesh": mesh.name, "faces": mesh.n_faces, "resolution": resolution, **record}
 
 
+MEMORY_SPECS = ("VE", "paper", "VE,NVT")
+"""The ``--measures`` values whose peak memory ``--memory-only`` compares."""
+
+_CHILD_MEMORY = """
+import json, resource, sys, tracemalloc
+from vptoolkit.io import load_mesh
+from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.samples import sample_path
+from vptoolkit.settings import MeasureSettings
+mesh = load_mesh(sample_path(sys.argv[1]))
+spec = sys.argv[4]
+compute_view_quality(mesh, MeasureSettings(views=2, resolution=16), measures=spec)  # JIT load
+tracemalloc.start()
+compute_view_quality(mesh, MeasureSettings(views=int(sys.argv[2]), resolution=int(sys.argv[3])),
+                     measures=spec)
+traced = tracemalloc.get_traced_memory()[1]
+resident = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print(json.dumps({"traced_mb": traced / 2**20, "resident_mb": resident / 1024}))
+"""
+
+
+def peak_memory(sample: str, n_views: int, resolution: int, spec: str) -> dict[str, float]:
+    """Peak memory in MiB of ``compute_view_quality(..., measures=spec)`` on a sample mesh, in
+    a fresh process: ``traced_mb`` what Python and numpy allocate while measuring
+    (``tracemalloc``), ``resident_mb`` the process's peak resident memory."""
+    done = subprocess.run([sys.executable, "-c", _CHILD_MEMORY, sample, str(n_views),
+                           str(resolution), spec], capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise SystemExit(f"bench_measures: the memory child failed:\n{done.stderr.strip()}")
+    record: dict[str, float] = json.loads(done.stdout.strip().splitlines()[-1])
+    return record
+
+
+def print_peak_memory(sample: str, n_views: int, resolution: int) -> list[dict[str, object]]:
+    """Print and return :func:`peak_memory` of each of :data:`MEMORY_SPECS`."""
+    mesh = load_mesh(sample_path(sample))
+    print(f"peak memory of compute_view_quality: {mesh.name}, {mesh.n_faces} faces, "
+          f"{n_views} views at {resolution} px, each in a fresh process")
+    records: list[dict[str, object]] = []
+    for spec in MEMORY_SPECS:
+        record = peak_memory(sample, n_views, resolution, spec)
+        print(f"  --measures {spec:<8} traced peak {record['traced_mb']:>7.1f} MiB, "
+              f"resident peak {record['resident_mb']:>7.1f} MiB")
+        records.append({"measures": spec, **record})
+    return records
+
+
 def jit_seconds() -> tuple[float, float]:
     """Seconds for the first tiny rasterisation in a fresh process: cold cache, then warm."""
     code = (
@@ -210,6 +266,9 @@ def main() -> None:
     parser.add_argument("--costs-only", action="store_true",
                         help="only the cost of all measures against the paper's four "
                              "(the torus at the finest resolution)")
+    parser.add_argument("--memory-only", action="store_true",
+                        help="only the peak memory of --measures VE, paper and VE,NVT "
+                             "(the bunny; the torus with --quick)")
     add_results_option(parser, "measures")
     args = parser.parse_args()
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
@@ -229,6 +288,10 @@ def main() -> None:
         if args.max_faces is not None:
             meshes = [mesh for mesh in meshes if mesh.n_faces <= args.max_faces]
         views = fibonacci_sphere(n_views)
+        if args.memory_only:
+            print_peak_memory("torus.STL" if args.quick else "bunny.ply", n_views,
+                              resolutions[-1])
+            return
         if args.costs_only:
             compute_view_quality(torus, MeasureSettings(views=2, resolution=16), measures="all")
             print_measure_costs(torus, views, resolutions[-1], args.repeat)
@@ -281,9 +344,10 @@ def main() -> None:
                 for resolution in resolutions[:-1]:
                     coarse = qualities[resolution]
                     angles = angle_between_deg(coarse.best_views, reference.best_views)
-                    lost = 1.0 - reference.normalized[coarse.best_index, np.arange(len(MEASURES))]
+                    lost = 1.0 - reference.normalized[coarse.best_index,
+                                                      np.arange(len(PAPER_MEASURES))]
                     cells = "  ".join(f"{m} {a:5.1f} deg -{q:.3f}"
-                                      for m, a, q in zip(MEASURES, angles, lost))
+                                      for m, a, q in zip(PAPER_MEASURES, angles, lost))
                     print(f"{'':<14}best view at {resolution} vs {finest}: {cells}")
                     results.append({"mesh": mesh.name, "resolution": resolution, "vs": finest,
                                     "angle_deg": angles.tolist(), "quality_lost": lost.tolist()})

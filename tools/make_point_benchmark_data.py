@@ -4,7 +4,7 @@ For the models of one split of a mesh collection (a ``name,split`` CSV):
 
 1. ``OUT/meshes/<category>/``: links to the models' files, the source of
 2. ``OUT/labels/``: a dataset store built from them (``vptool build-dataset``'s
-   :func:`~vptoolkit.dataset.build.run.build_dataset`: cleaned meshes, their
+   :func:`~vptoolkit.dataset.builder.run.build_dataset`: cleaned meshes, their
    20000 area-uniform surface points with normals and the paper's four
    measures over ``--views`` views at ``--resolution`` px, the split kept
    from the CSV); rerunning resumes it;
@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from vptoolkit.data import open_dataset
-from vptoolkit.dataset.build.options import BuildOptions, SplitFile
-from vptoolkit.dataset.build.run import build_dataset
+from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
+from vptoolkit.dataset.builder.run import build_dataset
 from vptoolkit.files import write_bytes_atomic, write_json_atomic
 from vptoolkit.io import find_mesh_files
 from vptoolkit.mesh import Mesh

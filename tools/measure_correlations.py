@@ -48,8 +48,9 @@ from results_doc import (
 )
 
 from vptoolkit.io import find_mesh_files, load_mesh
+from vptoolkit.measures.measure import FAMILIES
 from vptoolkit.measures.quality import compute_view_quality
-from vptoolkit.measures.registry import FAMILIES, get_measure, resolve_measures
+from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_names, sample_path
 from vptoolkit.settings import MeasureSettings

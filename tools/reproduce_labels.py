@@ -63,7 +63,6 @@ from results_doc import (
     write_section,
 )
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import build_dataset
@@ -85,6 +84,7 @@ from vptoolkit.learn.predict import network_predictor
 from vptoolkit.learn.schedule import scaled_lr_step
 from vptoolkit.learn.train import train_model, train_per_category
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_features import check_feature_names
 from vptoolkit.settings import MeasureSettings
@@ -428,8 +428,8 @@ def _score_table(rows: dict[str, ProtocolScores], timings: dict[str, float]) -> 
         paper = " / ".join(f"{v:.1f}" for v in PAPER[label]) if label in PAPER else ""
         train = format_seconds(timings[label]) if label in timings else ""
         table.append([label, *score_cells(scores), train, paper])
-    return markdown_table(["method", *MEASURES, "train time", "paper (ModelNet40)"], table,
-                          align="l" + "r" * (len(MEASURES) + 1) + "l")
+    return markdown_table(["method", *PAPER_MEASURES, "train time", "paper (ModelNet40)"], table,
+                          align="l" + "r" * (len(PAPER_MEASURES) + 1) + "l")
 
 
 def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -> str:
@@ -444,16 +444,16 @@ def verdict(rows: dict[str, ProtocolScores], reference: str = LABELS["ml+gl"]) -
         if label == reference:
             continue
         delta, sem = paired_difference(rows[reference], scores)
-        won = [m for m, d, e in zip(MEASURES, delta, sem) if d > 2 * e]
-        lost = [m for m, d, e in zip(MEASURES, delta, sem) if d < -2 * e]
-        if len(won) == len(MEASURES):
+        won = [m for m, d, e in zip(PAPER_MEASURES, delta, sem) if d > 2 * e]
+        lost = [m for m, d, e in zip(PAPER_MEASURES, delta, sem) if d < -2 * e]
+        if len(won) == len(PAPER_MEASURES):
             beats.append(label)
             continue
         if won:
             beats.append(f"{label} ({', '.join(won)})")
         if lost:
             loses.append(f"{label} ({', '.join(lost)})")
-        tied = [m for m in MEASURES if m not in won and m not in lost]
+        tied = [m for m in PAPER_MEASURES if m not in won and m not in lost]
         if tied:
             ties.append(f"{label} ({', '.join(tied)})")
     parts = [f"{reference} beats " + ("; ".join(beats) if beats else "no other row")

@@ -79,10 +79,11 @@ from results_doc import (
     write_section,
 )
 
-from vptoolkit.conventions import MEASURES, RESOLUTION
+from vptoolkit.conventions import RESOLUTION
 from vptoolkit.geometry import face_areas, face_normals
 from vptoolkit.io import load_mesh
 from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import poisson_disk_points, sample_surface
 from vptoolkit.samples import sample_path
@@ -690,8 +691,8 @@ def section_robustness(options: RunOptions) -> Section:
         paper = PAPER_ROBUSTNESS.get(paper_rows.get(label, ""))
         table.append([label, *_one_decimal(scores),
                       " / ".join(_one_decimal(paper)) if paper else ""])
-    lines += markdown_table(["input", *MEASURES, "paper (ModelNet40)"], table,
-                            align="l" + "r" * len(MEASURES) + "l")
+    lines += markdown_table(["input", *PAPER_MEASURES, "paper (ModelNet40)"], table,
+                            align="l" + "r" * len(PAPER_MEASURES) + "l")
     ours = rows["(a) dataset points (cleaned meshes)"] - np.vstack(
         [rows["(b) raw source meshes"], rows["(c) Poisson-disk sampling"]])
     paper = np.subtract(PAPER_ROBUSTNESS["preprocessed meshes"],
@@ -706,10 +707,10 @@ def section_robustness(options: RunOptions) -> Section:
         f"each under {HELD_OUT_ROTATIONS} fixed rotations (`vptoolkit.evaluate.protocol`), "
         "mean over meshes ± standard error:",
         "",
-        *markdown_table(["method", *MEASURES],
+        *markdown_table(["method", *PAPER_MEASURES],
                         [[label, *score_cells(scores)] for label, scores in held_out.items()]),
         "", "Network per mesh:", "",
-        *markdown_table(["mesh", "faces", *MEASURES],
+        *markdown_table(["mesh", "faces", *PAPER_MEASURES],
                         [[name, str(sample_faces[name]), *_one_decimal(scores)]
                          for name, scores in per_model.items()]),
     ]
@@ -765,7 +766,7 @@ def section_subdivision(options: RunOptions) -> Section:
     plt = _pyplot()
     fig, axes = plt.subplots(figsize=(6.4, 4.0))
     levels = np.arange(len(n_faces))
-    for column, measure in enumerate(MEASURES):
+    for column, measure in enumerate(PAPER_MEASURES):
         line, = axes.plot(levels, measure_angles[:, column], marker="o",
                           label=f"{measure} best view")
         axes.plot(levels, network_angles[:, column], linestyle="--", marker="x",
@@ -794,19 +795,20 @@ def section_subdivision(options: RunOptions) -> Section:
         "view above the horizontal seat plane (90 = straight from the top, negative = from "
         "below). The network's noise "
         "floor (largest angle between level-0 predictions from sampling seeds 0 and 1, 2, 3): "
-        + ", ".join(f"{m} {v:.1f}" for m, v in zip(MEASURES, noise)) + ".",
+        + ", ".join(f"{m} {v:.1f}" for m, v in zip(PAPER_MEASURES, noise)) + ".",
         "",
         *markdown_table(
-            ["level", "faces", *MEASURES, "VE elevation", *(f"net {m}" for m in MEASURES)],
+            ["level", "faces", *PAPER_MEASURES, "VE elevation",
+             *(f"net {m}" for m in PAPER_MEASURES)],
             [[str(level), str(n_faces[level]), *_one_decimal(measure_angles[level]),
               f"{ve_elevation[level]:.1f}", *_one_decimal(network_angles[level])]
              for level in levels],
-            align="r" * (2 * len(MEASURES) + 3)),
+            align="r" * (2 * len(PAPER_MEASURES) + 3)),
     ]
     drift = measure_angles.max(axis=0)
     lines += [
         "", "Largest drift over the levels: " + ", ".join(
-            f"{m} {v:.1f}" for m, v in zip(MEASURES, drift))
+            f"{m} {v:.1f}" for m, v in zip(PAPER_MEASURES, drift))
         + f" degrees for the measures; network {network_angles.max():.1f} degrees "
         f"(noise floor {noise.max():.1f}).",
         "", _figure_link(options, figure, "Angle to level 0 against subdivision level"),
@@ -838,7 +840,7 @@ def section_resolution(options: RunOptions) -> Section:
     resolutions = sorted(sizes.resolutions)
     finest = resolutions[-1]
     n_res, n_meshes = len(resolutions), len(sizes.resolution_meshes)
-    angles = np.zeros((n_meshes, n_res, len(MEASURES)))
+    angles = np.zeros((n_meshes, n_res, len(PAPER_MEASURES)))
     losses = np.zeros_like(angles)
     rhos = np.zeros_like(angles)
     times = np.zeros((n_meshes, n_res))
@@ -856,9 +858,9 @@ def section_resolution(options: RunOptions) -> Section:
         for j, quality in enumerate(qualities):
             angles[i, j] = angle_between_deg(quality.best_views, reference.best_views)
             losses[i, j] = 100.0 * (
-                1.0 - reference.normalized[quality.best_index, np.arange(len(MEASURES))])
+                1.0 - reference.normalized[quality.best_index, np.arange(len(PAPER_MEASURES))])
             rhos[i, j] = [spearman(quality.raw[:, m], reference.raw[:, m])
-                          for m in range(len(MEASURES))]
+                          for m in range(len(PAPER_MEASURES))]
     worst_angle, worst_loss, worst_rho = angles.max(axis=0), losses.max(axis=0), rhos.min(axis=0)
     spacing = math.degrees(math.sqrt(4 * math.pi / sizes.resolution_views))
     seconds = time.perf_counter() - started
@@ -888,7 +890,7 @@ def section_resolution(options: RunOptions) -> Section:
     panels = [(worst_angle, "worst best-view angle (degrees)"),
               (worst_loss, "worst quality lost (%)"), (worst_rho, "worst Spearman rho")]
     for axis, (values, title) in zip(axes, panels):
-        for column, measure in enumerate(MEASURES):
+        for column, measure in enumerate(PAPER_MEASURES):
             axis.plot(resolutions, values[:, column], marker="o", label=measure)
         axis.set_xscale("log", base=2)
         axis.set_xticks(resolutions, [str(r) for r in resolutions])
@@ -915,13 +917,13 @@ def section_resolution(options: RunOptions) -> Section:
         "views. Time: total seconds for all meshes.",
         "",
         *markdown_table(
-            ["resolution", *MEASURES, "time"],
+            ["resolution", *PAPER_MEASURES, "time"],
             [[str(resolution),
               *(f"{worst_angle[j, m]:.1f} / {worst_loss[j, m]:.1f} / {worst_rho[j, m]:.3f}"
-                for m in range(len(MEASURES))),
+                for m in range(len(PAPER_MEASURES))),
               f"{times[:, j].sum():.1f} s"]
              for j, resolution in enumerate(resolutions)],
-            align="r" * (len(MEASURES) + 2)),
+            align="r" * (len(PAPER_MEASURES) + 2)),
     ]
     lines += ["", recommendation, "",
               _figure_link(options, figure, "Best-view angle, quality lost and rank correlation "

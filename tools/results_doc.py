@@ -29,8 +29,8 @@ import sys
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.evaluate.protocol import ProtocolScores, paired_difference
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 
 def machine() -> str:
@@ -102,7 +102,7 @@ def comparison_table(rows: Mapping[str, ProtocolScores], reference: str) -> list
         delta, sem = paired_difference(rows[reference], scores)
         lines.append([label, *(f"{d:+.1f} ± {e:.1f}{' *' if abs(d) > 2 * e else ''}"
                                for d, e in zip(delta, sem))])
-    return markdown_table([f"{reference} minus", *MEASURES], lines)
+    return markdown_table([f"{reference} minus", *PAPER_MEASURES], lines)
 
 
 def add_results_option(parser: argparse.ArgumentParser, section: str, *,

@@ -55,7 +55,6 @@ from results_doc import (
 )
 
 from vptoolkit.cli.group import exit_code, one_line_error
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import build_dataset
@@ -71,6 +70,7 @@ from vptoolkit.evaluate.protocol import (
 )
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.predict import N_INPUTS, MeshPredictor, network_predictor
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS
 from vptoolkit.rotations import fixed_rotations
@@ -256,7 +256,7 @@ def table(rows: dict[str, ProtocolScores], reference: str,
     ``*`` marks a difference beyond two standard errors. With ``angles``, a
     last table of rotation consistency per count of inputs.
     """
-    scores = markdown_table(["method", *MEASURES],
+    scores = markdown_table(["method", *PAPER_MEASURES],
                             [[label, *score_cells(row)] for label, row in rows.items()])
     lines = [*scores, "", *comparison_table(rows, reference)]
     if angles:
@@ -268,7 +268,7 @@ def table(rows: dict[str, ProtocolScores], reference: str,
                   "rotated copy: the median angle in degrees (the share of meshes within "
                   f"{CONSISTENT_DEG:g} degrees), then the mean difference of the two answers' "
                   "scores in points.", "",
-                  *markdown_table(["network inputs", *MEASURES],
+                  *markdown_table(["network inputs", *PAPER_MEASURES],
                                   [[str(count), *map(cell, found.angles.T, found.gaps.T)]
                                    for count, found in angles.items()])]
     return "\n".join(lines)

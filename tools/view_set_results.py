@@ -83,11 +83,11 @@ def evaluate_mesh(mesh: Mesh, n_views: int, resolution: int) -> dict[str, object
     to_target = {}
     for name, objective in (("greedy information", "information"),
                             ("greedy quality (VE)", "quality"), ("greedy coverage", "coverage")):
-        chosen = best_view_set(visibility, K, objective=objective, quality=quality)
+        chosen = best_view_set(visibility, K, objective=objective, quality=quality[:, 0])
         rows[name] = padded(chosen.coverage)
         spreads[name] = spread_deg(chosen.directions)
         to_target[name] = len(best_view_set(visibility, None, objective=objective,
-                                            until_coverage=0.95, quality=quality))
+                                            until_coverage=0.95, quality=quality[:, 0]))
     reachable = best_view_set(visibility, 1).reachable
     return {"rows": rows, "spreads": spreads, "to_target": to_target, "reachable": reachable}
 

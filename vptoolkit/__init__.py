@@ -47,8 +47,8 @@ module, layer by layer):
 from __future__ import annotations
 
 from vptoolkit._version import __version__
-from vptoolkit.best_view.search import BestViews, search_best_views
-from vptoolkit.conventions import MEASURES, N_VIEWS
+from vptoolkit.best_view.search import BestViews, SearchSettings, search_best_views
+from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import (
     CheckpointError,
     ExistingRunError,
@@ -61,12 +61,14 @@ from vptoolkit.errors import (
 )
 from vptoolkit.io import load_mesh, save_mesh
 from vptoolkit.measures.quality import ViewQuality, compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
 __all__ = [
     "BestViews",
-    "MEASURES",
+    "PAPER_MEASURES",
+    "SearchSettings",
     "N_VIEWS",
     "CheckpointError",
     "ExistingRunError",

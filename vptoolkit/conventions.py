@@ -1,12 +1,11 @@
 """Fixed conventions shared by every part of vptoolkit.
 
 Measures
-    ``MEASURES = ("VE", "VR", "VKL", "VMI")`` is the one order of every
-    ``(..., 4)`` array, table column and CLI listing. Raw values: higher is
-    better for VE (viewpoint entropy) and VR (visibility ratio), lower is better
-    for VKL (viewpoint Kullback-Leibler divergence) and VMI (viewpoint mutual
-    information). Normalised values are always in [0, 1] with 1 = best.
-    Logarithms are base 2 (bits).
+    Named by the registry (:mod:`vptoolkit.measures.registry`), the one
+    vocabulary of measures; its ``PAPER_MEASURES = ("VE", "VR", "VKL",
+    "VMI")`` is the order of every ``(..., 4)`` array of the paper's four.
+    Normalised values are always in [0, 1] with 1 = best. Logarithms are
+    base 2 (bits).
 
 Splits
     ``SPLITS = ("train", "validation", "test")`` names the splits everywhere
@@ -36,11 +35,7 @@ from __future__ import annotations
 import math
 from typing import Final, Literal, TypeAlias
 
-from vptoolkit.errors import InputError
-
 __all__ = [
-    "MEASURES",
-    "HIGHER_IS_BETTER",
     "N_VIEWS",
     "RESOLUTION",
     "SEED",
@@ -51,14 +46,7 @@ __all__ = [
     "DISTANCE_FACTOR",
     "UP",
     "FALLBACK_UP",
-    "measure_index",
 ]
-
-MEASURES: Final = ("VE", "VR", "VKL", "VMI")
-"""Measure names in the fixed order of every ``(..., 4)`` array."""
-
-HIGHER_IS_BETTER: Final = (True, True, False, False)
-"""For each entry of :data:`MEASURES`: is a higher raw value better?"""
 
 N_VIEWS: Final = 1000
 """Number of candidate views on the Fibonacci sphere (the paper's choice)."""
@@ -99,16 +87,3 @@ UP: Final = (0.0, -1.0, 0.0)
 FALLBACK_UP: Final = (0.0, 0.0, 1.0)
 """Up vector used where the view direction is parallel to :data:`UP`."""
 
-
-def measure_index(measure: str) -> int:
-    """Column of a measure name in :data:`MEASURES` (case-insensitive).
-
-    Raises
-    ------
-    InputError
-        One line naming the unknown measure and the known ones.
-    """
-    if not isinstance(measure, str) or measure.upper() not in MEASURES:
-        raise InputError(f"measure: unknown measure {measure!r}, expected one of "
-                         f"{', '.join(MEASURES)}")
-    return MEASURES.index(measure.upper())

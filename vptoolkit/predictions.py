@@ -15,7 +15,7 @@ Format (``*.npz``, nothing pickled):
     camera (need not be unit length).
 ``measures`` : (n_measures,) unicode
     Registered measure names (:mod:`vptoolkit.measures.registry`), each
-    once: by default the paper's four, ``MEASURES`` (``["VE", "VR", "VKL",
+    once: by default the paper's four, ``PAPER_MEASURES`` (``["VE", "VR", "VKL",
     "VMI"]``); any others in any order, e.g. ``["NVT", "SL", "VE"]``. Where a
     file names several of the paper's four, they keep their order VE, VR,
     VKL, VMI among themselves (the order every file has had), so a file of
@@ -45,10 +45,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_npy_header, one_line
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 
 __all__ = [
     "PREDICTION_KEYS",
@@ -82,7 +81,7 @@ class Predictions:
     measures : tuple of str
         The measure of each direction: registered names, each once (the
         paper's four, where several are given, in their order); default
-        ``MEASURES``. See :func:`check_prediction_measures`.
+        ``PAPER_MEASURES``. See :func:`check_prediction_measures`.
 
     Raises
     ------
@@ -101,7 +100,7 @@ class Predictions:
 
     names: tuple[str, ...]
     directions: NDArray[np.float64]
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     def __post_init__(self) -> None:
         directions = np.asarray(self.directions, dtype=np.float64)
@@ -323,7 +322,7 @@ def write_predictions(
     names: Sequence[str],
     directions: ArrayLike,
     *,
-    measures: Sequence[str] = MEASURES,
+    measures: Sequence[str] = PAPER_MEASURES,
 ) -> Path:
     """Write predictions as a ``.npz``, atomically.
 
@@ -337,7 +336,7 @@ def write_predictions(
         One direction per model and measure, stored as float64.
     measures : sequence of str
         The predicted measures: registered names, each once, the paper's
-        four in their order among themselves (default: ``MEASURES``, the
+        four in their order among themselves (default: ``PAPER_MEASURES``, the
         four; see :func:`check_prediction_measures`).
 
     Returns

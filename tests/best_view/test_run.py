@@ -8,8 +8,9 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.best_view.run import search_inputs
+from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.predictions import read_predictions
 from vptoolkit.samples import sample_path
 
@@ -17,7 +18,8 @@ from vptoolkit.samples import sample_path
 def test_a_batch_records_failures_and_carries_on(tmp_path):
     broken = tmp_path / "broken.off"
     broken.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
-    run = search_inputs([sample_path("mug.obj"), broken], budget=8, resolution=32)
+    run = search_inputs([sample_path("mug.obj"), broken],
+                        settings=SearchSettings(budget=8, resolution=32))
     assert [result.name for result in run.results] == ["mug"]
     assert len(run.failures) == 1 and run.failures[0][0] == str(broken)
     assert "broken.off" in run.failures[0][1] and "\n" not in run.failures[0][1]
@@ -33,7 +35,7 @@ def test_command_writes_predictions_evaluate_reads(tmp_path):
     assert "mug: 16 views (" in result.stdout and f"wrote {out} (2 meshes)" in result.stdout
     names, directions, measures = read_predictions(out)
     assert list(names) == ["mug", "teapot"] and directions.shape == (2, 4, 3)
-    assert tuple(measures) == MEASURES
+    assert tuple(measures) == PAPER_MEASURES
     first = out.read_bytes()
     assert runner.invoke(main, arguments).exit_code == 0 and out.read_bytes() == first
 
@@ -45,7 +47,7 @@ def test_command_json_lists_directions_views_resolutions_and_seconds():
     entry = json.loads(result.stdout)["results"][0]
     assert entry["views"] == 8 and entry["resolution"] == 48 and entry["seconds"] > 0
     assert sum(stage["views"] for stage in entry["stages"]) == 8
-    assert set(entry["best"]) == set(MEASURES)
+    assert set(entry["best"]) == set(PAPER_MEASURES)
 
 
 @pytest.mark.parametrize("arguments, message", [
@@ -101,7 +103,7 @@ def test_command_on_a_dataset_split_is_scored_by_evaluate(tmp_path):
     with open_dataset(tmp_path / "out") as dataset:
         random_view = np.mean([dataset[i]["quality"].mean(axis=0) for i in range(len(dataset))],
                               axis=0)
-    assert all(mean[m] > 100 * random_view[i] + 10 for i, m in enumerate(MEASURES))
+    assert all(mean[m] > 100 * random_view[i] + 10 for i, m in enumerate(PAPER_MEASURES))
 
 
 @pytest.mark.parametrize("text, message", [

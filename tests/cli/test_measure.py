@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from fixtures.commands import SMALL_DRAW
 from fixtures.paths import MALFORMED
@@ -128,6 +129,19 @@ def test_views_until_a_coverage_target(runner):
     assert len(coverage) == 1 or coverage[-2] < 0.9 * summary["reachable"]
 
 
+def test_views_take_any_registered_measure_in_any_case(runner):
+    mug = str(sample_path("mug.obj"))
+    result = runner.invoke(main, ["views", mug, "--views", "40", "--resolution", "48", "--k",
+                                  "2", "--objective", "quality", "--measure", "sl", "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert summary["measure"] == "SL" and len(summary["picks"]) == 2
+    refused = runner.invoke(main, ["views", mug, "--objective", "quality", "--measure", "XX"])
+    assert refused.exit_code == 2
+    assert refused.stderr.startswith("vptool: error: --measure: unknown measure 'XX'; known: ")
+    assert refused.stderr.count("\n") == 1
+
+
 @pytest.mark.parametrize("name", ["empty.obj", "empty.stl", "ply_empty_header.ply", "README.md"])
 def test_views_of_a_malformed_file_is_one_line_and_exit_2(runner, name):
     result = runner.invoke(main, ["views", str(MALFORMED / name), "--views", "8"])
@@ -178,3 +192,49 @@ def test_views_with_an_unreachable_min_pixels_is_a_failure(runner, tmp_path):
     assert line.startswith("vptool: error: ") and "--min-pixels" in line
     assert "no face has 100000 pixels in any of the 12 views" in line
     assert not out.exists()
+
+
+# --- measures chosen by name --------------------------------------------------------------
+
+
+@pytest.fixture
+def runner() -> CliRunner:
+    return CliRunner()
+
+
+def test_cli_measures_by_name_in_table_json_and_npz(runner, tmp_path):
+    mesh = str(sample_path("suzanne.ply"))
+    table = runner.invoke(main, ["measures", mesh, "--views", "60", "--resolution", "96",
+                                 "--measures", "NVT,I2,INS"])
+    assert table.exit_code == 0, table.output
+    rows = [line.split() for line in table.stdout.splitlines()[2:5]]
+    assert [(row[0], row[-1]) for row in rows] == [("NVT", "max"), ("I2", "min"), ("INS", "min")]
+    out = tmp_path / "suzanne.npz"
+    result = runner.invoke(main, ["measures", mesh, "--views", "60", "--resolution", "96",
+                                  "--measures", "PA,VE", "--json", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    assert list(summary["best"]) == ["PA", "VE"]
+    with np.load(out, allow_pickle=False) as stored:
+        assert tuple(stored["measures"]) == ("PA", "VE")
+        assert [summary["best"][m]["view_index"] for m in ("PA", "VE")] == list(
+            stored["best_index"])
+
+
+@pytest.mark.parametrize("spec, message", [
+    ("VE,XYZ", "--measures: unknown measure 'XYZ'; known: NVT, PA"),
+    ("VE,VE", "--measures: VE named twice"),
+    (" , ", "--measures: no measure named"),
+])
+def test_cli_bad_measure_names_are_one_line_and_exit_2(runner, spec, message):
+    result = runner.invoke(main, ["measures", str(sample_path("teapot.stl")),
+                                  "--measures", spec])
+    assert result.exit_code == 2
+    assert result.stderr.count("\n") == 1 and "Traceback" not in result.output
+    assert result.stderr.startswith(f"vptool: error: {message}")
+
+
+def test_cli_help_shows_a_measures_example(runner):
+    result = runner.invoke(main, ["measures", "--help"])
+    assert result.exit_code == 0
+    assert "--measures NVT,PA,I3,INS" in result.output and "'all'" in result.output

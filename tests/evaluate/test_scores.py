@@ -1,4 +1,5 @@
-"""Nearest-sample scoring of predicted viewpoints and the prediction files it reads."""
+"""Nearest-sample scoring of predicted viewpoints and the prediction files it reads, also
+against a dataset built with other measures than the paper's four."""
 
 from __future__ import annotations
 
@@ -12,8 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from fixtures.builds import THREE_MEASURES, THREE_MESHES
+from fixtures.environment import require_package
 from fixtures.stores import SCORED_ENTRIES, SCORED_MODELS, synthetic_entry, write_synthetic
-from vptoolkit.conventions import MEASURES
+from vptoolkit.cli import main
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import oracle_directions, random_directions
@@ -23,6 +26,8 @@ from vptoolkit.evaluate.scores import (
     load_predictions,
     score_directions,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
+from vptoolkit.predictions import write_predictions
 from vptoolkit.predictions import write_predictions as save_predictions
 
 TEST_NAMES = [name for _, name, split in SCORED_MODELS if split == "test"]
@@ -53,7 +58,7 @@ def test_oracle_scores_100_percent(scored_store: Path, test_split: ViewpointData
     np.testing.assert_array_equal(report.scores, 100.0)
     np.testing.assert_array_equal(report.category_scores, 100.0)
     np.testing.assert_array_equal(report.mean, 100.0)
-    assert report.scored_measures == MEASURES
+    assert report.scored_measures == PAPER_MEASURES
 
 
 def test_random_directions_score_the_mean_quality(scored_dataset: ViewpointDataset) -> None:
@@ -98,7 +103,7 @@ def test_report_shapes(test_split: ViewpointDataset) -> None:
     assert report.scores.shape == (6, 4) and report.scores.dtype == np.float64
     assert report.category_scores.shape == (3, 4) and report.category_counts.dtype == np.int64
     assert report.mean.shape == (4,) and report.model_mean.shape == (4,)
-    assert report.is_scored.shape == (4,) and report.measures == MEASURES
+    assert report.is_scored.shape == (4,) and report.measures == PAPER_MEASURES
 
 
 @pytest.fixture(scope="module")
@@ -132,18 +137,18 @@ def test_npz_is_matched_by_name(scored_store: Path, tmp_path: Path,
     np.testing.assert_array_equal(loaded, directions)
 
 
-@pytest.mark.parametrize("measure", MEASURES)
+@pytest.mark.parametrize("measure", PAPER_MEASURES)
 def test_npy_single_measure(scored_store: Path, tmp_path: Path, measure: str,
                             reference: tuple[np.ndarray, EvaluationReport]) -> None:
     directions, expected = reference
-    column = MEASURES.index(measure)
+    column = PAPER_MEASURES.index(measure)
     np.save(tmp_path / "one.npy", directions[:, column])
     report = evaluate_predictions(scored_store, tmp_path / "one.npy", measure=measure.lower())
     assert report.scored_measures == (measure,)
     np.testing.assert_array_equal(report.scores[:, column], expected.scores[:, column])
     assert np.isnan(np.delete(report.scores, column, axis=1)).all()
     assert report.to_dict()["mean"] == {
-        m: (float(expected.mean[column]) if m == measure else None) for m in MEASURES}
+        m: (float(expected.mean[column]) if m == measure else None) for m in PAPER_MEASURES}
 
 
 def test_measure_restricts_a_full_prediction(scored_store: Path, tmp_path: Path,
@@ -180,7 +185,7 @@ def test_other_splits_and_an_open_dataset(scored_dataset: ViewpointDataset, tmp_
 
 def _npz(**arrays: np.ndarray) -> Callable[[Path], Path]:
     def write(folder: Path) -> Path:
-        fields = {"names": np.array(TEST_NAMES), "measures": np.array(MEASURES),
+        fields = {"names": np.array(TEST_NAMES), "measures": np.array(PAPER_MEASURES),
                   "directions": random_directions(len(TEST_NAMES), seed=1), **arrays}
         path = folder / "bad.npz"
         np.savez(path, **{key: value for key, value in fields.items() if value is not None})
@@ -332,7 +337,7 @@ def test_to_dict_is_json_safe(test_split: ViewpointDataset) -> None:
     as_dict = report.to_dict(per_model=True)
     text = json.dumps(as_dict, allow_nan=False)
     assert json.loads(text) == as_dict
-    assert as_dict["measures"] == list(MEASURES) and as_dict["scored_measures"] == [
+    assert as_dict["measures"] == list(PAPER_MEASURES) and as_dict["scored_measures"] == [
         "VE", "VR", "VMI"]
     assert list(as_dict["categories"]) == ["airplane", "chair", "table"]
     assert as_dict["categories"]["airplane"]["n_models"] == 3
@@ -348,7 +353,7 @@ def test_format_table_follows_the_paper_layout(test_split: ViewpointDataset) -> 
     report = score_directions(test_split, directions)
     lines = report.format_table().split("\n")
     assert "split 'test' of dataset.zarr" in lines[0]
-    assert lines[1].split() == ["category", "n", *MEASURES]
+    assert lines[1].split() == ["category", "n", *PAPER_MEASURES]
     rows = [line.split() for line in lines[3:6]]
     assert [row[:2] for row in rows] == [["airplane", "3"], ["chair", "1"], ["table", "2"]]
     assert rows[0][2:] == [f"{v:.1f}" for v in report.category_scores[0, :3]] + ["-"]
@@ -372,3 +377,92 @@ def test_save_predictions_checks_its_input(tmp_path: Path) -> None:
                          measures=["VR", "VR"])
     with pytest.raises(InputError, match=r"directions: expected shape \(6, 4, 3\)"):
         save_predictions(tmp_path / "p.npz", TEST_NAMES, np.ones((N_TEST, 3)))
+
+
+# --- a dataset of other measures ----------------------------------------------------------
+
+
+require_package("zarr")
+
+def test_the_dataset_records_three_measures(three_dataset):
+    assert three_dataset.measures == THREE_MEASURES and len(three_dataset) == len(THREE_MESHES)
+    assert three_dataset[0]["quality"].shape == (60, 3)
+    assert three_dataset[0]["best_index"].shape == (3,)
+
+
+def test_the_oracle_scores_100_percent_on_every_recorded_measure(three_build, three_dataset,
+                                                                 tmp_path):
+    oracle = oracle_directions(three_dataset)
+    assert oracle.shape == (len(THREE_MESHES), 3, 3)
+    path = write_predictions(tmp_path / "oracle.npz", three_dataset.names, oracle,
+                             measures=THREE_MEASURES)
+    report = evaluate_predictions(three_build, path, split=None)
+    assert report.measures == THREE_MEASURES and report.scored_measures == THREE_MEASURES
+    assert report.scores.shape == (len(THREE_MESHES), 3)
+    np.testing.assert_array_equal(report.scores, 100.0)
+    lines = report.format_table().split("\n")
+    assert lines[1].split() == ["category", "n", *THREE_MEASURES]
+    assert lines[-1].split() == ["mean", str(len(THREE_MESHES)), "100.0", "100.0", "100.0"]
+    transposed = report.format_table(transpose=True).split("\n")
+    assert [line.split()[0] for line in transposed[4:]] == list(THREE_MEASURES)
+    as_dict = report.to_dict(per_model=True)
+    assert as_dict["measures"] == list(THREE_MEASURES)
+    assert as_dict["categories"]["things"] == {"n_models": 4, "VE": 100.0, "NVT": 100.0,
+                                               "SL": 100.0}
+    assert list(as_dict["models"][0]) == ["name", "category", *THREE_MEASURES]
+
+
+def test_a_file_naming_some_measures_in_its_own_order_is_matched_by_name(three_build, three_dataset,
+                                                                         tmp_path):
+    oracle = oracle_directions(three_dataset)
+    reversed_names = list(reversed(three_dataset.names))
+    path = write_predictions(tmp_path / "some.npz", reversed_names,
+                             oracle[::-1][:, [2, 1]], measures=("SL", "NVT"))
+    report = evaluate_predictions(three_build, path, split=None)
+    assert report.scored_measures == ("NVT", "SL")
+    assert np.isnan(report.scores[:, 0]).all()
+    np.testing.assert_array_equal(report.scores[:, 1:], 100.0)
+    assert report.format_table().split("\n")[-1].split()[2:] == ["-", "100.0", "100.0"]
+    only = evaluate_predictions(three_build, path, split=None, measure="sl")
+    assert only.scored_measures == ("SL",)
+    np.save(tmp_path / "sl.npy", oracle[:, 2])
+    by_row = evaluate_predictions(three_build, tmp_path / "sl.npy", split=None, measure="SL")
+    np.testing.assert_array_equal(by_row.scores[:, 2], 100.0)
+    np.save(tmp_path / "all.npy", oracle)
+    np.testing.assert_array_equal(
+        evaluate_predictions(three_build, tmp_path / "all.npy", split=None).scores, 100.0)
+
+
+@pytest.mark.parametrize(("measures", "measure", "message"), [
+    (("VE", "VR"), None, "1 measure not recorded in dataset.zarr: 'VR' (it records VE, NVT, SL)"),
+    (("VE", "XX"), None, "unknown measure(s) 'XX'"),
+    (THREE_MEASURES, "VR", "measure: measure not recorded, 'VR'; dataset.zarr records VE, NVT, SL"),
+    (THREE_MEASURES, "XX", "measure: unknown measure 'XX'"),
+], ids=["unrecorded", "unknown", "option-unrecorded", "option-unknown"])
+def test_an_unknown_or_unrecorded_measure_is_one_line(three_build, three_dataset, tmp_path,
+                                                      measures, measure, message):
+    path = tmp_path / "p.npz"
+    np.savez(path, names=np.array(three_dataset.names),
+             directions=np.ones((len(THREE_MESHES), len(measures), 3)),
+             measures=np.array(measures, dtype=str))
+    with pytest.raises(InputError) as caught:
+        evaluate_predictions(three_build, path, split=None, measure=measure)
+    assert message in str(caught.value) and "\n" not in str(caught.value)
+
+
+def test_the_command_reports_the_recorded_measures(three_build, three_dataset, runner, tmp_path):
+    path = write_predictions(tmp_path / "oracle.npz", three_dataset.names,
+                             oracle_directions(three_dataset), measures=THREE_MEASURES)
+    result = runner.invoke(main, ["evaluate", str(path), "--dataset", str(three_build), "--split",
+                                  "all", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["measures"] == list(THREE_MEASURES)
+    assert report["mean"] == dict.fromkeys(THREE_MEASURES, 100.0)
+    np.savez(tmp_path / "bad.npz", names=np.array(three_dataset.names),
+             directions=np.ones((len(THREE_MESHES), 1, 3)), measures=np.array(["VKL"]))
+    refused = runner.invoke(main, ["evaluate", str(tmp_path / "bad.npz"), "--dataset",
+                                   str(three_build), "--split", "all"])
+    assert refused.exit_code == 2
+    lines = refused.stderr.strip().splitlines()
+    assert len(lines) == 1 and "'VKL'" in lines[0] and "not recorded" in lines[0]

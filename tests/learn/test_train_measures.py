@@ -14,8 +14,8 @@ import pytest
 from fixtures.builds import build_samples
 from fixtures.environment import require_package
 from fixtures.networks import TINY_CONFIG
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.builder.options import BuildOptions
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.settings import MeasureSettings
 
 require_package("torch")
@@ -220,7 +220,7 @@ def test_a_checkpoint_whose_names_are_not_its_heads_is_refused(tmp_path):
 
 def test_an_architecture_that_counts_its_heads_is_refused_in_one_line(tmp_path):
     # the heads are named (architecture.measures); a bare count is no key of ModelConfig
-    folder = saved(tmp_path, MEASURES)
+    folder = saved(tmp_path, PAPER_MEASURES)
 
     def counted(config: dict[str, Any]) -> None:
         del config["architecture"]["measures"]
@@ -235,10 +235,10 @@ def test_an_architecture_that_counts_its_heads_is_refused_in_one_line(tmp_path):
 @pytest.mark.parametrize("bundled", ["default", "points"])
 def test_the_bundled_networks_keep_the_papers_four(bundled):
     model, config = load_model(bundled)
-    assert model.measures == MEASURES == MeshPredictor(bundled).measures
+    assert model.measures == PAPER_MEASURES == MeshPredictor(bundled).measures
     predictions = predict(bundled, [sample_path("table")], device="cpu")
-    assert predictions.measures == MEASURES and predictions.directions.shape == (1, 4, 3)
-    assert config["architecture"]["measures"] == list(MEASURES)
+    assert predictions.measures == PAPER_MEASURES and predictions.directions.shape == (1, 4, 3)
+    assert config["architecture"]["measures"] == list(PAPER_MEASURES)
 
 
 def test_per_category_networks_must_predict_the_same_measures(tmp_path):
@@ -255,7 +255,7 @@ def test_per_category_networks_must_predict_the_same_measures(tmp_path):
 
 
 def test_a_prior_proposes_only_for_the_measures_searched(tmp_path):
-    from vptoolkit.best_view.search import search_best_views
+    from vptoolkit.best_view.search import SearchSettings, search_best_views
     from vptoolkit.io import load_mesh
 
     folder = saved(tmp_path, MEASURED)
@@ -267,7 +267,7 @@ def test_a_prior_proposes_only_for_the_measures_searched(tmp_path):
 
     none = NetworkPrior(folder, measures="VMI,VKL")
     assert none.heads == () and none(mesh).shape == (0, 3)
-    found = search_best_views(mesh, 16, 32, prior=none(mesh))
+    found = search_best_views(mesh, SearchSettings(budget=16, resolution=32), prior=none(mesh))
     assert "prior" not in [stage.name for stage in found.stages]
     with pytest.raises(InputError, match="unknown measure 'XYZ'"):
         NetworkPrior(folder, measures=("XYZ",))

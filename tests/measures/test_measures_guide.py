@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from fixtures.paths import REPO
+from vptoolkit.measures.measure import Measure
 from vptoolkit.measures.quality import compute_view_quality
-from vptoolkit.measures.registry import Measure, all_measures
+from vptoolkit.measures.registry import all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 

@@ -2,14 +2,11 @@ import numpy as np
 import pytest
 
 from fixtures.meshes import box_mesh
-from vptoolkit.conventions import MEASURES
-from vptoolkit.errors import MeasurementError
+from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import (
-    compute_view_quality,
-    normalize_quality,
-    quality_from_histograms,
-)
+from vptoolkit.measures.quality import compute_view_quality, normalize_quality, ranked_views
+from vptoolkit.measures.registry import PAPER_MEASURES
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import angle_between_deg, fibonacci_sphere
@@ -55,7 +52,7 @@ def test_vmi_second_pass_gives_the_same_result_when_histograms_do_not_fit(bunny)
 
 def test_cube_visibility_ratio_spans_one_sixth_to_one_half(cube):
     quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=128))
-    vr = quality.raw[:, MEASURES.index("VR")]
+    vr = quality.raw[:, PAPER_MEASURES.index("VR")]
     assert vr.min() == pytest.approx(1 / 6) and vr.max() == pytest.approx(1 / 2)
     on_axis = compute_view_quality(cube, MeasureSettings(resolution=64),
                                    view_directions=[[0, 0, 1], [0, -1, 0]])
@@ -65,9 +62,9 @@ def test_cube_visibility_ratio_spans_one_sixth_to_one_half(cube):
 @pytest.mark.parametrize("measure", ["VE", "VKL"])
 def test_cube_entropy_and_kl_are_best_at_a_corner(cube, measure):
     quality = compute_view_quality(cube, MeasureSettings(views=1000, resolution=256))
-    best = quality.best_views[MEASURES.index(measure)]
+    best = quality.best_views[PAPER_MEASURES.index(measure)]
     assert angle_between_deg(np.tile(best, (8, 1)), CORNERS).min() < 4.0
-    worst = quality.views[quality.worst_index[MEASURES.index(measure)]]
+    worst = quality.views[quality.worst_index[PAPER_MEASURES.index(measure)]]
     assert np.abs(worst).max() > np.cos(np.radians(20))  # worst looks nearly straight at a side
 
 
@@ -139,9 +136,9 @@ def test_subdividing_part_of_a_mesh_moves_ve_but_not_vr_or_vmi():
     before = compute_view_quality(box, MeasureSettings(views=500, resolution=256)).normalized
     after = compute_view_quality(finer, MeasureSettings(views=500, resolution=256)).normalized
     change = np.abs(after - before).mean(axis=0)
-    assert change[MEASURES.index("VR")] < 0.01
-    assert change[MEASURES.index("VMI")] < 0.03
-    assert change[MEASURES.index("VE")] > 0.1
+    assert change[PAPER_MEASURES.index("VR")] < 0.01
+    assert change[PAPER_MEASURES.index("VMI")] < 0.03
+    assert change[PAPER_MEASURES.index("VE")] > 0.1
     views = fibonacci_sphere(500)
     ve_best_after = views[np.argmax(after[:, 0])]
     assert ve_best_after[0] > 0.5  # VE now prefers the finely meshed +x side
@@ -180,6 +177,61 @@ def test_real_mesh_result_is_complete_and_saves_without_pickle(bunny, tmp_path):
     assert quality.best_views.shape == (4, 3)
     path = quality.save_npz(tmp_path / "bunny.npz")
     with np.load(path, allow_pickle=False) as stored:
-        assert tuple(stored["measures"]) == MEASURES
+        assert tuple(stored["measures"]) == PAPER_MEASURES
         np.testing.assert_array_equal(stored["raw"], quality.raw)
         assert "fov_deg" in str(stored["camera"]) and int(stored["resolution"]) == 128
+
+
+# --- measures chosen by name --------------------------------------------------------------
+
+
+def test_the_four_are_unchanged_through_the_general_path(bunny):
+    settings = MeasureSettings(resolution=96)
+    views = fibonacci_sphere(60)
+    paper = compute_view_quality(bunny, settings, view_directions=views)
+    more = compute_view_quality(bunny, settings, view_directions=views,
+                                measures="VE,VR,VKL,VMI,NVT")
+    assert more.measures == ("VE", "VR", "VKL", "VMI", "NVT")
+    assert more.raw.shape == more.normalized.shape == (60, 5)
+    np.testing.assert_array_equal(more.raw[:, :4], paper.raw)
+    np.testing.assert_array_equal(more.normalized[:, :4], paper.normalized)
+    np.testing.assert_array_equal(more.best_index[:4], paper.best_index)
+    reordered = compute_view_quality(bunny, settings, view_directions=views, measures="VMI,VE")
+    np.testing.assert_array_equal(reordered.raw, paper.raw[:, [3, 0]])
+
+
+def test_only_the_requested_columns_and_directions_follow_the_names(cube):
+    quality = compute_view_quality(cube, MeasureSettings(views=50, resolution=64),
+                                   measures="I2,NVT")
+    assert quality.measures == ("I2", "NVT")
+    assert quality.higher_is_better == (False, True)
+    assert quality.best_index.shape == quality.worst_index.shape == (2,)
+    assert quality.best_views.shape == (2, 3)
+    i2, nvt = quality.raw.T
+    assert i2[quality.best_index[0]] == np.nanmin(i2)
+    assert nvt[quality.best_index[1]] == nvt.max()
+    assert list(quality.summary()["best"]) == ["I2", "NVT"]
+    assert quality.summary()["best"]["I2"]["higher_is_better"] is False
+
+
+def test_normalisation_and_ranking_take_any_directions():
+    raw = np.array([[1.0, 5.0, 2.0], [3.0, 1.0, np.nan], [2.0, 3.0, 4.0]])
+    normalized = normalize_quality(raw, [True, False, False])
+    np.testing.assert_allclose(normalized, [[0, 0, 1], [1, 1, 0], [0.5, 0.5, 0]])
+    np.testing.assert_array_equal(ranked_views(raw, 1, [True, False, True]), [1, 2, 0])
+    np.testing.assert_array_equal(ranked_views(raw, 2, [True, True, True]), [2, 0, 1])
+    with pytest.raises(InputError, match=r"expected shape \(n_views, 4\)"):
+        normalize_quality(raw)  # the paper's four by default
+    four = np.array([[1.0, 0.2, 5.0, 3.0], [3.0, 0.6, 1.0, 1.0]])
+    np.testing.assert_array_equal(ranked_views(four, 2), [1, 0])  # VKL: lower is better
+
+
+def test_npz_stores_the_names_and_directions(tmp_path, cube):
+    quality = compute_view_quality(cube, MeasureSettings(views=40, resolution=64),
+                                   measures="PA,VMI,I3")
+    path = quality.save_npz(tmp_path / "cube.npz")
+    with np.load(path, allow_pickle=False) as stored:
+        assert tuple(stored["measures"]) == ("PA", "VMI", "I3")
+        np.testing.assert_array_equal(stored["higher_is_better"], [True, False, True])
+        np.testing.assert_array_equal(stored["raw"], quality.raw)
+        np.testing.assert_array_equal(stored["best_index"], quality.best_index)

@@ -103,11 +103,11 @@ def test_the_saliency_measures_follow_curvature_entropy_in_the_surface_family():
     expected = {"SAL": (1, True, {"pixels", "saliency"}),
                 "EVMI": (2, False, {"pixels", "saliency"}),
                 "MS": (3, True, {"pixels", "saliency", "curvature"})}
-    for name, (rank, higher_is_better, needs) in expected.items():
-        measure = get_measure(name)
-        assert (measure.family, measure.rank, measure.higher_is_better, set(measure.needs)) \
-            == ("surface", rank, higher_is_better, needs)
     surface = [name for name in resolve_measures("all") if get_measure(name).family == "surface"]
+    for name, (place, higher_is_better, needs) in expected.items():
+        measure = get_measure(name)
+        assert (measure.family, surface.index(name), measure.higher_is_better,
+                set(measure.needs)) == ("surface", place, higher_is_better, needs)
     assert surface[-3:] == list(SALIENCY_MEASURES)
 
 

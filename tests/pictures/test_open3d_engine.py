@@ -19,9 +19,9 @@ from fixtures.environment import require_package
 from fixtures.meshes import box_mesh
 from fixtures.pictures import model_mask, started_renderer
 from vptoolkit.camera import Camera
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
 from vptoolkit.geometry import bounding_frame
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.open3d_engine import Renderer
@@ -170,7 +170,7 @@ def test_render_best_draws_the_best_view(renderer, cube):
     from vptoolkit.measures.quality import compute_view_quality
 
     quality = compute_view_quality(cube, MeasureSettings(views=60, resolution=48))
-    for column, measure in enumerate(MEASURES):
+    for column, measure in enumerate(PAPER_MEASURES):
         view = render_best(cube, measure=measure, quality=quality, engine=renderer)
         assert isinstance(view, RenderedView)
         index = int(quality.best_index[column])

@@ -37,8 +37,8 @@ from fixtures.pictures import (
     smooth_quality,
     started_renderer,
 )
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -125,7 +125,7 @@ def predictions(store, tmp_path_factory) -> tuple[Path, np.ndarray]:
                                     axis=0)[:3]]
     directions[1] = [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.2]]
     path = tmp_path_factory.mktemp("predictions") / "predictions.npz"
-    save_predictions(path, ["box_b", "capsule"], directions, measures=MEASURES[:3])
+    save_predictions(path, ["box_b", "capsule"], directions, measures=PAPER_MEASURES[:3])
     return path, directions
 
 
@@ -160,7 +160,8 @@ def test_report_has_a_card_and_pictures_for_every_model(full_report: Path):
     sources = image_sources(page)
     n_set = len(re.findall(r'alt="[^"]*, view \d+ of its set"', page))
     assert n_set >= len(MODELS)  # each model's view set has a picture per view
-    assert len(sources) == len(MODELS) * (len(MEASURES) + 1) + n_set  # four views and the maps
+    # four views and the maps
+    assert len(sources) == len(MODELS) * (len(PAPER_MEASURES) + 1) + n_set
     for source in sources:
         assert not source.startswith(("/", "http")), source
         image = read_png(full_report.parent / source)

@@ -1,16 +1,23 @@
-"""Mercator quality maps of the view sphere."""
+"""Mercator quality maps of the view sphere, of the paper's four and of any other measures."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from fixtures.pictures import preferred_directions, read_png, smooth_quality
-from vptoolkit.conventions import MEASURES
+from fixtures.builds import build_samples
+from fixtures.environment import require_package
+from fixtures.pictures import MUG_MEASURES, preferred_directions, read_png, smooth_quality
+from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import InputError
+from vptoolkit.evaluate.baselines import oracle_directions
+from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
+from vptoolkit.predictions import write_predictions
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import fibonacci_sphere, nearest_view
 
@@ -75,7 +82,7 @@ def test_sphere_grid_holds_the_nearest_view_of_each_pixel():
         assert grid[row, column] == nearest_view(direction, views)[0]
 
 
-@pytest.mark.parametrize("measure", MEASURES)
+@pytest.mark.parametrize("measure", PAPER_MEASURES)
 def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_available, measure):
     from vptoolkit.pictures.sphere_map import sphere_map, view_coordinates
 
@@ -86,7 +93,7 @@ def test_the_marked_maximum_sits_where_the_quality_array_says(matplotlib_availab
     axes = next(a for a in figure.axes if a.get_gid() == "map")
     region = axes_region(figure, axes, pixels)
     inside = pixels[region]
-    column = MEASURES.index(measure)
+    column = PAPER_MEASURES.index(measure)
     best = int(np.argmax(quality[:, column]))
     lon, lat = view_coordinates(views[best])[0]
     expected = display_to_pixel(figure, axes, lon, lat)
@@ -121,7 +128,6 @@ def test_the_predicted_view_is_crossed_with_its_score(matplotlib_available):
 
 
 def test_sphere_map_file_reads_the_measures_npz(matplotlib_available, tmp_path: Path, cube):
-    from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map_file
 
     quality_path = compute_view_quality(cube, MeasureSettings(views=100, resolution=32)).save_npz(
@@ -151,3 +157,70 @@ def test_sphere_map_rejects_bad_arguments(matplotlib_available, kwargs, message)
     arguments = {"quality": np.ones((N_VIEWS, 4)), **kwargs}
     with pytest.raises(InputError, match=message):
         sphere_map(views, **arguments)
+
+
+# --- maps of any measures -----------------------------------------------------------------
+
+
+def test_a_single_map_of_a_named_column(matplotlib_available, measured_mug):
+    from vptoolkit.pictures.sphere_map import sphere_map
+
+    quality, _ = measured_mug
+    figure = sphere_map(quality.views, quality.normalized, measure="sl",
+                        measures=quality.measures)
+    best = int(quality.best_index[1])
+    assert figure.axes[0].get_title() == f"silhouette length\nSL: best view {best}"
+    first = sphere_map(quality.views, quality.normalized, measures=quality.measures)
+    assert first.axes[0].get_title().endswith(f"NVT: best view {quality.best_index[0]}")
+    with pytest.raises(InputError, match="measure: no column for measure 'VE'; the quality has "
+                                         "NVT, SL, MD"):
+        sphere_map(quality.views, quality.normalized, measure="VE", measures=quality.measures)
+
+
+def test_the_measures_npz_is_drawn_as_it_records(matplotlib_available, measured_mug, tmp_path):
+    from vptoolkit.pictures.sphere_map import sphere_map_file
+    from vptoolkit.pictures.sphere_panels import sphere_maps_file
+
+    _, path = measured_mug
+    assert read_png(sphere_maps_file(path, tmp_path / "all.png")).shape[:2] == (340, 1200)
+    assert read_png(sphere_maps_file(path, tmp_path / "two.png", measures=["md", "NVT"],
+                                     dpi=50)).shape[:2] == (170, 600)
+    assert read_png(sphere_map_file(path, tmp_path / "md.png", measure="MD")).shape[:2] == (
+        540, 640)
+    with pytest.raises(InputError, match="^mug.npz: measure: no column for measure 'VKL'"):
+        sphere_map_file(path, tmp_path / "vkl.png", measure="VKL")
+    with pytest.raises(InputError, match="^mug.npz: measure: unknown measure 'XX'"):
+        sphere_maps_file(path, tmp_path / "xx.png", measures=["XX"])
+    older = tmp_path / "older.npz"  # written before the measures were named: the paper's four
+    np.savez(older, views=fibonacci_sphere(30), normalized=np.random.default_rng(1).random(
+        (30, 4)))
+    assert read_png(sphere_map_file(older, tmp_path / "older.png", measure="VKL")).shape[:2] \
+        == (540, 640)
+    np.savez(older, views=fibonacci_sphere(30), normalized=np.ones((30, 2)),
+             measures=np.array(MUG_MEASURES))
+    with pytest.raises(InputError, match=r"older.npz: normalized has shape \(30, 2\)"):
+        sphere_maps_file(older, tmp_path / "bad.png")
+
+
+def test_the_report_of_a_three_measure_dataset(matplotlib_available, tmp_path):
+    require_package("zarr")
+    from vptoolkit.data import open_dataset
+    from vptoolkit.pictures.report import write_report
+
+    options = BuildOptions(MeasureSettings(views=40, resolution=48), measures="VE,NVT,SL",
+                           n_points=200, clean=False)
+    built = build_samples(tmp_path, ("mug.obj", "teapot.stl"), category="things",
+                          options=options)
+    with open_dataset(built) as dataset:
+        oracle = oracle_directions(dataset)[:, [2, 1]]
+        predictions = write_predictions(tmp_path / "p.npz", dataset.names, oracle,
+                                        measures=("SL", "NVT"))
+        index = write_report(dataset, tmp_path / "report", predictions=predictions,
+                             thumbnails=False, view_set=None)
+    page = index.read_text()
+    assert re.findall(r"<th>(\w+) %</th>", page) == ["NVT", "SL"]
+    assert page.count('width="960" height="272"') == 2
+    assert page.count("not predicted") == 2  # VE of each model
+    assert page.count('<span class="score">100.0 %</span>') == 4
+    maps = sorted((tmp_path / "report" / "maps").glob("*.png"))
+    assert len(maps) == 2 and read_png(maps[0]).shape[:2] == (272, 960)

@@ -9,9 +9,8 @@ import numpy as np
 import pytest
 
 from fixtures.pictures import MUG_MEASURES, preferred_directions, read_png, smooth_quality
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
-from vptoolkit.measures.registry import all_measures, get_measure
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures, get_measure
 from vptoolkit.sphere import fibonacci_sphere
 
 N_VIEWS = 200
@@ -32,7 +31,7 @@ def test_sphere_maps_draws_four_panels(matplotlib_available, tmp_path: Path):
     predicted[2] = [0, 0, 1]
     figure = sphere_maps(views, quality, predicted=predicted, title="four")
     gids = [a.get_gid() for a in figure.axes]
-    assert gids[:4] == [f"map-{m}" for m in MEASURES]
+    assert gids[:4] == [f"map-{m}" for m in PAPER_MEASURES]
     crosses = [any(line.get_gid() == "predicted" for line in a.lines) for a in figure.axes[:4]]
     assert crosses == [False, False, True, False]
     image = read_png(save_figure(figure, tmp_path / "maps.png"))

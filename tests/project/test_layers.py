@@ -1,5 +1,8 @@
 """Each module imports only from its own or lower layers, and no imports go round in a cycle.
 
+Imports are import statements and ``importlib.import_module`` calls, so a
+package scan that loops back is a cycle too.
+
 The layers are those of the Layout section of docs/architecture.md.
 """
 
@@ -110,12 +113,54 @@ def module_level_nodes(tree: ast.Module) -> list[ast.AST]:
     return found
 
 
+def module_aliases(tree: ast.Module) -> dict[str, str]:
+    """Local names bound to package modules by the imports of a module (``catalog``:
+    ``vptoolkit.measures.catalog``)."""
+    aliases = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for alias in node.names:
+                full = f"{node.module}.{alias.name}"
+                if full in MODULES:
+                    aliases[alias.asname or alias.name] = full
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.asname and alias.name in MODULES:
+                    aliases[alias.asname] = alias.name
+    return aliases
+
+
+def import_module_targets(node: ast.AST, aliases: dict[str, str]) -> set[str]:
+    """The package modules an ``importlib.import_module(...)`` call may import.
+
+    A constant name is followed as it is; a name built as ``f"{package.__name__}.{...}"``
+    (a scan of a package) may import every module of that package.
+    """
+    if not (isinstance(node, ast.Call) and node.args
+            and (isinstance(node.func, ast.Attribute) and node.func.attr == "import_module"
+                 or isinstance(node.func, ast.Name) and node.func.id == "import_module")):
+        return set()
+    name = node.args[0]
+    if isinstance(name, ast.Constant) and isinstance(name.value, str):
+        return {name.value}
+    if isinstance(name, ast.JoinedStr) and name.values:
+        first = name.values[0]
+        if (isinstance(first, ast.FormattedValue) and isinstance(first.value, ast.Attribute)
+                and first.value.attr == "__name__" and isinstance(first.value.value, ast.Name)
+                and first.value.value.id in aliases):
+            package = aliases[first.value.value.id]
+            return {module for module in MODULES if module.startswith(f"{package}.")}
+    return set()
+
+
 def import_graph(*, module_level_only: bool) -> dict[str, set[str]]:
-    """Each package module and the package modules it imports (full dotted names)."""
+    """Each package module and the package modules it imports (full dotted names), through
+    import statements and ``importlib.import_module`` calls."""
     graph = {}
     for name, path in MODULES.items():
         tree = ast.parse(path.read_text())
         nodes = module_level_nodes(tree) if module_level_only else list(ast.walk(tree))
+        aliases = module_aliases(tree)
         targets = set()
         for node in nodes:
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -123,8 +168,25 @@ def import_graph(*, module_level_only: bool) -> dict[str, set[str]]:
                 targets.update(f"{node.module}.{alias.name}" for alias in node.names)
             elif isinstance(node, ast.Import):
                 targets.update(alias.name for alias in node.names)
+            targets |= import_module_targets(node, aliases)
         graph[name] = {target for target in targets if target in MODULES} - {name}
     return graph
+
+
+def test_import_module_calls_are_followed():
+    scan = ast.parse("import importlib\n"
+                     "from vptoolkit.measures import catalog\n"
+                     "def every():\n"
+                     "    for name in ('ve', 'vr'):\n"
+                     "        importlib.import_module(f'{catalog.__name__}.{name}')\n"
+                     "    import vptoolkit.view_sets as sets\n"
+                     "    importlib.import_module(f'{sets.__name__}.search')\n"
+                     "    importlib.import_module('vptoolkit.sphere')\n")
+    aliases = module_aliases(scan)
+    found = set().union(*(import_module_targets(node, aliases) for node in ast.walk(scan)))
+    assert {"vptoolkit.measures.catalog.ve", "vptoolkit.view_sets.search",
+            "vptoolkit.sphere"} <= found
+    assert "vptoolkit.measures.registry" not in found
 
 
 def cycles(graph: dict[str, set[str]]) -> list[list[str]]:

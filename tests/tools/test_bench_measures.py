@@ -9,7 +9,8 @@ from pathlib import Path
 import pytest
 
 from fixtures.scripts import RunTool, assert_section_holds
-from vptoolkit.measures.registry import FAMILIES, all_measures
+from vptoolkit.measures.measure import FAMILIES
+from vptoolkit.measures.registry import all_measures
 
 
 @pytest.mark.slow
@@ -43,3 +44,18 @@ def test_costs_only_prints_the_comparison_alone_into_its_own_section(
     assert result.returncode == 0, result.stderr[-2000:]
     assert "the four:" in result.stdout and "JIT" not in result.stdout
     assert_section_holds(results, "measure_costs", result.stdout)
+
+
+def test_memory_only_prints_the_peak_memory_of_one_measure_and_the_four(
+        tmp_path: Path, run_tool: RunTool) -> None:
+    results = tmp_path / "benchmarks.md"
+    result = run_tool("bench_measures.py", "--quick", "--memory-only",
+                      "--results", str(results), "--section", "measure_memory")
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert ("peak memory of compute_view_quality: torus, 8700 faces, 100 views at 256 px"
+            in result.stdout)
+    for spec in ("VE", "paper", "VE,NVT"):
+        assert re.search(rf"^  --measures {spec} +traced peak +[\d.]+ MiB, "
+                         r"resident peak +[\d.]+ MiB$", result.stdout, re.MULTILINE), spec
+    assert_section_holds(results, "measure_memory", result.stdout)
+

@@ -10,7 +10,8 @@ import pytest
 from fixtures.meshes import box_mesh
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures.quality import compute_view_quality, quality_from_histograms
+from vptoolkit.measures.quality import compute_view_quality
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.view_sets.result import ViewSet

@@ -31,15 +31,15 @@ from vptoolkit.best_view.search import (
     UNSEARCHABLE_NEEDS,
     BestViews,
     SearchSettings,
+    check_search_settings,
     search_best_views,
-    search_settings,
     searchable_measures,
 )
 from vptoolkit.checks import one_line
-from vptoolkit.conventions import MEASURES, Split
+from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
@@ -71,7 +71,7 @@ class SearchRun:
     results: tuple[BestViews, ...]
     failures: tuple[tuple[str, str], ...]
     is_bad_input: bool = True
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     @property
     def predictions(self) -> Predictions:
@@ -107,14 +107,12 @@ def recorded_searchable(recorded: Sequence[str], where: str = "dataset") -> tupl
 def search_inputs(
     inputs: Sequence[str | os.PathLike[str]] = (),
     *,
-    settings: SearchSettings | None = None,
+    settings: SearchSettings = SearchSettings(),
     dataset: str | os.PathLike[str] | ViewpointDataset | None = None,
     split: Split = "test",
     prior: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
     progress: bool = False,
-    budget: int | None = None,
-    resolution: int | None = None,
 ) -> SearchRun:
     """:func:`~vptoolkit.best_view.search.search_best_views` over mesh files and a dataset split;
     failures recorded, not raised.
@@ -145,9 +143,6 @@ def search_inputs(
         (:func:`recorded_searchable`), else the paper's four.
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
-    budget, resolution : int, optional
-        The fields of :class:`~vptoolkit.best_view.search.SearchSettings`,
-        given loose instead of ``settings``.
 
     Raises
     ------
@@ -160,7 +155,7 @@ def search_inputs(
         or measured, or a second model of the same name, is recorded in
         ``failures`` instead.
     """
-    chosen = search_settings(settings, budget=budget, resolution=resolution)
+    chosen = check_search_settings(settings)
     names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
     with open_inputs(entries, split=split, purpose="search", requires="surface") as sources:

@@ -41,13 +41,14 @@ every face in proportion to its area (``mean_v a_t(v) A_z / A_t``, divided by
 which makes VMI equal VKL.
 
 Measures
-    The paper's four are measured from each stage's pixel counts as above
-    (:func:`vptoolkit.measures.quality.quality_from_histograms`, with the
-    estimated ``p(z)``). Any other registered measure is computed by the
-    registry (:attr:`Measure.compute <vptoolkit.measures.registry.Measure.compute>`)
-    from the same drawing, with the depth and silhouette statistics drawn
-    too where one needs them; the per-mesh curvature is computed once per
-    search. Where such a measure compares a view with the others drawn (I2
+    One measuring session (:class:`vptoolkit.measures.session.MeasuringSession`)
+    draws and measures every stage. The paper's four are measured from each
+    stage's streamed pixel counts as above (with the estimated ``p(z)``). Any
+    other registered measure is computed by the session from the same
+    drawing (:attr:`Measure.compute <vptoolkit.measures.measure.Measure.compute>`),
+    with the depth and silhouette statistics drawn too where one needs them;
+    the per-mesh curvature is computed once per search (the session's
+    ``mesh_cache``). Where such a measure compares a view with the others drawn (I2
     and I3 through the distributions over the views, SS through the largest
     projected area), the others are every view drawn at ``resolution`` so
     far, and the competing views are measured again after each stage, so
@@ -61,18 +62,18 @@ Measures
 Directions are unit vectors from the bounding-box centre towards the camera,
 in the mesh's own coordinates; raw values are in each measure's units (bits
 for VE, VKL, VMI; VR a fraction); which way is better is the registry's
-(:attr:`Measure.higher_is_better <vptoolkit.measures.registry.Measure.higher_is_better>`:
+(:attr:`Measure.higher_is_better <vptoolkit.measures.measure.Measure.higher_is_better>`:
 higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 
 Size
-    About 690 lines for one concept, the search of one mesh: its settings
+    About 620 lines for one concept, the search of one mesh: its settings
     (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
-    and what measures a stage's views (the paper's four with the estimated
-    ``p(z)``, the registry's measures over the competing views). The stages
-    and the measuring share the incumbents, the estimate and the competing
-    views, which a split would have to pass between modules; the search over
-    many inputs is :mod:`vptoolkit.best_view.run`.
+    and which views a session measures together (the paper's four per stage
+    with the estimated ``p(z)``, the others over the competing views). The
+    stages and the measuring share the incumbents, the estimate and the
+    competing views, which a split would have to pass between modules; the
+    search over many inputs is :mod:`vptoolkit.best_view.run`.
 """
 
 from __future__ import annotations
@@ -88,16 +89,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.measures.curvature import CACHE_KEY as CURVATURE_KEY
-from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.quality import quality_from_histograms, ranked_views
-from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
+from vptoolkit.measures.quality import ranked_views
+from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
+from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
-from vptoolkit.visibility import RasterScene, ViewHistograms
+from vptoolkit.visibility import ViewHistograms
 
 __all__ = [
     "BUDGET",
@@ -111,7 +110,7 @@ __all__ = [
     "SearchSettings",
     "SearchStage",
     "search_best_views",
-    "search_settings",
+    "check_search_settings",
     "searchable_measures",
 ]
 
@@ -182,7 +181,7 @@ class BestViews:
         The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
     measures : tuple of str
         The searched measures, the row order of ``directions`` and ``raw``
-        (default: the paper's four, ``MEASURES``).
+        (default: the paper's four, ``PAPER_MEASURES``).
     """
 
     name: str
@@ -192,7 +191,7 @@ class BestViews:
     stages: tuple[SearchStage, ...]
     seconds: float
     poses: ViewPoses
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     def camera_pose(self, measure: str, *,
                     convention: Convention = "opencv") -> NDArray[np.float64]:
@@ -383,39 +382,12 @@ class SearchSettings:
                 "camera": self.camera.to_dict()}
 
 
-def search_settings(
-    settings: SearchSettings | int | None = None,
-    *,
-    budget: int | None = None,
-    resolution: int | None = None,
-    coarse_views: int | None = None,
-    coarse_resolution: int | None = None,
-    camera: Camera | None = None,
-) -> SearchSettings:
-    """The :class:`SearchSettings` of a call: given whole, or built from the loose keywords.
-
-    ``settings`` may also be a number, the old positional ``budget`` of
-    ``search_best_views(mesh, 64, 128)``. Raises InputError when a
-    ``SearchSettings`` comes with loose values too, or on a value out of range.
-    """
-    loose = {"budget": budget, "resolution": resolution, "coarse_views": coarse_views,
-             "coarse_resolution": coarse_resolution, "camera": camera}
-    if isinstance(settings, SearchSettings):
-        given = [name for name, value in loose.items() if value is not None]
-        if given:
-            raise InputError(f"settings: give SearchSettings or {', '.join(given)}, not both")
-        return settings
-    if settings is not None:
-        if not isinstance(settings, (int, float, np.number)):
-            raise InputError(f"settings: expected SearchSettings, got {type(settings).__name__}")
-        if budget is not None:
-            raise InputError("budget: given twice (positionally and by keyword)")
-        budget = settings
-    return SearchSettings(
-        budget=BUDGET if budget is None else budget,
-        resolution=SEARCH_RESOLUTION if resolution is None else resolution,
-        coarse_views=coarse_views, coarse_resolution=coarse_resolution,
-        camera=Camera() if camera is None else camera)
+def check_search_settings(settings: Any) -> SearchSettings:
+    """``settings`` if it is a :class:`SearchSettings`; else InputError naming its type."""
+    if not isinstance(settings, SearchSettings):
+        raise InputError(f"settings: expected SearchSettings, got {type(settings).__name__} "
+                         "(SearchSettings(budget=..., resolution=...))")
+    return settings
 
 
 def ring(centre: NDArray[np.float64], angle: float, n: int, turn: float) -> NDArray[np.float64]:
@@ -441,31 +413,21 @@ def _face_probability(counts: NDArray[np.float64], n_views: int,
     return np.where(counts > 0, counts / total, pseudo * area_share / (total + pseudo))
 
 
-class _Renderer:
-    """Draws views of one mesh and measures them: the paper's four with one ``p(z)``
-    estimate, the others by the registry over the competing views."""
+class _Measuring:
+    """The views of one search and their measuring by a session: the paper's four of each
+    stage with one ``p(z)`` estimate, the others over the competing views."""
 
-    def __init__(self, mesh: Mesh, camera: Camera, measures: Sequence[Measure] | None = None,
+    def __init__(self, mesh: Mesh, camera: Camera, names: Sequence[str], resolution: int
                  ) -> None:
-        self.mesh = mesh
-        self.camera = camera
-        self.scene = RasterScene(mesh, camera)
-        self.areas = self.scene.areas
+        self.session = MeasuringSession(mesh, names,
+                                        MeasureSettings(resolution=resolution, camera=camera))
+        self.areas = self.session.areas
         total = float(self.areas.sum())
         if not total > 0.0:
             raise InputError(f"{mesh.name}: the mesh has zero surface area")
         self.face_probability = self.areas / total
-        chosen = [get_measure(name) for name in MEASURES] if measures is None else list(measures)
-        self.measures = chosen
-        self.paper = [c for c, measure in enumerate(chosen) if measure.name in MEASURES]
-        """Columns of the paper's four, measured from each stage's own pixel counts."""
-        self.paper_source = [MEASURES.index(chosen[c].name) for c in self.paper]
-        self.others = [c for c, measure in enumerate(chosen) if measure.name not in MEASURES]
-        """Columns of the measures the registry computes."""
-        self.features = any(chosen[c].needs_image_statistics for c in self.others)
         self.kept_directions = np.zeros((0, 3))
         self.kept_runs: list[ViewHistograms] = []
-        self.mesh_cache: dict[str, Any] = {}
 
     def measure(self, directions: NDArray[np.float64], resolution: int, *,
                 estimate_face_probability: bool = False, keep: bool = False,
@@ -473,55 +435,36 @@ class _Renderer:
         """Raw measures ``(n, M)`` of the directions at ``resolution``; NaN where none is seen.
 
         With ``keep``, the views join the competing ones (drawn at the
-        search's resolution) and the registry's columns are left NaN here:
-        :meth:`competing` measures them with the others.
+        search's resolution) and the columns the session computes from the
+        kept counts are left NaN here: :meth:`competing` measures them with
+        the others.
         """
-        runs = list(self.scene.histograms(directions, resolution, features=self.features))
-        raw = np.full((len(directions), len(self.measures)), np.nan)
-        if self.paper:
-            if estimate_face_probability:
-                counts = np.zeros(self.mesh.n_faces)
-                for run in runs:
-                    counts += np.bincount(run.face_ids, weights=run.pixel_counts,
-                                          minlength=self.mesh.n_faces)
-                self.face_probability = _face_probability(counts, len(directions), self.areas)
-            try:
-                four = quality_from_histograms(runs, self.areas, n_views=len(directions),
-                                               face_probability=self.face_probability)
-                raw[:, self.paper] = four[:, self.paper_source]
-            except MeasurementError:
-                pass
-        if self.others:
+        session = self.session
+        runs = list(session.draw(directions, resolution))
+        if session.sum_columns and estimate_face_probability:
+            counts = np.zeros(session.mesh.n_faces)
+            for run in runs:
+                counts += np.bincount(run.face_ids, weights=run.pixel_counts,
+                                      minlength=session.mesh.n_faces)
+            self.face_probability = _face_probability(counts, len(directions), self.areas)
+        columns = list(session.sum_columns)
+        if session.view_columns:
             if keep:
                 first = len(self.kept_directions)
                 self.kept_runs += [replace(run, first_view=first + run.first_view)
                                    for run in runs]
                 self.kept_directions = np.concatenate([self.kept_directions, directions])
             else:
-                raw[:, self.others] = self._registered(directions, runs, resolution)
-        return raw
+                columns += session.view_columns
+        return session.measure(directions, resolution, histograms=runs, columns=columns,
+                               face_probability=self.face_probability, require_seen=False)
 
     def competing(self, resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Every competing view so far and its raw values ``(n, M)`` of the registry's
-        columns (the others NaN), measured over them together."""
-        raw = np.full((len(self.kept_directions), len(self.measures)), np.nan)
-        raw[:, self.others] = self._registered(self.kept_directions, self.kept_runs, resolution)
+        """Every competing view so far and its raw values ``(n, M)`` of the columns the
+        session computes from the kept counts (the others NaN), measured over them together."""
+        raw = self.session.measure(self.kept_directions, resolution, histograms=self.kept_runs,
+                                   columns=self.session.view_columns, require_seen=False)
         return self.kept_directions, raw
-
-    def _registered(self, directions: NDArray[np.float64], runs: Sequence[ViewHistograms],
-                    resolution: int) -> NDArray[np.float64]:
-        """The registry's measures ``(n, len(others))`` of these views, computed together."""
-        settings = MeasureSettings(views=max(1, len(directions)), resolution=resolution,
-                                   camera=self.camera)
-        data = ViewData(self.mesh, directions, settings, self.areas, runs)
-        data.cache.update(self.mesh_cache)
-        values = np.full((len(directions), len(self.others)), np.nan)
-        if len(directions) and data.seen.any():
-            for column, index in enumerate(self.others):
-                values[:, column] = self.measures[index].compute(data)
-        if CURVATURE_KEY in data.cache:  # per mesh: computed once per search
-            self.mesh_cache[CURVATURE_KEY] = data.cache[CURVATURE_KEY]
-        return values
 
 
 def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64],
@@ -539,15 +482,10 @@ def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64
 
 def search_best_views(
     mesh: MeshLike,
-    settings: SearchSettings | int | None = None,
-    resolution: int | None = None,
+    settings: SearchSettings = SearchSettings(),
     *,
     prior: ArrayLike | None = None,
     measures: str | Sequence[str] | None = None,
-    budget: int | None = None,
-    coarse_views: int | None = None,
-    coarse_resolution: int | None = None,
-    camera: Camera | None = None,
 ) -> BestViews:
     """Find the best view direction per measure within a budget of drawn views.
 
@@ -570,11 +508,6 @@ def search_best_views(
         ``"paper"`` for VE, VR, VKL and VMI, the default; names such as
         ``"NVT,SL"``; ``"all"`` names measures a search cannot evaluate and
         is refused).
-    budget, resolution, coarse_views, coarse_resolution, camera
-        The fields of :class:`SearchSettings`, given loose instead of
-        ``settings`` (``search_best_views(mesh, budget=64, resolution=128)``,
-        or positionally ``search_best_views(mesh, 64, 128)``); the settings
-        are built from them (:func:`search_settings`).
 
     Returns
     -------
@@ -585,7 +518,7 @@ def search_best_views(
     Raises
     ------
     InputError
-        On a budget, resolution or view count out of range, a bad prior, an
+        On settings that are no SearchSettings, a bad prior, an
         unknown measure or one a search cannot evaluate, or a mesh that is
         none of the above or has zero surface area.
 
@@ -596,15 +529,14 @@ def search_best_views(
     >>> found = search_best_views(box, SearchSettings(budget=16, resolution=64))
     >>> found.n_views, found.directions.shape, found.camera_pose("VE").shape
     (16, (4, 3), (4, 4))
-    >>> search_best_views(box, 16, 64, measures="NVT,SL").measures
+    >>> search_best_views(box, SearchSettings(budget=16, resolution=64),
+    ...                   measures="NVT,SL").measures
     ('NVT', 'SL')
     """
     started = time.perf_counter()
     names = searchable_measures(measures)
     mesh = as_mesh(mesh)
-    chosen = search_settings(settings, budget=budget, resolution=resolution,
-                             coarse_views=coarse_views, coarse_resolution=coarse_resolution,
-                             camera=camera)
+    chosen = check_search_settings(settings)
     budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
     n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
@@ -617,8 +549,8 @@ def search_best_views(
     coarse_size = chosen.coarse_resolution
     if coarse_size is None:
         coarse_size = resolution if flat else min(resolution, COARSE_RESOLUTION)
-    renderer = _Renderer(mesh, camera, [get_measure(name) for name in names])
-    higher = tuple(measure.higher_is_better for measure in renderer.measures)
+    renderer = _Measuring(mesh, camera, names, resolution)
+    higher = tuple(measure.higher_is_better for measure in renderer.session.measures)
     incumbents = _Incumbents.empty(higher)
     stages: list[SearchStage] = []
 
@@ -632,10 +564,10 @@ def search_best_views(
     def offer(directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
         """Views drawn at ``resolution`` compete: the paper's four as measured, the
         registry's measured again with every competing view."""
-        incumbents.offer(directions, raw, renderer.paper)
-        if renderer.others:
+        incumbents.offer(directions, raw, renderer.session.sum_columns)
+        if renderer.session.view_columns:
             every, again = renderer.competing(resolution)
-            incumbents.take_best(every, again, renderer.others)
+            incumbents.take_best(every, again, renderer.session.view_columns)
 
     sphere = (coarse_directions(mesh, n_coarse, renderer.areas) if n_coarse
               else np.zeros((0, 3)))

@@ -11,7 +11,7 @@ import click
 
 from vptoolkit.checks import check_suffix
 from vptoolkit.cli.options import (
-    MEASURE_CHOICE,
+    MEASURE_NAME,
     MESH,
     max_faces_option,
     measures_option,
@@ -95,7 +95,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
                    "distribution; quality: coverage, preferring good --measure views.")
 @click.option("--coverage", "target", type=click.FloatRange(0, 1, min_open=True),
               help="Add views until the set sees this fraction of what all views see.")
-@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_NAME,
               help="Measure of the quality objective (its best view is the first pick).")
 @views_option()
 @resolution_option()

@@ -20,7 +20,7 @@ from typing import Any, TypeVar
 
 import click
 
-from vptoolkit.conventions import MEASURES, N_VIEWS, RESOLUTION, SEED, SPLITS
+from vptoolkit.conventions import N_VIEWS, RESOLUTION, SEED, SPLITS
 from vptoolkit.errors import InputError
 from vptoolkit.settings import MAX_RESOLUTION
 from vptoolkit.sphere import as_directions
@@ -34,7 +34,6 @@ __all__ = [
     "cache_dir_option",
     "comma_list",
     "split_option",
-    "MEASURE_CHOICE",
     "MEASURE_NAME",
     "MeasureName",
     "measures_option",
@@ -165,10 +164,6 @@ def split_option(help: str, *, default: str = "test") -> Callable[[Decorated], D
                         help=help)
 
 
-MEASURE_CHOICE = click.Choice(list(MEASURES), case_sensitive=False)
-"""One of :data:`vptoolkit.conventions.MEASURES`, in any case."""
-
-
 # ParamType takes type arguments at run time only in recent click releases
 class MeasureName(click.ParamType):  # type: ignore[type-arg]
     """One registered measure name (:mod:`vptoolkit.measures.registry`), in any case.
@@ -184,15 +179,10 @@ class MeasureName(click.ParamType):  # type: ignore[type-arg]
     def convert(self, value: Any, param: click.Parameter | None,
                 ctx: click.Context | None) -> str:
         """The registry's spelling of ``value``."""
-        from vptoolkit.measures.registry import all_measures
+        from vptoolkit.measures.registry import canonical_name
 
         option = param.opts[0] if param is not None and param.opts else "measure"
-        known = {name.upper(): name for name in all_measures()}
-        text = str(value).strip()
-        if text.upper() not in known:
-            raise InputError(f"{option}: unknown measure {text!r}; known: "
-                             f"{', '.join(known.values())}")
-        return known[text.upper()]
+        return canonical_name(str(value).strip(), option)
 
 
 MEASURE_NAME = MeasureName()

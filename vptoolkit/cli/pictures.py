@@ -16,7 +16,6 @@ from vptoolkit.cli.group import EXIT_FAILURE
 from vptoolkit.cli.options import (
     DATASET,
     EXISTING,
-    MEASURE_CHOICE,
     MEASURE_NAME,
     MESH,
     MODEL_HELP,
@@ -46,11 +45,11 @@ Vector = tuple[float, float, float]
               help="PNG file to write.")
 @click.option("--view", type=Direction(),
               help="Direction x,y,z from the model centre towards the camera.")
-@click.option("--best", type=MEASURE_CHOICE, help="Draw the best sampled view of this measure.")
+@click.option("--best", type=MEASURE_NAME, help="Draw the best sampled view of this measure.")
 @click.option("--model", "model_path", help=MODEL_HELP + " Draws its predicted view.")
 @click.option("--view-set", "view_set_k", type=click.IntRange(1),
               help="Draw the K-view coverage set as one contact sheet, --size per tile.")
-@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_NAME,
               help="Measure whose prediction --model draws.")
 @size_option()
 @views_option("Views sampled for --best.")
@@ -230,7 +229,7 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @click.command()
 @click.argument("src", type=EXISTING)
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
-@click.option("--measure", default="VE", show_default=True, type=MEASURE_CHOICE,
+@click.option("--measure", default="VE", show_default=True, type=MEASURE_NAME,
               help="Measure whose best (or predicted) view is drawn.")
 @click.option("--model", "model_path", help=MODEL_HELP + " Uses its predictions, measures nothing.")
 @click.option("--view-set", "view_set_k", type=click.IntRange(1),

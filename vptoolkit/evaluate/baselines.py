@@ -6,7 +6,7 @@ dataset's own best views, 100 % under
 :func:`vptoolkit.evaluate.scores.score_directions` by construction). Each
 returns ``(n_models, M, 3)`` float64 unit vectors, one per measure, the form
 every scorer takes: ``M`` is given (``n_measures``, by default the paper's
-four, ``len(MEASURES)``; pass ``len(dataset.measures)`` for a dataset
+four, ``len(PAPER_MEASURES)``; pass ``len(dataset.measures)`` for a dataset
 recorded with other measures), and the oracle takes the dataset's own.
 Numpy only.
 """
@@ -20,9 +20,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int, one_line
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 __all__ = ["random_directions", "pca_directions", "oracle_directions"]
 
@@ -30,7 +30,7 @@ _SYMMETRY_TOLERANCE = 1e-9  # |third moment| / std**3 below which a cloud counts
 
 
 def random_directions(n: int, *, seed: int,
-                      n_measures: int = len(MEASURES)) -> NDArray[np.float64]:
+                      n_measures: int = len(PAPER_MEASURES)) -> NDArray[np.float64]:
     """Directions drawn uniformly on the unit sphere, independently per measure.
 
     Normalised standard-normal vectors, from ``np.random.default_rng(seed)``,
@@ -95,7 +95,7 @@ def _pca_direction(points: NDArray[np.float64], label: str) -> NDArray[np.float6
 
 
 def pca_directions(points: ArrayLike | Sequence[ArrayLike], *,
-                   n_measures: int = len(MEASURES)) -> NDArray[np.float64]:
+                   n_measures: int = len(PAPER_MEASURES)) -> NDArray[np.float64]:
     """A PCA heuristic: look along each model's smallest principal axis.
 
     Viewing along the eigenvector of the smallest eigenvalue of the point

@@ -59,10 +59,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import MEASURES
 from vptoolkit.data import ViewpointDataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate.baselines import pca_directions
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.rotations import fixed_rotations
 
@@ -105,7 +105,7 @@ class ProtocolScores:
     categories: tuple[str, ...]
     scores: NDArray[np.float64]
     n_rotations: int
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     @property
     def mean(self) -> NDArray[np.float64]:

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES, Split
+from vptoolkit.conventions import Split
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
@@ -66,7 +66,7 @@ from vptoolkit.evaluate._inputs import (
     select_split,
     split_label,
 )
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.predictions import parse_predictions, read_arrays
 
 __all__ = [
@@ -111,7 +111,7 @@ class EvaluationReport:
         predicted. Read-only.
     measures : tuple of str
         The dataset's measures, the column order of every score array
-        (default: the paper's four, ``MEASURES``).
+        (default: the paper's four, ``PAPER_MEASURES``).
     """
 
     dataset: str
@@ -120,7 +120,7 @@ class EvaluationReport:
     names: tuple[str, ...]
     model_categories: tuple[str, ...]
     scores: NDArray[np.float64]
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     def __post_init__(self) -> None:
         scores = np.array(self.scores, dtype=np.float64)

@@ -14,9 +14,9 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Final
 
 from vptoolkit.checks import check_float, check_int, check_keys, short_repr
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.learn.frame import INPUT_FRAMES
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.point_features import check_feature_names, feature_width
 
 __all__ = ["HEADS", "MAX_GRID_LEVEL", "MAX_CHANNELS", "MAX_INPUT_POINTS", "MAX_KERNEL",
@@ -129,7 +129,7 @@ class ModelConfig:
         registry (:func:`vptoolkit.measures.registry.resolve_measures`), any
         number of them, the paper's four among them in their order, as
         :class:`~vptoolkit.predictions.Predictions` carry them (default:
-        ``MEASURES``, the paper's four). A sequence is kept as a tuple.
+        ``PAPER_MEASURES``, the paper's four). A sequence is kept as a tuple.
     levels : tuple of LevelConfig
         The hierarchy below the global level (default: :data:`DEFAULT_LEVELS`).
     latent_channels : int
@@ -161,7 +161,7 @@ class ModelConfig:
     """
 
     head: str = "direction"
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
     levels: tuple[LevelConfig, ...] = DEFAULT_LEVELS
     latent_channels: int = 512
     kernel_size: int = 16

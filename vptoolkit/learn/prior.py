@@ -102,7 +102,7 @@ class NetworkPrior:
     Examples
     --------
     >>> prior = NetworkPrior("default")                       # doctest: +SKIP
-    >>> search_best_views(mesh, 8, prior=prior(mesh))          # doctest: +SKIP
+    >>> search_best_views(mesh, SearchSettings(budget=8), prior=prior(mesh))  # doctest: +SKIP
     >>> NetworkPrior("net/", measures="NVT,SL").heads          # doctest: +SKIP
     ('NVT', 'SL')
     """

@@ -129,7 +129,7 @@ def face_mean_curvature(mesh: MeshLike) -> NDArray[np.float64]:
 def mesh_curvature(data: ViewData) -> NDArray[np.float64]:
     """:func:`face_mean_curvature` of ``data.mesh``, computed once per :class:`ViewData`.
 
-    Kept in ``data.cache`` under :data:`CACHE_KEY` for every measure that
+    Kept in ``data.mesh_cache`` under :data:`CACHE_KEY` for every measure that
     reads it.
 
     Returns
@@ -137,7 +137,7 @@ def mesh_curvature(data: ViewData) -> NDArray[np.float64]:
     curvature : (n_faces,) float64
         ``H_f`` in inverse model units.
     """
-    if CACHE_KEY not in data.cache:
-        data.cache[CACHE_KEY] = face_mean_curvature(data.mesh)
-    curvature: NDArray[np.float64] = data.cache[CACHE_KEY]
+    if CACHE_KEY not in data.mesh_cache:
+        data.mesh_cache[CACHE_KEY] = face_mean_curvature(data.mesh)
+    curvature: NDArray[np.float64] = data.mesh_cache[CACHE_KEY]
     return curvature

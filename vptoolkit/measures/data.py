@@ -47,10 +47,16 @@ class ViewData:
     histograms : sequence of ViewHistograms
         Runs of views in order, covering every view; with ``features`` where
         a requested measure needs depth or silhouette statistics.
+    mesh_cache : dict, optional
+        Room for the values that depend on the mesh alone (its curvature,
+        face neighbours, Lee et al.'s saliency), shared by every ViewData of
+        one mesh that is given the same dict (a measuring session's); a new
+        one by default.
     """
 
     def __init__(self, mesh: Mesh, views: NDArray[np.float64], settings: MeasureSettings,
-                 areas: NDArray[np.float64], histograms: Sequence[ViewHistograms]) -> None:
+                 areas: NDArray[np.float64], histograms: Sequence[ViewHistograms],
+                 mesh_cache: dict[str, Any] | None = None) -> None:
         self.mesh = mesh
         self.views = views
         self.settings = settings
@@ -60,6 +66,8 @@ class ViewData:
         self.n_faces = int(mesh.n_faces)
         self.cache: dict[str, Any] = {}
         """Room for values several measures share (keyed by the module that computes them)."""
+        self.mesh_cache: dict[str, Any] = {} if mesh_cache is None else mesh_cache
+        """Room for values of the mesh alone, which do not depend on the views."""
 
     @cached_property
     def entries(self) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:

@@ -1,11 +1,13 @@
 """Viewpoint quality of a mesh over its views: computation, normalisation, ranking.
 
 :func:`compute_view_quality` computes any registered measures
-(:mod:`vptoolkit.measures.registry`); by default the paper's four, VE, VR,
-VKL and VMI, which :func:`quality_from_histograms` streams from the pixel
-counts without keeping them (with a second drawing pass for a large mesh).
-Other measures read a :class:`~vptoolkit.measures.data.ViewData` built once
-from the kept pixel counts.
+(:mod:`vptoolkit.measures.registry`) through a measuring session
+(:mod:`vptoolkit.measures.session`); by default the paper's four, VE, VR,
+VKL and VMI, which are streamed from per-view sums of the pixel counts
+(:mod:`vptoolkit.measures.sums`) without keeping them (with a second drawing
+pass for a large mesh), whichever of them are asked for. Other measures read
+a :class:`~vptoolkit.measures.data.ViewData` built once from the kept pixel
+counts.
 
 Notation (Bonaventura et al. 2018, as in the paper's section 3): for a view
 ``v`` and a face ``z``, ``a_z(v)`` is the projected area of ``z`` in pixels
@@ -27,7 +29,7 @@ With ``p(z|v) = a_z(v) / a_t(v)`` and logarithms in base 2 (bits):
 Per model, each measure is normalised to [0, 1] over the sampled views with
 1 = best: ``(q - worst) / (best - worst)`` (paper, eq. 5), with best the
 maximum where :attr:`Measure.higher_is_better
-<vptoolkit.measures.registry.Measure.higher_is_better>` and the minimum
+<vptoolkit.measures.measure.Measure.higher_is_better>` and the minimum
 otherwise.
 
 Special cases
@@ -54,28 +56,21 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_suffix
-from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
-from vptoolkit.geometry import face_areas
-from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
-from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.progress import progress_bar
-from vptoolkit.settings import MeasureSettings, check_settings
+from vptoolkit.measures.registry import PAPER_MEASURES, get_measure
+from vptoolkit.measures.session import MeasuringSession
+from vptoolkit.mesh import MeshLike
+from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
-from vptoolkit.visibility import ViewHistograms, iter_view_histograms
+from vptoolkit.visibility import ViewHistograms
 
 __all__ = [
     "ViewQuality",
     "compute_view_quality",
     "normalize_quality",
-    "quality_from_histograms",
     "ranked_views",
 ]
-
-_STORE_BYTES = 1 << 29  # keep histograms for the VMI pass up to this size, else recompute
-
 
 
 @dataclass(frozen=True)
@@ -94,7 +89,7 @@ class ViewQuality:
         Per-model normalised measures in [0, 1], 1 = best.
     measures : tuple of str
         The measures' names, in column order; by default
-        :data:`~vptoolkit.conventions.MEASURES`, ``("VE", "VR", "VKL", "VMI")``.
+        :data:`~vptoolkit.measures.registry.PAPER_MEASURES`, ``("VE", "VR", "VKL", "VMI")``.
     best_index : (M,) int64
         Index of the best view per measure (the first one on ties).
     worst_index : (M,) int64
@@ -121,7 +116,7 @@ class ViewQuality:
     resolution: int
     backend: str
     camera: Camera = field(default_factory=Camera)
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     @property
     def best_views(self) -> NDArray[np.float64]:
@@ -131,7 +126,7 @@ class ViewQuality:
     @property
     def higher_is_better(self) -> tuple[bool, ...]:
         """For each of :attr:`measures`: is a higher raw value better?"""
-        return tuple(get_measure(name).higher_is_better for name in self.measures)
+        return _higher_is_better(self.measures)
 
     def summary(self) -> dict[str, Any]:
         """JSON-safe summary: per measure, by name, the best view's index, direction and
@@ -182,6 +177,11 @@ class ViewQuality:
         return target
 
 
+def _higher_is_better(names: Sequence[str]) -> tuple[bool, ...]:
+    """For each named measure: is a higher raw value better (the registry's word)?"""
+    return tuple(get_measure(name).higher_is_better for name in names)
+
+
 def ranked_views(raw: NDArray[np.float64], column: int,
                  higher_is_better: Sequence[bool] | None = None) -> NDArray[np.intp]:
     """Row indices of ``raw`` from the best to the worst value of one measure.
@@ -194,7 +194,7 @@ def ranked_views(raw: NDArray[np.float64], column: int,
         The measure's column.
     higher_is_better : sequence of bool, optional
         For each column, whether a higher value is better; by default the
-        paper's four (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`: the
+        paper's four (:data:`~vptoolkit.measures.registry.PAPER_MEASURES`: the
         largest value is best for VE and VR, the smallest for VKL and VMI).
 
     Returns
@@ -202,7 +202,8 @@ def ranked_views(raw: NDArray[np.float64], column: int,
     (n_views,) intp
         NaN rows last; equal values keep their order (a stable sort).
     """
-    higher = (HIGHER_IS_BETTER if higher_is_better is None else higher_is_better)[column]
+    higher = (_higher_is_better(PAPER_MEASURES) if higher_is_better is None
+              else higher_is_better)[column]
     values = raw[:, column]
     if higher:
         return np.argsort(-np.where(np.isfinite(values), values, -np.inf), kind="stable")
@@ -220,8 +221,8 @@ def normalize_quality(raw: ArrayLike,
         measure is undefined (one that sees nothing).
     higher_is_better : sequence of M bool, optional
         For each column, whether a higher raw value is better; by default
-        the paper's four in :data:`MEASURES` order
-        (:data:`~vptoolkit.conventions.HIGHER_IS_BETTER`, so ``M = 4``).
+        the paper's four in :data:`~vptoolkit.measures.registry.PAPER_MEASURES`
+        order (higher is better for VE and VR, not for VKL and VMI; ``M = 4``).
 
     Returns
     -------
@@ -230,7 +231,8 @@ def normalize_quality(raw: ArrayLike,
         a column whose higher values are better and the minimum otherwise;
         0 for NaN entries; 1 for every finite entry of a constant column.
     """
-    directions = HIGHER_IS_BETTER if higher_is_better is None else tuple(higher_is_better)
+    directions = (_higher_is_better(PAPER_MEASURES) if higher_is_better is None
+                  else tuple(higher_is_better))
     values = np.asarray(raw, dtype=np.float64)
     if values.ndim != 2 or values.shape[1] != len(directions):
         raise InputError(f"raw: expected shape (n_views, {len(directions)}), got {values.shape}")
@@ -248,112 +250,6 @@ def normalize_quality(raw: ArrayLike,
         scaled = (values[finite, column] - low) / span
         normalized[finite, column] = scaled if is_higher_better else 1.0 - scaled
     return normalized
-
-
-def quality_from_histograms(
-    histograms: Iterable[ViewHistograms],
-    areas: NDArray[np.float64],
-    *,
-    n_views: int,
-    recompute: Iterable[ViewHistograms] | None = None,
-    store_bytes: int = _STORE_BYTES,
-    face_probability: NDArray[np.float64] | None = None,
-) -> NDArray[np.float64]:
-    """Raw measures from per-view histograms, in one streaming pass (or two).
-
-    Everything but VMI follows from per-view sums. VMI's ``p(z)`` needs all
-    views first, so the histograms are kept while they fit in
-    ``store_bytes``; otherwise they are dropped and ``recompute`` (a second
-    iterable over the same views) is consumed for the VMI term. With
-    ``face_probability`` given, VMI uses that ``p(z)`` instead and one pass
-    suffices.
-
-    Parameters
-    ----------
-    histograms : iterable of ViewHistograms
-        Runs of views in order, covering views ``0 .. n_views - 1``.
-    areas : (n_faces,) float64
-        True face areas ``A_z``.
-    n_views : int
-        Number of views.
-    recompute : iterable of ViewHistograms, optional
-        The same histograms again, used only when they did not fit in memory.
-    store_bytes : int
-        Memory allowed for kept histograms (default: 512 MiB).
-    face_probability : (n_faces,) float64, optional
-        ``p(z)`` estimated elsewhere (e.g. from a sphere of other views, as
-        :mod:`vptoolkit.best_view` does); every face these views see must have
-        ``p(z) > 0``.
-
-    Returns
-    -------
-    raw : (n_views, 4) float64
-        VE, VR, VKL, VMI in bits (VR a fraction); NaN where ``a_t(v) = 0``.
-    """
-    total_area = float(areas.sum())
-    if not total_area > 0.0:
-        raise InputError("areas: the mesh has zero surface area")
-    log_areas = np.log2(areas, out=np.full_like(areas, -np.inf), where=areas > 0)
-    projected = np.zeros(n_views)  # a_t(v)
-    sum_a_log_a = np.zeros(n_views)  # sum_z a_z log2 a_z
-    visible_area = np.zeros(n_views)  # sum_z vis_z A_z
-    sum_a_log_area = np.zeros(n_views)  # sum_z a_z log2 A_z
-    face_totals = np.zeros(len(areas))  # sum_v a_z(v)
-    kept: list[ViewHistograms] | None = [] if face_probability is None else None
-    kept_bytes = 0
-    sum_a_log_p_face = np.zeros(n_views)  # sum_z a_z log2 p(z)
-    if face_probability is not None:
-        given = np.asarray(face_probability, dtype=np.float64)
-        if given.shape != areas.shape:
-            raise InputError(f"face_probability: expected shape {areas.shape}, got {given.shape}")
-        log_given = np.log2(given, out=np.full_like(given, -np.inf), where=given > 0)
-    for run in histograms:
-        views = run.view_index() + run.first_view
-        counts = run.pixel_counts.astype(np.float64)
-        ids = run.face_ids
-        projected += np.bincount(views, weights=counts, minlength=n_views)
-        sum_a_log_a += np.bincount(views, weights=counts * np.log2(counts), minlength=n_views)
-        visible_area += np.bincount(views, weights=areas[ids], minlength=n_views)
-        sum_a_log_area += np.bincount(views, weights=counts * log_areas[ids], minlength=n_views)
-        face_totals += np.bincount(ids, weights=counts, minlength=len(areas))
-        if face_probability is not None:
-            sum_a_log_p_face += np.bincount(views, weights=counts * log_given[ids],
-                                            minlength=n_views)
-        elif kept is not None:
-            kept_bytes += run.nbytes
-            if kept_bytes <= store_bytes:
-                kept.append(run)
-            else:
-                kept = None
-    if not projected.any():
-        raise MeasurementError("no face is visible from any of the views")
-    if face_probability is None:
-        log_p_face = np.log2(
-            face_totals / face_totals.sum(), out=np.zeros_like(face_totals), where=face_totals > 0
-        )
-        if kept is None:
-            if recompute is None:
-                raise InputError("recompute: histograms exceed store_bytes "
-                                 "and no second pass was given")
-            second_pass: Iterable[ViewHistograms] = recompute
-        else:
-            second_pass = kept
-        for run in second_pass:
-            views = run.view_index() + run.first_view
-            sum_a_log_p_face += np.bincount(
-                views, weights=run.pixel_counts * log_p_face[run.face_ids], minlength=n_views
-            )
-    elif not np.isfinite(sum_a_log_p_face).all():
-        raise InputError("face_probability: a face these views see has p(z) = 0")
-    raw = np.full((n_views, len(MEASURES)), np.nan)
-    seen = projected > 0
-    a_t = projected[seen]
-    sum_p_log_p = sum_a_log_a[seen] / a_t - np.log2(a_t)
-    raw[:, 1] = visible_area / total_area
-    raw[seen, 0] = -sum_p_log_p
-    raw[seen, 2] = sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t
-    raw[seen, 3] = sum_p_log_p - sum_a_log_p_face[seen] / a_t
-    return raw
 
 
 def compute_view_quality(
@@ -407,12 +303,15 @@ def compute_view_quality(
 
     Notes
     -----
-    The paper's four, asked for in their order, are streamed from the pixel
-    counts (:func:`quality_from_histograms`), so a large mesh never holds all
-    views' counts. Any other choice draws the views once, with the depth and
-    silhouette statistics only if a requested measure needs them, keeps the
-    runs in a :class:`~vptoolkit.measures.data.ViewData` and computes each
-    measure from it; what no requested measure reads is never computed.
+    The measures are measured by a
+    :class:`~vptoolkit.measures.session.MeasuringSession`: any of the paper's
+    four are streamed from the per-view sums of the pixel counts
+    (:func:`~vptoolkit.measures.sums.quality_from_histograms`), so a large
+    mesh never holds all views' counts. Any other measure asked for draws the
+    views once, with the depth and silhouette statistics only if a requested
+    measure needs them, keeps the runs in a
+    :class:`~vptoolkit.measures.data.ViewData` and computes each measure from
+    it; what no requested measure reads is never computed.
 
     Examples
     --------
@@ -425,43 +324,19 @@ def compute_view_quality(
     >>> compute_view_quality(box, settings, measures="NVT,PA").measures
     ('NVT', 'PA')
     """
-    names = resolve_measures(measures)
-    chosen = [get_measure(name) for name in names]
-    mesh = as_mesh(mesh)
-    settings = check_settings(settings)
+    session = MeasuringSession(mesh, measures, settings)
+    mesh, settings, names = session.mesh, session.settings, session.names
     if view_directions is None:
         directions = settings.directions()
     else:
         directions = as_directions(view_directions, name="view_directions")
-    areas = face_areas(mesh)
-    with_features = any(measure.needs_image_statistics for measure in chosen)
-    if histograms is not None and with_features \
-            and any(run.features is None for run in histograms):
-        needing = ", ".join(m.name for m in chosen if m.needs_image_statistics)
-        raise InputError(f"{mesh.name}: histograms: drawn without the depth and silhouette "
-                         f"statistics (needed by {needing})")
-
-    def draw() -> Iterable[ViewHistograms]:
-        if histograms is not None:
-            return histograms
-        return iter_view_histograms(mesh, settings, view_directions=directions,
-                                    features=with_features)
-
-    first_pass: Iterable[ViewHistograms] = draw()
-    if progress:
-        first_pass = progress_runs(first_pass, len(directions), mesh.name)
     try:
-        if names == MEASURES:
-            raw = quality_from_histograms(
-                first_pass, areas, n_views=len(directions), recompute=draw()
-            )
-        else:
-            raw = _registered_quality(mesh, directions, settings, areas, first_pass, chosen)
+        raw = session.measure(directions, histograms=histograms, progress=progress)
     except MeasurementError as err:
         raise MeasurementError(f"{mesh.name}: {err}") from err
     except InputError as err:
         raise InputError(f"{mesh.name}: {err}") from err
-    normalized = normalize_quality(raw, [measure.higher_is_better for measure in chosen])
+    normalized = normalize_quality(raw, [measure.higher_is_better for measure in session.measures])
     return ViewQuality(
         views=directions,
         raw=raw,
@@ -475,30 +350,3 @@ def compute_view_quality(
         camera=settings.camera,
         measures=names,
     )
-
-
-def _registered_quality(mesh: Mesh, views: NDArray[np.float64], settings: MeasureSettings,
-                        areas: NDArray[np.float64], runs: Iterable[ViewHistograms],
-                        chosen: Sequence[Measure]) -> NDArray[np.float64]:
-    """Raw values ``(n_views, M)`` of the chosen measures from one pass over the runs."""
-    data = ViewData(mesh, views, settings, areas, list(runs))
-    if not data.seen.any():
-        raise MeasurementError("no face is visible from any of the views")
-    columns = []
-    for measure in chosen:
-        values = np.asarray(measure.compute(data), dtype=np.float64)
-        if values.shape != (data.n_views,):
-            raise RuntimeError(f"{measure.name}: computed shape {values.shape}, "
-                               f"expected ({data.n_views},)")
-        columns.append(values)
-    return np.column_stack(columns)
-
-
-def progress_runs(
-    runs: Iterable[ViewHistograms], n_views: int, name: str
-) -> Iterable[ViewHistograms]:
-    """Pass runs of views through while a progress bar on stderr counts the views."""
-    with progress_bar(total=n_views, description=name, unit="view", leave=False) as bar:
-        for run in runs:
-            bar.update(run.n_views)
-            yield run

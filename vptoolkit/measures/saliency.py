@@ -77,10 +77,10 @@ CACHE_KEY: Final = "saliency"
 """Key of the per-face polygonal saliency (NaN where undefined) in :attr:`ViewData.cache`."""
 
 LEE_CACHE_KEY: Final = "saliency:lee"
-"""Key of the per-face mesh saliency of Lee et al. in :attr:`ViewData.cache`."""
+"""Key of the per-face mesh saliency of Lee et al. in :attr:`ViewData.mesh_cache`."""
 
 PAIRS_CACHE_KEY: Final = "saliency:pairs"
-"""Key of the mesh's :func:`face_neighbours` in :attr:`ViewData.cache` (both saliencies)."""
+"""Key of the mesh's :func:`face_neighbours` in :attr:`ViewData.mesh_cache` (both saliencies)."""
 
 LEE_SCALES: Final = (2.0, 3.0, 4.0, 5.0, 6.0)
 """Lee et al.'s scales ``sigma_i / eps``."""
@@ -124,10 +124,11 @@ def face_neighbours(mesh: MeshLike) -> NDArray[np.int64]:
 
 
 def _mesh_face_neighbours(data: ViewData) -> NDArray[np.int64]:
-    """:func:`face_neighbours` of ``data.mesh``, kept in ``data.cache``: :data:`PAIRS_CACHE_KEY`."""
-    if PAIRS_CACHE_KEY not in data.cache:
-        data.cache[PAIRS_CACHE_KEY] = face_neighbours(data.mesh)
-    pairs: NDArray[np.int64] = data.cache[PAIRS_CACHE_KEY]
+    """:func:`face_neighbours` of ``data.mesh``, kept in ``data.mesh_cache``:
+    :data:`PAIRS_CACHE_KEY`."""
+    if PAIRS_CACHE_KEY not in data.mesh_cache:
+        data.mesh_cache[PAIRS_CACHE_KEY] = face_neighbours(data.mesh)
+    pairs: NDArray[np.int64] = data.mesh_cache[PAIRS_CACHE_KEY]
     return pairs
 
 
@@ -282,15 +283,15 @@ def mesh_saliency(data: ViewData) -> NDArray[np.float64]:
 
     The curvature is the shared one of
     :func:`vptoolkit.measures.curvature.mesh_curvature`; the result is kept
-    in ``data.cache`` under :data:`LEE_CACHE_KEY`.
+    in ``data.mesh_cache`` under :data:`LEE_CACHE_KEY`.
 
     Returns
     -------
     saliency : (n_faces,) float64
         ``S(z) >= 0`` of every face.
     """
-    if LEE_CACHE_KEY not in data.cache:
-        data.cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data),
+    if LEE_CACHE_KEY not in data.mesh_cache:
+        data.mesh_cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data),
                                                  pairs=_mesh_face_neighbours(data))
-    saliency: NDArray[np.float64] = data.cache[LEE_CACHE_KEY]
+    saliency: NDArray[np.float64] = data.mesh_cache[LEE_CACHE_KEY]
     return saliency

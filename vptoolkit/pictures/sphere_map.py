@@ -4,8 +4,8 @@ The paper (Schelling et al. 2021, fig. 2) shows quality spheres as Mercator
 projections; :func:`sphere_map` draws one measure, with the best sampled
 view (star) and an optional predicted view (cross) marked. Columns of the
 quality are named by ``measures`` (by default the paper's four,
-``MEASURES``); each map is titled with the registry's name for its measure
-(:attr:`Measure.title <vptoolkit.measures.registry.Measure.title>`).
+``PAPER_MEASURES``); each map is titled with the registry's name for its measure
+(:attr:`Measure.title <vptoolkit.measures.measure.Measure.title>`).
 :func:`sphere_map_file` draws the ``.npz`` of ``vptool measures -o``,
 whatever measures it records. :mod:`vptoolkit.pictures.sphere_panels` lays
 the same map out once per measure on a grid of panels.
@@ -53,10 +53,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import atomic_write
-from vptoolkit.measures.registry import all_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.optional import require
 from vptoolkit.sphere import as_directions, nearest_view
 
@@ -217,7 +216,7 @@ def sphere_grid(
 def _measure_names(measures: Sequence[str] | None) -> tuple[str, ...]:
     """The column names: as given (distinct), by default the paper's four."""
     if measures is None:
-        return MEASURES
+        return PAPER_MEASURES
     names = tuple(str(name) for name in measures)
     if not names or len(set(names)) != len(names):
         raise InputError(f"measures: expected distinct names, got {list(names)}")
@@ -387,7 +386,7 @@ def sphere_map(
         first of them; for the paper's four, VE).
     measures : sequence of str, optional
         The names of the columns of ``quality`` (default: the paper's four,
-        ``MEASURES``, which needs four columns or one).
+        ``PAPER_MEASURES``, which needs four columns or one).
     predicted : (3,) or (M, 3) array_like, optional
         A predicted direction, or one per measure in ``measures`` order (a
         NaN row draws no cross); marked with a white cross and its quality
@@ -497,7 +496,7 @@ def _read_quality(source: Path) -> tuple[NDArray[np.float64], NDArray[np.float64
             normalized = np.asarray(archive["normalized"], dtype=np.float64)
             name = str(archive["name"]) if "name" in archive.files else source.stem
             names = (tuple(str(item) for item in np.atleast_1d(archive["measures"]))
-                     if "measures" in archive.files else MEASURES)
+                     if "measures" in archive.files else PAPER_MEASURES)
     except (OSError, ValueError, EOFError) as err:
         raise InputError(f"{source.name}: cannot be read as .npz ({err})") from err
     unknown = [name for name in names if name not in all_measures()]

@@ -73,7 +73,7 @@ def sphere_maps(
     quality : (n_views, M) array_like
         Normalised quality, 1 = best, one column per name of ``measures``.
     measures : sequence of str, optional
-        The names of the columns (default: the paper's four, ``MEASURES``,
+        The names of the columns (default: the paper's four, ``PAPER_MEASURES``,
         which needs ``M = 4``).
     predicted : (3,) or (M, 3) array_like, optional
         Predicted directions (one for all, or one per measure; NaN rows: none).

@@ -23,9 +23,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vptoolkit.checks import as_path, check_int, one_line
-from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import write_json_atomic
+from vptoolkit.measures.registry import canonical_name
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import run_tasks
 from vptoolkit.pictures.engine import Engine, drawing_engine
@@ -130,10 +130,10 @@ def _best_direction_task(task: _MeasureTask) -> _Measured:
             label = f"view set of {len(view_set)} ({100 * view_set.coverage[-1]:.1f} % seen)"
             return _Measured(task.source, mesh=mesh, direction=view_set.directions,
                              view_set=view_set, label=label)
-        quality = compute_view_quality(mesh, task.settings)
+        quality = compute_view_quality(mesh, task.settings, measures=(task.measure,))
     except (VptoolkitError, OSError, MemoryError) as err:
         return _Measured(task.source, error=one_line(err))
-    index = int(quality.best_index[MEASURES.index(task.measure)])
+    index = int(quality.best_index[0])
     return _Measured(task.source, mesh=mesh, direction=quality.views[index],
                      label=f"best {task.measure} (view {index} of {len(quality.views)})")
 
@@ -220,8 +220,9 @@ def render_thumbnails(
     out : path-like
         Output folder, created if needed.
     measure : str
-        ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
-    predictor : (3,) or (4, 3) array_like, or callable, optional
+        Any registered measure name, in any case (default: "VE"); with
+        ``predictor``, one it predicts.
+    predictor : (3,) or (M, 3) array_like, or callable, optional
         Direction source (see :func:`vptoolkit.pictures.views.resolve_direction`);
         a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
         network's prediction.
@@ -261,8 +262,7 @@ def render_thumbnails(
     """
     source = as_path(src, "src")
     target = as_path(out, "out")
-    column = measure_index(measure)
-    measure = MEASURES[column]
+    measure = canonical_name(measure)
     workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     if view_set is not None:

@@ -26,15 +26,15 @@ the call; the measured views' functions take a
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import ViewQuality
+from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name, measure_index
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.settings import MeasureSettings, check_settings
@@ -51,8 +51,8 @@ __all__ = [
 ]
 
 DirectionSource = Callable[[Mesh], ArrayLike] | ArrayLike
-"""A view direction for a mesh: ``(3,)`` or ``(4, 3)`` (one per measure, in
-``MEASURES`` order), or a callable returning either from a
+"""A view direction for a mesh: ``(3,)`` or ``(M, 3)`` (one per measure, by default
+the paper's four in ``PAPER_MEASURES`` order), or a callable returning either from a
 :class:`~vptoolkit.mesh.Mesh` (e.g. a trained network's prediction)."""
 
 
@@ -134,19 +134,26 @@ def render_view(mesh: MeshLike, direction: ArrayLike, *,
 
 
 def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
-                      measure: str = "VE") -> NDArray[np.float64]:
+                      measure: str = "VE",
+                      measures: Sequence[str] | None = None) -> NDArray[np.float64]:
     """The view direction a direction source gives for a mesh and measure.
 
     Parameters
     ----------
     mesh : MeshLike
         The model (passed to ``source`` if it is callable).
-    source : (3,) or (4, 3) array_like, or callable
-        A direction, one direction per measure in ``MEASURES`` order, or a
-        callable ``source(mesh)`` returning either (the hook for a trained
-        network, e.g. a wrapper around ``vptoolkit.learn.predict``).
+    source : (3,) or (M, 3) array_like, or callable
+        A direction, one direction per measure of ``measures``, or a callable
+        ``source(mesh)`` returning either (the hook for a trained network,
+        e.g. :class:`vptoolkit.learn.predict.MeshPredictor`).
     measure : str
-        Row to take from a ``(4, 3)`` result (default: "VE").
+        Measure whose row to take from an ``(M, 3)`` result, any registered
+        name in any case (default: "VE").
+    measures : sequence of str, optional
+        The measures of the rows of an ``(M, 3)`` result (default: the
+        source's own ``measures`` attribute, as a
+        :class:`~vptoolkit.learn.predict.MeshPredictor` has, else the
+        paper's four, :data:`~vptoolkit.measures.registry.PAPER_MEASURES`).
 
     Returns
     -------
@@ -156,21 +163,23 @@ def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
     Raises
     ------
     InputError
-        On an unknown measure, a wrong shape, or a zero or non-finite vector.
+        On an unknown measure or one the source does not give, a wrong shape,
+        or a zero or non-finite vector.
     """
     mesh = as_mesh(mesh)
-    column = measure_index(measure)
+    rows = tuple(getattr(source, "measures", PAPER_MEASURES) if measures is None else measures)
+    column = measure_index(measure, rows)
     value = source(mesh) if callable(source) else source
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as err:
         raise InputError(f"{mesh.name}: predicted direction is not numeric ({err})") from err
-    if array.shape == (len(MEASURES), 3):
+    if array.shape == (len(rows), 3):
         array = array[column]
     elif array.shape == (1, 3):
         array = array[0]
     if array.shape != (3,):
-        raise InputError(f"{mesh.name}: expected a (3,) or ({len(MEASURES)}, 3) direction, "
+        raise InputError(f"{mesh.name}: expected a (3,) or ({len(rows)}, 3) direction, "
                          f"got shape {array.shape}")
     return as_directions(array, name=f"{mesh.name}: direction")[0]
 
@@ -193,9 +202,9 @@ def render_best(
     mesh : MeshLike
         The model.
     measure : str
-        ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
+        Any registered measure name, in any case (default: "VE").
     quality : ViewQuality, optional
-        Measures already computed for this mesh.
+        Measures already computed for this mesh, ``measure`` among them.
     settings : MeasureSettings, optional
         How to measure when ``quality`` is not given (default:
         ``MeasureSettings()``: 1000 views at 1024 px, ``Camera()``).
@@ -214,18 +223,18 @@ def render_best(
         On an unknown measure, or an engine whose camera is not the measures'.
     """
     mesh = as_mesh(mesh)
-    column = measure_index(measure)
+    measure = canonical_name(measure)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     if quality is None:
         from vptoolkit.measures.quality import compute_view_quality
 
-        quality = compute_view_quality(mesh, settings)
-    index = int(quality.best_index[column])
+        quality = compute_view_quality(mesh, settings, measures=(measure,))
+    index = int(quality.best_index[measure_index(measure, quality.measures)])
     direction = quality.views[index]
     with drawing_engine(engine, camera=quality.camera) as active:
         image = render_view(mesh, direction, engine=active)
     return RenderedView(image, direction.copy(),
-                        f"best {MEASURES[column]} (view {index} of {len(quality.views)})")
+                        f"best {measure} (view {index} of {len(quality.views)})")
 
 
 def render_predicted(
@@ -241,11 +250,12 @@ def render_predicted(
     ----------
     mesh : MeshLike
         The model.
-    source : (3,) or (4, 3) array_like, or callable
+    source : (3,) or (M, 3) array_like, or callable
         See :func:`resolve_direction`; a callable gets the mesh and returns
         the prediction (the hook for ``vptool render --model``).
     measure : str
-        Measure whose prediction to draw (default: "VE").
+        Measure whose prediction to draw, in any case (default: "VE"); one
+        of the source's measures (:func:`resolve_direction`).
     engine : Engine, optional
         As for :func:`render_views`.
 
@@ -257,4 +267,4 @@ def render_predicted(
     mesh = as_mesh(mesh)
     direction = resolve_direction(mesh, source, measure=measure)
     image = render_view(mesh, direction, engine=engine)
-    return RenderedView(image, direction, f"predicted {MEASURES[measure_index(measure)]}")
+    return RenderedView(image, direction, f"predicted {canonical_name(measure)}")

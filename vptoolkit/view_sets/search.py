@@ -15,12 +15,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import (
     ViewQuality,
     compute_view_quality,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name, get_measure
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
@@ -274,13 +274,19 @@ def best_view_set(
         Stop as soon as the coverage reaches ``until_coverage`` times the
         reachable coverage (that of all sampled views), a value in (0, 1].
     measure : str
-        Measure of the ``"quality"`` objective (default: "VE").
+        Measure of the ``"quality"`` objective, any registered name in any case
+        (default: "VE").
     tolerance : float
         Near-tie band of the ``"quality"`` objective, in [0, 1) (default: 0.05).
     min_pixels : int
         Pixels a face needs in a view to count as seen (default: 1).
-    quality : (n_views, 4) array_like, optional
-        Normalised quality of the views, if already computed (``"quality"`` only).
+    quality : (n_views,) array_like, optional
+        Normalised quality of ``measure`` for every view (1 = best), if already
+        computed (``"quality"`` only); by default computed from the pixel
+        counts for the paper's four, or by
+        :func:`~vptoolkit.measures.quality.compute_view_quality` for another
+        measure of a mesh (a :class:`FaceVisibility` alone holds only the
+        pixel counts, so another measure needs ``quality`` then).
     settings : MeasureSettings
         How a mesh is drawn (default: ``MeasureSettings()``, 1000 views at 1024 px);
         not read for a FaceVisibility.
@@ -308,7 +314,7 @@ def best_view_set(
     """
     if objective not in OBJECTIVES:
         raise InputError(f"objective: expected one of {', '.join(OBJECTIVES)}, got {objective!r}")
-    column = measure_index(measure)
+    measure = canonical_name(measure)
     min_pixels = check_int(min_pixels, "min_pixels", minimum=1)
     settings = check_settings(settings)
     if not 0.0 <= float(tolerance) < 1.0:
@@ -326,11 +332,12 @@ def best_view_set(
     if objective == "coverage":
         picked, covered = _greedy_coverage(entries, areas, limit, wanted)
     elif objective == "quality":
-        values = visibility.quality() if quality is None else np.asarray(quality, np.float64)
-        if values.shape != (visibility.n_views, len(MEASURES)):
-            raise InputError(f"quality: expected shape ({visibility.n_views}, {len(MEASURES)}), "
+        values = (_measure_quality(source, visibility, measure, settings) if quality is None
+                  else np.asarray(quality, np.float64))
+        if values.shape != (visibility.n_views,):
+            raise InputError(f"quality: expected shape ({visibility.n_views},), "
                              f"got {values.shape}")
-        picked, covered = _greedy_quality(entries, areas, values[:, column], limit, wanted,
+        picked, covered = _greedy_quality(entries, areas, values, limit, wanted,
                                           float(tolerance))
     else:
         picked, covered = _greedy_information(visibility, entries, limit, wanted)
@@ -348,8 +355,21 @@ def best_view_set(
         reachable=reachable,
         n_views=visibility.n_views,
         min_pixels=min_pixels,
-        measure=MEASURES[column] if objective == "quality" else None,
+        measure=measure if objective == "quality" else None,
     )
+
+
+def _measure_quality(source: MeshLike | FaceVisibility, visibility: FaceVisibility,
+                     measure: str, settings: MeasureSettings) -> NDArray[np.float64]:
+    """Normalised values ``(n_views,)`` of one measure over the views of ``visibility``."""
+    if measure in PAPER_MEASURES:
+        return visibility.quality()[:, PAPER_MEASURES.index(measure)]
+    if isinstance(source, FaceVisibility):
+        raise InputError(f"measure: {measure} needs the mesh, not only its pixel counts; "
+                         "give its normalised values as quality")
+    quality = compute_view_quality(source, settings, measures=(measure,),
+                                   view_directions=visibility.views)
+    return quality.normalized[:, 0]
 
 
 def _set_entropy(entries: _Entries, indices: NDArray[np.int64],
@@ -373,7 +393,8 @@ def measure_view_set(
     progress: bool = False,
     **options: Any,
 ) -> tuple[ViewQuality, ViewSet]:
-    """The four measures and a view set of a mesh from one drawing of its views.
+    """The paper's four measures (and ``measure``, if another) and a view set of a mesh from
+    one drawing of its views.
 
     Parameters
     ----------
@@ -398,8 +419,15 @@ def measure_view_set(
     """
     mesh = as_mesh(mesh)
     settings = check_settings(settings)
-    visibility = FaceVisibility.from_mesh(mesh, settings, progress=progress)
-    quality = compute_view_quality(mesh, settings, view_directions=visibility.views,
+    measure = canonical_name(options.get("measure", "VE"))
+    names = PAPER_MEASURES if measure in PAPER_MEASURES else (*PAPER_MEASURES, measure)
+    visibility = FaceVisibility.from_mesh(
+        mesh, settings, progress=progress,
+        features=get_measure(measure).needs_image_statistics)
+    quality = compute_view_quality(mesh, settings, measures=names,
+                                   view_directions=visibility.views,
                                    histograms=list(visibility.runs))
-    view_set = best_view_set(visibility, k, quality=quality.normalized, **options)
+    options["measure"] = measure
+    view_set = best_view_set(visibility, k, quality=quality.normalized[:, names.index(measure)],
+                             **options)
     return quality, view_set

@@ -17,11 +17,9 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.quality import (
-    normalize_quality,
-    progress_runs,
-    quality_from_histograms,
-)
+from vptoolkit.measures.quality import normalize_quality
+from vptoolkit.measures.session import progress_runs
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.mesh import MeshLike, as_mesh
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
@@ -84,17 +82,20 @@ class FaceVisibility:
         *,
         view_directions: ArrayLike | None = None,
         progress: bool = False,
+        features: bool = False,
     ) -> FaceVisibility:
         """Draw every view of a mesh once and keep its pixel counts.
 
-        Parameters are those of :func:`vptoolkit.measures.quality.compute_view_quality`.
+        Parameters are those of :func:`vptoolkit.measures.quality.compute_view_quality`;
+        ``features`` keeps each run's depth and silhouette statistics too (for
+        a measure that reads them, :func:`vptoolkit.visibility.iter_view_histograms`).
         """
         mesh = as_mesh(mesh)
         settings = check_settings(settings)
         directions = (settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))
         runs: Iterable[ViewHistograms] = iter_view_histograms(
-            mesh, settings, view_directions=directions)
+            mesh, settings, view_directions=directions, features=features)
         if progress:
             runs = progress_runs(runs, len(directions), mesh.name)
         return cls(directions, face_areas(mesh), tuple(runs), mesh.name)

@@ -12,9 +12,9 @@ import pytest
 from click.testing import CliRunner
 
 from vptoolkit.cli import main
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 
@@ -83,7 +83,7 @@ def test_stored_values_are_the_measures_of_the_stored_meshes(three: Path) -> Non
 def test_a_measure_both_builds_hold_agrees_and_so_does_the_view_set(three: Path,
                                                                      paper: Path) -> None:
     with open_store(three / "dataset.zarr") as ours, open_store(paper / "dataset.zarr") as four:
-        assert four.measures == MEASURES
+        assert four.measures == PAPER_MEASURES
         assert four.attrs["higher_is_better"] == [True, True, False, False]
         assert four.array("quality").shape == (2, 80, 4)
         # VE is column 0 of both: the registry's VE and the streamed one of the paper's four
@@ -146,8 +146,8 @@ def test_resuming_with_other_measures_is_refused(src: Path, tmp_path: Path) -> N
 
 def test_the_options_record_the_measures_and_default_to_the_paper_four() -> None:
     default = BuildOptions()
-    assert default.measures == MEASURES == BuildOptions(measures="paper").measures
-    assert default.store_attrs()["measures"] == list(MEASURES)
+    assert default.measures == PAPER_MEASURES == BuildOptions(measures="paper").measures
+    assert default.store_attrs()["measures"] == list(PAPER_MEASURES)
     chosen = BuildOptions(measures="VE, NVT ,SL")
     assert chosen.measures == THREE and chosen.to_dict()["measures"] == list(THREE)
     assert BuildOptions.from_dict(chosen.to_dict()) == chosen

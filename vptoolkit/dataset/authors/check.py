@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, check_int, one_line
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.authors.importer import AUTHORS_RESOLUTION
 from vptoolkit.errors import VptoolkitError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import angle_between_deg
 
@@ -73,7 +73,7 @@ class MeasureCheck:
     models: tuple[ModelCheck, ...]
     failures: tuple[str, ...]
     resolution: int
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
 
     def summary(self) -> dict[str, dict[str, float | None]]:
         """Per measure: mean rank correlation, median and mean best-view angle.

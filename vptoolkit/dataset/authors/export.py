@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool
-from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
+from vptoolkit.conventions import N_VIEWS, SPLITS
 from vptoolkit.dataset.authors.importer import AUTHORS_FOLDERS, MODEL_LIST, VIEW_TOLERANCE
 from vptoolkit.dataset.builder.split_files import paper_split
 from vptoolkit.dataset.store.schema import published_split
@@ -35,6 +35,7 @@ from vptoolkit.files import (
     remove_stale_partials,
     temporary_prefix,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -132,7 +133,7 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
         A store, a build folder or a release folder (as :func:`vptoolkit.data.open_dataset`
         takes); it must have 1000 views in the order of
         :func:`~vptoolkit.sphere.fibonacci_sphere` and hold the paper's four
-        measures (:data:`~vptoolkit.conventions.MEASURES`; the columns of any
+        measures (:data:`~vptoolkit.measures.registry.PAPER_MEASURES`; the columns of any
         other measure are not written).
     out : path-like
         The data set folder to write (``data/<set>``): new, or an empty
@@ -181,10 +182,10 @@ def export_authors(dataset: str | os.PathLike[str], out: str | os.PathLike[str],
     if not target.parent.is_dir():
         raise InputError(f"{target}: output folder {target.parent} does not exist")
     with open_store(find_store(as_path(dataset, "dataset"))) as data:
-        lacking = [measure for measure in MEASURES if measure not in data.measures]
+        lacking = [measure for measure in PAPER_MEASURES if measure not in data.measures]
         if lacking:
             raise InputError(
-                f"{data.path}: the authors' tree holds {', '.join(MEASURES)}; this store "
+                f"{data.path}: the authors' tree holds {', '.join(PAPER_MEASURES)}; this store "
                 f"records {', '.join(data.measures)}, without {', '.join(lacking)}")
         views = np.asarray(data.array("views"), dtype=np.float64)
         ours = fibonacci_sphere(N_VIEWS)
@@ -240,7 +241,7 @@ def _write_tree(root: Path, data: StoreReader, order: Sequence[str], stems: dict
     from vptoolkit.io.obj import obj_bytes
 
     n_meshless = n_unseen = 0
-    columns = [data.measures.index(measure) for measure in MEASURES]
+    columns = [data.measures.index(measure) for measure in PAPER_MEASURES]
     point_list = _text(fibonacci_sphere(N_VIEWS), "%.17g")
     for folder in AUTHORS_FOLDERS.values():
         _write(root / "best_views" / folder / "3D" / "_point_list.txt", point_list)
@@ -271,10 +272,10 @@ def _write_measures(root: Path, stem: str, raw: NDArray[Any], quality: NDArray[A
                     views: NDArray[np.float64]) -> int:
     """Write one model's lists and best files; return the NaN values written as the worst.
 
-    ``raw`` and ``quality`` are ``(n_views, 4)``, columns in ``MEASURES`` order.
+    ``raw`` and ``quality`` are ``(n_views, 4)``, columns in ``PAPER_MEASURES`` order.
     """
     n_unseen = 0
-    for column, measure in enumerate(MEASURES):
+    for column, measure in enumerate(PAPER_MEASURES):
         folder = AUTHORS_FOLDERS[measure]
         values = np.asarray(raw[:, column], dtype=np.float32)
         unseen = ~np.isfinite(values)

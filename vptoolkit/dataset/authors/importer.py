@@ -15,7 +15,7 @@ position in ``small.txt``). Every file is comma-separated text.
 
 Measures
     ``vq5`` is VE, ``vq4`` VR, ``vq7`` VKL and ``vq8`` VMI
-    (:data:`AUTHORS_FOLDERS`, in :data:`~vptoolkit.conventions.MEASURES`
+    (:data:`AUTHORS_FOLDERS`, in :data:`~vptoolkit.measures.registry.PAPER_MEASURES`
     order); VKL and VMI are lower-is-better. The authors normalise each list
     per model by taking ``max - v`` for VKL and VMI, then ``(v - min) /
     (max - min)``, which is :func:`vptoolkit.measures.quality.normalize_quality`.
@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import as_path, check_bool, one_line
-from vptoolkit.conventions import MEASURES, N_VIEWS, SPLITS
+from vptoolkit.conventions import N_VIEWS, SPLITS
 from vptoolkit.dataset.builder.split_files import ListedModel, paper_splits, read_model_list
 from vptoolkit.dataset.store.entries import LazyEntries
 from vptoolkit.dataset.store.schema import (
@@ -52,6 +52,7 @@ from vptoolkit.dataset.store.writer import write_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import check_path_part, sha256_file, stale_partials
 from vptoolkit.measures.quality import normalize_quality
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
 
@@ -63,7 +64,7 @@ __all__ = [
 ]
 
 AUTHORS_FOLDERS: dict[str, str] = {"VE": "vq5", "VR": "vq4", "VKL": "vq7", "VMI": "vq8"}
-"""The authors' ``best_views/vq<k>`` folder of each measure, in ``MEASURES`` order."""
+"""The authors' ``best_views/vq<k>`` folder of each measure, in ``PAPER_MEASURES`` order."""
 
 AUTHORS_RESOLUTION = 1024
 """Side in pixels of the images the authors' measures were rendered at."""
@@ -186,8 +187,8 @@ def _read_model(tree: Path, listed: _Listed, *, meshes: bool) -> ModelEntry:
     problem = normal_length_problem(points[:, 3:])
     if problem is not None:
         raise InputError(f"{points_file}: points file: {problem}")
-    raw = np.empty((N_VIEWS, len(MEASURES)), dtype=np.float64)
-    for column, measure in enumerate(MEASURES):
+    raw = np.empty((N_VIEWS, len(PAPER_MEASURES)), dtype=np.float64)
+    for column, measure in enumerate(PAPER_MEASURES):
         folder = AUTHORS_FOLDERS[measure]
         values = _read_table(tree / "best_views" / folder / "3D" / f"{stem}_vq_list.txt",
                              1, N_VIEWS, f"{measure} list ({folder})")
@@ -195,7 +196,7 @@ def _read_model(tree: Path, listed: _Listed, *, meshes: bool) -> ModelEntry:
     quality = normalize_quality(raw)
     best = np.argmax(quality, axis=0).astype(np.int64)
     worst = np.argmin(quality, axis=0).astype(np.int64)
-    columns = np.arange(len(MEASURES))
+    columns = np.arange(len(PAPER_MEASURES))
     mesh_file = tree / listed.source
     if meshes:
         from vptoolkit.io import load_mesh
@@ -230,7 +231,7 @@ def _model_files(tree: Path, listed: _Listed, meshes: bool) -> list[Path]:
     stem = listed.model.stem_path
     files = [tree / "pts_unif" / f"{stem}.txt"]
     files += [tree / "best_views" / AUTHORS_FOLDERS[m] / "3D" / f"{stem}_vq_list.txt"
-              for m in MEASURES]
+              for m in PAPER_MEASURES]
     if meshes:
         files.append(tree / listed.source)
     return files
@@ -292,7 +293,7 @@ def import_authors(
 
     Notes
     -----
-    The stored arrays: ``quality_raw`` the authors' values in ``MEASURES``
+    The stored arrays: ``quality_raw`` the authors' values in ``PAPER_MEASURES``
     order, as read; ``quality`` their per-model normalisation; best and worst
     views recomputed from it; ``points`` and ``normals`` the columns of
     ``pts_unif``; the mesh the ``.obj`` file. A listed model whose file is

@@ -9,7 +9,7 @@ and the options part of the store's attributes
 (:meth:`BuildOptions.store_attrs`). Every default is a named constant of
 its owner: ``N_VIEWS``, ``RESOLUTION`` and ``Camera()`` through
 :class:`~vptoolkit.settings.MeasureSettings`, the paper's four measures
-(:data:`~vptoolkit.conventions.MEASURES`), ``N_SURFACE_POINTS``,
+(:data:`~vptoolkit.measures.registry.PAPER_MEASURES`), ``N_SURFACE_POINTS``,
 ``MAX_FACES``, ``SEED`` and :data:`DEFAULT_FORMAT`.
 """
 
@@ -24,9 +24,9 @@ from typing import Any, Final, Literal
 
 from vptoolkit.checks import as_path, check_bool, check_int, check_keys
 from vptoolkit.clean.simplify import MAX_FACES
-from vptoolkit.conventions import MEASURES, SEED
+from vptoolkit.conventions import SEED
 from vptoolkit.errors import InputError
-from vptoolkit.measures.registry import resolve_measures
+from vptoolkit.measures.registry import PAPER_MEASURES, resolve_measures
 from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
 from vptoolkit.settings import MeasureSettings, check_settings
 
@@ -151,7 +151,7 @@ class BuildOptions:
     """
 
     measure: MeasureSettings = field(default_factory=MeasureSettings)
-    measures: tuple[str, ...] = MEASURES
+    measures: tuple[str, ...] = PAPER_MEASURES
     n_points: int = N_SURFACE_POINTS
     max_faces: int = MAX_FACES
     clean: bool = True
@@ -213,7 +213,7 @@ class BuildOptions:
         paper's four, which it was built with.
         """
         if isinstance(record, dict) and "measures" not in record:
-            record = {**record, "measures": list(MEASURES)}
+            record = {**record, "measures": list(PAPER_MEASURES)}
         record = check_keys(record, _KEYS, "build options")
         digest = record["splits_sha256"]
         return cls(

@@ -32,7 +32,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.release.contents import ReleaseFiles, check_described
 from vptoolkit.dataset.release.hub import hub_yaml, yaml_str
 from vptoolkit.dataset.release.licenses import LICENSES_NAME, hub_license, license_conflicts
@@ -50,10 +49,11 @@ from vptoolkit.dataset.store.info import (
 )
 from vptoolkit.dataset.store.schema import ARRAY_SPECS, registered_measures
 from vptoolkit.errors import InputError
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 if TYPE_CHECKING:
     from vptoolkit.dataset.store.reader import StoreReader
-    from vptoolkit.measures.registry import Measure
+    from vptoolkit.measures.measure import Measure
 
 __all__ = [
     "render_card",
@@ -319,7 +319,7 @@ def _measures(info: dict[str, Any], registered: Sequence[Measure]) -> dict[str, 
         for m in registered
     ]
     names = tuple(m.name for m in registered)
-    raw_values = _PAPER_RAW_VALUES if names == MEASURES else _RAW_VALUES
+    raw_values = _PAPER_RAW_VALUES if names == PAPER_MEASURES else _RAW_VALUES
     return {
         "n_measures": len(names),
         "raw_values_sentence": raw_values.format(log_base=measures["log_base"]),

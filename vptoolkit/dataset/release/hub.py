@@ -11,7 +11,6 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping, Sequence
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.dataset.release.parquet import (
     VIEWS_CONFIG,
     Column,
@@ -19,12 +18,13 @@ from vptoolkit.dataset.release.parquet import (
     model_columns,
     view_columns,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
 
 __all__ = ["hub_yaml", "yaml_str"]
 
 
 def hub_yaml(shards: Sequence[ParquetShard], *, n_points: int, n_views: int,
-             class_names: Sequence[str] = (), measures: Sequence[str] = MEASURES) -> str:
+             class_names: Sequence[str] = (), measures: Sequence[str] = PAPER_MEASURES) -> str:
     """The ``configs`` and ``dataset_info`` blocks of a card's YAML header.
 
     Two configurations: ``default`` (the Parquet shards of each split, one row

@@ -56,9 +56,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES, SPLITS
+from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.store.schema import ARRAY_SPECS, ENTRY_ARRAYS, published_split
 from vptoolkit.errors import ArgumentError
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
@@ -207,7 +208,7 @@ def parse_size(text: str | int, label: str = "--shard-size") -> int:
 
 
 def model_columns(n_points: int, n_views: int, class_names: Sequence[str] | None = None, *,
-                  measures: Sequence[str] = MEASURES) -> list[Column]:
+                  measures: Sequence[str] = PAPER_MEASURES) -> list[Column]:
     """The columns of a model shard, in file order.
 
     The model's record (``name``, ``category``, its class ``label``,

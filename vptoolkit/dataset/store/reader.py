@@ -93,7 +93,7 @@ class StoreReader:
     def measures(self) -> tuple[str, ...]:
         """The names of the columns of every measure axis (``quality`` is ``(M, V, K)`` for
         ``K`` names): the root attribute ``measures``, by default
-        :data:`~vptoolkit.conventions.MEASURES`."""
+        :data:`~vptoolkit.measures.registry.PAPER_MEASURES`."""
         return tuple(self.attrs["measures"])
 
     @property

@@ -39,12 +39,11 @@ from typing import TYPE_CHECKING, Any, Literal, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import InputError
 from vptoolkit.files import parse_json
 
 if TYPE_CHECKING:
-    from vptoolkit.measures.registry import Measure
+    from vptoolkit.measures.measure import Measure
 
 __all__ = [
     "FORMAT_NAME",
@@ -106,9 +105,9 @@ class ArraySpec:
         The shape of one model's value (``"model"``), of one model's rows
         (``"mesh"``, first axis None) or of the whole array (``"root"``). A
         string names a size: ``"n_points"``, ``"n_views"``, ``"n_measures"``
-        (the length of the root attribute ``measures``, ``len(MEASURES)`` by
-        default); None is a length set by the content (the rows of a mesh,
-        the bytes of a JSON text, ``n_models + 1`` offsets).
+        (the length of the root attribute ``measures``); None is a length set
+        by the content (the rows of a mesh, the bytes of a JSON text,
+        ``n_models + 1`` offsets).
     chunk_rows : int or None
         Rows along the first axis per chunk (models, for ``"model"``); None
         stores the array as one chunk.
@@ -153,7 +152,7 @@ class ArraySpec:
         ----------
         sizes : mapping of str to int or None
             ``"n_points"``, ``"n_views"`` and ``"n_measures"`` (the
-            number of the store's measures, ``len(MEASURES)`` unless given);
+            number of the store's measures), each that :attr:`shape` names;
             a size of None stays None (any length).
 
         Returns
@@ -163,15 +162,17 @@ class ArraySpec:
 
         Examples
         --------
-        >>> ARRAY_SPECS["quality"].resolve({"n_points": 200, "n_views": 50})
+        >>> ARRAY_SPECS["quality"].resolve({"n_points": 200, "n_views": 50, "n_measures": 4})
         (50, 4)
         >>> ARRAY_SPECS["best_index"].resolve({"n_measures": 3})
         (3,)
         >>> ARRAY_SPECS["mesh_faces"].resolve({})
         (None, 3)
         """
-        known = {"n_measures": len(MEASURES), **sizes}
-        return tuple(known[axis] if isinstance(axis, str) else axis for axis in self.shape)
+        missing = [axis for axis in self.shape if isinstance(axis, str) and axis not in sizes]
+        if missing:
+            raise KeyError(f"{self.name}: no size given for {', '.join(missing)}")
+        return tuple(sizes[axis] if isinstance(axis, str) else axis for axis in self.shape)
 
     def column_for(self, measures: Sequence[str]) -> str:
         """:attr:`column` for a store of these measures: their names, comma-separated, in
@@ -445,7 +446,8 @@ class ModelEntry:
         Unit face normal at each point.
     quality : (n_views, K) float32
         Normalised quality in [0, 1], 1 = best, one column per measure of the
-        store's ``measures`` (by default ``MEASURES``, ``K = 4``).
+        store's ``measures`` (by default the paper's four,
+        :data:`~vptoolkit.measures.registry.PAPER_MEASURES`, ``K = 4``).
     quality_raw : (n_views, K) float32
         Raw measures; NaN where a view sees nothing.
     best_index, worst_index : (K,) int64

@@ -30,7 +30,7 @@ from typing import Any, NamedTuple, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.conventions import MEASURES, SPLITS
+from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.store.containers import require_zarr, store_kind
 from vptoolkit.dataset.store.schema import (
     ARRAY_SPECS,
@@ -58,6 +58,7 @@ from vptoolkit.files import (
     remove_stale_partials,
     temporary_prefix,
 )
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.progress import Bar, progress_bar
 
 __all__ = ["write_dataset"]
@@ -262,7 +263,7 @@ def _measure_names(attrs: Mapping[str, Any]) -> list[str]:
     four."""
     from vptoolkit.measures.registry import resolve_measures
 
-    given = attrs.get("measures", MEASURES)
+    given = attrs.get("measures", PAPER_MEASURES)
     if isinstance(given, str) or not isinstance(given, Sequence) or not given:
         raise InputError(f"attrs: measures must be a non-empty list of names, got {given!r}")
     try:
@@ -466,7 +467,7 @@ def write_dataset(
         JSON-safe keys are kept too), and optionally ``measures``: the
         registered, distinct names of the columns of every entry's measure
         arrays (``quality`` is ``(n_views, K)`` for ``K`` names; default the
-        paper's four, :data:`~vptoolkit.conventions.MEASURES`). The other keys
+        paper's four, :data:`~vptoolkit.measures.registry.PAPER_MEASURES`). The other keys
         of :data:`WRITER_ATTRS` are set by the writer (``higher_is_better``
         from the registry for those names); they may be passed only with the
         value the writer would set (e.g. attributes read back from another

@@ -1,8 +1,8 @@
-"""The paper's four measures (VE, VR, VKL, VMI) computed together, once per mesh.
+"""The paper's four measures (VE, VR, VKL, VMI) computed together, once per set of views.
 
-They come from :func:`vptoolkit.measures.quality.quality_from_histograms`, the
-same streaming computation as ``compute_view_quality`` with the default
-measures, so the four keep the same values whatever else is asked for.
+They come from :func:`vptoolkit.measures.sums.quality_from_histograms`, the
+same streaming computation as the measuring session uses for them, so the four
+keep the same values whatever else is asked for.
 """
 
 from __future__ import annotations
@@ -10,16 +10,14 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.conventions import MEASURES
 from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.sums import PAPER_COLUMNS, quality_from_histograms
 
 
 def paper_column(data: ViewData, name: str) -> NDArray[np.float64]:
     """Raw values of one of the paper's four measures, ``(n_views,)``."""
     if "paper" not in data.cache:
-        from vptoolkit.measures.quality import quality_from_histograms
-
         data.cache["paper"] = quality_from_histograms(
             data.histograms, data.areas, n_views=data.n_views, recompute=data.histograms)
     raw: NDArray[np.float64] = data.cache["paper"]
-    return raw[:, MEASURES.index(name)]
+    return raw[:, PAPER_COLUMNS.index(name)]

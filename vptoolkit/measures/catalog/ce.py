@@ -39,7 +39,7 @@ from vptoolkit.geometry import bounding_frame
 from vptoolkit.measures.catalog._histograms import entropies
 from vptoolkit.measures.curvature import mesh_curvature
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 CURVATURE_BINS: Final = 256
 """Bins of the curvature histogram, as quoniam's."""
@@ -72,5 +72,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels", "curvature"}),
     compute=_compute,
     source="Page, Koschan, Sukumar, Roui-Abidi and Abidi (2003)",
-    rank=0,
 )

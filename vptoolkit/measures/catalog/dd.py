@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._histograms import distributions
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -36,5 +36,4 @@ MEASURE = Measure(
     needs=frozenset({"depth"}),
     compute=_compute,
     source="Secord, Lu, Finkelstein, Singh and Nealen (2011)",
-    rank=1,
 )

@@ -64,7 +64,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._stability import both_seen, neighbour_pairs
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 NEIGHBOURS: Final = 12
 """Nearest views each view is compared with."""
@@ -145,5 +145,4 @@ MEASURE = Measure(
     needs=frozenset({"depth", "neighbours"}),
     compute=_compute,
     source="Vázquez (2009)",
-    rank=1,
 )

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 from vptoolkit.measures.saliency import polygon_saliency
 
 
@@ -49,5 +49,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels", "saliency"}),
     compute=_compute,
     source="Feixas, Sbert and González (2009)",
-    rank=2,
 )

@@ -14,13 +14,14 @@ Source: Plemenos and Benayada (1996); survey of Bonaventura et al. (2018).
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.measures.catalog import nvt, pa
+from vptoolkit.measures.catalog.nvt import MEASURE as NVT
+from vptoolkit.measures.catalog.pa import MEASURE as PA
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
-    return nvt.MEASURE.compute(data) / data.n_faces + pa.MEASURE.compute(data)
+    return NVT.compute(data) / data.n_faces + PA.compute(data)
 
 
 MEASURE = Measure(
@@ -31,5 +32,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels"}),
     compute=_compute,
     source="Plemenos and Benayada (1996)",
-    rank=2,
 )

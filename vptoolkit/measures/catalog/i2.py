@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -44,5 +44,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels"}),
     compute=_compute,
     source="DeWeese and Meister (1999); Feixas, Sbert and González (2009)",
-    rank=1,
 )

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._stability import both_seen, neighbour_pairs
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 NEIGHBOURS: Final = 6
 """Nearest views each view is compared with."""
@@ -93,5 +93,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels", "neighbours"}),
     compute=_compute,
     source="Feixas, Sbert and González (2009)",
-    rank=0,
 )

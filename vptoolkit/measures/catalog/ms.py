@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 from vptoolkit.measures.saliency import mesh_saliency
 
 
@@ -38,5 +38,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels", "saliency", "curvature"}),
     compute=_compute,
     source="Lee, Varshney and Jacobs (2005)",
-    rank=3,
 )

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -27,5 +27,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels"}),
     compute=_compute,
     source="Plemenos and Benayada (1996)",
-    rank=0,
 )

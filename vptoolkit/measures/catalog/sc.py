@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._silhouette import mean_bend
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -31,5 +31,4 @@ MEASURE = Measure(
     needs=frozenset({"silhouette"}),
     compute=_compute,
     source="Vieira, Bordignon, Peixoto, Tavares, Lopes, Velho and Lewiner (2009)",
-    rank=2,
 )

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._histograms import entropies
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -36,5 +36,4 @@ MEASURE = Measure(
     needs=frozenset({"silhouette"}),
     compute=_compute,
     source="Page, Koschan, Sukumar, Roui-Abidi and Abidi (2003)",
-    rank=1,
 )

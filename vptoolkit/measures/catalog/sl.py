@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._silhouette import has_silhouette
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -31,5 +31,4 @@ MEASURE = Measure(
     needs=frozenset({"silhouette"}),
     compute=_compute,
     source="Polonsky, Patanè, Biasotti, Gotsman and Spagnuolo (2005)",
-    rank=0,
 )

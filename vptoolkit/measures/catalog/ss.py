@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -45,5 +45,4 @@ MEASURE = Measure(
     needs=frozenset({"pixels", "depth"}),
     compute=_compute,
     source="Stoev and Strasser (2002)",
-    rank=2,
 )

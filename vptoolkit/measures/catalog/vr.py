@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.catalog._paper import paper_column
 from vptoolkit.measures.data import ViewData
-from vptoolkit.measures.registry import Measure
+from vptoolkit.measures.measure import Measure
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
@@ -23,8 +23,7 @@ MEASURE = Measure(
     title="visibility ratio",
     family="area",
     higher_is_better=True,
-    needs=frozenset({"pixels"}),
+    needs=frozenset({"sums"}),
     compute=_compute,
     source="Plemenos and Benayada (1996)",
-    rank=3,
 )
