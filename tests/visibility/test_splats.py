@@ -6,7 +6,7 @@ import pytest
 from fixtures.environment import require_package
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
-from vptoolkit.measures.quality import quality_from_histograms
+from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
