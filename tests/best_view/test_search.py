@@ -263,6 +263,6 @@ def test_with_a_dataset_the_search_follows_its_recorded_measures(runner, tmp_pat
                                   "--views", "16", "--resolution", "48", "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert read_predictions(out).measures == ("SL", "NVT")
-    report = evaluate_predictions(built, out, split="all")
+    report = evaluate_predictions(built, out, split=None)
     assert report.measures == ("SL", "INS", "NVT") and report.scored_measures == ("SL", "NVT")
     assert (report.scores[:, [0, 2]] > 50.0).all()
