@@ -677,3 +677,16 @@ def test_a_pickled_split_reopens_over_ranges(served: _Server, release: Path,
             np.testing.assert_array_equal(copy[1][key], local.split("test")[1][key])
         assert _range_bytes(served, name) > 0  # reopened by ranges, not downloaded
     assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+def test_ranges_of_damaged_hdf5_metadata_are_a_verification_error(
+        served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+    data = bytearray((served.folder / "release" / name).read_bytes())
+    data[data.index(b"FRHP") + 12] ^= 1  # the root attributes' heap, under its checksum
+    damaged = tmp_path / "damaged.h5"
+    damaged.write_bytes(bytes(data))
+    served.routes[served.path_of(name)] = lambda handler: _send_range(handler, damaged)
+    with pytest.raises(VerificationError, match=r"the HDF5 metadata cannot be read .*checksum.*"
+                                                r"the store is damaged"):
+        open_dataset(served.url, cache_dir=tmp_path / "cache")

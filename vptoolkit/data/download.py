@@ -43,6 +43,7 @@ import hashlib
 import logging
 import os
 import re
+import socket
 import time
 import urllib.parse
 from collections.abc import Callable, Generator
@@ -304,20 +305,50 @@ class FsspecSource:
             while True:
                 try:
                     block = stream.read(BLOCK_SIZE)
-                except OSError as err:
+                except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
                     raise Transient(f"{url}: download broke off ({one_line(err)})") from err
                 if not block:
                     return
                 yield block
 
     def _open(self, relative: str) -> IO[bytes]:
+        """Open ``relative``; a failure to connect is :class:`Unreachable`, any other one line.
+
+        Each fsspec file system raises its own client's errors (``httpx``,
+        ``requests``, ``aiohttp``, ``botocore`` ...), so they are told apart by
+        :func:`_is_connection_failure`, not by type.
+        """
+        url = self.url_of(relative)
         try:
             stream: IO[bytes] = self._fs.open(f"{self._root}/{relative}", "rb")
         except FileNotFoundError as err:
-            raise InputError(f"{self.url_of(relative)}: not found") from err
-        except OSError as err:
-            raise InputError(f"{self.url_of(relative)}: cannot be fetched ({err})") from err
+            raise InputError(f"{url}: not found") from err
+        except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
+            if _is_connection_failure(err):
+                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
+            raise InputError(f"{url}: cannot be fetched ({one_line(err)})") from err
         return stream
+
+
+def _is_connection_failure(error: BaseException) -> bool:
+    """Whether ``error``, or an error it was raised from, is a failure to reach a host.
+
+    That is the standard library's ``ConnectionError``, ``TimeoutError`` or
+    ``socket.gaierror`` (an unknown host), or an HTTP client's error whose class
+    name says ``Connect`` or ``Timeout`` (``httpx.ConnectError``,
+    ``requests.ConnectionError``, ``aiohttp.ClientConnectorError`` ...).
+    """
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        if isinstance(current, (ConnectionError, TimeoutError, socket.gaierror)):
+            return True
+        if any(word in klass.__name__ for klass in type(current).__mro__
+               for word in ("Connect", "Timeout")):
+            return True
+        current = current.__cause__ or current.__context__
+    return False
 
 
 Source = HttpSource | FsspecSource

@@ -351,7 +351,10 @@ def _check_arrays(
         report.skipped.append(Problem("skipped", label, f"arrays not checked: {err}"))
         return digests
     except VerificationError as err:
-        report.problems.append(Problem("attrs", label, str(err)))
+        # Raised from a library's error, it is damaged metadata; raised alone, wrong attributes.
+        report.problems.append(
+            Problem("unreadable", label, f"cannot open archive ({err.__cause__})")
+            if err.__cause__ is not None else Problem("attrs", label, str(err)))
         return digests
     except InputError as err:
         report.problems.append(Problem("unreadable", label, f"cannot open archive ({err})"))
