@@ -690,3 +690,13 @@ def test_ranges_of_damaged_hdf5_metadata_are_a_verification_error(
     with pytest.raises(VerificationError, match=r"the HDF5 metadata cannot be read .*checksum.*"
                                                 r"the store is damaged"):
         open_dataset(served.url, cache_dir=tmp_path / "cache")
+
+
+def test_verify_of_a_url_names_a_content_size_that_lies(served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+    folder = served.folder / "release"
+    size = (folder / name).stat().st_size
+    _record_size(folder, name, size + 1)
+    line = _one_line(CliRunner().invoke(
+        main, ["verify", served.url, "--cache-dir", str(tmp_path)]), 1)
+    assert f"{name}: croissant.json records {size + 1} bytes, the file has {size}" in line

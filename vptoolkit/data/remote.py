@@ -76,7 +76,12 @@ from vptoolkit.data.ranges import RemoteArchive
 from vptoolkit.dataset.store.containers import archive_preference, store_kind
 from vptoolkit.dataset.release.descriptions import CROISSANT_NAME
 from vptoolkit.dataset.release.licenses import LICENSES_NAME
-from vptoolkit.dataset.release.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums
+from vptoolkit.dataset.release.manifest import (
+    CARD_NAME,
+    MANIFEST_NAME,
+    parse_content_size,
+    parse_sha256sums,
+)
 from vptoolkit.files import sha256_file
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
@@ -107,7 +112,6 @@ MAX_FILE_BYTES = 1 << 40
 """Most bytes of any one file: an archive or shard whose size is not recorded (1 TiB)."""
 
 _SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]*)://")
-_CONTENT_SIZE = re.compile(r"(\d{1,19}) B")
 _DATA_SUFFIXES = (".zarr.zip", ".h5", ".hdf5", ".parquet")
 _TERMS = (CARD_NAME, LICENSES_NAME)
 _log = logging.getLogger(__name__)
@@ -198,10 +202,9 @@ def _recorded_sizes(croissant: Path) -> dict[str, int]:
     for entry in distribution if isinstance(distribution, list) else ():
         if not isinstance(entry, dict):
             continue
-        name, size = entry.get("contentUrl"), entry.get("contentSize")
-        match = _CONTENT_SIZE.fullmatch(size) if isinstance(size, str) else None
-        if isinstance(name, str) and match is not None:
-            sizes[name] = int(match[1])
+        name, size = entry.get("contentUrl"), parse_content_size(entry.get("contentSize"))
+        if isinstance(name, str) and size is not None:
+            sizes[name] = size
     return sizes
 
 
