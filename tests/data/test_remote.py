@@ -700,3 +700,57 @@ def test_verify_of_a_url_names_a_content_size_that_lies(served: _Server, tmp_pat
     line = _one_line(CliRunner().invoke(
         main, ["verify", served.url, "--cache-dir", str(tmp_path)]), 1)
     assert f"{name}: croissant.json records {size + 1} bytes, the file has {size}" in line
+
+
+class _ConnectError(Exception):
+    """A client's failure to connect that is not an ``OSError``, as ``httpx.ConnectError``."""
+
+
+@pytest.fixture()
+def hub(release: Path) -> Iterator[type]:
+    """The release on a fake fsspec file system, ``fakehub://rel``, in memory; its class
+    attribute ``reachable`` set to False makes every open fail as an unknown host does."""
+    require_package("fsspec")
+    import fsspec
+    from fsspec.implementations.memory import MemoryFileSystem
+
+    class FakeHub(MemoryFileSystem):
+        protocol = "fakehub"
+        store: dict[str, object] = {}
+        pseudo_dirs = [""]
+        reachable = True
+
+        @classmethod
+        def _strip_protocol(cls, path: str) -> str:
+            return super()._strip_protocol(str(path).removeprefix("fakehub://"))
+
+        def _open(self, path: str, mode: str = "rb", **kwargs: object) -> object:
+            if not FakeHub.reachable:
+                raise _ConnectError("[Errno -2] Name or service not known")
+            return super()._open(path, mode, **kwargs)
+
+    fsspec.register_implementation("fakehub", FakeHub, clobber=True)
+    hub_fs = FakeHub(skip_instance_cache=True)
+    for file in release.rglob("*"):
+        if file.is_file():
+            hub_fs.pipe(f"/rel/{file.relative_to(release).as_posix()}", file.read_bytes())
+    yield FakeHub
+    FakeHub.store.clear()
+
+
+def test_an_unreachable_fsspec_release_is_one_line_and_its_complete_cache_is_used(
+        hub: type, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    url = "fakehub://rel"
+    cache = tmp_path / "cache"
+    hub.reachable = False
+    line = _one_line(CliRunner().invoke(main, ["info", url, "--cache-dir", str(cache)]), 2)
+    assert line == (f"vptool: error: {url}/SHA256SUMS: cannot be fetched ([Errno -2] Name or "
+                    "service not known); gave up after 4 tries")
+    hub.reachable = True
+    fetch_release(url, cache_dir=cache)
+    hub.reachable = False
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.data.remote"):
+        result = CliRunner().invoke(main, ["info", url, "--cache-dir", str(cache)])
+    assert result.exit_code == 0, result.output
+    assert "airplane" in result.output
+    assert f"offline: using the cached copy of {url}" in caplog.text
