@@ -35,6 +35,20 @@ def test_measures_json_and_npz_agree(runner, tmp_path):
         assert [summary["best"][m]["view_index"] for m in ("VE", "VR", "VKL", "VMI")] == list(best)
 
 
+def _refuse(constant: str) -> None:
+    raise ValueError(f"not JSON: {constant}")
+
+
+def test_measures_json_writes_null_for_a_measure_undefined_in_every_view(runner):
+    # INS compares a view with its neighbours: with one view it is NaN everywhere
+    result = runner.invoke(main, ["measures", str(sample_path("torus.STL")), "--measures",
+                                  "INS,VE", "--json", "--views", "1", "--resolution", "16"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout, parse_constant=_refuse)  # strict: no bare NaN
+    assert summary["best"]["INS"]["raw"] is None
+    assert summary["best"]["VE"]["raw"] > 0
+
+
 def test_raycast_backend_from_the_command_line(runner):
     result = runner.invoke(main, ["measures", str(sample_path("angle_block.STL")), "--views", "8",
                                   "--resolution", "64", "--backend", "raycast", "--json"])

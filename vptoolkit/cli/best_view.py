@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -22,7 +21,7 @@ from vptoolkit.cli.options import (
     search_resolution_option,
 )
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -113,7 +112,7 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:
-        click.echo(json.dumps({"results": [result.summary() for result in run.results],
+        click.echo(output_json({"results": [result.summary() for result in run.results],
                                "failures": [{"input": where, "error": why}
                                             for where, why in run.failures]}, indent=2))
     else:

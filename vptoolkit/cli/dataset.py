@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Literal
@@ -37,6 +36,7 @@ from vptoolkit.dataset.release.options import (
     ReleaseOptions,
 )
 from vptoolkit.errors import InputError
+from vptoolkit.files import output_json
 from vptoolkit.settings import MAX_RESOLUTION
 
 
@@ -255,7 +255,7 @@ def verify(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     report = verify_path(local_dataset(path, cache_dir, everything=True))
     # The summary is printed once: on stdout when all is well, else as the error line.
     if as_json:
-        click.echo(json.dumps(report.to_dict(), indent=2))
+        click.echo(output_json(report.to_dict(), indent=2))
         if not report.ok:
             sys.exit(EXIT_FAILURE if report.problems else EXIT_BAD_INPUT)
         return
@@ -282,7 +282,7 @@ def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     from vptoolkit.dataset.store.info import dataset_info, format_info
 
     details = dataset_info(local_dataset(path, cache_dir))
-    click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
+    click.echo(output_json(details, indent=2) if as_json else format_info(details))
 
 
 @click.command("import-authors")

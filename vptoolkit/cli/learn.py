@@ -26,7 +26,7 @@ from vptoolkit.cli.options import (
     seed_option,
 )
 from vptoolkit.errors import ExistingRunError, InputError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 from vptoolkit.learn.options import (
     DEFAULT_FPS_POOL,
     DEFAULT_LABELS,
@@ -75,10 +75,10 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: str, measure: s
     dataset_path = local_dataset(dataset_path, cache_dir)
     if view_sets:
         sets = evaluate_view_sets(dataset_path, predictions, split=split)
-        click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+        click.echo(output_json(sets.to_dict(), indent=2) if as_json else sets.format_table())
         return
     report = evaluate_predictions(dataset_path, predictions, split=split, measure=measure)
-    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
+    click.echo(output_json(report.to_dict(), indent=2) if as_json else report.format_table())
 
 
 @click.command()
