@@ -754,3 +754,15 @@ def test_an_unreachable_fsspec_release_is_one_line_and_its_complete_cache_is_use
     assert result.exit_code == 0, result.output
     assert "airplane" in result.output
     assert f"offline: using the cached copy of {url}" in caplog.text
+
+
+def test_an_fsspec_scheme_that_connects_when_opened_names_the_url(tmp_path: Path) -> None:
+    require_package("fsspec")
+    import socket
+
+    with socket.socket() as probe:  # a port on 127.0.0.1 that nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"ftp://127.0.0.1:{port}/ok/"
+    line = _one_line(CliRunner().invoke(main, ["info", url, "--cache-dir", str(tmp_path)]), 2)
+    assert line.startswith(f"vptool: error: {url.rstrip('/')}: cannot be fetched (")

@@ -273,12 +273,14 @@ class FsspecSource:
     def __init__(self, url: str) -> None:
         fsspec = require("fsspec", extra=REMOTE_EXTRA)
         self.base = url.rstrip("/")
-        try:
+        try:  # some file systems connect here (ftp://)
             self._fs, self._root = fsspec.core.url_to_fs(self.base)
         except ImportError as err:
             raise MissingDependencyError(f"{url}: {err}") from err
-        except ValueError as err:
-            raise InputError(f"{url}: {err}") from err
+        except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
+            if _is_connection_failure(err):
+                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
+            raise InputError(f"{url}: {one_line(err)}") from err
         self._root = self._root.rstrip("/")
 
     def url_of(self, relative: str) -> str:
