@@ -147,10 +147,11 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     Returns
     -------
     input_points : (n_points, 3) float32
+        Centred and scaled as :func:`network_inputs` says.
     """
     chosen = network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
                              draw=draw)
-    return np.asarray(points)[chosen].astype(np.float32)
+    return _unit_size(np.asarray(points, dtype=np.float64), name)[chosen].astype(np.float32)
 
 
 def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
@@ -173,9 +174,14 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     Returns
     -------
     inputs : (n_inputs, n_points, 3 + F) float32
-        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``.
+        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``,
+        their coordinates centred on the bounding-box centre of ``points`` and
+        divided by its diagonal in float64 before the cast to float32, so a model
+        of any size float64 holds gets the same input (the network is blind to
+        position and size; float32 alone would lose a model below about
+        ``1e-30`` or above ``1e19`` in its frame and normalisation).
     """
-    cloud = np.asarray(points)
+    cloud = _unit_size(np.asarray(points, dtype=np.float64), name)
     if features is not None:
         features = np.asarray(features)
         if features.ndim != 2 or len(features) != len(cloud):
@@ -185,6 +191,25 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     return np.stack([cloud[network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed,
                                            name=name, draw=k)]
                      for k in range(_check_n_inputs(n_inputs))]).astype(np.float32)
+
+
+def _unit_size(points: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    """``(points - c) / d`` for the bounding box's centre ``c`` and diagonal ``d`` (``d > 0``).
+
+    The diagonal is taken as ``m * |span / m|`` with ``m`` the largest side, which
+    neither overflows nor underflows for any finite float64 coordinates.
+    """
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
+        raise InputError(f"{name}: points: expected shape (n, 3) with n >= 1, got {points.shape}")
+    if not np.isfinite(points).all():
+        raise InputError(f"{name}: points: not all coordinates are finite")
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = low / 2.0 + high / 2.0
+    span = high / 2.0 - low / 2.0  # halves: the difference of huge values stays finite
+    largest = float(span.max())
+    if largest <= 0.0:
+        return points - centre
+    return (points - centre) / (2.0 * largest * float(np.linalg.norm(span / largest)))
 
 
 def _check_n_inputs(n_inputs: Any) -> int:
