@@ -482,22 +482,38 @@ def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]
 def _source_features_refused(source: ModelSource,
                              networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]]]
                              ) -> None:
-    """Raise the one message for a point file given to networks that read point features."""
+    """Raise the one message for a point file given to networks that read point features
+    it does not carry: any but ``normal``, which an ``(N, 6)`` file (``vptool sample``'s,
+    the normal of each point's face) carries."""
     wanted = _features_read(networks)
-    if wanted:
-        raise InputError(f"{source.origin}: the network reads point features "
-                         f"({', '.join(wanted)}) that a point file does not carry; "
-                         "give the mesh, or a network of coordinates alone (--model points)")
+    if not wanted:
+        return
+    if wanted == ["normal"]:
+        try:
+            source.normals()
+            return
+        except InputError:
+            pass
+    carried = ("an (N, 3) point file does not carry" if wanted == ["normal"] else
+               "a point file does not carry")
+    raise InputError(f"{source.origin}: the network reads point features "
+                     f"({', '.join(wanted)}) that {carried}; "
+                     "give the mesh, or a network of coordinates alone (--model points)")
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *,
                     seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
     """An input model's surface points and their ``point_features`` (None for no features;
-    a point file has none, see :func:`_source_features_refused`)."""
+    a point file has its normals alone, see :func:`_source_features_refused`)."""
     if not point_features:
         return source.points(seed=seed), None
     if source.kind == "mesh":
         return mesh_surface(source.mesh(), point_features, seed=seed)
+    if source.kind == "points":  # ("normal",): an (N, 6) file's normals, made unit length
+        normals = source.normals()  # none of zero length
+        scaled = normals / np.abs(normals).max(axis=1, keepdims=True)  # no overflow in the norm
+        unit = scaled / np.linalg.norm(scaled, axis=1, keepdims=True)
+        return source.points(seed=seed), unit.astype(np.float32)
     assert source.dataset is not None
     return source.points(seed=seed), source.dataset.point_features(source.position,
                                                                    point_features)
