@@ -766,3 +766,22 @@ def test_an_fsspec_scheme_that_connects_when_opened_names_the_url(tmp_path: Path
     url = f"ftp://127.0.0.1:{port}/ok/"
     line = _one_line(CliRunner().invoke(main, ["info", url, "--cache-dir", str(tmp_path)]), 2)
     assert line.startswith(f"vptool: error: {url.rstrip('/')}: cannot be fetched (")
+
+
+def test_a_copied_cache_opens_offline_and_a_ranged_one_says_it_is_incomplete(
+        served: _Server, tmp_path: Path) -> None:
+    cache = tmp_path / "cache"
+    fetch_release(served.url, cache_dir=cache)
+    ranged = tmp_path / "ranged"
+    with open_dataset(served.url, cache_dir=ranged) as dataset:  # the archive read by ranges
+        assert len(dataset) > 0
+    served.stop()
+    copied = tmp_path / "copied"
+    shutil.copytree(cache, copied)  # bytes and modification times kept, new change times
+    with open_dataset(served.url, cache_dir=copied) as offline, open_dataset(
+            _release_folder(served, cache) / _archive_name(served)) as local:
+        np.testing.assert_array_equal(offline[2]["quality"], local[2]["quality"])
+    with pytest.raises(InputError, match=r"cannot be fetched .*; the cached copy in .* is "
+                                         r"incomplete \(no .*\.h5; an archive read by byte "
+                                         r"ranges is not cached\)"):
+        open_dataset(served.url, cache_dir=ranged)
