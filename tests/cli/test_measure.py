@@ -192,3 +192,16 @@ def test_views_with_an_unreachable_min_pixels_is_a_failure(runner, tmp_path):
     assert line.startswith("vptool: error: ") and "--min-pixels" in line
     assert "no face has 100000 pixels in any of the 12 views" in line
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", [["measures"], ["sphere-map", "-o", "{tmp}/map.png"],
+                                     ["best-view"]])
+def test_a_mesh_of_zero_area_is_the_same_line_in_every_command(runner, tmp_path, command):
+    mesh = tmp_path / "collinear.off"
+    mesh.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n")
+    args = [part.format(tmp=tmp_path) for part in command]
+    result = runner.invoke(main, [args[0], str(mesh), *args[1:], "--views", "8",
+                                  "--resolution", "16"])
+    assert result.exit_code == 2, result.output
+    errors = [line for line in result.stderr.splitlines() if line.startswith("vptool:")]
+    assert errors == ["vptool: error: collinear: the mesh has zero surface area"]

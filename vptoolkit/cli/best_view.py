@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import click
 
 from vptoolkit.checks import check_suffix
-from vptoolkit.cli.group import EXIT_BAD_INPUT
+from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE
 from vptoolkit.cli.options import (
     DATASET,
     MESH,
@@ -129,8 +129,8 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         named = why.startswith((Path(where).name, f"{Path(where).stem}:"))
         click.echo(f"vptool: error: {why}" if named else f"vptool: error: {where}: {why}",
                    err=True)
-    if run.failures and not run.results and run.is_bad_input:
-        sys.exit(EXIT_BAD_INPUT)  # nothing searched, all bad input: each said in its own line
+    if run.failures and not run.results:  # nothing searched: each failure said in its own line
+        sys.exit(EXIT_BAD_INPUT if run.is_bad_input else EXIT_FAILURE)
     if run.failures:
         raise MeasurementError(f"{len(run.failures)} of {len(run.failures) + len(run.results)} "
                                "inputs failed")

@@ -434,6 +434,8 @@ def compute_view_quality(
     else:
         directions = as_directions(view_directions, name="view_directions")
     areas = face_areas(mesh)
+    if not float(areas.sum()) > 0.0:  # nothing can be seen: bad input, as best-view says
+        raise InputError(f"{mesh.name}: the mesh has zero surface area")
     with_features = any(measure.needs_image_statistics for measure in chosen)
     if histograms is not None and with_features \
             and any(run.features is None for run in histograms):
