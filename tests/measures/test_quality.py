@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from fixtures.environment import require_package
 from fixtures.meshes import box_mesh
 from vptoolkit.conventions import MEASURES
 from vptoolkit.errors import MeasurementError
@@ -183,3 +184,18 @@ def test_real_mesh_result_is_complete_and_saves_without_pickle(bunny, tmp_path):
         assert tuple(stored["measures"]) == MEASURES
         np.testing.assert_array_equal(stored["raw"], quality.raw)
         assert "fov_deg" in str(stored["camera"]) and int(stored["resolution"]) == 128
+
+
+@pytest.mark.parametrize("backend", ["raster", "raycast"])
+def test_a_view_of_one_face_has_exactly_zero_entropy_and_divergence(backend):
+    if backend == "raycast":
+        require_package("open3d")
+    triangle = Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+                    np.array([[0, 1, 2]]), name="triangle")
+    quality = compute_view_quality(triangle, MeasureSettings(views=30, resolution=32,
+                                                             backend=backend),
+                                   measures="VE,I2,VKL,VMI")
+    seen = np.isfinite(quality.raw[:, 0])
+    assert seen.any()
+    values = quality.raw[seen]
+    assert (values == 0.0).all() and not np.signbit(values).any(), values

@@ -26,10 +26,14 @@ from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import ViewHistograms
 from vptoolkit.visibility.features import ViewFeatures
 
-__all__ = ["XLOGX_TABLE_SIZE", "ViewData"]
+__all__ = ["ROUNDING_BITS", "XLOGX_TABLE_SIZE", "ViewData", "nonnegative_bits"]
 
 XLOGX_TABLE_SIZE: Final = 1 << 16
 """Most entries of :attr:`ViewData.xlogx_table`."""
+
+ROUNDING_BITS: Final = 1e-12
+"""Below this many bits an entropy or divergence is rounding of its sums: 0. A view with
+pixels of two faces among ``a_t <= 2^30`` has an entropy of at least ``30 / 2^30`` bits."""
 
 _NEIGHBOUR_MARGIN: Final = 8
 """Candidates beyond ``count + 1`` that the k-d tree gives each view at first."""
@@ -212,3 +216,10 @@ def _nearest_views(views: NDArray[np.float64], count: int) -> NDArray[np.int64]:
         rows = rows[~is_complete]
         width *= 2
     return result
+
+
+def nonnegative_bits(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """An entropy or divergence (never negative) with rounding removed: 0 below
+    :data:`ROUNDING_BITS`, NaN kept. A view of one face gets exactly 0, not ``+-1e-15``."""
+    with np.errstate(invalid="ignore"):
+        return np.where(values < ROUNDING_BITS, 0.0, values)

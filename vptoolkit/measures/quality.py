@@ -58,7 +58,7 @@ from vptoolkit.conventions import HIGHER_IS_BETTER, MEASURES
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import atomic_write
 from vptoolkit.geometry import face_areas
-from vptoolkit.measures.data import ViewData
+from vptoolkit.measures.data import ViewData, nonnegative_bits
 from vptoolkit.measures.registry import Measure, get_measure, resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.progress import progress_bar
@@ -350,9 +350,10 @@ def quality_from_histograms(
     a_t = projected[seen]
     sum_p_log_p = sum_a_log_a[seen] / a_t - np.log2(a_t)
     raw[:, 1] = visible_area / total_area
-    raw[seen, 0] = -sum_p_log_p
-    raw[seen, 2] = sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t
-    raw[seen, 3] = sum_p_log_p - sum_a_log_p_face[seen] / a_t
+    # An entropy and two Kullback-Leibler divergences: exactly 0 for a view of one face
+    raw[seen, 0] = nonnegative_bits(-sum_p_log_p)
+    raw[seen, 2] = nonnegative_bits(sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t)
+    raw[seen, 3] = nonnegative_bits(sum_p_log_p - sum_a_log_p_face[seen] / a_t)
     return raw
 
 
