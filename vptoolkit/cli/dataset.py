@@ -385,8 +385,10 @@ def export_authors(dataset: Path, out: Path) -> None:
 def split(src: Path, output: Path, fraction: float, seed: int, categories: str | None) -> None:
     """Write a train/validation split of the meshes under SRC, stratified by category.
 
-    Within each category (folder) a seeded hash orders the models and the
-    first --validation share (at least one, when the category has two or
+    Files whose name or category build-dataset refuses, or whose name has a
+    space at one end or starts with a spreadsheet formula character (= + - @),
+    are left out with a warning each. Within each category (folder) a seeded
+    hash orders the models and the first --validation share (at least one, when the category has two or
     more models) goes to validation. The file is what build-dataset --splits
     reads; publish it beside your results so the split can be rebuilt.
 
@@ -396,10 +398,22 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
       vptool build-dataset meshes/ out/ --splits splits.csv --workers 2
     """
     from vptoolkit.dataset.build.sources import discover_models
-    from vptoolkit.dataset.build.split_files import class_split, write_split_file
+    from vptoolkit.dataset.build.split_files import (
+        class_split,
+        split_file_problem,
+        write_split_file,
+    )
 
     chosen = comma_list(categories)
-    models = discover_models(src, chosen)
+    models = []
+    for model in discover_models(src, chosen):
+        problem = split_file_problem(model.category, model.name)
+        if problem is None:
+            models.append(model)
+        else:  # as build-dataset would fail them, or a spreadsheet run them
+            click.echo(f"vptool: warning: left out {model.source}: {problem}", err=True)
+    if not models:
+        raise InputError(f"{src}: no mesh file that a split file can list")
     splits = class_split([(model.category, model.name) for model in models],
                          fraction=fraction, seed=seed)
     write_split_file(output, splits)
