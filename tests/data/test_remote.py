@@ -687,9 +687,12 @@ def test_ranges_of_damaged_hdf5_metadata_are_a_verification_error(
     damaged = tmp_path / "damaged.h5"
     damaged.write_bytes(bytes(data))
     served.routes[served.path_of(name)] = lambda handler: _send_range(handler, damaged)
-    with pytest.raises(VerificationError, match=r"the HDF5 metadata cannot be read .*checksum.*"
-                                                r"the store is damaged"):
+    with pytest.raises(VerificationError) as raised:
         open_dataset(served.url, cache_dir=tmp_path / "cache")
+    message = str(raised.value)
+    assert message.startswith(f"{served.url}{name}: the bytes served by ranges do not read as "
+                              f"the archive ({name}: the HDF5 metadata cannot be read"), message
+    assert "partial=False downloads the whole archive" in message and "\n" not in message
 
 
 def test_verify_of_a_url_names_a_content_size_that_lies(served: _Server, tmp_path: Path) -> None:
@@ -785,3 +788,31 @@ def test_a_copied_cache_opens_offline_and_a_ranged_one_says_it_is_incomplete(
                                          r"incomplete \(no .*\.h5; an archive read by byte "
                                          r"ranges is not cached\)"):
         open_dataset(served.url, cache_dir=ranged)
+
+
+def test_a_range_answer_longer_than_asked_says_so(served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+
+    def longer(handler: http.server.BaseHTTPRequestHandler) -> None:
+        data = Path(handler.translate_path(handler.path)).read_bytes()
+        first, last = map(int, handler.headers["Range"].removeprefix("bytes=").split("-"))
+        handler.send_response(206)
+        handler.send_header("Content-Range", f"bytes {first}-{last}/{len(data)}")
+        handler.send_header("Content-Length", str(last + 2 - first))
+        handler.end_headers()
+        handler.wfile.write(data[first:last + 2])
+
+    served.routes[served.path_of(name)] = longer
+    with pytest.raises(InputError, match=r"answered a request for bytes 0-0/\d+ with a body of 2 "
+                                         r"bytes, more than the 1 asked for"):
+        open_dataset(served.url, cache_dir=tmp_path)
+
+
+def test_a_manifest_cut_short_by_its_content_length_is_named(served: _Server,
+                                                              tmp_path: Path) -> None:
+    listing = (served.folder / "release" / "SHA256SUMS").read_bytes()
+    half = len(listing) // 2 + 7  # within a line
+    served.routes[served.path_of("SHA256SUMS")] = _send(listing[:half], announced=half)
+    line = _one_line(CliRunner().invoke(main, ["info", served.url, "--cache-dir",
+                                               str(tmp_path)]), 1)
+    assert "SHA256SUMS: ends in the middle of line" in line and "cut short?" in line

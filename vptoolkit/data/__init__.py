@@ -46,13 +46,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
+from vptoolkit.checks import one_line
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data.ranges import RangeFile, RemoteArchive
 from vptoolkit.data.remote import fetch_release, is_remote, locate_release
 from vptoolkit.dataset.store.containers import find_store
 from vptoolkit.dataset.store.reader import StoreReader, open_store
 from vptoolkit.dataset.store.schema import ENTRY_ARRAYS, published_split, registered_measures
-from vptoolkit.errors import InputError
+from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.sphere import nearest_view
 
 if TYPE_CHECKING:
@@ -108,7 +109,17 @@ class _SharedStore:
             raise InputError(f"{self.path.name}: dataset is closed")
         if self._reader is None or self._pid != os.getpid():
             self._stream = None if self.remote is None else self.remote.open()
-            self._reader = open_store(self.path, stream=self._stream)
+            try:
+                self._reader = open_store(self.path, stream=self._stream)
+            except (InputError, VerificationError) as err:
+                if self.remote is None or str(err).startswith(self.remote.url):
+                    raise  # a local store's error, or the server's answer named by its URL
+                # The path names the archive's place in the cache, where it is not: the bytes
+                # are the server's, unverified, so the server is what to name.
+                raise type(err)(
+                    f"{self.remote.url}: the bytes served by ranges do not read as the "
+                    f"archive ({one_line(err)}); the server may have changed them "
+                    "(partial=False downloads the whole archive and verifies it)") from err
             self._pid = os.getpid()
         return self._reader
 

@@ -215,10 +215,14 @@ class HttpSource:
             raise RangesRefused(f"{url}: answered a Range request with the whole file "
                                 f"(HTTP {response.status})")
         content_range = response.headers.get("Content-Range", "")
-        if content_range != wanted or (response.length or 0) > stop - first:
+        if content_range != wanted:
             response.close()
             raise InputError(f"{url}: answered a request for {wanted} (the size croissant.json "
                              f"records) with Content-Range {one_line(content_range)!r}")
+        if (response.length or 0) > stop - first:
+            response.close()
+            raise InputError(f"{url}: answered a request for {wanted} with a body of "
+                             f"{response.length} bytes, more than the {stop - first} asked for")
         return Body(first, total, self._read(response, url))
 
     @staticmethod

@@ -297,9 +297,9 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
     Raises
     ------
     VerificationError
-        On text that is not UTF-8, a malformed line, a repeated path, or a
-        path that is absolute or leaves the folder (``..``); the message names
-        the line number.
+        On text that is not UTF-8 or does not end with a line break (cut
+        short), a malformed line, a repeated path, or a path that is absolute
+        or leaves the folder (``..``); the message names the line number.
     """
     path = Path(path)
     return parse_sha256sums(path.read_bytes(), path.name)
@@ -315,6 +315,10 @@ def parse_sha256sums(data: bytes, label: str = MANIFEST_NAME) -> dict[str, str]:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         raise VerificationError(f"{label}: not UTF-8 text (byte {err.start})") from err
+    if text and not text.endswith("\n"):  # a transfer cut short can leave a path that parses
+        raise VerificationError(f"{label}: ends in the middle of line "
+                                f"{len(text.splitlines())} (cut short?); every line of a "
+                                "manifest ends with a line break")
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
