@@ -388,9 +388,10 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
     Files whose name or category build-dataset refuses, or whose name has a
     space at one end or starts with a spreadsheet formula character (= + - @),
     are left out with a warning each. Within each category (folder) a seeded
-    hash orders the models and the first --validation share (at least one, when the category has two or
-    more models) goes to validation. The file is what build-dataset --splits
-    reads; publish it beside your results so the split can be rebuilt.
+    hash orders the models and the first --validation share (at least one,
+    when the category has two or more models) goes to validation. The file is
+    what build-dataset --splits reads; publish it beside your results so the
+    split can be rebuilt.
 
     \b
     Example:

@@ -459,7 +459,8 @@ def _check_sizes(folder: Path, report: VerifyReport) -> None:
                 f"{str(item['contentSize'])[:40]!r}, not '<bytes> B'"))
         elif recorded != actual:
             report.problems.append(Problem(
-                "size", relative, f"croissant.json records {recorded} bytes, the file has {actual}"))
+                "size", relative,
+                f"croissant.json records {recorded} bytes, the file has {actual}"))
 
 
 def _is_release_folder(path: Path) -> bool:

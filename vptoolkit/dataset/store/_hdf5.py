@@ -28,8 +28,8 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from vptoolkit.dataset.store.schema import HDF5_JSON_KEY
 from vptoolkit.checks import one_line
+from vptoolkit.dataset.store.schema import HDF5_JSON_KEY
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import parse_json
 from vptoolkit.optional import require
@@ -232,6 +232,7 @@ def open_hdf5(path: Path, stream: BinaryIO | io.RawIOBase | None = None,
 
 
 def _damaged(path: Path, error: BaseException) -> VerificationError:
-    """The one-line error for an HDF5 store whose metadata (a header, attribute or link) is damaged."""
+    """The one-line error for an HDF5 store whose metadata (a header, attribute or link block)
+    is damaged."""
     return VerificationError(f"{path.name}: the HDF5 metadata cannot be read ({one_line(error)}); "
                              "the store is damaged (run vptool verify)")
