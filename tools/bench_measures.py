@@ -208,13 +208,13 @@ def measure_memory(measures: str, n_views: int) -> tuple[float, float]:
     return float(out[0]), float(out[1])
 
 
-def print_neighbour_memory() -> None:
-    """Print :func:`measure_memory` of INS, DVS and VE alone at :data:`NEIGHBOUR_VIEWS`."""
+def print_neighbour_memory(view_counts: tuple[int, ...]) -> None:
+    """Print :func:`measure_memory` of INS, DVS and VE alone at each of ``view_counts``."""
     print("peak resident memory of a fresh process measuring a tetrahedron at 8 px")
     header = f"{'views':>9}{'INS,DVS MB':>12}{'s':>8}{'VE MB':>9}{'s':>8}"
     print(header)
     print("-" * len(header))
-    for n_views in NEIGHBOUR_VIEWS:
+    for n_views in view_counts:
         stability_mb, stability_s = measure_memory("INS,DVS", n_views)
         alone_mb, alone_s = measure_memory("VE", n_views)
         print(f"{n_views:>9,}{stability_mb:>12.0f}{stability_s:>8.1f}{alone_mb:>9.0f}"
@@ -256,7 +256,8 @@ def main() -> None:
                         help="only the cost of all measures against the paper's four "
                              "(the torus at the finest resolution)")
     parser.add_argument("--neighbour-memory", action="store_true",
-                        help="only the peak memory of INS and DVS at 1,000 to 100,000 views")
+                        help="only the peak memory of INS and DVS at 1,000 to 100,000 views "
+                             "(200 and 2,000 with --quick)")
     add_results_option(parser, "measures")
     args = parser.parse_args()
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
@@ -264,7 +265,7 @@ def main() -> None:
 
     with printed_section(args.results, args.section):
         if args.neighbour_memory:
-            print_neighbour_memory()
+            print_neighbour_memory((200, 2_000) if args.quick else NEIGHBOUR_VIEWS)
             return
         torus = load_mesh(sample_path("torus.STL"))
         bunny = load_mesh(sample_path("bunny.ply"))
