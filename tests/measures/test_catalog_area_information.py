@@ -204,29 +204,3 @@ def test_depth_stability_needs_views_drawn_with_depth(cube):
                                        measures="NVT,INS", histograms=runs)
     assert np.isfinite(pixels_only.raw).all()
 
-
-def dense_neighbours(views: np.ndarray, count: int) -> np.ndarray:
-    """Row ``v``: the start of ``argsort(-cos(v, .))``, stably, ``v`` left out, from the full
-    cosine matrix (each dot product summed in axis order, so equal rows give equal cosines;
-    a BLAS product can round copies of one view apart)."""
-    cosines = (views[:, None, :] * views[None, :, :]).sum(axis=-1)
-    np.fill_diagonal(cosines, -np.inf)
-    return np.argsort(-cosines, axis=1, kind="stable")[:, :count]
-
-
-def _unit(rows: np.ndarray) -> np.ndarray:
-    return rows / np.linalg.norm(rows, axis=1, keepdims=True)
-
-
-@pytest.mark.parametrize("views", [
-    fibonacci_sphere(3), fibonacci_sphere(1000),
-    np.vstack([np.eye(3), -np.eye(3)]),  # every other view but the opposite one ties
-    _unit(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)),
-    np.repeat(fibonacci_sphere(12), 3, axis=0),  # each view drawn three times
-    _unit(np.random.default_rng(4).normal(size=(2000, 3))),
-], ids=["fib3", "fib1000", "octahedron", "cube", "repeated", "random"])
-def test_neighbours_are_those_of_the_full_cosine_matrix_ties_to_the_lower_index(views):
-    data = ViewData(box_mesh((1.0, 1.0, 1.0)), views, MeasureSettings(), np.ones(12), [])
-    for count in (1, 4, ins.NEIGHBOURS, dvs.NEIGHBOURS, 40):
-        expected = dense_neighbours(views, min(count, len(views) - 1))
-        np.testing.assert_array_equal(data.neighbours(count), expected)

@@ -170,7 +170,9 @@ class ViewData:
 
         Ties are broken by the lower view index: row ``v`` is the start of
         ``argsort(-cos(v, .))``, stably, the view itself left out, with
-        ``cos(v, u)`` the dot product of the unit view directions.
+        ``cos(v, u)`` the dot product of the unit view directions summed in
+        axis order, so copies of one view tie exactly (a BLAS matrix product
+        can round them apart by where they sit in its blocks).
 
         Notes
         -----
