@@ -816,3 +816,19 @@ def test_a_manifest_cut_short_by_its_content_length_is_named(served: _Server,
     line = _one_line(CliRunner().invoke(main, ["info", served.url, "--cache-dir",
                                                str(tmp_path)]), 1)
     assert "SHA256SUMS: ends in the middle of line" in line and "cut short?" in line
+
+
+def test_bytes_from_the_wrong_offset_are_named_as_the_servers(served: _Server,
+                                                              tmp_path: Path) -> None:
+    name = _archive_name(served)
+    data = (served.folder / "release" / name).read_bytes()
+    shifted = tmp_path / "shifted.h5"  # every block from one byte further on, the size kept
+    shifted.write_bytes(data[:4096] + data[4097:] + b"\0")
+    served.routes[served.path_of(name)] = lambda handler: _send_range(handler, shifted)
+    with pytest.raises((InputError, VerificationError)) as raised:
+        with open_dataset(served.url, cache_dir=tmp_path / "cache") as dataset:
+            dataset.array("points")
+    message = str(raised.value)
+    assert message.startswith(f"{served.url}{name}: the bytes served by ranges do not read"), \
+        message
+    assert "cache" not in message.split("(")[0]

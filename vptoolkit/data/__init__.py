@@ -92,6 +92,11 @@ class _SharedStore:
             best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
             names, labels = reader.class_labels()
             is_read = True
+        except (InputError, VerificationError) as err:
+            served = self._served(err)
+            if served is None:
+                raise
+            raise served from err
         finally:
             if not is_read:
                 self.close()
@@ -112,16 +117,27 @@ class _SharedStore:
             try:
                 self._reader = open_store(self.path, stream=self._stream)
             except (InputError, VerificationError) as err:
-                if self.remote is None or str(err).startswith(self.remote.url):
-                    raise  # a local store's error, or the server's answer named by its URL
-                # The path names the archive's place in the cache, where it is not: the bytes
-                # are the server's, unverified, so the server is what to name.
-                raise type(err)(
-                    f"{self.remote.url}: the bytes served by ranges do not read as the "
-                    f"archive ({one_line(err)}); the server may have changed them "
-                    "(partial=False downloads the whole archive and verifies it)") from err
+                served = self._served(err)
+                if served is None:
+                    raise
+                raise served from err
             self._pid = os.getpid()
         return self._reader
+
+    def _served(self, error: InputError | VerificationError,
+                ) -> InputError | VerificationError | None:
+        """``error`` of reading an archive read by ranges, named by its server; None to
+        raise ``error`` as it is (a local store, or the server's own answer naming the URL).
+
+        The path names the archive's place in the cache, where it is not, and the
+        bytes are the server's, unverified, so a damaged store is the server's answer.
+        """
+        if self.remote is None or str(error).startswith(self.remote.url):
+            return None
+        return type(error)(
+            f"{self.remote.url}: the bytes served by ranges do not read as the archive "
+            f"({one_line(error)}); the server may have changed them (partial=False "
+            "downloads the whole archive and verifies it)")
 
     def offsets(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         if self._vertex_offsets is None or self._face_offsets is None:
