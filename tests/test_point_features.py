@@ -365,3 +365,10 @@ def test_bad_points_are_refused_naming_the_mesh(points):
     with pytest.raises(InputError,
                        match=r"^square: points: expected an \(n, 3\) array of finite numbers"):
         locate_faces(square(), points)
+
+
+@pytest.mark.parametrize("names", [["normal"] * 5000, ["x" * 5000], "n" * 5000])
+def test_a_huge_feature_list_is_echoed_cut_short(names):
+    with pytest.raises(InputError) as raised:
+        check_feature_names(names)
+    assert len(str(raised.value)) < 200 and "..." in str(raised.value)

@@ -4,7 +4,13 @@ import numpy as np
 import pytest
 
 from vptoolkit.errors import InputError
-from vptoolkit.sphere import angle_between_deg, as_directions, fibonacci_sphere, nearest_view
+from vptoolkit.sphere import (
+    angle_between_deg,
+    as_directions,
+    coarse_directions,
+    fibonacci_sphere,
+    nearest_view,
+)
 
 
 def test_fibonacci_matches_the_authors_formula_point_by_point():
@@ -54,3 +60,19 @@ def test_as_directions_rejects_zero_nan_and_shapes():
 def test_angle_between_deg():
     np.testing.assert_allclose(angle_between_deg([[1, 0, 0], [0, 1, 0]], [[0, 2, 0], [0, 1, 0]]),
                                [90.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("scale", [1e-20, 3.0, 1e20, 1e37])
+def test_coarse_directions_of_a_shape_with_equal_spreads_do_not_depend_on_its_size(scale):
+    from vptoolkit.mesh import Mesh
+
+    corner = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])  # two equal spreads
+    reference = coarse_directions(Mesh(corner, faces), 16)
+    np.testing.assert_allclose(coarse_directions(Mesh(corner * scale, faces), 16), reference,
+                               atol=1e-9)
+    cube = np.array([[x, y, z] for x in (0.0, 1.0) for y in (0.0, 1.0) for z in (0.0, 1.0)])
+    cube_faces = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                           [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    np.testing.assert_allclose(coarse_directions(Mesh(cube * scale, cube_faces), 16),
+                               coarse_directions(Mesh(cube, cube_faces), 16), atol=1e-9)

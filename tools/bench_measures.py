@@ -28,6 +28,10 @@ midpoint-subdivided to size):
   (``tracemalloc``) and the process's peak resident memory; VE alone streams
   like the paper's four, a measure that reads the kept pixel counts (NVT)
   keeps them.
+* with ``--neighbour-memory``, alone: the peak resident memory and seconds of
+  the stability measures (INS, DVS, which read each view's nearest views) at
+  1,000, 10,000 and 100,000 views, each in a fresh process, beside VE alone on
+  the same views (the drawing's share).
 
 Usage::
 
@@ -43,6 +47,9 @@ Usage::
     # peak memory of one measure against the paper's four, into section ``measure_memory``:
     python tools/bench_measures.py --memory-only --results docs/benchmarks.md \
         --section measure_memory
+    # memory of INS and DVS against the number of views, into section ``neighbour_memory``:
+    python tools/bench_measures.py --neighbour-memory --results docs/benchmarks.md \
+        --section neighbour_memory
 """
 
 from __future__ import annotations
@@ -232,6 +239,44 @@ def print_peak_memory(sample: str, n_views: int, resolution: int) -> list[dict[s
     return records
 
 
+NEIGHBOUR_VIEWS = (1_000, 10_000, 100_000)
+"""View counts of ``--neighbour-memory``."""
+
+
+def measure_memory(measures: str, n_views: int) -> tuple[float, float]:
+    """Peak resident MB and seconds of ``compute_view_quality`` of a tetrahedron at 8 px with
+    ``measures`` on ``n_views`` Fibonacci views, in a fresh process."""
+    code = (
+        "import resource, sys, time, numpy as np;"
+        "from vptoolkit.mesh import Mesh; from vptoolkit.settings import MeasureSettings;"
+        "from vptoolkit.measures.quality import compute_view_quality;"
+        "tet = Mesh(np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], float),"
+        " [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], 'tet');"
+        "compute_view_quality(tet, MeasureSettings(views=2, resolution=8), measures='VE');"
+        "t = time.perf_counter();"
+        f"compute_view_quality(tet, MeasureSettings(views={n_views}, resolution=8),"
+        f" measures='{measures}');"
+        "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,"
+        " time.perf_counter() - t)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True).stdout.split()
+    return float(out[0]), float(out[1])
+
+
+def print_neighbour_memory(view_counts: tuple[int, ...]) -> None:
+    """Print :func:`measure_memory` of INS, DVS and VE alone at each of ``view_counts``."""
+    print("peak resident memory of a fresh process measuring a tetrahedron at 8 px")
+    header = f"{'views':>9}{'INS,DVS MB':>12}{'s':>8}{'VE MB':>9}{'s':>8}"
+    print(header)
+    print("-" * len(header))
+    for n_views in view_counts:
+        stability_mb, stability_s = measure_memory("INS,DVS", n_views)
+        alone_mb, alone_s = measure_memory("VE", n_views)
+        print(f"{n_views:>9,}{stability_mb:>12.0f}{stability_s:>8.1f}{alone_mb:>9.0f}"
+              f"{alone_s:>8.1f}")
+
+
 def jit_seconds() -> tuple[float, float]:
     """Seconds for the first tiny rasterisation in a fresh process: cold cache, then warm."""
     code = (
@@ -269,12 +314,18 @@ def main() -> None:
     parser.add_argument("--memory-only", action="store_true",
                         help="only the peak memory of --measures VE, paper and VE,NVT "
                              "(the bunny; the torus with --quick)")
+    parser.add_argument("--neighbour-memory", action="store_true",
+                        help="only the peak memory of INS and DVS at 1,000 to 100,000 views "
+                             "(200 and 2,000 with --quick)")
     add_results_option(parser, "measures")
     args = parser.parse_args()
     if args.baseline is not None and not (args.baseline / "vptoolkit" / "__init__.py").is_file():
         parser.error(f"--baseline: {args.baseline} holds no vptoolkit package")
 
     with printed_section(args.results, args.section):
+        if args.neighbour_memory:
+            print_neighbour_memory((200, 2_000) if args.quick else NEIGHBOUR_VIEWS)
+            return
         torus = load_mesh(sample_path("torus.STL"))
         bunny = load_mesh(sample_path("bunny.ply"))
         if args.quick:

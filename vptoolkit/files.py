@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import re
 import secrets
@@ -33,6 +34,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any, BinaryIO
+
+import numpy as np
 
 from vptoolkit.checks import one_line, short_repr
 
@@ -50,6 +53,7 @@ __all__ = [
     "held",
     "json_text",
     "named_os_error",
+    "output_json",
     "errors_named",
     "parse_json",
     "read_json_file",
@@ -61,6 +65,7 @@ __all__ = [
     "write_bytes_atomic",
     "write_json_atomic",
     "write_text_atomic",
+    "without_nan",
 ]
 
 
@@ -339,6 +344,28 @@ def json_text(value: Any, *, indent: int | None = 2, sort_keys: bool = True,
     text = json.dumps(value, indent=indent, sort_keys=sort_keys, ensure_ascii=ensure_ascii,
                       allow_nan=allow_nan)
     return text + "\n" if newline else text
+
+
+def without_nan(value: Any) -> Any:
+    """``value`` with every NaN or infinite float (Python or numpy) replaced by None.
+
+    Goes into dicts, lists and tuples (a tuple becomes a list); other values are
+    returned as they are. JSON has no NaN: ``json.dumps`` would write the bare
+    token ``NaN``, which strict parsers (JavaScript's ``JSON.parse``) refuse.
+    """
+    if isinstance(value, dict):
+        return {key: without_nan(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [without_nan(item) for item in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+def output_json(value: Any, *, indent: int | None = 2) -> str:
+    """The JSON text a command prints: NaN and infinities as ``null`` (:func:`without_nan`),
+    keys in their order, no final newline; strict JSON (``allow_nan=False``)."""
+    return json.dumps(without_nan(value), indent=indent, allow_nan=False)
 
 
 def write_json_atomic(path: str | os.PathLike[str], value: Any, *, indent: int | None = 2,

@@ -89,6 +89,17 @@ def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDA
     -------
     axes : (3, 3) float64
         Orthonormal rows; a right-handed frame.
+
+    Notes
+    -----
+    Where two spreads are equal (within ``1e-10`` of the largest: a shape
+    with a symmetry, such as a corner tetrahedron), any pair of axes of
+    their plane would do, and which one the eigensolver returns follows the
+    rounding of the covariance, so the mesh's size. There the pair is fixed
+    instead: the first is the projection on the plane of the constant
+    direction :data:`_REFERENCE`, and the third axis points to its side (the
+    eigensolver's sign of it also follows the rounding); three equal spreads
+    give the coordinate axes.
     """
     areas = face_areas(mesh) if areas is None else areas
     vertices, faces = mesh.vertices, mesh.faces
@@ -97,11 +108,43 @@ def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDA
     weights = areas / total if total > 0 else np.full(len(areas), 1.0 / len(areas))
     centred = centroids - weights @ centroids
     covariance = (centred * weights[:, None]).T @ centred
-    _, vectors = np.linalg.eigh(covariance)
-    axes = vectors[:, ::-1].T.copy()
+    spreads, vectors = np.linalg.eigh(covariance)
+    spreads, axes = spreads[::-1], vectors[:, ::-1].T.copy()
+    tie = _EQUAL_SPREADS * max(float(spreads[0]), 0.0)
+    if spreads[0] - spreads[2] <= tie:
+        axes = np.eye(3)
+    elif spreads[0] - spreads[1] <= tie:  # the two largest are equal: axes[2] is defined
+        axes[2] = _signed(axes[2])
+        axes[0], axes[1] = _pair_across(axes[2])
+    elif spreads[1] - spreads[2] <= tie:  # the two smallest are equal: axes[0] is defined
+        axes[0] = _signed(axes[0])
+        axes[1], axes[2] = _pair_across(axes[0])
     if np.linalg.det(axes) < 0:
         axes[2] = -axes[2]
     return np.asarray(axes)
+
+
+_EQUAL_SPREADS = 1e-10
+"""Spreads closer than this fraction of the largest count as equal in :func:`principal_frame`."""
+
+_REFERENCE = np.array([0.36, 0.48, 0.8])
+"""A unit direction along no symmetry axis of common shapes, fixing the axes of a plane of
+equal spreads in :func:`principal_frame`."""
+
+
+def _signed(axis: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``axis`` or its opposite, whichever points to the side of :data:`_REFERENCE`."""
+    return -axis if float(axis @ _REFERENCE) < 0 else axis
+
+
+def _pair_across(normal: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two orthonormal directions across the unit ``normal``: the projection of
+    :data:`_REFERENCE` (or of the x axis, when the reference is nearly along ``normal``)
+    on the plane, and its cross product with ``normal``."""
+    reference = _REFERENCE if abs(float(_REFERENCE @ normal)) < 0.9 else np.array([1.0, 0.0, 0.0])
+    first = reference - (reference @ normal) * normal
+    first /= np.linalg.norm(first)
+    return first, np.cross(normal, first)
 
 
 def welded_faces(mesh: MeshLike) -> tuple[NDArray[np.float64], NDArray[np.int64]]:

@@ -38,6 +38,7 @@ from typing import Any, Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.checks import short_repr
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas, face_normals
 from vptoolkit.mesh import MeshLike, as_mesh
@@ -80,13 +81,13 @@ def check_feature_names(names: Any, *, text: bool = False) -> tuple[str, ...]:
         names = [] if names.strip() == "none" else [name.strip() for name in names.split(",")]
     if isinstance(names, str) or not isinstance(names, (list, tuple)) or not all(
             isinstance(name, str) for name in names):
-        raise InputError(f"point_features: expected a list of names, got {names!r}")
+        raise InputError(f"point_features: expected a list of names, got {short_repr(names, 80)}")
     unknown = [name for name in names if name not in POINT_FEATURES]
     if unknown:
-        raise InputError(f"point_features: unknown {unknown}, expected names of "
+        raise InputError(f"point_features: unknown {short_repr(unknown, 80)}, expected names of "
                          f"{list(POINT_FEATURES)}")
     if len(set(names)) != len(names):
-        raise InputError(f"point_features: {list(names)} names a feature twice")
+        raise InputError(f"point_features: {short_repr(list(names), 80)} names a feature twice")
     return tuple(names)
 
 

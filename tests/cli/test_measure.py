@@ -36,6 +36,20 @@ def test_measures_json_and_npz_agree(runner, tmp_path):
         assert [summary["best"][m]["view_index"] for m in ("VE", "VR", "VKL", "VMI")] == list(best)
 
 
+def _refuse(constant: str) -> None:
+    raise ValueError(f"not JSON: {constant}")
+
+
+def test_measures_json_writes_null_for_a_measure_undefined_in_every_view(runner):
+    # INS compares a view with its neighbours: with one view it is NaN everywhere
+    result = runner.invoke(main, ["measures", str(sample_path("torus.STL")), "--measures",
+                                  "INS,VE", "--json", "--views", "1", "--resolution", "16"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout, parse_constant=_refuse)  # strict: no bare NaN
+    assert summary["best"]["INS"]["raw"] is None
+    assert summary["best"]["VE"]["raw"] > 0
+
+
 def test_raycast_backend_from_the_command_line(runner):
     result = runner.invoke(main, ["measures", str(sample_path("angle_block.STL")), "--views", "8",
                                   "--resolution", "64", "--backend", "raycast", "--json"])
@@ -238,3 +252,16 @@ def test_cli_help_shows_a_measures_example(runner):
     result = runner.invoke(main, ["measures", "--help"])
     assert result.exit_code == 0
     assert "--measures NVT,PA,I3,INS" in result.output and "'all'" in result.output
+
+
+@pytest.mark.parametrize("command", [["measures"], ["sphere-map", "-o", "{tmp}/map.png"],
+                                     ["best-view"]])
+def test_a_mesh_of_zero_area_is_the_same_line_in_every_command(runner, tmp_path, command):
+    mesh = tmp_path / "collinear.off"
+    mesh.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n")
+    args = [part.format(tmp=tmp_path) for part in command]
+    result = runner.invoke(main, [args[0], str(mesh), *args[1:], "--views", "8",
+                                  "--resolution", "16"])
+    assert result.exit_code == 2, result.output
+    errors = [line for line in result.stderr.splitlines() if line.startswith("vptool:")]
+    assert errors == ["vptool: error: collinear: the mesh has zero surface area"]

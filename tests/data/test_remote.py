@@ -677,3 +677,158 @@ def test_a_pickled_split_reopens_over_ranges(served: _Server, release: Path,
             np.testing.assert_array_equal(copy[1][key], local.split("test")[1][key])
         assert _range_bytes(served, name) > 0  # reopened by ranges, not downloaded
     assert not [path for path in _cached(tmp_path) if name in path.name]
+
+
+def test_ranges_of_damaged_hdf5_metadata_are_a_verification_error(
+        served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+    data = bytearray((served.folder / "release" / name).read_bytes())
+    data[data.index(b"FRHP") + 12] ^= 1  # the root attributes' heap, under its checksum
+    damaged = tmp_path / "damaged.h5"
+    damaged.write_bytes(bytes(data))
+    served.routes[served.path_of(name)] = lambda handler: _send_range(handler, damaged)
+    with pytest.raises(VerificationError) as raised:
+        open_dataset(served.url, cache_dir=tmp_path / "cache")
+    message = str(raised.value)
+    assert message.startswith(f"{served.url}{name}: the bytes served by ranges do not read as "
+                              f"the archive ({name}: the HDF5 metadata cannot be read"), message
+    assert "partial=False downloads the whole archive" in message and "\n" not in message
+
+
+def test_verify_of_a_url_names_a_content_size_that_lies(served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+    folder = served.folder / "release"
+    size = (folder / name).stat().st_size
+    _record_size(folder, name, size + 1)
+    line = _one_line(CliRunner().invoke(
+        main, ["verify", served.url, "--cache-dir", str(tmp_path)]), 1)
+    assert f"{name}: croissant.json records {size + 1} bytes, the file has {size}" in line
+
+
+class _ConnectError(Exception):
+    """A client's failure to connect that is not an ``OSError``, as ``httpx.ConnectError``."""
+
+
+@pytest.fixture()
+def hub(release: Path) -> Iterator[type]:
+    """The release on a fake fsspec file system, ``fakehub://rel``, in memory; its class
+    attribute ``reachable`` set to False makes every open fail as an unknown host does."""
+    require_package("fsspec")
+    import fsspec
+    from fsspec.implementations.memory import MemoryFileSystem
+
+    class FakeHub(MemoryFileSystem):
+        protocol = "fakehub"
+        store: dict[str, object] = {}
+        pseudo_dirs = [""]
+        reachable = True
+
+        @classmethod
+        def _strip_protocol(cls, path: str) -> str:
+            return super()._strip_protocol(str(path).removeprefix("fakehub://"))
+
+        def _open(self, path: str, mode: str = "rb", **kwargs: object) -> object:
+            if not FakeHub.reachable:
+                raise _ConnectError("[Errno -2] Name or service not known")
+            return super()._open(path, mode, **kwargs)
+
+    fsspec.register_implementation("fakehub", FakeHub, clobber=True)
+    hub_fs = FakeHub(skip_instance_cache=True)
+    for file in release.rglob("*"):
+        if file.is_file():
+            hub_fs.pipe(f"/rel/{file.relative_to(release).as_posix()}", file.read_bytes())
+    yield FakeHub
+    FakeHub.store.clear()
+
+
+def test_an_unreachable_fsspec_release_is_one_line_and_its_complete_cache_is_used(
+        hub: type, tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    url = "fakehub://rel"
+    cache = tmp_path / "cache"
+    hub.reachable = False
+    line = _one_line(CliRunner().invoke(main, ["info", url, "--cache-dir", str(cache)]), 2)
+    assert line == (f"vptool: error: {url}/SHA256SUMS: cannot be fetched ([Errno -2] Name or "
+                    "service not known); gave up after 4 tries")
+    hub.reachable = True
+    fetch_release(url, cache_dir=cache)
+    hub.reachable = False
+    with caplog.at_level(logging.WARNING, logger="vptoolkit.data.remote"):
+        result = CliRunner().invoke(main, ["info", url, "--cache-dir", str(cache)])
+    assert result.exit_code == 0, result.output
+    assert "airplane" in result.output
+    assert f"offline: using the cached copy of {url}" in caplog.text
+
+
+def test_an_fsspec_scheme_that_connects_when_opened_names_the_url(tmp_path: Path) -> None:
+    require_package("fsspec")
+    import socket
+
+    with socket.socket() as probe:  # a port on 127.0.0.1 that nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    url = f"ftp://127.0.0.1:{port}/ok/"
+    line = _one_line(CliRunner().invoke(main, ["info", url, "--cache-dir", str(tmp_path)]), 2)
+    assert line.startswith(f"vptool: error: {url.rstrip('/')}: cannot be fetched (")
+
+
+def test_a_copied_cache_opens_offline_and_a_ranged_one_says_it_is_incomplete(
+        served: _Server, tmp_path: Path) -> None:
+    cache = tmp_path / "cache"
+    fetch_release(served.url, cache_dir=cache)
+    ranged = tmp_path / "ranged"
+    with open_dataset(served.url, cache_dir=ranged) as dataset:  # the archive read by ranges
+        assert len(dataset) > 0
+    served.stop()
+    copied = tmp_path / "copied"
+    shutil.copytree(cache, copied)  # bytes and modification times kept, new change times
+    with open_dataset(served.url, cache_dir=copied) as offline, open_dataset(
+            _release_folder(served, cache) / _archive_name(served)) as local:
+        np.testing.assert_array_equal(offline[2]["quality"], local[2]["quality"])
+    with pytest.raises(InputError, match=r"cannot be fetched .*; the cached copy in .* is "
+                                         r"incomplete \(no .*\.h5; an archive read by byte "
+                                         r"ranges is not cached\)"):
+        open_dataset(served.url, cache_dir=ranged)
+
+
+def test_a_range_answer_longer_than_asked_says_so(served: _Server, tmp_path: Path) -> None:
+    name = _archive_name(served)
+
+    def longer(handler: http.server.BaseHTTPRequestHandler) -> None:
+        data = Path(handler.translate_path(handler.path)).read_bytes()
+        first, last = map(int, handler.headers["Range"].removeprefix("bytes=").split("-"))
+        handler.send_response(206)
+        handler.send_header("Content-Range", f"bytes {first}-{last}/{len(data)}")
+        handler.send_header("Content-Length", str(last + 2 - first))
+        handler.end_headers()
+        handler.wfile.write(data[first:last + 2])
+
+    served.routes[served.path_of(name)] = longer
+    with pytest.raises(InputError, match=r"answered a request for bytes 0-0/\d+ with a body of 2 "
+                                         r"bytes, more than the 1 asked for"):
+        open_dataset(served.url, cache_dir=tmp_path)
+
+
+def test_a_manifest_cut_short_by_its_content_length_is_named(served: _Server,
+                                                              tmp_path: Path) -> None:
+    listing = (served.folder / "release" / "SHA256SUMS").read_bytes()
+    half = len(listing) // 2 + 7  # within a line
+    served.routes[served.path_of("SHA256SUMS")] = _send(listing[:half], announced=half)
+    line = _one_line(CliRunner().invoke(main, ["info", served.url, "--cache-dir",
+                                               str(tmp_path)]), 1)
+    assert "SHA256SUMS: ends in the middle of line" in line and "cut short?" in line
+
+
+def test_bytes_from_the_wrong_offset_are_named_as_the_servers(served: _Server,
+                                                              tmp_path: Path) -> None:
+    name = _archive_name(served)
+    data = (served.folder / "release" / name).read_bytes()
+    shifted = tmp_path / "shifted.h5"  # every block from one byte further on, the size kept
+    shifted.write_bytes(data[:4096] + data[4097:] + b"\0")
+    served.routes[served.path_of(name)] = lambda handler: _send_range(handler, shifted)
+    with pytest.raises((InputError, VerificationError)) as raised:
+        with open_dataset(served.url, cache_dir=tmp_path / "cache") as dataset:
+            dataset.array("points")
+    message = str(raised.value)
+    assert message.startswith(f"{served.url}{name}: the bytes served by ranges do not read"), \
+        message
+    assert "cache" not in message.split("(")[0]

@@ -188,3 +188,36 @@ def test_the_shipped_networks_turn_with_their_input(clouds, bundled):
             for rotation in fixed_rotations(name, 3, seed=2):
                 errors.extend(angles(ask(cloud @ rotation.T) @ rotation, reference))
     assert np.median(errors) < 10.0, np.round(errors, 1)
+
+
+@pytest.mark.parametrize("scale", [1e-37, 1e-15, 1e20, 1e37])
+def test_the_frame_does_not_depend_on_the_size_of_the_cloud(clouds, scale):
+    cloud = torch.tensor(clouds["bunny"][None], dtype=torch.float64)
+    reference, _ = canonical_frame(cloud)
+    frame, _ = canonical_frame(cloud * scale)
+    torch.testing.assert_close(frame, reference, rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("bundled", ["default", "points"])
+def test_the_shipped_networks_answer_alike_at_any_size(clouds, bundled):
+    from vptoolkit.learn.predict import MeshPredictor
+
+    network, _ = M.load_model(bundled)
+    cloud = clouds["bunny"]
+    features = face_areas("bunny") if network.config.point_features else cloud[:, :0]
+
+    def ask(scale: float) -> np.ndarray:  # float32, as a point file holds it
+        inputs = torch.tensor(np.hstack([cloud * scale, features])[None], dtype=torch.float32)
+        with torch.no_grad():
+            return network(inputs)["directions"][0].numpy()
+
+    reference = ask(1.0)
+    for scale in (1e-30, 1e-14, 1e20, 1e30):
+        assert angles(ask(scale), reference).max() < 0.1, scale
+    if bundled == "default":  # meshes: normalised in float64 before the float32 input
+        mesh = load_mesh(sample_path("bunny"))
+        predictor = MeshPredictor(bundled, n_inputs=2)
+        answer = predictor(mesh)
+        for scale in (1e-36, 1e-15, 1e20, 1e36):
+            scaled = mesh.__class__(mesh.vertices * scale, mesh.faces, name=mesh.name)
+            assert angles(predictor(scaled), answer).max() < 0.1, scale

@@ -34,6 +34,7 @@ from vptoolkit.learn.predict import (  # noqa: E402
     MeshPredictor,
     network_indices,
     network_inputs,
+    network_points,
     network_predictor,
     predict,
     predict_directions,
@@ -178,7 +179,8 @@ def test_network_inputs_put_the_features_of_the_chosen_rows_after_them():
     assert inputs.shape == (3, 256, 5) and inputs.dtype == np.float32
     for draw in range(3):
         rows = network_indices(points, draw=draw, **sizes)
-        np.testing.assert_array_equal(inputs[draw, :, :3], points[rows].astype(np.float32))
+        np.testing.assert_array_equal(inputs[draw, :, :3],
+                                      network_points(points, draw=draw, **sizes))
         np.testing.assert_array_equal(inputs[draw, :, 3:], features[rows])
     np.testing.assert_array_equal(network_inputs(points, n_inputs=3, **sizes), inputs[..., :3])
 
@@ -251,7 +253,9 @@ def test_mesh_inputs_end_with_the_area_of_the_sampled_faces(checkpoint):
     feature = face_area_feature(mesh, sample.face_index)
     for draw in range(2):
         rows = network_indices(sample.points, seed=0, name="teapot", draw=draw, **INPUT)
-        np.testing.assert_array_equal(inputs[draw, :, :3], sample.points[rows].astype(np.float32))
+        np.testing.assert_array_equal(
+            inputs[draw, :, :3],
+            network_points(sample.points, seed=0, name="teapot", draw=draw, **INPUT))
         np.testing.assert_array_equal(inputs[draw, :, 3], feature[rows])
 
 

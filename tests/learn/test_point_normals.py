@@ -173,3 +173,48 @@ def test_stored_turn_finds_a_rotation_and_refuses_other_shapes(cloud):
                                TURN.T, atol=1e-5)
     with pytest.raises(InputError, match=r"^m: expected the dataset's 2048 stored points"):
         stored_turn(points, points[:10], "m")
+
+
+def test_features_in_another_order_than_trained_are_refused(checkpoint, tmp_path):
+    import json
+    import shutil
+
+    from vptoolkit.learn.checkpoint import checkpoint_paths
+    from vptoolkit.learn.model import load_model
+
+    copy = tmp_path / "net.safetensors"
+    shutil.copy(checkpoint, copy)
+    config_path = checkpoint_paths(copy)[1]
+    config = json.loads(checkpoint_paths(checkpoint)[1].read_text())
+    trained = list(config["architecture"]["point_features"])
+    config["training"] = {"arguments": {"architecture": {"point_features": trained}}}
+    config_path.write_text(json.dumps(config))
+    assert load_model(copy)[0].config.point_features == tuple(trained)  # as recorded: loads
+    config["architecture"]["point_features"] = trained[::-1]  # same widths, channels swapped
+    config_path.write_text(json.dumps(config))
+    with pytest.raises(InputError, match=r"net.json: architecture.point_features "
+                                         r"\['normal', 'face_area'\] are not the "
+                                         r"\['face_area', 'normal'\] the network was trained"):
+        load_model(copy)
+
+
+def test_a_network_of_normals_reads_the_normals_of_an_n6_point_file(tmp_path):
+    from vptoolkit.learn.predict import predict
+
+    checkpoint = tmp_path / "normal.safetensors"
+    save_model(ViewpointNet(dataclasses.replace(TINY_CONFIG, point_features=("normal",)),
+                            seed=0), checkpoint, metadata={"input": INPUT})
+    mesh = load_mesh(sample_path("teapot.stl"))
+    sample = sample_surface(mesh, 2048, seed=0)
+    normals = point_features(mesh, sample.face_index, ("normal",))
+    with_normals, bare = tmp_path / "with.npy", tmp_path / "bare.npy"
+    np.save(with_normals, np.column_stack([sample.points, 3.0 * normals]))  # any length
+    np.save(bare, sample.points)
+    answer = predict(checkpoint, with_normals, n_inputs=1, device="cpu")
+    assert answer.directions.shape == (1, len(TINY_CONFIG.measures), 3)
+    np.save(with_normals, np.column_stack([sample.points, normals]))
+    np.testing.assert_allclose(predict(checkpoint, with_normals, n_inputs=1,
+                                       device="cpu").directions, answer.directions, atol=1e-6)
+    with pytest.raises(InputError, match=r"bare.npy: the network reads point features \(normal\) "
+                                         r"that an \(N, 3\) point file does not carry"):
+        predict(checkpoint, bare, n_inputs=1, device="cpu")

@@ -203,3 +203,4 @@ def test_depth_stability_needs_views_drawn_with_depth(cube):
     pixels_only = compute_view_quality(cube, settings, view_directions=views,
                                        measures="NVT,INS", histograms=runs)
     assert np.isfinite(pixels_only.raw).all()
+

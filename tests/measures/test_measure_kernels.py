@@ -164,19 +164,29 @@ def test_per_view_sums_are_bincount_to_the_bit(sphere_views):
         sphere_views.per_view(weights[:-1])
 
 
+def _unit(rows: np.ndarray) -> np.ndarray:
+    return rows / np.linalg.norm(rows, axis=1, keepdims=True)
+
+
 @pytest.mark.parametrize("views", [
     fibonacci_sphere(200),
+    fibonacci_sphere(1000),
     np.repeat(fibonacci_sphere(12), 3, axis=0),  # ties: equal views
     np.array([[0.0, 0, 1]] * 4 + [[0, 1, 0]] * 3),
+    np.vstack([np.eye(3), -np.eye(3)]),  # every other view but the opposite one ties
+    _unit(np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)),
+    _unit(np.random.default_rng(4).normal(size=(2000, 3))),
     fibonacci_sphere(2),
     fibonacci_sphere(1),
 ])
 def test_neighbours_are_the_start_of_the_stable_full_sort(views, sphere_views):
     data = ViewData(sphere_views.mesh, views, sphere_views.settings, sphere_views.areas, [])
-    cosines = views @ views.T
+    # Each dot product summed in axis order, so copies of one view tie exactly; a BLAS
+    # product (views @ views.T) can round them apart by where they sit in its blocks.
+    cosines = (views[:, None, :] * views[None, :, :]).sum(axis=-1)
     np.fill_diagonal(cosines, -np.inf)
     full = np.argsort(-cosines, axis=1, kind="stable")
-    for count in (1, 6, 12, 400):
+    for count in (1, 4, 6, 12, 40, 400):
         expected = full[:, :min(count, len(views) - 1)]
         assert np.array_equal(data.neighbours(count), expected), count
 

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 
+from fixtures.environment import require_package
 from fixtures.meshes import box_mesh
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
@@ -235,3 +236,18 @@ def test_npz_stores_the_names_and_directions(tmp_path, cube):
         np.testing.assert_array_equal(stored["higher_is_better"], [True, False, True])
         np.testing.assert_array_equal(stored["raw"], quality.raw)
         np.testing.assert_array_equal(stored["best_index"], quality.best_index)
+
+
+@pytest.mark.parametrize("backend", ["raster", "raycast"])
+def test_a_view_of_one_face_has_exactly_zero_entropy_and_divergence(backend):
+    if backend == "raycast":
+        require_package("open3d")
+    triangle = Mesh(np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+                    np.array([[0, 1, 2]]), name="triangle")
+    quality = compute_view_quality(triangle, MeasureSettings(views=30, resolution=32,
+                                                             backend=backend),
+                                   measures="VE,I2,VKL,VMI")
+    seen = np.isfinite(quality.raw[:, 0])
+    assert seen.any()
+    values = quality.raw[seen]
+    assert (values == 0.0).all() and not np.signbit(values).any(), values

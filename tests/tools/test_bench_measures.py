@@ -59,3 +59,14 @@ def test_memory_only_prints_the_peak_memory_of_one_measure_and_the_four(
                          r"resident peak +[\d.]+ MiB$", result.stdout, re.MULTILINE), spec
     assert_section_holds(results, "measure_memory", result.stdout)
 
+
+def test_neighbour_memory_prints_the_peak_memory_per_view_count(
+        tmp_path: Path, run_tool: RunTool) -> None:
+    results = tmp_path / "benchmarks.md"
+    result = run_tool("bench_measures.py", "--quick", "--neighbour-memory",
+                      "--results", str(results), "--section", "neighbour_memory")
+    assert result.returncode == 0, result.stderr[-2000:]
+    rows = [line.split() for line in result.stdout.splitlines() if re.match(r"^ +[\d,]+ ", line)]
+    assert [row[0] for row in rows] == ["200", "2,000"]
+    assert all(float(row[1]) > 0 and float(row[3]) > 0 for row in rows)
+    assert_section_holds(results, "neighbour_memory", result.stdout)

@@ -3,14 +3,13 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import sys
 from pathlib import Path
 
 import click
 
 from vptoolkit.checks import check_suffix
-from vptoolkit.cli.group import EXIT_BAD_INPUT
+from vptoolkit.cli.group import EXIT_BAD_INPUT, EXIT_FAILURE
 from vptoolkit.cli.options import (
     DATASET,
     MESH,
@@ -22,7 +21,7 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 
 
 def _searchable(value: str) -> tuple[str, ...]:
@@ -93,7 +92,7 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:
-        click.echo(json.dumps({"results": [result.summary() for result in run.results],
+        click.echo(output_json({"results": [result.summary() for result in run.results],
                                "failures": [{"input": where, "error": why}
                                             for where, why in run.failures]}, indent=2))
     else:
@@ -110,8 +109,8 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         named = why.startswith((Path(where).name, f"{Path(where).stem}:"))
         click.echo(f"vptool: error: {why}" if named else f"vptool: error: {where}: {why}",
                    err=True)
-    if run.failures and not run.results and run.is_bad_input:
-        sys.exit(EXIT_BAD_INPUT)  # nothing searched, all bad input: each said in its own line
+    if run.failures and not run.results:  # nothing searched: each failure said in its own line
+        sys.exit(EXIT_BAD_INPUT if run.is_bad_input else EXIT_FAILURE)
     if run.failures:
         raise MeasurementError(f"{len(run.failures)} of {len(run.failures) + len(run.results)} "
                                "inputs failed")

@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 from typing import Literal
@@ -36,6 +35,7 @@ from vptoolkit.dataset.release.options import (
 )
 from vptoolkit.dataset.release.parquet import DEFAULT_SHARD_BYTES
 from vptoolkit.errors import InputError
+from vptoolkit.files import output_json
 from vptoolkit.settings import MAX_RESOLUTION
 
 
@@ -258,7 +258,7 @@ def verify(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
     report = verify_path(local)
     # The summary is printed once: on stdout when all is well, else as the error line.
     if as_json:
-        click.echo(json.dumps(report.to_dict(), indent=2))
+        click.echo(output_json(report.to_dict(), indent=2))
         if not report.ok:
             sys.exit(EXIT_FAILURE if report.problems else EXIT_BAD_INPUT)
         return
@@ -287,7 +287,7 @@ def info(path: Path | str, as_json: bool, cache_dir: Path | None) -> None:
 
     with open_dataset(path, cache_dir=cache_dir, partial=False) as opened:
         details = dataset_info(opened.path)
-    click.echo(json.dumps(details, indent=2) if as_json else format_info(details))
+    click.echo(output_json(details, indent=2) if as_json else format_info(details))
 
 
 @click.command("import-authors")
@@ -390,10 +390,13 @@ def export_authors(dataset: Path, out: Path) -> None:
 def split(src: Path, output: Path, fraction: float, seed: int, categories: str | None) -> None:
     """Write a train/validation split of the meshes under SRC, stratified by category.
 
-    Within each category (folder) a seeded hash orders the models and the
-    first --validation share (at least one, when the category has two or
-    more models) goes to validation. The file is what build-dataset --splits
-    reads; publish it beside your results so the split can be rebuilt.
+    Files whose name or category build-dataset refuses, or whose name has a
+    space at one end or starts with a spreadsheet formula character (= + - @),
+    are left out with a warning each. Within each category (folder) a seeded
+    hash orders the models and the first --validation share (at least one,
+    when the category has two or more models) goes to validation. The file is
+    what build-dataset --splits reads; publish it beside your results so the
+    split can be rebuilt.
 
     \b
     Example:
@@ -401,10 +404,22 @@ def split(src: Path, output: Path, fraction: float, seed: int, categories: str |
       vptool build-dataset meshes/ out/ --splits splits.csv --workers 2
     """
     from vptoolkit.dataset.builder.sources import discover_models
-    from vptoolkit.dataset.builder.split_files import class_split, write_split_file
+    from vptoolkit.dataset.builder.split_files import (
+        class_split,
+        split_file_problem,
+        write_split_file,
+    )
 
     chosen = comma_list(categories)
-    models = discover_models(src, chosen)
+    models = []
+    for model in discover_models(src, chosen):
+        problem = split_file_problem(model.category, model.name)
+        if problem is None:
+            models.append(model)
+        else:  # as build-dataset would fail them, or a spreadsheet run them
+            click.echo(f"vptool: warning: left out {model.source}: {problem}", err=True)
+    if not models:
+        raise InputError(f"{src}: no mesh file that a split file can list")
     splits = class_split([(model.category, model.name) for model in models],
                          fraction=fraction, seed=seed)
     write_split_file(output, splits)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import sys
 from pathlib import Path
@@ -28,7 +27,7 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import Split
 from vptoolkit.errors import ExistingRunError, InputError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 from vptoolkit.learn.options import (
     DEFAULT_FPS_POOL,
     DEFAULT_LABELS,
@@ -76,10 +75,10 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: Split, measure:
     with open_dataset(dataset_path, cache_dir=cache_dir) as dataset:
         if view_sets:
             sets = evaluate_view_sets(dataset, predictions, split=split)
-            click.echo(json.dumps(sets.to_dict(), indent=2) if as_json else sets.format_table())
+            click.echo(output_json(sets.to_dict(), indent=2) if as_json else sets.format_table())
             return
         report = evaluate_predictions(dataset, predictions, split=split, measure=measure)
-    click.echo(json.dumps(report.to_dict(), indent=2) if as_json else report.format_table())
+    click.echo(output_json(report.to_dict(), indent=2) if as_json else report.format_table())
 
 
 @click.command()

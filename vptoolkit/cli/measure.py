@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -21,7 +20,7 @@ from vptoolkit.cli.options import (
     views_option,
 )
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.files import atomic_write, check_output_folder, write_json_atomic
+from vptoolkit.files import atomic_write, check_output_folder, output_json, write_json_atomic
 
 
 @click.command()
@@ -70,7 +69,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     summary = quality.summary()
     summary["seconds"] = round(seconds, 3)
     if as_json:
-        click.echo(json.dumps(summary, indent=2))
+        click.echo(output_json(summary, indent=2))
         return
     click.echo(
         f"{quality.name}: {quality.n_faces} faces, {len(quality.views)} views at "
@@ -141,7 +140,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if output is not None:
         view_set.save_npz(output)
     if as_json:
-        click.echo(json.dumps({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
+        click.echo(output_json({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
         return
     click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
                f"{objective} objective ({seconds:.2f} s)")

@@ -46,13 +46,14 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
+from vptoolkit.checks import one_line
 from vptoolkit.conventions import SPLITS
 from vptoolkit.data.ranges import RangeFile, RemoteArchive
 from vptoolkit.data.remote import fetch_release, is_remote, locate_release
 from vptoolkit.dataset.store.containers import find_store
 from vptoolkit.dataset.store.reader import StoreReader, open_store
 from vptoolkit.dataset.store.schema import ENTRY_ARRAYS, published_split, registered_measures
-from vptoolkit.errors import InputError
+from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.sphere import nearest_view
 
 if TYPE_CHECKING:
@@ -91,6 +92,11 @@ class _SharedStore:
             best_index = np.asarray(reader.array("best_index")[...], dtype=np.int64)
             names, labels = reader.class_labels()
             is_read = True
+        except (InputError, VerificationError) as err:
+            served = self._served(err)
+            if served is None:
+                raise
+            raise served from err
         finally:
             if not is_read:
                 self.close()
@@ -108,9 +114,30 @@ class _SharedStore:
             raise InputError(f"{self.path.name}: dataset is closed")
         if self._reader is None or self._pid != os.getpid():
             self._stream = None if self.remote is None else self.remote.open()
-            self._reader = open_store(self.path, stream=self._stream)
+            try:
+                self._reader = open_store(self.path, stream=self._stream)
+            except (InputError, VerificationError) as err:
+                served = self._served(err)
+                if served is None:
+                    raise
+                raise served from err
             self._pid = os.getpid()
         return self._reader
+
+    def _served(self, error: InputError | VerificationError,
+                ) -> InputError | VerificationError | None:
+        """``error`` of reading an archive read by ranges, named by its server; None to
+        raise ``error`` as it is (a local store, or the server's own answer naming the URL).
+
+        The path names the archive's place in the cache, where it is not, and the
+        bytes are the server's, unverified, so a damaged store is the server's answer.
+        """
+        if self.remote is None or str(error).startswith(self.remote.url):
+            return None
+        return type(error)(
+            f"{self.remote.url}: the bytes served by ranges do not read as the archive "
+            f"({one_line(error)}); the server may have changed them (partial=False "
+            "downloads the whole archive and verifies it)")
 
     def offsets(self) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         if self._vertex_offsets is None or self._face_offsets is None:

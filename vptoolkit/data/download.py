@@ -43,6 +43,7 @@ import hashlib
 import logging
 import os
 import re
+import socket
 import time
 import urllib.parse
 from collections.abc import Callable, Generator
@@ -213,10 +214,14 @@ class HttpSource:
             raise RangesRefused(f"{url}: answered a Range request with the whole file "
                                 f"(HTTP {response.status})")
         content_range = response.headers.get("Content-Range", "")
-        if content_range != wanted or (response.length or 0) > stop - first:
+        if content_range != wanted:
             response.close()
             raise InputError(f"{url}: answered a request for {wanted} (the size croissant.json "
                              f"records) with Content-Range {one_line(content_range)!r}")
+        if (response.length or 0) > stop - first:
+            response.close()
+            raise InputError(f"{url}: answered a request for {wanted} with a body of "
+                             f"{response.length} bytes, more than the {stop - first} asked for")
         return Body(first, total, self._read(response, url))
 
     @staticmethod
@@ -271,12 +276,14 @@ class FsspecSource:
     def __init__(self, url: str) -> None:
         fsspec = require("fsspec", extra=REMOTE_EXTRA)
         self.base = url.rstrip("/")
-        try:
+        try:  # some file systems connect here (ftp://)
             self._fs, self._root = fsspec.core.url_to_fs(self.base)
         except ImportError as err:
             raise MissingDependencyError(f"{url}: {err}") from err
-        except ValueError as err:
-            raise InputError(f"{url}: {err}") from err
+        except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
+            if _is_connection_failure(err):
+                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
+            raise InputError(f"{url}: {one_line(err)}") from err
         self._root = self._root.rstrip("/")
 
     def url_of(self, relative: str) -> str:
@@ -303,20 +310,50 @@ class FsspecSource:
             while True:
                 try:
                     block = stream.read(BLOCK_SIZE)
-                except OSError as err:
+                except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
                     raise Transient(f"{url}: download broke off ({one_line(err)})") from err
                 if not block:
                     return
                 yield block
 
     def _open(self, relative: str) -> IO[bytes]:
+        """Open ``relative``; a failure to connect is :class:`Unreachable`, any other one line.
+
+        Each fsspec file system raises its own client's errors (``httpx``,
+        ``requests``, ``aiohttp``, ``botocore`` ...), so they are told apart by
+        :func:`_is_connection_failure`, not by type.
+        """
+        url = self.url_of(relative)
         try:
             stream: IO[bytes] = self._fs.open(f"{self._root}/{relative}", "rb")
         except FileNotFoundError as err:
-            raise InputError(f"{self.url_of(relative)}: not found") from err
-        except OSError as err:
-            raise InputError(f"{self.url_of(relative)}: cannot be fetched ({err})") from err
+            raise InputError(f"{url}: not found") from err
+        except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
+            if _is_connection_failure(err):
+                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
+            raise InputError(f"{url}: cannot be fetched ({one_line(err)})") from err
         return stream
+
+
+def _is_connection_failure(error: BaseException) -> bool:
+    """Whether ``error``, or an error it was raised from, is a failure to reach a host.
+
+    That is the standard library's ``ConnectionError``, ``TimeoutError`` or
+    ``socket.gaierror`` (an unknown host), or an HTTP client's error whose class
+    name says ``Connect`` or ``Timeout`` (``httpx.ConnectError``,
+    ``requests.ConnectionError``, ``aiohttp.ClientConnectorError`` ...).
+    """
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        if isinstance(current, (ConnectionError, TimeoutError, socket.gaierror)):
+            return True
+        if any(word in klass.__name__ for klass in type(current).__mro__
+               for word in ("Connect", "Timeout")):
+            return True
+        current = current.__cause__ or current.__context__
+    return False
 
 
 Source = HttpSource | FsspecSource

@@ -60,6 +60,7 @@ import sys
 import urllib.parse
 from collections.abc import Iterable, Mapping
 from pathlib import Path
+from typing import NamedTuple
 
 from vptoolkit.data.download import (
     HttpSource,
@@ -75,7 +76,12 @@ from vptoolkit.data.download import (
 from vptoolkit.data.ranges import RemoteArchive
 from vptoolkit.dataset.release.descriptions import CROISSANT_NAME
 from vptoolkit.dataset.release.licenses import LICENSES_NAME
-from vptoolkit.dataset.release.manifest import CARD_NAME, MANIFEST_NAME, parse_sha256sums
+from vptoolkit.dataset.release.manifest import (
+    CARD_NAME,
+    MANIFEST_NAME,
+    parse_content_size,
+    parse_sha256sums,
+)
 from vptoolkit.dataset.store.containers import archive_preference, store_kind
 from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import (
@@ -107,7 +113,6 @@ MAX_FILE_BYTES = 1 << 40
 """Most bytes of any one file: an archive or shard whose size is not recorded (1 TiB)."""
 
 _SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]*)://")
-_CONTENT_SIZE = re.compile(r"(\d{1,19}) B")
 _DATA_SUFFIXES = (".zarr.zip", ".h5", ".hdf5", ".parquet")
 _TERMS = (CARD_NAME, LICENSES_NAME)
 _log = logging.getLogger(__name__)
@@ -198,10 +203,9 @@ def _recorded_sizes(croissant: Path) -> dict[str, int]:
     for entry in distribution if isinstance(distribution, list) else ():
         if not isinstance(entry, dict):
             continue
-        name, size = entry.get("contentUrl"), entry.get("contentSize")
-        match = _CONTENT_SIZE.fullmatch(size) if isinstance(size, str) else None
-        if isinstance(name, str) and match is not None:
-            sizes[name] = int(match[1])
+        name, size = entry.get("contentUrl"), parse_content_size(entry.get("contentSize"))
+        if isinstance(name, str) and size is not None:
+            sizes[name] = size
     return sizes
 
 
@@ -252,12 +256,53 @@ def _pointer(cache: Path, base: str) -> Path:
     return cache / "urls" / f"{hashlib.sha256(base.encode('utf-8')).hexdigest()}.json"
 
 
-def _cached_copy(cache: Path, base: str, archive: str | None, everything: bool) -> Path | None:
-    """The release folder (or archive) last fetched from ``base``, if complete and verified.
+class _CachedRelease(NamedTuple):
+    """The release folder last fetched from a URL, and the files a fetch would read of it."""
 
-    Complete and verified: the folder's ``SHA256SUMS`` hashes to its name and
-    every file a fetch would read is there with the stamp it got when it was
-    verified. Nothing is hashed here; None when any of that is not so.
+    folder: Path
+    sums: dict[str, str]
+    wanted: list[str]
+
+    @property
+    def stamps_path(self) -> Path:
+        return self.folder.parent / f"{self.folder.name}.stamps.json"
+
+    def is_stamped(self) -> bool:
+        """Whether every wanted file is there with the stamp it got when verified (no hashing)."""
+        stamps = _read_stamps(self.stamps_path)
+        return all((self.folder / relative).is_file()
+                   and stamps.get(relative) == _stamp(self.folder / relative)
+                   for relative in self.wanted)
+
+    def problem(self) -> str | None:
+        """None when the copy is complete and verified, else what is wrong with it.
+
+        A file whose stamp changed (a copied cache has new change times) is
+        hashed again and, if it matches ``SHA256SUMS``, stamped anew.
+        """
+        stamps = _read_stamps(self.stamps_path)
+        before = dict(stamps)
+        missing = [relative for relative in self.wanted if not (self.folder / relative).is_file()]
+        if missing:
+            return (f"is incomplete (no {', '.join(missing[:3])}; an archive read by byte "
+                    "ranges is not cached)")
+        changed = [relative for relative in self.wanted
+                   if not _is_cached(self.folder / relative, self.sums[relative], stamps,
+                                     relative)]
+        if changed:
+            return f"has changed ({', '.join(changed[:3])} differ from its SHA256SUMS)"
+        if stamps != before:
+            write_json_atomic(self.stamps_path, stamps, indent=None, newline=False)
+        return None
+
+
+def _cached_release(cache: Path, base: str, archive: str | None,
+                    everything: bool) -> _CachedRelease | None:
+    """The release folder last fetched from ``base``, if the cache records one.
+
+    Its ``SHA256SUMS`` must hash to the folder's name; whether its files are
+    complete and verified is :meth:`_CachedRelease.is_stamped` (cheap) or
+    :meth:`_CachedRelease.problem` (hashes what changed).
     """
     pointer = _pointer(cache, base)
     if not pointer.is_file():
@@ -271,16 +316,11 @@ def _cached_copy(cache: Path, base: str, archive: str | None, everything: bool) 
         listing = (folder / MANIFEST_NAME).read_bytes()
         if hashlib.sha256(listing).hexdigest() != name:
             return None
-        wanted = _wanted(parse_sha256sums(listing, str(folder / MANIFEST_NAME)), archive, base,
-                         everything)
+        sums = parse_sha256sums(listing, str(folder / MANIFEST_NAME))
+        wanted = _wanted(sums, archive, base, everything)
     except (InputError, VerificationError, OSError):
         return None
-    stamps = _read_stamps(cache / "releases" / f"{name}.stamps.json")
-    for relative in wanted:
-        target = folder / relative
-        if not target.is_file() or stamps.get(relative) != _stamp(target):
-            return None
-    return folder / archive if archive is not None else folder
+    return _CachedRelease(folder, sums, wanted)
 
 
 def fetch_release(url: str, *, cache_dir: str | os.PathLike[str] | None = None,
@@ -386,18 +426,22 @@ def _fetch(url: str, cache_dir: str | os.PathLike[str] | None, *, everything: bo
             base = base.rsplit("/", 1)[0]
     source = source_of(base)
     cache = Path(cache_dir if cache_dir is not None else default_cache_dir())
-    cached = _cached_copy(cache, base, archive, everything)
-    try:  # one try only when a cached copy can stand in
+    cached = _cached_release(cache, base, archive, everything)
+    try:  # one try only when a verified cached copy can stand in
         listing = retrying(lambda: b"".join(receive(
             source, MANIFEST_NAME, MAX_MANIFEST_BYTES,
-            "the most a SHA256SUMS manifest may hold").blocks), tries=1 if cached else None)
-    except Unreachable:
+            "the most a SHA256SUMS manifest may hold").blocks),
+            tries=1 if cached is not None and cached.is_stamped() else None)
+    except Unreachable as err:
         if cached is None:
             raise
+        problem = cached.problem()
+        if problem is not None:
+            raise Unreachable(f"{err}; the cached copy in {cached.folder} {problem}") from err
         if base not in _noted_offline:
             _noted_offline.add(base)
             _log.warning("offline: using the cached copy of %s", base)
-        return cached, None
+        return (cached.folder / archive if archive is not None else cached.folder), None
     sums = parse_sha256sums(listing, source.url_of(MANIFEST_NAME))
     _check_paths(sums, source.url_of(MANIFEST_NAME))
     releases = cache / "releases"

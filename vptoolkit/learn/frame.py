@@ -93,7 +93,11 @@ def canonical_frame(points: Tensor, *, generator: torch.Generator | None = None,
     Notes
     -----
     Computed in float64 without gradient: the frame is a function of the
-    input alone. A cloud whose points coincide gets the identity frame.
+    input alone. The centred points are first divided by their largest
+    absolute coordinate, so the frame and the ambiguity test do not depend on
+    the cloud's size (no absolute variance bound). A cloud whose points
+    coincide (their spread at most ``1e-12`` of their largest coordinate, the
+    rounding of float64) gets the identity frame.
     """
     if points.ndim != 3 or points.shape[-1] != 3 or points.shape[1] < 1:
         raise InputError(f"points: expected shape (B, N, 3) with N >= 1, got {tuple(points.shape)}")
@@ -101,6 +105,8 @@ def canonical_frame(points: Tensor, *, generator: torch.Generator | None = None,
         values = points.detach().to(torch.float64)
         centre = values.mean(dim=1, keepdim=True)
         centred = values - centre
+        extent = centred.abs().amax(dim=(1, 2), keepdim=True)
+        centred = centred / torch.where(extent > 0, extent, torch.ones_like(extent))
         covariance = centred.transpose(1, 2) @ centred / values.shape[1]
         eigenvalues, eigenvectors = torch.linalg.eigh(covariance)  # ascending
         axes = eigenvectors.flip(-1).transpose(1, 2)  # rows, largest variance first
@@ -115,7 +121,8 @@ def canonical_frame(points: Tensor, *, generator: torch.Generator | None = None,
             drawn = (drawn.to(signs.device) * 2 - 1).to(torch.float64)
             signs = torch.where(is_ambiguous, drawn, signs)
         frame = axes * signs.unsqueeze(-1)
-        is_degenerate = variance[:, 0] <= 1e-30
+        # Points that coincide up to float64 rounding of their position: no axis to find.
+        is_degenerate = extent[:, 0, 0] <= 1e-12 * values.abs().amax(dim=(1, 2))
         if bool(is_degenerate.any()):
             identity = torch.eye(3, dtype=torch.float64, device=frame.device).expand_as(frame)
             frame = torch.where(is_degenerate[:, None, None], identity, frame)

@@ -148,14 +148,22 @@ def normalize_points(points: Tensor) -> Tensor:
     -------
     normalised : (B, N, 3) float
         Bounding box centred at the origin with diagonal 1 (a cloud of one
-        repeated point stays at the origin). Directions from the centre are
-        unchanged by this map.
+        repeated point stays at the origin), in the dtype of ``points``.
+        Directions from the centre are unchanged by this map.
+
+    Notes
+    -----
+    Computed in float64, so that a float32 cloud of any size float32 holds
+    (``1e-38`` to ``1e38``) maps to the same normalised cloud: the squared
+    extent of a large float32 cloud would overflow and a tiny one underflow.
     """
     check_clouds(points)
-    low = points.amin(dim=1, keepdim=True)
-    high = points.amax(dim=1, keepdim=True)
-    diagonal = (high - low).norm(dim=-1, keepdim=True).clamp_min(1e-12)
-    return (points - (low + high) / 2.0) / diagonal
+    values = points.to(torch.float64)
+    low = values.amin(dim=1, keepdim=True)
+    high = values.amax(dim=1, keepdim=True)
+    diagonal = (high - low).norm(dim=-1, keepdim=True)
+    diagonal = torch.where(diagonal > 0, diagonal, torch.ones_like(diagonal))
+    return ((values - (low + high) / 2.0) / diagonal).to(points.dtype)
 
 
 def check_clouds(points: Tensor, channels: int = 3) -> None:

@@ -102,7 +102,7 @@ from vptoolkit.learn.labels import (
 )
 from vptoolkit.learn.layers import DirectionHead, GeneratorDropout, PointEncoder, SphereMapDecoder
 from vptoolkit.optional import require
-from vptoolkit.point_features import turn_features
+from vptoolkit.point_features import check_feature_names, turn_features
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS
 
 if TYPE_CHECKING:
@@ -369,6 +369,27 @@ def save_model(model: ViewpointNet, path: str | os.PathLike[str], *,
     return weights_path, config_path
 
 
+def _check_trained_features(config: Mapping[str, Any], architecture: ModelConfig) -> None:
+    """Refuse point features other than, or in another order than, the training's record.
+
+    The weights cannot tell ``[face_area, normal]`` from ``[normal, face_area]``
+    (the same widths), so the network would read each channel as the other;
+    ``training.arguments.architecture.point_features``, where a trained
+    checkpoint records it, is the order the weights learnt.
+    """
+    training = config.get("training")
+    arguments = training.get("arguments") if isinstance(training, Mapping) else None
+    trained = arguments.get("architecture") if isinstance(arguments, Mapping) else None
+    if not isinstance(trained, Mapping) or "point_features" not in trained:
+        return
+    recorded = check_feature_names(trained["point_features"])
+    if recorded != architecture.point_features:
+        raise InputError(
+            f"architecture.point_features {list(architecture.point_features)} are not the "
+            f"{list(recorded)} the network was trained with "
+            "(training.arguments.architecture.point_features)")
+
+
 def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, Any]]:
     """Load a network saved by :func:`save_model` (or by training), in eval mode.
 
@@ -428,6 +449,7 @@ def load_model(path: str | os.PathLike[str]) -> tuple[ViewpointNet, dict[str, An
         if named != architecture.measures:
             raise InputError(f"measures: the measure order {', '.join(named)} is not that of "
                              f"the architecture's heads ({', '.join(architecture.measures)})")
+        _check_trained_features(config, architecture)
         model = ViewpointNet(architecture)
     except InputError as err:
         raise InputError(f"{config_path.name}: {err}") from err

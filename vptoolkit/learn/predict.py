@@ -150,10 +150,11 @@ def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     Returns
     -------
     input_points : (n_points, 3) float32
+        Centred and scaled as :func:`network_inputs` says.
     """
     chosen = network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
                              draw=draw)
-    return np.asarray(points)[chosen].astype(np.float32)
+    return _unit_size(np.asarray(points, dtype=np.float64), name)[chosen].astype(np.float32)
 
 
 def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
@@ -176,9 +177,14 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     Returns
     -------
     inputs : (n_inputs, n_points, 3 + F) float32
-        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``.
+        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``,
+        their coordinates centred on the bounding-box centre of ``points`` and
+        divided by its diagonal in float64 before the cast to float32, so a model
+        of any size float64 holds gets the same input (the network is blind to
+        position and size; float32 alone would lose a model below about
+        ``1e-30`` or above ``1e19`` in its frame and normalisation).
     """
-    cloud = np.asarray(points)
+    cloud = _unit_size(np.asarray(points, dtype=np.float64), name)
     if features is not None:
         features = np.asarray(features)
         if features.ndim != 2 or len(features) != len(cloud):
@@ -188,6 +194,25 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     return np.stack([cloud[network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed,
                                            name=name, draw=k)]
                      for k in range(_check_n_inputs(n_inputs))]).astype(np.float32)
+
+
+def _unit_size(points: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    """``(points - c) / d`` for the bounding box's centre ``c`` and diagonal ``d`` (``d > 0``).
+
+    The diagonal is taken as ``m * |span / m|`` with ``m`` the largest side, which
+    neither overflows nor underflows for any finite float64 coordinates.
+    """
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
+        raise InputError(f"{name}: points: expected shape (n, 3) with n >= 1, got {points.shape}")
+    if not np.isfinite(points).all():
+        raise InputError(f"{name}: points: not all coordinates are finite")
+    low, high = points.min(axis=0), points.max(axis=0)
+    centre = low / 2.0 + high / 2.0
+    span = high / 2.0 - low / 2.0  # halves: the difference of huge values stays finite
+    largest = float(span.max())
+    if largest <= 0.0:
+        return points - centre
+    return (points - centre) / (2.0 * largest * float(np.linalg.norm(span / largest)))
 
 
 def _check_n_inputs(n_inputs: Any) -> int:
@@ -458,22 +483,34 @@ def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]
 
 
 def _features_refused(source: ModelSource, point_features: Sequence[str]) -> InputError:
-    """The one message for a point cloud given to a network that reads point features."""
+    """The one message for a point cloud given to a network that reads point features it
+    does not carry (a cloud carries ``normal`` alone, where it has normals)."""
+    carried = ("a point cloud without normals does not carry" if list(point_features) == ["normal"]
+               else "a point cloud does not carry")
     return InputError(f"{source.origin}: the network reads point features "
-                      f"({', '.join(sorted(point_features))}) that a point cloud does not carry; "
+                      f"({', '.join(sorted(point_features))}) that {carried}; "
                       "give the mesh, or a network of coordinates alone (--model points)")
+
+
+def _cloud_features(cloud: PointCloud, point_features: Sequence[str]) -> bool:
+    """Whether a point cloud carries ``point_features``: ``normal`` alone, with normals."""
+    return list(point_features) == ["normal"] and cloud.normals is not None
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *,
                     seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
     """An input model's surface points and their ``point_features`` (None for no features;
-    a point cloud has none and is refused, :func:`_features_refused`)."""
+    a point cloud carries ``normal`` alone, where it has normals; any other is refused,
+    :func:`_features_refused`)."""
     if not point_features:
         return source.points(seed=seed), None
     if source.kind == "file":
         model = source.model()
         if isinstance(model, PointCloud):
-            raise _features_refused(source, point_features)
+            if not _cloud_features(model, point_features):
+                raise _features_refused(source, point_features)
+            assert model.normals is not None  # unit length, checked by PointCloud
+            return np.array(model.points), model.normals.astype(np.float32)
         return mesh_surface(model, point_features, seed=seed)
     assert source.dataset is not None
     return source.points(seed=seed), source.dataset.point_features(source.position,
@@ -649,7 +686,9 @@ def predict(
         for source in sources:  # refused before any work: a points-only file for features
             if (wanted and source.kind == "file"
                     and Path(source.origin).suffix.lower() in POINT_SUFFIXES):
-                raise _features_refused(source, wanted)
+                model = source.model()
+                if isinstance(model, PointCloud) and not _cloud_features(model, wanted):
+                    raise _features_refused(source, wanted)
         for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
             claim_name(seen, source.name)
             route = _route(networks, source.name,

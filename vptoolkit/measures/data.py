@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
+from vptoolkit.optional import require
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import ViewHistograms
 from vptoolkit.visibility.features import ViewFeatures
@@ -29,6 +30,14 @@ __all__ = ["XLOGX_TABLE_SIZE", "ViewData"]
 
 XLOGX_TABLE_SIZE: Final = 1 << 16
 """Most entries of :attr:`ViewData.xlogx_table`."""
+
+
+_NEIGHBOUR_MARGIN: Final = 8
+"""Candidates beyond ``count + 1`` that the k-d tree gives each view at first."""
+
+_COSINE_SLACK: Final = 1e-12
+"""How much lower than the ``count``-th nearest view's cosine the farthest candidate's must be:
+well above the rounding of a dot product of unit vectors (about ``1e-16``)."""
 
 
 class ViewData:
@@ -165,23 +174,52 @@ class ViewData:
         """The ``count`` nearest other views of each view by angle, ``(n_views, count)``.
 
         Ties are broken by the lower view index: row ``v`` is the start of
-        ``argsort(-cos(v, .))``, stably, the view itself left out. Only the
-        views at least as near as the ``count``-th nearest (found by a
-        partial sort) are sorted.
+        ``argsort(-cos(v, .))``, stably, the view itself left out, with
+        ``cos(v, u)`` the dot product of the unit view directions summed in
+        axis order, so copies of one view tie exactly (a BLAS matrix product
+        can round them apart by where they sit in its blocks).
+
+        Notes
+        -----
+        Memory and time grow as ``n_views * count`` (times ``log n_views``):
+        a k-d tree of the unit directions (scipy's ``cKDTree``; the chord
+        ``|v - u|`` grows as the angle does) gives ``count`` candidates and a
+        margin per view, their cosines are computed exactly and sorted by the
+        rule above. A row whose farthest candidate is not clearly farther
+        than its ``count``-th nearest view (a tie across the margin) is asked
+        again with twice the candidates, so the rows are those of the full
+        cosine matrix.
         """
         key = f"neighbours:{count}"
         if key not in self.cache:
-            count = min(count, self.n_views - 1)
-            cosines = self.views @ self.views.T
-            np.fill_diagonal(cosines, -np.inf)
-            if count <= 0:
-                self.cache[key] = np.empty((self.n_views, 0), dtype=np.int64)
-            else:
-                farthest = -np.partition(-cosines, count - 1, axis=1)[:, count - 1]
-                rows, columns = np.nonzero(cosines >= farthest[:, None])
-                order = np.lexsort((columns, -cosines[rows, columns], rows))
-                first = np.searchsorted(rows[order], np.arange(self.n_views))
-                taken = order[first[:, None] + np.arange(count)]
-                self.cache[key] = columns[taken].astype(np.int64)
+            count = max(0, min(count, self.n_views - 1))
+            self.cache[key] = (_nearest_views(self.views, count) if count else
+                               np.empty((self.n_views, 0), dtype=np.int64))
         result: NDArray[np.int64] = self.cache[key]
         return result
+
+
+def _nearest_views(views: NDArray[np.float64], count: int) -> NDArray[np.int64]:
+    """:meth:`ViewData.neighbours` of ``views`` ``(n, 3)`` unit rows, ``1 <= count < n``."""
+    spatial = require("scipy.spatial", extra="measures")
+    tree = spatial.cKDTree(views)
+    n_views = len(views)
+    result = np.empty((n_views, count), dtype=np.int64)
+    rows = np.arange(n_views)
+    width = count + 1 + _NEIGHBOUR_MARGIN
+    while len(rows):
+        width = min(width, n_views)
+        _, candidates = tree.query(views[rows], k=width)
+        candidates = np.asarray(candidates, dtype=np.int64).reshape(len(rows), width)
+        cosines = np.einsum("rd,rkd->rk", views[rows], views[candidates])
+        boundary = cosines.min(axis=1)  # no view left out is nearer than this, up to rounding
+        cosines[candidates == rows[:, None]] = -np.inf  # the view itself
+        order = np.lexsort((candidates, -cosines), axis=-1)
+        ranked = np.take_along_axis(cosines, order, axis=-1)
+        # Complete when every view left out is farther than the count-th kept, beyond rounding.
+        is_complete = (width == n_views) | (ranked[:, count - 1] - boundary > _COSINE_SLACK)
+        done = rows[is_complete]
+        result[done] = np.take_along_axis(candidates, order[:, :count], axis=-1)[is_complete]
+        rows = rows[~is_complete]
+        width *= 2
+    return result

@@ -103,6 +103,8 @@ class MeasuringSession:
         self.measures: tuple[Measure, ...] = tuple(get_measure(name) for name in self.names)
         self.settings = check_settings(settings)
         self.areas = face_areas(self.mesh)
+        if not float(self.areas.sum()) > 0.0:  # nothing can be seen: bad input
+            raise InputError(f"{self.mesh.name}: the mesh has zero surface area")
         self.sum_columns = [c for c, measure in enumerate(self.measures) if measure.streams]
         self.view_columns = [c for c, measure in enumerate(self.measures) if not measure.streams]
         self.features = any(measure.needs_image_statistics for measure in self.measures)

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.visibility import ViewHistograms
 
-__all__ = ["PAPER_COLUMNS", "STORE_BYTES", "quality_from_histograms"]
+__all__ = ["PAPER_COLUMNS", "ROUNDING_BITS", "STORE_BYTES", "nonnegative_bits", "quality_from_histograms"]
 
 PAPER_COLUMNS: Final = ("VE", "VR", "VKL", "VMI")
 """The columns of :func:`quality_from_histograms`, the paper's order."""
@@ -41,6 +41,18 @@ PAPER_COLUMNS: Final = ("VE", "VR", "VKL", "VMI")
 STORE_BYTES: Final = 1 << 29
 """Memory in bytes that histograms kept for VMI's second pass may take (512 MiB);
 beyond it they are drawn again."""
+
+
+ROUNDING_BITS: Final = 1e-12
+"""Below this many bits an entropy or divergence is rounding of its sums: 0. A view with
+pixels of two faces among ``a_t <= 2^30`` has an entropy of at least ``30 / 2^30`` bits."""
+
+
+def nonnegative_bits(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """An entropy or divergence (never negative) with rounding removed: 0 below
+    :data:`ROUNDING_BITS`, NaN kept. A view of one face gets exactly 0, not ``+-1e-15``."""
+    with np.errstate(invalid="ignore"):
+        return np.where(values < ROUNDING_BITS, 0.0, values)
 
 
 def quality_from_histograms(
@@ -149,8 +161,9 @@ def quality_from_histograms(
     a_t = projected[seen]
     sum_p_log_p = sum_a_log_a[seen] / a_t - np.log2(a_t)
     raw[:, 1] = visible_area / total_area
-    raw[seen, 0] = -sum_p_log_p
-    raw[seen, 2] = sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t
+    # An entropy and two Kullback-Leibler divergences: exactly 0 for a view of one face
+    raw[seen, 0] = nonnegative_bits(-sum_p_log_p)
+    raw[seen, 2] = nonnegative_bits(sum_p_log_p + np.log2(total_area) - sum_a_log_area[seen] / a_t)
     if mutual_information:
-        raw[seen, 3] = sum_p_log_p - sum_a_log_p_face[seen] / a_t
+        raw[seen, 3] = nonnegative_bits(sum_p_log_p - sum_a_log_p_face[seen] / a_t)
     return raw

@@ -208,3 +208,24 @@ def test_split_command_writes_a_file_build_dataset_reads(tmp_path):
                           replace(TINY, splits=SplitFile.read(tmp_path / "splits.csv")))
     assert {name: ("validation" if split == "val" else split)
             for name, split in stored_splits(built.path).items()} == written
+
+
+def test_split_leaves_out_names_a_split_file_cannot_hold(tmp_path):
+    from vptoolkit.dataset.build.split_files import write_split_file
+
+    src = source(tmp_path / "src")
+    category = next(path for path in src.iterdir() if path.is_dir())
+    mesh = next(category.iterdir())
+    for name in (" lead", "=cmd()", "tab\there"):
+        shutil.copy(mesh, category / f"{name}{mesh.suffix}")
+    result = CliRunner().invoke(main, ["split", str(src), "-o", str(tmp_path / "splits.csv")])
+    assert result.exit_code == 0, result.output
+    warnings = [line for line in result.stderr.splitlines() if line.startswith("vptool: warning")]
+    assert len(warnings) == 3, result.stderr
+    assert any("' lead' has a space at one end" in line for line in warnings)
+    assert any("'=cmd()' starts with a spreadsheet formula character" in line
+               for line in warnings)
+    assert any("cannot name a file or folder" in line for line in warnings)
+    assert sorted(read_split_file(tmp_path / "splits.csv")) == ["bottle", "lego", "mug", "table"]
+    with pytest.raises(InputError, match="formula"):
+        write_split_file(tmp_path / "other.csv", {"=cmd()": "train"})

@@ -121,6 +121,30 @@ def test_verify_names_an_edited_card(release_copy: Path) -> None:
     assert [(p.kind, p.target) for p in report.problems] == [("checksum", "README.md")]
 
 
+@pytest.mark.parametrize("recorded", ["+1", "1000000", "9999999999999999999", "abc"])
+def test_verify_names_a_content_size_that_differs_from_the_file(release_copy: Path,
+                                                                recorded: str) -> None:
+    import json
+
+    from vptoolkit.dataset.release.manifest import verify, write_sha256sums
+
+    archive = release_copy / f"{STEM}.h5"
+    size = archive.stat().st_size
+    croissant = release_copy / "croissant.json"
+    document = json.loads(croissant.read_text(encoding="utf-8"))
+    for item in document["distribution"]:
+        if item.get("contentUrl") == archive.name:
+            item["contentSize"] = f"{size + 1 if recorded == '+1' else recorded} B"
+    croissant.write_text(json.dumps(document), encoding="utf-8")
+    write_sha256sums(release_copy)  # the manifest agrees: only the recorded size lies
+    report = verify(release_copy)
+    assert [(p.kind, p.target) for p in report.problems] == [("size", archive.name)]
+    expected = ("not '<bytes> B'" if recorded == "abc" else
+                f"croissant.json records {size + 1 if recorded == '+1' else recorded} bytes, "
+                f"the file has {size}")
+    assert expected in report.problems[0].detail
+
+
 def test_verify_reports_a_malformed_or_missing_manifest(release_copy: Path) -> None:
     from vptoolkit.dataset.release.manifest import verify
 

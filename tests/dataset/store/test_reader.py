@@ -90,3 +90,24 @@ def test_closed_reader_refuses_access(stores: dict[str, Path]) -> None:
     reader.close()
     with pytest.raises(InputError, match="store is closed"):
         reader.array("points")
+
+
+@pytest.mark.parametrize("block", [b"FRHP", b"BTLF"])  # the attribute heap, a link B-tree leaf
+def test_damaged_hdf5_metadata_is_one_line_exit_1(tmp_path: Path, block: bytes) -> None:
+    from click.testing import CliRunner
+
+    from vptoolkit.cli import main
+
+    target = write_synthetic(tmp_path / "d.h5")
+    data = bytearray(target.read_bytes())
+    assert block in data
+    data[data.index(block) + 12] ^= 1  # inside the block, under its metadata checksum
+    target.write_bytes(bytes(data))
+    with pytest.raises(VerificationError, match=r"d.h5: the HDF5 metadata cannot be read "
+                                                r"\(.*checksum.*\); the store is damaged"):
+        open_store(target)
+    for command in (["info", str(target)], ["verify", str(target)]):
+        result = CliRunner().invoke(main, command)
+        assert result.exit_code == 1, result.output
+        assert "Traceback" not in result.output
+        assert len(result.output.strip().splitlines()) == 1, result.output

@@ -38,7 +38,7 @@ from vptoolkit.checks import short_repr
 from vptoolkit.conventions import SPLITS
 from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
-from vptoolkit.files import write_text_atomic
+from vptoolkit.files import check_path_part, write_text_atomic
 
 __all__ = [
     "PAPER_CATEGORIES",
@@ -48,6 +48,7 @@ __all__ = [
     "paper_splits",
     "read_model_list",
     "read_split_file",
+    "split_file_problem",
     "write_split_file",
 ]
 
@@ -295,6 +296,32 @@ def class_split(models: Iterable[tuple[str, str]], *, fraction: float = 0.1,
     return {name: "validation" if name in validation else "train" for name in order}
 
 
+_FORMULA_STARTS = ("=", "+", "-", "@")
+"""First characters that make a spreadsheet read a CSV cell as a formula."""
+
+
+def split_file_problem(category: str, name: str) -> str | None:
+    """Why a model cannot be listed in a split file, or None when it can.
+
+    Its name and category must be usable in a store (as build-dataset checks:
+    :func:`vptoolkit.files.check_path_part`, no control character such as a
+    line break or a tab); the name must have no space at either end (the
+    reader strips cells, so ``" lead"`` would not find ``" lead.off"``) and
+    must not start with ``=``, ``+``, ``-`` or ``@``, which a spreadsheet
+    opening the CSV would run as a formula.
+    """
+    try:
+        check_path_part(category, "category")
+        check_path_part(name, "name")
+    except InputError as err:
+        return str(err)
+    if name != name.strip():
+        return f"name {name!r} has a space at one end, which a split file cannot hold"
+    if name.startswith(_FORMULA_STARTS):
+        return f"name {short_repr(name, _QUOTED_CHARS)} starts with a spreadsheet formula character"
+    return None
+
+
 def write_split_file(path: str | os.PathLike[str], splits: dict[str, str]) -> Path:
     """Write a ``name,split`` CSV that :func:`read_split_file` reads back, sorted by name.
 
@@ -309,10 +336,20 @@ def write_split_file(path: str | os.PathLike[str], splits: dict[str, str]) -> Pa
     -------
     Path
         The file written.
+
+    Raises
+    ------
+    InputError
+        For a split not of :data:`~vptoolkit.conventions.SPLITS` or a name
+        :func:`split_file_problem` refuses.
     """
     unknown = sorted({split for split in splits.values() if split not in SPLITS})
     if unknown:
         raise InputError(f"splits: {', '.join(unknown)} is not one of {', '.join(SPLITS)}")
+    for name in splits:
+        problem = split_file_problem("category", name)
+        if problem is not None:
+            raise InputError(f"splits: {problem}")
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(["name", "split"])

@@ -32,6 +32,7 @@ __all__ = [
     "hash_folder",
     "format_sha256sums",
     "write_sha256sums",
+    "parse_content_size",
     "parse_sha256sums",
     "read_sha256sums",
     "verify",
@@ -44,12 +45,13 @@ CARD_NAME = "README.md"
 """File name of the dataset card inside a release folder (the hub reads it there)."""
 
 _HEX = re.compile(r"[0-9a-f]{64}")
+_CONTENT_SIZE = re.compile(r"(\d{1,19}) B")
 _LINE = re.compile(r"^(?P<digest>[0-9a-fA-F]{64}) (?P<mode>[ *])(?P<path>.+)$")
 _ARCHIVE_SUFFIXES = (".zarr.zip", ".h5", ".hdf5")
 _SUMMARY_ITEMS = 3
 
-ProblemKind = Literal["missing", "checksum", "array", "unreadable", "manifest", "attrs", "extra",
-                      "skipped"]
+ProblemKind = Literal["missing", "checksum", "size", "array", "unreadable", "manifest", "attrs",
+                      "extra", "skipped"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,8 @@ class Problem:
     kind : str
         ``"missing"`` (a listed file or a schema array is absent),
         ``"checksum"`` (a file's SHA-256 differs from the manifest),
+        ``"size"`` (a file's size differs from its ``contentSize`` in
+        ``croissant.json``, or that is not ``"<bytes> B"``),
         ``"array"`` (an array's content differs from its ``sha256`` attribute,
         cannot be decoded, or differs between the archives of one release),
         ``"unreadable"`` (an archive cannot be opened or lacks a schema array),
@@ -291,9 +295,9 @@ def read_sha256sums(path: Path | str) -> dict[str, str]:
     Raises
     ------
     VerificationError
-        On text that is not UTF-8, a malformed line, a repeated path, or a
-        path that is absolute or leaves the folder (``..``); the message names
-        the line number.
+        On text that is not UTF-8 or does not end with a line break (cut
+        short), a malformed line, a repeated path, or a path that is absolute
+        or leaves the folder (``..``); the message names the line number.
     """
     path = Path(path)
     return parse_sha256sums(path.read_bytes(), path.name)
@@ -309,6 +313,10 @@ def parse_sha256sums(data: bytes, label: str = MANIFEST_NAME) -> dict[str, str]:
         text = data.decode("utf-8")
     except UnicodeDecodeError as err:
         raise VerificationError(f"{label}: not UTF-8 text (byte {err.start})") from err
+    if text and not text.endswith("\n"):  # a transfer cut short can leave a path that parses
+        raise VerificationError(f"{label}: ends in the middle of line "
+                                f"{len(text.splitlines())} (cut short?); every line of a "
+                                "manifest ends with a line break")
     for number, line in enumerate(text.splitlines(), start=1):
         if not line.strip():
             continue
@@ -349,7 +357,10 @@ def _check_arrays(
         report.skipped.append(Problem("skipped", label, f"arrays not checked: {err}"))
         return digests
     except VerificationError as err:
-        report.problems.append(Problem("attrs", label, str(err)))
+        # Raised from a library's error, it is damaged metadata; raised alone, wrong attributes.
+        report.problems.append(
+            Problem("unreadable", label, f"cannot open archive ({err.__cause__})")
+            if err.__cause__ is not None else Problem("attrs", label, str(err)))
         return digests
     except InputError as err:
         report.problems.append(Problem("unreadable", label, f"cannot open archive ({err})"))
@@ -411,6 +422,45 @@ def _croissant_sums(folder: Path) -> dict[str, str]:
         return {}
 
 
+def parse_content_size(value: object) -> int | None:
+    """The bytes a Croissant ``contentSize`` of the form ``"<bytes> B"`` records, else None."""
+    match = _CONTENT_SIZE.fullmatch(value) if isinstance(value, str) else None
+    return int(match[1]) if match is not None else None
+
+
+def _check_sizes(folder: Path, report: VerifyReport) -> None:
+    """Flag files whose size differs from the ``contentSize`` ``croissant.json`` records.
+
+    A reader of the release by URL bounds each download by that size and refuses
+    a server whose ranges give another, so a size that lies is a problem here.
+    A file already found damaged is not named again.
+    """
+    damaged = {problem.target for problem in report.problems}
+    try:
+        document = read_json_file(folder / "croissant.json")
+    except InputError:  # absent or not JSON: the manifest's digests already say so
+        return
+    distribution = document.get("distribution") if isinstance(document, dict) else None
+    for item in distribution if isinstance(distribution, list) else ():
+        if not isinstance(item, dict) or "contentSize" not in item:
+            continue
+        relative = item.get("contentUrl")
+        if not isinstance(relative, str) or not is_inside_folder(relative):
+            continue
+        file = folder / relative
+        if relative in damaged or not file.is_file():  # missing: the manifest's finding
+            continue
+        recorded, actual = parse_content_size(item["contentSize"]), file.stat().st_size
+        if recorded is None:
+            report.problems.append(Problem(
+                "size", relative, f"croissant.json records contentSize "
+                f"{str(item['contentSize'])[:40]!r}, not '<bytes> B'"))
+        elif recorded != actual:
+            report.problems.append(Problem(
+                "size", relative,
+                f"croissant.json records {recorded} bytes, the file has {actual}"))
+
+
 def _is_release_folder(path: Path) -> bool:
     """A folder that is a release rather than a build: a manifest, Croissant or archives."""
     if (path / "dataset.zarr").exists() or (path / "dataset.h5").exists():
@@ -454,6 +504,7 @@ def _verify_release(folder: Path) -> VerifyReport:
             "checksum", relative,
             f"checksum mismatch (expected {_short(expected)}, got {_short(actual)})",
         ))
+    _check_sizes(folder, report)
     if listed:
         for relative in sorted(present - set(listed)):
             report.warnings.append(Problem("extra", relative, "not listed in SHA256SUMS"))

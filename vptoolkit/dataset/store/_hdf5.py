@@ -28,8 +28,9 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from vptoolkit.checks import one_line
 from vptoolkit.dataset.store.schema import HDF5_JSON_KEY
-from vptoolkit.errors import InputError
+from vptoolkit.errors import InputError, VerificationError
 from vptoolkit.files import parse_json
 from vptoolkit.optional import require
 
@@ -188,12 +189,26 @@ def _is_plain_list(value: Any) -> bool:
 
 def open_hdf5(path: Path, stream: BinaryIO | io.RawIOBase | None = None,
               ) -> tuple[Any, Any, dict[str, Any], list[str]]:
-    """Open ``path`` for reading, or the readable, seekable ``stream`` that holds it."""
+    """Open ``path`` for reading, or the readable, seekable ``stream`` that holds it.
+
+    Raises
+    ------
+    OSError
+        From h5py, when the file is not HDF5 at all.
+    VerificationError
+        When the file opens but its root attributes or links cannot be read:
+        libhdf5 raises ``RuntimeError`` (``incorrect metadata checksum``) or
+        ``OSError`` for a damaged object header, attribute or link block.
+    """
     h5py = require("h5py")  # a core dependency
     handle = h5py.File(path if stream is None else stream, "r")
     is_open = False
     try:
-        raw = dict(handle.attrs)
+        try:
+            raw = dict(handle.attrs)
+            nodes = list(handle.items())
+        except (RuntimeError, OSError, KeyError, ValueError) as err:
+            raise _damaged(path, err) from err
         json_keys = parse_json(raw.pop(HDF5_JSON_KEY, "[]"), f"{path.name}: {HDF5_JSON_KEY}")
         if not isinstance(json_keys, list) or not all(isinstance(key, str) for key in json_keys):
             raise InputError(f"{path.name}: {HDF5_JSON_KEY} is not a list of names")
@@ -208,9 +223,16 @@ def open_hdf5(path: Path, stream: BinaryIO | io.RawIOBase | None = None,
                               for item in value.tolist()] if value.ndim else value.tolist()
             else:
                 attrs[key] = value
-        names = sorted(key for key, node in handle.items() if isinstance(node, h5py.Dataset))
+        names = sorted(key for key, node in nodes if isinstance(node, h5py.Dataset))
         is_open = True
     finally:
         if not is_open:
             handle.close()
     return handle, handle, attrs, names
+
+
+def _damaged(path: Path, error: BaseException) -> VerificationError:
+    """The one-line error for an HDF5 store whose metadata (a header, attribute or link block)
+    is damaged."""
+    return VerificationError(f"{path.name}: the HDF5 metadata cannot be read ({one_line(error)}); "
+                             "the store is damaged (run vptool verify)")

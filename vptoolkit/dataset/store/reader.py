@@ -129,13 +129,21 @@ class StoreReader:
         ------
         InputError
             If the reader is closed or the store has no such array.
+        VerificationError
+            If the array's header cannot be read (a damaged HDF5 store).
         """
         if self._is_closed:
             raise InputError(f"{self.path.name}: store is closed")
         if name not in self._arrays:
             if name not in self._array_names:
                 raise InputError(f"{self.path.name}: no array {name!r}")
-            self._arrays[name] = _CheckedArray(self, name, self._root[name])
+            try:
+                node = self._root[name]
+            except (RuntimeError, OSError, KeyError, ValueError) as err:  # a damaged header
+                raise VerificationError(
+                    f"{self.path.name}: array {name!r} cannot be opened ({one_line(err)}); "
+                    "the store is damaged (run vptool verify)") from err
+            self._arrays[name] = _CheckedArray(self, name, node)
         return self._arrays[name]
 
     def stored_sha256(self, name: str) -> str:

@@ -23,16 +23,18 @@ from numpy.typing import NDArray
 
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.measure import Measure
+from vptoolkit.measures.sums import nonnegative_bits
 
 
 def _compute(data: ViewData) -> NDArray[np.float64]:
     p_face = data.face_probability[data.face_probability > 0]
-    face_entropy = -float(np.sum(p_face * np.log2(p_face)))
+    face_entropy = 0.0 - float(np.sum(p_face * np.log2(p_face)))  # +0, not -0, for one face
     a_t = data.projected
     seen = data.seen
     sum_a_log_a = data.per_view(data.entry_xlogx)
     values = np.full(data.n_views, np.nan)
-    values[seen] = face_entropy - (np.log2(a_t[seen]) - sum_a_log_a[seen] / a_t[seen])
+    view_entropy = nonnegative_bits(np.log2(a_t[seen]) - sum_a_log_a[seen] / a_t[seen])
+    values[seen] = face_entropy - view_entropy
     return values
 
 
