@@ -18,6 +18,9 @@ from vptoolkit.rotations import fixed_rotations
 from vptoolkit.samples import sample_path
 from vptoolkit.sphere import coarse_directions
 
+SIXTEEN = SearchSettings(budget=16, resolution=64)
+EIGHT = SearchSettings(budget=8, resolution=32)
+
 
 @pytest.fixture(scope="module")
 def teapot() -> Mesh:
@@ -38,9 +41,9 @@ def test_the_prior_turns_with_the_mesh(teapot):
 
 def test_as_a_search_prior_its_first_candidate_is_drawn_at_full_resolution(teapot):
     candidates = UnoccludedPrior()(teapot)
-    found = search_best_views(teapot, SearchSettings(budget=16, resolution=64), prior=candidates)
+    found = search_best_views(teapot, SIXTEEN, prior=candidates)
     assert [(s.name, s.n_views) for s in found.stages][:2] == [("coarse", 7), ("prior", 2)]
-    again = search_best_views(teapot, SearchSettings(budget=16, resolution=64), prior=UnoccludedPrior()(teapot))
+    again = search_best_views(teapot, SIXTEEN, prior=UnoccludedPrior()(teapot))
     np.testing.assert_array_equal(found.directions, again.directions)
 
 
@@ -95,9 +98,9 @@ def test_the_unoccluded_prior_proposes_only_for_the_measures_it_estimates(teapot
 
 def test_search_inputs_takes_a_prior_by_name_or_as_a_callable():
     mug = sample_path("mug.obj")
-    named = search_inputs([mug], settings=SearchSettings(budget=8, resolution=32), prior="unoccluded")
-    given = search_inputs([mug], settings=SearchSettings(budget=8, resolution=32), prior=UnoccludedPrior())
+    named = search_inputs([mug], settings=EIGHT, prior="unoccluded")
+    given = search_inputs([mug], settings=EIGHT, prior=UnoccludedPrior())
     np.testing.assert_array_equal(named.results[0].directions, given.results[0].directions)
     assert [stage.name for stage in named.results[0].stages] == ["coarse", "prior"]
     with pytest.raises(InputError, match="prior: expected one of"):
-        search_inputs([mug], settings=SearchSettings(budget=8, resolution=32), prior=3.5)  # type: ignore[arg-type]
+        search_inputs([mug], settings=EIGHT, prior=3.5)  # type: ignore[arg-type]

@@ -33,7 +33,13 @@ from numpy.typing import NDArray
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.visibility import ViewHistograms
 
-__all__ = ["PAPER_COLUMNS", "ROUNDING_BITS", "STORE_BYTES", "nonnegative_bits", "quality_from_histograms"]
+__all__ = [
+    "PAPER_COLUMNS",
+    "ROUNDING_BITS",
+    "STORE_BYTES",
+    "nonnegative_bits",
+    "quality_from_histograms",
+]
 
 PAPER_COLUMNS: Final = ("VE", "VR", "VKL", "VMI")
 """The columns of :func:`quality_from_histograms`, the paper's order."""

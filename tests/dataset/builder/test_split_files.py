@@ -211,7 +211,7 @@ def test_split_command_writes_a_file_build_dataset_reads(tmp_path):
 
 
 def test_split_leaves_out_names_a_split_file_cannot_hold(tmp_path):
-    from vptoolkit.dataset.build.split_files import write_split_file
+    from vptoolkit.dataset.builder.split_files import write_split_file
 
     src = source(tmp_path / "src")
     category = next(path for path in src.iterdir() if path.is_dir())
