@@ -48,9 +48,14 @@ def test_missing_sources_are_one_line_input_errors(tmp_path: Path) -> None:
         list(discover(tmp_path / "missing"))
     with pytest.raises(InputError, match="no such list file"):
         list(discover(f"@{tmp_path / 'missing.txt'}"))
-    (tmp_path / "one.off").write_bytes(b"")
-    with pytest.raises(InputError, match="a single file; give a folder, a glob or @list.txt"):
-        list(discover(tmp_path / "one.off"))
+    (tmp_path / "notes.txt").write_bytes(b"")
+    with pytest.raises(InputError, match="not a model file; give a model file, a folder"):
+        list(discover(tmp_path / "notes.txt"))
+
+
+def test_one_model_file_is_the_entry_of_its_name(tree: Path) -> None:
+    assert list(discover(tree / "a" / "teapot.stl")) == [
+        Entry(str(tree / "a" / "teapot.stl"), "teapot.stl")]
 
 
 def test_a_list_of_200000_lines_is_read_with_flat_memory(tree: Path) -> None:

@@ -9,6 +9,7 @@ listing the source whole in memory:
 - a **glob** (a path with ``*``, ``?`` or ``[``) is the folder walk of its
   part before the first pattern component, keeping the files whose path
   relative to it matches the rest (``**`` matches any number of folders);
+- a **model file** is the one entry of its own name;
 - a **list file**, given as ``@list.txt``, holds one path or URL per line
   (blank lines and lines starting with ``#`` skipped), read line by line;
   a relative path is relative to the list file's folder.
@@ -85,8 +86,8 @@ def discover(source: str | os.PathLike[str]) -> Iterator[Entry]:
     Parameters
     ----------
     source : str or path-like
-        A folder, a glob pattern, or ``@`` and a list file (see the module
-        docstring).
+        A folder, a glob pattern, one model file, or ``@`` and a list file
+        (see the module docstring).
 
     Yields
     ------
@@ -97,7 +98,7 @@ def discover(source: str | os.PathLike[str]) -> Iterator[Entry]:
     ------
     InputError
         If the folder, the glob's fixed part or the list file does not
-        exist, or ``source`` is a single file that is no list.
+        exist, or ``source`` is a single file that is no model file.
     """
     text = os.fspath(source)
     if text.startswith(LIST_PREFIX):
@@ -111,8 +112,11 @@ def discover(source: str | os.PathLike[str]) -> Iterator[Entry]:
         yield from (Entry(os.path.join(text, key), key) for key in _walk(root, ""))
         return
     if root.is_file():
-        raise InputError(f"{text}: a single file; give a folder, a glob or @list.txt "
-                         "(a list file of paths or URLs)")
+        if not is_model_file(root.name):
+            raise InputError(f"{text}: not a model file; give a model file, a folder, a glob "
+                             "or @list.txt (a list file of paths or URLs)")
+        yield Entry(text, root.name)
+        return
     raise InputError(f"{text}: no such folder")
 
 

@@ -15,9 +15,9 @@ output folder is named by its digest) and ``method(mesh) -> Answer``:
 - :class:`ViewSetMethod`: a ``k``-view coverage set
   (:func:`vptoolkit.view_sets.search.measure_view_set`), directions
   ``view_1`` to ``view_k``;
-- :class:`PredictedMethod`: a direction source's answer
-  (:func:`vptoolkit.pictures.views.resolve_direction`), e.g. a trained
-  network; it runs in the calling process only.
+- any other value with these members, e.g. the thumbnails' prediction
+  (:class:`vptoolkit.pictures.thumbnails.PredictedMethod`), which runs in
+  the calling process only.
 
 Every answer carries the camera of each direction: the camera-to-world
 pose ``(4, 4)`` in the OpenCV convention (x right, y down, z forward, model
@@ -36,12 +36,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.best_view.search import SearchSettings
-from vptoolkit.conventions import MEASURES, measure_index
+from vptoolkit.camera import Camera
+from vptoolkit.conventions import MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.settings import MeasureSettings
 
-__all__ = ["Answer", "Method", "MeasureMethod", "PredictedMethod", "SearchMethod",
-           "ViewSetMethod"]
+__all__ = ["Answer", "Method", "MeasureMethod", "SearchMethod", "ViewSetMethod", "cameras"]
 
 
 @dataclass(frozen=True)
@@ -95,9 +95,11 @@ class Method(Protocol):
         """The answer for one model."""
 
 
-def _cameras(mesh: Mesh, settings_camera: Any, directions: NDArray[np.float64],
-             resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    poses = settings_camera.look_at(mesh, directions, resolution=resolution)
+def cameras(mesh: Mesh, camera: Camera, directions: NDArray[np.float64],
+            resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Camera-to-world poses ``(n, 4, 4)`` (OpenCV convention) and the intrinsics ``(3, 3)``
+    of a camera looking at ``mesh`` from ``directions`` ``(n, 3)``, images of ``resolution`` px."""
+    poses = camera.look_at(mesh, directions, resolution=resolution)
     return poses.camera_to_world("opencv"), poses.intrinsics()
 
 
@@ -190,7 +192,7 @@ class MeasureMethod:
         quality = compute_view_quality(mesh, self.settings)
         directions = quality.best_views
         raw = quality.raw[quality.best_index, np.arange(len(MEASURES))]
-        poses, intrinsics = _cameras(mesh, self.settings.camera, directions,
+        poses, intrinsics = cameras(mesh, self.settings.camera, directions,
                                      self.settings.resolution)
         return Answer(directions, raw, poses, intrinsics, self.settings.views,
                       f"best of {len(quality.views)} views")
@@ -236,55 +238,8 @@ class ViewSetMethod:
         chosen = len(view_set)
         directions[:chosen] = view_set.directions
         raw[:chosen] = view_set.coverage
-        poses[:chosen], intrinsics = _cameras(mesh, self.settings.camera, view_set.directions,
+        poses[:chosen], intrinsics = cameras(mesh, self.settings.camera, view_set.directions,
                                               self.settings.resolution)
         return Answer(directions, raw, poses, intrinsics, self.settings.views,
                       f"view set of {chosen} ({100 * view_set.coverage[-1]:.1f} % seen)",
                       detail=view_set)
-
-
-@dataclass(frozen=True)
-class PredictedMethod:
-    """A direction source's answer for every model, in the calling process.
-
-    Attributes
-    ----------
-    predictor : (3,) or (4, 3) array_like, or callable
-        As :func:`vptoolkit.pictures.views.resolve_direction` takes it.
-    name : str
-        What the predictor is (a checkpoint's path, ``default``): its record.
-    measure : str
-        The measure whose direction is taken (default: "VE").
-    settings : MeasureSettings
-        Whose camera and resolution the pose and intrinsics are of.
-    """
-
-    predictor: Any = field(compare=False)
-    name: str
-    measure: str = "VE"
-    settings: MeasureSettings = field(default_factory=MeasureSettings)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The one measure."""
-        return (MEASURES[measure_index(self.measure)],)
-
-    @property
-    def in_process(self) -> bool:
-        """True: a predictor (a network) is not sent to workers."""
-        return True
-
-    def record(self) -> dict[str, Any]:
-        """``{"method": "predicted", "predictor", "measure", "camera"}``."""
-        return {"method": "predicted", "predictor": self.name, "measure": self.names[0],
-                "camera": self.settings.camera.to_dict()}
-
-    def __call__(self, mesh: Mesh) -> Answer:
-        """The predicted direction."""
-        from vptoolkit.pictures.views import resolve_direction
-
-        direction = resolve_direction(mesh, self.predictor, measure=self.names[0])[None]
-        poses, intrinsics = _cameras(mesh, self.settings.camera, direction,
-                                     self.settings.resolution)
-        return Answer(direction, np.full(1, np.nan), poses, intrinsics, 0,
-                      f"predicted {self.names[0]}")
