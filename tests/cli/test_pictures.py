@@ -138,7 +138,7 @@ def test_thumbnails_skip_bad_files_and_exit_1(renderer_available, runner, cube_f
     assert result.exit_code == 1, result.output
     assert "wrote 1 thumbnails" in result.stdout
     assert "skipped broken.off: broken.off: " in result.stderr
-    assert model_mask(decode_png((out / "cube.png").read_bytes())).any()
+    assert model_mask(decode_png((out / "cube.off.png").read_bytes())).any()
     index = json.loads((out / "thumbnails.json").read_text())
     assert [failure["source"] for failure in index["failures"]] == ["broken.off"]
 
@@ -169,6 +169,6 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
     result = runner.invoke(main, ["thumbnails", str(source), str(out), "--view-set", "2",
                                   "--size", "48", *SMALL_DRAW, "--workers", "1"])
     assert result.exit_code == 1, result.output  # the broken file is skipped
-    assert read_png(out / "mug.png").shape[1] == 2 * 48 + 3 * 6
+    assert read_png(out / "mug.obj.png").shape[1] == 2 * 48 + 3 * 6
     record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
     assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")
