@@ -1,4 +1,4 @@
-"""A collection run: same table bytes whatever the workers or a resume, failures recorded, limits."""
+"""A collection run: the same table bytes whatever the workers or a resume; failures, limits."""
 
 from __future__ import annotations
 

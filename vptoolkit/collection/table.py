@@ -33,8 +33,6 @@ from vptoolkit.files import atomic_write
 from vptoolkit.optional import require
 
 if TYPE_CHECKING:
-    import pyarrow
-
     from vptoolkit.predictions import Predictions
 
 __all__ = ["ROWS_PER_GROUP", "read_predictions", "table_schema", "write_table"]
@@ -43,8 +41,9 @@ ROWS_PER_GROUP = 4096
 """Rows per Parquet row group (and the most rows held in memory while writing)."""
 
 
-def table_schema(names: Sequence[str]) -> pyarrow.Schema:
-    """The table's columns for a method's direction ``names`` (see the module docstring)."""
+def table_schema(names: Sequence[str]) -> Any:
+    """The table's columns, a ``pyarrow.Schema``, for a method's direction ``names`` (see the
+    module docstring)."""
     pa = require("pyarrow", extra="dataset")
     columns = [pa.field("file", pa.string()), pa.field("key", pa.string()),
                pa.field("sha256", pa.string()), pa.field("status", pa.string()),

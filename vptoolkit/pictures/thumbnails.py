@@ -58,6 +58,7 @@ from vptoolkit.conventions import MEASURES, measure_index
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import atomic_write
 from vptoolkit.mesh import Mesh
+from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
@@ -322,8 +323,7 @@ def render_thumbnails(
 def _write_index(path: Path, table: Path, method: Method, measure: str, rows: slice,
                  size: int, source: str) -> list[str]:
     """Write ``thumbnails.json`` from the table, streamed one record per line; the pictures."""
-    import pyarrow.parquet as pq
-
+    pq = require("pyarrow.parquet", extra="dataset")
     names = method.names[rows]
     header = {"source": source, "measure": measure,
               "direction_from": "predictor" if isinstance(method, PredictedMethod)
