@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import shutil
+import signal
+import subprocess
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,7 +19,7 @@ from fixtures.environment import DASK_DASHBOARD, require_package
 from fixtures.paths import MALFORMED
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.collection.methods import Answer, SearchMethod
-from vptoolkit.collection.runner import run_collection
+from vptoolkit.collection.runner import MAX_MODEL_FACES, run_collection
 from vptoolkit.collection.table import read_predictions
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
@@ -161,3 +164,35 @@ def test_a_dask_cluster_gives_the_same_bytes(collection: Path, tmp_path: Path):
         remote = run_collection(collection, tmp_path / "dask", METHOD,
                                 scheduler=cluster.scheduler_address)
     assert remote.table.read_bytes() == local.table.read_bytes()
+
+
+def test_two_runs_never_write_one_folder_at_once(collection: Path, tmp_path: Path):
+    from vptoolkit.collection.runner import settings_digest
+    from vptoolkit.files import exclusive_lock
+
+    folder = tmp_path / "out" / settings_digest(METHOD, MAX_MODEL_FACES)[0]
+    folder.mkdir(parents=True)
+    with exclusive_lock(folder / ".lock", "held"), \
+            pytest.raises(InputError, match="another run is writing this folder"):
+        run_collection(collection, tmp_path / "out", METHOD)
+
+
+@pytest.mark.slow
+def test_a_run_killed_with_sigkill_resumes_to_the_same_bytes(collection: Path, tmp_path: Path):
+    for number in range(6):
+        shutil.copy(sample_path("bunny.ply"), collection / f"bunny_{number}.ply")
+    arguments = ["best-view", str(collection), "-o", str(tmp_path / "out"), "--views", "12",
+                 "--resolution", "32"]
+    script = "import sys; from vptoolkit.cli import main; sys.argv[0] = 'vptool'; main()"
+    process = subprocess.Popen([sys.executable, "-c", script, *arguments],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    staged: list[Path] = []
+    while process.poll() is None and len(staged) < 2:
+        time.sleep(0.05)
+        staged = list((tmp_path / "out").glob("*/staging/*/*.json"))
+    process.send_signal(signal.SIGKILL)
+    process.wait()
+    resumed = run_collection(collection, tmp_path / "out", METHOD)
+    assert resumed.n_resumed >= 2
+    whole = run_collection(collection, tmp_path / "whole", METHOD)
+    assert resumed.table.read_bytes() == whole.table.read_bytes()

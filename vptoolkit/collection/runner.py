@@ -57,7 +57,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -71,7 +71,13 @@ from vptoolkit.collection.discover import (
 from vptoolkit.collection.methods import Answer, Method
 from vptoolkit.collection.table import write_table
 from vptoolkit.errors import InputError, VptoolkitError
-from vptoolkit.files import atomic_write, json_text, read_json_file, sha256_file
+from vptoolkit.files import (
+    atomic_write,
+    exclusive_lock,
+    json_text,
+    read_json_file,
+    sha256_file,
+)
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
 from vptoolkit.progress import progress_bar
@@ -89,6 +95,7 @@ TABLE_NAME = "table.parquet"
 SETTINGS_NAME = "settings.json"
 TIMINGS_NAME = "timings.jsonl"
 _ORDER_NAME = "order.jsonl"
+_LOCK_NAME = ".lock"
 
 
 class _TimeLimit(Exception):
@@ -348,6 +355,16 @@ def run_collection(
     folder = as_path(out, "out") / digest
     staging = folder / "staging"
     staging.mkdir(parents=True, exist_ok=True)
+    with exclusive_lock(folder / _LOCK_NAME, f"{folder}: another run is writing this folder"):
+        return _run(source, folder, record, method, n_entries, max_faces, float(timeout),
+                    workers, scheduler, finish, progress)
+
+
+def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], method: Method,
+         n_entries: int, max_faces: int, timeout: float, workers: int, scheduler: str | None,
+         finish: Callable[[EntryResult], EntryResult] | None, progress: bool) -> CollectionRun:
+    """The body of :func:`run_collection`, with the folder locked."""
+    staging = folder / "staging"
     with atomic_write(folder / SETTINGS_NAME) as stream:
         stream.write(json_text(record).encode())
 
@@ -368,7 +385,7 @@ def run_collection(
                     counts["resumed"] += 1
                     bar.update(1)
                     continue
-                yield EntryTask(entry, sha256, method, max_faces, float(timeout),
+                yield EntryTask(entry, sha256, method, max_faces, timeout,
                                 keep_model=finish is not None)
 
     with progress_bar(total=n_entries, description="files", unit="file",
@@ -418,7 +435,3 @@ def run_collection(
     return CollectionRun(folder, table, n_entries, next(done), counts["resumed"],
                          tuple(failures))
 
-
-def replace_answer(result: EntryResult, reason: str) -> EntryResult:
-    """``result`` as a failure with ``reason`` (staged: it depends on the file and settings)."""
-    return replace(result, answer=None, reason=reason, model=None)
