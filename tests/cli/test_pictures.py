@@ -172,3 +172,26 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
     assert read_png(out / "mug.obj.png").shape[1] == 2 * 48 + 3 * 6
     record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
     assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")
+
+
+def test_thumbnails_of_a_list_resume_and_size_themselves(runner, tmp_path):
+    import shutil
+
+    source = tmp_path / "models"
+    (source / "a").mkdir(parents=True)
+    (source / "b").mkdir()
+    shutil.copy(sample_path("mug.obj"), source / "a" / "cup.obj")
+    shutil.copy(sample_path("teapot.stl"), source / "b" / "cup.obj.stl")
+    listing = source / "models.txt"
+    listing.write_text("a/cup.obj\nb/cup.obj.stl\n")
+    out = tmp_path / "thumbs"
+    small = ["--size", "32", "--views", "12", "--resolution", "32"]
+    plan = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small, "--dry-run"])
+    assert plan.exit_code == 0, plan.output
+    assert plan.stdout.startswith("2 files (") and not out.exists()
+    first = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small, "--workers", "2"])
+    assert first.exit_code == 0, first.output
+    assert first.stdout.startswith(f"wrote 2 thumbnails to {out} (2 in all), 0 skipped")
+    assert (out / "a" / "cup.obj.png").is_file() and (out / "b" / "cup.obj.stl.png").is_file()
+    again = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small])
+    assert again.stdout.startswith(f"wrote 0 thumbnails to {out} (2 in all), 0 skipped")

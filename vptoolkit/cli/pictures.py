@@ -249,10 +249,12 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @timeout_option()
 @up_option()
 @engine_option()
+@click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
+              "disk from a few, drawing and writing nothing.")
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float, up: Vector,
-               engine: str) -> None:
+               engine: str, dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
@@ -269,12 +271,13 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ thumbs/ --workers 4 --views 1000 --resolution 1024
       vptool thumbnails models/ thumbs/ --model default
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
+      vptool thumbnails @models.txt thumbs/ --dry-run
     """
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.conventions import N_VIEWS
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.shading import RenderStyle
-    from vptoolkit.pictures.thumbnails import render_thumbnails
+    from vptoolkit.pictures.thumbnails import render_thumbnails, thumbnail_method
     from vptoolkit.settings import MeasureSettings
 
     if model_path is not None and view_set_k is not None:
@@ -289,6 +292,17 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
         from vptoolkit.learn.predict import MeshPredictor
 
         predictor = MeshPredictor(model_path)
+    if dry_run:
+        from vptoolkit.collection.plan import plan_collection
+
+        method = thumbnail_method(measure, search, settings, predictor, model_path or "",
+                                  view_set_k)
+        # a shaded PNG takes about a byte per pixel of the picture (a sheet: per tile)
+        pixels = size * size * (view_set_k or 1)
+        for line in plan_collection(src, method, workers=workers, extra_bytes_per_file=pixels,
+                                    max_faces=max_faces, timeout=timeout).lines():
+            click.echo(line)
+        return
     with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",

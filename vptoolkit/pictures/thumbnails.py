@@ -65,7 +65,7 @@ from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.settings import MeasureSettings, check_settings
 
 __all__ = ["PredictedMethod", "ThumbnailFailure", "ThumbnailResult", "picture_name",
-           "render_thumbnails"]
+           "render_thumbnails", "thumbnail_method"]
 
 _INDEX_NAME = "thumbnails.json"
 RUNS_FOLDER = ".runs"
@@ -177,10 +177,17 @@ def _rounded(direction: Any) -> list[Any]:
     return [round(float(c), 6) for c in array]
 
 
-def _method(measure: str, search: SearchSettings | None, settings: MeasureSettings | None,
+def thumbnail_method(measure: str, search: SearchSettings | None, settings: MeasureSettings | None,
             predictor: DirectionSource | None, predictor_name: str,
             view_set: int | None) -> Method:
-    """The method of the options (see :func:`render_thumbnails`)."""
+    """The method of :func:`render_thumbnails`'s options (see there); ``measure`` as
+    :data:`~vptoolkit.conventions.MEASURES` spells it.
+
+    Raises
+    ------
+    InputError
+        If the options contradict each other or one is invalid.
+    """
     if search is not None and settings is not None:
         raise InputError("settings: a search (search) or every view measured (settings); "
                          "drop one of them")
@@ -283,7 +290,7 @@ def render_thumbnails(
     source = os.fspath(src)
     target = as_path(out, "out")
     measure = MEASURES[measure_index(measure)]
-    method = _method(measure, search, settings, predictor, predictor_name, view_set)
+    method = thumbnail_method(measure, search, settings, predictor, predictor_name, view_set)
     rows = _drawn_rows(method.names, measure)
 
     with drawing_engine(engine, camera=_camera(method)) as active:
