@@ -20,7 +20,7 @@ from fixtures.paths import MALFORMED
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.collection.methods import Answer, SearchMethod
 from vptoolkit.collection.runner import MAX_MODEL_FACES, run_collection
-from vptoolkit.collection.table import read_predictions
+from vptoolkit.collection.table import ROWS_PER_GROUP, read_predictions
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.samples import sample_path
@@ -196,3 +196,34 @@ def test_a_run_killed_with_sigkill_resumes_to_the_same_bytes(collection: Path, t
     assert resumed.n_resumed >= 2
     whole = run_collection(collection, tmp_path / "whole", METHOD)
     assert resumed.table.read_bytes() == whole.table.read_bytes()
+
+
+def test_a_list_naming_a_file_twice_gives_two_rows_and_one_prediction(collection: Path,
+                                                                       tmp_path: Path):
+    listing = tmp_path / "models.txt"
+    listing.write_text(f"{collection}/ballA.off\n{collection}/ballA.off\n")
+    run = run_collection(f"@{listing}", tmp_path / "out", METHOD)
+    assert [row["status"] for row in _rows(run.table)] == ["ok", "ok"]
+    assert read_predictions(run.table).names == (f"{collection}/ballA.off",)
+
+
+@pytest.mark.slow
+def test_a_run_over_thousands_of_listed_entries_keeps_memory_flat(tmp_path: Path):
+    import tracemalloc
+
+    model = tmp_path / "tetrahedron.off"
+    model.write_text("OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                     "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
+    peaks = []
+    # the first run loads what any run needs once; both others hold a full row group
+    for n_lines in (100, ROWS_PER_GROUP + 100, 4 * ROWS_PER_GROUP):
+        listing = tmp_path / f"models_{n_lines}.txt"
+        listing.write_text("tetrahedron.off\n" * n_lines)
+        tracemalloc.start()
+        try:
+            run = run_collection(f"@{listing}", tmp_path / f"out_{len(peaks)}", METHOD)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+        assert run.n_entries == n_lines and not run.failures
+    assert peaks[2] - peaks[1] < 1_000_000  # bytes: 3000 more entries cost nothing held

@@ -423,8 +423,8 @@ def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], m
                 if (key, sha256) in unstaged or not staged.exists():
                     reason = unstaged.get((key, sha256), f"{key}: not answered")
                     row = EntryResult(Entry(path, key), sha256, reason=reason).record()
-                else:
-                    row = read_json_file(staged)
+                else:  # the path as this run's source names it, whatever an earlier one said
+                    row = {**read_json_file(staged), "file": path}
                 if row["status"] == "ok":
                     next(done)
                 else:

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = ["ROWS_PER_GROUP", "read_predictions", "table_schema", "write_table"]
 
-ROWS_PER_GROUP = 4096
+ROWS_PER_GROUP = 1024
 """Rows per Parquet row group (and the most rows held in memory while writing)."""
 
 
@@ -118,7 +118,7 @@ def read_predictions(path: str | os.PathLike[str]) -> Predictions:
     """The ok rows of a table as :class:`~vptoolkit.predictions.Predictions`, named by key.
 
     Only for a table whose names are measures (a search or a measurement),
-    as ``vptool evaluate`` scores them.
+    as ``vptool evaluate`` scores them; a key listed twice counts once.
     """
     from vptoolkit.predictions import Predictions
 
@@ -127,6 +127,10 @@ def read_predictions(path: str | os.PathLike[str]) -> Predictions:
     names = tuple(column.removesuffix("_direction") for column in table.column_names
                   if column.endswith("_direction"))
     is_ok = np.array(table.column("status").to_pylist()) == "ok"
+    seen: set[str] = set()
+    for row, key in enumerate(table.column("key").to_pylist()):
+        is_ok[row] = is_ok[row] and key not in seen  # a list may name a file twice
+        seen.add(key)
     keys = [key for key, ok in zip(table.column("key").to_pylist(), is_ok) if ok]
     directions = np.zeros((len(keys), len(names), 3))
     for column, name in enumerate(names):
