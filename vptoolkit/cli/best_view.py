@@ -116,7 +116,9 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     if workers != 1 or scheduler is not None or dry_run:
         raise InputError("--workers: --workers, --scheduler and --dry-run take a collection "
                          "(one folder, glob or @list.txt)")
-    meshes = tuple(MESH.convert(value, None, None) for value in inputs)
+    context = click.get_current_context()
+    argument = next(param for param in context.command.params if param.name == "inputs")
+    meshes = tuple(MESH.convert(value, argument, context) for value in inputs)
     from vptoolkit.best_view.run import search_inputs
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.data import open_dataset
@@ -125,7 +127,8 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
     if not meshes and dataset_path is None:
-        raise InputError("inputs: give mesh files or --dataset")
+        raise InputError("inputs: give mesh files, a collection (a folder, a glob or "
+                         "@list.txt) or --dataset")
     with contextlib.ExitStack() as stack:
         dataset = (None if dataset_path is None
                    else stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
