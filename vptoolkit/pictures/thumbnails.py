@@ -65,7 +65,7 @@ from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.settings import MeasureSettings, check_settings
 
 __all__ = ["PredictedMethod", "ThumbnailFailure", "ThumbnailResult", "picture_name",
-           "render_thumbnails", "thumbnail_method"]
+           "render_thumbnails", "thumbnail_method", "ThumbnailMethod"]
 
 _INDEX_NAME = "thumbnails.json"
 RUNS_FOLDER = ".runs"
@@ -158,6 +158,10 @@ class PredictedMethod:
                       f"predicted {self.names[0]}")
 
 
+ThumbnailMethod = SearchMethod | MeasureMethod | ViewSetMethod | PredictedMethod
+"""The methods a thumbnail's direction comes from; each has the camera its pictures use."""
+
+
 def picture_name(key: str) -> str:
     """The picture of an entry, relative to the output folder: its key and ``.png``."""
     return f"{key}.png"
@@ -179,7 +183,7 @@ def _rounded(direction: Any) -> list[Any]:
 
 def thumbnail_method(measure: str, search: SearchSettings | None, settings: MeasureSettings | None,
             predictor: DirectionSource | None, predictor_name: str,
-            view_set: int | None) -> Method:
+            view_set: int | None) -> ThumbnailMethod:
     """The method of :func:`render_thumbnails`'s options (see there); ``measure`` as
     :data:`~vptoolkit.conventions.MEASURES` spells it.
 
@@ -208,11 +212,6 @@ def thumbnail_method(measure: str, search: SearchSettings | None, settings: Meas
     if search is not None and not isinstance(search, SearchSettings):
         raise InputError(f"search: expected a SearchSettings, got {type(search).__name__}")
     return SearchMethod(SearchSettings() if search is None else search, (measure,))
-
-
-def _camera(method: Method) -> Any:
-    held = getattr(method, "settings")
-    return held.camera
 
 
 def render_thumbnails(
@@ -256,7 +255,9 @@ def render_thumbnails(
         a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
         network's prediction. It runs in this process.
     predictor_name : str
-        What ``predictor`` is, for the run's record (default: "predictor").
+        What ``predictor`` is, for the run's record, which names its output
+        folder: give each predictor its own name, or a rerun takes the
+        answers of an earlier one (default: "predictor").
     view_set : int, optional
         Draw each mesh's ``view_set``-view coverage set as a captioned
         contact sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`),
@@ -293,7 +294,7 @@ def render_thumbnails(
     method = thumbnail_method(measure, search, settings, predictor, predictor_name, view_set)
     rows = _drawn_rows(method.names, measure)
 
-    with drawing_engine(engine, camera=_camera(method)) as active:
+    with drawing_engine(engine, camera=method.settings.camera) as active:
         active.start()  # fail fast, in one line, when no engine can run here
 
         drawn = [0]
