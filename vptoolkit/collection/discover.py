@@ -15,9 +15,9 @@ listing the source whole in memory:
   a relative path is relative to the list file's folder.
 
 A model file is one whose suffix, in any letter case, is in
-:data:`MESH_SUFFIXES` or :data:`CLOUD_SUFFIXES`. An entry's key is its path
-relative to the root given (the folder, the glob's fixed part, or the list
-file's folder), with POSIX separators, so ``coll/a/teapot.stl`` and
+:data:`vptoolkit.io.SUPPORTED_SUFFIXES` (meshes) or :data:`CLOUD_SUFFIXES`.
+An entry's key is its path relative to the root given (the folder, the
+glob's fixed part, or the list file's folder), with POSIX separators, so ``coll/a/teapot.stl`` and
 ``coll/b/teapot.stl`` are the entries ``a/teapot.stl`` and ``b/teapot.stl``;
 a list line that is a URL or leaves the root (an absolute path, ``..``) is
 its own key, as written. Entries come in the walk's order (a list's in its
@@ -35,15 +35,14 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from vptoolkit.errors import InputError
+from vptoolkit.io import SUPPORTED_SUFFIXES
 
-__all__ = ["CLOUD_SUFFIXES", "MESH_SUFFIXES", "Entry", "discover", "is_remote_entry"]
-
-MESH_SUFFIXES: tuple[str, ...] = (".off", ".obj", ".ply", ".stl", ".glb", ".gltf")
-"""Suffixes of the mesh files a collection takes (compared case-insensitively)."""
+__all__ = ["CLOUD_SUFFIXES", "Entry", "discover", "is_model_file", "is_remote_entry"]
 
 CLOUD_SUFFIXES: tuple[str, ...] = (".pcd", ".xyz", ".xyzn", ".xyzrgb", ".pts", ".npy", ".npz",
                                    ".las", ".laz")
-"""Suffixes of the point-cloud files a collection takes (compared case-insensitively)."""
+"""Suffixes of the point-cloud files a collection takes (compared case-insensitively);
+the mesh files are those of :data:`vptoolkit.io.SUPPORTED_SUFFIXES`."""
 
 LIST_PREFIX = "@"
 """A source starting with this is a list file: ``@models.txt``."""
@@ -72,7 +71,7 @@ class Entry:
 def is_model_file(name: str) -> bool:
     """Whether a file name has a mesh or point-cloud suffix (any letter case)."""
     suffix = PurePosixPath(name).suffix.lower()
-    return suffix in MESH_SUFFIXES or suffix in CLOUD_SUFFIXES
+    return suffix in SUPPORTED_SUFFIXES or suffix in CLOUD_SUFFIXES
 
 
 def is_remote_entry(path: str) -> bool:
