@@ -39,6 +39,8 @@ module, layer by layer):
   authors' way and the rotated protocol; the anytime best-view search within
   a budget of views (``search``), its priors by name (``prior``) and over
   many inputs (``run``); every predictor behind one call, found by name.
+- ``collection``: best views and thumbnails of a whole collection of files,
+  parallel, resumable, into one Parquet table.
 - ``pictures``: shaded pictures, sphere maps, contact sheets, thumbnails and
   the HTML report.
 - ``cli``: the ``vptool`` command line.

@@ -55,6 +55,7 @@ __all__ = [
     "named_os_error",
     "output_json",
     "errors_named",
+    "exclusive_lock",
     "parse_json",
     "read_json_file",
     "remove_stale_partials",
@@ -294,6 +295,33 @@ def held(path: str | os.PathLike[str]) -> Iterator[None]:
     finally:
         if handle is not None:
             os.close(handle)
+
+
+@contextmanager
+def exclusive_lock(path: str | os.PathLike[str], busy: str) -> Iterator[None]:
+    """Hold an exclusive lock on the file ``path`` (created if needed) while the block runs.
+
+    The operating system releases it when the process ends, even after
+    ``kill -9``, so a lock never outlives its holder. Where locks are not
+    available (no ``fcntl``), nothing is held.
+
+    Raises
+    ------
+    InputError
+        ``busy`` (one line), when another process holds the lock.
+    """
+    if fcntl is None:  # pragma: no cover - not POSIX: no protection against two runs
+        yield
+        return
+    with open(path, "a+b") as handle:
+        try:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise InputError(busy) from err
+        try:
+            yield
+        finally:
+            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
 def _lock(path: str | os.PathLike[str]) -> int | None:

@@ -28,8 +28,10 @@ Crashes
     remaining tasks.
 
 Dask (:func:`run_on_cluster`)
-    Sends every task to a running ``distributed`` scheduler, each run with
-    one numba thread, and releases each result once it is yielded.
+    Sends the tasks to a running ``distributed`` scheduler, at most 1024
+    at once (``tasks`` is read only as results come back, so memory stays
+    flat), each run with one numba thread, and releases each result once it
+    is yielded.
 """
 
 from __future__ import annotations
@@ -65,6 +67,7 @@ _SCHEDULER_ADDRESS = re.compile(
 )
 _PR_SET_PDEATHSIG = 1  # from <linux/prctl.h>
 _WATCHDOG_SECONDS = 1.0
+_CLUSTER_WINDOW = 1024  # tasks submitted to a Dask scheduler at once
 
 
 # --------------------------------------------------------------------------- local processes
@@ -292,12 +295,19 @@ def run_on_cluster(
     except (OSError, TimeoutError, ValueError) as err:
         raise InputError(f"scheduler: cannot connect to {address} ({err})") from err
     try:
-        futures = {
-            client.submit(_with_one_numba_thread, function, task,
-                          key=f"{name(task)}-{secrets.token_hex(4)}", pure=False): task
-            for task in tasks
-        }
-        for future in distributed.as_completed(list(futures), loop=client.loop):
+        queue = iter(tasks)
+        futures: dict[Any, Task] = {}
+
+        def submit(task: Task) -> Any:
+            future = client.submit(_with_one_numba_thread, function, task,
+                                   key=f"{name(task)}-{secrets.token_hex(4)}", pure=False)
+            futures[future] = task
+            return future
+
+        completed = distributed.as_completed(
+            [submit(task) for task in itertools.islice(queue, _CLUSTER_WINDOW)],
+            loop=client.loop)
+        for future in completed:
             task = futures.pop(future)
             try:
                 result = future.result()
@@ -305,6 +315,8 @@ def run_on_cluster(
             except Exception as err:  # noqa: BLE001
                 result = failed(task, err)
             future.release()
+            for following in itertools.islice(queue, 1):  # one in for one out
+                completed.add(submit(following))
             yield result
     finally:
         client.close()

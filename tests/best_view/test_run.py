@@ -65,7 +65,7 @@ def test_command_bad_budgets_resolutions_and_priors_exit_2(arguments, message):
 
 def test_command_without_inputs_exits_2():
     result = CliRunner().invoke(main, ["best-view"])
-    assert result.exit_code == 2 and "give mesh files or --dataset" in result.stderr
+    assert result.exit_code == 2 and "give mesh files, a collection" in result.stderr
 
 
 def test_command_reports_a_failed_mesh_and_exits_1(tmp_path):

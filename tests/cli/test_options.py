@@ -24,9 +24,18 @@ def test_shared_options_take_their_defaults_from_conventions(name, default):
     found = options_named(name)
     assert len(found) >= 2, found
     searches = {"--views": BUDGET, "--resolution": SEARCH_RESOLUTION}  # a search's budget
-    expected = {command: searches[name] if command == "best-view" else default
+    expected = {command: searches[name] if command in ("best-view", "thumbnails") else default
                 for command in found}
     assert {command: option.default for command, option in found.items()} == expected
+
+
+def test_workers_and_scheduler_are_one_option_for_every_collection_command():
+    workers, scheduler = options_named("--workers"), options_named("--scheduler")
+    assert {"build-dataset", "best-view", "thumbnails"} <= set(workers)
+    assert set(scheduler) == {"build-dataset", "best-view", "thumbnails"}
+    for command in scheduler:
+        assert workers[command].default == 1 and workers[command].type.min == 1
+        assert scheduler[command].help == scheduler["build-dataset"].help
 
 
 def test_every_direction_option_is_a_direction():

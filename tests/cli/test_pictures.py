@@ -140,7 +140,7 @@ def test_thumbnails_skip_bad_files_and_exit_1(renderer_available, runner, cube_f
     assert result.exit_code == 1, result.output
     assert "wrote 1 thumbnails" in result.stdout
     assert "skipped broken.off: broken.off: " in result.stderr
-    assert model_mask(decode_png((out / "cube.png").read_bytes())).any()
+    assert model_mask(decode_png((out / "cube.off.png").read_bytes())).any()
     index = json.loads((out / "thumbnails.json").read_text())
     assert [failure["source"] for failure in index["failures"]] == ["broken.off"]
 
@@ -171,7 +171,7 @@ def test_thumbnails_view_set_writes_a_sheet_per_mesh(runner, tmp_path):
     result = runner.invoke(main, ["thumbnails", str(source), str(out), "--view-set", "2",
                                   "--size", "48", *SMALL_DRAW, "--workers", "1"])
     assert result.exit_code == 1, result.output  # the broken file is skipped
-    assert read_png(out / "mug.png").shape[1] == 2 * 48 + 3 * 6
+    assert read_png(out / "mug.obj.png").shape[1] == 2 * 48 + 3 * 6
     record = json.loads((out / "thumbnails.json").read_text())["thumbnails"][0]
     assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")
 
@@ -240,3 +240,26 @@ def test_bad_measures_are_one_line(runner, three, tmp_path, arguments, message):
     assert result.exit_code == 2
     assert message in one_error_line(result)
     assert not out.exists()
+
+
+def test_thumbnails_of_a_list_resume_and_size_themselves(runner, tmp_path):
+    import shutil
+
+    source = tmp_path / "models"
+    (source / "a").mkdir(parents=True)
+    (source / "b").mkdir()
+    shutil.copy(sample_path("mug.obj"), source / "a" / "cup.obj")
+    shutil.copy(sample_path("teapot.stl"), source / "b" / "cup.obj.stl")
+    listing = source / "models.txt"
+    listing.write_text("a/cup.obj\nb/cup.obj.stl\n")
+    out = tmp_path / "thumbs"
+    small = ["--size", "32", "--views", "12", "--resolution", "32"]
+    plan = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small, "--dry-run"])
+    assert plan.exit_code == 0, plan.output
+    assert plan.stdout.startswith("2 files (") and not out.exists()
+    first = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small, "--workers", "2"])
+    assert first.exit_code == 0, first.output
+    assert first.stdout.startswith(f"wrote 2 thumbnails to {out} (2 in all), 0 skipped")
+    assert (out / "a" / "cup.obj.png").is_file() and (out / "b" / "cup.obj.stl.png").is_file()
+    again = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small])
+    assert again.stdout.startswith(f"wrote 0 thumbnails to {out} (2 in all), 0 skipped")

@@ -1,4 +1,4 @@
-"""Thumbnails for a folder of meshes: best views, prediction hooks, bad files skipped."""
+"""Thumbnails of a collection: best views, prediction hooks, bad files skipped, resumed."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from fixtures.environment import require_package
 from fixtures.meshes import primitive_mesh
 from fixtures.paths import MALFORMED
 from fixtures.pictures import decode_png, model_mask, started_renderer
+from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.camera import Camera
 from vptoolkit.errors import InputError, MissingDependencyError
 from vptoolkit.mesh import Mesh
@@ -51,21 +52,43 @@ def test_thumbnails_of_a_folder_skip_and_report_bad_files(mesh_folder: Path, tmp
     result = render_thumbnails(mesh_folder, out, measure="VR", workers=2,
                                settings=MeasureSettings(views=40, resolution=48), engine=renderer)
     assert isinstance(result, ThumbnailResult)
-    assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
+    assert result.done == [out / "cube.obj.png", out / "cube.off.png",
+                           out / "nested" / "ball.stl.png"]
     for path in result.done:
         image = decode_png(path.read_bytes())
         assert image.shape == (SIZE, SIZE, 3) and model_mask(image).any()
     reasons = {failure.source: failure.reason for failure in result.failures}
-    assert sorted(reasons) == ["bad.off", "cube.off", "empty.obj"]
-    assert reasons["cube.off"] == "same thumbnail name as cube.obj (cube.png)"
+    assert sorted(reasons) == ["bad.off", "empty.obj"]
     assert reasons["bad.off"].startswith("bad.off: ")
     index = json.loads(result.index.read_text())
     assert index["measure"] == "VR" and index["direction_from"] == "measures"
-    assert index["settings"] == MeasureSettings(views=40, resolution=48).to_dict()
+    assert index["settings"] == {"method": "measure",
+                                 "settings": MeasureSettings(views=40, resolution=48).to_dict()}
     assert index["size"] == SIZE
-    assert [r["source"] for r in index["thumbnails"]] == ["cube.obj", "nested/ball.stl"]
-    assert index["thumbnails"][0]["label"].startswith("best VR (view ")
-    assert [f["source"] for f in index["failures"]] == ["bad.off", "cube.off", "empty.obj"]
+    assert [r["source"] for r in index["thumbnails"]] == ["cube.obj", "cube.off",
+                                                          "nested/ball.stl"]
+    assert index["thumbnails"][0]["label"] == "best of 40 views"
+    assert [f["source"] for f in index["failures"]] == ["bad.off", "empty.obj"]
+
+
+def test_thumbnails_search_by_default_and_a_rerun_draws_nothing_done(mesh_folder: Path,
+                                                                     tmp_path: Path):
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+
+    out = tmp_path / "thumbs"
+    search = SearchSettings(budget=12, resolution=32)
+    with open_renderer(size=32) as engine:
+        first = render_thumbnails(mesh_folder, out, search=search, engine=engine)
+        assert first.n_drawn == 3
+        index = json.loads(first.index.read_text())
+        assert index["settings"]["method"] == "search"
+        assert index["thumbnails"][0]["label"] == "searched VE (12 views)"
+        picture = out / "nested" / "ball.stl.png"
+        picture.unlink()  # drawn, yet staged: a rerun takes the record as it is
+        again = render_thumbnails(mesh_folder, out, search=search, engine=engine)
+    assert again.n_drawn == 0 and again.done == first.done
+    assert again.index.read_bytes() == first.index.read_bytes()
+    assert again.table is not None and again.table.read_bytes() == first.table.read_bytes()
 
 
 @pytest.mark.renderer
@@ -80,9 +103,9 @@ def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, re
 
     result = render_thumbnails(mesh_folder / "nested", tmp_path / "out", predictor=predict,
                                engine=renderer)
-    assert seen == ["ball"] and result.done == [tmp_path / "out" / "ball.png"]
+    assert seen == ["ball"] and result.done == [tmp_path / "out" / "ball.stl.png"]
     index = json.loads(result.index.read_text())
-    assert index["thumbnails"] == [{"source": "ball.stl", "image": "ball.png",
+    assert index["thumbnails"] == [{"source": "ball.stl", "image": "ball.stl.png",
                                     "direction": [0.0, 0.0, 1.0], "label": "predicted VE"}]
 
 
@@ -105,7 +128,7 @@ def test_thumbnails_check_their_arguments(mesh_folder: Path, tmp_path: Path):
 
     with pytest.raises(InputError, match="unknown measure"):
         render_thumbnails(mesh_folder, tmp_path / "out", measure="best")
-    with pytest.raises(InputError, match="no such file or folder"):
+    with pytest.raises(InputError, match="no such folder"):
         render_thumbnails(tmp_path / "missing", tmp_path / "out")
     with pytest.raises(InputError, match="workers"):
         render_thumbnails(mesh_folder, tmp_path / "out", workers=0)
@@ -128,14 +151,7 @@ def test_view_set_thumbnails_draw_with_the_camera_of_the_settings(mesh_folder: P
     with open_renderer(size=32, camera=camera) as engine:
         result = render_thumbnails(mesh_folder, out, settings=settings, engine=engine,
                                    view_set=2)
-    assert result.done == [out / "cube.png", out / "nested" / "ball.png"]
-
-
-def test_thumbnails_skip_hidden_files_and_folders(mesh_folder: Path):
-    from vptoolkit.pictures.thumbnails import _mesh_files
-
-    (mesh_folder / ".git").mkdir()
-    (mesh_folder / ".git" / "old.off").write_bytes(b"")
-    (mesh_folder / "nested" / ".ball.stl.partial.stl").write_bytes(b"")
-    names = [p.relative_to(mesh_folder).as_posix() for p in _mesh_files(mesh_folder)]
-    assert names == ["bad.off", "cube.obj", "cube.off", "empty.obj", "nested/ball.stl"]
+    assert result.done == [out / "cube.obj.png", out / "cube.off.png",
+                           out / "nested" / "ball.stl.png"]
+    record = json.loads(result.index.read_text())["thumbnails"][0]
+    assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")

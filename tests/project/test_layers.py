@@ -24,6 +24,7 @@ LAYERS = {
     "scan": 5,
     "dataset": 6, "data": 7, "inputs": 7, "dataset_card": 0,
     "synthetic": 5, "learn": 8, "evaluate": 9, "best_view": 9, "predictors": 9,
+    "collection": 9,
     "pictures": 10,
     "cli": 99,
 }

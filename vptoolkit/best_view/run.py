@@ -48,7 +48,7 @@ from vptoolkit.visibility import RasterScene
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
 
-__all__ = ["SearchRun", "recorded_searchable", "search_inputs"]
+__all__ = ["SearchRun", "load_kernels", "recorded_searchable", "search_inputs"]
 
 
 @dataclass(frozen=True)
@@ -168,7 +168,7 @@ def search_inputs(
                            names)
 
 
-def _load_kernels() -> None:
+def load_kernels() -> None:
     """Draw a tetrahedron once, so that numba's one-time kernel load is not any mesh's time."""
     tetrahedron = Mesh(np.eye(4, 3, k=-1), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
                        name="tetrahedron")
@@ -179,7 +179,7 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 prior: Callable[[Mesh], ArrayLike] | None, progress: bool,
                 measures: tuple[str, ...]) -> SearchRun:
     if sources:
-        _load_kernels()
+        load_kernels()
     results: list[BestViews] = []
     failures: list[tuple[str, str]] = []
     is_bad_input = True

@@ -1,4 +1,5 @@
-"""The ``best-view`` command: an anytime search for the best view of meshes or a dataset split."""
+"""The ``best-view`` command: an anytime search for the best view of meshes, a dataset split
+or a whole collection (a folder, a glob or ``@list.txt``, :mod:`vptoolkit.collection`)."""
 
 from __future__ import annotations
 
@@ -15,9 +16,13 @@ from vptoolkit.cli.options import (
     MESH,
     budget_option,
     cache_dir_option,
+    face_limit_option,
     measures_option,
+    scheduler_option,
     search_resolution_option,
     split_option,
+    timeout_option,
+    workers_option,
 )
 from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError, MeasurementError
@@ -30,8 +35,20 @@ def _searchable(value: str) -> tuple[str, ...]:
     return searchable_measures(value)
 
 
+_SHOWN_FAILURES = 20  # failure lines a collection run prints; the table holds them all
+
+
+def is_collection(inputs: tuple[str, ...]) -> bool:
+    """Whether the inputs name a collection: one folder, glob or ``@list.txt``."""
+    if len(inputs) != 1:
+        return False
+    source = inputs[0]
+    return (source.startswith("@") or Path(source).is_dir()
+            or (any(mark in source for mark in "*?[") and not Path(source).is_file()))
+
+
 @click.command("best-view")
-@click.argument("meshes", nargs=-1, type=MESH)
+@click.argument("inputs", nargs=-1)
 @budget_option()
 @search_resolution_option()
 @click.option("--prior", default="none", show_default=True,
@@ -45,16 +62,31 @@ def _searchable(value: str) -> tuple[str, ...]:
                  "--dataset, the measures it records that a search can evaluate; else "
                  "paper]. INS, DVS, SAL, EVMI and MS need all views of the sphere and are "
                  "refused.", default=None, resolve=_searchable)
-@click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
-              help="Write names, directions (N, M, 3) and the measures' names to this .npz "
-                   "(scored by vptool evaluate).")
+@click.option("-o", "--output", type=click.Path(path_type=Path),
+              help="Mesh files: write names, directions (N, M, 3) and the measures' names to "
+                   "this .npz (scored by vptool evaluate). A collection: the output folder.")
+@workers_option("Local worker processes (a collection).", default=1)
+@scheduler_option()
+@face_limit_option()
+@timeout_option()
+@click.option("--dry-run", is_flag=True, help="A collection: count its files and estimate "
+              "hours and disk from a few, writing nothing.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print per mesh the directions, views drawn, resolutions and seconds.")
 @cache_dir_option()
-def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str,
+def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
               dataset_path: Path | str | None, split: Split, measures: tuple[str, ...] | None,
-              output: Path | None, as_json: bool, cache_dir: Path | None) -> None:
-    """Find the best view per measure of MESHES within a budget of drawn views.
+              output: Path | None, as_json: bool, cache_dir: Path | None, workers: int,
+              scheduler: str | None, max_faces: int, timeout: float, dry_run: bool) -> None:
+    """Find the best view per measure of INPUTS within a budget of drawn views.
+
+    INPUTS are mesh files, or one collection: a folder (walked recursively),
+    a quoted glob ('models/**/*.off') or @list.txt (a path or URL per line),
+    meshes and point clouds mixed. A collection is searched into -o OUT:
+    OUT/<settings digest>/table.parquet (one row per file: directions, camera
+    poses and intrinsics, or the reason it failed) and predictions.npz;
+    --workers N or --scheduler ADDR as for build-dataset; rerunning the same
+    command does only what is missing; exit status 1 when any file failed.
 
     A Fibonacci sphere of half the budget (at 128 px when --resolution is
     larger, its best candidates then drawn again at --resolution), then rings
@@ -73,7 +105,19 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
       vptool best-view bunny.ply --measures NVT,SL,MD
       vptool best-view scan.ply --views 8 --prior unoccluded
       vptool best-view --dataset release/ --split test --prior default -o test.npz
+      vptool best-view models/ -o views/ --workers 4
+      vptool best-view @models.txt -o views/ --dry-run
     """
+    if is_collection(inputs):
+        _search_collection(inputs[0], output, budget, resolution, prior, measures, workers,
+                           scheduler, max_faces, timeout, dry_run, dataset_path, as_json)
+        return
+    if workers != 1 or scheduler is not None or dry_run:
+        raise InputError("--workers: --workers, --scheduler and --dry-run take a collection "
+                         "(one folder, glob or @list.txt)")
+    context = click.get_current_context()
+    argument = next(param for param in context.command.params if param.name == "inputs")
+    meshes = tuple(MESH.convert(value, argument, context) for value in inputs)
     from vptoolkit.best_view.run import search_inputs
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.data import open_dataset
@@ -82,7 +126,8 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
     if not meshes and dataset_path is None:
-        raise InputError("inputs: give mesh files or --dataset")
+        raise InputError("inputs: give mesh files, a collection (a folder, a glob or "
+                         "@list.txt) or --dataset")
     with contextlib.ExitStack() as stack:
         dataset = (None if dataset_path is None
                    else stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
@@ -114,6 +159,53 @@ def best_view(meshes: tuple[Path, ...], budget: int, resolution: int, prior: str
     if run.failures:
         raise MeasurementError(f"{len(run.failures)} of {len(run.failures) + len(run.results)} "
                                "inputs failed")
+
+
+def _search_collection(source: str, output: Path | None, budget: int, resolution: int,
+                       prior: str, measures: tuple[str, ...] | None, workers: int,
+                       scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
+                       dataset_path: Path | str | None, as_json: bool) -> None:
+    """``best-view`` of a collection (see the command's help)."""
+    from vptoolkit.best_view.search import SearchSettings, searchable_measures
+    from vptoolkit.collection.methods import SearchMethod
+
+    if dataset_path is not None:
+        raise InputError("--dataset: give a collection or --dataset, not both")
+    method = SearchMethod(SearchSettings(budget=budget, resolution=resolution),
+                          measures or searchable_measures(None), prior)
+    if dry_run:
+        from vptoolkit.collection.plan import plan_collection
+
+        for line in plan_collection(source, method, workers=workers, max_faces=max_faces,
+                                    timeout=timeout).lines():
+            click.echo(line)
+        return
+    if output is None:
+        raise InputError("--output: a collection needs -o OUT, the output folder")
+    from vptoolkit.collection.runner import run_collection
+    from vptoolkit.collection.table import read_predictions
+
+    run = run_collection(source, output, method, max_faces=max_faces, timeout=timeout,
+                         workers=workers, scheduler=scheduler, progress=True)
+    predictions = read_predictions(run.table)
+    npz = run.folder / "predictions.npz"
+    if predictions.names:
+        predictions.save_npz(npz)
+    if as_json:
+        click.echo(output_json({"table": str(run.table), "entries": run.n_entries,
+                               "done": run.n_done, "resumed": run.n_resumed,
+                               "failures": [{"input": key, "error": reason}
+                                            for key, reason in run.failures]}, indent=2))
+    else:
+        click.echo(f"searched {run.n_entries} files ({run.n_resumed} from an earlier run), "
+                   f"{len(run.failures)} failed: {run.table}")
+    for key, reason in run.failures[:_SHOWN_FAILURES]:
+        click.echo(f"  failed {key}: {reason}", err=True)
+    if len(run.failures) > _SHOWN_FAILURES:
+        click.echo(f"  ... and {len(run.failures) - _SHOWN_FAILURES} more (the table's "
+                   "status and reason columns)", err=True)
+    if run.failures:
+        sys.exit(EXIT_FAILURE)
 
 
 COMMANDS = (best_view,)

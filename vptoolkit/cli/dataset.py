@@ -20,6 +20,7 @@ from vptoolkit.cli.options import (
     measures_option,
     points_option,
     resolution_option,
+    scheduler_option,
     views_option,
     workers_option,
 )
@@ -57,7 +58,7 @@ from vptoolkit.settings import MAX_RESOLUTION
 @click.option("--remesh", is_flag=True,
               help="Also remesh isotropically when cleaning (a tessellation-independent VE).")
 @workers_option("Local worker processes.", default=1)
-@click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
+@scheduler_option()
 @click.option("--split-seed", default=SEED, show_default=True, type=int,
               help="Seed of the train/val/test assignment (and of the point samples).")
 @click.option("--splits", "split_file",

@@ -48,6 +48,9 @@ __all__ = [
     "search_resolution_option",
     "seed_option",
     "workers_option",
+    "scheduler_option",
+    "face_limit_option",
+    "timeout_option",
     "up_option",
     "engine_option",
     "device_option",
@@ -312,6 +315,33 @@ def workers_option(help: str, *, default: int | None = None,
     """``--workers N``: worker processes, at least 1."""
     return click.option("--workers", default=default, show_default=default is not None,
                         type=click.IntRange(1), help=help)
+
+
+def scheduler_option() -> Callable[[Decorated], Decorated]:
+    """``--scheduler ADDR``: a running Dask scheduler that does the work instead of
+    ``--workers`` (checked by :func:`vptoolkit.parallel.check_scheduler_address`)."""
+    return click.option("--scheduler", help="Address of a running Dask distributed scheduler.")
+
+
+def face_limit_option() -> Callable[[Decorated], Decorated]:
+    """``--max-faces N``: refuse a model with more faces before drawing it (default
+    ``MAX_MODEL_FACES`` of :mod:`vptoolkit.collection.runner`)."""
+    from vptoolkit.collection.runner import MAX_MODEL_FACES
+
+    return click.option("--max-faces", default=MAX_MODEL_FACES, show_default=True,
+                        type=click.IntRange(1),
+                        help="Record a model with more faces as failed, unread further.")
+
+
+def timeout_option() -> Callable[[Decorated], Decorated]:
+    """``--timeout S``: seconds one file may take (default ``TIMEOUT_S`` of
+    :mod:`vptoolkit.collection.runner`)."""
+    from vptoolkit.collection.runner import TIMEOUT_S
+
+    return click.option("--timeout", default=TIMEOUT_S, show_default=True,
+                        type=click.FloatRange(0, min_open=True),
+                        help="Seconds one file may take; a slower one is recorded as failed "
+                             "and tried again by the next run.")
 
 
 def up_option() -> Callable[[Decorated], Decorated]:

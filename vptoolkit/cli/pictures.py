@@ -15,18 +15,22 @@ from vptoolkit.checks import check_suffix
 from vptoolkit.cli.group import EXIT_FAILURE
 from vptoolkit.cli.options import (
     DATASET,
-    EXISTING,
     MEASURE_NAME,
     MESH,
     MODEL_HELP,
     Direction,
     ExistingPath,
+    budget_option,
     cache_dir_option,
     engine_option,
+    face_limit_option,
     parse_measures,
     resolution_option,
+    scheduler_option,
+    search_resolution_option,
     size_option,
     split_option,
+    timeout_option,
     up_option,
     views_option,
     workers_option,
@@ -227,51 +231,85 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 
 
 @click.command()
-@click.argument("src", type=EXISTING)
+@click.argument("src")
 @click.argument("out", type=click.Path(file_okay=False, path_type=Path))
 @click.option("--measure", default="VE", show_default=True, type=MEASURE_NAME,
               help="Measure whose best (or predicted) view is drawn.")
 @click.option("--model", "model_path", help=MODEL_HELP + " Uses its predictions, measures nothing.")
 @click.option("--view-set", "view_set_k", type=click.IntRange(1),
-              help="Draw each mesh's K-view coverage set as a contact sheet instead.")
+              help="Draw each mesh's K-view coverage set, chosen from --views measured views, "
+                   "as a contact sheet instead.")
 @size_option()
-@workers_option("Measuring processes (default: CPUs).")
-@views_option(None)
-@resolution_option(None)
+@workers_option("Local worker processes finding the views.", default=1)
+@scheduler_option()
+@budget_option()
+@search_resolution_option()
+@face_limit_option()
+@timeout_option()
 @up_option()
 @engine_option()
-def thumbnails(src: Path, out: Path, measure: str, model_path: str | None,
-               view_set_k: int | None, size: int, workers: int | None, n_views: int,
-               resolution: int, up: Vector, engine: str) -> None:
-    """Draw a thumbnail of every mesh under SRC from its best view into OUT.
+@click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
+              "disk from a few, drawing and writing nothing.")
+def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
+               view_set_k: int | None, size: int, workers: int, scheduler: str | None,
+               budget: int, resolution: int, max_faces: int, timeout: float, up: Vector,
+               engine: str, dry_run: bool) -> None:
+    """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
-    SRC/a/b.off becomes OUT/a/b.png; OUT/thumbnails.json records directions
-    and the files skipped with their reasons (exit status 1 if any).
+    SRC is a folder (walked recursively), a quoted glob, one mesh file or
+    @list.txt. SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
+    the anytime search with a budget of --views (--views 1000 and more measure
+    every view of a Fibonacci sphere instead: the exhaustive answer, at
+    --resolution). OUT/thumbnails.json records directions and the files
+    skipped with their reasons (exit status 1 if any); rerunning the command
+    draws only what is missing.
 
     \b
     Example:
       vptool thumbnails models/ thumbs/ --measure VKL --size 256
+      vptool thumbnails models/ thumbs/ --workers 4 --views 1000 --resolution 1024
       vptool thumbnails models/ thumbs/ --model default
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
+      vptool thumbnails @models.txt thumbs/ --dry-run
     """
+    from vptoolkit.best_view.search import SearchSettings
+    from vptoolkit.conventions import N_VIEWS
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.shading import RenderStyle
-    from vptoolkit.pictures.thumbnails import render_thumbnails
+    from vptoolkit.pictures.thumbnails import render_thumbnails, thumbnail_method
     from vptoolkit.settings import MeasureSettings
 
     if model_path is not None and view_set_k is not None:
         raise InputError("--view-set: --model gives one view per mesh; drop one of them")
-    settings = MeasureSettings(views=n_views, resolution=resolution)
+    search = settings = None
+    if view_set_k is not None or model_path is not None or budget >= N_VIEWS:
+        settings = MeasureSettings(views=budget, resolution=resolution)
+    else:
+        search = SearchSettings(budget=budget, resolution=resolution)
     predictor = None
     if model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor
 
         predictor = MeshPredictor(model_path)
+    if dry_run:
+        from vptoolkit.collection.plan import plan_collection
+
+        method = thumbnail_method(measure, search, settings, predictor, model_path or "",
+                                  view_set_k)
+        # a shaded PNG takes about a byte per pixel of the picture (a sheet: per tile)
+        pixels = size * size * (view_set_k or 1)
+        for line in plan_collection(src, method, workers=workers, extra_bytes_per_file=pixels,
+                                    max_faces=max_faces, timeout=timeout).lines():
+            click.echo(line)
+        return
     with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
-        result = render_thumbnails(src, out, measure=measure, predictor=predictor,
-                                   workers=workers, settings=settings, engine=drawing,
-                                   progress=True, view_set=view_set_k)
-    click.echo(f"wrote {len(result.done)} thumbnails to {out}, {len(result.failures)} skipped")
+        result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
+                                   predictor=predictor, predictor_name=model_path or "",
+                                   view_set=view_set_k, workers=workers, scheduler=scheduler,
+                                   engine=drawing, max_faces=max_faces, timeout=timeout,
+                                   progress=True)
+    click.echo(f"wrote {result.n_drawn} thumbnails to {out} ({len(result.done)} in all), "
+               f"{len(result.failures)} skipped")
     for failure in result.failures:
         click.echo(f"  skipped {failure.source}: {failure.reason}", err=True)
     if result.failures:

@@ -1,57 +1,85 @@
-"""Thumbnails for a folder of meshes, from each mesh's best (or a predicted) view.
+"""Thumbnails of a collection of meshes, from each mesh's best (or a predicted) view.
 
-:func:`render_thumbnails` draws one picture per mesh file below a folder:
-the measures (:func:`vptoolkit.measures.quality.compute_view_quality`) run in
-parallel worker processes while one renderer (an
-:class:`~vptoolkit.pictures.engine.Engine`) draws, so a start-up such as
-that of Open3D's render child is paid once. The picture of ``SRC/a/b.off``
-is ``OUT/a/b.png``; ``OUT/thumbnails.json`` records the measure, the
-measure settings, the size, every picture's direction and the files that were skipped with their
-one-line reasons (unreadable, unmeasurable or undrawable files never stop
-the batch). The measuring runs in :func:`vptoolkit.parallel.run_tasks`, one
-frozen :class:`_MeasureTask` per file, each giving a :class:`_Measured`.
+:func:`render_thumbnails` draws one picture per entry of a collection (a
+folder, a glob, a model file or ``@list.txt``:
+:func:`vptoolkit.collection.discover.discover`) through the collection
+runner (:func:`vptoolkit.collection.runner.run_collection`): the directions
+are found in worker processes or on a Dask cluster, while one engine (an
+:class:`~vptoolkit.pictures.engine.Engine`) draws in this process, so a
+start-up such as that of Open3D's render child is paid once. The picture of
+the entry ``a/b.off`` is ``OUT/a/b.off.png`` (the key and ``.png``, so
+``b.off`` and ``b.obj`` never share a picture).
+
+By default each direction comes from the anytime search
+(:class:`~vptoolkit.collection.methods.SearchMethod`, a
+:class:`~vptoolkit.best_view.search.SearchSettings` budget of views);
+``settings`` (a :class:`~vptoolkit.settings.MeasureSettings`) measures every
+view of the sphere instead, the exhaustive answer
+(:class:`~vptoolkit.collection.methods.MeasureMethod`); ``view_set`` draws a
+coverage set as a contact sheet; ``predictor`` takes the direction from a
+direction source (:class:`PredictedMethod`, in this process).
+
+State
+    A picture is drawn before its entry is staged, so a rerun after
+    ``kill -9`` redraws nothing done. The run's table is
+    ``OUT/.runs/<digest>/table.parquet``; ``OUT/thumbnails.json`` records the
+    measure, the method's settings, the size, one
+    ``{"source", "image", "direction", "label"}`` record per picture and the
+    failures with their one-line reasons, written at the end from the table.
 """
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.collection.methods import (
+    Answer,
+    MeasureMethod,
+    Method,
+    SearchMethod,
+    ViewSetMethod,
+    cameras,
+)
+from vptoolkit.collection.runner import (
+    MAX_MODEL_FACES,
+    TIMEOUT_S,
+    EntryResult,
+    run_collection,
+)
 from vptoolkit.errors import InputError, VptoolkitError
-from vptoolkit.files import write_json_atomic
+from vptoolkit.files import atomic_write
 from vptoolkit.measures.registry import canonical_name
 from vptoolkit.mesh import Mesh
-from vptoolkit.parallel import run_tasks
+from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
-from vptoolkit.progress import progress_bar
 from vptoolkit.settings import MeasureSettings, check_settings
 
-if TYPE_CHECKING:
-    from numpy.typing import NDArray
-
-    from vptoolkit.view_sets.result import ViewSet
-
-__all__ = ["ThumbnailFailure", "ThumbnailResult", "render_thumbnails"]
+__all__ = ["PredictedMethod", "ThumbnailFailure", "ThumbnailResult", "picture_name",
+           "render_thumbnails", "thumbnail_method", "ThumbnailMethod"]
 
 _INDEX_NAME = "thumbnails.json"
+RUNS_FOLDER = ".runs"
+"""The folder below OUT of the runs' staging and tables (hidden: no key starts with a dot)."""
 
 
 @dataclass(frozen=True)
 class ThumbnailFailure:
-    """A mesh file that got no thumbnail.
+    """An entry that got no thumbnail.
 
     Attributes
     ----------
     source : str
-        Path of the file relative to the source folder.
+        The entry's key: its path relative to the root given.
     reason : str
         One line: what went wrong.
     """
@@ -67,80 +95,82 @@ class ThumbnailResult:
     Attributes
     ----------
     done : list of Path
-        The written PNG files, sorted.
+        Every entry's picture (drawn now or by an earlier run), sorted.
     failures : list of ThumbnailFailure
-        The skipped files with their reasons, sorted by source.
+        The entries without a picture, with their reasons, in key order.
     index : Path
-        ``thumbnails.json`` in the output folder: measure, measure settings
-        (:meth:`~vptoolkit.settings.MeasureSettings.to_dict`), size and
-        one ``{"source", "image", "direction", "label"}`` record per picture,
-        plus the failures.
+        ``thumbnails.json`` in the output folder (module docstring).
+    table : Path
+        The run's Parquet table (:mod:`vptoolkit.collection.table`).
+    n_drawn : int
+        Pictures drawn by this call (the others were drawn by an earlier run).
     """
 
     done: list[Path] = field(default_factory=list)
     failures: list[ThumbnailFailure] = field(default_factory=list)
     index: Path | None = None
-
-
-def _mesh_files(source: Path) -> list[Path]:
-    """``source`` itself if a file, else its mesh files (hidden ones skipped), sorted."""
-    from vptoolkit.io import find_mesh_files
-
-    if source.is_file():
-        return [source]
-    if not source.is_dir():
-        raise InputError(f"{source}: no such file or folder")
-    return find_mesh_files(source)
+    table: Path | None = None
+    n_drawn: int = 0
 
 
 @dataclass(frozen=True)
-class _MeasureTask:
-    """One mesh file to measure: where it is, how it is named in the index, and the settings."""
+class PredictedMethod:
+    """A direction source's answer for every model, in the calling process.
 
-    path: str
-    source: str
-    measure: str
-    settings: MeasureSettings
-    view_set: int | None
+    Attributes
+    ----------
+    predictor : (3,) or (4, 3) array_like, or callable
+        As :func:`vptoolkit.pictures.views.resolve_direction` takes it.
+    name : str
+        What the predictor is (a checkpoint's path, ``default``): its record.
+    measure : str
+        The measure whose direction is taken (default: "VE").
+    settings : MeasureSettings
+        Whose camera and resolution the pose and intrinsics are of.
+    """
+
+    predictor: Any = field(compare=False)
+    name: str
+    measure: str = "VE"
+    settings: MeasureSettings = field(default_factory=MeasureSettings)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The one measure."""
+        return (canonical_name(self.measure),)
+
+    @property
+    def in_process(self) -> bool:
+        """True: a predictor (a network) is not sent to workers."""
+        return True
+
+    def record(self) -> dict[str, Any]:
+        """``{"method": "predicted", "predictor", "measure", "camera"}``."""
+        return {"method": "predicted", "predictor": self.name, "measure": self.names[0],
+                "camera": self.settings.camera.to_dict()}
+
+    def __call__(self, mesh: Mesh) -> Answer:
+        """The predicted direction."""
+        direction = resolve_direction(mesh, self.predictor, measure=self.names[0])[None]
+        poses, intrinsics = cameras(mesh, self.settings.camera, direction,
+                                    self.settings.resolution)
+        return Answer(direction, np.full(1, np.nan), poses, intrinsics, 0,
+                      f"predicted {self.names[0]}")
 
 
-@dataclass(frozen=True)
-class _Measured:
-    """The mesh of one task and the direction(s) to draw it from, or why there are none."""
-
-    source: str
-    error: str | None = None
-    mesh: Mesh | None = None
-    direction: NDArray[np.float64] | None = None
-    label: str = ""
-    view_set: ViewSet | None = None
+ThumbnailMethod = SearchMethod | MeasureMethod | ViewSetMethod | PredictedMethod
+"""The methods a thumbnail's direction comes from; each has the camera its pictures use."""
 
 
-def _best_direction_task(task: _MeasureTask) -> _Measured:
-    """Worker: load a mesh and find its best view or view set (top level, so a pool can run it)."""
-    from vptoolkit.inputs import read_model
-    from vptoolkit.measures.quality import compute_view_quality
-
-    try:
-        mesh = read_model(task.path, requires="surface")
-        if task.view_set:
-            from vptoolkit.view_sets.search import measure_view_set
-
-            _, view_set = measure_view_set(mesh, task.view_set, settings=task.settings)
-            label = f"view set of {len(view_set)} ({100 * view_set.coverage[-1]:.1f} % seen)"
-            return _Measured(task.source, mesh=mesh, direction=view_set.directions,
-                             view_set=view_set, label=label)
-        quality = compute_view_quality(mesh, task.settings, measures=(task.measure,))
-    except (VptoolkitError, OSError, MemoryError) as err:
-        return _Measured(task.source, error=one_line(err))
-    index = int(quality.best_index[0])
-    return _Measured(task.source, mesh=mesh, direction=quality.views[index],
-                     label=f"best {task.measure} (view {index} of {len(quality.views)})")
+def picture_name(key: str) -> str:
+    """The picture of an entry, relative to the output folder: its key and ``.png``."""
+    return f"{key}.png"
 
 
-def _worker_died(task: _MeasureTask) -> _Measured:
-    """What a task yields whose worker process died twice (``run_tasks``'s ``crashed``)."""
-    return _Measured(task.source, error="the worker process died while measuring it")
+def _drawn_rows(names: tuple[str, ...], measure: str) -> slice:
+    """The answer's rows a picture shows: the measure's, or every view of a set."""
+    return slice(names.index(measure), names.index(measure) + 1) if measure in names \
+        else slice(None)
 
 
 def _rounded(direction: Any) -> list[Any]:
@@ -151,43 +181,37 @@ def _rounded(direction: Any) -> list[Any]:
     return [round(float(c), 6) for c in array]
 
 
-def _predicted_results(tasks: list[_MeasureTask], predictor: DirectionSource,
-                       measure: str) -> Iterator[_Measured]:
-    from vptoolkit.inputs import read_model
+def thumbnail_method(measure: str, search: SearchSettings | None, settings: MeasureSettings | None,
+            predictor: DirectionSource | None, predictor_name: str,
+            view_set: int | None) -> ThumbnailMethod:
+    """The method of :func:`render_thumbnails`'s options (see there); ``measure`` as
+    the registry spells it (:func:`~vptoolkit.measures.registry.canonical_name`).
 
-    for task in tasks:
-        try:
-            mesh = read_model(task.path, requires="surface")
-            direction = resolve_direction(mesh, predictor, measure=measure)
-        except (VptoolkitError, OSError, MemoryError) as err:
-            yield _Measured(task.source, error=one_line(err))
-            continue
-        yield _Measured(task.source, mesh=mesh, direction=direction, label=f"predicted {measure}")
-
-
-def _draw(result: _Measured, engine: Engine, settings: MeasureSettings,
-          output_of: dict[str, Path], target: Path, done: list[Path],
-          failures: list[ThumbnailFailure]) -> dict[str, Any] | None:
-    """Draw and save one measured mesh; its index record, or None after recording a failure."""
-    if result.error is not None or result.mesh is None or result.direction is None:
-        failures.append(ThumbnailFailure(result.source, result.error or "nothing to draw"))
-        return None
-    image_path = output_of[result.source]
-    try:
-        if result.view_set is not None:
-            from vptoolkit.pictures.contact_sheet import view_set_sheet
-
-            image, _ = view_set_sheet(result.mesh, view_set=result.view_set,
-                                      settings=settings, engine=engine)
-        else:
-            image = engine.render(result.mesh, result.direction)[0]
-        image_path.parent.mkdir(parents=True, exist_ok=True)
-        done.append(save_png(image, image_path))
-    except (VptoolkitError, OSError) as err:
-        failures.append(ThumbnailFailure(result.source, one_line(err)))
-        return None
-    return {"source": result.source, "image": image_path.relative_to(target).as_posix(),
-            "direction": _rounded(result.direction), "label": result.label}
+    Raises
+    ------
+    InputError
+        If the options contradict each other or one is invalid.
+    """
+    if search is not None and settings is not None:
+        raise InputError("settings: a search (search) or every view measured (settings); "
+                         "drop one of them")
+    if view_set is not None:
+        view_set = check_int(view_set, "view_set", minimum=1)
+        if predictor is not None:
+            raise InputError("view_set: a predictor gives one view per mesh; drop one of them")
+        if search is not None:
+            raise InputError("view_set: a view set is chosen from every view (settings); "
+                             "drop search")
+        return ViewSetMethod(view_set, MeasureSettings() if settings is None
+                             else check_settings(settings))
+    if predictor is not None:
+        return PredictedMethod(predictor, predictor_name, measure,
+                               MeasureSettings() if settings is None else check_settings(settings))
+    if settings is not None:
+        return MeasureMethod(check_settings(settings))
+    if search is not None and not isinstance(search, SearchSettings):
+        raise InputError(f"search: expected a SearchSettings, got {type(search).__name__}")
+    return SearchMethod(SearchSettings() if search is None else search, (measure,))
 
 
 def render_thumbnails(
@@ -195,123 +219,140 @@ def render_thumbnails(
     out: str | os.PathLike[str],
     *,
     measure: str = "VE",
-    predictor: DirectionSource | None = None,
-    workers: int | None = None,
+    search: SearchSettings | None = None,
     settings: MeasureSettings | None = None,
-    engine: Engine | None = None,
-    progress: bool = False,
+    predictor: DirectionSource | None = None,
+    predictor_name: str = "predictor",
     view_set: int | None = None,
+    workers: int = 1,
+    scheduler: str | None = None,
+    engine: Engine | None = None,
+    max_faces: int = MAX_MODEL_FACES,
+    timeout: float = TIMEOUT_S,
+    progress: bool = False,
 ) -> ThumbnailResult:
-    """Draw a thumbnail of every mesh in a folder from its best (or predicted) view.
-
-    Every file below ``src`` with a suffix :func:`vptoolkit.io.load_mesh`
-    reads (:func:`vptoolkit.io.find_mesh_files`: hidden files and folders are
-    skipped) is loaded, measured (:func:`vptoolkit.measures.quality.compute_view_quality`)
-    and drawn from its best view for ``measure``; with ``predictor`` the
-    direction comes from it instead and nothing is measured. The picture of
-    ``src/a/b.off`` is ``out/a/b.png``. Measuring runs in ``workers``
-    processes (numba limited to one thread each); one engine draws, started
-    once.
+    """Draw a thumbnail of every mesh of a collection from its best (or predicted) view.
 
     Parameters
     ----------
-    src : path-like
-        A folder (searched recursively, in sorted order) or one mesh file.
+    src : str or path-like
+        A folder (walked recursively, hidden files and folders skipped), a
+        glob, one model file, or ``@list.txt``
+        (:func:`vptoolkit.collection.discover.discover`).
     out : path-like
         Output folder, created if needed.
     measure : str
-        Any registered measure name, in any case (default: "VE"); with
-        ``predictor``, one it predicts.
-    predictor : (3,) or (M, 3) array_like, or callable, optional
+        ``"VE"``, ``"VR"``, ``"VKL"`` or ``"VMI"`` (default: "VE").
+    search : SearchSettings, optional
+        The search's budget, resolution and camera (default:
+        ``SearchSettings()`` when neither ``settings`` nor ``view_set`` is given).
+    settings : MeasureSettings, optional
+        Measure every view of this sphere instead of searching: the
+        exhaustive answer (``MeasureSettings()``: 1000 views at 1024 px);
+        the sphere of ``view_set``, the camera of ``predictor``.
+    predictor : (3,) or (4, 3) array_like, or callable, optional
         Direction source (see :func:`vptoolkit.pictures.views.resolve_direction`);
         a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
-        network's prediction.
-    workers : int, optional
-        Measuring processes (default: the number of CPUs; 1 measures in this
-        process with every numba thread).
-    settings : MeasureSettings, optional
-        How the measures draw each mesh (default: ``MeasureSettings()``:
-        1000 views, 1024 px, ``Camera()``).
+        network's prediction. It runs in this process.
+    predictor_name : str
+        What ``predictor`` is, for the run's record, which names its output
+        folder: give each predictor its own name, or a rerun takes the
+        answers of an earlier one (default: "predictor").
+    view_set : int, optional
+        Draw each mesh's ``view_set``-view coverage set as a captioned
+        contact sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`),
+        a tile of the engine's size per view; its record lists every direction.
+    workers : int
+        Processes finding the directions, as ``build-dataset --workers``
+        (default: 1, in this process).
+    scheduler : str, optional
+        A Dask scheduler's address instead of ``workers``.
     engine : Engine, optional
         The engine that draws, its size the thumbnails' side; its camera
-        must be that of ``settings`` (default: a software engine of 512
-        pixels with that camera, made for this call).
+        must be the method's (default: a software engine of 512 pixels with
+        that camera, made for this call).
+    max_faces, timeout
+        The per-file limits of :func:`vptoolkit.collection.runner.run_collection`.
     progress : bool
         Show a progress bar on stderr (default: False).
-    view_set : int, optional
-        Draw each mesh's ``view_set``-view coverage set
-        (:func:`vptoolkit.view_sets.search.best_view_set`) as a captioned contact
-        sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`), a tile
-        of the engine's size per view, instead of one view; its record lists
-        every direction.
 
     Returns
     -------
     ThumbnailResult
-        Written pictures, skipped files with reasons, and the index file.
 
     Raises
     ------
     InputError
-        If ``src`` does not exist, an argument is invalid, the engine's
-        camera is not that of ``settings``, or two sources would write the
-        same picture (``a.off`` and ``a.obj``: the second is
-        reported as a failure instead).
+        If ``src`` does not exist, an option is invalid or contradicts
+        another, or the engine's camera is not the method's.
     MissingDependencyError
         If the engine cannot start here (checked before any work).
     """
-    source = as_path(src, "src")
+    source = os.fspath(src)
     target = as_path(out, "out")
     measure = canonical_name(measure)
-    workers = check_int(os.cpu_count() or 1 if workers is None else workers, "workers", minimum=1)
-    settings = MeasureSettings() if settings is None else check_settings(settings)
-    if view_set is not None:
-        view_set = check_int(view_set, "view_set", minimum=1)
-        if predictor is not None:
-            raise InputError("view_set: a predictor gives one view per mesh; drop one of them")
-    files = _mesh_files(source)
-    root = source if source.is_dir() else source.parent
-    target.mkdir(parents=True, exist_ok=True)
+    method = thumbnail_method(measure, search, settings, predictor, predictor_name, view_set)
+    rows = _drawn_rows(method.names, measure)
 
-    tasks: list[_MeasureTask] = []
-    failures: list[ThumbnailFailure] = []
-    output_of: dict[str, Path] = {}
-    claimed: dict[Path, str] = {}
-    for path in files:
-        relative = path.relative_to(root).as_posix()
-        image_path = target / Path(relative).with_suffix(".png")
-        if image_path in claimed:
-            failures.append(ThumbnailFailure(
-                relative, f"same thumbnail name as {claimed[image_path]} ({image_path.name})"))
-            continue
-        claimed[image_path] = relative
-        output_of[relative] = image_path
-        tasks.append(_MeasureTask(str(path), relative, measure, settings, view_set))
-
-    records: list[dict[str, Any]] = []
-    done: list[Path] = []
-    with drawing_engine(engine, camera=settings.camera) as active:
+    with drawing_engine(engine, camera=method.settings.camera) as active:
         active.start()  # fail fast, in one line, when no engine can run here
-        results = (run_tasks(_best_direction_task, tasks, workers=workers, crashed=_worker_died)
-                   if predictor is None else _predicted_results(tasks, predictor, measure))
-        with progress_bar(total=len(tasks), description="thumbnails", unit="model",
-                          enabled=progress) as bar:
-            for result in results:
-                bar.update(1)
-                record = _draw(result, active, settings, output_of, target, done, failures)
-                if record is not None:
-                    records.append(record)
+
+        drawn = [0]
+
+        def draw(result: EntryResult) -> EntryResult:
+            assert result.answer is not None and result.model is not None  # answered entries
+            image_path = target / picture_name(result.entry.key)
+            try:
+                if isinstance(method, ViewSetMethod):
+                    from vptoolkit.pictures.contact_sheet import view_set_sheet
+
+                    image, _ = view_set_sheet(result.model, view_set=result.answer.detail,
+                                              settings=method.settings, engine=active)
+                else:
+                    image = active.render(result.model, result.answer.directions[rows][0])[0]
+                image_path.parent.mkdir(parents=True, exist_ok=True)
+                save_png(image, image_path)
+                drawn[0] += 1
+            except (VptoolkitError, OSError) as err:
+                return replace(result, answer=None, reason=one_line(err), model=None)
+            return replace(result, model=None)
+
+        target.mkdir(parents=True, exist_ok=True)
+        run = run_collection(source, target / RUNS_FOLDER, method, max_faces=max_faces,
+                             timeout=timeout, workers=workers, scheduler=scheduler,
+                             finish=draw, progress=progress)
         size = active.size
-    failures.sort(key=lambda failure: failure.source)
-    records.sort(key=lambda record: record["source"])
-    index = target / _INDEX_NAME
-    write_json_atomic(index, {
-        "source": str(source),
-        "measure": measure,
-        "direction_from": "measures" if predictor is None else "predictor",
-        "settings": settings.to_dict(),
-        "size": size,
-        "thumbnails": records,
-        "failures": [{"source": f.source, "reason": f.reason} for f in failures],
-    }, sort_keys=False)
-    return ThumbnailResult(sorted(done), failures, index)
+    done = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
+    failures = [ThumbnailFailure(key, reason) for key, reason in run.failures]
+    return ThumbnailResult(sorted(target / name for name in done), failures,
+                           target / _INDEX_NAME, run.table, drawn[0])
+
+
+def _write_index(path: Path, table: Path, method: Method, measure: str, rows: slice,
+                 size: int, source: str) -> list[str]:
+    """Write ``thumbnails.json`` from the table, streamed one record per line; the pictures."""
+    pq = require("pyarrow.parquet", extra="dataset")
+    names = method.names[rows]
+    header = {"source": source, "measure": measure,
+              "direction_from": "predictor" if isinstance(method, PredictedMethod)
+              else "measures", "settings": method.record(), "size": size}
+    pictures: list[str] = []
+    failures: list[str] = []
+    with atomic_write(path) as stream:
+        stream.write(json.dumps(header, indent=2)[:-2].encode() + b',\n  "thumbnails": [')
+        separator = b"\n    "
+        for batch in pq.ParquetFile(table).iter_batches():
+            for row in batch.to_pylist():
+                if row["status"] != "ok":
+                    failures.append(json.dumps({"source": row["key"], "reason": row["reason"]}))
+                    continue
+                directions = [row[f"{name}_direction"] for name in names]
+                record = {"source": row["key"], "image": picture_name(row["key"]),
+                          "direction": _rounded(directions if len(names) > 1
+                                                else directions[0]),
+                          "label": row["label"]}
+                stream.write(separator + json.dumps(record).encode())
+                separator = b",\n    "
+                pictures.append(record["image"])
+        stream.write(b"\n  ],\n  \"failures\": [" + ",".join(failures).encode() + b"]\n}\n")
+    return pictures

@@ -48,7 +48,7 @@ from vptoolkit.dataset.store.schema import (
     json_bytes,
 )
 from vptoolkit.errors import InputError
-from vptoolkit.files import atomic_write, read_json_file
+from vptoolkit.files import atomic_write, exclusive_lock, read_json_file
 
 __all__ = [
     "STAGING_DIR",
@@ -97,22 +97,9 @@ def prepare_out(out_dir: Path) -> Path:
 @contextlib.contextmanager
 def build_lock(staging: Path) -> Iterator[None]:
     """Hold an exclusive lock on the staging folder (released by the OS if we are killed)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX: no protection against two builds
+    with exclusive_lock(staging / _LOCK_FILE,
+                        f"{staging.parent}: another build is running in this folder"):
         yield
-        return
-    with open(staging / _LOCK_FILE, "a+b") as handle:
-        try:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise InputError(
-                f"{staging.parent}: another build is running in this folder"
-            ) from err
-        try:
-            yield
-        finally:
-            fcntl.flock(handle.fileno(), fcntl.LOCK_UN)
 
 
 def resume_or_start(staging: Path, options: BuildOptions, root: Path) -> str:
