@@ -63,7 +63,7 @@ def test_every_entry_gets_a_row_with_its_answer_or_reason(collection: Path, tmp_
     assert teapot["sha256"] == __import__("hashlib").sha256(
         (collection / "a" / "teapot.stl").read_bytes()).hexdigest()
     assert rows["cloud.xyz"]["status"] == "failed"
-    assert rows["cloud.xyz"]["reason"].startswith("cloud.xyz: a point-cloud file")
+    assert rows["cloud.xyz"]["reason"].startswith("cloud.xyz: a point cloud (3 points, no faces)")
     assert rows["empty.obj"]["reason"].startswith("empty.obj: ")
     assert rows["empty.obj"]["VE_direction"] is None
     assert run.failures == (("cloud.xyz", rows["cloud.xyz"]["reason"]),

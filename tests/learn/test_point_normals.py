@@ -216,5 +216,5 @@ def test_a_network_of_normals_reads_the_normals_of_an_n6_point_file(tmp_path):
     np.testing.assert_allclose(predict(checkpoint, with_normals, n_inputs=1,
                                        device="cpu").directions, answer.directions, atol=1e-6)
     with pytest.raises(InputError, match=r"bare.npy: the network reads point features \(normal\) "
-                                         r"that an \(N, 3\) point file does not carry"):
+                                         r"that a point cloud without normals does not carry"):
         predict(checkpoint, bare, n_inputs=1, device="cpu")

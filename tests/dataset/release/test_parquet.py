@@ -83,8 +83,10 @@ def test_verify_compares_every_shard_of_a_split(sharded, tmp_path: Path) -> None
     name = forge_shard(copy, second, "quality")
     forge_shard(copy, second, "label")  # compared with the store's labels array
     report = verify(copy)
-    assert [p.target for p in report.problems] == [f"{second}:{name}:label",
+    # the forged shard's size no longer matches croissant.json's contentSize either
+    assert [p.target for p in report.problems] == [second, f"{second}:{name}:label",
                                                    f"{second}:{name}:quality"]
+    assert report.problems[0].kind == "size"
 
 
 @pytest.mark.parametrize(("text", "expected"), [("200KB", 200_000), ("500MB", 500_000_000),
