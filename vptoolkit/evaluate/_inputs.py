@@ -1,5 +1,5 @@
-"""What both kinds of evaluation check in their inputs: models, splits, prediction arrays,
-messages.
+"""What both kinds of evaluation share: the checks of their inputs (models, splits,
+prediction arrays), their messages and the models a report is about.
 
 Private to :mod:`vptoolkit.evaluate`: :mod:`~vptoolkit.evaluate.scores` (one
 direction per model and measure) and :mod:`~vptoolkit.evaluate.coverage`
@@ -9,6 +9,7 @@ direction per model and measure) and :mod:`~vptoolkit.evaluate.coverage`
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,36 @@ from vptoolkit.sphere import is_zero_length
 _MAX_LISTED = 3  # names quoted in an error message before "..."
 
 
+@dataclass(frozen=True, eq=False)
+class ReportModels:
+    """The models an evaluation report is about: the first fields of every report.
+
+    Attributes
+    ----------
+    dataset : str
+        File name of the dataset store.
+    split : str
+        ``"train"``, ``"val"``, ``"test"`` or ``"all"``.
+    predictions : str
+        File name of the predictions (``"<array>"`` for in-memory ones).
+    names : tuple of str
+        The evaluated models, in the split's order.
+    model_categories : tuple of str
+        Category of each model.
+    """
+
+    dataset: str
+    split: str
+    predictions: str
+    names: tuple[str, ...]
+    model_categories: tuple[str, ...]
+
+    @property
+    def categories(self) -> tuple[str, ...]:
+        """The categories present, sorted."""
+        return tuple(sorted(set(self.model_categories)))
+
+
 def quoted(names: Sequence[str]) -> str:
     """The first few names, quoted, then ``...`` if there are more."""
     listed = ", ".join(repr(name) for name in names[:_MAX_LISTED])
@@ -32,6 +63,29 @@ def quoted(names: Sequence[str]) -> str:
 def counted(n: int, singular: str, plural: str) -> str:
     """``n`` and the noun in the right number: ``1 name``, ``2 names``."""
     return f"{n} {singular if n == 1 else plural}"
+
+
+def name_rows(file_name: str, names: Sequence[str], expected: Sequence[str],
+              where: str) -> dict[str, int]:
+    """Row of each model name in ``expected`` order, once every one of ``names`` is among them.
+
+    Returns
+    -------
+    rows : dict of str to int
+        ``{expected[i]: i}``.
+
+    Raises
+    ------
+    InputError
+        Naming the first few of ``names`` missing from ``expected``, e.g.
+        ``preds.npz: 2 names not in the test split: 'a', 'b'``.
+    """
+    rows = {name: i for i, name in enumerate(expected)}
+    unknown = [name for name in names if name not in rows]
+    if unknown:
+        raise InputError(f"{file_name}: {counted(len(unknown), 'name', 'names')} not in "
+                         f"{where}: {quoted(unknown)}")
+    return rows
 
 
 def check_directions(file_name: str, directions: NDArray[Any], names: Sequence[str],

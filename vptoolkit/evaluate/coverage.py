@@ -23,10 +23,10 @@ from vptoolkit.conventions import Split
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
+    ReportModels,
     check_directions,
     check_models,
-    counted,
-    quoted,
+    name_rows,
     report_split,
     select_split,
     split_label,
@@ -45,15 +45,13 @@ __all__ = [
 
 
 @dataclass(frozen=True, eq=False)
-class ViewSetReport:
+class ViewSetReport(ReportModels):
     """Coverage of predicted view sets against the greedy sets, per model.
 
     Attributes
     ----------
-    dataset, split, predictions : str
-        As in :class:`EvaluationReport`.
-    names, model_categories : tuple of str
-        The evaluated models and their categories.
+    dataset, split, predictions, names, model_categories
+        The evaluated models (:class:`~vptoolkit.evaluate._inputs.ReportModels`).
     predicted : (n_models, k) float64
         Coverage (area-weighted fraction of the surface seen,
         :mod:`vptoolkit.view_sets`) after the first 1..k predicted views.
@@ -62,11 +60,6 @@ class ViewSetReport:
         that stopped early keeps its final value).
     """
 
-    dataset: str
-    split: str
-    predictions: str
-    names: tuple[str, ...]
-    model_categories: tuple[str, ...]
     predicted: NDArray[np.float64]
     greedy: NDArray[np.float64]
 
@@ -82,8 +75,7 @@ class ViewSetReport:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe report: per category and overall means, and every model."""
-        categories = sorted(set(self.model_categories))
-        is_in = {c: np.array([m == c for m in self.model_categories]) for c in categories}
+        is_in = {c: np.array([m == c for m in self.model_categories]) for c in self.categories}
         return {
             "dataset": self.dataset, "split": self.split, "predictions": self.predictions,
             "k": self.k, "n_models": len(self.names),
@@ -92,7 +84,7 @@ class ViewSetReport:
                                "predicted": float(self.predicted[is_in[c], -1].mean()),
                                "greedy": float(self.greedy[is_in[c], -1].mean()),
                                "ratio_percent": float(self.ratio[is_in[c]].mean())}
-                           for c in categories},
+                           for c in self.categories},
             "mean": {"predicted": [float(v) for v in self.predicted.mean(axis=0)],
                      "greedy": [float(v) for v in self.greedy.mean(axis=0)],
                      "ratio_percent": float(self.ratio.mean())},
@@ -143,11 +135,7 @@ def _load_view_sets(path: str | os.PathLike[str], dataset: ViewpointDataset,
                          f"{len(expected)} models")
     if len(names) != raw.shape[0]:
         raise InputError(f"{path.name}: {len(names)} names for {raw.shape[0]} view sets")
-    position = {name: i for i, name in enumerate(expected)}
-    unknown = [name for name in names if name not in position]
-    if unknown:
-        raise InputError(f"{path.name}: {counted(len(unknown), 'name', 'names')} not in "
-                         f"{where}: {quoted(unknown)}")
+    position = name_rows(path.name, names, expected, where)
     if len(set(names)) != len(names) or len(names) != len(expected):
         raise InputError(f"{path.name}: holds {len(names)} view sets, {where} has "
                          f"{len(expected)} models (each exactly once)")

@@ -58,9 +58,11 @@ from vptoolkit.conventions import Split
 from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError
 from vptoolkit.evaluate._inputs import (
+    ReportModels,
     check_directions,
     check_models,
     counted,
+    name_rows,
     quoted,
     report_split,
     select_split,
@@ -86,7 +88,7 @@ def _percent_or_none(value: float) -> float | None:
 
 
 @dataclass(frozen=True, eq=False)
-class EvaluationReport:
+class EvaluationReport(ReportModels):
     """Scores of one set of predictions on one split, in percent.
 
     The derived tables are properties: :attr:`categories`,
@@ -95,16 +97,8 @@ class EvaluationReport:
 
     Attributes
     ----------
-    dataset : str
-        File name of the dataset store.
-    split : str
-        ``"train"``, ``"val"``, ``"test"`` or ``"all"``.
-    predictions : str
-        File name of the predictions (``"<array>"`` for in-memory ones).
-    names : tuple of str
-        The evaluated models, in the split's order.
-    model_categories : tuple of str
-        Category of each model.
+    dataset, split, predictions, names, model_categories
+        The evaluated models (:class:`~vptoolkit.evaluate._inputs.ReportModels`).
     scores : (n_models, M) float64
         Normalised quality of the nearest sampled view, in percent, one
         column per name of ``measures``; NaN for a measure that was not
@@ -114,11 +108,6 @@ class EvaluationReport:
         (default: the paper's four, ``PAPER_MEASURES``).
     """
 
-    dataset: str
-    split: str
-    predictions: str
-    names: tuple[str, ...]
-    model_categories: tuple[str, ...]
     scores: NDArray[np.float64]
     measures: tuple[str, ...] = PAPER_MEASURES
 
@@ -155,11 +144,6 @@ class EvaluationReport:
     def scored_measures(self) -> tuple[str, ...]:
         """Names of the predicted measures, in :attr:`measures` order."""
         return tuple(m for m, is_scored in zip(self.measures, self.is_scored) if is_scored)
-
-    @property
-    def categories(self) -> tuple[str, ...]:
-        """The categories present, sorted."""
-        return tuple(sorted(set(self.model_categories)))
 
     @property
     def category_counts(self) -> NDArray[np.int64]:
@@ -361,11 +345,7 @@ def _load(path: str | os.PathLike[str], dataset: ViewpointDataset, measure: str 
         duplicates = sorted(name for name, count in Counter(names).items() if count > 1)
         if duplicates:
             raise InputError(f"{file_name}: duplicate names {quoted(duplicates)}")
-        position = {name: i for i, name in enumerate(expected_names)}
-        unknown = [name for name in names if name not in position]
-        if unknown:
-            raise InputError(f"{file_name}: {counted(len(unknown), 'name', 'names')} not in "
-                             f"{where}: {quoted(unknown)}")
+        position = name_rows(file_name, names, expected_names, where)
         if len(names) != n_models:
             have = set(names)
             missing = [name for name in expected_names if name not in have]
