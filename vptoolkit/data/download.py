@@ -281,9 +281,7 @@ class FsspecSource:
         except ImportError as err:
             raise MissingDependencyError(f"{url}: {err}") from err
         except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
-            if _is_connection_failure(err):
-                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
-            raise InputError(f"{url}: {one_line(err)}") from err
+            raise _backend_failure(url, err, one_line(err)) from err
         self._root = self._root.rstrip("/")
 
     def url_of(self, relative: str) -> str:
@@ -329,10 +327,20 @@ class FsspecSource:
         except FileNotFoundError as err:
             raise InputError(f"{url}: not found") from err
         except Exception as err:  # noqa: BLE001 - a backend's own error becomes one line
-            if _is_connection_failure(err):
-                raise Unreachable(f"{url}: cannot be fetched ({one_line(err)})") from err
-            raise InputError(f"{url}: cannot be fetched ({one_line(err)})") from err
+            raise _backend_failure(url, err, f"cannot be fetched ({one_line(err)})") from err
         return stream
+
+
+def _backend_failure(url: str, error: Exception, message: str) -> InputError:
+    """The one-line error for a file system backend's ``error`` at ``url``.
+
+    :class:`Unreachable` when it is a failure to connect
+    (:func:`_is_connection_failure`), else an :class:`InputError` saying
+    ``"{url}: {message}"``.
+    """
+    if _is_connection_failure(error):
+        return Unreachable(f"{url}: cannot be fetched ({one_line(error)})")
+    return InputError(f"{url}: {message}")
 
 
 def _is_connection_failure(error: BaseException) -> bool:

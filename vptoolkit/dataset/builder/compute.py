@@ -43,6 +43,7 @@ __all__ = [
     "MeasuredModel",
     "ModelResult",
     "ModelTask",
+    "TaskOutcome",
     "cluster_lost",
     "process_model",
     "worker_died",
@@ -88,8 +89,8 @@ class ModelTask:
 
 
 @dataclass(frozen=True)
-class MeasuredModel:
-    """A model measured in full.
+class TaskOutcome:
+    """What every result of a :class:`ModelTask` names: its model and source.
 
     Attributes
     ----------
@@ -97,6 +98,18 @@ class MeasuredModel:
         ``category/name``.
     signature : dict
         The task's source signature.
+    """
+
+    model_id: str
+    signature: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class MeasuredModel(TaskOutcome):
+    """A model measured in full (``model_id``, ``signature``: :class:`TaskOutcome`).
+
+    Attributes
+    ----------
     record : dict
         ``name``, ``category``, ``source``, ``source_sha256``,
         ``n_vertices``, ``n_faces``, ``cleaning`` (report without timings, or
@@ -111,23 +124,17 @@ class MeasuredModel:
         ``sample``: reported, never stored.
     """
 
-    model_id: str
-    signature: dict[str, Any]
     record: dict[str, Any]
     arrays: dict[str, NDArray[Any]]
     seconds: dict[str, float]
 
 
 @dataclass(frozen=True)
-class FailedModel:
-    """A model that could not be measured.
+class FailedModel(TaskOutcome):
+    """A model that could not be measured (``model_id``, ``signature``: :class:`TaskOutcome`).
 
     Attributes
     ----------
-    model_id : str
-        ``category/name``.
-    signature : dict
-        The task's source signature.
     failure : dict of str to str
         ``{"source", "category", "reason"}``, the reason one line.
     is_staged : bool
@@ -137,8 +144,6 @@ class FailedModel:
         tries again (default: True).
     """
 
-    model_id: str
-    signature: dict[str, Any]
     failure: dict[str, str]
     is_staged: bool = True
 
