@@ -319,7 +319,7 @@ class FsspecSource:
 
         Each fsspec file system raises its own client's errors (``httpx``,
         ``requests``, ``aiohttp``, ``botocore`` ...), so they are told apart by
-        :func:`_is_connection_failure`, not by type.
+        :func:`_backend_failure`, not by type.
         """
         url = self.url_of(relative)
         try:
@@ -332,36 +332,25 @@ class FsspecSource:
 
 
 def _backend_failure(url: str, error: Exception, message: str) -> InputError:
-    """The one-line error for a file system backend's ``error`` at ``url``.
+    """A file system backend's ``error`` at ``url`` as one line: :class:`Unreachable` when it is
+    a failure to reach a host, else an InputError ``"{url}: {message}"``.
 
-    :class:`Unreachable` when it is a failure to connect
-    (:func:`_is_connection_failure`), else an :class:`InputError` saying
-    ``"{url}: {message}"``.
-    """
-    if _is_connection_failure(error):
-        return Unreachable(f"{url}: cannot be fetched ({one_line(error)})")
-    return InputError(f"{url}: {message}")
-
-
-def _is_connection_failure(error: BaseException) -> bool:
-    """Whether ``error``, or an error it was raised from, is a failure to reach a host.
-
-    That is the standard library's ``ConnectionError``, ``TimeoutError`` or
-    ``socket.gaierror`` (an unknown host), or an HTTP client's error whose class
-    name says ``Connect`` or ``Timeout`` (``httpx.ConnectError``,
-    ``requests.ConnectionError``, ``aiohttp.ClientConnectorError`` ...).
+    A failure to reach a host is the standard library's ``ConnectionError``,
+    ``TimeoutError`` or ``socket.gaierror`` (an unknown host), or an HTTP
+    client's error whose class name says ``Connect`` or ``Timeout``
+    (``httpx.ConnectError``, ``requests.ConnectionError``,
+    ``aiohttp.ClientConnectorError`` ...), raised or raised from.
     """
     seen: set[int] = set()
     current: BaseException | None = error
     while current is not None and id(current) not in seen:
         seen.add(id(current))
-        if isinstance(current, (ConnectionError, TimeoutError, socket.gaierror)):
-            return True
-        if any(word in klass.__name__ for klass in type(current).__mro__
-               for word in ("Connect", "Timeout")):
-            return True
+        if isinstance(current, (ConnectionError, TimeoutError, socket.gaierror)) or any(
+                word in klass.__name__ for klass in type(current).__mro__
+                for word in ("Connect", "Timeout")):
+            return Unreachable(f"{url}: cannot be fetched ({one_line(error)})")
         current = current.__cause__ or current.__context__
-    return False
+    return InputError(f"{url}: {message}")
 
 
 Source = HttpSource | FsspecSource
