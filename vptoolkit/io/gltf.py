@@ -28,6 +28,13 @@ def read_gltf(path: Path, data: bytes) -> Reading:
     negative determinant reverses the triangles' winding to keep them facing out.
     Line primitives are ignored. trimesh is imported on first use.
 
+    The appearance of each instance comes along: its material's base colour
+    (``baseColorFactor``: one ``base_color`` when every instance has the
+    same, else a colour per triangle), its vertex colours (kept when every
+    instance has them), and its texture coordinates with the base-colour
+    texture (the first instance's image; instances with another image or
+    none get NaN coordinates, and a warning says so when an image is dropped).
+
     Parameters
     ----------
     path : Path
@@ -35,13 +42,6 @@ def read_gltf(path: Path, data: bytes) -> Reading:
         together with any external buffers it refers to.
     data : bytes
         The file's content, checked before trimesh sees it.
-
-    The appearance of each instance comes along: its material's base colour
-    (``baseColorFactor``: one ``base_color`` when every instance has the
-    same, else a colour per triangle), its vertex colours (kept when every
-    instance has them), and its texture coordinates with the base-colour
-    texture (the first instance's image; instances with another image or
-    none get NaN coordinates, and a warning says so when an image is dropped).
 
     Returns
     -------
