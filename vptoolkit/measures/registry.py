@@ -28,7 +28,7 @@ from functools import cache
 from typing import Final
 
 from vptoolkit.errors import InputError
-from vptoolkit.measures.measure import Measure
+from vptoolkit.measures.measure import POINT_NEEDS, Measure
 from vptoolkit.measures.sums import PAPER_COLUMNS
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "canonical_name",
     "get_measure",
     "measure_index",
+    "point_measures",
     "resolve_measures",
 ]
 
@@ -162,3 +163,52 @@ def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]
     if repeated:
         raise InputError(f"measures: {', '.join(repeated)} named twice")
     return tuple(names)
+
+
+_POINT_REFUSALS: Final = {"depth": "depth", "silhouette": "silhouettes",
+                          "curvature": "a curvature of faces"}
+"""What each need outside :data:`~vptoolkit.measures.measure.POINT_NEEDS` reads, in
+:func:`point_measures`' message."""
+
+
+def point_measures(spec: str | Iterable[str] | None = None, label: str = "points"
+                   ) -> tuple[str, ...]:
+    """The measures of :func:`resolve_measures`, each checked to be defined on a point cloud.
+
+    A measure is defined on points when its needs lie within
+    :data:`vptoolkit.measures.measure.POINT_NEEDS` (:attr:`Measure.on_points
+    <vptoolkit.measures.measure.Measure.on_points>`): the paper's four, NVT,
+    PA, HM, I2, I3, INS, SAL and EVMI.
+
+    Parameters
+    ----------
+    spec : str, iterable of str or None
+        What :func:`resolve_measures` takes.
+    label : str
+        The cloud named first in the message (default: "points").
+
+    Returns
+    -------
+    tuple of str
+        The names, in the order given.
+
+    Raises
+    ------
+    InputError
+        One line naming each measure not defined on points and what it reads
+        that points do not have (``bunny: SL (silhouettes), CE (a curvature of
+        faces) cannot be measured on a point cloud, ...``), and the ones that
+        can; or :func:`resolve_measures`' message.
+    """
+    names = resolve_measures(spec)
+    refused = []
+    for name in names:
+        missing = sorted(get_measure(name).needs - POINT_NEEDS)
+        if missing:
+            refused.append(f"{name} ({' and '.join(_POINT_REFUSALS[need] for need in missing)})")
+    if refused:
+        defined = ", ".join(name for name, measure in all_measures().items() if measure.on_points)
+        raise InputError(f"{label}: {', '.join(refused)} cannot be measured on a point cloud "
+                         "(the splats draw no depth or silhouette, and points have no faces); "
+                         f"measures defined on points: {defined}")
+    return names
