@@ -53,7 +53,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.geometry import bounding_frame, face_areas
+from vptoolkit.geometry import face_areas
 from vptoolkit.io.objects import model_of
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.measure import Measure
@@ -144,13 +144,6 @@ class MeasuringSession:
     def n_elements(self) -> int:
         """The elements the pixels are counted for: the mesh's faces or the cloud's points."""
         return len(self.areas)
-
-    @property
-    def frame(self) -> tuple[NDArray[np.float64], float]:
-        """Centre and diagonal of the bounding box the camera looks at."""
-        if self._points is not None:
-            return self._points.centre, self._points.diagonal
-        return bounding_frame(self.model)
 
     @property
     def streams(self) -> bool:
