@@ -115,7 +115,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
 
     A greedy search over the sampled views: each pick adds the view that best
     complements the ones before. Prints, per pick, the view, its direction and
-    the area-weighted fraction of the surface seen so far.
+    the area-weighted fraction of the surface seen so far. For a point cloud,
+    the points (splatted) take the faces' place, each weighing the area of
+    surface it stands for.
 
     \b
     Example:
@@ -123,6 +125,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
       vptool views chair.off --coverage 0.95 --objective quality
     """
     from vptoolkit.inputs import read_model
+    from vptoolkit.point_cloud import PointCloud
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.search import measure_view_set
 
@@ -147,7 +150,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if as_json:
         click.echo(output_json({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
         return
-    click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
+    elements = (f"{loaded.n_points} points" if isinstance(loaded, PointCloud)
+                else f"{loaded.n_faces} faces")
+    click.echo(f"{loaded.name}: {elements}, {n_views} views at {resolution} px, "
                f"{objective} objective ({seconds:.2f} s)")
     bits = objective == "information"
     click.echo(f"{'pick':<5} {'view':>5}  {'direction (x, y, z)':<26} {'coverage':>9}"

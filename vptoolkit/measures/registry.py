@@ -165,8 +165,8 @@ def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]
     return tuple(names)
 
 
-_POINT_REFUSALS: Final = {"depth": "depth", "silhouette": "silhouettes",
-                          "curvature": "a curvature of faces"}
+_POINT_REFUSALS: Final = {"silhouette": "silhouettes", "depth": "depth",
+                          "curvature": "a face curvature"}
 """What each need outside :data:`~vptoolkit.measures.measure.POINT_NEEDS` reads, in
 :func:`point_measures`' message."""
 
@@ -195,20 +195,19 @@ def point_measures(spec: str | Iterable[str] | None = None, label: str = "points
     Raises
     ------
     InputError
-        One line naming each measure not defined on points and what it reads
-        that points do not have (``bunny: SL (silhouettes), CE (a curvature of
-        faces) cannot be measured on a point cloud, ...``), and the ones that
-        can; or :func:`resolve_measures`' message.
+        One line naming the measures not defined on points, what they read
+        that a cloud does not have, and the measures defined on points
+        (``bunny: SL, CE are not defined on a point cloud (reading silhouettes
+        or a face curvature); on points: NVT, ...``); or
+        :func:`resolve_measures`' message.
     """
     names = resolve_measures(spec)
-    refused = []
-    for name in names:
-        missing = sorted(get_measure(name).needs - POINT_NEEDS)
-        if missing:
-            refused.append(f"{name} ({' and '.join(_POINT_REFUSALS[need] for need in missing)})")
+    refused = [name for name in names if not get_measure(name).on_points]
     if refused:
+        missing = set().union(*(get_measure(name).needs - POINT_NEEDS for name in refused))
+        reading = [words for need, words in _POINT_REFUSALS.items() if need in missing]
+        read = ", ".join(reading[:-1]) + " or " + reading[-1] if len(reading) > 1 else reading[0]
         defined = ", ".join(name for name, measure in all_measures().items() if measure.on_points)
-        raise InputError(f"{label}: {', '.join(refused)} cannot be measured on a point cloud "
-                         "(the splats draw no depth or silhouette, and points have no faces); "
-                         f"measures defined on points: {defined}")
+        raise InputError(f"{label}: {', '.join(refused)} {'is' if len(refused) == 1 else 'are'} "
+                         f"not defined on a point cloud (reading {read}); on points: {defined}")
     return names
