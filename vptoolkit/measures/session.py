@@ -127,7 +127,11 @@ class MeasuringSession:
         self._points: PointScene | None = None
         if isinstance(self.model, PointCloud):
             self.names = point_measures(measures, self.model.name)
-            self._points = PointScene(self.model.points, self.model.normals, self.settings.camera)
+            try:
+                self._points = PointScene(self.model.points, self.model.normals,
+                                          self.settings.camera)
+            except InputError as err:  # the scene names its arguments, not the cloud
+                raise InputError(f"{self.model.name}: {err}") from err
             self.areas = self._points.areas
         else:
             self.names = resolve_measures(measures)
