@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import resolve_measures
 from vptoolkit.measures.unoccluded import (
@@ -42,7 +43,6 @@ from vptoolkit.measures.unoccluded import (
     face_elements,
     unoccluded_quality,
 )
-from vptoolkit.io.objects import model_of
 from vptoolkit.mesh import Mesh, MeshLike
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import coarse_directions, distinct_directions
@@ -68,7 +68,7 @@ class Prior(Protocol):
     function of that signature.
     """
 
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first."""
         ...  # pragma: no cover - a protocol
 
@@ -160,9 +160,9 @@ class UnoccludedPrior:
         return distinct_directions(np.array(ranked).reshape(-1, 3), 1.0)
 
 
-def resolve_prior(spec: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None, *,
-                  measures: str | Iterable[str] | None = None,
-                  ) -> Callable[[Mesh], ArrayLike] | None:
+def resolve_prior(spec: str | os.PathLike[str] | Callable[[Mesh | PointCloud], ArrayLike] | None,
+                  *, measures: str | Iterable[str] | None = None,
+                  ) -> Callable[[Mesh | PointCloud], ArrayLike] | None:
     """The prior that ``spec`` names, made once for every mesh of a search.
 
     Parameters

@@ -41,6 +41,7 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
 from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
@@ -112,7 +113,7 @@ def search_inputs(
     settings: SearchSettings = SearchSettings(),
     dataset: str | os.PathLike[str] | ViewpointDataset | None = None,
     split: Split = "test",
-    prior: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None = None,
+    prior: str | os.PathLike[str] | Callable[[Mesh | PointCloud], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
     progress: bool = False,
 ) -> SearchRun:
@@ -182,7 +183,7 @@ def load_kernels() -> None:
 
 
 def _search_all(sources: list[ModelSource], settings: SearchSettings,
-                prior: Callable[[Mesh], ArrayLike] | None, progress: bool,
+                prior: Callable[[Mesh | PointCloud], ArrayLike] | None, progress: bool,
                 measures: tuple[str, ...]) -> SearchRun:
     if sources:
         load_kernels()

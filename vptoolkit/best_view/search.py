@@ -90,11 +90,11 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
 from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.geometry import bounding_frame
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
 from vptoolkit.measures.session import MeasuringSession
-from vptoolkit.geometry import bounding_frame
-from vptoolkit.io.objects import model_of
 from vptoolkit.mesh import Mesh, MeshLike
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings

@@ -75,9 +75,9 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     if as_json:
         click.echo(output_json(summary, indent=2))
         return
+    elements = "points" if isinstance(loaded, PointCloud) else "faces"
     click.echo(
-        f"{quality.name}: {quality.n_faces} {'points' if isinstance(loaded, PointCloud) else 'faces'}, "
-        f"{len(quality.views)} views at "
+        f"{quality.name}: {quality.n_faces} {elements}, {len(quality.views)} views at "
         f"{quality.resolution} px ({quality.backend}, {seconds:.2f} s)"
     )
     click.echo(f"{'measure':<8} {'view':>5}  {'direction (x, y, z)':<26} {'raw':>9}  best")

@@ -37,8 +37,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.camera import Camera
-from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.geometry import bounding_frame
+from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
@@ -109,7 +109,8 @@ def cameras(mesh: Mesh | PointCloud, camera: Camera, directions: NDArray[np.floa
 
 
 @functools.lru_cache(maxsize=4)
-def _prior(name: str, measures: tuple[str, ...]) -> Callable[[Mesh], ArrayLike] | None:
+def _prior(name: str, measures: tuple[str, ...]
+           ) -> Callable[[Mesh | PointCloud], ArrayLike] | None:
     """A named prior, made once per process."""
     from vptoolkit.best_view.prior import resolve_prior
 

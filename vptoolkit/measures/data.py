@@ -23,8 +23,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
-from vptoolkit.point_cloud import PointCloud
 from vptoolkit.optional import require
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import ViewHistograms
 from vptoolkit.visibility.features import ViewFeatures
@@ -66,8 +66,9 @@ class ViewData:
         one by default.
     """
 
-    def __init__(self, mesh: Mesh | PointCloud, views: NDArray[np.float64], settings: MeasureSettings,
-                 areas: NDArray[np.float64], histograms: Sequence[ViewHistograms],
+    def __init__(self, mesh: Mesh | PointCloud, views: NDArray[np.float64],
+                 settings: MeasureSettings, areas: NDArray[np.float64],
+                 histograms: Sequence[ViewHistograms],
                  mesh_cache: dict[str, Any] | None = None) -> None:
         self.mesh = mesh
         self.views = views

@@ -54,6 +54,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
+from vptoolkit.io import require_surface
 from vptoolkit.io.objects import model_of
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.measure import Measure
@@ -161,11 +162,12 @@ class MeasuringSession:
         resolution = self.settings.resolution if resolution is None else resolution
         if self._points is not None:
             return self._points.histograms(directions, resolution)
+        mesh = require_surface(self.model)  # a cloud has its PointScene
         if self.settings.backend == "raster":
             if self._scene is None:
-                self._scene = RasterScene(self.model, self.settings.camera)
+                self._scene = RasterScene(mesh, self.settings.camera)
             return self._scene.histograms(directions, resolution, features=self.features)
-        return iter_view_histograms(self.model, replace(self.settings, resolution=resolution),
+        return iter_view_histograms(mesh, replace(self.settings, resolution=resolution),
                                     view_directions=directions, features=self.features)
 
     def measure(

@@ -16,11 +16,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import (
     ViewQuality,
     compute_view_quality,
 )
-from vptoolkit.io.objects import model_of
 from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name
 from vptoolkit.mesh import MeshLike
 from vptoolkit.point_cloud import PointCloud
