@@ -90,7 +90,6 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
 from vptoolkit.errors import InputError, MeasurementError
-from vptoolkit.geometry import bounding_frame
 from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
@@ -604,7 +603,6 @@ def search_best_views(
         offer(proposals, draw("refine", proposals, resolution))
         angle *= 0.5
         turn += math.pi / _RING
-    centre, diagonal = bounding_frame(mesh)
     return BestViews(
         name=mesh.name,
         directions=incumbents.directions.copy(),
@@ -612,8 +610,7 @@ def search_best_views(
         resolution=resolution,
         stages=tuple(_merge(stages)),
         seconds=time.perf_counter() - started,
-        poses=camera.poses(incumbents.directions, centre=centre, diagonal=diagonal,
-                           resolution=resolution),
+        poses=camera.look_at(mesh, incumbents.directions, resolution=resolution),
         measures=names,
     )
 

@@ -37,7 +37,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.camera import Camera
-from vptoolkit.geometry import bounding_frame
 from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_cloud import PointCloud
@@ -103,8 +102,7 @@ def cameras(mesh: Mesh | PointCloud, camera: Camera, directions: NDArray[np.floa
     """Camera-to-world poses ``(n, 4, 4)`` (OpenCV convention) and the intrinsics ``(3, 3)``
     of a camera looking at ``mesh`` (or a cloud: its points' bounding box) from
     ``directions`` ``(n, 3)``, images of ``resolution`` px."""
-    centre, diagonal = bounding_frame(mesh)
-    poses = camera.poses(directions, centre=centre, diagonal=diagonal, resolution=resolution)
+    poses = camera.look_at(mesh, directions, resolution=resolution)
     return poses.camera_to_world("opencv"), poses.intrinsics()
 
 
