@@ -46,9 +46,16 @@ estimate from points with normals, the network alone and the PCA axis, beside
 a random view and a flat sphere of 256 views) replaces the
 ``readme_best_view`` section of FILE (``README.md``).
 
+With ``--cloud-search FILE`` the tool runs only :func:`cloud_against_mesh`: the
+default 64-view search of a 20,000-point cloud of the bunny (area-uniform
+surface points with normals) against the same search of the bunny decimated to
+10,000 faces, median wall time of alternating runs, and writes the ratio into
+the ``cloud_search`` section of FILE (``docs/benchmarks.md``).
+
 Usage::
 
     python tools/bench_best_view.py                          # the bundled samples
+    python tools/bench_best_view.py --cloud-search docs/benchmarks.md
     python tools/bench_best_view.py ~/meshes --budgets 8,64   # any folder of meshes
     python tools/bench_best_view.py --quick                   # a smoke test, seconds
     python tools/bench_best_view.py --results docs/results.md --section best_view
@@ -107,6 +114,10 @@ SCAN_POINTS = 2000  # surface points of the unoccluded estimate's scan stand-in
 README_SECTION = "readme_best_view"  # the section of --readme that readme_table fills
 FEW_VIEWS = 8  # the README's budget for many meshes: `vptool best-view --views 8`
 FLAT_VIEWS = 256  # the flat sphere the README sets beside the default search
+CLOUD_POINTS = 20_000  # points of the cloud that cloud_against_mesh searches
+CLOUD_MESH_FACES = 10_000  # faces of the mesh it searches beside them
+CLOUD_REPEATS = 9  # timed searches of each
+CLOUD_SECTION = "cloud_search"  # the section of --cloud-search that the ratio fills
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -133,6 +144,10 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help="directions of the sphere whose ceiling is shown (default: 8)")
     parser.add_argument("--quick", action="store_true",
                         help="3 meshes, 1 rotation, budgets 4 and 16, labels at 64 px")
+    parser.add_argument("--cloud-search", type=Path, metavar="FILE",
+                        help="only time a search of a 20,000-point cloud against one of a "
+                             "10,000-face mesh and write it into the cloud_search section of "
+                             "FILE (docs/benchmarks.md)")
     args = parser.parse_args(argv)
     try:
         args.budget_list = [int(b) for b in args.budgets.split(",")]
@@ -386,8 +401,58 @@ def readme_table(rows: dict[str, tuple[list[float], float | None]], *, meshes: s
     ])
 
 
+def cloud_against_mesh(repeats: int = CLOUD_REPEATS) -> tuple[float, float, int]:
+    """Median wall seconds of the default search (:data:`BUDGET` views) of a cloud and of a mesh.
+
+    The mesh is the bunny decimated to :data:`CLOUD_MESH_FACES` faces
+    (:func:`vptoolkit.clean.clean_mesh`); the cloud, :data:`CLOUD_POINTS`
+    area-uniform points of the bunny with their normals (seed 0). Each is
+    searched once first (numba's kernels load), then ``repeats`` times each,
+    alternating, so that a slower spell of a shared machine falls on both.
+
+    Returns
+    -------
+    cloud_s, mesh_s : float
+        Median wall seconds of one search.
+    n_faces : int
+        Faces of the decimated mesh.
+    """
+    from vptoolkit.clean import clean_mesh
+    from vptoolkit.point_cloud import PointCloud
+
+    bunny = load_mesh(SAMPLES / "bunny.ply")
+    mesh, _ = clean_mesh(bunny, max_faces=CLOUD_MESH_FACES)
+    sample = sample_surface(bunny, CLOUD_POINTS, seed=0)
+    cloud = PointCloud(sample.points, sample.normals, name="bunny")
+    times: dict[str, list[float]] = {"cloud": [], "mesh": []}
+    for model in (cloud, mesh):
+        search_best_views(model)
+    for _ in range(repeats):
+        for label, model in (("cloud", cloud), ("mesh", mesh)):
+            started = time.perf_counter()
+            search_best_views(model)
+            times[label].append(time.perf_counter() - started)
+    return float(np.median(times["cloud"])), float(np.median(times["mesh"])), mesh.n_faces
+
+
+def cloud_search_section(argv: list[str] | None, repeats: int = CLOUD_REPEATS) -> str:
+    """The ``cloud_search`` section: :func:`cloud_against_mesh`'s times and their ratio."""
+    cloud_s, mesh_s, n_faces = cloud_against_mesh(repeats)
+    return (f"Command: `{command_line(__file__, argv)}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
+            f"{machine()}. The default search ({BUDGET} views at {SEARCH_RESOLUTION} px, the "
+            f"paper's four) of {CLOUD_POINTS:,} bunny points with normals took "
+            f"{1000 * cloud_s:.0f} ms, of the bunny decimated to {n_faces:,} faces "
+            f"{1000 * mesh_s:.0f} ms: {cloud_s / mesh_s:.2f}x (median of {repeats} alternating "
+            "runs, wall time, the kernels loaded).")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.cloud_search is not None:
+        text = cloud_search_section(argv)
+        print(text)
+        write_section(args.cloud_search, CLOUD_SECTION, text)
+        return 0
     started = time.perf_counter()
     try:
         folder = labels(args.mesh_dir, args.cache, quick=args.quick)

@@ -54,6 +54,7 @@ from vptoolkit.conventions import DISTANCE_FACTOR, FALLBACK_UP, FOV_DEG, UP
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import as_directions
 
 __all__ = ["CONVENTIONS", "Camera", "Convention", "ViewPoses"]
@@ -302,14 +303,15 @@ class Camera:
         focal = (resolution / 2.0) / math.tan(math.radians(self.fov_deg) / 2.0)
         return ViewPoses(eyes, right, true_up, forward, focal, int(resolution))
 
-    def look_at(self, mesh: MeshLike, view_directions: ArrayLike, *,
+    def look_at(self, mesh: MeshLike | PointCloud, view_directions: ArrayLike, *,
                 resolution: int) -> ViewPoses:
         """Camera poses of a mesh's views: :meth:`poses` at its bounding-box centre and diagonal.
 
         Parameters
         ----------
-        mesh : MeshLike
-            The model (:func:`vptoolkit.mesh.as_mesh`).
+        mesh : MeshLike or PointCloud
+            The model (:func:`vptoolkit.mesh.as_mesh`), or a point cloud (the
+            bounding box of its points).
         view_directions : (n_views, 3) array_like
             Directions from the model centre towards the camera.
         resolution : int

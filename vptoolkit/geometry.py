@@ -6,6 +6,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.point_cloud import PointCloud
 
 __all__ = [
     "face_cross_products", "face_areas", "face_normals", "bounding_frame", "principal_frame",
@@ -58,11 +59,11 @@ def face_normals(mesh: MeshLike) -> NDArray[np.float64]:
     return np.divide(cross, length, out=np.zeros_like(cross), where=length > 0)
 
 
-def bounding_frame(mesh: MeshLike) -> tuple[NDArray[np.float64], float]:
+def bounding_frame(mesh: MeshLike | PointCloud) -> tuple[NDArray[np.float64], float]:
     """Centre and diagonal of the axis-aligned bounding box of the used vertices.
 
     Vertices no face refers to are ignored, so stray points in a file do not
-    move the camera.
+    move the camera; a point cloud's box is that of all its points.
 
     Returns
     -------
@@ -71,6 +72,9 @@ def bounding_frame(mesh: MeshLike) -> tuple[NDArray[np.float64], float]:
     diagonal : float
         Length of the bounding-box diagonal in model units.
     """
+    if isinstance(mesh, PointCloud):
+        low, high = mesh.points.min(axis=0), mesh.points.max(axis=0)
+        return (low + high) / 2.0, float(np.linalg.norm(high - low))
     mesh = as_mesh(mesh)
     is_used = np.zeros(len(mesh.vertices), dtype=bool)
     is_used[mesh.faces.ravel()] = True
@@ -79,11 +83,15 @@ def bounding_frame(mesh: MeshLike) -> tuple[NDArray[np.float64], float]:
     return (low + high) / 2.0, float(np.linalg.norm(high - low))
 
 
-def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+def principal_frame(mesh: Mesh | PointCloud, areas: NDArray[np.float64] | None = None
+                    ) -> NDArray[np.float64]:
     """Rows: the surface's principal axes, largest spread first.
 
     The axes are the eigenvectors of the covariance of the face centroids,
-    each weighted by its face's area (``areas``, computed when not given).
+    each weighted by its face's area (``areas``, computed when not given);
+    of a point cloud, of its points, each weighted by ``areas`` (the area
+    each stands for, :func:`vptoolkit.point_areas.point_areas`; equal
+    weights when not given).
 
     Returns
     -------
@@ -101,9 +109,13 @@ def principal_frame(mesh: Mesh, areas: NDArray[np.float64] | None = None) -> NDA
     eigensolver's sign of it also follows the rounding); three equal spreads
     give the coordinate axes.
     """
-    areas = face_areas(mesh) if areas is None else areas
-    vertices, faces = mesh.vertices, mesh.faces
-    centroids = (vertices[faces[:, 0]] + vertices[faces[:, 1]] + vertices[faces[:, 2]]) / 3.0
+    if isinstance(mesh, PointCloud):
+        centroids = mesh.points
+        areas = np.ones(mesh.n_points) if areas is None else areas
+    else:
+        areas = face_areas(mesh) if areas is None else areas
+        vertices, faces = mesh.vertices, mesh.faces
+        centroids = (vertices[faces[:, 0]] + vertices[faces[:, 1]] + vertices[faces[:, 2]]) / 3.0
     total = float(areas.sum())
     weights = areas / total if total > 0 else np.full(len(areas), 1.0 / len(areas))
     centred = centroids - weights @ centroids

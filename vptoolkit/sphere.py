@@ -17,6 +17,7 @@ from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import principal_frame
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 
 __all__ = ["fibonacci_sphere", "coarse_directions", "nearest_view", "as_directions",
            "angle_between_deg", "is_zero_length", "distinct_directions"]
@@ -122,12 +123,13 @@ def is_zero_length(vectors: ArrayLike) -> NDArray[np.bool_]:
     return tiny & (lengths < 1e-12)
 
 
-def coarse_directions(mesh: Mesh, n: int, areas: NDArray[np.float64] | None = None,
+def coarse_directions(mesh: Mesh | PointCloud, n: int, areas: NDArray[np.float64] | None = None,
                       ) -> NDArray[np.float64]:
     """``n`` Fibonacci directions in the mesh's principal frame, the poles on its least-spread axis.
 
     The frame is :func:`vptoolkit.geometry.principal_frame` (``areas``: the
-    face areas, computed when not given), so the pattern turns with the mesh
+    face areas, computed when not given; a point cloud's point areas), so
+    the pattern turns with the model
     and any input orientation is covered alike.
 
     Returns

@@ -104,3 +104,19 @@ def test_search_inputs_takes_a_prior_by_name_or_as_a_callable():
     assert [stage.name for stage in named.results[0].stages] == ["coarse", "prior"]
     with pytest.raises(InputError, match="prior: expected one of"):
         search_inputs([mug], settings=EIGHT, prior=3.5)  # type: ignore[arg-type]
+
+
+def test_a_cloud_with_normals_proposes_as_its_mesh_and_one_without_is_refused(teapot):
+    from vptoolkit.point_cloud import PointCloud
+    from vptoolkit.points import sample_surface
+
+    sample = sample_surface(teapot, 20000, seed=0)
+    from_points = UnoccludedPrior()(PointCloud(sample.points, sample.normals, name="teapot"))
+    elements = mesh_elements(teapot)
+    on_mesh = unoccluded_quality(*elements, UnoccludedPrior()(teapot))
+    on_points = unoccluded_quality(*elements, from_points)
+    assert np.nanmax(on_points[:, 0]) > 0.99 * np.nanmax(on_mesh[:, 0])  # VE
+    assert np.nanmin(on_points[:, 2]) < 1.05 * np.nanmin(on_mesh[:, 2])  # VKL
+    with pytest.raises(InputError, match=r"^scan: a point cloud without normals; the "
+                                         "occlusion-free estimate reads"):
+        UnoccludedPrior()(PointCloud(sample.points, name="scan"))

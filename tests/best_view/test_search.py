@@ -100,6 +100,25 @@ def test_the_coarse_sphere_turns_with_the_mesh(teapot):
     np.testing.assert_allclose(np.abs(cosines), 1.0, atol=1e-9)
 
 
+def test_a_cloud_of_the_mesh_has_its_frame_and_is_searched_from_its_bounding_box(teapot):
+    from vptoolkit.point_areas import point_areas
+    from vptoolkit.point_cloud import PointCloud
+    from vptoolkit.points import sample_surface
+
+    sample = sample_surface(teapot, 20000, seed=0)
+    cloud = PointCloud(sample.points, sample.normals, name="teapot")
+    cosines = np.sum(principal_frame(teapot) * principal_frame(cloud, point_areas(cloud.points)),
+                     axis=1)
+    assert np.abs(cosines).min() > 0.99  # the same axes up to sampling and sign
+    found = search_best_views(cloud, SearchSettings(budget=16, resolution=64))
+    assert found.name == "teapot" and found.n_views == 16
+    expected = Camera().look_at(cloud, found.directions, resolution=64)
+    np.testing.assert_array_equal(found.poses.eyes, expected.eyes)
+    again = search_best_views(np.concatenate([cloud.points, cloud.normals], axis=1),
+                              SearchSettings(budget=16, resolution=64))
+    np.testing.assert_array_equal(again.directions, found.directions)
+
+
 def test_any_orientation_finds_views_as_good(teapot):
     """Under four rotations the answer, turned back, is nearly as good as the upright one's."""
     labels = compute_view_quality(teapot, MeasureSettings(views=500, resolution=96))

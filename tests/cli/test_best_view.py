@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -67,3 +68,51 @@ def test_workers_without_a_collection_and_a_collection_without_output_are_refuse
     assert "--workers, --scheduler and --dry-run take a collection" in result.stderr
     result = runner.invoke(main, ["best-view", str(source)])
     assert result.exit_code == 2 and "--output: a collection needs -o OUT" in result.stderr
+
+
+def _torus_points(n_points: int = 20000):
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    return sample_surface(load_mesh(sample_path("torus.STL")), n_points, seed=0)
+
+
+def test_a_cloud_in_any_format_is_searched_and_the_same_points_give_the_same_answer(
+        runner, tmp_path):
+    # The points written by numpy and by Open3D (binary PLY, PCD, XYZ) with and
+    # without normals: float32 files hold the points np.save keeps as float32.
+    from fixtures.environment import require_package
+
+    require_package("open3d")
+    import open3d as o3d
+
+    sample = _torus_points()
+    points, normals = sample.points.astype(np.float32), sample.normals.astype(np.float32)
+    np.save(tmp_path / "a.npy", np.concatenate([points, normals], axis=1))
+    np.save(tmp_path / "plain.npy", points)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points.astype(np.float64)))
+    o3d.io.write_point_cloud(str(tmp_path / "plain.ply"), cloud)
+    o3d.io.write_point_cloud(str(tmp_path / "plain.xyz"), cloud)
+    cloud.normals = o3d.utility.Vector3dVector(normals.astype(np.float64))
+    o3d.io.write_point_cloud(str(tmp_path / "b.ply"), cloud)
+    o3d.io.write_point_cloud(str(tmp_path / "b.pcd"), cloud)
+    answers = {}
+    for name in ("a.npy", "b.ply", "b.pcd", "plain.npy", "plain.ply", "plain.xyz"):
+        result = runner.invoke(main, ["best-view", str(tmp_path / name), *SMALL, "--json"])
+        assert result.exit_code == 0, result.output
+        (entry,) = json.loads(result.stdout)["results"]
+        answers[name] = [best["direction"] for best in entry["best"].values()]
+    assert answers["a.npy"] == answers["b.ply"] == answers["b.pcd"]
+    assert answers["plain.npy"] == answers["plain.ply"]
+    # XYZ text keeps fewer digits: the same points up to rounding, about the same answer
+    assert np.allclose(answers["plain.xyz"], answers["plain.ply"], atol=0.2)
+
+
+def test_a_measure_not_defined_on_points_is_refused_for_a_cloud_in_one_line(runner, tmp_path):
+    np.save(tmp_path / "scan.npy", _torus_points(2000).points)
+    result = runner.invoke(main, ["best-view", str(tmp_path / "scan.npy"), *SMALL,
+                                  "--measures", "VE,SL"])
+    assert result.exit_code == 2
+    assert result.stderr.splitlines()[-1] == (
+        "vptool: error: scan: SL is not defined on a point cloud (reading silhouettes); "
+        "on points: NVT, PA, HM, VR, VE, VKL, VMI, I2, I3, INS, SAL, EVMI")

@@ -265,3 +265,39 @@ def test_a_mesh_of_zero_area_is_the_same_line_in_every_command(runner, tmp_path,
     assert result.exit_code == 2, result.output
     errors = [line for line in result.stderr.splitlines() if line.startswith("vptool:")]
     assert errors == ["vptool: error: collinear: the mesh has zero surface area"]
+
+
+@pytest.fixture()
+def torus_cloud(tmp_path):
+    """3000 points of the torus with their normals, as an (N, 6) .npy array."""
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    sample = sample_surface(load_mesh(sample_path("torus.STL")), 3000, seed=0)
+    path = tmp_path / "torus.npy"
+    np.save(path, np.concatenate([sample.points, sample.normals], axis=1))
+    return path
+
+
+def test_measures_and_views_of_a_point_cloud(runner, torus_cloud, tmp_path):
+    out = tmp_path / "torus.npz"
+    result = runner.invoke(main, ["measures", str(torus_cloud), "--views", "60", "--resolution",
+                                  "64", "--measures", "VE,INS,SAL", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("torus: 3000 points, 60 views at 64 px (raster")
+    assert [line.split()[0] for line in lines[2:5]] == ["VE", "INS", "SAL"]
+    with np.load(out, allow_pickle=False) as stored:
+        assert stored["raw"].shape == (60, 3) and np.isfinite(stored["raw"]).all()
+    result = runner.invoke(main, ["views", str(torus_cloud), "--k", "2", "--views", "60",
+                                  "--resolution", "64"])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("torus: 3000 points, 60 views at 64 px, coverage objective")
+
+
+def test_measures_not_defined_on_points_are_refused_for_a_cloud_in_one_line(runner, torus_cloud):
+    result = runner.invoke(main, ["measures", str(torus_cloud), "--measures", "all"])
+    assert result.exit_code == 2
+    assert result.stderr.count("\n") == 1
+    assert result.stderr.startswith("vptool: error: torus: SL, SE, SC, SCE, MD, DD, SS, DVS, CE, "
+                                    "MS are not defined on a point cloud")

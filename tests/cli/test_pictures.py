@@ -263,3 +263,17 @@ def test_thumbnails_of_a_list_resume_and_size_themselves(runner, tmp_path):
     assert (out / "a" / "cup.obj.png").is_file() and (out / "b" / "cup.obj.stl.png").is_file()
     again = runner.invoke(main, ["thumbnails", f"@{listing}", str(out), *small])
     assert again.stdout.startswith(f"wrote 0 thumbnails to {out} (2 in all), 0 skipped")
+
+
+def test_sphere_map_of_a_point_cloud(runner, tmp_path):
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    sample = sample_surface(load_mesh(sample_path("torus.STL")), 3000, seed=0)
+    np.savetxt(tmp_path / "torus.xyz", sample.points)
+    out = tmp_path / "maps.png"
+    result = runner.invoke(main, ["sphere-map", str(tmp_path / "torus.xyz"), "--measures",
+                                  "paper", "--views", "60", "--resolution", "64", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.strip() == f"wrote {out} (VE, VR, VKL, VMI)"
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

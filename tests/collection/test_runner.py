@@ -63,7 +63,8 @@ def test_every_entry_gets_a_row_with_its_answer_or_reason(collection: Path, tmp_
     assert teapot["sha256"] == __import__("hashlib").sha256(
         (collection / "a" / "teapot.stl").read_bytes()).hexdigest()
     assert rows["cloud.xyz"]["status"] == "failed"
-    assert rows["cloud.xyz"]["reason"].startswith("cloud.xyz: a point cloud (3 points, no faces)")
+    # a cloud is searched like a mesh, and three points are too few for their spacing
+    assert rows["cloud.xyz"]["reason"].startswith("cloud: points: 3 points, need more than k = 8")
     assert rows["empty.obj"]["reason"].startswith("empty.obj: ")
     assert rows["empty.obj"]["VE_direction"] is None
     assert run.failures == (("cloud.xyz", rows["cloud.xyz"]["reason"]),
@@ -227,3 +228,21 @@ def test_a_run_over_thousands_of_listed_entries_keeps_memory_flat(tmp_path: Path
             tracemalloc.stop()
         assert run.n_entries == n_lines and not run.failures
     assert peaks[2] - peaks[1] < 1_000_000  # bytes: 3000 more entries cost nothing held
+
+
+def test_a_point_cloud_is_searched_and_refused_only_where_a_picture_is_drawn(tmp_path: Path):
+    from vptoolkit.collection.runner import read_model
+    from vptoolkit.io import load_mesh
+    from vptoolkit.points import sample_surface
+
+    sample = sample_surface(load_mesh(sample_path("torus.STL")), 3000, seed=0)
+    root = tmp_path / "clouds"
+    root.mkdir()
+    np.save(root / "torus.npy", np.concatenate([sample.points, sample.normals], axis=1))
+    run = run_collection(root, tmp_path / "out", METHOD)
+    (row,) = _rows(run.table)
+    assert row["status"] == "ok" and row["VE_direction"] is not None
+    assert not run.failures
+    with pytest.raises(InputError, match=r"torus\.npy: a point cloud \(3000 points, no faces\); "
+                                         "this needs a surface"):
+        read_model(str(root / "torus.npy"), "surface")

@@ -85,12 +85,13 @@ def test_require_surface_returns_a_mesh_as_it_is():
     assert require_surface(mesh) is mesh
 
 
-def test_the_measure_command_refuses_a_point_cloud_in_one_line(tmp_path, bunny_sample, runner):
+def test_a_command_that_needs_a_surface_refuses_a_point_cloud_in_one_line(tmp_path, bunny_sample,
+                                                                          runner):
     from vptoolkit.cli import main
 
     path = cloud_ply(tmp_path / "scan.ply", bunny_sample.points)
-    out = tmp_path / "out.npz"
-    result = runner.invoke(main, ["measures", str(path), "--views", "8", "-o", str(out)])
+    out = tmp_path / "out.npy"
+    result = runner.invoke(main, ["sample", str(path), "-o", str(out)])
     assert result.exit_code == 2
     assert result.stderr.count("\n") == 1
     assert "scan.ply: a point cloud (3000 points, no faces); this needs a surface" in result.stderr

@@ -67,3 +67,15 @@ def test_the_value_of_a_view_that_sees_nothing_is_the_computed_one(rows) -> None
     edge_on = quality.raw[2]
     for name, value in zip(quality.measures, edge_on):
         assert rows[name]["sees nothing"] == ("NaN" if np.isnan(value) else f"{value:g}"), name
+
+
+def test_the_point_cloud_table_says_which_measures_are_defined_on_points() -> None:
+    text = GUIDE.read_text(encoding="utf-8")
+    section = text[text.index("\n## On point clouds\n"):]
+    section = section[:section.index("\n## ", 1)]
+    lines = [line for line in section.splitlines() if line.startswith("| `")]
+    table = {cells[0].strip("`"): cells[1] for cells in
+             ([cell.strip() for cell in line.strip("|").split("|")] for line in lines)}
+    assert list(table) == list(all_measures())
+    assert table == {name: "yes" if measure.on_points else "no"
+                     for name, measure in all_measures().items()}

@@ -82,3 +82,22 @@ def test_names_are_taken_in_any_case_and_given_in_the_registry_spelling():
 def test_bad_names_are_input_errors_naming_them(spec, message):
     with pytest.raises(InputError, match=message):
         resolve_measures(spec)
+
+
+def test_the_measures_defined_on_points_are_those_of_pixel_counts_and_view_saliency():
+    from vptoolkit.measures.registry import point_measures
+
+    on_points = [name for name, measure in all_measures().items() if measure.on_points]
+    assert on_points == ["NVT", "PA", "HM", "VR", "VE", "VKL", "VMI", "I2", "I3", "INS", "SAL",
+                         "EVMI"]
+    assert point_measures("vkl,ins", "scan") == ("VKL", "INS")
+    with pytest.raises(InputError) as caught:
+        point_measures("all", "scan")
+    message = str(caught.value)
+    assert message.startswith("scan: SL, SE, SC, SCE, MD, DD, SS, DVS, CE, MS are not defined on "
+                              "a point cloud (reading silhouettes, depth or a face curvature); "
+                              "on points: NVT, PA, HM, VR, VE, VKL, VMI, I2, I3, INS, SAL, EVMI")
+    assert "\n" not in message and len(message) <= 200
+    with pytest.raises(InputError, match=r"^scan: CE is not defined on a point cloud "
+                                         r"\(reading a face curvature\)"):
+        point_measures("VE,CE", "scan")

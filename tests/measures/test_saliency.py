@@ -303,3 +303,17 @@ def test_ms_prefers_a_view_of_a_box_corner_to_a_view_of_one_side():
     data = drawn(subdivided_box(3), directions=np.array([[0.0, 0.0, 1.0], corner]))
     side, corner_value = get_measure("MS").compute(data)
     assert corner_value > 2 * side
+
+
+def test_the_neighbours_of_points_are_the_nearest_pairs_each_once():
+    from vptoolkit.measures.saliency import point_neighbours
+
+    grid = np.stack(np.meshgrid(np.arange(5.0), np.arange(4.0), [0.0]), axis=-1).reshape(-1, 3)
+    pairs = point_neighbours(grid, k=4)
+    assert pairs.dtype == np.int64 and (pairs[:, 0] < pairs[:, 1]).all()
+    assert len(np.unique(pairs, axis=0)) == len(pairs)
+    lengths = np.linalg.norm(grid[pairs[:, 0]] - grid[pairs[:, 1]], axis=1)
+    # each point's 4 nearest on a unit grid lie at distance 1 (inside), up to 2 (a corner)
+    assert lengths.min() == 1.0 and lengths.max() <= 2.0
+    edges = {tuple(pair) for pair in pairs.tolist()}
+    assert all((i, i + 1) in edges for i in range(len(grid) - 1) if (i + 1) % 5)  # every row edge

@@ -86,3 +86,15 @@ def test_the_readme_table_takes_its_rows_from_one_run() -> None:
 def test_the_readme_table_needs_the_full_run(tmp_path: Path, run_tool: RunTool) -> None:
     result = run_tool(TOOL, "--quick", "--readme", str(tmp_path / "README.md"))
     assert result.returncode == 2 and "--readme" in result.stderr
+
+
+@pytest.mark.slow
+def test_cloud_search_writes_the_ratio_of_a_cloud_search_to_a_mesh_search(
+        tmp_path: Path, run_tool: RunTool) -> None:
+    doc = tmp_path / "benchmarks.md"
+    result = run_tool(TOOL, "--cloud-search", str(doc), timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    text = doc.read_text()
+    assert "<!-- cloud_search:start -->" in text and "<!-- cloud_search:end -->" in text
+    assert "of 20,000 bunny points with normals took " in text
+    assert "of the bunny decimated to 9,999 faces " in text and "x (median of 9" in text

@@ -33,15 +33,18 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import resolve_measures
 from vptoolkit.measures.unoccluded import (
     UNOCCLUDED_DIRECTIONS,
     UNOCCLUDED_MEASURES,
+    cloud_elements,
     face_elements,
     unoccluded_quality,
 )
-from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.mesh import Mesh, MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import coarse_directions, distinct_directions
 
 __all__ = ["PRIOR_NAMES", "Prior", "UnoccludedPrior", "resolve_prior"]
@@ -65,13 +68,14 @@ class Prior(Protocol):
     function of that signature.
     """
 
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first."""
         ...  # pragma: no cover - a protocol
 
 
 class UnoccludedPrior:
-    """Candidate directions of a mesh from the occlusion-free estimate, for the search.
+    """Candidate directions of a mesh or a point cloud with normals from the occlusion-free
+    estimate, for the search.
 
     The estimate (:func:`vptoolkit.measures.unoccluded.unoccluded_quality`)
     is evaluated on ``n_directions`` directions of the mesh's principal-frame
@@ -130,14 +134,23 @@ class UnoccludedPrior:
         self.proposing = tuple(name for name in _PROPOSING
                                if name in {estimated.get(m, m) for m in searched})
 
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` when no
-        searched measure has a closed form."""
-        mesh = as_mesh(mesh)
+        searched measure has a closed form.
+
+        A point cloud (anything :func:`vptoolkit.io.objects.model_of` makes one
+        of) is read through its normals, each point weighing the area it
+        stands for (:func:`vptoolkit.measures.unoccluded.cloud_elements`); one
+        without normals is refused in one line."""
+        model = model_of(mesh)
         if not self.proposing:
             return np.zeros((0, 3))
-        normals, areas, face_areas = face_elements(mesh)
-        directions = coarse_directions(mesh, self.n_directions, face_areas)
+        if isinstance(model, PointCloud):
+            normals, areas = cloud_elements(model)
+            frame_areas = areas
+        else:
+            normals, areas, frame_areas = face_elements(model)
+        directions = coarse_directions(model, self.n_directions, frame_areas)
         raw = unoccluded_quality(normals, areas, directions)
         per_measure = [distinct_directions(
             directions[ranked_views(raw, UNOCCLUDED_MEASURES.index(name))[:_RANKED]],
@@ -147,9 +160,9 @@ class UnoccludedPrior:
         return distinct_directions(np.array(ranked).reshape(-1, 3), 1.0)
 
 
-def resolve_prior(spec: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None, *,
-                  measures: str | Iterable[str] | None = None,
-                  ) -> Callable[[Mesh], ArrayLike] | None:
+def resolve_prior(spec: str | os.PathLike[str] | Callable[[Mesh | PointCloud], ArrayLike] | None,
+                  *, measures: str | Iterable[str] | None = None,
+                  ) -> Callable[[Mesh | PointCloud], ArrayLike] | None:
     """The prior that ``spec`` names, made once for every mesh of a search.
 
     Parameters

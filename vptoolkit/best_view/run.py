@@ -41,9 +41,12 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
 from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
+from vptoolkit.sphere import fibonacci_sphere
 from vptoolkit.visibility import RasterScene
+from vptoolkit.visibility.splats import PointScene
 
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
@@ -110,17 +113,19 @@ def search_inputs(
     settings: SearchSettings = SearchSettings(),
     dataset: str | os.PathLike[str] | ViewpointDataset | None = None,
     split: Split = "test",
-    prior: str | os.PathLike[str] | Callable[[Mesh], ArrayLike] | None = None,
+    prior: str | os.PathLike[str] | Callable[[Mesh | PointCloud], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
     progress: bool = False,
 ) -> SearchRun:
-    """:func:`~vptoolkit.best_view.search.search_best_views` over mesh files and a dataset split;
-    failures recorded, not raised.
+    """:func:`~vptoolkit.best_view.search.search_best_views` over model files and a dataset
+    split; failures recorded, not raised.
 
     Parameters
     ----------
     inputs : sequence of path-like
-        Mesh files (names: the file stems).
+        Mesh or point cloud files, decided by content (names: the file
+        stems); a cloud is searched for the measures defined on points, and
+        a measure that is not is its failure.
     settings : SearchSettings, optional
         Budget, resolution, coarse pass and camera of every search (default:
         ``SearchSettings()``).
@@ -158,7 +163,7 @@ def search_inputs(
     chosen = check_search_settings(settings)
     names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
-    with open_inputs(entries, split=split, purpose="search", requires="surface") as sources:
+    with open_inputs(entries, split=split, purpose="search") as sources:
         if names is None:
             stored = next((source.dataset for source in sources if source.dataset is not None),
                           None)
@@ -169,14 +174,16 @@ def search_inputs(
 
 
 def load_kernels() -> None:
-    """Draw a tetrahedron once, so that numba's one-time kernel load is not any mesh's time."""
+    """Draw a tetrahedron and a small cloud once, so that numba's one-time kernel loads (the
+    rasteriser's and the splats') are not any model's time."""
     tetrahedron = Mesh(np.eye(4, 3, k=-1), np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]),
                        name="tetrahedron")
     list(RasterScene(tetrahedron).histograms(np.eye(3)[:1], 8))
+    list(PointScene(fibonacci_sphere(16)).histograms(np.eye(3)[:1], 8))
 
 
 def _search_all(sources: list[ModelSource], settings: SearchSettings,
-                prior: Callable[[Mesh], ArrayLike] | None, progress: bool,
+                prior: Callable[[Mesh | PointCloud], ArrayLike] | None, progress: bool,
                 measures: tuple[str, ...]) -> SearchRun:
     if sources:
         load_kernels()
@@ -189,7 +196,7 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
         for source in sources:
             claimed: str | None = None
             try:
-                mesh = source.mesh()
+                mesh = source.model()
                 claim_name(names, mesh.name)  # a name counts once its mesh is searched
                 claimed = mesh.name
                 started = time.perf_counter()

@@ -90,10 +90,12 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
 from vptoolkit.errors import InputError, MeasurementError
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
 from vptoolkit.measures.session import MeasuringSession
-from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.mesh import Mesh, MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
 from vptoolkit.visibility import ViewHistograms
@@ -417,8 +419,8 @@ class _Measuring:
     """The views of one search and their measuring by a session: the paper's four of each
     stage with one ``p(z)`` estimate, the others over the competing views."""
 
-    def __init__(self, mesh: Mesh, camera: Camera, names: Sequence[str], resolution: int
-                 ) -> None:
+    def __init__(self, mesh: Mesh | PointCloud, camera: Camera, names: Sequence[str],
+                 resolution: int) -> None:
         self.session = MeasuringSession(mesh, names,
                                         MeasureSettings(resolution=resolution, camera=camera))
         self.areas = self.session.areas
@@ -442,10 +444,10 @@ class _Measuring:
         session = self.session
         runs = list(session.draw(directions, resolution))
         if session.sum_columns and estimate_face_probability:
-            counts = np.zeros(session.mesh.n_faces)
+            counts = np.zeros(session.n_elements)
             for run in runs:
                 counts += np.bincount(run.face_ids, weights=run.pixel_counts,
-                                      minlength=session.mesh.n_faces)
+                                      minlength=session.n_elements)
             self.face_probability = _face_probability(counts, len(directions), self.areas)
         columns = list(session.sum_columns)
         if session.view_columns:
@@ -481,7 +483,7 @@ def _confirm_candidates(directions: NDArray[np.float64], raw: NDArray[np.float64
 
 
 def search_best_views(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud | Any,
     settings: SearchSettings = SearchSettings(),
     *,
     prior: ArrayLike | None = None,
@@ -491,9 +493,14 @@ def search_best_views(
 
     Parameters
     ----------
-    mesh : MeshLike
+    mesh : MeshLike, PointCloud or another model object
         The model, in any orientation: a Mesh, a ``trimesh.Trimesh``, an Open3D
-        ``TriangleMesh`` or ``(vertices, faces)`` (:func:`~vptoolkit.mesh.as_mesh`).
+        ``TriangleMesh`` or ``(vertices, faces)``, or a point cloud (a
+        PointCloud, an ``(N, 3)`` / ``(N, 6)`` array, an Open3D or trimesh
+        point cloud), as :func:`vptoolkit.io.objects.model_of` converts it. A
+        cloud's points are splatted and searched as a mesh's faces are, for
+        the measures defined on points
+        (:func:`~vptoolkit.measures.registry.point_measures`).
     settings : SearchSettings, optional
         Budget, resolution, coarse pass and camera (default: ``SearchSettings()``:
         64 views, 128 px).
@@ -535,7 +542,7 @@ def search_best_views(
     """
     started = time.perf_counter()
     names = searchable_measures(measures)
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     chosen = check_search_settings(settings)
     budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")

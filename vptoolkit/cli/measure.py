@@ -43,16 +43,20 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     (lower is better). --measures picks others of the survey by Bonaventura
     et al. (2018) by name; the table says which way each is better.
     Directions point from the model centre to the camera, in the mesh's own
-    coordinates.
+    coordinates. A point cloud (a file without faces) is splatted whatever
+    --backend says, its points taking the faces' place, for the measures
+    defined on points (NVT, PA, HM, VR, VE, VKL, VMI, I2, I3, INS, SAL, EVMI).
 
     \b
     Example:
       vptool measures bunny.ply --views 1000 --resolution 512 -o bunny.npz
       vptool measures bunny.ply --measures NVT,PA,I3,INS
       vptool measures bunny.ply --measures all --json
+      vptool measures scan.pcd --measures VE,VKL,VMI,INS
     """
     from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
+    from vptoolkit.point_cloud import PointCloud
     from vptoolkit.settings import MeasureSettings
 
     settings = MeasureSettings(views=n_views, resolution=resolution,
@@ -60,7 +64,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before the work, not after
-    loaded = read_model(mesh, requires="surface")
+    loaded = read_model(mesh)
     started = time.perf_counter()
     quality = compute_view_quality(loaded, settings, measures=names, progress=True)
     seconds = time.perf_counter() - started
@@ -71,8 +75,9 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     if as_json:
         click.echo(output_json(summary, indent=2))
         return
+    elements = "points" if isinstance(loaded, PointCloud) else "faces"
     click.echo(
-        f"{quality.name}: {quality.n_faces} faces, {len(quality.views)} views at "
+        f"{quality.name}: {quality.n_faces} {elements}, {len(quality.views)} views at "
         f"{quality.resolution} px ({quality.backend}, {seconds:.2f} s)"
     )
     click.echo(f"{'measure':<8} {'view':>5}  {'direction (x, y, z)':<26} {'raw':>9}  best")
@@ -110,7 +115,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
 
     A greedy search over the sampled views: each pick adds the view that best
     complements the ones before. Prints, per pick, the view, its direction and
-    the area-weighted fraction of the surface seen so far.
+    the area-weighted fraction of the surface seen so far. For a point cloud,
+    the points (splatted) take the faces' place, each weighing the area of
+    surface it stands for.
 
     \b
     Example:
@@ -118,6 +125,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
       vptool views chair.off --coverage 0.95 --objective quality
     """
     from vptoolkit.inputs import read_model
+    from vptoolkit.point_cloud import PointCloud
     from vptoolkit.settings import MeasureSettings
     from vptoolkit.view_sets.search import measure_view_set
 
@@ -127,7 +135,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before drawing the views
-    loaded = read_model(mesh, requires="surface")
+    loaded = read_model(mesh)
     started = time.perf_counter()
     _, view_set = measure_view_set(
         loaded, 4 if k is None and target is None else k, settings=settings,
@@ -142,7 +150,9 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if as_json:
         click.echo(output_json({**view_set.summary(), "seconds": round(seconds, 3)}, indent=2))
         return
-    click.echo(f"{loaded.name}: {loaded.n_faces} faces, {n_views} views at {resolution} px, "
+    elements = (f"{loaded.n_points} points" if isinstance(loaded, PointCloud)
+                else f"{loaded.n_faces} faces")
+    click.echo(f"{loaded.name}: {elements}, {n_views} views at {resolution} px, "
                f"{objective} objective ({seconds:.2f} s)")
     bits = objective == "information"
     click.echo(f"{'pick':<5} {'view':>5}  {'direction (x, y, z)':<26} {'coverage':>9}"

@@ -138,7 +138,8 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
     """Draw measures over the view sphere as Mercator maps.
 
     SOURCE is the .npz of vptool measures -o (drawn as recorded), or a mesh
-    (its measures computed first, --views at --resolution). --measure draws
+    or point cloud (its measures computed first, --views at --resolution; a
+    cloud's measures are those defined on points). --measure draws
     one map; --measures draws several on one figure, titled by the measures'
     names. Colours: normalised quality (1 = best); the star marks the best
     sampled view, the cross --predicted.
@@ -172,7 +173,7 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
     from vptoolkit.settings import MeasureSettings
 
     names = (measure,) if measure is not None else parse_measures(measures_text or "paper")
-    loaded = read_model(source, requires="surface")
+    loaded = read_model(source)
     quality = compute_view_quality(loaded, MeasureSettings(views=n_views, resolution=resolution),
                                    measures=names, progress=True)
     title = f"{quality.name}: {len(quality.views)} views at {quality.resolution} px"

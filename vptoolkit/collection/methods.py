@@ -39,6 +39,7 @@ from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.camera import Camera
 from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 
 __all__ = ["Answer", "Method", "MeasureMethod", "SearchMethod", "ViewSetMethod", "cameras"]
@@ -91,20 +92,23 @@ class Method(Protocol):
     def record(self) -> dict[str, Any]:
         """JSON-safe settings that decide the answers."""
 
-    def __call__(self, mesh: Mesh) -> Answer:
-        """The answer for one model."""
+    def __call__(self, mesh: Mesh | PointCloud) -> Answer:
+        """The answer for one model: a mesh, or a point cloud where the run draws no picture
+        (:func:`vptoolkit.collection.runner.read_model`)."""
 
 
-def cameras(mesh: Mesh, camera: Camera, directions: NDArray[np.float64],
+def cameras(mesh: Mesh | PointCloud, camera: Camera, directions: NDArray[np.float64],
             resolution: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Camera-to-world poses ``(n, 4, 4)`` (OpenCV convention) and the intrinsics ``(3, 3)``
-    of a camera looking at ``mesh`` from ``directions`` ``(n, 3)``, images of ``resolution`` px."""
+    of a camera looking at ``mesh`` (or a cloud: its points' bounding box) from
+    ``directions`` ``(n, 3)``, images of ``resolution`` px."""
     poses = camera.look_at(mesh, directions, resolution=resolution)
     return poses.camera_to_world("opencv"), poses.intrinsics()
 
 
 @functools.lru_cache(maxsize=4)
-def _prior(name: str, measures: tuple[str, ...]) -> Callable[[Mesh], ArrayLike] | None:
+def _prior(name: str, measures: tuple[str, ...]
+           ) -> Callable[[Mesh | PointCloud], ArrayLike] | None:
     """A named prior, made once per process."""
     from vptoolkit.best_view.prior import resolve_prior
 
@@ -146,7 +150,7 @@ class SearchMethod:
         return {"method": "search", "settings": self.settings.to_dict(),
                 "measures": list(self.measures), "prior": self.prior}
 
-    def __call__(self, mesh: Mesh) -> Answer:
+    def __call__(self, mesh: Mesh | PointCloud) -> Answer:
         """The search's best direction per measure."""
         from vptoolkit.best_view.search import search_best_views
 
@@ -185,7 +189,7 @@ class MeasureMethod:
         """``{"method": "measure", "settings"}``."""
         return {"method": "measure", "settings": self.settings.to_dict()}
 
-    def __call__(self, mesh: Mesh) -> Answer:
+    def __call__(self, mesh: Mesh | PointCloud) -> Answer:
         """The best measured view per measure."""
         from vptoolkit.measures.quality import compute_view_quality
 
@@ -227,7 +231,7 @@ class ViewSetMethod:
         """``{"method": "view_set", "k", "settings"}``."""
         return {"method": "view_set", "k": self.k, "settings": self.settings.to_dict()}
 
-    def __call__(self, mesh: Mesh) -> Answer:
+    def __call__(self, mesh: Mesh | PointCloud) -> Answer:
         """The set's directions; ``raw`` is the covered fraction after each pick."""
         from vptoolkit.view_sets.search import measure_view_set
 

@@ -31,7 +31,8 @@ Work
 
 Limits
     A file with more than ``max_faces`` faces (default :data:`MAX_MODEL_FACES`)
-    is refused after reading, before any view is drawn. An entry that takes
+    (a point cloud: more points) is refused after reading, before any view
+    is drawn. An entry that takes
     longer than ``timeout`` seconds (default :data:`TIMEOUT_S`) is stopped by
     a ``SIGALRM`` timer in its worker (``signal.setitimer``; it interrupts
     Python code between native calls, so one native call runs to its end)
@@ -59,7 +60,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.collection.discover import (
@@ -79,7 +80,11 @@ from vptoolkit.files import (
 )
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.progress import progress_bar
+
+if TYPE_CHECKING:
+    from vptoolkit.inputs import Requirement
 
 __all__ = ["MAX_MODEL_FACES", "TIMEOUT_S", "CollectionRun", "EntryResult", "EntryTask",
            "answer_entry", "read_model", "run_collection", "settings_digest"]
@@ -129,7 +134,7 @@ class EntryResult:
     reason: str = ""
     seconds: float = 0.0
     is_staged: bool = True
-    model: Mesh | None = field(default=None, compare=False)
+    model: Mesh | PointCloud | None = field(default=None, compare=False)
 
     def record(self) -> dict[str, Any]:
         """The JSON record staged and written as a table row."""
@@ -186,27 +191,27 @@ def settings_digest(method: Method, max_faces: int) -> tuple[str, dict[str, Any]
     return hashlib.sha256(text.encode()).hexdigest()[:16], record
 
 
-def read_model(path: str) -> Mesh:
-    """Read one collection entry as the mesh its method needs.
+def read_model(path: str, requires: Requirement = None) -> Mesh | PointCloud:
+    """Read one collection entry as the model its method takes.
 
     The one place a collection reads a file: through
-    :func:`vptoolkit.inputs.read_model`, which decides by content; a point
-    cloud (no method draws one yet) or a URL (remote entries are not
+    :func:`vptoolkit.inputs.read_model`, which decides by content. A point
+    cloud goes to the methods that measure (the search, every view measured,
+    a view set: the session splats it) and is refused in one line where a
+    picture is drawn (``requires="surface"``); a URL (remote entries are not
     fetched) is refused in one line.
 
     Raises
     ------
     InputError
         A :class:`~vptoolkit.errors.MeshLoadError` naming the file and problem,
-        or the refusal of a cloud or URL.
+        or the refusal of a cloud where a surface is needed, or of a URL.
     """
     from vptoolkit.inputs import read_model as read_input
 
     if is_remote_entry(path):
         raise InputError(f"{path}: a URL; collections read local files only")
-    model = read_input(path, requires="surface")
-    assert isinstance(model, Mesh)
-    return model
+    return read_input(path, requires=requires)
 
 
 def answer_entry(task: EntryTask) -> EntryResult:
@@ -214,9 +219,11 @@ def answer_entry(task: EntryTask) -> EntryResult:
     started = time.perf_counter()
     with _time_limit(task.timeout):
         try:
-            mesh = read_model(task.entry.path)
-            if len(mesh.faces) > task.max_faces:
-                raise InputError(f"{task.entry.key}: {len(mesh.faces)} faces, more than the "
+            mesh = read_model(task.entry.path, "surface" if task.keep_model else None)
+            count, kind = ((mesh.n_points, "points") if isinstance(mesh, PointCloud)
+                           else (mesh.n_faces, "faces"))
+            if count > task.max_faces:
+                raise InputError(f"{task.entry.key}: {count} {kind}, more than the "
                                  f"limit of {task.max_faces} (--max-faces)")
             answer = task.method(mesh)
         except _TimeLimit:

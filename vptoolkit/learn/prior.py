@@ -44,13 +44,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
+from vptoolkit.io import require_surface
+from vptoolkit.io.objects import model_of
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_measure_names
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
 from vptoolkit.learn.predict import MeshPredictor, predict_directions
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.mesh import MeshLike
 from vptoolkit.optional import require
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import distinct_directions, fibonacci_sphere
 
 if TYPE_CHECKING:
@@ -157,9 +160,11 @@ class NetworkPrior:
             choices.append(axes * signs[:, None])
         return torch.stack(choices).to(points.dtype), centre
 
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
-        """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` without heads."""
-        mesh = as_mesh(mesh)
+    def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
+        """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` without heads.
+
+        A point cloud is refused in one line (the networks of this prior read a surface)."""
+        mesh = require_surface(model_of(mesh))
         if not self.heads:
             return np.zeros((0, 3))
         model = self.predictor.model

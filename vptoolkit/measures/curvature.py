@@ -46,6 +46,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.geometry import face_cross_products, undirected_edges, welded_faces
+from vptoolkit.io import require_surface
 from vptoolkit.mesh import MeshLike, as_mesh
 
 if TYPE_CHECKING:
@@ -138,6 +139,6 @@ def mesh_curvature(data: ViewData) -> NDArray[np.float64]:
         ``H_f`` in inverse model units.
     """
     if CACHE_KEY not in data.mesh_cache:
-        data.mesh_cache[CACHE_KEY] = face_mean_curvature(data.mesh)
+        data.mesh_cache[CACHE_KEY] = face_mean_curvature(require_surface(data.mesh))
     curvature: NDArray[np.float64] = data.mesh_cache[CACHE_KEY]
     return curvature

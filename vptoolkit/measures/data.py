@@ -1,4 +1,4 @@
-"""What the measures read for one mesh and one set of views.
+"""What the measures read for one model and one set of views.
 
 A :class:`ViewData` holds the drawn pixel counts (and, where asked for, the
 per-view depth and silhouette statistics) of every view, and computes the
@@ -8,7 +8,9 @@ measure of :mod:`vptoolkit.measures.catalog` is a function of it.
 
 Notation as in :mod:`vptoolkit.measures.quality`: ``a_z(v)`` pixels of face
 ``z`` in view ``v``, ``a_t(v) = sum_z a_z(v)``, ``A_z`` the face's area,
-``A_t`` the mesh's area, logarithms in base 2.
+``A_t`` the mesh's area, logarithms in base 2. For a point cloud the
+elements are its points: ``a_z(v)`` the pixels of point ``z``'s splat,
+``A_z`` the area of surface it stands for.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import ViewHistograms
 from vptoolkit.visibility.features import ViewFeatures
@@ -41,18 +44,18 @@ well above the rounding of a dot product of unit vectors (about ``1e-16``)."""
 
 
 class ViewData:
-    """The drawn views of one mesh, and what the measures derive from them.
+    """The drawn views of one model, and what the measures derive from them.
 
     Parameters
     ----------
-    mesh : Mesh
-        The measured mesh.
+    mesh : Mesh or PointCloud
+        The measured model; a cloud's points are its elements ("faces" below).
     views : (n_views, 3) float64
         Unit view directions, model centre towards the camera.
     settings : MeasureSettings
         How the views were drawn.
     areas : (n_faces,) float64
-        True face areas ``A_z``.
+        True face areas ``A_z`` (a cloud's point areas).
     histograms : sequence of ViewHistograms
         Runs of views in order, covering every view; with ``features`` where
         a requested measure needs depth or silhouette statistics.
@@ -63,8 +66,9 @@ class ViewData:
         one by default.
     """
 
-    def __init__(self, mesh: Mesh, views: NDArray[np.float64], settings: MeasureSettings,
-                 areas: NDArray[np.float64], histograms: Sequence[ViewHistograms],
+    def __init__(self, mesh: Mesh | PointCloud, views: NDArray[np.float64],
+                 settings: MeasureSettings, areas: NDArray[np.float64],
+                 histograms: Sequence[ViewHistograms],
                  mesh_cache: dict[str, Any] | None = None) -> None:
         self.mesh = mesh
         self.views = views
@@ -72,7 +76,7 @@ class ViewData:
         self.areas = areas
         self.histograms = histograms
         self.n_views = int(len(views))
-        self.n_faces = int(mesh.n_faces)
+        self.n_faces = int(len(areas))
         self.cache: dict[str, Any] = {}
         """Room for values several measures share (keyed by the module that computes them)."""
         self.mesh_cache: dict[str, Any] = {} if mesh_cache is None else mesh_cache

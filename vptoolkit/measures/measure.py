@@ -21,7 +21,7 @@ from vptoolkit.measures.sums import PAPER_COLUMNS
 if TYPE_CHECKING:
     from vptoolkit.measures.data import ViewData
 
-__all__ = ["FAMILIES", "IMAGE_NEEDS", "NEEDS", "Measure"]
+__all__ = ["FAMILIES", "IMAGE_NEEDS", "NEEDS", "POINT_NEEDS", "Measure"]
 
 FAMILIES: Final = ("area", "information", "silhouette", "depth", "stability", "surface")
 """The survey's families, in the order ``--measures all`` lists them."""
@@ -54,6 +54,19 @@ NEEDS: Final = frozenset({"sums", "pixels", "depth", "silhouette", "curvature", 
 IMAGE_NEEDS: Final = frozenset({"depth", "silhouette"})
 """The needs that the drawing pass serves with per-view image statistics
 (``iter_view_histograms(..., features=True)``)."""
+
+POINT_NEEDS: Final = frozenset({"sums", "pixels", "saliency", "neighbours"})
+"""The needs a point cloud serves, its points standing for faces.
+
+The splats of :mod:`vptoolkit.visibility.splats` give per-point pixel counts
+(``sums``, ``pixels``) and the points' areas; the views' neighbours do not
+depend on the model; Feixas et al.'s saliency (``saliency`` without
+``curvature``) pairs each point with its nearest points instead of a face
+with its edge neighbours (:func:`vptoolkit.measures.saliency.point_neighbours`).
+The splats draw no depth or silhouette statistics, and a cloud has no faces
+to take a dihedral-angle curvature from, so a measure needing ``depth``,
+``silhouette`` or ``curvature`` is not defined on points.
+"""
 
 
 @dataclass(frozen=True)
@@ -107,3 +120,8 @@ class Measure:
     def needs_image_statistics(self) -> bool:
         """Whether the views must be drawn with depth and silhouette statistics."""
         return bool(self.needs & IMAGE_NEEDS)
+
+    @property
+    def on_points(self) -> bool:
+        """Whether it is defined on a point cloud (its needs within :data:`POINT_NEEDS`)."""
+        return self.needs <= POINT_NEEDS

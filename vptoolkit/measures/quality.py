@@ -61,6 +61,7 @@ from vptoolkit.files import atomic_write
 from vptoolkit.measures.registry import PAPER_MEASURES, get_measure
 from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import ViewHistograms
@@ -97,7 +98,7 @@ class ViewQuality:
     name : str
         Name of the mesh.
     n_faces : int
-        Faces of the mesh that was measured.
+        Faces of the mesh that was measured (points of a cloud).
     resolution : int
         Image side in pixels.
     backend : str
@@ -253,7 +254,7 @@ def normalize_quality(raw: ArrayLike,
 
 
 def compute_view_quality(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud | Any,
     settings: MeasureSettings = MeasureSettings(),
     *,
     measures: str | Iterable[str] | None = None,
@@ -261,12 +262,16 @@ def compute_view_quality(
     progress: bool = False,
     histograms: Sequence[ViewHistograms] | None = None,
 ) -> ViewQuality:
-    """Compute viewpoint quality measures of a mesh for every view.
+    """Compute viewpoint quality measures of a mesh or a point cloud for every view.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike, PointCloud or another model object
+        The model, as :class:`~vptoolkit.measures.session.MeasuringSession`
+        takes it: a point cloud (a PointCloud, an ``(N, 3)`` / ``(N, 6)``
+        array, an Open3D or trimesh point cloud) is splatted, its points the
+        elements, and takes only the measures defined on points
+        (:func:`~vptoolkit.measures.registry.point_measures`).
     settings : MeasureSettings
         The number of Fibonacci-sphere views, the triangle-ID image side, the
         camera and the pixel counting backend (default: ``MeasureSettings()``,
@@ -296,8 +301,8 @@ def compute_view_quality(
     Raises
     ------
     InputError
-        An unknown measure name, or ``histograms`` without the statistics a
-        measure needs.
+        An unknown measure name, a measure not defined on points for a cloud,
+        or ``histograms`` without the statistics a measure needs.
     MeasurementError
         No view sees any face of the mesh.
 
@@ -325,7 +330,7 @@ def compute_view_quality(
     ('NVT', 'PA')
     """
     session = MeasuringSession(mesh, measures, settings)
-    mesh, settings, names = session.mesh, session.settings, session.names
+    mesh, settings, names = session.model, session.settings, session.names
     if view_directions is None:
         directions = settings.directions()
     else:
@@ -344,7 +349,7 @@ def compute_view_quality(
         best_index=np.argmax(normalized, axis=0).astype(np.int64),
         worst_index=np.argmin(normalized, axis=0).astype(np.int64),
         name=mesh.name,
-        n_faces=mesh.n_faces,
+        n_faces=session.n_elements,
         resolution=settings.resolution,
         backend=settings.backend,
         camera=settings.camera,

@@ -28,7 +28,7 @@ from functools import cache
 from typing import Final
 
 from vptoolkit.errors import InputError
-from vptoolkit.measures.measure import Measure
+from vptoolkit.measures.measure import POINT_NEEDS, Measure
 from vptoolkit.measures.sums import PAPER_COLUMNS
 
 __all__ = [
@@ -38,6 +38,7 @@ __all__ = [
     "canonical_name",
     "get_measure",
     "measure_index",
+    "point_measures",
     "resolve_measures",
 ]
 
@@ -162,3 +163,51 @@ def resolve_measures(spec: str | Iterable[str] | None = None) -> tuple[str, ...]
     if repeated:
         raise InputError(f"measures: {', '.join(repeated)} named twice")
     return tuple(names)
+
+
+_POINT_REFUSALS: Final = {"silhouette": "silhouettes", "depth": "depth",
+                          "curvature": "a face curvature"}
+"""What each need outside :data:`~vptoolkit.measures.measure.POINT_NEEDS` reads, in
+:func:`point_measures`' message."""
+
+
+def point_measures(spec: str | Iterable[str] | None = None, label: str = "points"
+                   ) -> tuple[str, ...]:
+    """The measures of :func:`resolve_measures`, each checked to be defined on a point cloud.
+
+    A measure is defined on points when its needs lie within
+    :data:`vptoolkit.measures.measure.POINT_NEEDS` (:attr:`Measure.on_points
+    <vptoolkit.measures.measure.Measure.on_points>`): the paper's four, NVT,
+    PA, HM, I2, I3, INS, SAL and EVMI.
+
+    Parameters
+    ----------
+    spec : str, iterable of str or None
+        What :func:`resolve_measures` takes.
+    label : str
+        The cloud named first in the message (default: "points").
+
+    Returns
+    -------
+    tuple of str
+        The names, in the order given.
+
+    Raises
+    ------
+    InputError
+        One line naming the measures not defined on points, what they read
+        that a cloud does not have, and the measures defined on points
+        (``bunny: SL, CE are not defined on a point cloud (reading silhouettes
+        or a face curvature); on points: NVT, ...``); or
+        :func:`resolve_measures`' message.
+    """
+    names = resolve_measures(spec)
+    refused = [name for name in names if not get_measure(name).on_points]
+    if refused:
+        missing = set().union(*(get_measure(name).needs - POINT_NEEDS for name in refused))
+        reading = [words for need, words in _POINT_REFUSALS.items() if need in missing]
+        read = ", ".join(reading[:-1]) + " or " + reading[-1] if len(reading) > 1 else reading[0]
+        defined = ", ".join(name for name, measure in all_measures().items() if measure.on_points)
+        raise InputError(f"{label}: {', '.join(refused)} {'is' if len(refused) == 1 else 'are'} "
+                         f"not defined on a point cloud (reading {read}); on points: {defined}")
+    return names

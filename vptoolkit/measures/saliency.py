@@ -18,7 +18,9 @@ Polygonal saliency (Feixas, Sbert and González 2009)
     neighbours ``N(z)``: ``S(z) = (1 / |N(z)|) sum_{z' in N(z)} D(z, z')``.
     Neighbours are the faces that share an edge with ``z``, vertices at the
     same position counting as one (so a triangle soup, as an STL file
-    holds it, has its edges), and only neighbours seen from some view
+    holds it, has its edges); on a point cloud, whose points are its
+    elements, the points among each other's :data:`POINT_NEIGHBOURS` nearest
+    (:func:`point_neighbours`); and only neighbours seen from some view
     (``A_z' > 0``) count, as in quoniam's ``FeixasSaliency``. A face no view
     sees, or none of whose neighbours is seen, has no saliency (NaN here);
     the measures say which value they give it. With ``x log x`` written
@@ -57,8 +59,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.geometry import bounding_frame, undirected_edges, welded_faces
+from vptoolkit.io import require_surface
 from vptoolkit.measures.curvature import mesh_curvature
 from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.optional import require
+from vptoolkit.point_cloud import PointCloud
 
 if TYPE_CHECKING:
     from vptoolkit.measures.data import ViewData
@@ -67,9 +72,11 @@ __all__ = [
     "CACHE_KEY",
     "LEE_CACHE_KEY",
     "PAIRS_CACHE_KEY",
+    "POINT_NEIGHBOURS",
     "face_neighbours",
     "lee_saliency",
     "mesh_saliency",
+    "point_neighbours",
     "polygon_saliency",
 ]
 
@@ -81,6 +88,10 @@ LEE_CACHE_KEY: Final = "saliency:lee"
 
 PAIRS_CACHE_KEY: Final = "saliency:pairs"
 """Key of the mesh's :func:`face_neighbours` in :attr:`ViewData.mesh_cache` (both saliencies)."""
+
+POINT_NEIGHBOURS: Final = 6
+"""Nearest points a point of a cloud is paired with for the polygonal saliency (about
+the six neighbours of a point of an even sampling of a plane)."""
 
 LEE_SCALES: Final = (2.0, 3.0, 4.0, 5.0, 6.0)
 """Lee et al.'s scales ``sigma_i / eps``."""
@@ -123,11 +134,45 @@ def face_neighbours(mesh: MeshLike) -> NDArray[np.int64]:
     return np.unique(pairs, axis=0).astype(np.int64).reshape(-1, 2)
 
 
+def point_neighbours(points: NDArray[np.float64], k: int = POINT_NEIGHBOURS
+                     ) -> NDArray[np.int64]:
+    """Pairs of points either of which is among the ``k`` nearest of the other.
+
+    The neighbours of a point cloud, for the saliency of its points where a
+    mesh pairs faces that share an edge (:func:`face_neighbours`). Points
+    at the same position are paired like any others.
+
+    Parameters
+    ----------
+    points : (n_points, 3) float64
+        The cloud.
+    k : int
+        Nearest other points of each point (default: :data:`POINT_NEIGHBOURS`).
+
+    Returns
+    -------
+    pairs : (n_pairs, 2) int64
+        ``(z, z')`` with ``z < z'``, each pair once, in increasing order.
+    """
+    spatial = require("scipy.spatial", extra="measures")
+    count = min(k, len(points) - 1)
+    if count < 1:
+        return np.empty((0, 2), dtype=np.int64)
+    _, nearest = spatial.cKDTree(points).query(points, k=count + 1)
+    own = np.repeat(np.arange(len(points), dtype=np.int64), count + 1)
+    pairs = np.sort(np.stack([own, np.asarray(nearest, dtype=np.int64).ravel()], axis=1), axis=1)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    return np.unique(pairs, axis=0).astype(np.int64).reshape(-1, 2)
+
+
 def _mesh_face_neighbours(data: ViewData) -> NDArray[np.int64]:
-    """:func:`face_neighbours` of ``data.mesh``, kept in ``data.mesh_cache``:
-    :data:`PAIRS_CACHE_KEY`."""
+    """:func:`face_neighbours` of ``data.mesh`` (:func:`point_neighbours` of a cloud),
+    kept in ``data.mesh_cache``: :data:`PAIRS_CACHE_KEY`."""
     if PAIRS_CACHE_KEY not in data.mesh_cache:
-        data.mesh_cache[PAIRS_CACHE_KEY] = face_neighbours(data.mesh)
+        model = data.mesh
+        data.mesh_cache[PAIRS_CACHE_KEY] = (point_neighbours(model.points)
+                                            if isinstance(model, PointCloud)
+                                            else face_neighbours(model))
     pairs: NDArray[np.int64] = data.mesh_cache[PAIRS_CACHE_KEY]
     return pairs
 
@@ -291,7 +336,8 @@ def mesh_saliency(data: ViewData) -> NDArray[np.float64]:
         ``S(z) >= 0`` of every face.
     """
     if LEE_CACHE_KEY not in data.mesh_cache:
-        data.mesh_cache[LEE_CACHE_KEY] = lee_saliency(data.mesh, mesh_curvature(data),
+        data.mesh_cache[LEE_CACHE_KEY] = lee_saliency(require_surface(data.mesh),
+                                                      mesh_curvature(data),
                                                  pairs=_mesh_face_neighbours(data))
     saliency: NDArray[np.float64] = data.mesh_cache[LEE_CACHE_KEY]
     return saliency

@@ -1,13 +1,27 @@
-"""One measuring session: a mesh prepared once, a list of measures, asked for any views.
+"""One measuring session: a model prepared once, a list of measures, asked for any views.
 
-A :class:`MeasuringSession` holds what measuring the views of one mesh
-shares between calls: the mesh, its face areas, the drawing (one
-:class:`~vptoolkit.visibility.RasterScene` for the ``"raster"`` backend), the
+A :class:`MeasuringSession` holds what measuring the views of one model
+shares between calls: the model, its element areas, the drawing (one
+:class:`~vptoolkit.visibility.RasterScene` for a mesh and the ``"raster"``
+backend, one :class:`~vptoolkit.visibility.splats.PointScene` for a point
+cloud), the
 requested measures (:mod:`vptoolkit.measures.registry`) and the values of the
 mesh alone (its curvature, face neighbours, Lee et al.'s saliency, in
 :attr:`MeasuringSession.mesh_cache`). :meth:`MeasuringSession.measure` draws
 the given directions at a resolution and returns the raw values ``(n, M)``,
 one column per measure.
+
+The model is a mesh, whose elements are its faces, or a point cloud, whose
+elements are its points: each point is drawn as a splat and weighs the area
+of surface it stands for (:func:`vptoolkit.point_areas.point_areas`) where a
+face weighs its area, so every measure of the pixel counts runs unchanged;
+the measures that read depth, silhouettes or a curvature of faces are refused
+for a cloud (:func:`vptoolkit.measures.registry.point_measures`). A cloud's
+normals, when it has them, orient the splats (flattened along the normal) and
+cull the points facing away from the camera when the camera culls back
+faces; without normals the splats are balls and nothing is culled: the
+splats nearer the camera hide the far side of the surface all the same, so
+no normal is estimated.
 
 Each measure declares the shared pass it reads
 (:attr:`Measure.needs <vptoolkit.measures.measure.Measure.needs>`), and the
@@ -40,44 +54,54 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.geometry import face_areas
+from vptoolkit.io import require_surface
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.data import ViewData
 from vptoolkit.measures.measure import Measure
-from vptoolkit.measures.registry import get_measure, resolve_measures
+from vptoolkit.measures.registry import get_measure, point_measures, resolve_measures
 from vptoolkit.measures.sums import PAPER_COLUMNS, quality_from_histograms
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.progress import progress_bar
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import RasterScene, ViewHistograms, iter_view_histograms
+from vptoolkit.visibility.splats import PointScene
 
 __all__ = ["MeasuringSession", "progress_runs"]
 
 
 class MeasuringSession:
-    """The measuring of one mesh's views: the mesh prepared once, the measures chosen once.
+    """The measuring of one model's views: the model prepared once, the measures chosen once.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    model : Mesh, PointCloud or another model object
+        The model: anything :func:`vptoolkit.io.objects.model_of` converts
+        (a Mesh or PointCloud, a trimesh or Open3D mesh or point cloud,
+        ``(vertices, faces)``, an ``(N, 3)`` or ``(N, 6)`` array of points
+        with normals).
     measures : str or iterable of str, optional
         What :func:`~vptoolkit.measures.registry.resolve_measures` takes
         (default: the paper's four); the columns of :meth:`measure` follow
-        this order.
+        this order. For a point cloud, only the measures defined on points
+        (:func:`~vptoolkit.measures.registry.point_measures`).
     settings : MeasureSettings
         The camera, the pixel counting backend and the default resolution
         (default: ``MeasureSettings()``); its number of views is not read.
+        A point cloud is splatted whatever the backend.
 
     Attributes
     ----------
-    mesh : Mesh
+    model : Mesh or PointCloud
         The model.
     names : tuple of str
         The measures' names, in column order.
     measures : tuple of Measure
         The measures, in column order.
-    areas : (n_faces,) float64
-        True face areas ``A_z``.
+    areas : (n_elements,) float64
+        True face areas ``A_z`` of a mesh; of a cloud, the area each point
+        stands for, ``pi d_k^2 / k`` (:func:`vptoolkit.point_areas.point_areas`).
     sum_columns : list of int
         Columns of the measures computed from the streamed sums (need ``"sums"``).
     view_columns : list of int
@@ -96,20 +120,35 @@ class MeasuringSession:
     (20, 2)
     """
 
-    def __init__(self, mesh: MeshLike, measures: str | Iterable[str] | None = None,
+    def __init__(self, model: Mesh | PointCloud | Any, measures: str | Iterable[str] | None = None,
                  settings: MeasureSettings = MeasureSettings()) -> None:
-        self.mesh = as_mesh(mesh)
-        self.names = resolve_measures(measures)
-        self.measures: tuple[Measure, ...] = tuple(get_measure(name) for name in self.names)
+        self.model: Mesh | PointCloud = model_of(model)
         self.settings = check_settings(settings)
-        self.areas = face_areas(self.mesh)
+        self._scene: RasterScene | None = None
+        self._points: PointScene | None = None
+        if isinstance(self.model, PointCloud):
+            self.names = point_measures(measures, self.model.name)
+            try:
+                self._points = PointScene(self.model.points, self.model.normals,
+                                          self.settings.camera)
+            except InputError as err:  # the scene names its arguments, not the cloud
+                raise InputError(f"{self.model.name}: {err}") from err
+            self.areas = self._points.areas
+        else:
+            self.names = resolve_measures(measures)
+            self.areas = face_areas(self.model)
+        self.measures: tuple[Measure, ...] = tuple(get_measure(name) for name in self.names)
         if not float(self.areas.sum()) > 0.0:  # nothing can be seen: bad input
-            raise InputError(f"{self.mesh.name}: the mesh has zero surface area")
+            raise InputError(f"{self.model.name}: the mesh has zero surface area")
         self.sum_columns = [c for c, measure in enumerate(self.measures) if measure.streams]
         self.view_columns = [c for c, measure in enumerate(self.measures) if not measure.streams]
         self.features = any(measure.needs_image_statistics for measure in self.measures)
         self.mesh_cache: dict[str, Any] = {}
-        self._scene: RasterScene | None = None
+
+    @property
+    def n_elements(self) -> int:
+        """The elements the pixels are counted for: the mesh's faces or the cloud's points."""
+        return len(self.areas)
 
     @property
     def streams(self) -> bool:
@@ -121,11 +160,14 @@ class MeasuringSession:
         """The pixel counts of the directions at ``resolution`` (default: the settings'),
         run by run, with the statistics the measures read."""
         resolution = self.settings.resolution if resolution is None else resolution
+        if self._points is not None:
+            return self._points.histograms(directions, resolution)
+        mesh = require_surface(self.model)  # a cloud has its PointScene
         if self.settings.backend == "raster":
             if self._scene is None:
-                self._scene = RasterScene(self.mesh, self.settings.camera)
+                self._scene = RasterScene(mesh, self.settings.camera)
             return self._scene.histograms(directions, resolution, features=self.features)
-        return iter_view_histograms(self.mesh, replace(self.settings, resolution=resolution),
+        return iter_view_histograms(mesh, replace(self.settings, resolution=resolution),
                                     view_directions=directions, features=self.features)
 
     def measure(
@@ -196,9 +238,9 @@ class MeasuringSession:
 
         runs: Iterable[ViewHistograms] = draw()
         if others:
-            runs = list(progress_runs(runs, len(views), self.mesh.name) if progress else runs)
+            runs = list(progress_runs(runs, len(views), self.model.name) if progress else runs)
         elif progress:
-            runs = progress_runs(runs, len(views), self.mesh.name)
+            runs = progress_runs(runs, len(views), self.model.name)
         if sums:
             mutual = any(self.names[c] == "VMI" for c in sums)
             try:
@@ -213,7 +255,7 @@ class MeasuringSession:
                 raw[:, sums] = paper[:, [PAPER_COLUMNS.index(self.names[c]) for c in sums]]
         if others:
             settings = replace(self.settings, views=max(1, len(views)), resolution=resolution)
-            data = ViewData(self.mesh, views, settings, self.areas, list(runs),
+            data = ViewData(self.model, views, settings, self.areas, list(runs),
                             mesh_cache=self.mesh_cache)
             if not data.seen.any():
                 if require_seen:

@@ -58,12 +58,15 @@ from vptoolkit.geometry import face_cross_products
 from vptoolkit.measures.quality import ranked_views
 from vptoolkit.measures.registry import resolve_measures
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.point_areas import point_areas
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import as_directions, fibonacci_sphere
 
 __all__ = [
     "NORMAL_CELLS",
     "UNOCCLUDED_DIRECTIONS",
     "UNOCCLUDED_MEASURES",
+    "cloud_elements",
     "face_elements",
     "mesh_elements",
     "unit_normals",
@@ -151,6 +154,29 @@ def face_elements(mesh: Mesh,
     outward = 1.0 if float(np.einsum("ij,ij->", first, cross)) >= 0.0 else -1.0
     normals = cross[keep] * (outward / double_areas[keep, None])
     return normals, 0.5 * double_areas[keep], 0.5 * double_areas
+
+
+def cloud_elements(cloud: PointCloud) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Unit normals and areas of the points of a cloud with normals, as surface elements.
+
+    Each point stands for the area of surface around it
+    (:func:`vptoolkit.point_areas.point_areas`), as the splats weigh it; its
+    normal is taken as it is stored, so it must point outwards.
+
+    Returns
+    -------
+    normals : (n_points, 3) float64, areas : (n_points,) float64
+
+    Raises
+    ------
+    InputError
+        The cloud has no normals (one line naming it).
+    """
+    if cloud.normals is None:
+        raise InputError(f"{cloud.name}: a point cloud without normals; the occlusion-free "
+                         "estimate reads the surface's normals (give points with normals: "
+                         "an (N, 6) array x y z nx ny nz, or a PLY with nx ny nz)")
+    return np.array(cloud.normals), point_areas(cloud.points)
 
 
 def _pool(normals: NDArray[np.float64], areas: NDArray[np.float64], cells: int,

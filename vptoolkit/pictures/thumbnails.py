@@ -56,12 +56,14 @@ from vptoolkit.collection.runner import (
 )
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import atomic_write
+from vptoolkit.io import require_surface
 from vptoolkit.measures.registry import canonical_name
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 
 __all__ = ["PredictedMethod", "ThumbnailFailure", "ThumbnailResult", "picture_name",
@@ -149,8 +151,9 @@ class PredictedMethod:
         return {"method": "predicted", "predictor": self.name, "measure": self.names[0],
                 "camera": self.settings.camera.to_dict()}
 
-    def __call__(self, mesh: Mesh) -> Answer:
-        """The predicted direction."""
+    def __call__(self, mesh: Mesh | PointCloud) -> Answer:
+        """The predicted direction of a mesh (thumbnails read only meshes)."""
+        mesh = require_surface(mesh)
         direction = resolve_direction(mesh, self.predictor, measure=self.names[0])[None]
         poses, intrinsics = cameras(mesh, self.settings.camera, direction,
                                     self.settings.resolution)
@@ -302,14 +305,15 @@ def render_thumbnails(
         def draw(result: EntryResult) -> EntryResult:
             assert result.answer is not None and result.model is not None  # answered entries
             image_path = target / picture_name(result.entry.key)
+            model = require_surface(result.model)  # a run that draws reads meshes only
             try:
                 if isinstance(method, ViewSetMethod):
                     from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-                    image, _ = view_set_sheet(result.model, view_set=result.answer.detail,
+                    image, _ = view_set_sheet(model, view_set=result.answer.detail,
                                               settings=method.settings, engine=active)
                 else:
-                    image = active.render(result.model, result.answer.directions[rows][0])[0]
+                    image = active.render(model, result.answer.directions[rows][0])[0]
                 image_path.parent.mkdir(parents=True, exist_ok=True)
                 save_png(image, image_path)
                 drawn[0] += 1

@@ -16,12 +16,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import (
     ViewQuality,
     compute_view_quality,
 )
-from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name, get_measure
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name
+from vptoolkit.mesh import MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.visibility import MIN_PIXELS, FaceVisibility
@@ -386,20 +388,21 @@ def _set_entropy(entries: _Entries, indices: NDArray[np.int64],
 
 
 def measure_view_set(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud | Any,
     k: int | None = 4,
     *,
     settings: MeasureSettings = MeasureSettings(),
     progress: bool = False,
     **options: Any,
 ) -> tuple[ViewQuality, ViewSet]:
-    """The paper's four measures (and ``measure``, if another) and a view set of a mesh from
-    one drawing of its views.
+    """The paper's four measures (and ``measure``, if another) and a view set of a mesh or a
+    point cloud from one drawing of its views.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike, PointCloud or another model object
+        The model (:func:`vptoolkit.io.objects.model_of`); a cloud's points
+        take the faces' place, weighted by the areas they stand for.
     k : int or None
         As for :func:`best_view_set`.
     settings : MeasureSettings
@@ -417,13 +420,11 @@ def measure_view_set(
     view_set : ViewSet
         The set, searched over the same views.
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     settings = check_settings(settings)
     measure = canonical_name(options.get("measure", "VE"))
     names = PAPER_MEASURES if measure in PAPER_MEASURES else (*PAPER_MEASURES, measure)
-    visibility = FaceVisibility.from_mesh(
-        mesh, settings, progress=progress,
-        features=get_measure(measure).needs_image_statistics)
+    visibility = FaceVisibility.from_mesh(mesh, settings, progress=progress, measures=names)
     quality = compute_view_quality(mesh, settings, measures=names,
                                    view_directions=visibility.views,
                                    histograms=list(visibility.runs))

@@ -10,20 +10,21 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
-from vptoolkit.geometry import face_areas
 from vptoolkit.measures.quality import normalize_quality
-from vptoolkit.measures.session import progress_runs
+from vptoolkit.measures.session import MeasuringSession, progress_runs
 from vptoolkit.measures.sums import quality_from_histograms
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.mesh import MeshLike
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
-from vptoolkit.visibility import ViewHistograms, iter_view_histograms
+from vptoolkit.visibility import ViewHistograms
 
 __all__ = ["MIN_PIXELS", "FaceVisibility"]
 
@@ -77,28 +78,30 @@ class FaceVisibility:
     @classmethod
     def from_mesh(
         cls,
-        mesh: MeshLike,
+        mesh: MeshLike | PointCloud | Any,
         settings: MeasureSettings = MeasureSettings(),
         *,
         view_directions: ArrayLike | None = None,
         progress: bool = False,
-        features: bool = False,
+        measures: str | Iterable[str] | None = None,
     ) -> FaceVisibility:
-        """Draw every view of a mesh once and keep its pixel counts.
+        """Draw every view of a mesh or a point cloud once and keep its pixel counts.
 
-        Parameters are those of :func:`vptoolkit.measures.quality.compute_view_quality`;
-        ``features`` keeps each run's depth and silhouette statistics too (for
-        a measure that reads them, :func:`vptoolkit.visibility.iter_view_histograms`).
+        Drawn by a :class:`~vptoolkit.measures.session.MeasuringSession`, so a
+        point cloud's points (splatted, with their areas) take the faces'
+        place. Parameters are those of
+        :func:`vptoolkit.measures.quality.compute_view_quality`; ``measures``
+        are those the counts will serve (default: the paper's four): where
+        one reads depth or silhouette statistics, each run keeps them too,
+        and a cloud refuses the measures not defined on points.
         """
-        mesh = as_mesh(mesh)
-        settings = check_settings(settings)
-        directions = (settings.directions() if view_directions is None
+        session = MeasuringSession(mesh, measures, check_settings(settings))
+        directions = (session.settings.directions() if view_directions is None
                       else as_directions(view_directions, name="view_directions"))
-        runs: Iterable[ViewHistograms] = iter_view_histograms(
-            mesh, settings, view_directions=directions, features=features)
+        runs: Iterable[ViewHistograms] = session.draw(directions)
         if progress:
-            runs = progress_runs(runs, len(directions), mesh.name)
-        return cls(directions, face_areas(mesh), tuple(runs), mesh.name)
+            runs = progress_runs(runs, len(directions), session.model.name)
+        return cls(directions, session.areas, tuple(runs), session.model.name)
 
     @property
     def n_views(self) -> int:
