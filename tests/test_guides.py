@@ -119,8 +119,9 @@ def test_the_snippet_runs_as_written(snippet: Snippet, reader_folder: Path):
 
 
 def _check_upright_and_lit(picture: Path) -> None:
-    """The bunny of the Open3D snippet: its ears (the top tenth in +y) are drawn in the upper
-    half of the picture, where the exported pose puts them, and it is shaded, not flat."""
+    """The bunny of the Open3D snippet is drawn where the exported pose puts its vertices
+    (a picture turned upside down covers about 70 % of them), that pose puts its ears (the
+    top tenth in +y) in the upper half, and it is shaded, not one flat colour."""
     from PIL import Image
 
     from vptoolkit import SearchSettings, load_mesh, search_best_views
@@ -131,11 +132,11 @@ def _check_upright_and_lit(picture: Path) -> None:
     bunny = load_mesh(sample_path("bunny.ply"))
     found = search_best_views(bunny, SearchSettings(budget=64, resolution=128))
     extrinsic = np.linalg.inv(found.camera_pose("VE"))
-    heights = bunny.vertices[:, 1]
-    ears = bunny.vertices[heights > heights.max() - 0.1 * np.ptp(heights)]
-    points = ears @ extrinsic[:3, :3].T + extrinsic[:3, 3]
+    points = bunny.vertices @ extrinsic[:3, :3].T + extrinsic[:3, 3]
     pixels = points @ found.intrinsics(image.shape[0]).T
     columns, rows = (pixels[:, :2] / pixels[:, 2:]).astype(int).T
-    assert rows.max() < image.shape[0] / 2  # the ears' pixels are in the upper half ...
-    assert drawn[rows, columns].mean() > 0.9  # ... and drawn there
-    assert len(np.unique(image[drawn])) > 20  # lit: many shades, not one flat colour
+    assert drawn[rows, columns].mean() > 0.97
+    heights = bunny.vertices[:, 1]
+    ears = heights > heights.max() - 0.1 * np.ptp(heights)
+    assert rows[ears].max() < image.shape[0] / 2
+    assert len(np.unique(image[drawn])) > 60  # lit: about 160 shades; unlit about 30 (edges)
