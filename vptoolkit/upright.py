@@ -34,7 +34,8 @@ from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
 
-__all__ = ["CONTACT_SHARE", "FORMAT_UP", "auto_up", "footprint_area", "resting_up"]
+__all__ = ["CONTACT_SHARE", "FORMAT_UP", "auto_up", "footprint_area", "resting_up",
+           "rotation_between"]
 
 CONTACT_SHARE: Final = 0.01
 """Vertices within this share of the extent along an axis of the lowest one touch the floor."""
@@ -101,3 +102,25 @@ def auto_up(mesh: Mesh, path: str | Path | None = None) -> tuple[float, float, f
         if fixed is not None:
             return fixed
     return resting_up(mesh)
+
+
+def rotation_between(source: tuple[float, float, float],
+                     target: tuple[float, float, float]) -> NDArray[np.float64]:
+    """The rotation ``(3, 3) float64`` of least angle that turns the unit direction ``source``
+    into the unit direction ``target`` (Rodrigues' formula; opposite directions: half a turn
+    about an axis across them), e.g. a z-up model's +z to a picture's +y."""
+    a = np.asarray(source, dtype=np.float64)
+    b = np.asarray(target, dtype=np.float64)
+    a, b = a / np.linalg.norm(a), b / np.linalg.norm(b)
+    axis = np.cross(a, b)
+    sine, cosine = float(np.linalg.norm(axis)), float(a @ b)
+    if sine < 1e-12:
+        if cosine > 0.0:
+            return np.eye(3)
+        axis = np.cross(a, np.eye(3)[int(np.argmin(np.abs(a)))])
+        axis /= np.linalg.norm(axis)
+        return 2.0 * np.outer(axis, axis) - np.eye(3)
+    axis /= sine
+    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]],
+                      [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross

@@ -91,7 +91,7 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Final
+from typing import Any, Final, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -106,6 +106,7 @@ from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
 from vptoolkit.sphere import as_directions, coarse_directions
+from vptoolkit.upright import resting_up
 from vptoolkit.visibility import ViewHistograms
 
 __all__ = [
@@ -364,10 +365,12 @@ class SearchSettings:
         ``min(resolution, 128)``, and ``resolution`` below :data:`FLAT_BELOW` views).
     camera : Camera
         Camera conventions (default: ``Camera()``).
-    up : tuple of 3 floats
+    up : tuple of 3 floats or "auto"
         The model's up axis, normalised here (default: ``(0, 1, 0)``): the
         pole of ``elevation`` and the top of the exported poses' images
-        (:meth:`BestViews.camera_pose`). The measures' own camera is ``camera``.
+        (:meth:`BestViews.camera_pose`); ``"auto"``: per mesh, the side it
+        stands on (:func:`vptoolkit.upright.resting_up`). The measures' own
+        camera is ``camera``.
     elevation : tuple of 2 floats, optional
         ``(low, high)`` degrees above the horizon of ``up``, ``-90 <= low <
         high <= 90``: every direction drawn lies in this band (module
@@ -390,7 +393,7 @@ class SearchSettings:
     coarse_views: int | None = None
     coarse_resolution: int | None = None
     camera: Camera = field(default_factory=Camera)
-    up: tuple[float, float, float] = PICTURE_UP
+    up: tuple[float, float, float] | Literal["auto"] = PICTURE_UP
     elevation: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
@@ -406,10 +409,12 @@ class SearchSettings:
                 self.coarse_resolution, "coarse_resolution", 1, resolution))
         if not isinstance(self.camera, Camera):
             raise InputError(f"camera: expected a Camera, got {type(self.camera).__name__}")
-        up = np.asarray(self.up, dtype=np.float64) if _is_numeric(self.up) else np.zeros(0)
-        if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
-            raise InputError(f"up: expected a non-zero direction x, y, z, got {self.up!r}")
-        object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
+        if self.up != "auto":
+            up = np.asarray(self.up, dtype=np.float64) if _is_numeric(self.up) else np.zeros(0)
+            if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
+                raise InputError(f"up: expected a non-zero direction x, y, z or 'auto', "
+                                 f"got {self.up!r}")
+            object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
         if self.elevation is not None:
             band = (np.asarray(self.elevation, dtype=np.float64) if _is_numeric(self.elevation)
                     else np.zeros(0))
@@ -427,7 +432,7 @@ class SearchSettings:
             "coarse_views": self.coarse_views, "coarse_resolution": self.coarse_resolution,
             "camera": self.camera.to_dict()}
         if self.up != PICTURE_UP:
-            record["up"] = list(self.up)
+            record["up"] = self.up if isinstance(self.up, str) else list(self.up)
         if self.elevation is not None:
             record["elevation"] = list(self.elevation)
         return record
@@ -667,8 +672,9 @@ def search_best_views(
     budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
     band = chosen.elevation
+    up = resting_up(mesh) if isinstance(chosen.up, str) else chosen.up
     if band is not None:
-        candidates = into_band(candidates, chosen.up, band)
+        candidates = into_band(candidates, up, band)
     n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
     flat = budget < FLAT_BELOW
     n_coarse = chosen.coarse_views
@@ -706,7 +712,7 @@ def search_best_views(
     elif band is None:
         sphere = coarse_directions(mesh, n_coarse, renderer.areas)
     else:
-        sphere = band_directions(n_coarse, chosen.up, band)
+        sphere = band_directions(n_coarse, up, band)
     if n_coarse:  # first: its views give p(z) for every later measurement
         coarse_raw = draw("coarse", sphere, coarse_size, sphere=True)
     if n_prior:
@@ -732,7 +738,7 @@ def search_best_views(
         rings = np.stack([ring(centre, angle, _RING, turn) for centre in centres], axis=1)
         proposals = rings.reshape(-1, 3)[:left]  # ring point by ring point, every centre in turn
         if band is not None:
-            proposals = into_band(proposals, chosen.up, band)
+            proposals = into_band(proposals, up, band)
         offer(proposals, draw("refine", proposals, resolution))
         angle *= 0.5
         turn += math.pi / _RING
@@ -745,7 +751,7 @@ def search_best_views(
         seconds=time.perf_counter() - started,
         poses=camera.look_at(mesh, incumbents.directions, resolution=resolution),
         drawn=np.concatenate(drawn) if drawn else np.zeros((0, 3)),
-        up=chosen.up,
+        up=up,
         measures=names,
     )
 

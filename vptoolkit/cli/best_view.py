@@ -79,14 +79,14 @@ def is_collection(inputs: tuple[str, ...]) -> bool:
               "hours and disk from a few, writing nothing.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print per mesh the directions, views drawn, resolutions and seconds.")
-@up_option()
+@up_option(allow_auto=True)
 @elevation_option(None)
 @cache_dir_option()
 def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
               dataset_path: Path | str | None, split: Split, measures: tuple[str, ...] | None,
               output: Path | None, as_json: bool, cache_dir: Path | None, workers: int,
               scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
-              up: tuple[float, float, float], elevation: tuple[float, float] | None) -> None:
+              up: tuple[float, float, float] | str, elevation: tuple[float, float] | None) -> None:
     """Find the best view per measure of INPUTS within a budget of drawn views.
 
     INPUTS are mesh files, or one collection: a folder (walked recursively),
@@ -123,7 +123,8 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     """
     from vptoolkit.best_view.search import SearchSettings
 
-    search = SearchSettings(budget=budget, resolution=resolution, up=up, elevation=elevation)
+    search = SearchSettings(budget=budget, resolution=resolution,
+                            up="auto" if isinstance(up, str) else up, elevation=elevation)
     if is_collection(inputs):
         _search_collection(inputs[0], output, search, prior, measures, workers,
                            scheduler, max_faces, timeout, dry_run, dataset_path, as_json)

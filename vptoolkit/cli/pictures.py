@@ -253,15 +253,15 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @search_resolution_option()
 @face_limit_option()
 @timeout_option()
-@up_option()
+@up_option(allow_auto=True)
 @elevation_option("0,60")
 @engine_option()
 @click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
               "disk from a few, drawing and writing nothing.")
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
-               budget: int, resolution: int, max_faces: int, timeout: float, up: Vector,
-               elevation: tuple[float, float] | None, engine: str, dry_run: bool) -> None:
+               budget: int, resolution: int, max_faces: int, timeout: float,
+               up: Vector | str, elevation: tuple[float, float] | None, engine: str, dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
@@ -270,7 +270,8 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
     every view of a Fibonacci sphere instead: the exhaustive answer, at
     --resolution). OUT/thumbnails.json records directions and the files
     skipped with their reasons (exit status 1 if any); rerunning the command
-    draws only what is missing. The search keeps the camera within --elevation
+    draws only what is missing. --up auto stands each model on the side it
+    rests on (+y or +z, docs/conventions.md). The search keeps the camera within --elevation
     of the horizon of --up (default 0 to 60 degrees: at or above the horizon,
     as product pictures are taken; --elevation full searches the whole
     sphere); --views 1000 and more, --model and --view-set do not search and
@@ -298,7 +299,8 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
     if view_set_k is not None or model_path is not None or budget >= N_VIEWS:
         settings = MeasureSettings(views=budget, resolution=resolution)
     else:
-        search = SearchSettings(budget=budget, resolution=resolution, up=up,
+        search = SearchSettings(budget=budget, resolution=resolution,
+                                up="auto" if isinstance(up, str) else up,
                                 elevation=elevation)
     predictor = None
     if model_path is not None:
@@ -316,7 +318,11 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                                     max_faces=max_faces, timeout=timeout).lines():
             click.echo(line)
         return
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+    if up == "auto" and search is None:
+        raise InputError("--up: auto needs the search (no --model, no --view-set, --views "
+                         "under 1000); give the axis x,y,z")
+    picture_up = (0.0, 1.0, 0.0) if isinstance(up, str) else up  # auto: each model turned to +y
+    with open_renderer(engine, size=size, style=RenderStyle(up=picture_up)) as drawing:
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",
                                    view_set=view_set_k, workers=workers, scheduler=scheduler,
