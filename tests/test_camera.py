@@ -175,7 +175,8 @@ def test_exported_poses_put_plus_y_up_as_open3d_and_trimesh_do(mug_poses):
     half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
     np.testing.assert_allclose(exported[off_axis], measured[off_axis] @ half_turn, atol=1e-12)
     # a vertex higher in +y is drawn higher in the picture (a smaller row)
-    low, high = mug.vertices[np.argmin(mug.vertices[:, 1])], mug.vertices[np.argmax(mug.vertices[:, 1])]
+    low = mug.vertices[np.argmin(mug.vertices[:, 1])]
+    high = mug.vertices[np.argmax(mug.vertices[:, 1])]
     for view in np.flatnonzero(off_axis):
         rows = _project(exported[view], poses.intrinsics(), np.stack([low, high]))[0][:, 1]
         assert rows[1] < rows[0]

@@ -164,7 +164,8 @@ np.save(sys.argv[1], np.asarray(renderer.render_to_image()))
 @pytest.mark.renderer
 def test_open3d_draws_the_found_view_where_the_rasteriser_does(mug, tmp_path):
     """Open3D's renderer, given K and the inverse OpenCV pose, draws the silhouette the
-    triangle-ID image of the same view has, turned half a turn (in a child process, as Filament wants)."""
+    triangle-ID image of the same view has, turned half a turn (in a child process, as
+    Filament wants)."""
     require_package("open3d")
     script = tmp_path / "draw.py"
     script.write_text(textwrap.dedent(OPEN3D_GUIDE))

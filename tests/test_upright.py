@@ -1,4 +1,5 @@
-"""The up axis of a model: glTF's +y by its format, the resting rule on real z-up and y-up meshes."""
+"""The up axis of a model: glTF's +y by its format, the resting rule on real z-up and y-up
+meshes."""
 
 from __future__ import annotations
 

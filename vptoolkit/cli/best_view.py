@@ -177,7 +177,8 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
                                "inputs failed")
 
 
-def _search_collection(source: str, output: Path | None, search: SearchSettings, prior: str, measures: tuple[str, ...] | None, workers: int,
+def _search_collection(source: str, output: Path | None, search: SearchSettings, prior: str,
+                       measures: tuple[str, ...] | None, workers: int,
                        scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
                        dataset_path: Path | str | None, as_json: bool) -> None:
     """``best-view`` of a collection (see the command's help)."""

@@ -261,7 +261,8 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float,
-               up: Vector | str, elevation: tuple[float, float] | None, engine: str, dry_run: bool) -> None:
+               up: Vector | str, elevation: tuple[float, float] | None, engine: str,
+               dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
