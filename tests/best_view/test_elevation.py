@@ -7,15 +7,10 @@ import numpy as np
 import pytest
 
 from fixtures.paths import ASSETS
-from vptoolkit.best_view.search import (
-    SearchSettings,
-    band_directions,
-    elevation_deg,
-    into_band,
-    search_best_views,
-)
+from vptoolkit.best_view.search import SearchSettings, search_best_views
 from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
+from vptoolkit.sphere import band_directions, elevation_deg, into_band
 
 Z_UP = (0.0, 0.0, 1.0)
 TOLERANCE = 1e-9  # degrees

@@ -10,9 +10,9 @@ import numpy as np
 
 from fixtures.paths import ASSETS
 from fixtures.pictures import decode_png
-from vptoolkit.best_view.search import elevation_deg
 from vptoolkit.cli import main
 from vptoolkit.samples import sample_path
+from vptoolkit.sphere import elevation_deg
 
 GAZEBO = ASSETS / "gazebo"
 

@@ -34,7 +34,7 @@ degrees above the horizon of the model's up axis) holds every stage inside
 it: the coarse sphere is a Fibonacci pattern of the band alone (evenly spaced
 in ``sin(elevation)``, the area measure of the band, around the up axis), and
 the prior's candidates and the refinement's rings are moved into the band
-along their meridian (:func:`into_band`: the elevation clamped to
+along their meridian (:func:`vptoolkit.sphere.into_band`: the elevation clamped to
 ``[low, high]``, the azimuth kept). Without a band the whole sphere is searched,
 as above. Why these
 choices: ``docs/design/best-view.md``.
@@ -76,7 +76,7 @@ higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 
 Size
-    About 620 lines for one concept, the search of one mesh: its settings
+    About 700 lines for one concept, the search of one mesh: its settings
     (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
     and which views a session measures together (the paper's four per stage
     with the estimated ``p(z)``, the others over the competing views). The
@@ -105,7 +105,7 @@ from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_mea
 from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
-from vptoolkit.sphere import as_directions, coarse_directions
+from vptoolkit.sphere import as_directions, band_directions, coarse_directions, into_band
 from vptoolkit.upright import resting_up
 from vptoolkit.visibility import ViewHistograms
 
@@ -123,9 +123,6 @@ __all__ = [
     "search_best_views",
     "check_search_settings",
     "searchable_measures",
-    "band_directions",
-    "into_band",
-    "elevation_deg",
 ]
 
 BUDGET: Final = 64
@@ -445,73 +442,6 @@ def _is_numeric(value: Any) -> bool:
             isinstance(c, (int, float, np.number)) and not isinstance(c, bool) for c in value)
     except TypeError:
         return False
-
-
-def elevation_deg(directions: ArrayLike, up: ArrayLike) -> NDArray[np.float64]:
-    """Elevation ``asin(v . u)`` in degrees of unit directions ``(n, 3)`` above the horizon of
-    the unit axis ``u``: ``(n,)`` float64 in [-90, 90]."""
-    sine = np.asarray(directions, dtype=np.float64) @ np.asarray(up, dtype=np.float64)
-    return np.degrees(np.arcsin(np.clip(sine, -1.0, 1.0)))
-
-
-def _horizon_frame(up: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Two unit vectors that span the horizon of the unit axis ``up``, right-handed with it."""
-    first = np.cross(up, np.eye(3)[int(np.argmin(np.abs(up)))])
-    first /= np.linalg.norm(first)
-    return first, np.cross(up, first)
-
-
-def band_directions(n: int, up: ArrayLike, elevation: tuple[float, float]
-                    ) -> NDArray[np.float64]:
-    """``n`` Fibonacci directions evenly spread over a band of elevations around ``up``.
-
-    Direction ``i`` has ``sin(elevation_i) = s_low + (s_high - s_low) (i + 1/2) / n``
-    (equal areas, since a band's area grows linearly with the sine) and azimuth
-    ``i`` times the golden angle ``pi (3 - sqrt 5)``, both about the unit axis
-    ``up``; ``elevation = (low, high)`` in degrees.
-
-    Returns
-    -------
-    directions : (n, 3) float64
-        Unit vectors, every one with elevation in ``[low, high]``.
-    """
-    axis = np.asarray(up, dtype=np.float64)
-    axis = axis / np.linalg.norm(axis)
-    first, second = _horizon_frame(axis)
-    low, high = (math.sin(math.radians(angle)) for angle in elevation)
-    sine = low + (high - low) * (np.arange(n) + 0.5) / n
-    cosine = np.sqrt(np.clip(1.0 - sine * sine, 0.0, 1.0))
-    azimuth = np.arange(n) * math.pi * (3.0 - math.sqrt(5.0))
-    return np.asarray(sine[:, None] * axis + cosine[:, None] * (
-        np.cos(azimuth)[:, None] * first + np.sin(azimuth)[:, None] * second))
-
-
-def into_band(directions: ArrayLike, up: ArrayLike, elevation: tuple[float, float]
-              ) -> NDArray[np.float64]:
-    """Unit directions ``(n, 3)`` moved along their meridian into the band ``elevation``.
-
-    The elevation about the unit axis ``up`` is clamped to ``[low, high]``
-    degrees and the azimuth kept; a direction along ``up`` or ``-up`` (no
-    azimuth) takes that of the horizon frame's first axis.
-
-    Returns
-    -------
-    directions : (n, 3) float64
-        Unit vectors; those already in the band are returned unchanged.
-    """
-    points = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
-    axis = np.asarray(up, dtype=np.float64)
-    axis = axis / np.linalg.norm(axis)
-    angles = elevation_deg(points, axis)
-    clamped = np.clip(angles, *elevation)
-    horizontal = points - (points @ axis)[:, None] * axis
-    lengths = np.linalg.norm(horizontal, axis=1, keepdims=True)
-    first, _ = _horizon_frame(axis)
-    horizontal = np.where(lengths > 1e-12, horizontal / np.where(lengths > 1e-12, lengths, 1.0),
-                          first)
-    moved = (np.sin(np.radians(clamped))[:, None] * axis
-             + np.cos(np.radians(clamped))[:, None] * horizontal)
-    return np.where((angles == clamped)[:, None], points, moved)
 
 
 def check_search_settings(settings: Any) -> SearchSettings:
