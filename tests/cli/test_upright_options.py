@@ -27,6 +27,9 @@ def test_best_view_keeps_every_answer_in_the_band(runner):
     angles = elevation_deg(directions / np.linalg.norm(directions, axis=1, keepdims=True),
                            (0, 0, 1))
     assert (angles >= -1e-3).all() and (angles <= 60 + 1e-3).all()
+    # the printed OpenCV poses put +z, the model's up, at the top: their y column points down
+    poses = np.array([entry["pose"] for entry in best.values()])
+    assert poses.shape == (4, 4, 4) and (poses[:, 2, 1] < 0).all()
 
 
 def test_render_up_auto_stands_a_z_up_model_as_its_axis_does(runner, tmp_path):

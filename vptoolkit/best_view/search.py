@@ -240,16 +240,22 @@ class BestViews:
         return sum(stage.n_views for stage in self.stages)
 
     def summary(self) -> dict[str, Any]:
-        """JSON-safe summary: directions and raw values per measure, stages, seconds."""
+        """JSON-safe summary: directions, raw values and camera poses (:meth:`camera_pose`,
+        OpenCV, rows of the 4x4 matrix) per measure, the up axis, the intrinsics at
+        ``resolution``, stages, seconds."""
+        poses = self.poses.camera_to_world("opencv", up=self.up)
         return {
             "name": self.name,
             "views": self.n_views,
             "resolution": self.resolution,
             "stages": [stage.to_dict() for stage in self.stages],
             "seconds": round(self.seconds, 4),
+            "up": list(self.up),
+            "intrinsics": self.intrinsics().tolist(),
             "best": {
                 measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
-                          "raw": float(self.raw[column])}
+                          "raw": float(self.raw[column]),
+                          "pose": poses[column].tolist()}
                 for column, measure in enumerate(self.measures)
             },
         }

@@ -78,7 +78,8 @@ def is_collection(inputs: tuple[str, ...]) -> bool:
 @click.option("--dry-run", is_flag=True, help="A collection: count its files and estimate "
               "hours and disk from a few, writing nothing.")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print per mesh the directions, views drawn, resolutions and seconds.")
+              help="Print per mesh the directions, camera poses and intrinsics, views "
+                   "drawn, resolutions and seconds.")
 @up_option(allow_auto=True)
 @elevation_option(None)
 @cache_dir_option()
