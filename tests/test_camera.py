@@ -112,7 +112,8 @@ def test_the_centre_projects_to_the_image_centre_and_lies_straight_ahead(mug_pos
 
 def test_poses_are_rigid_and_opengl_is_opencv_with_y_and_z_flipped(mug_poses):
     _, poses = mug_poses
-    opencv, opengl = poses.camera_to_world("opencv"), poses.camera_to_world("opengl")
+    opencv = poses.camera_to_world("opencv", up=None)
+    opengl = poses.camera_to_world("opengl", up=None)
     assert opencv.shape == opengl.shape == (len(AWKWARD_VIEWS), 4, 4)
     np.testing.assert_allclose(opengl, opencv @ np.diag([1.0, -1.0, -1.0, 1.0]), atol=0)
     for pose in (*opencv, *opengl):
@@ -129,13 +130,13 @@ def test_poses_are_rigid_and_opengl_is_opencv_with_y_and_z_flipped(mug_poses):
 def test_intrinsics_and_pose_project_as_the_measures_camera_does(mug_poses):
     mug, poses = mug_poses
     points = mug.vertices[::7]
-    for view, pose in enumerate(poses.camera_to_world("opencv")):
+    for view, pose in enumerate(poses.camera_to_world("opencv", up=None)):
         pixels, depths = _project(pose, poses.intrinsics(), points)
         expected = poses.project(view, points)
         np.testing.assert_allclose(pixels, expected[:, :2], atol=1e-9)
         np.testing.assert_allclose(depths, expected[:, 2], atol=1e-12)
     # a larger picture of the same view: the same field of view, every pixel scaled
-    larger, _ = _project(poses.camera_to_world()[0], poses.intrinsics(384), points)
+    larger, _ = _project(poses.camera_to_world(up=None)[0], poses.intrinsics(384), points)
     np.testing.assert_allclose(larger, 4.0 * poses.project(0, points)[:, :2], atol=1e-9)
 
 
@@ -149,7 +150,7 @@ def test_the_rasteriser_sees_the_face_the_projection_points_at(direction):
     poses = Camera().look_at(ball, [direction], resolution=resolution)
     ids = face_id_images(ball, MeasureSettings(views=1, resolution=resolution),
                          view_directions=[direction])[0]
-    pose = poses.camera_to_world("opencv")[0]
+    pose = poses.camera_to_world("opencv", up=None)[0]
     centroids = ball.vertices[ball.faces].mean(axis=1)
     facing = face_normals(ball) @ poses.forward[0] < -0.5  # well inside the silhouette
     pixels, _ = _project(pose, poses.intrinsics(), centroids[facing])
@@ -159,6 +160,29 @@ def test_the_rasteriser_sees_the_face_the_projection_points_at(direction):
     pixel, _ = _project(pose, poses.intrinsics(), ball.vertices[[nearest]])
     column, row = np.floor(pixel[0]).astype(int)
     assert nearest in ball.faces[ids[row, column]]
+
+
+def test_exported_poses_put_plus_y_up_as_open3d_and_trimesh_do(mug_poses):
+    """By default a pose's image up (OpenCV: -y column) leans towards +y; away from the y
+    axis this is the measures' camera turned half a turn about its forward axis."""
+    mug, poses = mug_poses
+    exported = poses.camera_to_world("opencv")
+    measured = poses.camera_to_world("opencv", up=None)
+    np.testing.assert_array_equal(exported[:, :3, 2:], measured[:, :3, 2:])  # forward, eye
+    image_up = -exported[:, :3, 1]
+    off_axis = np.abs(poses.forward[:, 1]) < 0.999
+    assert (image_up[off_axis, 1] > 0).all()
+    half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    np.testing.assert_allclose(exported[off_axis], measured[off_axis] @ half_turn, atol=1e-12)
+    # a vertex higher in +y is drawn higher in the picture (a smaller row)
+    low = mug.vertices[np.argmin(mug.vertices[:, 1])]
+    high = mug.vertices[np.argmax(mug.vertices[:, 1])]
+    for view in np.flatnonzero(off_axis):
+        rows = _project(exported[view], poses.intrinsics(), np.stack([low, high]))[0][:, 1]
+        assert rows[1] < rows[0]
+    z_up = poses.camera_to_world("opengl", up=(0, 0, 1))
+    off_z = np.abs(poses.forward[:, 2]) < 0.999
+    assert (z_up[off_z, 2, 1] > 0).all()  # OpenGL: the y column is the image up
 
 
 def test_a_bad_convention_or_resolution_is_one_line(mug_poses):

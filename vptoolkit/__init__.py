@@ -14,11 +14,11 @@ module, layer by layer):
   texture, kept apart; reading models (decided by content) and writing
   meshes, OFF/OBJ/PLY/STL/glTF/NPY; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
-- ``geometry``, ``point_areas``, ``sphere``, ``camera``, ``rotations``,
+- ``geometry``, ``point_areas``, ``sphere``, ``camera``, ``upright``, ``rotations``,
   ``settings``: face areas, bounding and principal frames; the surface area
   each point of a cloud stands for; Fibonacci view directions and the
-  principal-frame coarse sphere; the pinhole camera; seeded rotations;
-  ``MeasureSettings``, how the measures draw a model.
+  principal-frame coarse sphere; the pinhole camera; a model's up axis;
+  seeded rotations; ``MeasureSettings``, how the measures draw a model.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or
   Open3D ray casting), and per-point ones of point clouds (splats).
 - ``measures``, ``view_sets``: VE, VR, VKL and VMI per view, normalised per

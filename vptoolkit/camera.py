@@ -18,6 +18,12 @@ Conventions (defaults from :mod:`vptoolkit.conventions`):
 
 For a renderer (:meth:`ViewPoses.camera_to_world`, :meth:`ViewPoses.intrinsics`):
 
+* Image up: the measures draw with ``up = (0, -1, 0)`` (the authors'
+  renderer); exported poses put ``PICTURE_UP = (0, 1, 0)`` at the top of the
+  image instead, as Open3D, trimesh and glTF do, or any ``up`` asked for
+  (:meth:`ViewPoses.turned_up`): the same eye and forward axis, the camera
+  turned about it. Turning ``(0, -1, 0)`` to ``(0, 1, 0)`` is half a turn:
+  the exported picture is the measures' image rotated by 180 degrees.
 * Camera-to-world pose ``T = [[R, eye], [0, 0, 0, 1]]``, a ``(4, 4)`` matrix
   whose rotation columns are the camera axes in model coordinates: a point
   ``p`` of the camera frame is the model point ``R p + eye``. In the
@@ -43,14 +49,14 @@ the picture and every depth positive.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.checks import check_int
-from vptoolkit.conventions import DISTANCE_FACTOR, FALLBACK_UP, FOV_DEG, UP
+from vptoolkit.conventions import DISTANCE_FACTOR, FALLBACK_UP, FOV_DEG, PICTURE_UP, UP
 from vptoolkit.errors import InputError
 from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import MeshLike
@@ -114,7 +120,33 @@ class ViewPoses:
             [half + self.focal_px * p_r / p_f, half - self.focal_px * p_u / p_f, p_f], axis=1
         )
 
-    def camera_to_world(self, convention: Convention = "opencv") -> NDArray[np.float64]:
+    def turned_up(self, up: ArrayLike) -> ViewPoses:
+        """The same eyes and forward axes, each camera turned about its axis so that ``up``
+        points up the image.
+
+        Parameters
+        ----------
+        up : (3,) array_like
+            Model direction shown upwards (normalised here): ``right =
+            normalise(forward x up)``, ``true_up = right x forward``. A view
+            that looks along ``up`` keeps its own roll.
+
+        Returns
+        -------
+        ViewPoses
+            Same ``eyes``, ``forward``, ``focal_px`` and ``resolution``.
+        """
+        wanted = np.asarray(up, dtype=np.float64)
+        if wanted.shape != (3,) or not np.isfinite(wanted).all() or not wanted.any():
+            raise InputError(f"up: must be a finite non-zero 3-vector, got {wanted}")
+        right = np.cross(self.forward, _unit(wanted))
+        parallel = np.linalg.norm(right, axis=1) < 1e-9
+        right[parallel] = self.right[parallel]
+        right /= np.linalg.norm(right, axis=1, keepdims=True)
+        return replace(self, right=right, up=np.cross(right, self.forward))
+
+    def camera_to_world(self, convention: Convention = "opencv", *,
+                        up: ArrayLike | None = PICTURE_UP) -> NDArray[np.float64]:
         """The camera-to-world pose of every view, for a renderer.
 
         Parameters
@@ -122,6 +154,10 @@ class ViewPoses:
         convention : {"opencv", "opengl"}
             Camera frame (module docstring): ``"opencv"`` x right, y down,
             z forward (default); ``"opengl"`` x right, y up, z backward.
+        up : (3,) array_like or None
+            Model direction at the top of the image (:meth:`turned_up`;
+            default: ``PICTURE_UP = (0, 1, 0)``, as Open3D and trimesh);
+            None keeps the measures' own cameras (image up ``(0, -1, 0)``).
 
         Returns
         -------
@@ -138,12 +174,13 @@ class ViewPoses:
         if convention not in CONVENTIONS:
             raise InputError(f"convention: expected one of {', '.join(CONVENTIONS)}, "
                              f"got {convention!r}")
+        cameras = self if up is None else self.turned_up(up)
         flip = 1.0 if convention == "opencv" else -1.0
         poses = np.zeros((len(self.eyes), 4, 4))
-        poses[:, :3, 0] = self.right
-        poses[:, :3, 1] = -flip * self.up
-        poses[:, :3, 2] = flip * self.forward
-        poses[:, :3, 3] = self.eyes
+        poses[:, :3, 0] = cameras.right
+        poses[:, :3, 1] = -flip * cameras.up
+        poses[:, :3, 2] = flip * cameras.forward
+        poses[:, :3, 3] = cameras.eyes
         poses[:, 3, 3] = 1.0
         return poses
 

@@ -28,6 +28,12 @@ Camera (defaults of :class:`vptoolkit.camera.Camera`)
     ``c + d v`` with ``d = DISTANCE_FACTOR * diagonal``, image up vector
     ``UP`` (``FALLBACK_UP`` where ``v`` is parallel to ``UP``), back faces
     culled (counter-clockwise winding is the front, right-hand rule).
+
+Exported cameras and pictures
+    Poses handed to other renderers (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`,
+    :meth:`vptoolkit.best_view.search.BestViews.camera_pose`) put ``PICTURE_UP``
+    at the top of the image, as Open3D, trimesh and glTF do; the measures keep
+    ``UP`` inside, so their values do not depend on it.
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ __all__ = [
     "DISTANCE_FACTOR",
     "UP",
     "FALLBACK_UP",
+    "PICTURE_UP",
 ]
 
 N_VIEWS: Final = 1000
@@ -87,3 +94,7 @@ UP: Final = (0.0, -1.0, 0.0)
 FALLBACK_UP: Final = (0.0, 0.0, 1.0)
 """Up vector used where the view direction is parallel to :data:`UP`."""
 
+
+PICTURE_UP: Final = (0.0, 1.0, 0.0)
+"""Image up of exported camera poses and of pictures, in model coordinates (+y, as
+Open3D, trimesh and glTF)."""

@@ -4,6 +4,9 @@ A view direction ``v`` is a unit vector pointing from the model's centre
 towards the camera (see :mod:`vptoolkit.camera`). :func:`coarse_directions`
 lays the Fibonacci sphere out in a mesh's principal frame, so the pattern
 turns with the model (the best-view search's coarse sphere).
+:func:`band_directions` lays one out over a band of elevations about an up
+axis, and :func:`into_band` moves directions into such a band (the search's
+``SearchSettings.elevation``).
 """
 
 from __future__ import annotations
@@ -20,7 +23,8 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.point_cloud import PointCloud
 
 __all__ = ["fibonacci_sphere", "coarse_directions", "nearest_view", "as_directions",
-           "angle_between_deg", "is_zero_length", "distinct_directions"]
+           "angle_between_deg", "is_zero_length", "distinct_directions", "elevation_deg",
+           "band_directions", "into_band"]
 
 
 def fibonacci_sphere(n: int = N_VIEWS) -> NDArray[np.float64]:
@@ -212,3 +216,70 @@ def distinct_directions(directions: NDArray[np.float64],
         if all(float(direction @ other) < limit for other in kept):
             kept.append(direction)
     return np.array(kept).reshape(-1, 3)
+
+
+def elevation_deg(directions: ArrayLike, up: ArrayLike) -> NDArray[np.float64]:
+    """Elevation ``asin(v . u)`` in degrees of unit directions ``(n, 3)`` above the horizon of
+    the unit axis ``u``: ``(n,)`` float64 in [-90, 90]."""
+    sine = np.asarray(directions, dtype=np.float64) @ np.asarray(up, dtype=np.float64)
+    return np.degrees(np.arcsin(np.clip(sine, -1.0, 1.0)))
+
+
+def _horizon_frame(up: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two unit vectors that span the horizon of the unit axis ``up``, right-handed with it."""
+    first = np.cross(up, np.eye(3)[int(np.argmin(np.abs(up)))])
+    first /= np.linalg.norm(first)
+    return first, np.cross(up, first)
+
+
+def band_directions(n: int, up: ArrayLike, elevation: tuple[float, float]
+                    ) -> NDArray[np.float64]:
+    """``n`` Fibonacci directions evenly spread over a band of elevations around ``up``.
+
+    Direction ``i`` has ``sin(elevation_i) = s_low + (s_high - s_low) (i + 1/2) / n``
+    (equal areas, since a band's area grows linearly with the sine) and azimuth
+    ``i`` times the golden angle ``pi (3 - sqrt 5)``, both about the unit axis
+    ``up``; ``elevation = (low, high)`` in degrees.
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors, every one with elevation in ``[low, high]``.
+    """
+    axis = np.asarray(up, dtype=np.float64)
+    axis = axis / np.linalg.norm(axis)
+    first, second = _horizon_frame(axis)
+    low, high = (math.sin(math.radians(angle)) for angle in elevation)
+    sine = low + (high - low) * (np.arange(n) + 0.5) / n
+    cosine = np.sqrt(np.clip(1.0 - sine * sine, 0.0, 1.0))
+    azimuth = np.arange(n) * math.pi * (3.0 - math.sqrt(5.0))
+    return np.asarray(sine[:, None] * axis + cosine[:, None] * (
+        np.cos(azimuth)[:, None] * first + np.sin(azimuth)[:, None] * second))
+
+
+def into_band(directions: ArrayLike, up: ArrayLike, elevation: tuple[float, float]
+              ) -> NDArray[np.float64]:
+    """Unit directions ``(n, 3)`` moved along their meridian into the band ``elevation``.
+
+    The elevation about the unit axis ``up`` is clamped to ``[low, high]``
+    degrees and the azimuth kept; a direction along ``up`` or ``-up`` (no
+    azimuth) takes that of the horizon frame's first axis.
+
+    Returns
+    -------
+    directions : (n, 3) float64
+        Unit vectors; those already in the band are returned unchanged.
+    """
+    points = np.asarray(directions, dtype=np.float64).reshape(-1, 3)
+    axis = np.asarray(up, dtype=np.float64)
+    axis = axis / np.linalg.norm(axis)
+    angles = elevation_deg(points, axis)
+    clamped = np.clip(angles, *elevation)
+    horizontal = points - (points @ axis)[:, None] * axis
+    lengths = np.linalg.norm(horizontal, axis=1, keepdims=True)
+    first, _ = _horizon_frame(axis)
+    horizontal = np.where(lengths > 1e-12, horizontal / np.where(lengths > 1e-12, lengths, 1.0),
+                          first)
+    moved = (np.sin(np.radians(clamped))[:, None] * axis
+             + np.cos(np.radians(clamped))[:, None] * horizontal)
+    return np.where((angles == clamped)[:, None], points, moved)

@@ -16,7 +16,7 @@ LAYERS = {
     "errors": 0, "conventions": 0, "optional": 0, "checks": 0, "files": 0, "progress": 0,
     "parallel": 0, "_numba": 0, "_version": 0,
     "mesh": 1, "point_cloud": 1, "appearance": 1, "io": 1, "samples": 1, "predictions": 4,
-    "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2, "settings": 2,
+    "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2, "settings": 2, "upright": 2,
     "point_areas": 2,
     "visibility": 3,
     "measures": 4, "view_sets": 4,

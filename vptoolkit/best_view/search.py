@@ -27,7 +27,16 @@ VE, VR, VKL and VMI; any other that a few views can evaluate, see
    :data:`MIN_STEP_DEG`.
 
 Budgets below :data:`FLAT_BELOW` views are one coarse sphere at
-``resolution``: there, more directions beat refining a few. Why these
+``resolution``: there, more directions beat refining a few.
+
+An elevation band (``SearchSettings(up=..., elevation=(low, high))``, in
+degrees above the horizon of the model's up axis) holds every stage inside
+it: the coarse sphere is a Fibonacci pattern of the band alone (evenly spaced
+in ``sin(elevation)``, the area measure of the band, around the up axis), and
+the prior's candidates and the refinement's rings are moved into the band
+along their meridian (:func:`vptoolkit.sphere.into_band`: the elevation clamped to
+``[low, high]``, the azimuth kept). Without a band the whole sphere is searched,
+as above. Why these
 choices: ``docs/design/best-view.md``.
 
 Only views drawn at ``resolution`` compete for the answer, so every answer's
@@ -67,7 +76,7 @@ higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 
 Size
-    About 620 lines for one concept, the search of one mesh: its settings
+    About 700 lines for one concept, the search of one mesh: its settings
     (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
     and which views a session measures together (the paper's four per stage
     with the estimated ``p(z)``, the others over the competing views). The
@@ -82,13 +91,14 @@ import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Final
+from typing import Any, Final, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera, Convention, ViewPoses
 from vptoolkit.checks import check_int_range
+from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
@@ -97,7 +107,8 @@ from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MAX_RESOLUTION, MeasureSettings
-from vptoolkit.sphere import as_directions, coarse_directions
+from vptoolkit.sphere import as_directions, band_directions, coarse_directions, into_band
+from vptoolkit.upright import resting_up
 from vptoolkit.visibility import ViewHistograms
 
 __all__ = [
@@ -181,6 +192,12 @@ class BestViews:
         before the first mesh, so no mesh's time holds that).
     poses : ViewPoses
         The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
+    drawn : (n_views, 3) float64
+        Every direction drawn, in the order drawn: the stages' views one after
+        the other (``stages[0].n_views`` rows first).
+    up : tuple of 3 floats
+        The model's up axis (``SearchSettings.up``): the top of the image of
+        :meth:`camera_pose`.
     measures : tuple of str
         The searched measures, the row order of ``directions`` and ``raw``
         (default: the paper's four, ``PAPER_MEASURES``).
@@ -193,6 +210,8 @@ class BestViews:
     stages: tuple[SearchStage, ...]
     seconds: float
     poses: ViewPoses
+    drawn: NDArray[np.float64]
+    up: tuple[float, float, float] = PICTURE_UP
     measures: tuple[str, ...] = PAPER_MEASURES
 
     def camera_pose(self, measure: str, *,
@@ -202,14 +221,15 @@ class BestViews:
         ``convention``: ``"opencv"`` (default; x right, y down, z forward, as
         Open3D) or ``"opengl"`` (x right, y up, z backward, as trimesh's
         ``scene.camera_transform``); the inverse is the world-to-camera extrinsic
-        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). ``measure`` is
-        a searched one, in any case. Raises InputError.
+        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). The model's
+        up axis :attr:`up` (default +y, as Open3D and trimesh) is at the top of
+        the image. ``measure`` is a searched one, in any case. Raises InputError.
         """
         folded = [name.upper() for name in self.measures]
         if not isinstance(measure, str) or measure.upper() not in folded:
             raise InputError(f"measure: {measure!r} was not searched (searched: "
                              f"{', '.join(self.measures)})")
-        return self.poses.camera_to_world(convention)[folded.index(measure.upper())]
+        return self.poses.camera_to_world(convention, up=self.up)[folded.index(measure.upper())]
 
     def intrinsics(self, resolution: int | None = None) -> NDArray[np.float64]:
         """Pinhole matrix ``K`` ``(3, 3) float64`` of a square image of ``resolution`` px
@@ -222,16 +242,22 @@ class BestViews:
         return sum(stage.n_views for stage in self.stages)
 
     def summary(self) -> dict[str, Any]:
-        """JSON-safe summary: directions and raw values per measure, stages, seconds."""
+        """JSON-safe summary: directions, raw values and camera poses (:meth:`camera_pose`,
+        OpenCV, rows of the 4x4 matrix) per measure, the up axis, the intrinsics at
+        ``resolution``, stages, seconds."""
+        poses = self.poses.camera_to_world("opencv", up=self.up)
         return {
             "name": self.name,
             "views": self.n_views,
             "resolution": self.resolution,
             "stages": [stage.to_dict() for stage in self.stages],
             "seconds": round(self.seconds, 4),
+            "up": list(self.up),
+            "intrinsics": self.intrinsics().tolist(),
             "best": {
                 measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
-                          "raw": float(self.raw[column])}
+                          "raw": float(self.raw[column]),
+                          "pose": poses[column].tolist()}
                 for column, measure in enumerate(self.measures)
             },
         }
@@ -344,6 +370,16 @@ class SearchSettings:
         ``min(resolution, 128)``, and ``resolution`` below :data:`FLAT_BELOW` views).
     camera : Camera
         Camera conventions (default: ``Camera()``).
+    up : tuple of 3 floats or "auto"
+        The model's up axis, normalised here (default: ``(0, 1, 0)``): the
+        pole of ``elevation`` and the top of the exported poses' images
+        (:meth:`BestViews.camera_pose`); ``"auto"``: per mesh, the side it
+        stands on (:func:`vptoolkit.upright.resting_up`). The measures' own
+        camera is ``camera``.
+    elevation : tuple of 2 floats, optional
+        ``(low, high)`` degrees above the horizon of ``up``, ``-90 <= low <
+        high <= 90``: every direction drawn lies in this band (module
+        docstring). Default None: the whole sphere.
 
     Raises
     ------
@@ -362,6 +398,8 @@ class SearchSettings:
     coarse_views: int | None = None
     coarse_resolution: int | None = None
     camera: Camera = field(default_factory=Camera)
+    up: tuple[float, float, float] | Literal["auto"] = PICTURE_UP
+    elevation: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         budget = check_int_range(self.budget, "budget", 1, MAX_BUDGET)
@@ -376,12 +414,42 @@ class SearchSettings:
                 self.coarse_resolution, "coarse_resolution", 1, resolution))
         if not isinstance(self.camera, Camera):
             raise InputError(f"camera: expected a Camera, got {type(self.camera).__name__}")
+        if self.up != "auto":
+            up = np.asarray(self.up, dtype=np.float64) if _is_numeric(self.up) else np.zeros(0)
+            if up.shape != (3,) or not np.isfinite(up).all() or not np.linalg.norm(up) > 0:
+                raise InputError(f"up: expected a non-zero direction x, y, z or 'auto', "
+                                 f"got {self.up!r}")
+            object.__setattr__(self, "up", tuple(float(c) for c in up / np.linalg.norm(up)))
+        if self.elevation is not None:
+            band = (np.asarray(self.elevation, dtype=np.float64) if _is_numeric(self.elevation)
+                    else np.zeros(0))
+            if band.shape != (2,) or not np.isfinite(band).all() \
+                    or not -90.0 <= band[0] < band[1] <= 90.0:
+                raise InputError("elevation: expected (low, high) degrees with -90 <= low < "
+                                 f"high <= 90, got {self.elevation!r}")
+            object.__setattr__(self, "elevation", (float(band[0]), float(band[1])))
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe record: the five fields, the camera as its record."""
-        return {"budget": self.budget, "resolution": self.resolution,
-                "coarse_views": self.coarse_views, "coarse_resolution": self.coarse_resolution,
-                "camera": self.camera.to_dict()}
+        """JSON-safe record: the fields, the camera as its record; ``up`` and ``elevation``
+        only where they differ from the defaults, so that older records stay the same."""
+        record: dict[str, Any] = {
+            "budget": self.budget, "resolution": self.resolution,
+            "coarse_views": self.coarse_views, "coarse_resolution": self.coarse_resolution,
+            "camera": self.camera.to_dict()}
+        if self.up != PICTURE_UP:
+            record["up"] = self.up if isinstance(self.up, str) else list(self.up)
+        if self.elevation is not None:
+            record["elevation"] = list(self.elevation)
+        return record
+
+
+def _is_numeric(value: Any) -> bool:
+    """Whether ``value`` is a sequence of real numbers (not text)."""
+    try:
+        return not isinstance(value, str) and all(
+            isinstance(c, (int, float, np.number)) and not isinstance(c, bool) for c in value)
+    except TypeError:
+        return False
 
 
 def check_search_settings(settings: Any) -> SearchSettings:
@@ -546,6 +614,10 @@ def search_best_views(
     chosen = check_search_settings(settings)
     budget, resolution, camera = chosen.budget, chosen.resolution, chosen.camera
     candidates = np.zeros((0, 3)) if prior is None else as_directions(prior, name="prior")
+    band = chosen.elevation
+    up = resting_up(mesh) if isinstance(chosen.up, str) else chosen.up
+    if band is not None:
+        candidates = into_band(candidates, up, band)
     n_prior = min(len(candidates), max(1, int(budget * _PRIOR_SHARE))) if len(candidates) else 0
     flat = budget < FLAT_BELOW
     n_coarse = chosen.coarse_views
@@ -560,12 +632,14 @@ def search_best_views(
     higher = tuple(measure.higher_is_better for measure in renderer.session.measures)
     incumbents = _Incumbents.empty(higher)
     stages: list[SearchStage] = []
+    drawn: list[NDArray[np.float64]] = []
 
     def draw(stage: str, directions: NDArray[np.float64], size: int, *,
              sphere: bool = False) -> NDArray[np.float64]:
         raw = renderer.measure(directions, size, estimate_face_probability=sphere,
                                keep=size == resolution)
         stages.append(SearchStage(stage, len(directions), size))
+        drawn.append(directions)
         return raw
 
     def offer(directions: NDArray[np.float64], raw: NDArray[np.float64]) -> None:
@@ -576,8 +650,12 @@ def search_best_views(
             every, again = renderer.competing(resolution)
             incumbents.take_best(every, again, renderer.session.view_columns)
 
-    sphere = (coarse_directions(mesh, n_coarse, renderer.areas) if n_coarse
-              else np.zeros((0, 3)))
+    if not n_coarse:
+        sphere = np.zeros((0, 3))
+    elif band is None:
+        sphere = coarse_directions(mesh, n_coarse, renderer.areas)
+    else:
+        sphere = band_directions(n_coarse, up, band)
     if n_coarse:  # first: its views give p(z) for every later measurement
         coarse_raw = draw("coarse", sphere, coarse_size, sphere=True)
     if n_prior:
@@ -593,13 +671,17 @@ def search_best_views(
                 offer(again, draw("confirm", again, resolution))
     if not np.isfinite(incumbents.raw).any():
         raise MeasurementError(f"{mesh.name}: no face is visible from any view of the search")
-    angle = _FIRST_STEP * math.sqrt(4.0 * math.pi / max(n_coarse, n_prior, 1))
+    area = 4.0 * math.pi if band is None else 2.0 * math.pi * (
+        math.sin(math.radians(band[1])) - math.sin(math.radians(band[0])))
+    angle = _FIRST_STEP * math.sqrt(area / max(n_coarse, n_prior, 1))
     turn = 0.0
     while (left := budget - sum(stage.n_views for stage in stages)) > 0 \
             and math.degrees(angle) >= MIN_STEP_DEG:
         centres = incumbents.centres()
         rings = np.stack([ring(centre, angle, _RING, turn) for centre in centres], axis=1)
         proposals = rings.reshape(-1, 3)[:left]  # ring point by ring point, every centre in turn
+        if band is not None:
+            proposals = into_band(proposals, up, band)
         offer(proposals, draw("refine", proposals, resolution))
         angle *= 0.5
         turn += math.pi / _RING
@@ -611,6 +693,8 @@ def search_best_views(
         stages=tuple(_merge(stages)),
         seconds=time.perf_counter() - started,
         poses=camera.look_at(mesh, incumbents.directions, resolution=resolution),
+        drawn=np.concatenate(drawn) if drawn else np.zeros((0, 3)),
+        up=up,
         measures=names,
     )
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -16,15 +17,20 @@ from vptoolkit.cli.options import (
     MESH,
     budget_option,
     cache_dir_option,
+    elevation_option,
     face_limit_option,
     measures_option,
     scheduler_option,
     search_resolution_option,
     split_option,
     timeout_option,
+    up_option,
     workers_option,
 )
 from vptoolkit.conventions import Split
+
+if TYPE_CHECKING:
+    from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.files import check_output_folder, output_json
 
@@ -72,12 +78,16 @@ def is_collection(inputs: tuple[str, ...]) -> bool:
 @click.option("--dry-run", is_flag=True, help="A collection: count its files and estimate "
               "hours and disk from a few, writing nothing.")
 @click.option("--json", "as_json", is_flag=True,
-              help="Print per mesh the directions, views drawn, resolutions and seconds.")
+              help="Print per mesh the directions, camera poses and intrinsics, views "
+                   "drawn, resolutions and seconds.")
+@up_option(allow_auto=True)
+@elevation_option(None)
 @cache_dir_option()
 def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
               dataset_path: Path | str | None, split: Split, measures: tuple[str, ...] | None,
               output: Path | None, as_json: bool, cache_dir: Path | None, workers: int,
-              scheduler: str | None, max_faces: int, timeout: float, dry_run: bool) -> None:
+              scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
+              up: tuple[float, float, float] | str, elevation: tuple[float, float] | None) -> None:
     """Find the best view per measure of INPUTS within a budget of drawn views.
 
     INPUTS are mesh files, or one collection: a folder (walked recursively),
@@ -95,7 +105,10 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     1k-16k faces on two cores, loading aside: about 3 ms for 8 views and 10 ms
     for 64 at 128 px; a view at --resolution 1024 costs about 1 ms.
     Directions point from the model centre to the camera, in each mesh's own
-    coordinates; VE and VR: higher is better, VKL and VMI: lower is better
+    coordinates; --up is the model's up axis (the top of the exported camera
+    poses, +y by default as Open3D and trimesh) and --elevation MIN,MAX keeps
+    every searched view within that band of degrees above its horizon
+    (default: the whole sphere); VE and VR: higher is better, VKL and VMI: lower is better
     (vptool measures --measures all lists every measure's direction).
 
     \b
@@ -107,9 +120,14 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
       vptool best-view --dataset release/ --split test --prior default -o test.npz
       vptool best-view models/ -o views/ --workers 4
       vptool best-view @models.txt -o views/ --dry-run
+      vptool best-view bus.ply --up 0,0,1 --elevation 0,60
     """
+    from vptoolkit.best_view.search import SearchSettings
+
+    search = SearchSettings(budget=budget, resolution=resolution,
+                            up="auto" if isinstance(up, str) else up, elevation=elevation)
     if is_collection(inputs):
-        _search_collection(inputs[0], output, budget, resolution, prior, measures, workers,
+        _search_collection(inputs[0], output, search, prior, measures, workers,
                            scheduler, max_faces, timeout, dry_run, dataset_path, as_json)
         return
     if workers != 1 or scheduler is not None or dry_run:
@@ -119,7 +137,6 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     argument = next(param for param in context.command.params if param.name == "inputs")
     meshes = tuple(MESH.convert(value, argument, context) for value in inputs)
     from vptoolkit.best_view.run import search_inputs
-    from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.data import open_dataset
 
     if output is not None:
@@ -131,7 +148,7 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     with contextlib.ExitStack() as stack:
         dataset = (None if dataset_path is None
                    else stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
-        run = search_inputs(meshes, settings=SearchSettings(budget=budget, resolution=resolution),
+        run = search_inputs(meshes, settings=search,
                             dataset=dataset, split=split, prior=prior, measures=measures,
                             progress=True)
     if output is not None and run.results:
@@ -161,17 +178,17 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
                                "inputs failed")
 
 
-def _search_collection(source: str, output: Path | None, budget: int, resolution: int,
-                       prior: str, measures: tuple[str, ...] | None, workers: int,
+def _search_collection(source: str, output: Path | None, search: SearchSettings, prior: str,
+                       measures: tuple[str, ...] | None, workers: int,
                        scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
                        dataset_path: Path | str | None, as_json: bool) -> None:
     """``best-view`` of a collection (see the command's help)."""
-    from vptoolkit.best_view.search import SearchSettings, searchable_measures
+    from vptoolkit.best_view.search import searchable_measures
     from vptoolkit.collection.methods import SearchMethod
 
     if dataset_path is not None:
         raise InputError("--dataset: give a collection or --dataset, not both")
-    method = SearchMethod(SearchSettings(budget=budget, resolution=resolution),
+    method = SearchMethod(search,
                           measures or searchable_measures(None), prior)
     if dry_run:
         from vptoolkit.collection.plan import plan_collection

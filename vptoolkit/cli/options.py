@@ -27,6 +27,8 @@ from vptoolkit.sphere import as_directions
 
 __all__ = [
     "Direction",
+    "ElevationBand",
+    "UpAxis",
     "ExistingPath",
     "MESH",
     "EXISTING",
@@ -52,6 +54,7 @@ __all__ = [
     "face_limit_option",
     "timeout_option",
     "up_option",
+    "elevation_option",
     "engine_option",
     "device_option",
     "size_option",
@@ -109,6 +112,45 @@ class Direction(click.ParamType):  # type: ignore[type-arg]
             raise InputError(f"{option}: expected a finite, non-zero direction x,y,z, "
                              f"got {value!r}") from None
         return x, y, z
+
+
+class UpAxis(Direction):
+    """An up axis typed as ``x,y,z`` (a :class:`Direction`) or ``auto`` (where the command
+    allows it: :func:`vptoolkit.upright.auto_up` decides per model)."""
+
+    name = "x,y,z|auto"
+
+    def __init__(self, *, allow_auto: bool) -> None:
+        self.allow_auto = allow_auto
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> Any:
+        """``"auto"`` where allowed, else the parsed direction."""
+        if self.allow_auto and isinstance(value, str) and value.strip().lower() == "auto":
+            return "auto"
+        return super().convert(value, param, ctx)
+
+
+class ElevationBand(click.ParamType):  # type: ignore[type-arg]
+    """An elevation band typed as ``MIN,MAX`` degrees, or ``full`` (None: the whole sphere);
+    the search checks the range (:class:`vptoolkit.best_view.search.SearchSettings`)."""
+
+    name = "min,max|full"
+
+    def convert(self, value: Any, param: click.Parameter | None,
+                ctx: click.Context | None) -> tuple[float, float] | None:
+        """Parse ``value`` (text, a parsed pair or None)."""
+        if value is None or isinstance(value, tuple):
+            return value
+        if str(value).strip().lower() == "full":
+            return None
+        option = param.opts[0] if param is not None and param.opts else "elevation"
+        try:
+            low, high = (float(part) for part in str(value).split(","))
+        except ValueError:
+            raise InputError(f"{option}: expected two numbers MIN,MAX in degrees or full, "
+                             f"got {value!r}") from None
+        return low, high
 
 
 def comma_list(text: str | None) -> list[str] | None:
@@ -344,11 +386,24 @@ def timeout_option() -> Callable[[Decorated], Decorated]:
                              "and tried again by the next run.")
 
 
-def up_option() -> Callable[[Decorated], Decorated]:
-    """``--up x,y,z``: the model direction drawn upwards in pictures (a :class:`Direction`)."""
-    return click.option("--up", default="0,1,0", show_default=True, type=Direction(),
-                        help="Model direction shown upwards in pictures, x,y,z "
-                             "(0,0,1 for z-up models).")
+def up_option(*, allow_auto: bool = False) -> Callable[[Decorated], Decorated]:
+    """``--up x,y,z``: the model's up axis, drawn upwards in pictures and exported poses and
+    the pole of ``--elevation`` (an :class:`UpAxis`; ``auto`` where ``allow_auto``)."""
+    auto = (" auto: glTF's +y, else +y or +z, the side the model stands on more broadly "
+            "(docs/conventions.md).") if allow_auto else ""
+    return click.option("--up", default="0,1,0", show_default=True,
+                        type=UpAxis(allow_auto=allow_auto),
+                        help="The model's up axis x,y,z, shown upwards (0,0,1 for z-up "
+                             "models)." + auto)
+
+
+def elevation_option(default: str | None) -> Callable[[Decorated], Decorated]:
+    """``--elevation MIN,MAX``: the band of camera elevations above the horizon of ``--up``
+    that the search keeps to (an :class:`ElevationBand`; ``full``: the whole sphere)."""
+    return click.option("--elevation", default=default or "full", show_default=True,
+                        type=ElevationBand(),
+                        help="Camera elevation band MIN,MAX in degrees above the horizon of "
+                             "--up that every searched view keeps to, or full (the sphere).")
 
 
 def engine_option() -> Callable[[Decorated], Decorated]:

@@ -22,6 +22,7 @@ from vptoolkit.cli.options import (
     ExistingPath,
     budget_option,
     cache_dir_option,
+    elevation_option,
     engine_option,
     face_limit_option,
     parse_measures,
@@ -58,11 +59,11 @@ Vector = tuple[float, float, float]
 @size_option()
 @views_option("Views sampled for --best.")
 @resolution_option("Triangle-ID resolution of the measures for --best.")
-@up_option()
+@up_option(allow_auto=True)
 @engine_option()
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector, engine: str) -> None:
+           up: Vector | str, engine: str) -> None:
     """Draw MESH through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
@@ -76,6 +77,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render chair.off --model default -o chair.png
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
+      vptool render bus.ply --view 1,-1,0.5 --up auto -o bus.png
     """
     from vptoolkit.inputs import read_model
     from vptoolkit.pictures.engine import open_renderer
@@ -91,6 +93,11 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
     loaded = read_model(mesh, requires="surface")
+    if up == "auto":
+        from vptoolkit.upright import auto_up
+
+        up = auto_up(loaded, mesh)
+    assert not isinstance(up, str)  # "auto" is resolved above
     with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
         if view_set_k is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
@@ -247,14 +254,16 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @search_resolution_option()
 @face_limit_option()
 @timeout_option()
-@up_option()
+@up_option(allow_auto=True)
+@elevation_option("0,60")
 @engine_option()
 @click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
               "disk from a few, drawing and writing nothing.")
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
-               budget: int, resolution: int, max_faces: int, timeout: float, up: Vector,
-               engine: str, dry_run: bool) -> None:
+               budget: int, resolution: int, max_faces: int, timeout: float,
+               up: Vector | str, elevation: tuple[float, float] | None, engine: str,
+               dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
@@ -263,7 +272,12 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
     every view of a Fibonacci sphere instead: the exhaustive answer, at
     --resolution). OUT/thumbnails.json records directions and the files
     skipped with their reasons (exit status 1 if any); rerunning the command
-    draws only what is missing.
+    draws only what is missing. --up auto stands each model on the side it
+    rests on (+y or +z, docs/conventions.md). The search keeps the camera within --elevation
+    of the horizon of --up (default 0 to 60 degrees: at or above the horizon,
+    as product pictures are taken; --elevation full searches the whole
+    sphere); --views 1000 and more, --model and --view-set do not search and
+    ignore it.
 
     \b
     Example:
@@ -272,6 +286,7 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ thumbs/ --model default
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
       vptool thumbnails @models.txt thumbs/ --dry-run
+      vptool thumbnails gazebo_models/ thumbs/ --up 0,0,1 --elevation 0,45
     """
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.conventions import N_VIEWS
@@ -286,7 +301,9 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
     if view_set_k is not None or model_path is not None or budget >= N_VIEWS:
         settings = MeasureSettings(views=budget, resolution=resolution)
     else:
-        search = SearchSettings(budget=budget, resolution=resolution)
+        search = SearchSettings(budget=budget, resolution=resolution,
+                                up="auto" if isinstance(up, str) else up,
+                                elevation=elevation)
     predictor = None
     if model_path is not None:
         from vptoolkit.learn.predict import MeshPredictor
@@ -303,7 +320,11 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                                     max_faces=max_faces, timeout=timeout).lines():
             click.echo(line)
         return
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+    if up == "auto" and search is None:
+        raise InputError("--up: auto needs the search (no --model, no --view-set, --views "
+                         "under 1000); give the axis x,y,z")
+    picture_up = (0.0, 1.0, 0.0) if isinstance(up, str) else up  # auto: each model turned to +y
+    with open_renderer(engine, size=size, style=RenderStyle(up=picture_up)) as drawing:
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",
                                    view_set=view_set_k, workers=workers, scheduler=scheduler,

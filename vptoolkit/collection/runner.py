@@ -70,6 +70,7 @@ from vptoolkit.collection.discover import (
 )
 from vptoolkit.collection.methods import Answer, Method
 from vptoolkit.collection.table import write_table
+from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.files import (
     atomic_write,
@@ -184,9 +185,12 @@ def settings_digest(method: Method, max_faces: int) -> tuple[str, dict[str, Any]
     """The output folder's name and its ``settings.json`` for a method and face limit.
 
     The digest is the first 16 hex digits of the SHA-256 of the record's
-    canonical JSON (sorted keys, no spaces).
+    canonical JSON (sorted keys, no spaces). ``image_up`` names the image up of
+    the table's camera poses (``PICTURE_UP``, or a search's own ``up``), so a
+    folder whose poses put another axis up is never resumed into.
     """
-    record = {"method": method.record(), "max_faces": max_faces}
+    record = {"method": method.record(), "max_faces": max_faces,
+              "image_up": list(PICTURE_UP)}
     text = json.dumps(record, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16], record
 

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.checks import as_path, check_int, one_line
@@ -163,6 +164,17 @@ class PredictedMethod:
 
 ThumbnailMethod = SearchMethod | MeasureMethod | ViewSetMethod | PredictedMethod
 """The methods a thumbnail's direction comes from; each has the camera its pictures use."""
+
+
+def _stood_up(mesh: Mesh, direction: NDArray[np.float64], up: tuple[float, float, float]
+              ) -> tuple[Mesh, NDArray[np.float64]]:
+    """The mesh and view direction turned together so that the mesh's own up axis
+    (:func:`vptoolkit.upright.resting_up`, as the search with ``up="auto"`` found it) is the
+    picture's ``up``: the same view, upright."""
+    from vptoolkit.upright import resting_up, rotation_between
+
+    turn = rotation_between(resting_up(mesh), up)
+    return replace(mesh, vertices=mesh.vertices @ turn.T), direction @ turn.T
 
 
 def picture_name(key: str) -> str:
@@ -313,7 +325,10 @@ def render_thumbnails(
                     image, _ = view_set_sheet(model, view_set=result.answer.detail,
                                               settings=method.settings, engine=active)
                 else:
-                    image = active.render(model, result.answer.directions[rows][0])[0]
+                    direction = result.answer.directions[rows][0]
+                    if search is not None and search.up == "auto":
+                        model, direction = _stood_up(model, direction, active.style.up)
+                    image = active.render(model, direction)[0]
                 image_path.parent.mkdir(parents=True, exist_ok=True)
                 save_png(image, image_path)
                 drawn[0] += 1
