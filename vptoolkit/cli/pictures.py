@@ -24,6 +24,7 @@ from vptoolkit.cli.options import (
     cache_dir_option,
     engine_option,
     face_limit_option,
+    margin_option,
     parse_measures,
     resolution_option,
     scheduler_option,
@@ -59,15 +60,17 @@ Vector = tuple[float, float, float]
 @views_option("Views sampled for --best.")
 @resolution_option("Triangle-ID resolution of the measures for --best.")
 @up_option()
+@margin_option()
 @engine_option()
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector, engine: str) -> None:
+           up: Vector, margin: float, engine: str) -> None:
     """Draw MESH through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
-    what the measures score for that direction (same eye, target, up and field
-    of view); --view-set K draws the K views that together see the most of the
+    what the measures score for that direction (same eye, target and up; the
+    picture is magnified until the model fills it up to --margin), in the
+    model's own colours and texture where the file has them; --view-set K draws the K views that together see the most of the
     surface as one captioned contact sheet.
 
     \b
@@ -77,7 +80,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
     """
-    from vptoolkit.inputs import read_model
+    from vptoolkit.io import load_with_appearance, require_surface
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.png import save_png
     from vptoolkit.pictures.shading import RenderStyle
@@ -90,28 +93,31 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    loaded = read_model(mesh, requires="surface")
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+    model, appearance = load_with_appearance(mesh)
+    loaded = require_surface(model, mesh.name)
+    with open_renderer(engine, size=size, style=RenderStyle(up=up, margin=margin)) as drawing:
         if view_set_k is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-            sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing)
+            sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing,
+                                           appearance=appearance)
             save_png(sheet, output)
             click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
                        f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
             return
         if best is not None:
-            picture = render_best(loaded, measure=best, settings=settings, engine=drawing)
+            picture = render_best(loaded, measure=best, settings=settings, engine=drawing,
+                                  appearance=appearance)
         elif model_path is not None:
             from vptoolkit.learn.predict import MeshPredictor
 
             picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure,
-                                       engine=drawing)
+                                       engine=drawing, appearance=appearance)
         else:
             assert view is not None  # exactly one choice, checked above
             direction = as_directions(view, name="--view")[0]
-            picture = RenderedView(render_view(loaded, direction, engine=drawing), direction,
-                                   "--view")
+            picture = RenderedView(render_view(loaded, direction, engine=drawing,
+                                               appearance=appearance), direction, "--view")
     save_png(picture.image, output)
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
@@ -247,22 +253,25 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @face_limit_option()
 @timeout_option()
 @up_option()
+@margin_option()
 @engine_option()
 @click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
               "disk from a few, drawing and writing nothing.")
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float, up: Vector,
-               engine: str, dry_run: bool) -> None:
+               margin: float, engine: str, dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
     @list.txt. SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
     the anytime search with a budget of --views (--views 1000 and more measure
     every view of a Fibonacci sphere instead: the exhaustive answer, at
-    --resolution). OUT/thumbnails.json records directions and the files
-    skipped with their reasons (exit status 1 if any); rerunning the command
-    draws only what is missing.
+    --resolution). Each model is drawn in its own colours and texture where
+    its file has them, magnified until it fills the picture up to --margin.
+    OUT/thumbnails.json records directions and the files skipped with their
+    reasons (exit status 1 if any); OUT/index.html shows the pictures, a page
+    at a time; rerunning the command draws only what is missing.
 
     \b
     Example:
@@ -302,7 +311,7 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                                     max_faces=max_faces, timeout=timeout).lines():
             click.echo(line)
         return
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+    with open_renderer(engine, size=size, style=RenderStyle(up=up, margin=margin)) as drawing:
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",
                                    view_set=view_set_k, workers=workers, scheduler=scheduler,
