@@ -115,7 +115,8 @@ def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
     near = max(distance - 1.05 * radius, 1e-3 * distance)
     far = distance + 1.05 * radius
     zoom = float(frame_zoom(poses, points, style.margin)[0])
-    fov_deg = 2.0 * math.degrees(math.atan(math.tan(math.radians(camera.fov_deg) / 2.0) / zoom))
+    fov_deg = camera.fov_deg if zoom == 1.0 else \
+        2.0 * math.degrees(math.atan(math.tan(math.radians(camera.fov_deg) / 2.0) / zoom))
     return _Frame(eye, centre, up, light_direction(style, forward, up, right), near, far,
                   fov_deg)
 
