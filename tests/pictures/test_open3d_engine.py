@@ -97,6 +97,18 @@ def test_vertex_colours_are_drawn(default_renderer):
 
 
 @pytest.mark.renderer
+def test_duck_texture_is_sampled_at_the_corners(default_renderer):
+    require_package("PIL")
+    from vptoolkit.io import load_with_appearance
+    from vptoolkit.samples import sample_path
+
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    image = default_renderer.render(duck, [0.3, 0.4, 1.0], appearance=appearance)[0]
+    red, green, blue = image[(image < 250).any(axis=2)].astype(float).mean(axis=0)
+    assert red > 150 and green > 120 and blue < 80, (red, green, blue)
+
+
+@pytest.mark.renderer
 def test_pictures_are_framed_to_the_margin(default_renderer):
     border = round(0.05 * SIZE)
     image = default_renderer.render(box_mesh((3.0, 2.0, 0.05)), [0.2, 0.3, 1.0])[0]

@@ -17,6 +17,7 @@ from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.pictures.views import render_view
+from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_id_images, face_pixel_counts
 
@@ -106,7 +107,6 @@ def test_both_engines_draw_the_same_silhouette(open3d_renderer, cube):
 
 # ------------------------------------------------------------------ the model's own appearance
 
-SAMPLES = Path(__file__).resolve().parents[2] / "vptoolkit" / "samples"
 REAL = Path(__file__).resolve().parents[1] / "assets" / "real"
 
 
@@ -119,7 +119,7 @@ def test_duck_is_drawn_yellow_from_its_texture():
     require_package("PIL")
     from vptoolkit.io import load_with_appearance
 
-    duck, appearance = load_with_appearance(SAMPLES / "Duck.glb")
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
     assert appearance.texture is not None and appearance.corner_uv is not None
     with SoftwareRenderer(size=128) as renderer:
         painted = drawn_pixels(renderer.render(duck, [0.3, 0.4, 1.0], appearance=appearance)[0])
@@ -171,7 +171,7 @@ def test_obj_material_colours_are_drawn(tmp_path: Path):
 def test_ply_vertex_colours_are_interpolated(tmp_path: Path):
     from vptoolkit.io import load_mesh, load_with_appearance
 
-    bunny = load_mesh(SAMPLES / "bunny.ply")
+    bunny = load_mesh(sample_path("bunny.ply"))
     height = bunny.vertices[:, 1]
     level = (height - height.min()) / np.ptp(height)
     colours = np.stack([255 * level, np.zeros_like(level), 255 * (1 - level)], axis=1)

@@ -10,8 +10,8 @@ in a :class:`~vptoolkit.pictures.shading.RenderStyle`, in the model's own
   the measures' rasteriser and numpy shading, in this process (the default);
   it draws vertex, face and base colours and base-colour textures;
 * ``"open3d"``: :class:`vptoolkit.pictures.open3d_engine.Renderer`, Open3D's
-  Filament in a child process; it draws vertex, face and base colours but
-  no texture. On Mesa's software Vulkan driver its frame time depends on
+  Filament in a child process; it draws vertex, face and base colours and
+  samples a texture at the triangle corners only. On Mesa's software Vulkan driver its frame time depends on
   the view, from 0.1 s to minutes, which is why it is not the default.
 
 Neither draws transparency (alpha is ignored), normal, metallic or

@@ -8,8 +8,10 @@ Shading
     Open3D's ``defaultLit`` material in the style's colour, or in the
     model's own colours where an :class:`~vptoolkit.appearance.Appearance`
     gives them (vertex, face and base colours as per-corner colours,
-    :func:`~vptoolkit.pictures.shading.corner_colors`; textures, transparency
-    and normal maps are not drawn), over a plain background; normals are smoothed across edges sharper than
+    :func:`~vptoolkit.pictures.shading.corner_colors`, times the base-colour
+    texture sampled at each corner only, so a texture's detail between
+    corners is lost; transparency and normal maps are not drawn), over a
+    plain background; normals are smoothed across edges sharper than
     ``crease_angle_deg`` only, so a cube shows flat faces and a scanned
     bunny a smooth surface. One directional light (the sun) shines from
     above and to the left of the camera, so faces that meet at a corner get
@@ -73,6 +75,8 @@ from vptoolkit.pictures.shading import (
     frame_zoom,
     light_direction,
     picture_camera,
+    srgb8_to_linear,
+    texture_lookup,
 )
 from vptoolkit.sphere import as_directions
 
@@ -373,6 +377,13 @@ class Renderer:
             raise InputError(f"{mesh.name}: model has zero extent")
         self._shading = crease_normals(mesh, self.style.crease_angle_deg)
         colors = corner_colors(appearance, mesh.faces, mesh.n_vertices)
+        if colors is not None and appearance is not None and appearance.texture is not None \
+                and appearance.corner_uv is not None:  # the texture at each corner only
+            uv = appearance.corner_uv.reshape(-1, 2)
+            textured = np.isfinite(uv).all(axis=1)
+            flat = colors.reshape(-1, 3)
+            flat[textured] *= texture_lookup(srgb8_to_linear(appearance.texture[..., :3]),
+                                             uv[textured])
         self._colors = None if colors is None else \
             colors[self._shading.kept].reshape(-1, 3).astype(np.float32)
         self._points = mesh.vertices[np.unique(mesh.faces)]
@@ -426,8 +437,9 @@ class Renderer:
     def render(self, mesh: MeshLike, directions: ArrayLike, *,
                appearance: Appearance | None = None) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
-        sRGB pictures, in the colours of ``appearance`` where given (not its
-        texture), as :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
+        sRGB pictures, in the colours of ``appearance`` where given (its
+        texture sampled at the corners only), as
+        :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
         specifies (a single direction gives ``n = 1``).
 
         Raises

@@ -335,16 +335,19 @@ def corner_colors(appearance: Appearance | None, faces: NDArray[np.int64],
     Returns
     -------
     colors : (n_faces, 3, 3) float64 or None
-        Linear RGB in [0, 1]; None when the appearance has no colour (then
-        the style's colour applies), or only a texture (then 1, the
-        texture's multiplier, at every corner).
+        Linear RGB in [0, 1]; None when the appearance has no colour and no
+        texture with texture coordinates (then the style's colour applies);
+        1 at every corner where it has only a texture (its multiplier).
 
     Raises
     ------
     InputError
         If the appearance's arrays do not match the mesh's counts.
     """
-    if appearance is None or appearance.is_empty:
+    if appearance is None or (
+            appearance.vertex_colors is None and appearance.face_colors is None
+            and appearance.base_color is None
+            and (appearance.texture is None or appearance.corner_uv is None)):
         return None
     colors = np.ones((len(faces), 3, 3))
     if appearance.vertex_colors is not None:
@@ -363,14 +366,15 @@ def corner_colors(appearance: Appearance | None, faces: NDArray[np.int64],
     return colors
 
 
-def texture_lookup(texture: NDArray[np.uint8], uv: NDArray[np.float64], *,
+def texture_lookup(texture: NDArray[np.float32], uv: NDArray[np.float64], *,
                    bilinear: bool = True) -> NDArray[np.float64]:
-    """Linear RGB of a texture at texture coordinates, repeating outside [0, 1].
+    """Colours of a texture at texture coordinates, repeating outside [0, 1].
 
     Parameters
     ----------
-    texture : (height, width, 4) uint8
-        sRGB image, its first row the top (``v = 1``).
+    texture : (height, width, 3) float32
+        The image in linear RGB (:func:`srgb8_to_linear` of the stored
+        sRGB), its first row the top (``v = 1``).
     uv : (n, 2) float64
         ``(u, v)`` with ``(0, 0)`` the bottom-left corner of the image and
         ``(1, 1)`` its top-right (glTF's ``REPEAT`` wrapping outside).
@@ -381,27 +385,24 @@ def texture_lookup(texture: NDArray[np.uint8], uv: NDArray[np.float64], *,
     Returns
     -------
     colors : (n, 3) float64
-        Linear RGB in [0, 1]; texel ``(i, j)``'s centre is at
-        ``u = (j + 1/2) / width``, ``v = 1 - (i + 1/2) / height``.
+        Linear RGB; texel ``(i, j)``'s centre is at ``u = (j + 1/2) / width``,
+        ``v = 1 - (i + 1/2) / height``.
     """
     height, width = texture.shape[:2]
     x = np.mod(uv[:, 0], 1.0) * width - 0.5
     y = (1.0 - np.mod(uv[:, 1], 1.0)) * height - 0.5
-    rgb = texture[..., :3]
     if not bilinear:
         column = np.mod(np.round(x).astype(np.int64), width)
         row = np.mod(np.round(y).astype(np.int64), height)
-        return srgb8_to_linear(rgb[row, column])
+        return texture[row, column].astype(np.float64)
     left, top = np.floor(x), np.floor(y)
     dx, dy = (x - left)[:, None], (y - top)[:, None]
     c0 = np.mod(left.astype(np.int64), width)
     c1 = np.mod(c0 + 1, width)
     r0 = np.mod(top.astype(np.int64), height)
     r1 = np.mod(r0 + 1, height)
-    return ((1 - dy) * ((1 - dx) * srgb8_to_linear(rgb[r0, c0])
-                        + dx * srgb8_to_linear(rgb[r0, c1]))
-            + dy * ((1 - dx) * srgb8_to_linear(rgb[r1, c0])
-                    + dx * srgb8_to_linear(rgb[r1, c1])))
+    return ((1 - dy) * ((1 - dx) * texture[r0, c0] + dx * texture[r0, c1])
+            + dy * ((1 - dx) * texture[r1, c0] + dx * texture[r1, c1]))
 
 
 def srgb_to_linear(value: float) -> float:
@@ -409,12 +410,13 @@ def srgb_to_linear(value: float) -> float:
     return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
 
 
-def srgb8_to_linear(values: NDArray[np.uint8]) -> NDArray[np.float64]:
+def srgb8_to_linear(values: NDArray[np.uint8]) -> NDArray[np.float32]:
     """8-bit sRGB values (any shape) to linear RGB in [0, 1], as :func:`srgb_to_linear`."""
     return _SRGB8_TO_LINEAR[np.asarray(values, dtype=np.uint8)]
 
 
-_SRGB8_TO_LINEAR = np.array([srgb_to_linear(level / 255.0) for level in range(256)])
+_SRGB8_TO_LINEAR = np.array([srgb_to_linear(level / 255.0) for level in range(256)],
+                            dtype=np.float32)
 
 
 def linear_to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:

@@ -58,6 +58,7 @@ from vptoolkit.pictures.shading import (
     light_direction,
     linear_to_srgb,
     picture_camera,
+    srgb8_to_linear,
     srgb_to_linear,
     texture_lookup,
 )
@@ -106,14 +107,18 @@ class SoftwareRenderer:
         self._corners: NDArray[np.float64] | None = None
         self._corner_normals: NDArray[np.float64] | None = None
         self._points: NDArray[np.float64] = np.zeros((0, 3))
+        self._paint: _Paint | None = None  # the colours of _paint_source on _painted
+        self._painted: Mesh | None = None
+        self._paint_source: Appearance | None = None
 
     def start(self) -> SoftwareRenderer:
         """Nothing to start; returns self (as :class:`~vptoolkit.pictures.engine.Engine` asks)."""
         return self
 
     def close(self) -> None:
-        """Forget the cached mesh."""
+        """Forget the cached mesh and colours."""
         self._mesh = self._corners = self._corner_normals = None
+        self._paint = self._painted = self._paint_source = None
 
     def __enter__(self) -> SoftwareRenderer:
         return self
@@ -141,7 +146,10 @@ class SoftwareRenderer:
         mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
-        paint = _Paint.of(appearance, mesh)
+        if self._painted is not mesh or self._paint_source is not appearance:
+            self._paint = _Paint.of(appearance, mesh)
+            self._painted, self._paint_source = mesh, appearance
+        paint = self._paint
         camera = picture_camera(self.camera, self.style.up)
         factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
         fine = self.size * factor
@@ -229,8 +237,9 @@ class _Paint:
 
     def __init__(self, corners: NDArray[np.float64], appearance: Appearance) -> None:
         self.corners = corners
-        self.texture = appearance.texture if appearance.corner_uv is not None else None
         self.corner_uv = appearance.corner_uv
+        self.texture = None if appearance.texture is None or self.corner_uv is None else \
+            srgb8_to_linear(appearance.texture[..., :3])
 
     @classmethod
     def of(cls, appearance: Appearance | None, mesh: Mesh) -> _Paint | None:
