@@ -54,7 +54,8 @@ def main() -> None:
         sheet = contact_sheet(tiles, [name for name, _, _ in models], columns=6)
         save_png(sheet, folder / f"appearance_{state}.png")
         print(f"wrote {folder / f'appearance_{state}.png'}")
-    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    model, appearance = load_with_appearance(sample_path("Duck.glb"))
+    duck = require_surface(model, "Duck.glb")
     states = {"without texture": None, "with texture": appearance}
     seconds: dict[str, list[float]] = {label: [] for label in states}
     with SoftwareRenderer(size=256) as engine:

@@ -149,7 +149,8 @@ def test_milk_truck_shows_its_texture_and_face_colours():
 def test_obj_material_colours_are_drawn(tmp_path: Path):
     from vptoolkit.io import load_with_appearance
 
-    (tmp_path / "two.mtl").write_text("newmtl red\nKd 0.9 0.05 0.05\nnewmtl blue\nKd 0.05 0.1 0.9\n")
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 0.9 0.05 0.05\n"
+                                      "newmtl blue\nKd 0.05 0.1 0.9\n")
     vertices = "\n".join(f"v {x} {y} {z}" for x, y, z in box_mesh().vertices)
     faces = box_mesh().faces + 1
     half = len(faces) // 2

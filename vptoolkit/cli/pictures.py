@@ -70,8 +70,9 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     Give exactly one of --view, --best, --model or --view-set. The picture shows
     what the measures score for that direction (same eye, target and up; the
     picture is magnified until the model fills it up to --margin), in the
-    model's own colours and texture where the file has them; --view-set K draws the K views that together see the most of the
-    surface as one captioned contact sheet.
+    model's own colours and texture where the file has them; --view-set K
+    draws the K views that together see the most of the surface as one
+    captioned contact sheet.
 
     \b
     Example:

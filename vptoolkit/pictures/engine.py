@@ -11,8 +11,9 @@ in a :class:`~vptoolkit.pictures.shading.RenderStyle`, in the model's own
   it draws vertex, face and base colours and base-colour textures;
 * ``"open3d"``: :class:`vptoolkit.pictures.open3d_engine.Renderer`, Open3D's
   Filament in a child process; it draws vertex, face and base colours and
-  samples a texture at the triangle corners only. On Mesa's software Vulkan driver its frame time depends on
-  the view, from 0.1 s to minutes, which is why it is not the default.
+  samples a texture at the triangle corners only. On Mesa's software
+  Vulkan driver its frame time depends on the view, from 0.1 s to
+  minutes, which is why it is not the default.
 
 Neither draws transparency (alpha is ignored), normal, metallic or
 emissive maps, or point colours (a point cloud is not drawn).

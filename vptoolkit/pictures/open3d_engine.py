@@ -404,10 +404,10 @@ class Renderer:
         assert child is not None and self._shading is not None  # noqa: S101
         key = (id(mesh), id(self._appearance))
         if child.mesh_key != key:
-            arrays = {"positions": self._shading.positions, "normals": self._shading.normals}
+            corners = {"positions": self._shading.positions, "normals": self._shading.normals}
             if self._colors is not None:
-                arrays["colors"] = self._colors
-            child.send({"op": "mesh"}, arrays)
+                corners["colors"] = self._colors
+            child.send({"op": "mesh"}, corners)
             answer, _ = child.receive(self.frame_timeout)
             if not answer.get("ok"):
                 raise MeasurementError(f"{mesh.name}: renderer: {answer.get('error')}")

@@ -44,8 +44,10 @@ from typing import Any
 
 import numpy as np
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.collection.discover import Entry, is_remote_entry
 from vptoolkit.collection.methods import (
     Answer,
     MeasureMethod,
@@ -54,8 +56,6 @@ from vptoolkit.collection.methods import (
     ViewSetMethod,
     cameras,
 )
-from vptoolkit.appearance import Appearance
-from vptoolkit.collection.discover import Entry, is_remote_entry
 from vptoolkit.collection.runner import (
     MAX_MODEL_FACES,
     TIMEOUT_S,
