@@ -73,9 +73,10 @@ def upright_renderer():
     yield from started_renderer(SIZE, style=RenderStyle(margin=None))
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture()
 def default_renderer():
-    """A render child with the default style: image up +y, framed to the default margin."""
+    """A render child with the default style: image up +y, framed to the default margin
+    (one per test, closed after it, so that no more children run at once than before)."""
     yield from started_renderer(SIZE, frame_timeout=30.0)
 
 
