@@ -25,7 +25,10 @@ each pixel is shaded in numpy:
   (:func:`vptoolkit.pictures.shading.frame_zoom`) is rasterised at
   ``z`` times the side with the same field of view and its centre kept
   (the side rounded down to keep the parity, so the centre stays on a
-  pixel corner), which is the magnified picture; ``z < 1`` pads instead;
+  pixel corner), which is the magnified picture; ``z < 1`` pads instead.
+  The rasterised side is at most 4096, so a model that needs more
+  magnification than that allows (a needle seen end on, pictures of
+  2048 px and more) fills less than the frame;
 * the supersampled linear image is averaged down (anti-aliasing over the
   background) and encoded as sRGB.
 
@@ -72,8 +75,8 @@ _DEFAULT_SUN = RenderStyle().light_intensity
 _DEFAULT_AMBIENT = RenderStyle().ambient_intensity
 _SUN = 0.78  # diffuse weight of the default sun
 _AMBIENT = 0.30  # weight of the default ambient light
-_MAX_FINE = 4096  # largest supersampled side; bigger pictures get fewer samples per pixel
-_MAX_RASTER = 8192  # largest rasterised side of a magnified view (thinner models fill less)
+_MAX_FINE = 4096  # largest rasterised side; bigger pictures get fewer samples per pixel,
+# and a view is magnified at most to this side (a model that needs more fills less)
 _CHUNK = 1 << 20  # pixels shaded at once
 
 
@@ -174,7 +177,7 @@ class SoftwareRenderer:
                   zoom: float, focal: float) -> tuple[NDArray[np.int32], float]:
         """The ``fine``-side triangle-ID image (flat) of one view magnified ``zoom`` times
         about its centre, and its focal length in pixels."""
-        side = min(fine + 2 * int(np.floor((zoom - 1.0) * fine / 2.0)), _MAX_RASTER)
+        side = min(fine + 2 * int(np.floor((zoom - 1.0) * fine / 2.0)), _MAX_FINE)
         side = max(side - (side - fine) % 2, 2 - fine % 2)
         settings = MeasureSettings(views=1, resolution=side, camera=camera)
         raster = face_id_images(mesh, settings, view_directions=direction)[0]
