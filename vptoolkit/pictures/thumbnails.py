@@ -361,10 +361,12 @@ def render_thumbnails(
                              finish=draw, progress=progress)
         size = active.size
     cards = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
-    pages = write_thumbnail_index(target, cards, size=size,
-                                  title=f"Thumbnails of {source}: best {measure} views"
-                                  if not isinstance(method, ViewSetMethod)
-                                  else f"View sets of {source}")
+    if isinstance(method, ViewSetMethod):
+        title = f"View sets of {source}"
+    else:
+        chosen = "predicted" if isinstance(method, PredictedMethod) else "best"
+        title = f"Thumbnails of {source}: {chosen} {measure} views"
+    pages = write_thumbnail_index(target, cards, size=size, title=title)
     failures = [ThumbnailFailure(key, reason) for key, reason in run.failures]
     return ThumbnailResult(sorted(target / image for _, image, _ in cards), failures,
                            target / _INDEX_NAME, pages[0], run.table, drawn[0])
