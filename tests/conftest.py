@@ -21,6 +21,7 @@ SLOW_MARKERS = ("slow", "renderer")
 """Markers of the tests that a run without ``--run-slow`` leaves out."""
 
 pytest_plugins = [
+    "fixtures.browser",
     "fixtures.builds",
     "fixtures.commands",
     "fixtures.environment",

@@ -64,12 +64,30 @@ def test_render_from_the_bundled_network(renderer_available, runner, tmp_path):
     assert model_mask(decode_png(output.read_bytes())).any()
 
 
+@pytest.mark.parametrize("margin", [0.0, 0.15])
+def test_render_draws_the_duck_in_its_texture_framed_to_the_margin(runner, tmp_path, margin):
+    require_package("PIL")
+    output = tmp_path / "duck.png"
+    result = runner.invoke(main, ["render", str(sample_path("Duck.glb")), "--view", "1,0.7,1.3",
+                                  "--size", "80", "--margin", str(margin), "-o", str(output)])
+    assert result.exit_code == 0, result.output
+    image = decode_png(output.read_bytes())
+    rows, columns = np.nonzero((image < 255).any(axis=2))
+    border = round(margin * 80)
+    gaps = [columns.min() - border, rows.min() - border, 79 - border - columns.max(),
+            79 - border - rows.max()]
+    assert 0 <= min(gaps) <= 2, gaps
+    red, green, blue = image[(image < 250).any(axis=2)].astype(float).mean(axis=0)
+    assert red > 150 and green > 120 and blue < 80
+
+
 @pytest.mark.parametrize("arguments, message", [
     ([], "exactly one of --view, --best, --model or --view-set"),
+    (["--view", "1,0,0", "--margin", "0.6"], "--margin"),
     (["--view", "1,0,0", "--best", "VE"], "exactly one of"),
     (["--view", "1,2"], "--view: expected three numbers x,y,z"),
     (["--view", "0,0,0"], "--view"),
-], ids=["none", "two", "short-view", "zero-view"])
+], ids=["none", "two", "wide-margin", "short-view", "zero-view"])
 def test_render_rejects_bad_choices_in_one_line(runner, cube_file, tmp_path, arguments, message):
     result = runner.invoke(main, ["render", str(cube_file), *arguments,
                                   "-o", str(tmp_path / "x.png")])

@@ -63,13 +63,60 @@ def test_renderer_checks_its_arguments():
 def renderer():
     """One render child for the module, with the measures' own roll (image up -y), so that
     picture pixels are triangle-ID pixels; start-up is paid once."""
-    yield from started_renderer(SIZE, frame_timeout=30.0, style=RenderStyle(up=Camera().up))
+    yield from started_renderer(SIZE, frame_timeout=30.0,
+                                style=RenderStyle(up=Camera().up, margin=None))
 
 
 @pytest.fixture(scope="module")
 def upright_renderer():
-    """A render child with the default style (image up +y)."""
-    yield from started_renderer(SIZE)
+    """A render child with the default image up (+y), framed as the measures frame."""
+    yield from started_renderer(SIZE, style=RenderStyle(margin=None))
+
+
+@pytest.fixture()
+def default_renderer():
+    """A render child with the default style: image up +y, framed to the default margin
+    (one per test, closed after it, so that no more children run at once than before)."""
+    yield from started_renderer(SIZE, frame_timeout=30.0)
+
+
+@pytest.mark.renderer
+def test_vertex_colours_are_drawn(default_renderer):
+    from vptoolkit.appearance import Appearance
+
+    box = box_mesh((2.0, 1.0, 1.0))
+    colours = np.where(box.vertices[:, :1] > 0, [[230, 20, 20, 255]], [[20, 20, 230, 255]])
+    appearance = Appearance(vertex_colors=colours.astype(np.uint8))
+    image = default_renderer.render(box, [0.0, 0.3, 1.0], appearance=appearance)[0]
+    pixels = image[model_mask(image)].astype(float)
+    reddish = (pixels[:, 0] > pixels[:, 2] + 40).mean()
+    bluish = (pixels[:, 2] > pixels[:, 0] + 40).mean()
+    assert reddish > 0.25 and bluish > 0.25, (reddish, bluish)
+    plain = default_renderer.render(box, [0.0, 0.3, 1.0])[0]
+    grey = plain[model_mask(plain)].astype(float)
+    assert (grey[:, 2] >= grey[:, 0]).all()  # the style's blue-grey
+
+
+@pytest.mark.renderer
+def test_duck_texture_is_sampled_at_the_corners(default_renderer):
+    require_package("PIL")
+    from vptoolkit.io import load_with_appearance
+    from vptoolkit.samples import sample_path
+
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    image = default_renderer.render(duck, [0.3, 0.4, 1.0], appearance=appearance)[0]
+    red, green, blue = image[(image < 250).any(axis=2)].astype(float).mean(axis=0)
+    assert red > 150 and green > 120 and blue < 80, (red, green, blue)
+
+
+@pytest.mark.renderer
+def test_pictures_are_framed_to_the_margin(default_renderer):
+    border = round(0.05 * SIZE)
+    image = default_renderer.render(box_mesh((3.0, 2.0, 0.05)), [0.2, 0.3, 1.0])[0]
+    rows, columns = np.nonzero((image < 255).any(axis=2))
+    gaps = [columns.min() - border, rows.min() - border, SIZE - 1 - border - columns.max(),
+            SIZE - 1 - border - rows.max()]
+    assert min(gaps) >= -1 and min(gaps) <= 2, gaps
 
 
 @pytest.mark.renderer

@@ -11,23 +11,18 @@ test skips when chromium is absent, or fails with ``VPTOOLKIT_REQUIRE_ALL=1``.
 from __future__ import annotations
 
 import base64
-import fcntl
 import hashlib
 import html
 import json
-import os
 import re
-import select
-import shutil
-import subprocess
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
 
-from fixtures.environment import REQUIRE_ALL, require_package
+from fixtures.browser import Chromium, Page
+from fixtures.environment import require_package
 from fixtures.meshes import primitive_mesh
 from fixtures.pictures import (
     decode_png,
@@ -271,133 +266,6 @@ def test_report_rejects_an_unknown_split_and_unfit_predictions(store, prediction
     assert not (tmp_path / "r" / "index.html").exists()
 
 
-CHROMIUM_FLAGS = (
-    "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-    "--disable-background-networking", "--disable-component-update", "--disable-sync",
-    "--remote-debugging-pipe", "--window-size=1280,1000",
-)
-
-
-class Chromium:
-    """Headless Chromium driven over the DevTools protocol on fds 3 (in) and 4 (out)."""
-
-    def __init__(self, executable: str, profile: Path, log: Path) -> None:
-        to_browser, self._to_browser = os.pipe()
-        self._from_browser, from_browser = os.pipe()
-        # Lift the child's ends above fd 10 so that "3<&A 4>&B" cannot clobber them
-        # (bash, not dash: dash reads single-digit descriptors only).
-        child_in = fcntl.fcntl(to_browser, fcntl.F_DUPFD, 10)
-        child_out = fcntl.fcntl(from_browser, fcntl.F_DUPFD, 10)
-        os.close(to_browser)
-        os.close(from_browser)
-        command = f'exec "$0" "$@" 3<&{child_in} 4>&{child_out} {child_in}<&- {child_out}>&-'
-        with open(log, "wb") as log_file:
-            self.process = subprocess.Popen(
-                ["bash", "-c", command, executable, *CHROMIUM_FLAGS,
-                 f"--user-data-dir={profile}", "about:blank"],
-                pass_fds=(child_in, child_out), stdin=subprocess.DEVNULL,
-                stdout=log_file, stderr=subprocess.STDOUT,
-            )
-        os.close(child_in)
-        os.close(child_out)
-        self._buffer = b""
-        self._next_id = 0
-        self.events: list[dict[str, Any]] = []
-
-    def _read_one(self, deadline: float) -> dict[str, Any]:
-        while b"\0" not in self._buffer:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise TimeoutError("no DevTools message in time")
-            ready, _, _ = select.select([self._from_browser], [], [], remaining)
-            if ready:
-                chunk = os.read(self._from_browser, 1 << 16)
-                if not chunk:
-                    raise EOFError("chromium closed the DevTools pipe")
-                self._buffer += chunk
-        message, self._buffer = self._buffer.split(b"\0", 1)
-        return json.loads(message)
-
-    def send(self, method: str, params: dict[str, Any] | None = None, *,
-             session: str | None = None, timeout: float = 30.0) -> dict[str, Any]:
-        self._next_id += 1
-        message: dict[str, Any] = {"id": self._next_id, "method": method, "params": params or {}}
-        if session:
-            message["sessionId"] = session
-        os.write(self._to_browser, json.dumps(message).encode() + b"\0")
-        deadline = time.monotonic() + timeout
-        while True:
-            answer = self._read_one(deadline)
-            if answer.get("id") == self._next_id:
-                if "error" in answer:
-                    raise RuntimeError(f"{method}: {answer['error']}")
-                return answer.get("result", {})
-            self.events.append(answer)
-
-    def wait_for(self, method: str, *, timeout: float = 30.0) -> dict[str, Any]:
-        deadline = time.monotonic() + timeout
-        while True:
-            for position, event in enumerate(self.events):
-                if event.get("method") == method:
-                    return self.events.pop(position)
-            self.events.append(self._read_one(deadline))
-
-    def close(self) -> None:
-        try:
-            self.send("Browser.close", timeout=5.0)
-        except (OSError, EOFError, TimeoutError, RuntimeError):
-            pass
-        try:
-            self.process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
-        os.close(self._to_browser)
-        os.close(self._from_browser)
-
-
-class Page:
-    """One tab: navigation, script evaluation and the errors it reported."""
-
-    def __init__(self, browser: Chromium) -> None:
-        self.browser = browser
-        target = browser.send("Target.createTarget", {"url": "about:blank"})["targetId"]
-        self.session = browser.send("Target.attachToTarget",
-                                    {"targetId": target, "flatten": True})["sessionId"]
-        for domain in ("Page", "Runtime", "Log"):
-            self.call(f"{domain}.enable")
-
-    def call(self, method: str, params: dict[str, Any] | None = None) -> dict[str, Any]:
-        return self.browser.send(method, params, session=self.session)
-
-    def open(self, url: str) -> None:
-        """Load ``url`` afresh (via about:blank: a change of the hash alone fires no load event)."""
-        for address in ("about:blank", url):
-            self.browser.events.clear()
-            self.call("Page.navigate", {"url": address})
-            self.browser.wait_for("Page.loadEventFired")
-
-    def evaluate(self, expression: str) -> Any:
-        result = self.call("Runtime.evaluate", {"expression": expression,
-                                                "returnByValue": True, "awaitPromise": True})
-        if "exceptionDetails" in result:
-            raise AssertionError(f"script failed: {result['exceptionDetails']}")
-        return result["result"].get("value")
-
-    def errors(self) -> list[str]:
-        found = []
-        for event in self.browser.events:
-            method, params = event.get("method"), event.get("params", {})
-            if method == "Runtime.exceptionThrown":
-                found.append(json.dumps(params["exceptionDetails"])[:300])
-            elif method == "Runtime.consoleAPICalled" and params.get("type") in (
-                    "error", "warning", "assert"):
-                found.append(json.dumps(params.get("args"))[:300])
-            elif method == "Log.entryAdded" and params["entry"]["level"] in ("error", "warning"):
-                found.append(params["entry"].get("text", "")[:300])
-        return found
-
-
 VISIBLE_NAMES = """
 Array.prototype.filter.call(document.querySelectorAll("article.card"),
     function (card) { return card.offsetParent !== null; })
@@ -411,22 +279,6 @@ def choose(select_id: str, value: str) -> str:
             f's.value = {json.dumps(value)}; s.dispatchEvent(new Event("change")); '
             f"return [window.location.hash, document.getElementById('shown-count').textContent]; "
             "}())")
-
-
-@pytest.fixture(scope="module")
-def chromium(tmp_path_factory: pytest.TempPathFactory):
-    executable = shutil.which("chromium") or shutil.which("chromium-browser")
-    if executable is None:
-        if REQUIRE_ALL:
-            pytest.fail("chromium is required (VPTOOLKIT_REQUIRE_ALL=1) but not installed")
-        pytest.skip("chromium not installed")
-    folder = tmp_path_factory.mktemp("chromium")
-    browser = Chromium(executable, folder / "profile", folder / "chromium.log")
-    try:
-        browser.send("Browser.getVersion", timeout=60.0)
-        yield browser
-    finally:
-        browser.close()
 
 
 @pytest.mark.renderer

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
+from fixtures.environment import require_package
 from fixtures.meshes import box_mesh
 from fixtures.pictures import model_mask, started_renderer
 from vptoolkit.camera import Camera
@@ -14,11 +17,12 @@ from vptoolkit.pictures.engine import open_renderer
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.software_engine import SoftwareRenderer
 from vptoolkit.pictures.views import render_view
+from vptoolkit.samples import sample_path
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.visibility import face_id_images, face_pixel_counts
 
 SIZE = 96
-MEASURES_ROLL = RenderStyle(up=Camera().up)
+MEASURES_FRAME = RenderStyle(up=Camera().up, margin=None)
 
 
 def test_face_id_images_are_what_the_measures_count(bunny):
@@ -33,7 +37,7 @@ def test_face_id_images_are_what_the_measures_count(bunny):
 
 def test_silhouette_is_the_triangle_id_image(bunny):
     direction = [0.4, -0.3, 1.0]
-    with SoftwareRenderer(size=SIZE, style=MEASURES_ROLL, supersampling=1) as renderer:
+    with SoftwareRenderer(size=SIZE, style=MEASURES_FRAME, supersampling=1) as renderer:
         image = renderer.render(bunny, direction)[0]
     background = (image == 255).all(axis=2)
     ids = face_id_images(bunny, MeasureSettings(resolution=SIZE), view_directions=[direction])[0]
@@ -43,7 +47,7 @@ def test_silhouette_is_the_triangle_id_image(bunny):
 def test_cube_corner_view_shows_three_differently_lit_faces():
     cube = box_mesh()
     direction = np.array([1.0, 1.0, 1.0])
-    with SoftwareRenderer(size=SIZE, style=MEASURES_ROLL) as renderer:
+    with SoftwareRenderer(size=SIZE, style=MEASURES_FRAME) as renderer:
         image = renderer.render(cube, direction)[0]
     poses = Camera().poses(direction, centre=np.zeros(3), diagonal=np.sqrt(3), resolution=SIZE)
     brightness = []
@@ -99,3 +103,139 @@ def test_both_engines_draw_the_same_silhouette(open3d_renderer, cube):
         ours = model_mask(software.render(cube, direction)[0])
     theirs = model_mask(open3d_renderer.render(cube, direction)[0])
     assert (ours & theirs).sum() / (ours | theirs).sum() > 0.95
+
+
+# ------------------------------------------------------------------ the model's own appearance
+
+REAL = Path(__file__).resolve().parents[1] / "assets" / "real"
+
+
+def drawn_pixels(image: np.ndarray) -> np.ndarray:
+    """``(n, 3)`` float colours of the pixels that differ from the white background."""
+    return image[(image < 250).any(axis=2)].astype(np.float64)
+
+
+def test_duck_is_drawn_yellow_from_its_texture():
+    require_package("PIL")
+    from vptoolkit.io import load_with_appearance
+
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    assert appearance.texture is not None and appearance.corner_uv is not None
+    with SoftwareRenderer(size=128) as renderer:
+        painted = drawn_pixels(renderer.render(duck, [0.3, 0.4, 1.0], appearance=appearance)[0])
+        plain = drawn_pixels(renderer.render(duck, [0.3, 0.4, 1.0])[0])
+    red, green, blue = painted.mean(axis=0)
+    assert red > 150 and green > 120 and blue < 60, (red, green, blue)  # yellow
+    assert plain.mean(axis=0)[2] > plain.mean(axis=0)[0]  # the default blue-grey
+    assert len(painted) == len(plain)  # the same pixels, only their colour differs
+
+
+def test_milk_truck_shows_its_texture_and_face_colours():
+    require_package("PIL")
+    from vptoolkit.io import load_with_appearance
+
+    truck, appearance = load_with_appearance(REAL / "CesiumMilkTruck.glb")
+    textured = np.isfinite(appearance.corner_uv[:, 0, 0])
+    assert appearance.face_colors is not None and 0 < textured.sum() < truck.n_faces
+    with SoftwareRenderer(size=128) as renderer:
+        image = renderer.render(truck, [1.0, 0.5, 0.6], appearance=appearance)[0]
+    pixels = drawn_pixels(image)
+    # the white body with its green and blue logo, dark tyres and windows
+    assert (pixels.min(axis=1) > 200).mean() > 0.1
+    assert ((pixels[:, 1] > pixels[:, 0] + 40) | (pixels[:, 2] > pixels[:, 0] + 40)).sum() > 20
+    assert (pixels.max(axis=1) < 60).sum() > 20
+
+
+def test_obj_material_colours_are_drawn(tmp_path: Path):
+    from vptoolkit.io import load_with_appearance
+
+    (tmp_path / "two.mtl").write_text("newmtl red\nKd 0.9 0.05 0.05\n"
+                                      "newmtl blue\nKd 0.05 0.1 0.9\n")
+    vertices = "\n".join(f"v {x} {y} {z}" for x, y, z in box_mesh().vertices)
+    faces = box_mesh().faces + 1
+    half = len(faces) // 2
+    lines = ["mtllib two.mtl", vertices, "usemtl red",
+             *(f"f {a} {b} {c}" for a, b, c in faces[:half]), "usemtl blue",
+             *(f"f {a} {b} {c}" for a, b, c in faces[half:])]
+    (tmp_path / "two.obj").write_text("\n".join(lines) + "\n")
+    box, appearance = load_with_appearance(tmp_path / "two.obj")
+    assert appearance.face_colors is not None
+    with SoftwareRenderer(size=64) as renderer:
+        pixels = np.concatenate([drawn_pixels(renderer.render(box, direction,
+                                                              appearance=appearance)[0])
+                                 for direction in ([1, 1, 1], [-1, -1, -1])])
+    reddish = (pixels[:, 0] > 2 * pixels[:, 2]).mean()
+    bluish = (pixels[:, 2] > 2 * pixels[:, 0]).mean()
+    assert reddish > 0.2 and bluish > 0.2 and reddish + bluish > 0.9, (reddish, bluish)
+
+
+def test_ply_vertex_colours_are_interpolated(tmp_path: Path):
+    from vptoolkit.io import load_mesh, load_with_appearance
+
+    bunny = load_mesh(sample_path("bunny.ply"))
+    height = bunny.vertices[:, 1]
+    level = (height - height.min()) / np.ptp(height)
+    colours = np.stack([255 * level, np.zeros_like(level), 255 * (1 - level)], axis=1)
+    header = ["ply", "format ascii 1.0", f"element vertex {bunny.n_vertices}",
+              "property float x", "property float y", "property float z",
+              "property uchar red", "property uchar green", "property uchar blue",
+              f"element face {bunny.n_faces}", "property list uchar int vertex_indices",
+              "end_header"]
+    rows = [f"{x} {y} {z} {r:.0f} {g:.0f} {b:.0f}"
+            for (x, y, z), (r, g, b) in zip(bunny.vertices, colours)]
+    rows += [f"3 {a} {b} {c}" for a, b, c in bunny.faces]
+    (tmp_path / "painted.ply").write_text("\n".join(header + rows) + "\n")
+    painted, appearance = load_with_appearance(tmp_path / "painted.ply")
+    assert appearance.vertex_colors is not None
+    with SoftwareRenderer(size=96) as renderer:  # image up is +y: red on top, blue below
+        image = renderer.render(painted, [0.0, 0.0, 1.0], appearance=appearance)[0]
+    rows_drawn = np.nonzero((image < 250).any(axis=2))[0]
+    top = drawn_pixels(image[: (rows_drawn.min() + rows_drawn.max()) // 2 - 8])
+    bottom = drawn_pixels(image[(rows_drawn.min() + rows_drawn.max()) // 2 + 8:])
+    assert top[:, 0].mean() > top[:, 2].mean() + 30
+    assert bottom[:, 2].mean() > bottom[:, 0].mean() + 30
+    middle = drawn_pixels(image[(rows_drawn.min() + rows_drawn.max()) // 2 - 2:
+                                (rows_drawn.min() + rows_drawn.max()) // 2 + 2])
+    assert (np.abs(middle[:, 0] - middle[:, 2]) < 80).mean() > 0.5  # blended, not two levels
+
+
+def test_an_appearance_of_another_mesh_is_refused():
+    from vptoolkit.appearance import Appearance
+
+    colours = np.full((3, 4), 200, dtype=np.uint8)
+    with SoftwareRenderer(size=32) as renderer, pytest.raises(InputError, match="vertex colours"):
+        renderer.render(box_mesh(), [1, 1, 1], appearance=Appearance(vertex_colors=colours))
+
+
+# ------------------------------------------------------------------ framing
+
+
+def drawn_box(image: np.ndarray) -> tuple[int, int, int, int]:
+    """``(left, top, right, bottom)`` inclusive pixel bounds of the non-white pixels."""
+    rows, columns = np.nonzero((image < 255).any(axis=2))
+    return int(columns.min()), int(rows.min()), int(columns.max()), int(rows.max())
+
+
+@pytest.mark.parametrize("extents", [(6.0, 0.2, 0.2), (3.0, 2.0, 0.05)], ids=["thin", "flat"])
+@pytest.mark.parametrize("direction", [[0.2, 0.3, 1.0], [1.0, 0.1, 0.1], [0.5, 1.0, 0.4]])
+def test_framing_touches_the_margin_and_never_crosses_it(extents, direction):
+    size, margin = 200, 0.05
+    border = round(margin * size)  # 10 pixels free on every side
+    with SoftwareRenderer(size=size, style=RenderStyle(margin=margin)) as renderer:
+        image = renderer.render(box_mesh(extents), direction)[0]
+    left, top, right, bottom = drawn_box(image)
+    gaps = [left - border, top - border, size - 1 - border - right, size - 1 - border - bottom]
+    assert min(gaps) >= 0 and min(gaps) <= 2, gaps
+
+
+def test_framing_magnifies_about_the_centre():
+    plate = box_mesh((2.0, 2.0, 0.05))  # seen face on, it fills little of the inscribed circle
+    with SoftwareRenderer(size=SIZE, style=MEASURES_FRAME) as measures, \
+            SoftwareRenderer(size=SIZE, style=RenderStyle(up=Camera().up)) as framed:
+        before = drawn_box(measures.render(plate, [0.0, 0.0, 1.0])[0])
+        after = drawn_box(framed.render(plate, [0.0, 0.0, 1.0])[0])
+    assert after[2] - after[0] > 1.2 * (before[2] - before[0])  # larger
+    centre = (SIZE - 1) / 2
+    assert abs((after[0] + after[2]) / 2 - centre) <= 1.5  # about the same centre
+    with pytest.raises(InputError, match="margin"):
+        RenderStyle(margin=0.5)

@@ -91,6 +91,30 @@ def test_thumbnails_search_by_default_and_a_rerun_draws_nothing_done(mesh_folder
     assert again.table is not None and again.table.read_bytes() == first.table.read_bytes()
 
 
+def test_thumbnails_are_drawn_in_their_colours_and_indexed(tmp_path: Path):
+    require_package("PIL")
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+    from vptoolkit.samples import sample_path
+
+    source = tmp_path / "models"
+    source.mkdir()
+    shutil.copy(sample_path("Duck.glb"), source / "Duck.glb")
+    shutil.copy(sample_path("teapot.stl"), source / "teapot.stl")
+    with open_renderer(size=64) as engine:
+        result = render_thumbnails(source, tmp_path / "thumbs",
+                                   search=SearchSettings(budget=12, resolution=32), engine=engine)
+    duck = decode_png((tmp_path / "thumbs" / "Duck.glb.png").read_bytes()).astype(float)
+    red, green, blue = duck[model_mask(duck.astype("uint8"))].mean(axis=0)
+    assert red > 150 and green > 120 and blue < 80, (red, green, blue)  # its yellow texture
+    teapot = decode_png((tmp_path / "thumbs" / "teapot.stl.png").read_bytes()).astype(float)
+    grey = teapot[model_mask(teapot.astype("uint8"))]
+    assert (grey[:, 2] >= grey[:, 0]).mean() > 0.95  # no colours: the blue-grey
+    assert result.html == tmp_path / "thumbs" / "index.html"
+    page = result.html.read_text()
+    assert page.count('loading="lazy"') == 2
+    assert 'src="Duck.glb.png"' in page and 'src="teapot.stl.png"' in page
+
+
 @pytest.mark.renderer
 def test_thumbnails_from_a_prediction_hook(mesh_folder: Path, tmp_path: Path, renderer):
     from vptoolkit.pictures.thumbnails import render_thumbnails

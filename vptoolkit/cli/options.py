@@ -406,6 +406,16 @@ def elevation_option(default: str | None) -> Callable[[Decorated], Decorated]:
                              "--up that every searched view keeps to, or full (the sphere).")
 
 
+def margin_option() -> Callable[[Decorated], Decorated]:
+    """``--margin F``: the free border around a framed model, a fraction of the picture's side."""
+    from vptoolkit.pictures.shading import MARGIN
+
+    return click.option("--margin", default=MARGIN, show_default=True,
+                        type=click.FloatRange(0.0, 0.45),
+                        help="Border left free around the model, as a fraction of the picture's "
+                             "side: each picture is magnified until the model touches it.")
+
+
 def engine_option() -> Callable[[Decorated], Decorated]:
     """``--engine``: the picture engine, ``software`` (default) or ``open3d``."""
     return click.option("--engine", default="software", show_default=True,

@@ -25,6 +25,7 @@ from vptoolkit.cli.options import (
     elevation_option,
     engine_option,
     face_limit_option,
+    margin_option,
     parse_measures,
     resolution_option,
     scheduler_option,
@@ -60,16 +61,19 @@ Vector = tuple[float, float, float]
 @views_option("Views sampled for --best.")
 @resolution_option("Triangle-ID resolution of the measures for --best.")
 @up_option(allow_auto=True)
+@margin_option()
 @engine_option()
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector | str, engine: str) -> None:
+           up: Vector | str, margin: float, engine: str) -> None:
     """Draw MESH through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
-    what the measures score for that direction (same eye, target, up and field
-    of view); --view-set K draws the K views that together see the most of the
-    surface as one captioned contact sheet.
+    what the measures score for that direction (same eye, target and up; the
+    picture is magnified until the model fills it up to --margin), in the
+    model's own colours and texture where the file has them; --view-set K
+    draws the K views that together see the most of the surface as one
+    captioned contact sheet.
 
     \b
     Example:
@@ -79,7 +83,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
       vptool render bus.ply --view 1,-1,0.5 --up auto -o bus.png
     """
-    from vptoolkit.inputs import read_model
+    from vptoolkit.io import load_with_appearance, require_surface
     from vptoolkit.pictures.engine import open_renderer
     from vptoolkit.pictures.png import save_png
     from vptoolkit.pictures.shading import RenderStyle
@@ -92,33 +96,36 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    loaded = read_model(mesh, requires="surface")
+    model, appearance = load_with_appearance(mesh)
+    loaded = require_surface(model, mesh.name)
     if up == "auto":
         from vptoolkit.upright import auto_up
 
         up = auto_up(loaded, mesh)
     assert not isinstance(up, str)  # "auto" is resolved above
-    with open_renderer(engine, size=size, style=RenderStyle(up=up)) as drawing:
+    with open_renderer(engine, size=size, style=RenderStyle(up=up, margin=margin)) as drawing:
         if view_set_k is not None:
             from vptoolkit.pictures.contact_sheet import view_set_sheet
 
-            sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing)
+            sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing,
+                                           appearance=appearance)
             save_png(sheet, output)
             click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
                        f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
             return
         if best is not None:
-            picture = render_best(loaded, measure=best, settings=settings, engine=drawing)
+            picture = render_best(loaded, measure=best, settings=settings, engine=drawing,
+                                  appearance=appearance)
         elif model_path is not None:
             from vptoolkit.learn.predict import MeshPredictor
 
             picture = render_predicted(loaded, MeshPredictor(model_path), measure=measure,
-                                       engine=drawing)
+                                       engine=drawing, appearance=appearance)
         else:
             assert view is not None  # exactly one choice, checked above
             direction = as_directions(view, name="--view")[0]
-            picture = RenderedView(render_view(loaded, direction, engine=drawing), direction,
-                                   "--view")
+            picture = RenderedView(render_view(loaded, direction, engine=drawing,
+                                               appearance=appearance), direction, "--view")
     save_png(picture.image, output)
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
@@ -256,28 +263,31 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @timeout_option()
 @up_option(allow_auto=True)
 @elevation_option("0,60")
+@margin_option()
 @engine_option()
 @click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
               "disk from a few, drawing and writing nothing.")
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float,
-               up: Vector | str, elevation: tuple[float, float] | None, engine: str,
-               dry_run: bool) -> None:
+               up: Vector | str, elevation: tuple[float, float] | None, margin: float,
+               engine: str, dry_run: bool) -> None:
     """Draw a thumbnail of every mesh of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one mesh file or
     @list.txt. SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
     the anytime search with a budget of --views (--views 1000 and more measure
     every view of a Fibonacci sphere instead: the exhaustive answer, at
-    --resolution). OUT/thumbnails.json records directions and the files
-    skipped with their reasons (exit status 1 if any); rerunning the command
-    draws only what is missing. --up auto stands each model on the side it
-    rests on (+y or +z, docs/conventions.md). The search keeps the camera within --elevation
-    of the horizon of --up (default 0 to 60 degrees: at or above the horizon,
-    as product pictures are taken; --elevation full searches the whole
-    sphere); --views 1000 and more, --model and --view-set do not search and
-    ignore it.
+    --resolution). Each model is drawn in its own colours and texture where
+    its file has them, magnified until it fills the picture up to --margin.
+    OUT/thumbnails.json records directions and the files skipped with their
+    reasons (exit status 1 if any); OUT/index.html shows the pictures, a page
+    at a time; rerunning the command draws only what is missing. --up auto
+    stands each model on the side it rests on (+y or +z, docs/conventions.md).
+    The search keeps the camera within --elevation of the horizon of --up
+    (default 0 to 60 degrees: at or above the horizon, as product pictures
+    are taken; --elevation full searches the whole sphere); --views 1000 and
+    more, --model and --view-set do not search and ignore it.
 
     \b
     Example:
@@ -324,7 +334,8 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
         raise InputError("--up: auto needs the search (no --model, no --view-set, --views "
                          "under 1000); give the axis x,y,z")
     picture_up = (0.0, 1.0, 0.0) if isinstance(up, str) else up  # auto: each model turned to +y
-    with open_renderer(engine, size=size, style=RenderStyle(up=picture_up)) as drawing:
+    with open_renderer(engine, size=size, style=RenderStyle(up=picture_up, margin=margin)) \
+            as drawing:
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",
                                    view_set=view_set_k, workers=workers, scheduler=scheduler,

@@ -3,7 +3,8 @@
 One concept per module:
 
 * :mod:`~vptoolkit.pictures.shading`: what both engines share: ``RenderStyle``,
-  crease-aware normals, the picture camera, the light and sRGB;
+  crease-aware normals, the picture camera, framing, the light, a model's
+  own colours and sRGB;
 * :mod:`~vptoolkit.pictures.engine`: the ``Engine`` protocol,
   ``open_renderer`` (engine by name) and ``drawing_engine`` (the one engine
   every picture function takes, or the default made for the call);
@@ -21,6 +22,8 @@ One concept per module:
   figure, a grid of panels;
 * :mod:`~vptoolkit.pictures.contact_sheet`: a view set as one captioned picture;
 * :mod:`~vptoolkit.pictures.thumbnails`: a thumbnail per mesh of a folder;
+* :mod:`~vptoolkit.pictures.thumbnail_index`: the paged HTML index of a
+  folder's thumbnails;
 * :mod:`~vptoolkit.pictures.report`: the static HTML report of a dataset.
 
 Import from the modules; this package itself imports nothing, so the Open3D

@@ -90,7 +90,8 @@ def serve() -> None:
     """Main loop of the render child process.
 
     Protocol: the parent sends ``start`` (size, style), then any number of
-    ``mesh`` (corner positions and normals) and ``frame`` (camera, light
+    ``mesh`` (corner positions and normals, and optionally ``colors``, linear
+    RGB per corner) and ``frame`` (camera, light
     and the faces to draw) messages, then ``quit``. Every message is
     answered with ``{"ok": true, ...}`` or ``{"ok": false, "error": ...}``;
     ``start`` is answered twice, once the renderer exists and once a
@@ -127,7 +128,8 @@ def serve() -> None:
                 break
             try:
                 if operation == "mesh":
-                    session.set_mesh(arrays["positions"], arrays["normals"])
+                    session.set_mesh(arrays["positions"], arrays["normals"],
+                                     arrays.get("colors"))
                     write_message(protocol_out, {"ok": True})
                 elif operation == "frame":
                     image = session.render(header, arrays["faces"])
@@ -172,6 +174,12 @@ class _ChildRenderer:
         self.material.base_reflectance = 0.3
         self.positions: Any = None
         self.normals: Any = None
+        self.colors: Any = None
+        self.painted = rendering.MaterialRecord()  # white: the vertex colours show
+        self.painted.shader = "defaultLit"
+        self.painted.base_color = [1.0, 1.0, 1.0, 1.0]
+        self.painted.base_roughness = 0.7
+        self.painted.base_reflectance = 0.3
         self.has_geometry = False
         self.to_srgb = linear_to_srgb(np.arange(256) / 255.0)  # 8-bit linear -> sRGB
 
@@ -184,9 +192,11 @@ class _ChildRenderer:
         np.asarray(self.renderer.render_to_image())
         self.renderer.scene.remove_geometry("warm-up")
 
-    def set_mesh(self, positions: NDArray[np.float32], normals: NDArray[np.float32]) -> None:
+    def set_mesh(self, positions: NDArray[np.float32], normals: NDArray[np.float32],
+                 colors: NDArray[np.float32] | None) -> None:
         self.positions = positions
         self.normals = normals
+        self.colors = colors
 
     def render(self, header: dict[str, Any], faces: NDArray[np.int64]) -> NDArray[np.uint8]:
         if self.positions is None:
@@ -200,12 +210,16 @@ class _ChildRenderer:
         geometry.vertex_normals = o3d.utility.Vector3dVector(
             self.normals[corners].astype(np.float64)
         )
+        if self.colors is not None:
+            geometry.vertex_colors = o3d.utility.Vector3dVector(
+                self.colors[corners].astype(np.float64))
         scene = self.renderer.scene
         if self.has_geometry:
             scene.remove_geometry("model")
             self.has_geometry = False
         if len(faces):
-            scene.add_geometry("model", geometry, self.material)
+            scene.add_geometry("model", geometry,
+                               self.material if self.colors is None else self.painted)
             self.has_geometry = True
         scene.scene.set_sun_light(
             np.asarray(header["light"], dtype=np.float32), np.ones(3, np.float32),

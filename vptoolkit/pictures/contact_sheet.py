@@ -17,6 +17,7 @@ from typing import Final
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import MeshLike, as_mesh
@@ -130,6 +131,7 @@ def view_set_sheet(
     view_set: ViewSet | None = None,
     settings: MeasureSettings | None = None,
     engine: Engine | None = None,
+    appearance: Appearance | None = None,
     **options: object,
 ) -> tuple[NDArray[np.uint8], ViewSet]:
     """Find a mesh's view set and draw it as a contact sheet.
@@ -149,6 +151,8 @@ def view_set_sheet(
         The engine that draws the tiles, its size the tiles' side; its
         camera must be that of ``settings`` (default: a software engine of
         :data:`TILE_SIZE` pixels with that camera, made for this call).
+    appearance : Appearance, optional
+        The model's colours and texture (default: the style's colour).
     **options
         ``objective``, ``until_coverage``, ``measure``, ``tolerance``,
         ``min_pixels`` of the search.
@@ -167,7 +171,7 @@ def view_set_sheet(
         if view_set is None:
             _, view_set = measure_view_set(mesh, k, settings=settings,
                                            **options)  # type: ignore[arg-type]
-        images = active.render(mesh, view_set.directions)
+        images = active.render(mesh, view_set.directions, appearance=appearance)
     title = (f"{mesh.name}: {len(view_set)} views by {view_set.objective}, "
              f"{100 * view_set.coverage[-1]:.1f} % of the surface seen "
              f"({100 * view_set.reachable:.1f} % reachable)")

@@ -2,15 +2,21 @@
 
 An engine draws a :class:`~vptoolkit.mesh.Mesh` from view directions
 through the measures' camera (:func:`vptoolkit.pictures.shading.picture_camera`)
-in a :class:`~vptoolkit.pictures.shading.RenderStyle`. Two satisfy
+in a :class:`~vptoolkit.pictures.shading.RenderStyle`, in the model's own
+:class:`~vptoolkit.appearance.Appearance` where one is given. Two satisfy
 :class:`Engine`:
 
 * ``"software"``: :class:`vptoolkit.pictures.software_engine.SoftwareRenderer`,
   the measures' rasteriser and numpy shading, in this process (the default);
+  it draws vertex, face and base colours and base-colour textures;
 * ``"open3d"``: :class:`vptoolkit.pictures.open3d_engine.Renderer`, Open3D's
-  Filament in a child process. On Mesa's software Vulkan driver its frame
-  time depends on the view, from 0.1 s to minutes, which is why it is not
-  the default.
+  Filament in a child process; it draws vertex, face and base colours and
+  samples a texture at the triangle corners only. On Mesa's software
+  Vulkan driver its frame time depends on the view, from 0.1 s to
+  minutes, which is why it is not the default.
+
+Neither draws transparency (alpha is ignored), normal, metallic or
+emissive maps, or point colours (a point cloud is not drawn).
 
 :func:`open_renderer` makes either. Every picture function takes one
 ``engine`` (its size, camera and style apply) and leaves it open for its
@@ -31,6 +37,7 @@ if TYPE_CHECKING:
     import numpy as np
     from numpy.typing import ArrayLike, NDArray
 
+    from vptoolkit.appearance import Appearance
     from vptoolkit.camera import Camera
     from vptoolkit.mesh import MeshLike
     from vptoolkit.pictures.shading import RenderStyle
@@ -83,7 +90,8 @@ class Engine(Protocol):
         """Free the engine's resources (it may be started again)."""
         ...
 
-    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+               appearance: Appearance | None = None) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions.
 
         Parameters
@@ -93,6 +101,10 @@ class Engine(Protocol):
         directions : (n, 3) or (3,) array_like
             View directions from the model centre towards the camera (any
             non-zero length).
+        appearance : Appearance, optional
+            The model's colours and texture, indexed like ``mesh``
+            (:func:`vptoolkit.io.load_with_appearance`); None, or one
+            without colours, draws the style's colour.
 
         Returns
         -------
@@ -102,7 +114,8 @@ class Engine(Protocol):
         Raises
         ------
         InputError
-            On a non-mesh, bad directions or a mesh of zero extent.
+            On a non-mesh, bad directions, a mesh of zero extent or an
+            appearance whose arrays do not match the mesh.
         """
         ...
 

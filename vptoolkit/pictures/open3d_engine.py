@@ -5,8 +5,13 @@ draws (the camera and :class:`~vptoolkit.pictures.shading.RenderStyle` of
 :mod:`vptoolkit.pictures.shading`), with Filament's physically based shading.
 
 Shading
-    Open3D's ``defaultLit`` material in one flat colour over a plain
-    background; normals are smoothed across edges sharper than
+    Open3D's ``defaultLit`` material in the style's colour, or in the
+    model's own colours where an :class:`~vptoolkit.appearance.Appearance`
+    gives them (vertex, face and base colours as per-corner colours,
+    :func:`~vptoolkit.pictures.shading.corner_colors`, times the base-colour
+    texture sampled at each corner only, so a texture's detail between
+    corners is lost; transparency and normal maps are not drawn), over a
+    plain background; normals are smoothed across edges sharper than
     ``crease_angle_deg`` only, so a cube shows flat faces and a scanned
     bunny a smooth surface. One directional light (the sun) shines from
     above and to the left of the camera, so faces that meet at a corner get
@@ -38,6 +43,7 @@ Open3D is imported only in the child; this module itself needs numpy alone.
 
 from __future__ import annotations
 
+import math
 import os
 import queue
 import signal
@@ -52,6 +58,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int, one_line
 from vptoolkit.errors import InputError, MeasurementError, MissingDependencyError
@@ -62,10 +69,14 @@ from vptoolkit.pictures.shading import (
     PICTURE_SIZE,
     CreaseNormals,
     RenderStyle,
+    corner_colors,
     crease_normals,
     engine_setup,
+    frame_zoom,
     light_direction,
     picture_camera,
+    srgb8_to_linear,
+    texture_lookup,
 )
 from vptoolkit.sphere import as_directions
 
@@ -92,10 +103,14 @@ class _Frame:
     light: NDArray[np.float64]  # direction the light travels
     near: float
     far: float
+    fov_deg: float
 
 
 def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
-           centre: NDArray[np.float64], diagonal: float, size: int) -> _Frame:
+           centre: NDArray[np.float64], diagonal: float, size: int,
+           points: NDArray[np.float64]) -> _Frame:
+    """The camera and light of one picture; the field of view narrowed by the
+    style's framing (:func:`~vptoolkit.pictures.shading.frame_zoom` of ``points``)."""
     poses = picture_camera(camera, style.up).poses(direction[None, :], centre=centre,
                                                    diagonal=diagonal, resolution=size)
     eye, right, up, forward = poses.eyes[0], poses.right[0], poses.up[0], poses.forward[0]
@@ -103,7 +118,11 @@ def _frame(camera: Camera, style: RenderStyle, direction: NDArray[np.float64],
     radius = diagonal / 2.0
     near = max(distance - 1.05 * radius, 1e-3 * distance)
     far = distance + 1.05 * radius
-    return _Frame(eye, centre, up, light_direction(style, forward, up, right), near, far)
+    zoom = float(frame_zoom(poses, points, style.margin)[0])
+    fov_deg = camera.fov_deg if zoom == 1.0 else \
+        2.0 * math.degrees(math.atan(math.tan(math.radians(camera.fov_deg) / 2.0) / zoom))
+    return _Frame(eye, centre, up, light_direction(style, forward, up, right), near, far,
+                  fov_deg)
 
 
 # --------------------------------------------------------------------------- the parent
@@ -150,7 +169,7 @@ class _Child:
         )
         self.reader = threading.Thread(target=self._read_answers, daemon=True)
         self.reader.start()
-        self.mesh_key: int | None = None
+        self.mesh_key: tuple[int, int] | None = None
         self.send({"op": "start", "size": size, "style": style.to_dict()})
 
     def _read_answers(self) -> None:
@@ -273,6 +292,9 @@ class Renderer:
         self._mesh: Mesh | None = None
         self._shading: CreaseNormals | None = None
         self._frame_of_mesh: tuple[NDArray[np.float64], float] | None = None
+        self._appearance: Appearance | None = None
+        self._colors: NDArray[np.float32] | None = None
+        self._points: NDArray[np.float64] = np.zeros((0, 3))
 
     # ---------------------------------------------------------------- lifetime
 
@@ -347,15 +369,26 @@ class Renderer:
 
     # ---------------------------------------------------------------- frames
 
-    def _prepare(self, mesh: Mesh) -> None:
-        if self._mesh is mesh:
+    def _prepare(self, mesh: Mesh, appearance: Appearance | None) -> None:
+        if self._mesh is mesh and self._appearance is appearance:
             return
         centre, diagonal = bounding_frame(mesh)
         if not diagonal > 0.0:
             raise InputError(f"{mesh.name}: model has zero extent")
         self._shading = crease_normals(mesh, self.style.crease_angle_deg)
+        colors = corner_colors(appearance, mesh.faces, mesh.n_vertices)
+        if colors is not None and appearance is not None and appearance.texture is not None \
+                and appearance.corner_uv is not None:  # the texture at each corner only
+            uv = appearance.corner_uv.reshape(-1, 2)
+            textured = np.isfinite(uv).all(axis=1)
+            flat = colors.reshape(-1, 3)
+            flat[textured] *= texture_lookup(srgb8_to_linear(appearance.texture[..., :3]),
+                                             uv[textured])
+        self._colors = None if colors is None else \
+            colors[self._shading.kept].reshape(-1, 3).astype(np.float32)
+        self._points = mesh.vertices[np.unique(mesh.faces)]
         self._frame_of_mesh = (centre, diagonal)
-        self._mesh = mesh
+        self._mesh, self._appearance = mesh, appearance
 
     def _faces_to_draw(self, eye: NDArray[np.float64]) -> NDArray[np.int64]:
         assert self._shading is not None  # noqa: S101 (set by _prepare)
@@ -369,13 +402,16 @@ class Renderer:
                      faces: NDArray[np.int64]) -> NDArray[np.uint8]:
         child = self._child
         assert child is not None and self._shading is not None  # noqa: S101
-        if child.mesh_key != id(mesh):
-            child.send({"op": "mesh"}, {"positions": self._shading.positions,
-                                        "normals": self._shading.normals})
+        key = (id(mesh), id(self._appearance))
+        if child.mesh_key != key:
+            corners = {"positions": self._shading.positions, "normals": self._shading.normals}
+            if self._colors is not None:
+                corners["colors"] = self._colors
+            child.send({"op": "mesh"}, corners)
             answer, _ = child.receive(self.frame_timeout)
             if not answer.get("ok"):
                 raise MeasurementError(f"{mesh.name}: renderer: {answer.get('error')}")
-            child.mesh_key = id(mesh)
+            child.mesh_key = key
         child.send(
             {
                 "op": "frame",
@@ -385,7 +421,7 @@ class Renderer:
                 "light": frame.light.tolist(),
                 "near": frame.near,
                 "far": frame.far,
-                "fov_deg": self.camera.fov_deg,
+                "fov_deg": frame.fov_deg,
             },
             {"faces": faces},
         )
@@ -398,9 +434,12 @@ class Renderer:
                                    f"{image.shape} and dtype {image.dtype}")
         return image.copy()
 
-    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+               appearance: Appearance | None = None) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
-        sRGB pictures, as :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
+        sRGB pictures, in the colours of ``appearance`` where given (its
+        texture sampled at the corners only), as
+        :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
         specifies (a single direction gives ``n = 1``).
 
         Raises
@@ -414,12 +453,13 @@ class Renderer:
         """
         mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
-        self._prepare(mesh)
+        self._prepare(mesh, appearance)
         assert self._frame_of_mesh is not None  # noqa: S101 (set by _prepare)
         centre, diagonal = self._frame_of_mesh
         images = np.zeros((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for row, direction in enumerate(unit):
-            frame = _frame(self.camera, self.style, direction, centre, diagonal, self.size)
+            frame = _frame(self.camera, self.style, direction, centre, diagonal, self.size,
+                           self._points)
             faces = self._faces_to_draw(frame.eye)
             problem = ""
             for attempt in range(self.attempts):

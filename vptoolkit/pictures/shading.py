@@ -10,7 +10,12 @@ measures' rasteriser) draw the same pictures because they take these from one pl
   (:class:`CreaseNormals`);
 * :func:`picture_camera`: the measures' camera rolled to the style's up;
 * :func:`light_direction`: where the sun shines from, relative to the camera;
-* :func:`srgb_to_linear` and :func:`linear_to_srgb`: the sRGB transfer curve.
+* :func:`frame_zoom`: how much a view is magnified so the model fills the
+  picture up to the style's margin;
+* :func:`corner_colors` and :func:`texture_lookup`: a model's own colours
+  (an :class:`~vptoolkit.appearance.Appearance`) in linear RGB;
+* :func:`srgb_to_linear`, :func:`srgb8_to_linear` and :func:`linear_to_srgb`:
+  the sRGB transfer curve.
 
 Numpy only; neither engine is imported here.
 """
@@ -24,7 +29,8 @@ from typing import Any, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.camera import Camera
+from vptoolkit.appearance import Appearance
+from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import MeshLike, as_mesh
@@ -39,7 +45,11 @@ __all__ = [
     "crease_normals",
     "picture_camera",
     "light_direction",
+    "frame_zoom",
+    "corner_colors",
+    "texture_lookup",
     "srgb_to_linear",
+    "srgb8_to_linear",
     "linear_to_srgb",
 ]
 
@@ -51,6 +61,9 @@ MIN_PICTURE_SIZE = 16
 
 MAX_PICTURE_SIZE = 4096
 """Largest picture side in pixels."""
+
+MARGIN = 0.05
+"""Free border around the framed model, as a fraction of the picture's side."""
 
 
 @dataclass(frozen=True)
@@ -79,6 +92,13 @@ class RenderStyle:
         Model direction shown as up in the picture (default: ``(0, 1, 0)``;
         where the view looks along it, the camera's fallback up, or the
         measures' ``-y``, serves instead).
+    margin : float or None
+        Framing: each picture is magnified about its centre (the eye stays
+        where the measures put it, so the same faces are seen) until the
+        model's projected bounding box touches a border this fraction of
+        the picture's side wide, in [0, 0.45] (default: :data:`MARGIN`,
+        0.05). None keeps the measures' framing, whose bounding sphere fits
+        the circle inscribed in the picture (:func:`frame_zoom`).
     """
 
     color: tuple[float, float, float] = (0.72, 0.76, 0.82)
@@ -89,6 +109,7 @@ class RenderStyle:
     light_intensity: float = 150000.0
     ambient_intensity: float = 20000.0
     up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    margin: float | None = MARGIN
 
     def __post_init__(self) -> None:
         for name in ("color", "background"):
@@ -109,6 +130,11 @@ class RenderStyle:
         for name in ("light_intensity", "ambient_intensity"):
             if not getattr(self, name) >= 0.0:
                 raise InputError(f"{name}: must be >= 0, got {getattr(self, name)}")
+        if self.margin is not None:
+            if not 0.0 <= self.margin <= 0.45:
+                raise InputError(f"margin: must lie in [0, 0.45] of the picture's side, "
+                                 f"got {self.margin}")
+            object.__setattr__(self, "margin", float(self.margin))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe record of the style."""
@@ -245,9 +271,152 @@ def light_direction(style: RenderStyle, forward: NDArray[np.float64], up: NDArra
     return -towards_light / np.linalg.norm(towards_light)
 
 
+def frame_zoom(poses: ViewPoses, points: NDArray[np.float64],
+               margin: float | None) -> NDArray[np.float64]:
+    """Magnification of each view that makes the model fill the picture up to ``margin``.
+
+    With ``(x, y)`` the pixel coordinates of the points in view ``i``
+    (:meth:`~vptoolkit.camera.ViewPoses.project`, side ``R`` = ``poses.resolution``)
+    and ``m_i = max |x - R/2|, |y - R/2|`` over the points, the zoom is
+    ``z_i = (1/2 - margin) R / m_i``: magnifying the picture by ``z_i``
+    about its centre (focal length ``z_i f``, the eye unchanged) puts the
+    farthest projected point on the inner edge of a border ``margin R``
+    wide, so the projected bounding box touches it on at least one side
+    and crosses it on none, whatever the model's shape.
+
+    Parameters
+    ----------
+    poses : ViewPoses
+        The measures' poses of the views.
+    points : (n, 3) float64
+        The model's points (the vertices its faces use), in front of every eye.
+    margin : float or None
+        Border width as a fraction of the side; None gives zoom 1 for every
+        view (the measures' framing).
+
+    Returns
+    -------
+    zoom : (n_views,) float64
+        Positive factors; 1 where ``margin`` is None or the points project
+        to the centre.
+    """
+    n_views = len(poses.eyes)
+    if margin is None or len(points) == 0:
+        return np.ones(n_views)
+    half = poses.resolution / 2.0
+    zoom = np.ones(n_views)
+    for view in range(n_views):
+        pixels = poses.project(view, points)[:, :2]
+        reach = float(np.abs(pixels - half).max())
+        if reach > 0.0:
+            zoom[view] = (0.5 - margin) * poses.resolution / reach
+    return zoom
+
+
+def corner_colors(appearance: Appearance | None, faces: NDArray[np.int64],
+                  n_vertices: int) -> NDArray[np.float64] | None:
+    """Linear RGB per face corner from a model's colours (its texture aside).
+
+    The colour of a corner is the product of what the appearance holds of:
+    its vertex's colour, its face's colour and the base colour (glTF
+    multiplies ``COLOR_0`` by ``baseColorFactor``; an OBJ material gives a
+    face colour or the base colour). Alpha is ignored: every surface is drawn
+    opaque.
+
+    Parameters
+    ----------
+    appearance : Appearance or None
+        The model's appearance, indexed like its vertices and faces.
+    faces : (n_faces, 3) int
+        The mesh's triangles.
+    n_vertices : int
+        The mesh's vertex count (to check the appearance belongs to it).
+
+    Returns
+    -------
+    colors : (n_faces, 3, 3) float64 or None
+        Linear RGB in [0, 1]; None when the appearance has no colour and no
+        texture with texture coordinates (then the style's colour applies);
+        1 at every corner where it has only a texture (its multiplier).
+
+    Raises
+    ------
+    InputError
+        If the appearance's arrays do not match the mesh's counts.
+    """
+    if appearance is None or (
+            appearance.vertex_colors is None and appearance.face_colors is None
+            and appearance.base_color is None
+            and (appearance.texture is None or appearance.corner_uv is None)):
+        return None
+    colors = np.ones((len(faces), 3, 3))
+    if appearance.vertex_colors is not None:
+        if len(appearance.vertex_colors) != n_vertices:
+            raise InputError(f"appearance: {len(appearance.vertex_colors)} vertex colours for "
+                             f"{n_vertices} vertices")
+        colors *= srgb8_to_linear(appearance.vertex_colors[:, :3])[faces]
+    for name in ("face_colors", "corner_uv"):
+        array = getattr(appearance, name)
+        if array is not None and len(array) != len(faces):
+            raise InputError(f"appearance: {name} has {len(array)} rows for {len(faces)} faces")
+    if appearance.face_colors is not None:
+        colors *= srgb8_to_linear(appearance.face_colors[:, :3])[:, None, :]
+    if appearance.base_color is not None:
+        colors *= np.clip(appearance.base_color[:3], 0.0, 1.0)
+    return colors
+
+
+def texture_lookup(texture: NDArray[np.float32], uv: NDArray[np.float64], *,
+                   bilinear: bool = True) -> NDArray[np.float64]:
+    """Colours of a texture at texture coordinates, repeating outside [0, 1].
+
+    Parameters
+    ----------
+    texture : (height, width, 3) float32
+        The image in linear RGB (:func:`srgb8_to_linear` of the stored
+        sRGB), its first row the top (``v = 1``).
+    uv : (n, 2) float64
+        ``(u, v)`` with ``(0, 0)`` the bottom-left corner of the image and
+        ``(1, 1)`` its top-right (glTF's ``REPEAT`` wrapping outside).
+    bilinear : bool
+        Blend the four texels around each point, weighted by distance, in
+        linear RGB (default); False takes the nearest texel.
+
+    Returns
+    -------
+    colors : (n, 3) float64
+        Linear RGB; texel ``(i, j)``'s centre is at ``u = (j + 1/2) / width``,
+        ``v = 1 - (i + 1/2) / height``.
+    """
+    height, width = texture.shape[:2]
+    x = np.mod(uv[:, 0], 1.0) * width - 0.5
+    y = (1.0 - np.mod(uv[:, 1], 1.0)) * height - 0.5
+    if not bilinear:
+        column = np.mod(np.round(x).astype(np.int64), width)
+        row = np.mod(np.round(y).astype(np.int64), height)
+        return texture[row, column].astype(np.float64)
+    left, top = np.floor(x), np.floor(y)
+    dx, dy = (x - left)[:, None], (y - top)[:, None]
+    c0 = np.mod(left.astype(np.int64), width)
+    c1 = np.mod(c0 + 1, width)
+    r0 = np.mod(top.astype(np.int64), height)
+    r1 = np.mod(r0 + 1, height)
+    return ((1 - dy) * ((1 - dx) * texture[r0, c0] + dx * texture[r0, c1])
+            + dy * ((1 - dx) * texture[r1, c0] + dx * texture[r1, c1]))
+
+
 def srgb_to_linear(value: float) -> float:
     """One sRGB channel value in [0, 1] to linear RGB."""
     return value / 12.92 if value <= 0.04045 else ((value + 0.055) / 1.055) ** 2.4
+
+
+def srgb8_to_linear(values: NDArray[np.uint8]) -> NDArray[np.float32]:
+    """8-bit sRGB values (any shape) to linear RGB in [0, 1], as :func:`srgb_to_linear`."""
+    return _SRGB8_TO_LINEAR[np.asarray(values, dtype=np.uint8)]
+
+
+_SRGB8_TO_LINEAR = np.array([srgb_to_linear(level / 255.0) for level in range(256)],
+                            dtype=np.float32)
 
 
 def linear_to_srgb(linear: NDArray[np.float64]) -> NDArray[np.uint8]:

@@ -10,10 +10,25 @@ each pixel is shaded in numpy:
   (:func:`vptoolkit.pictures.shading.crease_normals`) interpolated with the
   barycentric coordinates of the pixel ray's hit (Moller-Trumbore), turned
   towards the camera;
-* linear colour = ``color * (ambient + sun * max(0, n . l))`` with the sun
+* its surface colour is the model's own where an
+  :class:`~vptoolkit.appearance.Appearance` is given: the corner colours
+  (:func:`vptoolkit.pictures.shading.corner_colors`: vertex, face and base
+  colours) interpolated with the same barycentric coordinates, times the
+  base-colour texture at the interpolated texture coordinates (bilinear,
+  :func:`vptoolkit.pictures.shading.texture_lookup`), all in linear RGB;
+  the style's colour otherwise;
+* linear colour = ``colour * (ambient + sun * max(0, n . l))`` with the sun
   where ``RenderStyle`` puts it (above and to the left of the camera);
   ``ambient`` and ``sun`` come from the style's intensities relative to
   Open3D's defaults, so both engines brighten and darken together;
+* framing (``RenderStyle.margin``): a view magnified ``z`` times
+  (:func:`vptoolkit.pictures.shading.frame_zoom`) is rasterised at
+  ``z`` times the side with the same field of view and its centre kept
+  (the side rounded down to keep the parity, so the centre stays on a
+  pixel corner), which is the magnified picture; ``z < 1`` pads instead.
+  The rasterised side is at most 4096, so a model that needs more
+  magnification than that allows (a needle seen end on, pictures of
+  2048 px and more) fills less than the frame;
 * the supersampled linear image is averaged down (anti-aliasing over the
   background) and encoded as sRGB.
 
@@ -31,6 +46,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
 from vptoolkit.geometry import bounding_frame
@@ -38,12 +54,16 @@ from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.shading import (
     PICTURE_SIZE,
     RenderStyle,
+    corner_colors,
     crease_normals,
     engine_setup,
+    frame_zoom,
     light_direction,
     linear_to_srgb,
     picture_camera,
+    srgb8_to_linear,
     srgb_to_linear,
+    texture_lookup,
 )
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
@@ -55,7 +75,8 @@ _DEFAULT_SUN = RenderStyle().light_intensity
 _DEFAULT_AMBIENT = RenderStyle().ambient_intensity
 _SUN = 0.78  # diffuse weight of the default sun
 _AMBIENT = 0.30  # weight of the default ambient light
-_MAX_FINE = 4096  # largest supersampled side; bigger pictures get fewer samples per pixel
+_MAX_FINE = 4096  # largest rasterised side; bigger pictures get fewer samples per pixel,
+# and a view is magnified at most to this side (a model that needs more fills less)
 _CHUNK = 1 << 20  # pixels shaded at once
 
 
@@ -88,14 +109,19 @@ class SoftwareRenderer:
         self._mesh: Mesh | None = None
         self._corners: NDArray[np.float64] | None = None
         self._corner_normals: NDArray[np.float64] | None = None
+        self._points: NDArray[np.float64] = np.zeros((0, 3))
+        self._paint: _Paint | None = None  # the colours of _paint_source on _painted
+        self._painted: Mesh | None = None
+        self._paint_source: Appearance | None = None
 
     def start(self) -> SoftwareRenderer:
         """Nothing to start; returns self (as :class:`~vptoolkit.pictures.engine.Engine` asks)."""
         return self
 
     def close(self) -> None:
-        """Forget the cached mesh."""
+        """Forget the cached mesh and colours."""
         self._mesh = self._corners = self._corner_normals = None
+        self._paint = self._painted = self._paint_source = None
 
     def __enter__(self) -> SoftwareRenderer:
         return self
@@ -112,32 +138,56 @@ class SoftwareRenderer:
         self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
         self._corners[kept] = positions.reshape(-1, 3, 3)
         self._corner_normals[kept] = normals.reshape(-1, 3, 3)
+        self._points = mesh.vertices[np.unique(mesh.faces)]
         self._mesh = mesh
 
-    def render(self, mesh: MeshLike, directions: ArrayLike) -> NDArray[np.uint8]:
+    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+               appearance: Appearance | None = None) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
-        sRGB pictures, as :meth:`Engine.render <vptoolkit.pictures.engine.Engine.render>`
-        specifies."""
+        sRGB pictures, in its ``appearance`` where given, as :meth:`Engine.render
+        <vptoolkit.pictures.engine.Engine.render>` specifies."""
         mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh)
+        if self._painted is not mesh or self._paint_source is not appearance:
+            self._paint = _Paint.of(appearance, mesh)
+            self._painted, self._paint_source = mesh, appearance
+        paint = self._paint
         camera = picture_camera(self.camera, self.style.up)
         factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
         fine = self.size * factor
         centre, diagonal = bounding_frame(mesh)
         poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
-        settings = MeasureSettings(views=1, resolution=fine, camera=camera)
+        zoom = frame_zoom(poses, self._points, self.style.margin)
         images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for view in range(len(unit)):
-            ids = face_id_images(mesh, settings, view_directions=unit[view])[0].reshape(-1)
+            ids, focal = self._face_ids(mesh, camera, unit[view], fine, float(zoom[view]),
+                                        poses.focal_px)
             linear = self._background_image(len(ids))
             hit = np.flatnonzero(ids >= 0)
             for start in range(0, len(hit), _CHUNK):  # bounded memory at any size
                 chunk = hit[start:start + _CHUNK]
-                linear[chunk] = self._shade(chunk, ids[chunk], poses, view)
+                linear[chunk] = self._shade(chunk, ids[chunk], poses, view, focal, paint)
             linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
             images[view] = linear_to_srgb(linear)
         return images
+
+    @staticmethod
+    def _face_ids(mesh: Mesh, camera: Camera, direction: NDArray[np.float64], fine: int,
+                  zoom: float, focal: float) -> tuple[NDArray[np.int32], float]:
+        """The ``fine``-side triangle-ID image (flat) of one view magnified ``zoom`` times
+        about its centre, and its focal length in pixels."""
+        side = min(fine + 2 * int(np.floor((zoom - 1.0) * fine / 2.0)), _MAX_FINE)
+        side = max(side - (side - fine) % 2, 2 - fine % 2)
+        settings = MeasureSettings(views=1, resolution=side, camera=camera)
+        raster = face_id_images(mesh, settings, view_directions=direction)[0]
+        offset = (side - fine) // 2
+        if offset >= 0:
+            ids = raster[offset:offset + fine, offset:offset + fine]
+        else:
+            ids = np.full((fine, fine), -1, dtype=np.int32)
+            ids[-offset:-offset + side, -offset:-offset + side] = raster
+        return ids.reshape(-1), focal * side / fine
 
     def _background_image(self, n_pixels: int) -> NDArray[np.float64]:
         """``(n_pixels, 3)`` linear RGB of the background."""
@@ -145,17 +195,16 @@ class SoftwareRenderer:
         return np.broadcast_to(background, (n_pixels, 3)).copy()
 
     def _shade(self, hit: NDArray[np.int64], faces: NDArray[np.int32], poses: ViewPoses,
-               view: int) -> NDArray[np.float64]:
+               view: int, focal: float, paint: _Paint | None) -> NDArray[np.float64]:
         """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
-        see ``faces``."""
+        see ``faces``, at focal length ``focal`` pixels."""
         assert self._corners is not None and self._corner_normals is not None  # noqa: S101
         style = self.style
-        colour = np.array([srgb_to_linear(c) for c in style.color])
         # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
         row, column = np.divmod(hit, poses.resolution)
         half = poses.resolution / 2.0
-        across = (column + 0.5 - half) / poses.focal_px
-        down = (row + 0.5 - half) / poses.focal_px
+        across = (column + 0.5 - half) / focal
+        down = (row + 0.5 - half) / focal
         ray = (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
                - down[:, None] * poses.up[view][None, :])
         a, b, c = (self._corners[faces, k] for k in range(3))
@@ -179,4 +228,34 @@ class SoftwareRenderer:
         diffuse = np.clip(normal @ towards_light, 0.0, None)
         sun = _SUN * style.light_intensity / _DEFAULT_SUN
         ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
-        return colour[None, :] * (ambient + sun * diffuse)[:, None]
+        if paint is None:
+            colour = np.array([srgb_to_linear(c) for c in style.color])[None, :]
+        else:
+            colour = paint.colors(faces, np.stack([1.0 - u - v, u, v], axis=1))
+        return colour * (ambient + sun * diffuse)[:, None]
+
+
+class _Paint:
+    """A model's own colours, ready to colour pixels by face and barycentric coordinates."""
+
+    def __init__(self, corners: NDArray[np.float64], appearance: Appearance) -> None:
+        self.corners = corners
+        self.corner_uv = appearance.corner_uv
+        self.texture = None if appearance.texture is None or self.corner_uv is None else \
+            srgb8_to_linear(appearance.texture[..., :3])
+
+    @classmethod
+    def of(cls, appearance: Appearance | None, mesh: Mesh) -> _Paint | None:
+        """The paint of an appearance on a mesh; None where it has no colour."""
+        corners = corner_colors(appearance, mesh.faces, mesh.n_vertices)
+        return None if corners is None or appearance is None else cls(corners, appearance)
+
+    def colors(self, faces: NDArray[np.int32],
+               weights: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``(n, 3)`` linear RGB at barycentric ``weights`` ``(n, 3)`` of ``faces``."""
+        colour = np.einsum("ik,ikc->ic", weights, self.corners[faces])
+        if self.texture is not None and self.corner_uv is not None:
+            uv = np.einsum("ik,ikc->ic", weights, self.corner_uv[faces])
+            textured = np.isfinite(uv).all(axis=1)
+            colour[textured] *= texture_lookup(self.texture, uv[textured])
+        return colour

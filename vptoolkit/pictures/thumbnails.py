@@ -8,7 +8,10 @@ are found in worker processes or on a Dask cluster, while one engine (an
 :class:`~vptoolkit.pictures.engine.Engine`) draws in this process, so a
 start-up such as that of Open3D's render child is paid once. The picture of
 the entry ``a/b.off`` is ``OUT/a/b.off.png`` (the key and ``.png``, so
-``b.off`` and ``b.obj`` never share a picture).
+``b.off`` and ``b.obj`` never share a picture). Each model is drawn in its
+own colours and texture where its file has them
+(:func:`vptoolkit.io.load_with_appearance`, read again in this process),
+framed as the engine's style says (``RenderStyle.margin``).
 
 By default each direction comes from the anytime search
 (:class:`~vptoolkit.collection.methods.SearchMethod`, a
@@ -25,13 +28,16 @@ State
     ``OUT/.runs/<digest>/table.parquet``; ``OUT/thumbnails.json`` records the
     measure, the method's settings, the size, one
     ``{"source", "image", "direction", "label"}`` record per picture and the
-    failures with their one-line reasons, written at the end from the table.
+    failures with their one-line reasons, written at the end from the table;
+    ``OUT/index.html`` (and ``index-2.html``, ...) shows the pictures a page
+    at a time (:mod:`vptoolkit.pictures.thumbnail_index`).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import warnings
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -39,8 +45,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.checks import as_path, check_int, one_line
+from vptoolkit.collection.discover import Entry, is_remote_entry
 from vptoolkit.collection.methods import (
     Answer,
     MeasureMethod,
@@ -63,6 +71,7 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
 from vptoolkit.pictures.png import save_png
+from vptoolkit.pictures.thumbnail_index import ThumbnailCard, write_thumbnail_index
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
@@ -103,6 +112,8 @@ class ThumbnailResult:
         The entries without a picture, with their reasons, in key order.
     index : Path
         ``thumbnails.json`` in the output folder (module docstring).
+    html : Path
+        ``index.html`` in the output folder, the first page of the pictures.
     table : Path
         The run's Parquet table (:mod:`vptoolkit.collection.table`).
     n_drawn : int
@@ -112,6 +123,7 @@ class ThumbnailResult:
     done: list[Path] = field(default_factory=list)
     failures: list[ThumbnailFailure] = field(default_factory=list)
     index: Path | None = None
+    html: Path | None = None
     table: Path | None = None
     n_drawn: int = 0
 
@@ -180,6 +192,29 @@ def _stood_up(mesh: Mesh, direction: NDArray[np.float64], up: tuple[float, float
 def picture_name(key: str) -> str:
     """The picture of an entry, relative to the output folder: its key and ``.png``."""
     return f"{key}.png"
+
+
+def model_appearance(entry: Entry, model: Mesh) -> Appearance | None:
+    """The appearance of an entry's file, if it is local and belongs to ``model``.
+
+    The file is read again (:func:`vptoolkit.io.load_with_appearance`); a
+    remote entry, a model whose counts differ from ``model``'s, or a file
+    whose colours cannot be read (a warning names it) give None: the
+    picture is then drawn in the style's colour.
+    """
+    if is_remote_entry(entry.path):
+        return None
+    from vptoolkit.io import load_with_appearance
+
+    try:
+        read, appearance = load_with_appearance(entry.path)
+    except VptoolkitError as err:
+        warnings.warn(f"{entry.key}: drawn without its colours ({one_line(err)})", stacklevel=2)
+        return None
+    if not isinstance(read, Mesh) or (read.n_vertices, read.n_faces) != (model.n_vertices,
+                                                                        model.n_faces):
+        return None
+    return None if appearance.is_empty else appearance
 
 
 def _drawn_rows(names: tuple[str, ...], measure: str) -> slice:
@@ -319,16 +354,18 @@ def render_thumbnails(
             image_path = target / picture_name(result.entry.key)
             model = require_surface(result.model)  # a run that draws reads meshes only
             try:
+                appearance = model_appearance(result.entry, result.model)
                 if isinstance(method, ViewSetMethod):
                     from vptoolkit.pictures.contact_sheet import view_set_sheet
 
                     image, _ = view_set_sheet(model, view_set=result.answer.detail,
-                                              settings=method.settings, engine=active)
+                                              settings=method.settings, engine=active,
+                                              appearance=appearance)
                 else:
                     direction = result.answer.directions[rows][0]
                     if search is not None and search.up == "auto":
                         model, direction = _stood_up(model, direction, active.style.up)
-                    image = active.render(model, direction)[0]
+                    image = active.render(model, direction, appearance=appearance)[0]
                 image_path.parent.mkdir(parents=True, exist_ok=True)
                 save_png(image, image_path)
                 drawn[0] += 1
@@ -341,21 +378,28 @@ def render_thumbnails(
                              timeout=timeout, workers=workers, scheduler=scheduler,
                              finish=draw, progress=progress)
         size = active.size
-    done = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
+    cards = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
+    if isinstance(method, ViewSetMethod):
+        title = f"View sets of {source}"
+    else:
+        chosen = "predicted" if isinstance(method, PredictedMethod) else "best"
+        title = f"Thumbnails of {source}: {chosen} {measure} views"
+    pages = write_thumbnail_index(target, cards, size=size, title=title)
     failures = [ThumbnailFailure(key, reason) for key, reason in run.failures]
-    return ThumbnailResult(sorted(target / name for name in done), failures,
-                           target / _INDEX_NAME, run.table, drawn[0])
+    return ThumbnailResult(sorted(target / image for _, image, _ in cards), failures,
+                           target / _INDEX_NAME, pages[0], run.table, drawn[0])
 
 
 def _write_index(path: Path, table: Path, method: Method, measure: str, rows: slice,
-                 size: int, source: str) -> list[str]:
-    """Write ``thumbnails.json`` from the table, streamed one record per line; the pictures."""
+                 size: int, source: str) -> list[ThumbnailCard]:
+    """Write ``thumbnails.json`` from the table, streamed one record per line; the
+    pictures' cards, in the table's order."""
     pq = require("pyarrow.parquet", extra="dataset")
     names = method.names[rows]
     header = {"source": source, "measure": measure,
               "direction_from": "predictor" if isinstance(method, PredictedMethod)
               else "measures", "settings": method.record(), "size": size}
-    pictures: list[str] = []
+    pictures: list[ThumbnailCard] = []
     failures: list[str] = []
     with atomic_write(path) as stream:
         stream.write(json.dumps(header, indent=2)[:-2].encode() + b',\n  "thumbnails": [')
@@ -372,6 +416,6 @@ def _write_index(path: Path, table: Path, method: Method, measure: str, rows: sl
                           "label": row["label"]}
                 stream.write(separator + json.dumps(record).encode())
                 separator = b",\n    "
-                pictures.append(record["image"])
+                pictures.append((row["key"], record["image"], row["label"] or ""))
         stream.write(b"\n  ],\n  \"failures\": [" + ",".join(failures).encode() + b"]\n}\n")
     return pictures

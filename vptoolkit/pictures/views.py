@@ -8,6 +8,11 @@ resolution=size)`` with the bounding frame of
 camera culls them (the default), exactly as the measures do, so a face the
 measures counted as invisible is missing from the picture too.
 
+Framing (``RenderStyle.margin``, default 0.05 of the side) magnifies each
+picture about its centre so the model fills it up to the margin; the eye
+stays where the measures put it, so the same faces are seen.
+``RenderStyle(margin=None)`` keeps the measures' framing.
+
 Only the roll differs: the measures keep the authors' image up ``-y``, which
 shows the usual ``+y``-up model (glTF, OBJ, PLY scans) upside down, so a
 picture's image up is ``RenderStyle.up`` (default ``+y``; ``(0, 0, 1)`` for
@@ -15,7 +20,10 @@ ModelNet-style ``+z``-up models). The roll does not change what is seen:
 the camera's distance keeps the model's bounding sphere inside the circle
 inscribed in the image. With ``RenderStyle(up=Camera().up)`` pixel ``(x,
 y)`` of a picture ``size`` pixels wide is pixel ``(x, y)`` of the measures'
-triangle-ID image at resolution ``size``.
+triangle-ID image at resolution ``size`` (with ``margin=None``).
+
+Every function takes the model's ``appearance``
+(:func:`vptoolkit.io.load_with_appearance`) to draw it in its own colours.
 
 Every function takes an ``engine`` (any :class:`~vptoolkit.pictures.engine.Engine`,
 made with :func:`~vptoolkit.pictures.engine.open_renderer`; its size, camera
@@ -32,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from vptoolkit.appearance import Appearance
 from vptoolkit.errors import InputError
 from vptoolkit.measures.quality import ViewQuality
 from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name, measure_index
@@ -75,8 +84,8 @@ class RenderedView:
     label: str
 
 
-def render_views(mesh: MeshLike, directions: ArrayLike, *,
-                 engine: Engine | None = None) -> NDArray[np.uint8]:
+def render_views(mesh: MeshLike, directions: ArrayLike, *, engine: Engine | None = None,
+                 appearance: Appearance | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from several view directions with one engine.
 
     Parameters
@@ -89,6 +98,8 @@ def render_views(mesh: MeshLike, directions: ArrayLike, *,
         The engine to draw with (its size, camera and style apply), left
         open; default: a software engine of the default size, the measures'
         camera and the default style, made for this call.
+    appearance : Appearance, optional
+        The model's colours and texture (default: the style's colour).
 
     Returns
     -------
@@ -96,11 +107,11 @@ def render_views(mesh: MeshLike, directions: ArrayLike, *,
     """
     mesh = as_mesh(mesh)
     with drawing_engine(engine) as active:
-        return active.render(mesh, directions)
+        return active.render(mesh, directions, appearance=appearance)
 
 
-def render_view(mesh: MeshLike, direction: ArrayLike, *,
-                engine: Engine | None = None) -> NDArray[np.uint8]:
+def render_view(mesh: MeshLike, direction: ArrayLike, *, engine: Engine | None = None,
+                appearance: Appearance | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from one view direction.
 
     Parameters
@@ -109,7 +120,7 @@ def render_view(mesh: MeshLike, direction: ArrayLike, *,
         The model.
     direction : (3,) array_like
         View direction from the model centre towards the camera.
-    engine : Engine, optional
+    engine, appearance
         As for :func:`render_views`.
 
     Returns
@@ -130,7 +141,7 @@ def render_view(mesh: MeshLike, direction: ArrayLike, *,
     unit = as_directions(direction, name="direction")
     if len(unit) != 1:
         raise InputError(f"direction: expected one direction, got {len(unit)}")
-    return render_views(mesh, unit, engine=engine)[0]
+    return render_views(mesh, unit, engine=engine, appearance=appearance)[0]
 
 
 def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
@@ -191,6 +202,7 @@ def render_best(
     quality: ViewQuality | None = None,
     settings: MeasureSettings | None = None,
     engine: Engine | None = None,
+    appearance: Appearance | None = None,
 ) -> RenderedView:
     """Draw a mesh from its best view for one measure.
 
@@ -211,6 +223,8 @@ def render_best(
     engine : Engine, optional
         The engine to draw with, whose camera must be the measures'
         (default: a software engine with their camera, made for this call).
+    appearance : Appearance, optional
+        The model's colours and texture (default: the style's colour).
 
     Returns
     -------
@@ -232,7 +246,7 @@ def render_best(
     index = int(quality.best_index[measure_index(measure, quality.measures)])
     direction = quality.views[index]
     with drawing_engine(engine, camera=quality.camera) as active:
-        image = render_view(mesh, direction, engine=active)
+        image = render_view(mesh, direction, engine=active, appearance=appearance)
     return RenderedView(image, direction.copy(),
                         f"best {measure} (view {index} of {len(quality.views)})")
 
@@ -243,6 +257,7 @@ def render_predicted(
     *,
     measure: str = "VE",
     engine: Engine | None = None,
+    appearance: Appearance | None = None,
 ) -> RenderedView:
     """Draw a mesh from a predicted view direction.
 
@@ -256,7 +271,7 @@ def render_predicted(
     measure : str
         Measure whose prediction to draw, in any case (default: "VE"); one
         of the source's measures (:func:`resolve_direction`).
-    engine : Engine, optional
+    engine, appearance
         As for :func:`render_views`.
 
     Returns
@@ -266,5 +281,5 @@ def render_predicted(
     """
     mesh = as_mesh(mesh)
     direction = resolve_direction(mesh, source, measure=measure)
-    image = render_view(mesh, direction, engine=engine)
+    image = render_view(mesh, direction, engine=engine, appearance=appearance)
     return RenderedView(image, direction, f"predicted {canonical_name(measure)}")
