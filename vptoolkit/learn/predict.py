@@ -55,6 +55,7 @@ Size
 
 from __future__ import annotations
 
+import hashlib
 import os
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -87,7 +88,7 @@ else:
     torch = require("torch", extra="learn")
 
 __all__ = ["MeshPredictor", "N_INPUTS", "predict", "predict_directions", "mesh_surface",
-           "network_indices", "network_points", "network_inputs", "network_predictor",
+           "content_order", "network_indices", "network_points", "network_inputs", "network_predictor",
            "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
@@ -108,9 +109,47 @@ _MODELS_HELD = 256  # models whose inputs predict() holds before it runs the net
 _SEED_INPUT = 3
 
 
+def content_order(points: NDArray[np.floating[Any]]) -> tuple[NDArray[np.int64], int]:
+    """The canonical order of a point set and the key of its content.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Points, in any order.
+
+    Returns
+    -------
+    order : (n,) int64
+        The rows of ``points`` sorted lexicographically by ``x``, then ``y``,
+        then ``z`` (float64, ``-0.0`` read as ``0.0``; stable, so equal rows keep
+        their order).
+    key : int
+        The first 128 bits of the BLAKE2b digest of the sorted float64
+        coordinates (little-endian, row by row): the same points in any order,
+        from any file and under any name get the same key.
+    """
+    cloud = np.asarray(points, dtype=np.float64) + 0.0  # one zero: -0.0 becomes 0.0
+    order = np.lexsort(cloud.T[::-1]).astype(np.int64)
+    rows = np.ascontiguousarray(cloud[order], dtype="<f8")
+    digest = hashlib.blake2b(rows.tobytes(), digest_size=16).digest()
+    return order, int.from_bytes(digest, "little")
+
+
 def network_indices(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
-                    seed: int, name: str, draw: int = 0) -> NDArray[np.int64]:
-    """Which surface points make one network input, seeded from ``seed``, ``name`` and ``draw``.
+                    seed: int, n_inputs: int = 1) -> NDArray[np.int64]:
+    """Which surface points make each of a model's network inputs: a rule of its points alone.
+
+    The points are put in their canonical order (:func:`content_order`) and
+    one ``SeedSequence([seed, 3, key])`` of their content key is split
+    (:meth:`numpy.random.SeedSequence.spawn`): its child 0 starts one
+    farthest point sampling of ``n_fps`` points, which every input holds (as
+    training draws inputs from a few farthest-point subsets per model,
+    ``TrainOptions.fps_pool``), and child ``k + 1`` draws the other
+    ``n_points - n_fps`` points of input ``k``
+    (:func:`vptoolkit.points.network_input_indices`). So the inputs depend on
+    the points and ``seed`` only, never on the model's name, the file, its
+    format or the order of the points; input ``k`` is the same whatever
+    ``n_inputs``.
 
     Parameters
     ----------
@@ -120,54 +159,59 @@ def network_indices(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: 
         Input size and its farthest-point part (``n_fps`` is capped at ``n``).
     seed : int
         Base seed.
-    name : str
-        Model name.
-    draw : int
-        Number of the input, non-negative (default: 0). The generator is
-        ``SeedSequence([seed, 3, model_key(name)])`` for input 0 and
-        ``SeedSequence([seed, 3, model_key(name), draw])`` for the others.
+    n_inputs : int
+        How many inputs, 1 to 64 (default: 1).
 
     Returns
     -------
-    indices : (n_points,) int64
-        Rows of ``points`` (:func:`vptoolkit.points.network_input_indices`).
+    indices : (n_inputs, n_points) int64
+        Rows of ``points``: the farthest-point picks in picking order, then
+        the random ones.
     """
-    from vptoolkit.points import network_input_indices
-    from vptoolkit.rotations import model_key
+    from vptoolkit.points import farthest_point_sampling, network_input_indices
 
-    draw = check_int(draw, "draw", minimum=0)
-    entropy = [int(seed), _SEED_INPUT, model_key(name)] + ([draw] if draw else [])
-    rng = np.random.default_rng(np.random.SeedSequence(entropy))
-    return network_input_indices(points, n_points, min(n_fps, len(points)), rng=rng)
+    n_inputs = _check_n_inputs(n_inputs)
+    order, key = content_order(points)
+    canonical = np.asarray(points, dtype=np.float64)[order]
+    fps_sequence, *draws = np.random.SeedSequence([int(seed), _SEED_INPUT, key]).spawn(
+        1 + n_inputs)
+    n_fps = min(n_fps, len(canonical))
+    fps = (farthest_point_sampling(canonical, n_fps, rng=np.random.default_rng(fps_sequence))
+           if n_fps else np.zeros(0, dtype=np.int64))
+    return np.stack([order[network_input_indices(canonical, n_points, n_fps,
+                                                 rng=np.random.default_rng(draw),
+                                                 fps_indices=fps)]
+                     for draw in draws])
 
 
 def network_points(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
-                   seed: int, name: str, draw: int = 0) -> NDArray[np.float32]:
-    """One network input from a sampled surface: ``points[network_indices(...)]``.
+                   seed: int, name: str) -> NDArray[np.float32]:
+    """The first network input of a sampled surface: ``network_inputs(..., n_inputs=1)[0]``.
 
-    Parameters are those of :func:`network_indices`.
+    Parameters are those of :func:`network_inputs`.
 
     Returns
     -------
     input_points : (n_points, 3) float32
         Centred and scaled as :func:`network_inputs` says.
     """
-    chosen = network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
-                             draw=draw)
-    return _unit_size(np.asarray(points, dtype=np.float64), name)[chosen].astype(np.float32)
+    return network_inputs(points, n_points=n_points, n_fps=n_fps, seed=seed, name=name,
+                          n_inputs=1)[0]
 
 
 def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: int,
                    seed: int, name: str, n_inputs: int = N_INPUTS,
                    features: NDArray[np.floating[Any]] | None = None) -> NDArray[np.float32]:
-    """The ``n_inputs`` network inputs of one model, draws ``0 .. n_inputs - 1``.
+    """The ``n_inputs`` network inputs of one model (:func:`network_indices`).
 
     Parameters
     ----------
     points : (n, 3) float
         Surface points.
-    n_points, n_fps, seed, name
+    n_points, n_fps, seed
         As for :func:`network_indices`.
+    name : str
+        The model's name, for messages (it never changes the inputs).
     n_inputs : int
         How many inputs, 1 to 64 (default: :data:`N_INPUTS`).
     features : (n, F) float, optional
@@ -177,7 +221,7 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
     Returns
     -------
     inputs : (n_inputs, n_points, 3 + F) float32
-        Input ``k`` holds the points :func:`network_indices` picks with ``draw=k``,
+        Input ``k`` holds the points of row ``k`` of :func:`network_indices`,
         their coordinates centred on the bounding-box centre of ``points`` and
         divided by its diagonal in float64 before the cast to float32, so a model
         of any size float64 holds gets the same input (the network is blind to
@@ -191,9 +235,9 @@ def network_inputs(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: i
             raise InputError(f"{name}: features: expected ({len(cloud)}, F) for {len(cloud)} "
                              f"points, got shape {features.shape}")
         cloud = np.concatenate([cloud, features], axis=1)
-    return np.stack([cloud[network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed,
-                                           name=name, draw=k)]
-                     for k in range(_check_n_inputs(n_inputs))]).astype(np.float32)
+    chosen = network_indices(points, n_points=n_points, n_fps=n_fps, seed=seed,
+                             n_inputs=n_inputs)
+    return cloud[chosen].astype(np.float32)
 
 
 def _unit_size(points: NDArray[np.float64], name: str) -> NDArray[np.float64]:
