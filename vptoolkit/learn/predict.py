@@ -110,7 +110,19 @@ _SEED_INPUT = 3
 
 
 def content_order(points: NDArray[np.floating[Any]]) -> tuple[NDArray[np.int64], int]:
-    """The canonical order of a point set and the key of its content.
+    """The canonical order of a point set and the key of its content, both blind to a turn.
+
+    With ``c`` the mean of the points and ``r_i = |p_i - c|`` (float64), the
+    order sorts the points by ``r_i``, ties by ``x``, then ``y``, then ``z``.
+    The key is the first 128 bits of the BLAKE2b digest of the sorted radii
+    divided by the largest and rounded to multiples of ``2^-20`` (as
+    little-endian int64). Both stay the same when the points are reordered,
+    moved, scaled, turned or mirrored, read from another file or format, or
+    named otherwise, up to rounding: two points whose radii agree to about
+    ``1e-15`` may swap places, and a radius within about ``1e-16`` of a
+    rounding boundary changes the key, so a turned or reordered copy of a
+    cloud of ``n`` points keeps its key and order but with a chance of about
+    ``n * 1e-10``.
 
     Parameters
     ----------
@@ -120,18 +132,18 @@ def content_order(points: NDArray[np.floating[Any]]) -> tuple[NDArray[np.int64],
     Returns
     -------
     order : (n,) int64
-        The rows of ``points`` sorted lexicographically by ``x``, then ``y``,
-        then ``z`` (float64, ``-0.0`` read as ``0.0``; stable, so equal rows keep
-        their order).
+        The rows of ``points`` in canonical order.
     key : int
-        The first 128 bits of the BLAKE2b digest of the sorted float64
-        coordinates (little-endian, row by row): the same points in any order,
-        from any file and under any name get the same key.
+        The content key, a 128-bit non-negative integer.
     """
-    cloud = np.asarray(points, dtype=np.float64) + 0.0  # one zero: -0.0 becomes 0.0
-    order = np.lexsort(cloud.T[::-1]).astype(np.int64)
-    rows = np.ascontiguousarray(cloud[order], dtype="<f8")
-    digest = hashlib.blake2b(rows.tobytes(), digest_size=16).digest()
+    cloud = np.asarray(points, dtype=np.float64)
+    offsets = cloud - cloud.mean(axis=0)
+    radii = np.sqrt(np.einsum("ij,ij->i", offsets, offsets))
+    order = np.lexsort((cloud[:, 2], cloud[:, 1], cloud[:, 0], radii)).astype(np.int64)
+    largest = float(radii.max(initial=0.0))
+    relative = radii[order] / largest if largest > 0.0 else np.zeros(len(radii))
+    rounded = np.round(relative * float(1 << 20)).astype("<i8")
+    digest = hashlib.blake2b(rounded.tobytes(), digest_size=16).digest()
     return order, int.from_bytes(digest, "little")
 
 
@@ -148,8 +160,11 @@ def network_indices(points: NDArray[np.floating[Any]], *, n_points: int, n_fps: 
     ``n_points - n_fps`` points of input ``k``
     (:func:`vptoolkit.points.network_input_indices`). So the inputs depend on
     the points and ``seed`` only, never on the model's name, the file, its
-    format or the order of the points; input ``k`` is the same whatever
-    ``n_inputs``.
+    format or the order of the points; the inputs of a turned copy of the
+    points are the same points turned, so a network that turns its answer
+    with its input (the canonical input frame, :mod:`vptoolkit.learn.frame`)
+    answers the turned copy with its answer turned. Input ``k`` is the same
+    whatever ``n_inputs``.
 
     Parameters
     ----------
