@@ -19,12 +19,14 @@ formats of :data:`vptoolkit.io.POINT_SUFFIXES`: NPY, NPZ, XYZ, PCD, LAS, ...)
 dataset stores or folders
     the stored surface points of every model of ``split``.
 
-Then :func:`vptoolkit.points.network_input` picks ``n_inputs`` inputs of the
+Then :func:`network_indices` picks ``n_inputs`` inputs of the
 checkpoint's input size (4096 points, 1024 of them by farthest point
-sampling) with generators seeded from ``seed``, the model's name and the
-input's number, so a model gets the same inputs wherever it appears
-(:func:`network_points`). The network answers each, and the answer per
-measure is their consensus (:func:`vptoolkit.learn.consensus.consensus_directions`:
+sampling, one such subset per model) with generators seeded from ``seed``
+and the points' content (:func:`content_order`), never their name, file or
+order, so the same points get the same inputs wherever they appear, and a
+turned copy the same inputs turned. The network answers all of a model's
+inputs in one batch (and those of several models, ``batch_size``), and the
+answer per measure is their consensus (:func:`vptoolkit.learn.consensus.consensus_directions`:
 the answer most of the others agree with), which does not move with the
 sampling as a single input's answer does. ``n_inputs=1`` asks the network
 once (:data:`N_INPUTS` = 16 by default). Nothing is rotated: networks with
@@ -46,7 +48,7 @@ for meshes, from the stored mesh for datasets
 none, and such a network refuses it.
 
 Size
-    About 630 lines for one concept, asking a network: the inputs made the
+    About 770 lines for one concept, asking a network: the inputs made the
     way training made them, the routing to a category's network, the
     consensus, and the three ways in (:func:`predict`,
     :func:`network_predictor`, :class:`MeshPredictor`), which share those
@@ -64,7 +66,7 @@ from typing import TYPE_CHECKING, Any, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from vptoolkit.checks import check_int, check_int_range, short_repr
+from vptoolkit.checks import check_int_range, short_repr
 from vptoolkit.conventions import Split
 from vptoolkit.errors import ArgumentError, InputError
 from vptoolkit.files import is_inside_folder
@@ -88,8 +90,8 @@ else:
     torch = require("torch", extra="learn")
 
 __all__ = ["MeshPredictor", "N_INPUTS", "predict", "predict_directions", "mesh_surface",
-           "content_order", "network_indices", "network_points", "network_inputs", "network_predictor",
-           "load_networks"]
+           "content_order", "network_indices", "network_points", "network_inputs",
+           "network_predictor", "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
 """``format`` entry of the ``categories.json`` index of per-category networks
@@ -407,8 +409,8 @@ def network_predictor(
     It turns surface points and names into directions.
 
     Each cloud becomes ``n_inputs`` network inputs as in :func:`predict` (the
-    checkpoint's input size, seeded from ``seed`` and the model's name), and
-    the answer is their consensus. A network that reads point features
+    checkpoint's input size, seeded from ``seed`` and the points' content,
+    :func:`network_indices`), and the answer is their consensus. A network that reads point features
     (``ModelConfig.point_features``) takes them from ``dataset``: the clouds
     must be its models' stored points, in stored order, turned about the
     origin or not, as :func:`vptoolkit.evaluate.protocol.score_protocol`
@@ -583,8 +585,9 @@ class MeshPredictor:
     --model`` (a :data:`vptoolkit.pictures.views.DirectionSource`). A mesh becomes
     network inputs as in :func:`predict`: 20000 surface points (seed
     ``seed``), then ``n_inputs`` inputs of the checkpoint's input size chosen
-    with generators seeded from ``seed``, the mesh's name and the input's
-    number; the answer is the consensus of the network's answers to them.
+    with generators seeded from ``seed`` and the points' content
+    (:func:`network_indices`); the answer is the consensus of the network's
+    answers to them, asked in one batch.
 
     Parameters
     ----------
