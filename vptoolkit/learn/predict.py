@@ -141,7 +141,9 @@ def content_order(points: NDArray[np.floating[Any]]) -> tuple[NDArray[np.int64],
     cloud = np.asarray(points, dtype=np.float64)
     offsets = cloud - cloud.mean(axis=0)
     radii = np.sqrt(np.einsum("ij,ij->i", offsets, offsets))
-    order = np.lexsort((cloud[:, 2], cloud[:, 1], cloud[:, 0], radii)).astype(np.int64)
+    order = np.argsort(radii, kind="stable").astype(np.int64)
+    if (np.diff(radii[order]) == 0.0).any():  # equal radii: their coordinates decide
+        order = np.lexsort((cloud[:, 2], cloud[:, 1], cloud[:, 0], radii)).astype(np.int64)
     largest = float(radii.max(initial=0.0))
     relative = radii[order] / largest if largest > 0.0 else np.zeros(len(radii))
     rounded = np.round(relative * float(1 << 20)).astype("<i8")
