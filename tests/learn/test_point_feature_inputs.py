@@ -177,11 +177,10 @@ def test_network_inputs_put_the_features_of_the_chosen_rows_after_them():
     sizes: dict[str, Any] = {"n_points": 256, "n_fps": 64, "seed": 4, "name": "mug"}
     inputs = network_inputs(points, n_inputs=3, features=features, **sizes)
     assert inputs.shape == (3, 256, 5) and inputs.dtype == np.float32
-    for draw in range(3):
-        rows = network_indices(points, draw=draw, **sizes)
-        np.testing.assert_array_equal(inputs[draw, :, :3],
-                                      network_points(points, draw=draw, **sizes))
-        np.testing.assert_array_equal(inputs[draw, :, 3:], features[rows])
+    rows = network_indices(points, n_inputs=3, **{k: v for k, v in sizes.items() if k != "name"})
+    assert rows.shape == (3, 256)
+    np.testing.assert_array_equal(inputs[0, :, :3], network_points(points, **sizes))
+    np.testing.assert_array_equal(inputs[..., 3:], features[rows])
     np.testing.assert_array_equal(network_inputs(points, n_inputs=3, **sizes), inputs[..., :3])
 
 
@@ -251,12 +250,10 @@ def test_mesh_inputs_end_with_the_area_of_the_sampled_faces(checkpoint):
     assert inputs.shape == (2, INPUT["n_points"], 4) and inputs.dtype == np.float32
     sample = sample_surface(mesh, N_SURFACE_POINTS, seed=0)
     feature = face_area_feature(mesh, sample.face_index)
-    for draw in range(2):
-        rows = network_indices(sample.points, seed=0, name="teapot", draw=draw, **INPUT)
-        np.testing.assert_array_equal(
-            inputs[draw, :, :3],
-            network_points(sample.points, seed=0, name="teapot", draw=draw, **INPUT))
-        np.testing.assert_array_equal(inputs[draw, :, 3], feature[rows])
+    rows = network_indices(sample.points, seed=0, n_inputs=2, **INPUT)
+    np.testing.assert_array_equal(inputs[0, :, :3],
+                                  network_points(sample.points, seed=0, name="teapot", **INPUT))
+    np.testing.assert_array_equal(inputs[..., 3], feature[rows])
 
 
 def test_predict_on_a_mesh_file_is_the_mesh_predictors_answer(checkpoint):

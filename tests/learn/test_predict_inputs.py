@@ -15,7 +15,9 @@ from vptoolkit.learn.consensus import consensus_directions  # noqa: E402
 from vptoolkit.learn.predict import (  # noqa: E402
     N_INPUTS,
     MeshPredictor,
+    content_order,
     mesh_surface,
+    network_indices,
     network_inputs,
     network_points,
     network_predictor,
@@ -56,22 +58,66 @@ def test_one_input_is_the_single_draw_zero_answer(predictor):
         assert np.allclose(answered.directions[0], expected, atol=1e-5)
 
 
-def test_the_inputs_are_distinct_draws_the_first_being_draw_zero(predictor):
+def test_the_inputs_are_distinct_draws_the_first_being_the_single_input(predictor):
     points = surface("mug.obj")
     sizes = {"n_points": predictor.n_points, "n_fps": predictor.n_fps, "seed": 0, "name": "mug"}
     inputs = network_inputs(points, n_inputs=5, **sizes)
     assert inputs.shape == (5, predictor.n_points, 3) and inputs.dtype == np.float32
-    np.testing.assert_array_equal(inputs[0], network_points(points, draw=0, **sizes))
-    np.testing.assert_array_equal(inputs[3], network_points(points, draw=3, **sizes))
+    np.testing.assert_array_equal(inputs[0], network_points(points, **sizes))
+    np.testing.assert_array_equal(inputs[:3], network_inputs(points, n_inputs=3, **sizes))
     chosen = [{tuple(point) for point in draw} for draw in inputs]
     assert all(chosen[i] != chosen[j] for i in range(5) for j in range(i))
+    # every input holds the model's one farthest-point subset first
+    assert all(np.array_equal(draw[:predictor.n_fps], inputs[0, :predictor.n_fps])
+               for draw in inputs)
     assert network_inputs(points, **sizes).shape[0] == N_INPUTS
-    # the same draws from the same seed and name; another name draws others
+    # the same draws from the same points and seed, whatever the name; another seed draws others
     np.testing.assert_array_equal(network_inputs(points, n_inputs=5, **sizes), inputs)
-    other = network_inputs(points, n_inputs=5, **{**sizes, "name": "cup"})
-    assert not np.array_equal(other, inputs)
+    np.testing.assert_array_equal(
+        network_inputs(points, n_inputs=5, **{**sizes, "name": "zebra"}), inputs)
+    assert not np.array_equal(network_inputs(points, n_inputs=5, **{**sizes, "seed": 1}), inputs)
     np.testing.assert_array_equal(predictor.inputs(load_mesh(sample_path("mug.obj"))),
                                   network_inputs(points, **sizes, features=face_areas("mug.obj")))
+
+
+def test_the_inputs_follow_the_points_in_any_order():
+    points = surface("teapot.stl")
+    sizes = {"n_points": 512, "n_fps": 128, "seed": 0, "name": "teapot"}
+    shuffled = np.random.default_rng(5).permutation(len(points))
+    order, key = content_order(points)
+    radii = np.linalg.norm(points[order] - points.mean(axis=0), axis=1)
+    assert np.all(np.diff(radii) >= 0)
+    turn = np.linalg.qr(np.random.default_rng(6).normal(size=(3, 3)))[0]
+    assert content_order(points[shuffled])[1] == key
+    moved_order, moved_key = content_order(points @ turn.T * 3.0 + 1.0)
+    assert moved_key == key
+    np.testing.assert_array_equal(moved_order, order)
+    assert content_order(points[:-1])[1] != key  # other points, other key
+    rows = network_indices(points, n_inputs=3, **{k: v for k, v in sizes.items() if k != "name"})
+    again = network_indices(points[shuffled], n_inputs=3,
+                            **{k: v for k, v in sizes.items() if k != "name"})
+    np.testing.assert_array_equal(points[rows], points[shuffled][again])
+    np.testing.assert_array_equal(network_inputs(points[shuffled], n_inputs=3, **sizes),
+                                  network_inputs(points, n_inputs=3, **sizes))
+
+
+def test_the_answer_depends_on_the_points_not_the_file(tmp_path):
+    import open3d as o3d
+
+    points = surface("mug.obj").astype(np.float32)
+    np.save(tmp_path / "a.npy", points)
+    np.save(tmp_path / "zebra.npy", points)
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points.astype(np.float64)))
+    o3d.io.write_point_cloud(str(tmp_path / "mug.ply"), cloud)
+    files = [tmp_path / "a.npy", tmp_path / "zebra.npy", tmp_path / "mug.ply"]
+    answered = predict("points", files, device="cpu", n_inputs=4)
+    assert answered.names == ("a", "zebra", "mug")
+    np.testing.assert_array_equal(answered.directions[1], answered.directions[0])
+    np.testing.assert_array_equal(answered.directions[2], answered.directions[0])
+    from_clouds = network_predictor("points", device="cpu", n_inputs=4)
+    # the same inputs in another batch: the same answers up to the rounding of batched sums
+    np.testing.assert_allclose(from_clouds([points, points[::-1]], ["b", "c"]),
+                               answered.directions[:2], atol=1e-5)
 
 
 def test_the_consensus_is_one_of_the_single_input_answers(predictor):

@@ -182,15 +182,25 @@ def check_clouds(points: Tensor, channels: int = 3) -> None:
         raise InputError(f"points: expected a floating dtype, got {points.dtype}")
 
 
-def _spread_bits(values: Tensor) -> Tensor:
-    """Insert two zero bits after every bit of 21-bit integers."""
-    x = values & 0x1FFFFF
-    x = (x | (x << 32)) & 0x1F00000000FFFF
-    x = (x | (x << 16)) & 0x1F0000FF0000FF
+def _spread_low_bits(values: Tensor) -> Tensor:
+    """Insert two zero bits after every bit of integers below ``2^11`` (by shifts and masks)."""
+    x = (values | (values << 16)) & 0x1F0000FF0000FF
     x = (x | (x << 8)) & 0x100F00F00F00F00F
     x = (x | (x << 4)) & 0x10C30C30C30C30C3
-    x = (x | (x << 2)) & 0x1249249249249249
-    return x
+    return (x | (x << 2)) & 0x1249249249249249
+
+
+def _spread_bits(values: Tensor) -> Tensor:
+    """Insert two zero bits after every bit of 21-bit integers.
+
+    Two look-ups in a table of the 2048 spread 11-bit values: bits 0-10 spread
+    to bits 0-30, bits 11-20 to bits 33-60 (elementwise integer shifts are
+    slow on the CPU, gathers are not).
+    """
+    table = _spread_low_bits(torch.arange(1 << 11, dtype=torch.int64, device=values.device))
+    low = torch.take(table, values & 0x7FF)
+    high = torch.take(table, (values >> 11) & 0x3FF)
+    return low | (high << 33)
 
 
 def _grid_coordinates(points: Tensor, level: int = CODE_BITS) -> Tensor:
@@ -343,7 +353,13 @@ def ball_query(source: PointLevel, centres: PointLevel, radius: float,
     reach = (radius * (1 << k)) ** 2 * (1.0 + 1e-9)
     is_inside = (((neighbours >= 0) & (neighbours < (1 << k))).all(dim=-1)
                  & (gap.square().sum(dim=-1) <= reach))
-    keys = (centres.batch.unsqueeze(-1) << (3 * k)) | _interleave(neighbours.clamp(0, (1 << k) - 1))
+    # Codes of the 27 cells from the spread coordinates of 3 cells per axis: (M, 3 axes, 3 steps).
+    steps = torch.arange(-1, 2, device=cells.device)
+    spread = _spread_bits((cells.unsqueeze(-1) + steps).clamp(0, (1 << k) - 1))
+    spread = spread << torch.tensor([[2], [1], [0]], device=cells.device)
+    step = offsets + 1  # (27, 3): the step of each neighbour cell along each axis
+    codes = spread[:, 0, step[:, 0]] | spread[:, 1, step[:, 1]] | spread[:, 2, step[:, 2]]
+    keys = (centres.batch.unsqueeze(-1) << (3 * k)) | codes
     start = torch.searchsorted(source_keys, keys, side="left")
     stop = torch.searchsorted(source_keys, keys, side="right")
     run_length = torch.where(is_inside, stop - start, torch.zeros_like(start)).reshape(-1)

@@ -52,8 +52,7 @@ def validation_inputs(subset: ViewpointDataset, n_models: int, *, n_points: int,
     for index in range(n_models):
         item = subset[index]
         features = subset.point_features(index, point_features) if point_features else None
-        chosen = network_indices(item["points"], n_points=n_points, n_fps=n_fps, seed=seed,
-                                 name=item["name"])
+        chosen = network_indices(item["points"], n_points=n_points, n_fps=n_fps, seed=seed)[0]
         base = item["points"][chosen].astype(np.float32)
         turns = (fixed_rotations(item["name"], rotations, seed=seed) if rotations
                  else np.eye(3)[None])
