@@ -88,6 +88,7 @@ from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
+from vptoolkit.learn.predict import N_INPUTS
 from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.measures.unoccluded import unoccluded_best_views
@@ -125,12 +126,17 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--resolution", type=int, default=SEARCH_RESOLUTION,
                         help=f"px of the searches (default: {SEARCH_RESOLUTION})")
     parser.add_argument("--rotations", type=int, default=4,
-                        help="fixed rotations per mesh of a mesh folder (default: 4)")
+                        help="fixed rotations per model: drawn for a mesh folder, the first "
+                             "ones stored for a benchmark folder (default: 4)")
+    parser.add_argument("--network-inputs", type=int, default=N_INPUTS,
+                        help=f"inputs of the network per cloud, their consensus answers "
+                             f"(default: {N_INPUTS}, as vptool predict)")
     add_results_option(parser, "point_clouds")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
     parser.add_argument("--quick", action="store_true",
                         help="a mesh folder's labels at 100 views and 64 px, 1 rotation, "
-                             "2000-point clouds, 64 px scans, budgets 8 and 16 at 64 px")
+                             "2000-point clouds, 64 px scans, budgets 8 and 16 at 64 px, "
+                             "2 network inputs")
     args = parser.parse_args(argv)
     try:
         args.budget_list = [int(b) for b in args.budgets.split(",")]
@@ -139,14 +145,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error("--budgets, --hpr-views: expected integers separated by commas")
     if not args.budget_list or not args.hpr_list or min(args.budget_list + args.hpr_list) < 1:
         parser.error("--budgets, --hpr-views: every count must be at least 1")
-    if min(args.rotations, args.resolution) < 1 or (args.models is not None and args.models < 1):
-        parser.error("--rotations, --resolution and --models must be at least 1")
+    if (min(args.rotations, args.resolution, args.network_inputs) < 1
+            or (args.models is not None and args.models < 1)):
+        parser.error("--rotations, --resolution, --network-inputs and --models must be at least 1")
     if not args.source.is_dir():
         parser.error(f"{args.source}: not a folder")
     if args.results is not None and args.results.exists() and not args.results.is_file():
         parser.error(f"--results: {args.results} is not a file")
     if args.quick:
-        args.budget_list, args.rotations, args.resolution = [8, 16], 1, 64
+        args.budget_list, args.rotations, args.resolution, args.network_inputs = [8, 16], 1, 64, 2
     return args
 
 
@@ -255,12 +262,12 @@ def takes_point_clouds(cloud: Cloud) -> bool:
     return True
 
 
-def cloud_answers(budgets: list[int], hpr_views: list[int], resolution: int,
-                  anytime: bool) -> dict[str, tuple[str, CloudAnswer]]:
+def cloud_answers(budgets: list[int], hpr_views: list[int], resolution: int, anytime: bool,
+                  network_inputs: int) -> dict[str, tuple[str, CloudAnswer]]:
     """Row label -> (views drawn, answer on a cloud), in table order."""
     from vptoolkit.learn.predict import network_predictor
 
-    network = network_predictor(POINTS_NETWORK)
+    network = network_predictor(POINTS_NETWORK, n_inputs=network_inputs)
     rows: dict[str, tuple[str, CloudAnswer]] = {}
 
     def flat(budget: int) -> CloudAnswer:
@@ -387,7 +394,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if is_benchmark:
             manifest = json.loads((args.source / "manifest.json").read_text(encoding="utf-8"))
-            rotations = int(manifest["rotations"])
+            rotations = min(args.rotations, int(manifest["rotations"]))
             full = open_dataset(args.source / manifest["labels"])
         else:
             rotations = args.rotations
@@ -403,7 +410,8 @@ def main(argv: list[str] | None = None) -> int:
                                scan_resolution=64 if args.quick else SCAN_RESOLUTION)
 
         anytime = takes_point_clouds(next(cases()).clouds["uniform"])
-        clouds = cloud_answers(args.budget_list, args.hpr_list, args.resolution, anytime)
+        clouds = cloud_answers(args.budget_list, args.hpr_list, args.resolution, anytime,
+                               args.network_inputs)
         meshes = mesh_answers(args.budget_list, args.resolution)
         by_kind, by_mesh = score(dataset, cases(), len(dataset) * rotations, clouds, meshes)
         random_scores = random_view_scores(dataset)
