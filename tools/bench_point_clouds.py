@@ -1,4 +1,4 @@
-"""Benchmark of best-view answers for a point cloud: which answer to use when all you have is points.
+"""Benchmark of best-view answers for a point cloud: which to use when all you have is points.
 
 Every answer sees a rotated cloud of a model and returns one direction per
 measure in the cloud's frame; the direction is turned back by the cloud's
