@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 
 __all__ = ["CONTACT_SHARE", "FORMAT_UP", "auto_up", "footprint_area", "resting_up",
            "rotation_between"]
@@ -87,10 +88,11 @@ def _turn(a: NDArray[np.float64], b: NDArray[np.float64], c: NDArray[np.float64]
     return float((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
 
 
-def resting_up(mesh: Mesh) -> tuple[float, float, float]:
-    """The resting rule (module docstring): ``(0, 0, 1)`` if the mesh stands more broadly on
-    its -z side than on its -y side, else ``(0, 1, 0)``."""
-    y_up, z_up = (footprint_area(mesh.vertices, axis) for axis in _CANDIDATES)
+def resting_up(model: Mesh | PointCloud) -> tuple[float, float, float]:
+    """The resting rule (module docstring): ``(0, 0, 1)`` if the model (a mesh's vertices, a
+    cloud's points) stands more broadly on its -z side than on its -y side, else ``(0, 1, 0)``."""
+    vertices = model.vertices if isinstance(model, Mesh) else model.points
+    y_up, z_up = (footprint_area(vertices, axis) for axis in _CANDIDATES)
     return _CANDIDATES[1] if z_up > y_up * (1.0 + 1e-6) else _CANDIDATES[0]
 
 

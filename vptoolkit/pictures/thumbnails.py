@@ -354,7 +354,7 @@ def render_thumbnails(
             image_path = target / picture_name(result.entry.key)
             model = require_surface(result.model)  # a run that draws reads meshes only
             try:
-                appearance = model_appearance(result.entry, result.model)
+                appearance = model_appearance(result.entry, model)
                 if isinstance(method, ViewSetMethod):
                     from vptoolkit.pictures.contact_sheet import view_set_sheet
 
