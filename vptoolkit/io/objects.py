@@ -50,9 +50,10 @@ def model_of(source: Any, name: str | None = None) -> Mesh | PointCloud:
     Raises
     ------
     InputError
-        ``model: expected a path, a Mesh, a PointCloud, a trimesh or Open3D
-        mesh, point cloud or scene, an (N, 3) array or (vertices, faces), got
-        dict`` for anything else, or the container's check of the arrays.
+        ``model: expected a Mesh, a PointCloud, a trimesh or Open3D mesh,
+        point cloud or scene, an (N, 3) array or (vertices, faces), got dict``
+        for anything else (a path is :func:`vptoolkit.io.load`'s), or the
+        container's check of the arrays.
     """
     if isinstance(source, (Mesh, PointCloud)):
         return source
@@ -60,7 +61,11 @@ def model_of(source: Any, name: str | None = None) -> Mesh | PointCloud:
     if isinstance(source, tuple) and len(source) == 2:
         return as_mesh(source, mesh_name)
     if isinstance(source, (np.ndarray, list)):
-        table = np.asarray(source)
+        try:
+            table = np.asarray(source, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InputError(f"{points_name}: expected an (N, 3) or (N, 6) point array, got a "
+                             f"{type(source).__qualname__} that is not one") from None
         if table.ndim != 2 or table.shape[1] not in (3, 6):
             raise InputError(f"{points_name}: expected an (N, 3) or (N, 6) point array, "
                              f"got shape {table.shape}")
@@ -75,7 +80,7 @@ def model_of(source: Any, name: str | None = None) -> Mesh | PointCloud:
         return PointCloud(np.asarray(source.points), normals, name=points_name)
     if hasattr(source, "vertices"):
         return PointCloud(np.asarray(source.vertices), name=points_name)
-    raise InputError("model: expected a path, a Mesh, a PointCloud, a trimesh or Open3D mesh, "
+    raise InputError("model: expected a Mesh, a PointCloud, a trimesh or Open3D mesh, "
                      "point cloud or scene, an (N, 3) array or (vertices, faces), "
                      f"got {type(source).__qualname__}")
 
