@@ -4,7 +4,7 @@ A cloud is 20,000 surface points of a bundled sample mesh (seed 0); the
 answer is what :func:`vptoolkit.learn.predict.network_predictor` gives with
 the bundled network of coordinates alone (``points``), in process, the
 network loaded once: the consensus of its answers to
-:data:`~vptoolkit.learn.predict.N_INPUTS` inputs of 4096 points per cloud.
+:data:`~vptoolkit.learn.draws.N_INPUTS` inputs of 4096 points per cloud.
 Printed:
 
 * single: one cloud per call, the median over the clouds and repeats;
@@ -44,15 +44,9 @@ from results_doc import add_results_option, printed_section
 
 from vptoolkit.io import load_mesh
 from vptoolkit.learn.consensus import consensus_directions
+from vptoolkit.learn.draws import N_INPUTS, content_order, network_indices, network_inputs
 from vptoolkit.learn.hierarchy import build_hierarchy
-from vptoolkit.learn.predict import (
-    N_INPUTS,
-    content_order,
-    network_indices,
-    network_inputs,
-    network_predictor,
-    predict_directions,
-)
+from vptoolkit.learn.predict import network_predictor, predict_directions
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, farthest_point_sampling, sample_surface
 from vptoolkit.samples import sample_path
 

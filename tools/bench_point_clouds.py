@@ -88,7 +88,7 @@ from vptoolkit.data import ViewpointDataset, open_dataset
 from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.evaluate.baselines import pca_directions
 from vptoolkit.evaluate.protocol import ProtocolScores, random_view_scores
-from vptoolkit.learn.predict import N_INPUTS
+from vptoolkit.learn.draws import N_INPUTS
 from vptoolkit.measures.quality import normalize_quality
 from vptoolkit.measures.sums import quality_from_histograms
 from vptoolkit.measures.unoccluded import unoccluded_best_views

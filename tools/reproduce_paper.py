@@ -381,7 +381,8 @@ class Network:
         directions : (n_clouds, 4, 3) float64
             Unit vectors, in the order of ``clouds``.
         """
-        from vptoolkit.learn.predict import network_points, predict_directions
+        from vptoolkit.learn.draws import network_points
+        from vptoolkit.learn.predict import predict_directions
 
         inputs = np.stack([
             network_points(np.asarray(points, dtype=np.float64), n_points=self.n_points,
@@ -484,8 +485,8 @@ def section_timings(options: RunOptions) -> Section:
     from tqdm import tqdm
 
     from vptoolkit.learn.config import ModelConfig
+    from vptoolkit.learn.draws import network_points
     from vptoolkit.learn.model import ViewpointNet
-    from vptoolkit.learn.predict import network_points
 
     sizes = options.sizes
     started = time.perf_counter()

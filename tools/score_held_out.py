@@ -69,7 +69,8 @@ from vptoolkit.evaluate.protocol import (
     score_protocol,
 )
 from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
-from vptoolkit.learn.predict import N_INPUTS, MeshPredictor, network_predictor
+from vptoolkit.learn.draws import N_INPUTS
+from vptoolkit.learn.predict import MeshPredictor, network_predictor
 from vptoolkit.measures.registry import PAPER_MEASURES
 from vptoolkit.mesh import Mesh
 from vptoolkit.points import N_SURFACE_POINTS

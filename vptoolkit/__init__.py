@@ -49,7 +49,8 @@ module, layer by layer):
 from __future__ import annotations
 
 from vptoolkit._version import __version__
-from vptoolkit.best_view.search import BestViews, SearchSettings, search_best_views
+from vptoolkit.best_view.answer import BestViews
+from vptoolkit.best_view.search import SearchSettings, search_best_views
 from vptoolkit.conventions import N_VIEWS
 from vptoolkit.errors import (
     CheckpointError,

@@ -31,7 +31,7 @@ Camera (defaults of :class:`vptoolkit.camera.Camera`)
 
 Exported cameras and pictures
     Poses handed to other renderers (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`,
-    :meth:`vptoolkit.best_view.search.BestViews.camera_pose`) put ``PICTURE_UP``
+    :meth:`vptoolkit.best_view.answer.BestViews.camera_pose`) put ``PICTURE_UP``
     at the top of the image, as Open3D, trimesh and glTF do; the measures keep
     ``UP`` inside, so their values do not depend on it.
 """

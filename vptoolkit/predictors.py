@@ -152,7 +152,7 @@ def resolve_predictor(spec: str | os.PathLike[str] | Callable[..., Predictions],
         A network's options (:func:`vptoolkit.learn.predict.predict`); the
         unoccluded estimate has no use for them.
     n_inputs : int, optional
-        A network's inputs per model (default: its :data:`~vptoolkit.learn.predict.N_INPUTS`).
+        A network's inputs per model (default: its :data:`~vptoolkit.learn.draws.N_INPUTS`).
 
     Returns
     -------
@@ -190,7 +190,8 @@ def _predict_network(model: str | os.PathLike[str], inputs: Inputs, *, split: Sp
 
     from vptoolkit.inputs import read_model
     from vptoolkit.io import POINT_SUFFIXES
-    from vptoolkit.learn.predict import N_INPUTS, predict
+    from vptoolkit.learn.draws import N_INPUTS
+    from vptoolkit.learn.predict import predict
 
     entries = [inputs] if isinstance(inputs, (str, os.PathLike)) or not isinstance(
         inputs, Sequence) else inputs

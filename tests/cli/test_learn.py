@@ -113,7 +113,8 @@ def test_predict_with_the_bundled_network_prints_directions(runner):
 def test_predict_asks_the_network_about_as_many_inputs_as_told(runner, tmp_path):
     require_package("torch")
     from vptoolkit.cli.learn import predict_command
-    from vptoolkit.learn.predict import N_INPUTS, predict
+    from vptoolkit.learn.draws import N_INPUTS
+    from vptoolkit.learn.predict import predict
 
     mug = sample_path("mug.obj")
     found = {}

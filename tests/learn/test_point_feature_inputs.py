@@ -28,13 +28,11 @@ import torch  # noqa: E402
 from vptoolkit.data import open_dataset  # noqa: E402
 from vptoolkit.data.torch import ViewpointTorchDataset  # noqa: E402
 from vptoolkit.learn.config import ModelConfig  # noqa: E402
+from vptoolkit.learn.draws import network_indices, network_inputs, network_points  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame  # noqa: E402
 from vptoolkit.learn.model import ViewpointNet, load_model, save_model  # noqa: E402
 from vptoolkit.learn.predict import (  # noqa: E402
     MeshPredictor,
-    network_indices,
-    network_inputs,
-    network_points,
     network_predictor,
     predict,
     predict_directions,

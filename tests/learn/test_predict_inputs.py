@@ -12,14 +12,16 @@ from vptoolkit.samples import sample_path
 require_package("torch")
 
 from vptoolkit.learn.consensus import consensus_directions  # noqa: E402
-from vptoolkit.learn.predict import (  # noqa: E402
+from vptoolkit.learn.draws import (  # noqa: E402
     N_INPUTS,
-    MeshPredictor,
     content_order,
-    mesh_surface,
     network_indices,
     network_inputs,
     network_points,
+)
+from vptoolkit.learn.predict import (  # noqa: E402
+    MeshPredictor,
+    mesh_surface,
     network_predictor,
     predict,
     predict_directions,

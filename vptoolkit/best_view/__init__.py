@@ -3,8 +3,10 @@
 ``search``
     The anytime search of one mesh (:func:`~vptoolkit.best_view.search.search_best_views`):
     coarse sphere, prior, confirmation and pattern-search refinement, with
-    its settings as one checked value (``SearchSettings``) and its answer
-    (``BestViews``).
+    its settings as one checked value (``SearchSettings``).
+``answer``
+    What a search returns (``BestViews``: directions, raw values, stages and
+    camera poses per measure; ``SearchStage``).
 ``prior``
     Who proposes the first candidates: the ``Prior`` protocol,
     ``UnoccludedPrior`` and :func:`~vptoolkit.best_view.prior.resolve_prior`,

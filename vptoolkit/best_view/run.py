@@ -26,10 +26,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
+from vptoolkit.best_view.answer import BestViews
 from vptoolkit.best_view.prior import resolve_prior
 from vptoolkit.best_view.search import (
     UNSEARCHABLE_NEEDS,
-    BestViews,
     SearchSettings,
     check_search_settings,
     search_best_views,

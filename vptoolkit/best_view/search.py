@@ -76,13 +76,14 @@ higher for VE and VR, lower for VKL and VMI). :meth:`BestViews.camera_pose`
 hands the camera that drew an answer to another renderer (:mod:`vptoolkit.camera`).
 
 Size
-    About 700 lines for one concept, the search of one mesh: its settings
-    (:class:`SearchSettings`), its answer (:class:`BestViews`), the stages,
+    About 600 lines for one concept, the search of one mesh or cloud: its
+    settings (:class:`SearchSettings`), the stages,
     and which views a session measures together (the paper's four per stage
     with the estimated ``p(z)``, the others over the competing views). The
     stages and the measuring share the incumbents, the estimate and the
     competing views, which a split would have to pass between modules; the
-    search over many inputs is :mod:`vptoolkit.best_view.run`.
+    search over many inputs is :mod:`vptoolkit.best_view.run`, its answer
+    (:class:`~vptoolkit.best_view.answer.BestViews`) :mod:`vptoolkit.best_view.answer`.
 """
 
 from __future__ import annotations
@@ -96,13 +97,14 @@ from typing import Any, Final, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from vptoolkit.camera import Camera, Convention, ViewPoses
+from vptoolkit.best_view.answer import BestViews, SearchStage
+from vptoolkit.camera import Camera
 from vptoolkit.checks import check_int_range
 from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ranked_views
-from vptoolkit.measures.registry import PAPER_MEASURES, get_measure, resolve_measures
+from vptoolkit.measures.registry import get_measure, resolve_measures
 from vptoolkit.measures.session import MeasuringSession
 from vptoolkit.mesh import Mesh, MeshLike
 from vptoolkit.point_cloud import PointCloud
@@ -119,9 +121,7 @@ __all__ = [
     "MIN_STEP_DEG",
     "MAX_BUDGET",
     "UNSEARCHABLE_NEEDS",
-    "BestViews",
     "SearchSettings",
-    "SearchStage",
     "search_best_views",
     "check_search_settings",
     "searchable_measures",
@@ -154,113 +154,6 @@ _RING = 4  # directions per ring of the refinement
 _FIRST_STEP = 0.5  # the first ring's angle, in coarse spacings
 _PRIOR_SHARE = 0.125  # the most of the budget a prior's candidates take (at least one view)
 _CONFIRM_PER_MEASURE = 2  # coarse directions per measure drawn again at full resolution
-
-
-@dataclass(frozen=True)
-class SearchStage:
-    """One stage of a search: its name, the views it drew and their resolution in pixels."""
-
-    name: str
-    n_views: int
-    resolution: int
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe form."""
-        return {"stage": self.name, "views": self.n_views, "resolution": self.resolution}
-
-
-@dataclass(frozen=True)
-class BestViews:
-    """The answer of a best-view search for one mesh.
-
-    Attributes
-    ----------
-    name : str
-        Name of the mesh.
-    directions : (M, 3) float64
-        Best unit direction per measure, bounding-box centre towards the camera.
-    raw : (M,) float64
-        Raw value of each measure in its best direction, drawn at ``resolution``
-        (VMI with the estimated ``p(z)`` of the module docstring).
-    resolution : int
-        Image side of the views that decided the answer.
-    stages : tuple of SearchStage
-        What was drawn, in order.
-    seconds : float
-        Wall time of the search, and of the prior's proposal (not part of the
-        answer's bytes anywhere; :func:`search_inputs` loads numba's kernels
-        before the first mesh, so no mesh's time holds that).
-    poses : ViewPoses
-        The cameras of ``directions`` at ``resolution`` (:meth:`camera_pose`).
-    drawn : (n_views, 3) float64
-        Every direction drawn, in the order drawn: the stages' views one after
-        the other (``stages[0].n_views`` rows first).
-    up : tuple of 3 floats
-        The model's up axis (``SearchSettings.up``): the top of the image of
-        :meth:`camera_pose`.
-    measures : tuple of str
-        The searched measures, the row order of ``directions`` and ``raw``
-        (default: the paper's four, ``PAPER_MEASURES``).
-    """
-
-    name: str
-    directions: NDArray[np.float64]
-    raw: NDArray[np.float64]
-    resolution: int
-    stages: tuple[SearchStage, ...]
-    seconds: float
-    poses: ViewPoses
-    drawn: NDArray[np.float64]
-    up: tuple[float, float, float] = PICTURE_UP
-    measures: tuple[str, ...] = PAPER_MEASURES
-
-    def camera_pose(self, measure: str, *,
-                    convention: Convention = "opencv") -> NDArray[np.float64]:
-        """Camera-to-world pose ``(4, 4) float64`` of a measure's best view, in model units.
-
-        ``convention``: ``"opencv"`` (default; x right, y down, z forward, as
-        Open3D) or ``"opengl"`` (x right, y up, z backward, as trimesh's
-        ``scene.camera_transform``); the inverse is the world-to-camera extrinsic
-        matrix (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`). The model's
-        up axis :attr:`up` (default +y, as Open3D and trimesh) is at the top of
-        the image. ``measure`` is a searched one, in any case. Raises InputError.
-        """
-        folded = [name.upper() for name in self.measures]
-        if not isinstance(measure, str) or measure.upper() not in folded:
-            raise InputError(f"measure: {measure!r} was not searched (searched: "
-                             f"{', '.join(self.measures)})")
-        return self.poses.camera_to_world(convention, up=self.up)[folded.index(measure.upper())]
-
-    def intrinsics(self, resolution: int | None = None) -> NDArray[np.float64]:
-        """Pinhole matrix ``K`` ``(3, 3) float64`` of a square image of ``resolution`` px
-        (default: the search's), as :meth:`vptoolkit.camera.ViewPoses.intrinsics`."""
-        return self.poses.intrinsics(resolution)
-
-    @property
-    def n_views(self) -> int:
-        """Views drawn over all stages: the machine-independent cost."""
-        return sum(stage.n_views for stage in self.stages)
-
-    def summary(self) -> dict[str, Any]:
-        """JSON-safe summary: directions, raw values and camera poses (:meth:`camera_pose`,
-        OpenCV, rows of the 4x4 matrix) per measure, the up axis, the intrinsics at
-        ``resolution``, stages, seconds."""
-        poses = self.poses.camera_to_world("opencv", up=self.up)
-        return {
-            "name": self.name,
-            "views": self.n_views,
-            "resolution": self.resolution,
-            "stages": [stage.to_dict() for stage in self.stages],
-            "seconds": round(self.seconds, 4),
-            "up": list(self.up),
-            "intrinsics": self.intrinsics().tolist(),
-            "best": {
-                measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
-                          "raw": float(self.raw[column]),
-                          "pose": poses[column].tolist()}
-                for column, measure in enumerate(self.measures)
-            },
-        }
 
 
 @dataclass

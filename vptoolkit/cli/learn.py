@@ -191,7 +191,7 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @seed_option("Seed of the surface sampling and input point choice.")
 @click.option("--category",
               help="Category of mesh and point-file inputs, for a per-category model folder.")
-# shown, not set: N_INPUTS of vptoolkit.learn.predict, which imports torch (tests/cli/test_learn.py)
+# shown, not set: N_INPUTS of vptoolkit.learn.draws, which imports torch (tests/cli/test_learn.py)
 @click.option("--inputs", "n_inputs", type=click.IntRange(1, 64), show_default="16",
               help="Network inputs per model; the prediction is the consensus of the network's "
                    "answers to them (1: ask once).")

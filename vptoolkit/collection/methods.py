@@ -21,7 +21,7 @@ output folder is named by its digest) and ``method(mesh) -> Answer``:
 
 Every answer carries the camera of each direction: the camera-to-world
 pose ``(4, 4)`` in the OpenCV convention (x right, y down, z forward, model
-units, as :meth:`vptoolkit.best_view.search.BestViews.camera_pose`), with
+units, as :meth:`vptoolkit.best_view.answer.BestViews.camera_pose`), with
 ``PICTURE_UP`` (+y, or a search's ``up``) at the top of the image, and the
 pinhole matrix ``(3, 3)`` of a square image of the method's resolution.
 """

@@ -20,7 +20,9 @@ nothing, so ``import vptoolkit.learn`` never loads torch):
   meshes, point files or a dataset split (read through
   :func:`vptoolkit.inputs.open_inputs`), returning
   :class:`~vptoolkit.predictions.Predictions`; ``vptoolkit.learn.consensus``:
-  one answer from the network's answers to several inputs of a model.
+  one answer from the network's answers to several inputs of a model;
+  ``vptoolkit.learn.draws``: which points those inputs are, seeded by the
+  points' content (numpy only).
 - ``vptoolkit.learn.config``: ``ModelConfig`` and ``LevelConfig``, the
   architecture as data (no torch); ``vptoolkit.learn.hierarchy`` and
   ``vptoolkit.learn.layers``: the point hierarchy (grid levels,

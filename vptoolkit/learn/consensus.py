@@ -1,7 +1,7 @@
 """One direction from several answers: the densest of them under a von Mises-Fisher kernel.
 
 A network sees a model through one input, a few thousand points drawn from
-its sampled surface (:func:`vptoolkit.learn.predict.network_points`), and
+its sampled surface (:func:`vptoolkit.learn.draws.network_points`), and
 its answer moves with that draw: on real meshes a resampled copy of a model
 may get an answer tens of degrees away (``docs/results.md``), mostly a jump
 between two views that score alike (views on opposite sides for VKL).

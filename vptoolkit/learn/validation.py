@@ -17,9 +17,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vptoolkit.data import ViewpointDataset
+from vptoolkit.learn.draws import network_indices
 from vptoolkit.learn.labels import nearest_view_quality
 from vptoolkit.learn.model import ViewpointNet
-from vptoolkit.learn.predict import network_indices
 from vptoolkit.optional import require
 from vptoolkit.point_features import turn_features
 from vptoolkit.rotations import fixed_rotations
