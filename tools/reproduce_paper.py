@@ -374,7 +374,7 @@ class Network:
         """Predicted directions of named surface samples.
 
         Each cloud becomes one input as :func:`vptoolkit.learn.predict.predict`
-        makes it (:func:`network_points`, seeded from ``seed`` and the name).
+        makes it (:func:`network_points`, seeded from ``seed`` and the points' content).
 
         Returns
         -------
