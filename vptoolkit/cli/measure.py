@@ -253,7 +253,8 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int, as_json: bool) ->
     seconds = time.perf_counter() - started
     if as_json:
         click.echo(output_json({"file": str(mesh), "name": model.name, "output": str(output),
-                                "points": len(table), "seed": seed, "seconds": round(seconds, 3)}, indent=2))
+                                "points": len(table), "seed": seed,
+                                "seconds": round(seconds, 3)}, indent=2))
         return
     click.echo(f"wrote {output} ({n_points} points with normals)")
 
