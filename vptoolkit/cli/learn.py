@@ -274,7 +274,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predictions,
                     split: Split, predictor: str,
                     dataset_path: Path | str | None) -> list[dict[str, Any]]:
-    """The ``predict --json`` record of every model of ``sources``, in input order
+    """The ``predict --json`` record of every model of ``predictions``, in their order
     (``dataset_path``: the ``--dataset`` given, which names a stored model's dataset).
 
     Each model is read again for its bounding box, which places the cameras
@@ -289,8 +289,9 @@ def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predict
     camera = Camera()
     records: list[dict[str, Any]] = []
     with open_inputs(sources, split=split) as models:
-        for source, name, directions in zip(models, predictions.names, predictions.directions,
-                                            strict=True):
+        by_name = {source.name: source for source in models}  # names are unique (claim_name)
+        for name, directions in zip(predictions.names, predictions.directions, strict=True):
+            source = by_name[name]
             poses = camera.look_at(source.model(), directions, resolution=RESOLUTION)
             records.append({"file": source.origin if source.kind == "file" else None,
                             "dataset": None if source.kind == "file" else str(dataset_path),

@@ -207,7 +207,7 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     if report_path is not None:
         write_json_atomic(report_path, record, sort_keys=False)
     if as_json:
-        click.echo(output_json({"file": str(source), "name": record.pop("name"),
+        click.echo(output_json({"file": str(source), "name": record["name"],
                                 "output": str(target), **record}, indent=2))
         return
     for step in record["steps"]:
