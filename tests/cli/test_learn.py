@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from fixtures.environment import require_package
+from fixtures.paths import MALFORMED
 from vptoolkit.cli import main
 from vptoolkit.samples import sample_path
 
@@ -108,6 +109,71 @@ def test_predict_with_the_bundled_network_prints_directions(runner):
     assert result.exit_code == 0, result.output
     line = result.stdout.strip().splitlines()[0]
     assert line.startswith("bunny: VE (") and "VMI (" in line
+
+
+def _refuse(constant: str) -> None:
+    raise ValueError(f"not JSON: {constant}")
+
+
+def _check_answer_record(record: dict, measures: tuple[str, ...]) -> None:
+    """The cameras of a ``--json`` record look along its directions from 1024 px images."""
+    assert record["resolution"] == 1024 and record["up"] == [0.0, 1.0, 0.0]
+    focal = record["intrinsics"][0][0]
+    assert record["intrinsics"] == [[focal, 0.0, 512.0], [0.0, focal, 512.0], [0.0, 0.0, 1.0]]
+    assert list(record["best"]) == list(measures)
+    for best in record["best"].values():
+        pose = np.array(best["pose"])
+        assert pose.shape == (4, 4) and pose[3].tolist() == [0.0, 0.0, 0.0, 1.0]
+        np.testing.assert_allclose(np.linalg.norm(best["direction"]), 1.0, atol=1e-5)
+        # OpenCV: the camera's z axis looks at the model, against the direction
+        np.testing.assert_allclose(pose[:3, 2], -np.array(best["direction"]), atol=1e-5)
+        np.testing.assert_allclose(pose[:3, :3] @ pose[:3, :3].T, np.eye(3), atol=1e-9)
+
+
+def test_predict_json_is_one_record_per_model_with_cameras(runner, tmp_path, tiny_dataset):
+    from vptoolkit.measures.registry import PAPER_MEASURES
+    from vptoolkit.predictions import read_predictions
+
+    out = tmp_path / "best.npz"
+    mug = str(sample_path("mug.obj"))
+    result = runner.invoke(main, ["predict", "-m", "unoccluded", mug, "--dataset",
+                                  str(tiny_dataset), "--split", "all", "-o", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    records = json.loads(result.stdout, parse_constant=_refuse)["results"]  # stdout: JSON alone
+    names, directions, _ = read_predictions(out)
+    assert [record["name"] for record in records] == list(names) and len(records) == 5
+    assert [(record["file"], record["dataset"]) for record in records] == (
+        [(mug, None)] + [(None, str(tiny_dataset))] * 4)
+    for record, answer in zip(records, directions):
+        assert record["predictor"] == "unoccluded"
+        _check_answer_record(record, PAPER_MEASURES)
+        np.testing.assert_allclose([best["direction"] for best in record["best"].values()],
+                                   answer, atol=1e-6)
+    # the same record as best-view --json prints for its answer: the eye is in model units
+    from vptoolkit.best_view.answer import answer_record
+    from vptoolkit.camera import Camera
+    from vptoolkit.io import load_mesh
+
+    poses = Camera().look_at(load_mesh(mug), directions[0], resolution=1024)
+    expected = json.loads(json.dumps(answer_record(PAPER_MEASURES, directions[0], poses)))
+    assert {key: records[0][key] for key in expected} == expected
+
+
+def test_predict_json_of_the_bundled_network_and_of_bad_input(runner):
+    require_package("torch")
+    result = runner.invoke(main, ["predict", str(sample_path("mug.obj")), "--inputs", "1",
+                                  "--device", "cpu", "--json"])
+    assert result.exit_code == 0, result.output
+    (record,) = json.loads(result.stdout, parse_constant=_refuse)["results"]
+    assert (record["name"], record["predictor"], record["dataset"]) == ("mug", "default", None)
+    assert "VE" in record["best"]
+    _check_answer_record(record, tuple(record["best"]))
+    refused = runner.invoke(main, ["predict", str(MALFORMED / "empty.obj"), "--json"])
+    assert refused.exit_code == 2 and refused.stdout == ""
+    # the one error line ends stderr, after the bar the network's input draws had begun
+    errors = [line for line in refused.stderr.splitlines() if "error" in line]
+    assert errors == [refused.stderr.splitlines()[-1]], refused.stderr
+    assert errors[0].startswith("vptool: error: empty.obj: ")
 
 
 def test_predict_asks_the_network_about_as_many_inputs_as_told(runner, tmp_path):

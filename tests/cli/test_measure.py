@@ -80,14 +80,22 @@ def test_missing_file_and_bad_option_exit_2(runner, tmp_path):
 
 def test_clean_writes_mesh_and_report(runner, tmp_path):
     target, report = tmp_path / "bunny_clean.ply", tmp_path / "report.json"
-    result = runner.invoke(main, ["clean", str(sample_path("bunny.ply")), str(target),
-                                  "--max-faces", "3000", "--report", str(report)])
+    source = str(sample_path("bunny.ply"))
+    result = runner.invoke(main, ["clean", source, str(target), "--max-faces", "3000",
+                                  "--report", str(report), "--json"])
     assert result.exit_code == 0, result.output
     from vptoolkit.io import load_mesh
 
-    assert load_mesh(target).n_faces <= 3000
-    steps = json.loads(report.read_text())["steps"]
-    assert [step["name"] for step in steps] == ["repair", "remove_hidden", "simplify"]
+    n_faces = load_mesh(target).n_faces
+    assert n_faces <= 3000
+    written = json.loads(report.read_text())
+    assert [step["name"] for step in written["steps"]] == ["repair", "remove_hidden", "simplify"]
+    record = json.loads(result.stdout, parse_constant=_refuse)  # stdout: the JSON alone
+    assert list(record)[:3] == ["file", "name", "output"]
+    assert (record["file"], record["name"], record["output"]) == (source, "bunny", str(target))
+    assert record["faces_before"] == 16301 and record["faces_after"] == n_faces
+    assert {key: value for key, value in record.items()
+            if key not in ("file", "output")} == written  # the --report, placed
 
 
 def test_sample_writes_points_with_normals(runner, tmp_path):
@@ -101,6 +109,22 @@ def test_sample_writes_points_with_normals(runner, tmp_path):
     np.testing.assert_array_equal(np.load(out, allow_pickle=False), first)
     bad = runner.invoke(main, ["sample", str(MALFORMED / "empty.obj"), "-o", str(out)])
     assert bad.exit_code == 2 and bad.stderr.startswith("vptool: error: empty.obj: ")
+
+
+def test_sample_json_is_the_record_of_the_points_written(runner, tmp_path):
+    out = tmp_path / "points.npy"
+    teapot = str(sample_path("teapot.stl"))
+    result = runner.invoke(main, ["sample", teapot, "-o", str(out), "--points", "300",
+                                  "--seed", "4", "--json"])
+    assert result.exit_code == 0, result.output
+    record = json.loads(result.stdout, parse_constant=_refuse)
+    seconds = record.pop("seconds")
+    assert record == {"file": teapot, "name": "teapot", "output": str(out), "points": 300,
+                      "seed": 4}
+    assert seconds >= 0 and np.load(out, allow_pickle=False).shape == (300, 6)
+    bad = runner.invoke(main, ["sample", str(MALFORMED / "empty.obj"), "-o", str(out), "--json"])
+    assert bad.exit_code == 2 and bad.stdout == ""
+    assert one_error_line(bad).startswith("vptool: error: empty.obj: ")
 
 
 def one_error_line(result) -> str:

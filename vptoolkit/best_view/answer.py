@@ -5,23 +5,26 @@ measure (bounding-box centre towards the camera), its raw value at the
 search's resolution, the stages drawn (:class:`SearchStage`) and the cameras
 of the answers (:meth:`BestViews.camera_pose`: image up at the model's up
 axis, +y by default, as Open3D and trimesh; :meth:`BestViews.intrinsics`).
-:func:`vptoolkit.best_view.search.search_best_views` makes it.
+:func:`vptoolkit.best_view.search.search_best_views` makes it;
+:func:`answer_record` is the JSON record of best directions and their cameras
+that ``vptool best-view --json`` and ``vptool predict --json`` print per model.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Convention, ViewPoses
 from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError
 from vptoolkit.measures.registry import PAPER_MEASURES
 
-__all__ = ["BestViews", "SearchStage"]
+__all__ = ["BestViews", "SearchStage", "answer_record"]
 
 
 @dataclass(frozen=True)
@@ -110,22 +113,57 @@ class BestViews:
         return sum(stage.n_views for stage in self.stages)
 
     def summary(self) -> dict[str, Any]:
-        """JSON-safe summary: directions, raw values and camera poses (:meth:`camera_pose`,
-        OpenCV, rows of the 4x4 matrix) per measure, the up axis, the intrinsics at
-        ``resolution``, stages, seconds."""
-        poses = self.poses.camera_to_world("opencv", up=self.up)
+        """JSON-safe summary: the name, views drawn, the resolution, stages and seconds,
+        then :func:`answer_record` of the directions (with their raw values)."""
         return {
             "name": self.name,
             "views": self.n_views,
             "resolution": self.resolution,
             "stages": [stage.to_dict() for stage in self.stages],
             "seconds": round(self.seconds, 4),
-            "up": list(self.up),
-            "intrinsics": self.intrinsics().tolist(),
-            "best": {
-                measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
-                          "raw": float(self.raw[column]),
-                          "pose": poses[column].tolist()}
-                for column, measure in enumerate(self.measures)
-            },
+            **answer_record(self.measures, self.directions, self.poses, up=self.up,
+                            raw=self.raw),
         }
+
+
+def answer_record(measures: Sequence[str], directions: ArrayLike, poses: ViewPoses, *,
+                  up: ArrayLike = PICTURE_UP, raw: ArrayLike | None = None) -> dict[str, Any]:
+    """The JSON-safe record of one model's best direction per measure and their cameras.
+
+    What ``vptool best-view --json`` and ``vptool predict --json`` print per model.
+
+    Parameters
+    ----------
+    measures : sequence of str
+        Measure names, the row order of ``directions``.
+    directions : (M, 3) array_like
+        Best unit direction per measure, bounding-box centre towards the camera.
+    poses : ViewPoses
+        The cameras of ``directions`` (:meth:`vptoolkit.camera.Camera.look_at`).
+    up : (3,) array_like
+        The model's up axis, the top of every pose's image (default: ``PICTURE_UP``, +y).
+    raw : (M,) array_like, optional
+        The raw value of each measure in its direction, recorded when given.
+
+    Returns
+    -------
+    dict
+        ``resolution``: the poses' image side in pixels; ``up``: the axis as a
+        list; ``intrinsics``: the pinhole matrix ``K``
+        ``(3, 3)`` at the poses' resolution, as nested lists; ``best``: per
+        measure, ``direction`` (rounded to 6 decimals), ``raw`` (with ``raw``)
+        and ``pose``, the OpenCV camera-to-world matrix ``(4, 4)`` in model
+        units as nested lists (:meth:`vptoolkit.camera.ViewPoses.camera_to_world`).
+    """
+    rows = np.asarray(directions, dtype=np.float64).reshape(len(measures), 3)
+    values = None if raw is None else np.asarray(raw, dtype=np.float64).reshape(len(measures))
+    axis = [float(c) for c in np.asarray(up, dtype=np.float64).reshape(3)]
+    cameras = poses.camera_to_world("opencv", up=axis)
+    best: dict[str, dict[str, Any]] = {}
+    for column, measure in enumerate(measures):
+        best[measure] = {"direction": [round(float(c), 6) for c in rows[column]]}
+        if values is not None:
+            best[measure]["raw"] = float(values[column])
+        best[measure]["pose"] = cameras[column].tolist()
+    return {"resolution": poses.resolution, "up": axis, "intrinsics": poses.intrinsics().tolist(),
+            "best": best}

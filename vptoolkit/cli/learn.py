@@ -38,6 +38,7 @@ from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
+    from vptoolkit.predictions import Predictions
 
 
 @click.command()
@@ -195,11 +196,16 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
 @click.option("--inputs", "n_inputs", type=click.IntRange(1, 64), show_default="16",
               help="Network inputs per model; the prediction is the consensus of the network's "
                    "answers to them (1: ask once).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print per model its file, name and predictor, and per measure the "
+                   "direction and camera pose, with the intrinsics at 1024 px (as best-view "
+                   "--json).")
 @device_option()
 @cache_dir_option()
 def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | str | None,
                     split: Split, output: Path | None, seed: int, category: str | None,
-                    n_inputs: int | None, device: str, cache_dir: Path | None) -> None:
+                    n_inputs: int | None, as_json: bool, device: str,
+                    cache_dir: Path | None) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
     INPUTS are mesh files or point clouds, told apart by content: a PLY, OBJ
@@ -217,6 +223,12 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     ignored (vptoolkit.measures.unoccluded; a mesh's faces, an (N, 6) point file's
     normals, a dataset's stored normals): no network, a few ms, and on real
     meshes often as good as the bundled network (docs/results.md).
+    --json prints {"results": [...]}, one record per model in input order:
+    file (null for a dataset's model), dataset (null for a file), name,
+    predictor (the --model given), and as best-view --json: resolution, up,
+    intrinsics and, per measure, the direction and its camera's OpenCV
+    camera-to-world pose (4x4, model units, +y at the top of the image);
+    progress goes to stderr.
 
     \b
     Example:
@@ -224,6 +236,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
       vptool predict --model points points.npy
       vptool predict --model unoccluded scan.npy
       vptool predict -m model.safetensors --dataset release/ --split test -o test.npz
+      vptool predict mug.obj --json
     """
     from vptoolkit.data import open_dataset
     from vptoolkit.predictors import resolve_predictor
@@ -240,8 +253,13 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
         if dataset_path is not None:
             sources.append(stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
         predictions = predictor(sources, split=split)
+        records = (_answer_records(sources, predictions, split, model, dataset_path)
+                   if as_json else None)
     if output is not None:
         predictions.save_npz(output)
+    if records is not None:
+        click.echo(output_json({"results": records}, indent=2))
+        return
     names, directions, measures = predictions.names, predictions.directions, predictions.measures
     for name, answer in zip(names[:10], directions[:10]):
         cells = "  ".join(f"{m} ({x:+.2f}, {y:+.2f}, {z:+.2f})"
@@ -251,6 +269,35 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
         click.echo(f"... and {len(names) - 10} more")
     if output is not None:
         click.echo(f"wrote {output} ({len(names)} models)")
+
+
+def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predictions,
+                    split: Split, predictor: str,
+                    dataset_path: Path | str | None) -> list[dict[str, Any]]:
+    """The ``predict --json`` record of every model of ``predictions``, in their order
+    (``dataset_path``: the ``--dataset`` given, which names a stored model's dataset).
+
+    Each model is read again for its bounding box, which places the cameras
+    (:meth:`vptoolkit.camera.Camera.look_at` at ``RESOLUTION`` pixels); the
+    rest is :func:`vptoolkit.best_view.answer.answer_record`.
+    """
+    from vptoolkit.best_view.answer import answer_record
+    from vptoolkit.camera import Camera
+    from vptoolkit.conventions import RESOLUTION
+    from vptoolkit.inputs import open_inputs
+
+    camera = Camera()
+    records: list[dict[str, Any]] = []
+    with open_inputs(sources, split=split) as models:
+        by_name = {source.name: source for source in models}  # names are unique (claim_name)
+        for name, directions in zip(predictions.names, predictions.directions, strict=True):
+            source = by_name[name]
+            poses = camera.look_at(source.model(), directions, resolution=RESOLUTION)
+            records.append({"file": source.origin if source.kind == "file" else None,
+                            "dataset": None if source.kind == "file" else str(dataset_path),
+                            "name": name, "predictor": predictor,
+                            **answer_record(predictions.measures, directions, poses)})
+    return records
 
 
 COMMANDS = (train, predict_command, evaluate)

@@ -175,17 +175,23 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
 @click.option("--remesh", is_flag=True, help="Also remesh isotropically after decimation.")
 @click.option("--report", "report_path", type=click.Path(dir_okay=False, path_type=Path),
               help="Write the cleaning report as JSON to this file.")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, output and the cleaning report as JSON.")
 def clean(source: Path, target: Path, max_faces: int, remesh: bool,
-          report_path: Path | None) -> None:
+          report_path: Path | None, as_json: bool) -> None:
     """Clean SOURCE in the paper's three steps and write it to TARGET.
 
     Repair (duplicates, non-manifold parts, self-intersections), remove faces
     no view sees, then decimate to at most --max-faces faces. TARGET's suffix
-    picks the format (.off, .ply, .obj, .stl).
+    picks the format (.off, .ply, .obj, .stl). --json prints one record: file
+    (SOURCE), name, output (TARGET), then the report (faces before and after,
+    seconds, self-intersections, hidden area removed, faces flipped, and per
+    step its faces and vertices before and after and seconds).
 
     \b
     Example:
       vptool clean airplane_0001.off airplane_0001_clean.ply --report report.json
+      vptool clean bunny.ply bunny_clean.ply --max-faces 3000 --json
     """
     from vptoolkit.clean import clean_mesh
     from vptoolkit.inputs import read_model
@@ -200,6 +206,10 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
     record = report.to_dict()
     if report_path is not None:
         write_json_atomic(report_path, record, sort_keys=False)
+    if as_json:
+        click.echo(output_json({"file": str(source), "name": record["name"],
+                                "output": str(target), **record}, indent=2))
+        return
     for step in record["steps"]:
         click.echo(f"{step['name']:<14} faces {step['faces_before']:>8} -> {step['faces_after']:<8}"
                    f" {step['seconds']:7.2f} s")
@@ -212,15 +222,20 @@ def clean(source: Path, target: Path, max_faces: int, remesh: bool,
               help="Write the points to this .npy file.")
 @points_option()
 @seed_option(minimum=0)
-def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, output, points written, seed and seconds as JSON.")
+def sample(mesh: Path, output: Path, n_points: int, seed: int, as_json: bool) -> None:
     """Sample points uniformly by area on MESH, with face normals.
 
     OUTPUT is a float32 .npy array of shape (N, 6): x, y, z, nx, ny, nz in the
     mesh's own coordinates. The same seed always gives the same points.
+    --json prints one record: file (MESH), name, output, points (N), seed
+    and seconds (reading, sampling and writing).
 
     \b
     Example:
       vptool sample bunny.ply -o bunny_points.npy --points 20000 --seed 0
+      vptool sample bunny.ply -o bunny_points.npy --json
     """
     import numpy as np
 
@@ -229,12 +244,19 @@ def sample(mesh: Path, output: Path, n_points: int, seed: int) -> None:
 
     check_suffix(output, ".npy")
     check_output_folder(output, "--output")
-    surface = sample_surface(read_model(mesh, requires="surface"), n_points, seed=seed)
+    started = time.perf_counter()
+    model = read_model(mesh, requires="surface")
+    surface = sample_surface(model, n_points, seed=seed)
     table = np.hstack([surface.points, surface.normals]).astype(np.float32)
     with atomic_write(output) as handle:
         np.save(handle, table, allow_pickle=False)
+    seconds = time.perf_counter() - started
+    if as_json:
+        click.echo(output_json({"file": str(mesh), "name": model.name, "output": str(output),
+                                "points": len(table), "seed": seed,
+                                "seconds": round(seconds, 3)}, indent=2))
+        return
     click.echo(f"wrote {output} ({n_points} points with normals)")
-
 
 COMMANDS = (measures, views, clean, sample)
 """The commands this module adds to ``vptool``."""
