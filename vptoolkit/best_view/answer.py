@@ -14,14 +14,35 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Convention, ViewPoses
 from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError
 from vptoolkit.measures.registry import PAPER_MEASURES
 
-__all__ = ["BestViews", "SearchStage"]
+__all__ = ["BestViews", "SearchStage", "view_records"]
+
+
+def view_records(poses: ViewPoses, directions: NDArray[np.float64],
+                 up: ArrayLike | None) -> list[dict[str, Any]]:
+    """JSON-safe records of views: per view its ``direction`` (unit, model centre towards
+    the camera, 6 decimals) and ``pose``, the camera-to-world matrix ``(4, 4)`` (rows; OpenCV
+    convention, model units) with ``up`` at the top of the image
+    (:meth:`~vptoolkit.camera.ViewPoses.camera_to_world`), as ``best-view --json`` prints them.
+
+    Parameters
+    ----------
+    poses : ViewPoses
+        The cameras of the views, one per row of ``directions``.
+    directions : (n, 3) float64
+        The views' unit directions.
+    up : (3,) array_like or None
+        Model direction at the top of the image; None keeps the measures' own roll.
+    """
+    matrices = poses.camera_to_world("opencv", up=up)
+    return [{"direction": [round(float(c), 6) for c in direction], "pose": matrix.tolist()}
+            for direction, matrix in zip(directions, matrices)]
 
 
 @dataclass(frozen=True)
@@ -113,7 +134,7 @@ class BestViews:
         """JSON-safe summary: directions, raw values and camera poses (:meth:`camera_pose`,
         OpenCV, rows of the 4x4 matrix) per measure, the up axis, the intrinsics at
         ``resolution``, stages, seconds."""
-        poses = self.poses.camera_to_world("opencv", up=self.up)
+        views = view_records(self.poses, self.directions, self.up)
         return {
             "name": self.name,
             "views": self.n_views,
@@ -123,9 +144,9 @@ class BestViews:
             "up": list(self.up),
             "intrinsics": self.intrinsics().tolist(),
             "best": {
-                measure: {"direction": [round(float(c), 6) for c in self.directions[column]],
+                measure: {"direction": views[column]["direction"],
                           "raw": float(self.raw[column]),
-                          "pose": poses[column].tolist()}
+                          "pose": views[column]["pose"]}
                 for column, measure in enumerate(self.measures)
             },
         }

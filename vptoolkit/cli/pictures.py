@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -39,8 +40,16 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 from vptoolkit.pictures.report import REPORT_SIZE
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.pictures.engine import Engine
+    from vptoolkit.point_cloud import PointCloud
 
 Vector = tuple[float, float, float]
 
@@ -63,17 +72,25 @@ Vector = tuple[float, float, float]
 @up_option(allow_auto=True)
 @margin_option()
 @engine_option()
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, views drawn (direction, camera pose, intrinsics) and "
+                   "the PNG written as JSON.")
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector | str, margin: float, engine: str) -> None:
-    """Draw MESH through the measures' camera into a PNG picture.
+           up: Vector | str, margin: float, engine: str, as_json: bool) -> None:
+    """Draw MESH (a mesh or a point cloud) through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
     what the measures score for that direction (same eye, target and up; the
     picture is magnified until the model fills it up to --margin), in the
     model's own colours and texture where the file has them; --view-set K
     draws the K views that together see the most of the surface as one
-    captioned contact sheet.
+    captioned contact sheet. A point cloud is drawn as the measures' splats
+    (a disc per point, sized by the local spacing), in its points' colours,
+    lit along its normals where it has them (--engine software only; --model
+    takes meshes). --json prints the file, the model's name, each view drawn
+    (direction, camera pose and intrinsics of the picture) and the PNG
+    written, as best-view --json does.
 
     \b
     Example:
@@ -82,6 +99,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
       vptool render bus.ply --view 1,-1,0.5 --up auto -o bus.png
+      vptool render scan.ply --best VE --views 200 --json -o scan.png
     """
     from vptoolkit.io import load_with_appearance, require_surface
     from vptoolkit.pictures.engine import open_renderer
@@ -96,8 +114,9 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    model, appearance = load_with_appearance(mesh)
-    loaded = require_surface(model, mesh.name)
+    loaded, appearance = load_with_appearance(mesh)
+    if model_path is not None:  # the network reads surfaces
+        loaded = require_surface(loaded, mesh.name)
     if up == "auto":
         from vptoolkit.upright import auto_up
 
@@ -110,8 +129,15 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
             sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing,
                                            appearance=appearance)
             save_png(sheet, output)
-            click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
-                       f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+            if as_json:
+                labels = [f"view set pick {pick + 1} (view {index})"
+                          for pick, index in enumerate(chosen.indices.tolist())]
+                click.echo(output_json(_picture_record(mesh, loaded, output, drawing,
+                                                       chosen.directions, labels)))
+            else:
+                click.echo(f"wrote {output} ({len(chosen)} views, views "
+                           f"{chosen.indices.tolist()}, {100 * chosen.coverage[-1]:.1f} % of "
+                           "the surface seen)")
             return
         if best is not None:
             picture = render_best(loaded, measure=best, settings=settings, engine=drawing,
@@ -126,9 +152,32 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
             direction = as_directions(view, name="--view")[0]
             picture = RenderedView(render_view(loaded, direction, engine=drawing,
                                                appearance=appearance), direction, "--view")
-    save_png(picture.image, output)
+        save_png(picture.image, output)
+        if as_json:
+            click.echo(output_json(_picture_record(mesh, loaded, output, drawing,
+                                                   picture.direction[None, :], [picture.label])))
+            return
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
+
+
+def _picture_record(source: Path, model: Mesh | PointCloud, output: Path, engine: Engine,
+                    directions: NDArray[np.float64], labels: list[str]) -> dict[str, Any]:
+    """``render --json``'s record: the file, the model, the picture written, and per view
+    drawn its label, direction, camera pose (:func:`vptoolkit.best_view.answer.view_records`,
+    the picture's roll) and the pinhole matrix of the picture (``size`` pixels, the framing's
+    magnification in its focal length)."""
+    from vptoolkit.best_view.answer import view_records
+    from vptoolkit.pictures.shading import picture_poses
+
+    poses, zoom = picture_poses(engine.camera, engine.style, model, directions, engine.size)
+    views = view_records(poses, directions, engine.style.up)
+    for record, label, factor in zip(views, labels, zoom):
+        intrinsics = poses.intrinsics()
+        intrinsics[:2, :2] *= factor
+        record.update(label=label, intrinsics=intrinsics.tolist())
+    return {"file": str(source), "name": model.name, "output": str(output),
+            "size": engine.size, "up": list(engine.style.up), "views": views}
 
 
 @click.command("sphere-map")

@@ -62,23 +62,22 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.appearance import Appearance
 from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
-from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
-from vptoolkit.point_cloud import PointCloud
 from vptoolkit.pictures.shading import (
     PICTURE_SIZE,
     RenderStyle,
     corner_colors,
     crease_normals,
     engine_setup,
-    frame_zoom,
     light_direction,
     linear_to_srgb,
     picture_camera,
+    picture_poses,
     srgb8_to_linear,
     srgb_to_linear,
     texture_lookup,
 )
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import face_id_images
@@ -124,7 +123,6 @@ class SoftwareRenderer:
         self._mesh: Mesh | None = None
         self._corners: NDArray[np.float64] | None = None
         self._corner_normals: NDArray[np.float64] | None = None
-        self._points: NDArray[np.float64] = np.zeros((0, 3))
         self._paint: _Paint | None = None  # the colours of _paint_source on _painted
         self._painted: Mesh | None = None
         self._paint_source: Appearance | None = None
@@ -158,7 +156,6 @@ class SoftwareRenderer:
         self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
         self._corners[kept] = positions.reshape(-1, 3, 3)
         self._corner_normals[kept] = normals.reshape(-1, 3, 3)
-        self._points = mesh.vertices[np.unique(mesh.faces)]
         self._mesh = mesh
 
     def _prepare_cloud(self, cloud: PointCloud, appearance: Appearance | None) -> None:
@@ -189,19 +186,17 @@ class SoftwareRenderer:
             self._prepare_cloud(model, appearance)
             scene = self._scene
             assert scene is not None  # noqa: S101  (made by _prepare_cloud)
-            points = model.points
 
             def id_image(direction: NDArray[np.float64], side: int) -> NDArray[np.int32]:
                 return scene.id_images(direction, side)[0]
 
-            shade = self._shade_points
+            shade: _Shader = self._shade_points
         else:
             model = as_mesh(mesh)
             self._prepare(model)
             if self._painted is not model or self._paint_source is not appearance:
                 self._paint = _Paint.of(appearance, model)
                 self._painted, self._paint_source = model, appearance
-            points = self._points
             drawn = model
 
             def id_image(direction: NDArray[np.float64], side: int) -> NDArray[np.int32]:
@@ -211,9 +206,7 @@ class SoftwareRenderer:
             shade = self._shade
         factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
         fine = self.size * factor
-        centre, diagonal = bounding_frame(model)
-        poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
-        zoom = frame_zoom(poses, points, self.style.margin)
+        poses, zoom = picture_poses(self.camera, self.style, model, unit, fine)
         images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for view in range(len(unit)):
             ids, focal = self._id_image(id_image, unit[view], fine, float(zoom[view]),
@@ -318,6 +311,12 @@ def _pixel_rays(hit: NDArray[np.int64], poses: ViewPoses, view: int,
     down = (row + 0.5 - half) / focal
     return (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
             - down[:, None] * poses.up[view][None, :])
+
+
+_Shader = Callable[[NDArray[np.int64], NDArray[np.int32], ViewPoses, int, float],
+                   NDArray[np.float64]]
+"""Linear RGB of hit pixels from their flat indices, the IDs they see, the poses, the view
+and the focal length (:meth:`SoftwareRenderer._shade`, :meth:`SoftwareRenderer._shade_points`)."""
 
 
 class _Paint:
