@@ -196,8 +196,12 @@ def _picture_record(source: Path, model: Mesh | PointCloud, output: Path, engine
 @resolution_option("Triangle-ID image side when SOURCE is a mesh.")
 @click.option("--dpi", default=100, show_default=True, type=click.IntRange(20, 600),
               help="Pixels per inch of the PNG (a row of four maps is 12 x 3.4 inches).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, best view of each measure drawn (direction, camera "
+                   "pose, intrinsics) and the PNG written as JSON.")
 def sphere_map(source: Path, output: Path, measure: str | None, measures_text: str | None,
-               predicted: Vector | None, n_views: int, resolution: int, dpi: int) -> None:
+               predicted: Vector | None, n_views: int, resolution: int, dpi: int,
+               as_json: bool) -> None:
     """Draw measures over the view sphere as Mercator maps.
 
     SOURCE is the .npz of vptool measures -o (drawn as recorded), or a mesh
@@ -205,7 +209,11 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
     cloud's measures are those defined on points). --measure draws
     one map; --measures draws several on one figure, titled by the measures'
     names. Colours: normalised quality (1 = best); the star marks the best
-    sampled view, the cross --predicted.
+    sampled view, the cross --predicted. --json prints, as best-view --json
+    does, the best view of each measure drawn: its direction, raw value and
+    camera pose (image up +y) with the intrinsics at --resolution; of an
+    .npz, which holds no model to place a camera, the directions only (raw,
+    pose, resolution and intrinsics null).
 
     \b
     Example:
@@ -213,7 +221,9 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
       vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
       vptool sphere-map bunny.npz --measures all -o bunny_maps.png
       vptool sphere-map bunny.ply --measures all --views 500 --resolution 128 -o all.png
+      vptool sphere-map scan.ply --measure VE --views 200 --json -o scan_ve.png
     """
+    from vptoolkit.conventions import PICTURE_UP
     from vptoolkit.pictures.sphere_map import save_figure, sphere_map_file
     from vptoolkit.pictures.sphere_panels import sphere_maps, sphere_maps_file
 
@@ -221,15 +231,37 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
         raise InputError("sphere-map: give --measure or --measures, not both")
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
+    marked = None if predicted is None else list(predicted)
     if source.suffix.lower() == ".npz":
+        every = measures_text is not None and measures_text.strip().lower() == "all"
         if measures_text is None:
             sphere_map_file(source, output, measure=measure, predicted=predicted, dpi=dpi)
         else:
-            every = measures_text.strip().lower() == "all"
             sphere_maps_file(source, output, predicted=predicted, dpi=dpi,
                              measures=None if every else parse_measures(measures_text))
-        click.echo(f"wrote {output}")
+        if not as_json:
+            click.echo(f"wrote {output}")
+            return
+        import numpy as np
+
+        from vptoolkit.measures.registry import measure_index
+        from vptoolkit.pictures.sphere_map import read_quality_maps
+
+        views, normalized, recorded, name = read_quality_maps(source)
+        drawn = (recorded if every else recorded[:1] if measure is None and measures_text is None
+                 else (measure,) if measure is not None else parse_measures(measures_text or ""))
+        best: dict[str, dict[str, Any]] = {}
+        for drawn_measure in drawn:
+            column = measure_index(drawn_measure, recorded)
+            direction = views[int(np.nanargmax(normalized[:, column]))]
+            best[recorded[column]] = {"direction": [round(float(c), 6) for c in direction],
+                                      "raw": None, "pose": None}
+        click.echo(output_json({"file": str(source), "name": name, "output": str(output),
+                                "views": len(views), "resolution": None,
+                                "up": list(PICTURE_UP), "intrinsics": None, "best": best,
+                                "predicted": marked}))
         return
+    from vptoolkit.best_view.answer import view_records
     from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map as one_map
@@ -247,7 +279,20 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
         figure = sphere_maps(quality.views, quality.normalized, measures=quality.measures,
                              predicted=predicted, title=title)
     save_figure(figure, output, dpi=dpi)
-    click.echo(f"wrote {output} ({', '.join(quality.measures)})")
+    if not as_json:
+        click.echo(f"wrote {output} ({', '.join(quality.measures)})")
+        return
+    directions = quality.views[quality.best_index]
+    poses = quality.camera.look_at(loaded, directions, resolution=quality.resolution)
+    views_drawn = view_records(poses, directions, PICTURE_UP)
+    best = {name: {"direction": view["direction"],
+                   "raw": float(quality.raw[quality.best_index[column], column]),
+                   "pose": view["pose"]}
+            for column, (name, view) in enumerate(zip(quality.measures, views_drawn))}
+    click.echo(output_json({"file": str(source), "name": quality.name, "output": str(output),
+                            "views": len(quality.views), "resolution": quality.resolution,
+                            "up": list(PICTURE_UP), "intrinsics": poses.intrinsics().tolist(),
+                            "best": best, "predicted": marked}))
 
 
 @click.command()
