@@ -39,8 +39,8 @@ radius of its own piece of surface, flattened along its normal, as the
 measures' splats; the same culling), and the pixel takes that point's colour
 (the :class:`~vptoolkit.appearance.Appearance`'s per-point colours times its
 base colour, the style's colour without them), lit as above along the
-point's normal, or, in a cloud without normals, as a surface facing the
-camera (flat: ``n . l`` of the view axis, the same for every point).
+point's normal, or, in a cloud without normals, as a surface across the
+view axis (flat: ``n`` the view axis towards the eye, the same for every pixel).
 Framing, supersampling and the sun are the mesh's.
 
 Why a second engine: Open3D 0.20 renders through Vulkan, and on Mesa's
@@ -271,10 +271,11 @@ class SoftwareRenderer:
                       poses: ViewPoses, view: int, focal: float) -> NDArray[np.float64]:
         """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
         see the splats of ``points``: lit along the points' normals, or as a surface
-        facing the camera where the cloud has none."""
+        across the view axis where the cloud has none."""
         ray = _pixel_rays(hit, poses, view, focal)
         normals = None if self._cloud is None else self._cloud.normals
-        normal = -ray if normals is None else normals[points]
+        normal = (np.tile(-poses.forward[view], (len(hit), 1)) if normals is None
+                  else normals[points])
         colour = self._style_colour() if self._point_colors is None \
             else self._point_colors[points]
         return self._lit(colour, normal, ray, poses, view)
