@@ -366,10 +366,12 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float,
                up: Vector | str, elevation: tuple[float, float] | None, margin: float,
                engine: str, dry_run: bool) -> None:
-    """Draw a thumbnail of every mesh of SRC from its best view into OUT.
+    """Draw a thumbnail of every model of SRC from its best view into OUT.
 
-    SRC is a folder (walked recursively), a quoted glob, one mesh file or
-    @list.txt. SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
+    SRC is a folder (walked recursively), a quoted glob, one model file or
+    @list.txt, meshes and point clouds mixed (a cloud is drawn as the
+    measures' splats in its own colours; --model takes meshes only).
+    SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
     the anytime search with a budget of --views (--views 1000 and more measure
     every view of a Fibonacci sphere instead: the exhaustive answer, at
     --resolution). Each model is drawn in its own colours and texture where
@@ -391,6 +393,7 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
       vptool thumbnails @models.txt thumbs/ --dry-run
       vptool thumbnails gazebo_models/ thumbs/ --up 0,0,1 --elevation 0,45
+      vptool thumbnails scans/ thumbs/ --up auto
     """
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.conventions import N_VIEWS
