@@ -207,3 +207,32 @@ def test_thumbnails_of_a_folder_of_a_mesh_and_a_cloud_draw_both(runner, red_bunn
     bunny = decode_png((out / "bunny.ply.png").read_bytes()).astype(int)
     mask = model_mask(bunny)
     assert np.median(bunny[..., 0][mask]) > 150 > np.median(bunny[..., 1][mask])  # its red
+
+
+def test_a_cloud_of_the_duck_in_its_texture_colours_looks_like_the_duck(tmp_path: Path):
+    require_package("open3d")
+    require_package("PIL")
+    import open3d as o3d
+
+    from vptoolkit.geometry import face_normals
+    from vptoolkit.pictures.shading import linear_to_srgb, srgb8_to_linear, texture_lookup
+
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    assert appearance.texture is not None and appearance.corner_uv is not None
+    texture = srgb8_to_linear(appearance.texture[..., :3])
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(
+        duck.vertices[duck.faces].mean(axis=1)))  # a point per face, in the texture's colour
+    cloud.normals = o3d.utility.Vector3dVector(face_normals(duck))
+    cloud.colors = o3d.utility.Vector3dVector(
+        linear_to_srgb(texture_lookup(texture, appearance.corner_uv.mean(axis=1))) / 255.0)
+    path = tmp_path / "duck_points.ply"
+    assert o3d.io.write_point_cloud(str(path), cloud)
+    points, colours = load_with_appearance(path)
+    direction = [1.0, 0.7, 1.3]
+    with SoftwareRenderer(size=SIZE) as renderer:
+        surface = renderer.render(duck, direction, appearance=appearance)[0].astype(int)
+        splats = renderer.render(points, direction, appearance=colours)[0].astype(int)
+    surface_colour = np.median(surface[model_mask(surface)], axis=0)
+    splat_colour = np.median(splats[model_mask(splats)], axis=0)
+    assert surface_colour[0] > 150 and surface_colour[2] < 100  # the duck is yellow
+    np.testing.assert_allclose(splat_colour, surface_colour, atol=20)
