@@ -96,7 +96,8 @@ def resting_up(model: Mesh | PointCloud) -> tuple[float, float, float]:
     return _CANDIDATES[1] if z_up > y_up * (1.0 + 1e-6) else _CANDIDATES[0]
 
 
-def auto_up(mesh: Mesh, path: str | Path | None = None) -> tuple[float, float, float]:
+def auto_up(mesh: Mesh | PointCloud,
+            path: str | Path | None = None) -> tuple[float, float, float]:
     """The up axis of a model: its file format's (:data:`FORMAT_UP`) where ``path`` names one,
     else :func:`resting_up`."""
     if path is not None:

@@ -23,6 +23,7 @@ from vptoolkit.collection.runner import MAX_MODEL_FACES, run_collection
 from vptoolkit.collection.table import ROWS_PER_GROUP, read_predictions
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.samples import sample_path
 
 METHOD = SearchMethod(SearchSettings(budget=12, resolution=32))
@@ -230,7 +231,7 @@ def test_a_run_over_thousands_of_listed_entries_keeps_memory_flat(tmp_path: Path
     assert peaks[2] - peaks[1] < 1_000_000  # bytes: 3000 more entries cost nothing held
 
 
-def test_a_point_cloud_is_searched_and_refused_only_where_a_picture_is_drawn(tmp_path: Path):
+def test_a_point_cloud_is_searched_and_read_for_a_picture(tmp_path: Path):
     from vptoolkit.collection.runner import read_model
     from vptoolkit.io import load_mesh
     from vptoolkit.points import sample_surface
@@ -243,6 +244,5 @@ def test_a_point_cloud_is_searched_and_refused_only_where_a_picture_is_drawn(tmp
     (row,) = _rows(run.table)
     assert row["status"] == "ok" and row["VE_direction"] is not None
     assert not run.failures
-    with pytest.raises(InputError, match=r"torus\.npy: a point cloud \(3000 points, no faces\); "
-                                         "this needs a surface"):
-        read_model(str(root / "torus.npy"), "surface")
+    cloud = read_model(str(root / "torus.npy"))  # what a run that draws hands its drawer
+    assert isinstance(cloud, PointCloud) and cloud.n_points == 3000

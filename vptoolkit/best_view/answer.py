@@ -24,7 +24,28 @@ from vptoolkit.conventions import PICTURE_UP
 from vptoolkit.errors import InputError
 from vptoolkit.measures.registry import PAPER_MEASURES
 
-__all__ = ["BestViews", "SearchStage", "answer_record"]
+__all__ = ["BestViews", "SearchStage", "answer_record", "view_records"]
+
+
+def view_records(poses: ViewPoses, directions: NDArray[np.float64],
+                 up: ArrayLike | None) -> list[dict[str, Any]]:
+    """JSON-safe records of views: per view its ``direction`` (unit, model centre towards
+    the camera, 6 decimals) and ``pose``, the camera-to-world matrix ``(4, 4)`` (rows; OpenCV
+    convention, model units) with ``up`` at the top of the image
+    (:meth:`~vptoolkit.camera.ViewPoses.camera_to_world`), as ``best-view --json`` prints them.
+
+    Parameters
+    ----------
+    poses : ViewPoses
+        The cameras of the views, one per row of ``directions``.
+    directions : (n, 3) float64
+        The views' unit directions.
+    up : (3,) array_like or None
+        Model direction at the top of the image; None keeps the measures' own roll.
+    """
+    matrices = poses.camera_to_world("opencv", up=up)
+    return [{"direction": [round(float(c), 6) for c in direction], "pose": matrix.tolist()}
+            for direction, matrix in zip(directions, matrices)]
 
 
 @dataclass(frozen=True)
@@ -158,12 +179,11 @@ def answer_record(measures: Sequence[str], directions: ArrayLike, poses: ViewPos
     rows = np.asarray(directions, dtype=np.float64).reshape(len(measures), 3)
     values = None if raw is None else np.asarray(raw, dtype=np.float64).reshape(len(measures))
     axis = [float(c) for c in np.asarray(up, dtype=np.float64).reshape(3)]
-    cameras = poses.camera_to_world("opencv", up=axis)
     best: dict[str, dict[str, Any]] = {}
-    for column, measure in enumerate(measures):
-        best[measure] = {"direction": [round(float(c), 6) for c in rows[column]]}
+    for column, (measure, view) in enumerate(zip(measures, view_records(poses, rows, axis))):
+        best[measure] = {"direction": view["direction"]}
         if values is not None:
             best[measure]["raw"] = float(values[column])
-        best[measure]["pose"] = cameras[column].tolist()
+        best[measure]["pose"] = view["pose"]
     return {"resolution": poses.resolution, "up": axis, "intrinsics": poses.intrinsics().tolist(),
             "best": best}

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -39,8 +40,16 @@ from vptoolkit.cli.options import (
 )
 from vptoolkit.conventions import Split
 from vptoolkit.errors import InputError
-from vptoolkit.files import check_output_folder
+from vptoolkit.files import check_output_folder, output_json
 from vptoolkit.pictures.report import REPORT_SIZE
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import NDArray
+
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.pictures.engine import Engine
+    from vptoolkit.point_cloud import PointCloud
 
 Vector = tuple[float, float, float]
 
@@ -63,17 +72,25 @@ Vector = tuple[float, float, float]
 @up_option(allow_auto=True)
 @margin_option()
 @engine_option()
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, views drawn (direction, camera pose, intrinsics) and "
+                   "the PNG written as JSON.")
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector | str, margin: float, engine: str) -> None:
-    """Draw MESH through the measures' camera into a PNG picture.
+           up: Vector | str, margin: float, engine: str, as_json: bool) -> None:
+    """Draw MESH (a mesh or a point cloud) through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
     what the measures score for that direction (same eye, target and up; the
     picture is magnified until the model fills it up to --margin), in the
     model's own colours and texture where the file has them; --view-set K
     draws the K views that together see the most of the surface as one
-    captioned contact sheet.
+    captioned contact sheet. A point cloud is drawn as the measures' splats
+    (a disc per point, sized by the local spacing), in its points' colours,
+    lit along its normals where it has them (--engine software only; --model
+    takes meshes). --json prints the file, the model's name, each view drawn
+    (direction, camera pose and intrinsics of the picture) and the PNG
+    written, as best-view --json does.
 
     \b
     Example:
@@ -82,6 +99,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
       vptool render chair.off --view 1,-1,1 --size 256 -o corner.png
       vptool render bunny.ply --view-set 4 --size 256 -o bunny_sheet.png
       vptool render bus.ply --view 1,-1,0.5 --up auto -o bus.png
+      vptool render scan.ply --best VE --views 200 --json -o scan.png
     """
     from vptoolkit.io import load_with_appearance, require_surface
     from vptoolkit.pictures.engine import open_renderer
@@ -96,8 +114,9 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    model, appearance = load_with_appearance(mesh)
-    loaded = require_surface(model, mesh.name)
+    loaded, appearance = load_with_appearance(mesh)
+    if model_path is not None:  # the network reads surfaces
+        loaded = require_surface(loaded, mesh.name)
     if up == "auto":
         from vptoolkit.upright import auto_up
 
@@ -110,8 +129,15 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
             sheet, chosen = view_set_sheet(loaded, view_set_k, settings=settings, engine=drawing,
                                            appearance=appearance)
             save_png(sheet, output)
-            click.echo(f"wrote {output} ({len(chosen)} views, views {chosen.indices.tolist()}, "
-                       f"{100 * chosen.coverage[-1]:.1f} % of the surface seen)")
+            if as_json:
+                labels = [f"view set pick {pick + 1} (view {index})"
+                          for pick, index in enumerate(chosen.indices.tolist())]
+                click.echo(output_json(_picture_record(mesh, loaded, output, drawing,
+                                                       chosen.directions, labels)))
+            else:
+                click.echo(f"wrote {output} ({len(chosen)} views, views "
+                           f"{chosen.indices.tolist()}, {100 * chosen.coverage[-1]:.1f} % of "
+                           "the surface seen)")
             return
         if best is not None:
             picture = render_best(loaded, measure=best, settings=settings, engine=drawing,
@@ -126,9 +152,32 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
             direction = as_directions(view, name="--view")[0]
             picture = RenderedView(render_view(loaded, direction, engine=drawing,
                                                appearance=appearance), direction, "--view")
-    save_png(picture.image, output)
+        save_png(picture.image, output)
+        if as_json:
+            click.echo(output_json(_picture_record(mesh, loaded, output, drawing,
+                                                   picture.direction[None, :], [picture.label])))
+            return
     x, y, z = picture.direction
     click.echo(f"wrote {output} ({picture.label}, direction ({x:+.3f}, {y:+.3f}, {z:+.3f}))")
+
+
+def _picture_record(source: Path, model: Mesh | PointCloud, output: Path, engine: Engine,
+                    directions: NDArray[np.float64], labels: list[str]) -> dict[str, Any]:
+    """``render --json``'s record: the file, the model, the picture written, and per view
+    drawn its label, direction, camera pose (:func:`vptoolkit.best_view.answer.view_records`,
+    the picture's roll) and the pinhole matrix of the picture (``size`` pixels, the framing's
+    magnification in its focal length)."""
+    from vptoolkit.best_view.answer import view_records
+    from vptoolkit.pictures.shading import picture_poses
+
+    poses, zoom = picture_poses(engine.camera, engine.style, model, directions, engine.size)
+    views = view_records(poses, directions, engine.style.up)
+    for record, label, factor in zip(views, labels, zoom):
+        intrinsics = poses.intrinsics()
+        intrinsics[:2, :2] *= factor
+        record.update(label=label, intrinsics=intrinsics.tolist())
+    return {"file": str(source), "name": model.name, "output": str(output),
+            "size": engine.size, "up": list(engine.style.up), "views": views}
 
 
 @click.command("sphere-map")
@@ -147,8 +196,12 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
 @resolution_option("Triangle-ID image side when SOURCE is a mesh.")
 @click.option("--dpi", default=100, show_default=True, type=click.IntRange(20, 600),
               help="Pixels per inch of the PNG (a row of four maps is 12 x 3.4 inches).")
+@click.option("--json", "as_json", is_flag=True,
+              help="Print the file, name, best view of each measure drawn (direction, camera "
+                   "pose, intrinsics) and the PNG written as JSON.")
 def sphere_map(source: Path, output: Path, measure: str | None, measures_text: str | None,
-               predicted: Vector | None, n_views: int, resolution: int, dpi: int) -> None:
+               predicted: Vector | None, n_views: int, resolution: int, dpi: int,
+               as_json: bool) -> None:
     """Draw measures over the view sphere as Mercator maps.
 
     SOURCE is the .npz of vptool measures -o (drawn as recorded), or a mesh
@@ -156,7 +209,11 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
     cloud's measures are those defined on points). --measure draws
     one map; --measures draws several on one figure, titled by the measures'
     names. Colours: normalised quality (1 = best); the star marks the best
-    sampled view, the cross --predicted.
+    sampled view, the cross --predicted. --json prints, as best-view --json
+    does, the best view of each measure drawn: its direction, raw value and
+    camera pose (image up +y) with the intrinsics at --resolution; of an
+    .npz, which holds no model to place a camera, the directions only (raw,
+    pose, resolution and intrinsics null).
 
     \b
     Example:
@@ -164,7 +221,9 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
       vptool sphere-map bunny.npz --measure VMI -o bunny_vmi.png
       vptool sphere-map bunny.npz --measures all -o bunny_maps.png
       vptool sphere-map bunny.ply --measures all --views 500 --resolution 128 -o all.png
+      vptool sphere-map scan.ply --measure VE --views 200 --json -o scan_ve.png
     """
+    from vptoolkit.conventions import PICTURE_UP
     from vptoolkit.pictures.sphere_map import save_figure, sphere_map_file
     from vptoolkit.pictures.sphere_panels import sphere_maps, sphere_maps_file
 
@@ -172,15 +231,37 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
         raise InputError("sphere-map: give --measure or --measures, not both")
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
+    marked = None if predicted is None else list(predicted)
     if source.suffix.lower() == ".npz":
+        every = measures_text is not None and measures_text.strip().lower() == "all"
         if measures_text is None:
             sphere_map_file(source, output, measure=measure, predicted=predicted, dpi=dpi)
         else:
-            every = measures_text.strip().lower() == "all"
             sphere_maps_file(source, output, predicted=predicted, dpi=dpi,
                              measures=None if every else parse_measures(measures_text))
-        click.echo(f"wrote {output}")
+        if not as_json:
+            click.echo(f"wrote {output}")
+            return
+        import numpy as np
+
+        from vptoolkit.measures.registry import measure_index
+        from vptoolkit.pictures.sphere_map import read_quality_maps
+
+        views, normalized, recorded, name = read_quality_maps(source)
+        drawn = (recorded if every else recorded[:1] if measure is None and measures_text is None
+                 else (measure,) if measure is not None else parse_measures(measures_text or ""))
+        best: dict[str, dict[str, Any]] = {}
+        for drawn_measure in drawn:
+            column = measure_index(drawn_measure, recorded)
+            direction = views[int(np.nanargmax(normalized[:, column]))]
+            best[recorded[column]] = {"direction": [round(float(c), 6) for c in direction],
+                                      "raw": None, "pose": None}
+        click.echo(output_json({"file": str(source), "name": name, "output": str(output),
+                                "views": len(views), "resolution": None,
+                                "up": list(PICTURE_UP), "intrinsics": None, "best": best,
+                                "predicted": marked}))
         return
+    from vptoolkit.best_view.answer import view_records
     from vptoolkit.inputs import read_model
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.pictures.sphere_map import sphere_map as one_map
@@ -198,7 +279,20 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
         figure = sphere_maps(quality.views, quality.normalized, measures=quality.measures,
                              predicted=predicted, title=title)
     save_figure(figure, output, dpi=dpi)
-    click.echo(f"wrote {output} ({', '.join(quality.measures)})")
+    if not as_json:
+        click.echo(f"wrote {output} ({', '.join(quality.measures)})")
+        return
+    directions = quality.views[quality.best_index]
+    poses = quality.camera.look_at(loaded, directions, resolution=quality.resolution)
+    views_drawn = view_records(poses, directions, PICTURE_UP)
+    best = {name: {"direction": view["direction"],
+                   "raw": float(quality.raw[quality.best_index[column], column]),
+                   "pose": view["pose"]}
+            for column, (name, view) in enumerate(zip(quality.measures, views_drawn))}
+    click.echo(output_json({"file": str(source), "name": quality.name, "output": str(output),
+                            "views": len(quality.views), "resolution": quality.resolution,
+                            "up": list(PICTURE_UP), "intrinsics": poses.intrinsics().tolist(),
+                            "best": best, "predicted": marked}))
 
 
 @click.command()
@@ -272,10 +366,12 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float,
                up: Vector | str, elevation: tuple[float, float] | None, margin: float,
                engine: str, dry_run: bool) -> None:
-    """Draw a thumbnail of every mesh of SRC from its best view into OUT.
+    """Draw a thumbnail of every model of SRC from its best view into OUT.
 
-    SRC is a folder (walked recursively), a quoted glob, one mesh file or
-    @list.txt. SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
+    SRC is a folder (walked recursively), a quoted glob, one model file or
+    @list.txt, meshes and point clouds mixed (a cloud is drawn as the
+    measures' splats in its own colours; --model takes meshes only).
+    SRC/a/b.off becomes OUT/a/b.off.png. Each best view comes from
     the anytime search with a budget of --views (--views 1000 and more measure
     every view of a Fibonacci sphere instead: the exhaustive answer, at
     --resolution). Each model is drawn in its own colours and texture where
@@ -297,6 +393,7 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
       vptool thumbnails models/ sheets/ --view-set 4 --size 192
       vptool thumbnails @models.txt thumbs/ --dry-run
       vptool thumbnails gazebo_models/ thumbs/ --up 0,0,1 --elevation 0,45
+      vptool thumbnails scans/ thumbs/ --up auto
     """
     from vptoolkit.best_view.search import SearchSettings
     from vptoolkit.conventions import N_VIEWS

@@ -94,7 +94,7 @@ class Method(Protocol):
         """JSON-safe settings that decide the answers."""
 
     def __call__(self, mesh: Mesh | PointCloud) -> Answer:
-        """The answer for one model: a mesh, or a point cloud where the run draws no picture
+        """The answer for one model: a mesh or a point cloud
         (:func:`vptoolkit.collection.runner.read_model`)."""
 
 

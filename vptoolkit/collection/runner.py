@@ -60,7 +60,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from vptoolkit.checks import as_path, check_bool, check_int, one_line
 from vptoolkit.collection.discover import (
@@ -83,9 +83,6 @@ from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.progress import progress_bar
-
-if TYPE_CHECKING:
-    from vptoolkit.inputs import Requirement
 
 __all__ = ["MAX_MODEL_FACES", "TIMEOUT_S", "CollectionRun", "EntryResult", "EntryTask",
            "answer_entry", "read_model", "run_collection", "settings_digest"]
@@ -195,27 +192,26 @@ def settings_digest(method: Method, max_faces: int) -> tuple[str, dict[str, Any]
     return hashlib.sha256(text.encode()).hexdigest()[:16], record
 
 
-def read_model(path: str, requires: Requirement = None) -> Mesh | PointCloud:
+def read_model(path: str) -> Mesh | PointCloud:
     """Read one collection entry as the model its method takes.
 
     The one place a collection reads a file: through
     :func:`vptoolkit.inputs.read_model`, which decides by content. A point
-    cloud goes to the methods that measure (the search, every view measured,
-    a view set: the session splats it) and is refused in one line where a
-    picture is drawn (``requires="surface"``); a URL (remote entries are not
-    fetched) is refused in one line.
+    cloud goes to every method (the search, every view measured, a view set:
+    the session splats it) and to the pictures (the software engine splats
+    it too); a URL (remote entries are not fetched) is refused in one line.
 
     Raises
     ------
     InputError
         A :class:`~vptoolkit.errors.MeshLoadError` naming the file and problem,
-        or the refusal of a cloud where a surface is needed, or of a URL.
+        or the refusal of a URL.
     """
     from vptoolkit.inputs import read_model as read_input
 
     if is_remote_entry(path):
         raise InputError(f"{path}: a URL; collections read local files only")
-    return read_input(path, requires=requires)
+    return read_input(path)
 
 
 def answer_entry(task: EntryTask) -> EntryResult:
@@ -223,7 +219,7 @@ def answer_entry(task: EntryTask) -> EntryResult:
     started = time.perf_counter()
     with _time_limit(task.timeout):
         try:
-            mesh = read_model(task.entry.path, "surface" if task.keep_model else None)
+            mesh = read_model(task.entry.path)
             count, kind = ((mesh.n_points, "points") if isinstance(mesh, PointCloud)
                            else (mesh.n_faces, "faces"))
             if count > task.max_faces:

@@ -20,9 +20,11 @@ from numpy.typing import ArrayLike, NDArray
 from vptoolkit.appearance import Appearance
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.io.objects import model_of
+from vptoolkit.mesh import MeshLike
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.view_sets.result import ViewSet
 from vptoolkit.view_sets.search import measure_view_set
@@ -125,7 +127,7 @@ def contact_sheet(
 
 
 def view_set_sheet(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud,
     k: int | None = 4,
     *,
     view_set: ViewSet | None = None,
@@ -134,12 +136,12 @@ def view_set_sheet(
     appearance: Appearance | None = None,
     **options: object,
 ) -> tuple[NDArray[np.uint8], ViewSet]:
-    """Find a mesh's view set and draw it as a contact sheet.
+    """Find a model's view set and draw it as a contact sheet.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike or PointCloud
+        The model (a cloud: its points' view set, drawn as splats).
     k : int or None
         Views in the set (default: 4); see :func:`vptoolkit.view_sets.search.best_view_set`.
     view_set : ViewSet, optional
@@ -165,7 +167,7 @@ def view_set_sheet(
     view_set : ViewSet
         The set drawn.
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     with drawing_engine(engine, size=TILE_SIZE, camera=settings.camera) as active:
         if view_set is None:

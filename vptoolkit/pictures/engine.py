@@ -15,8 +15,10 @@ in a :class:`~vptoolkit.pictures.shading.RenderStyle`, in the model's own
   Vulkan driver its frame time depends on the view, from 0.1 s to
   minutes, which is why it is not the default.
 
-Neither draws transparency (alpha is ignored), normal, metallic or
-emissive maps, or point colours (a point cloud is not drawn).
+The software engine also draws a :class:`~vptoolkit.point_cloud.PointCloud`,
+as the measures' splats in its per-point colours; the Open3D engine refuses
+one in one line. Neither draws transparency (alpha is ignored), normal,
+metallic or emissive maps.
 
 :func:`open_renderer` makes either. Every picture function takes one
 ``engine`` (its size, camera and style apply) and leaves it open for its
@@ -41,6 +43,7 @@ if TYPE_CHECKING:
     from vptoolkit.camera import Camera
     from vptoolkit.mesh import MeshLike
     from vptoolkit.pictures.shading import RenderStyle
+    from vptoolkit.point_cloud import PointCloud
 
 __all__ = ["ENGINES", "Engine", "drawing_engine", "open_renderer"]
 
@@ -52,7 +55,7 @@ ENGINES = ("software", "open3d")
 
 @runtime_checkable
 class Engine(Protocol):
-    """A picture engine: draws meshes from view directions, one size for all pictures.
+    """A picture engine: draws models from view directions, one size for all pictures.
 
     Attributes
     ----------
@@ -90,13 +93,14 @@ class Engine(Protocol):
         """Free the engine's resources (it may be started again)."""
         ...
 
-    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+    def render(self, mesh: MeshLike | PointCloud, directions: ArrayLike, *,
                appearance: Appearance | None = None) -> NDArray[np.uint8]:
-        """Draw a mesh from each of several view directions.
+        """Draw a mesh (or a point cloud, where the engine draws clouds) from each of
+        several view directions.
 
         Parameters
         ----------
-        mesh : MeshLike
+        mesh : MeshLike or PointCloud
             The model.
         directions : (n, 3) or (3,) array_like
             View directions from the model centre towards the camera (any
@@ -109,13 +113,15 @@ class Engine(Protocol):
         Returns
         -------
         images : (n, size, size, 3) uint8
-            sRGB pictures, row 0 at the top, background where no face is seen.
+            sRGB pictures, row 0 at the top, background where no face (or
+            splat) is seen.
 
         Raises
         ------
         InputError
-            On a non-mesh, bad directions, a mesh of zero extent or an
-            appearance whose arrays do not match the mesh.
+            On a non-mesh, bad directions, a mesh of zero extent, an
+            appearance whose arrays do not match the model, or a point
+            cloud given to an engine that draws surfaces only.
         """
         ...
 

@@ -78,6 +78,7 @@ from vptoolkit.pictures.shading import (
     srgb8_to_linear,
     texture_lookup,
 )
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.sphere import as_directions
 
 __all__ = ["Renderer", "check_renderer"]
@@ -434,7 +435,7 @@ class Renderer:
                                    f"{image.shape} and dtype {image.dtype}")
         return image.copy()
 
-    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+    def render(self, mesh: MeshLike | PointCloud, directions: ArrayLike, *,
                appearance: Appearance | None = None) -> NDArray[np.uint8]:
         """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
         sRGB pictures, in the colours of ``appearance`` where given (its
@@ -445,12 +446,16 @@ class Renderer:
         Raises
         ------
         InputError
-            On bad directions or a mesh of zero extent.
+            On bad directions or a mesh of zero extent, or a point cloud: this
+            engine draws surfaces only (the software engine draws clouds).
         MissingDependencyError
             If the renderer cannot start at all.
         MeasurementError
             If a frame failed (hung or crashed) in all ``attempts`` tries.
         """
+        if isinstance(mesh, PointCloud):
+            raise InputError(f"{mesh.name}: a point cloud; the open3d engine draws surfaces "
+                             "only, the software engine (--engine software) draws clouds")
         mesh = as_mesh(mesh)
         unit = as_directions(directions, name="directions")
         self._prepare(mesh, appearance)

@@ -34,6 +34,7 @@ from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.point_cloud import PointCloud
 
 __all__ = [
     "PICTURE_SIZE",
@@ -311,6 +312,47 @@ def frame_zoom(poses: ViewPoses, points: NDArray[np.float64],
         if reach > 0.0:
             zoom[view] = (0.5 - margin) * poses.resolution / reach
     return zoom
+
+
+def picture_poses(camera: Camera, style: RenderStyle, model: MeshLike | PointCloud,
+                  directions: NDArray[np.float64], resolution: int
+                  ) -> tuple[ViewPoses, NDArray[np.float64]]:
+    """The cameras of a model's pictures: poses and the magnification of each view.
+
+    Parameters
+    ----------
+    camera : Camera
+        The measures' camera (an engine's ``camera``).
+    style : RenderStyle
+        Its ``up`` rolls the camera (:func:`picture_camera`), its ``margin``
+        frames the model (:func:`frame_zoom`).
+    model : MeshLike or PointCloud
+        The model: its bounding frame (:func:`vptoolkit.geometry.bounding_frame`)
+        places the camera, its used vertices (a cloud: its points) decide the zoom.
+    directions : (n, 3) float64
+        Unit view directions, model centre towards the camera.
+    resolution : int
+        Image side of the poses in pixels.
+
+    Returns
+    -------
+    poses : ViewPoses
+        The rolled camera's poses at ``resolution``, before magnification.
+    zoom : (n,) float64
+        Each view's magnification: the picture of view ``i`` has focal length
+        ``zoom[i] * poses.focal_px`` pixels at ``resolution``, the eye unchanged.
+    """
+    from vptoolkit.geometry import bounding_frame
+
+    if isinstance(model, PointCloud):
+        points = model.points
+    else:
+        mesh = as_mesh(model)
+        points = mesh.vertices[np.unique(mesh.faces)]
+    centre, diagonal = bounding_frame(model)
+    poses = picture_camera(camera, style.up).poses(directions, centre=centre,
+                                                   diagonal=diagonal, resolution=resolution)
+    return poses, frame_zoom(poses, points, style.margin)
 
 
 def corner_colors(appearance: Appearance | None, faces: NDArray[np.int64],

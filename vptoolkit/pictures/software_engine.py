@@ -32,6 +32,17 @@ each pixel is shaded in numpy:
 * the supersampled linear image is averaged down (anti-aliasing over the
   background) and encoded as sRGB.
 
+A :class:`~vptoolkit.point_cloud.PointCloud` is drawn as the measures see
+it: :meth:`vptoolkit.visibility.splats.PointScene.id_images` gives the point
+whose splat is nearest at every pixel (each point a splat of twice the
+radius of its own piece of surface, flattened along its normal, as the
+measures' splats; the same culling), and the pixel takes that point's colour
+(the :class:`~vptoolkit.appearance.Appearance`'s per-point colours times its
+base colour, the style's colour without them), lit as above along the
+point's normal, or, in a cloud without normals, as a surface across the
+view axis (flat: ``n`` the view axis towards the eye, the same for every pixel).
+Framing, supersampling and the sun are the mesh's.
+
 Why a second engine: Open3D 0.20 renders through Vulkan, and on Mesa's
 software driver (llvmpipe, the only one on a machine without a GPU) its
 frame time depends on the view in ways we cannot control: 0.06 s for one
@@ -43,13 +54,14 @@ view and is the default of ``vptool render``, ``thumbnails`` and
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.appearance import Appearance
 from vptoolkit.camera import Camera, ViewPoses
 from vptoolkit.checks import check_int
-from vptoolkit.geometry import bounding_frame
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.pictures.shading import (
     PICTURE_SIZE,
@@ -57,17 +69,19 @@ from vptoolkit.pictures.shading import (
     corner_colors,
     crease_normals,
     engine_setup,
-    frame_zoom,
     light_direction,
     linear_to_srgb,
     picture_camera,
+    picture_poses,
     srgb8_to_linear,
     srgb_to_linear,
     texture_lookup,
 )
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings
 from vptoolkit.sphere import as_directions
 from vptoolkit.visibility import face_id_images
+from vptoolkit.visibility.splats import PointScene
 
 __all__ = ["SoftwareRenderer"]
 
@@ -109,19 +123,23 @@ class SoftwareRenderer:
         self._mesh: Mesh | None = None
         self._corners: NDArray[np.float64] | None = None
         self._corner_normals: NDArray[np.float64] | None = None
-        self._points: NDArray[np.float64] = np.zeros((0, 3))
         self._paint: _Paint | None = None  # the colours of _paint_source on _painted
         self._painted: Mesh | None = None
         self._paint_source: Appearance | None = None
+        self._cloud: PointCloud | None = None  # the cloud of _scene
+        self._scene: PointScene | None = None
+        self._point_colors: NDArray[np.float64] | None = None  # linear RGB of _point_source
+        self._point_source: Appearance | None = None
 
     def start(self) -> SoftwareRenderer:
         """Nothing to start; returns self (as :class:`~vptoolkit.pictures.engine.Engine` asks)."""
         return self
 
     def close(self) -> None:
-        """Forget the cached mesh and colours."""
+        """Forget the cached mesh, cloud and colours."""
         self._mesh = self._corners = self._corner_normals = None
         self._paint = self._painted = self._paint_source = None
+        self._cloud = self._scene = self._point_colors = self._point_source = None
 
     def __enter__(self) -> SoftwareRenderer:
         return self
@@ -138,49 +156,80 @@ class SoftwareRenderer:
         self._corner_normals = np.zeros((mesh.n_faces, 3, 3))
         self._corners[kept] = positions.reshape(-1, 3, 3)
         self._corner_normals[kept] = normals.reshape(-1, 3, 3)
-        self._points = mesh.vertices[np.unique(mesh.faces)]
         self._mesh = mesh
 
-    def render(self, mesh: MeshLike, directions: ArrayLike, *,
+    def _prepare_cloud(self, cloud: PointCloud, appearance: Appearance | None) -> None:
+        """The cloud's splats (seen through the picture camera) and its points' colours."""
+        if self._cloud is not cloud:
+            camera = picture_camera(self.camera, self.style.up)
+            self._scene = PointScene(cloud.points, cloud.normals, camera)
+            self._cloud, self._point_source = cloud, None
+            self._point_colors = None
+        if self._point_source is not appearance:
+            # each point as a degenerate face: its corners all the point's colour
+            corners = corner_colors(appearance, np.repeat(np.arange(cloud.n_points)[:, None], 3,
+                                                          axis=1), cloud.n_points)
+            self._point_colors = None if corners is None else corners[:, 0]
+            self._point_source = appearance
+
+    def render(self, mesh: MeshLike | PointCloud, directions: ArrayLike, *,
                appearance: Appearance | None = None) -> NDArray[np.uint8]:
-        """Draw a mesh from each of several view directions: ``(n, size, size, 3)`` uint8
-        sRGB pictures, in its ``appearance`` where given, as :meth:`Engine.render
-        <vptoolkit.pictures.engine.Engine.render>` specifies."""
-        mesh = as_mesh(mesh)
+        """Draw a mesh or point cloud from each of several view directions: ``(n, size, size,
+        3)`` uint8 sRGB pictures, in its ``appearance`` where given, as :meth:`Engine.render
+        <vptoolkit.pictures.engine.Engine.render>` specifies (a cloud as splats, module
+        docstring)."""
         unit = as_directions(directions, name="directions")
-        self._prepare(mesh)
-        if self._painted is not mesh or self._paint_source is not appearance:
-            self._paint = _Paint.of(appearance, mesh)
-            self._painted, self._paint_source = mesh, appearance
-        paint = self._paint
         camera = picture_camera(self.camera, self.style.up)
+        model: Mesh | PointCloud
+        if isinstance(mesh, PointCloud):
+            model = mesh
+            self._prepare_cloud(model, appearance)
+            scene = self._scene
+            assert scene is not None  # noqa: S101  (made by _prepare_cloud)
+
+            def id_image(direction: NDArray[np.float64], side: int) -> NDArray[np.int32]:
+                return scene.id_images(direction, side)[0]
+
+            shade: _Shader = self._shade_points
+        else:
+            model = as_mesh(mesh)
+            self._prepare(model)
+            if self._painted is not model or self._paint_source is not appearance:
+                self._paint = _Paint.of(appearance, model)
+                self._painted, self._paint_source = model, appearance
+            drawn = model
+
+            def id_image(direction: NDArray[np.float64], side: int) -> NDArray[np.int32]:
+                settings = MeasureSettings(views=1, resolution=side, camera=camera)
+                return face_id_images(drawn, settings, view_directions=direction)[0]
+
+            shade = self._shade
         factor = max(1, min(self.supersampling, _MAX_FINE // self.size))
         fine = self.size * factor
-        centre, diagonal = bounding_frame(mesh)
-        poses = camera.poses(unit, centre=centre, diagonal=diagonal, resolution=fine)
-        zoom = frame_zoom(poses, self._points, self.style.margin)
+        poses, zoom = picture_poses(self.camera, self.style, model, unit, fine)
         images = np.empty((len(unit), self.size, self.size, 3), dtype=np.uint8)
         for view in range(len(unit)):
-            ids, focal = self._face_ids(mesh, camera, unit[view], fine, float(zoom[view]),
+            ids, focal = self._id_image(id_image, unit[view], fine, float(zoom[view]),
                                         poses.focal_px)
             linear = self._background_image(len(ids))
             hit = np.flatnonzero(ids >= 0)
             for start in range(0, len(hit), _CHUNK):  # bounded memory at any size
                 chunk = hit[start:start + _CHUNK]
-                linear[chunk] = self._shade(chunk, ids[chunk], poses, view, focal, paint)
+                linear[chunk] = shade(chunk, ids[chunk], poses, view, focal)
             linear = linear.reshape(self.size, factor, self.size, factor, 3).mean(axis=(1, 3))
             images[view] = linear_to_srgb(linear)
         return images
 
     @staticmethod
-    def _face_ids(mesh: Mesh, camera: Camera, direction: NDArray[np.float64], fine: int,
-                  zoom: float, focal: float) -> tuple[NDArray[np.int32], float]:
-        """The ``fine``-side triangle-ID image (flat) of one view magnified ``zoom`` times
-        about its centre, and its focal length in pixels."""
+    def _id_image(id_image: Callable[[NDArray[np.float64], int], NDArray[np.int32]],
+                  direction: NDArray[np.float64], fine: int, zoom: float,
+                  focal: float) -> tuple[NDArray[np.int32], float]:
+        """The ``fine``-side ID image (flat) of one view magnified ``zoom`` times about
+        its centre, and its focal length in pixels; ``id_image(direction, side)`` draws
+        the ``side``-side image of the view with the picture's field of view."""
         side = min(fine + 2 * int(np.floor((zoom - 1.0) * fine / 2.0)), _MAX_FINE)
         side = max(side - (side - fine) % 2, 2 - fine % 2)
-        settings = MeasureSettings(views=1, resolution=side, camera=camera)
-        raster = face_id_images(mesh, settings, view_directions=direction)[0]
+        raster = id_image(direction, side)
         offset = (side - fine) // 2
         if offset >= 0:
             ids = raster[offset:offset + fine, offset:offset + fine]
@@ -195,18 +244,11 @@ class SoftwareRenderer:
         return np.broadcast_to(background, (n_pixels, 3)).copy()
 
     def _shade(self, hit: NDArray[np.int64], faces: NDArray[np.int32], poses: ViewPoses,
-               view: int, focal: float, paint: _Paint | None) -> NDArray[np.float64]:
+               view: int, focal: float) -> NDArray[np.float64]:
         """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
         see ``faces``, at focal length ``focal`` pixels."""
         assert self._corners is not None and self._corner_normals is not None  # noqa: S101
-        style = self.style
-        # the ray through each hit pixel's centre (as ViewPoses.pixel_rays, in float64)
-        row, column = np.divmod(hit, poses.resolution)
-        half = poses.resolution / 2.0
-        across = (column + 0.5 - half) / focal
-        down = (row + 0.5 - half) / focal
-        ray = (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
-               - down[:, None] * poses.up[view][None, :])
+        ray = _pixel_rays(hit, poses, view, focal)
         a, b, c = (self._corners[faces, k] for k in range(3))
         edge1, edge2 = b - a, c - a
         p = np.cross(ray, edge2)
@@ -219,20 +261,63 @@ class SoftwareRenderer:
         normals = self._corner_normals[faces]
         normal = ((1.0 - u - v)[:, None] * normals[:, 0] + u[:, None] * normals[:, 1]
                   + v[:, None] * normals[:, 2])
-        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-        towards_camera = -ray / np.linalg.norm(ray, axis=1, keepdims=True)
-        facing = np.einsum("ij,ij->i", normal, towards_camera)
-        normal[facing < 0] *= -1.0  # a back face seen with culling off
+        if self._paint is None:
+            colour = self._style_colour()
+        else:
+            colour = self._paint.colors(faces, np.stack([1.0 - u - v, u, v], axis=1))
+        return self._lit(colour, normal, ray, poses, view)
+
+    def _shade_points(self, hit: NDArray[np.int64], points: NDArray[np.int32],
+                      poses: ViewPoses, view: int, focal: float) -> NDArray[np.float64]:
+        """``(len(hit), 3)`` linear RGB of the fine pixels ``hit`` (flat indices), which
+        see the splats of ``points``: lit along the points' normals, or as a surface
+        across the view axis where the cloud has none."""
+        ray = _pixel_rays(hit, poses, view, focal)
+        normals = None if self._cloud is None else self._cloud.normals
+        normal = (np.tile(-poses.forward[view], (len(hit), 1)) if normals is None
+                  else normals[points])
+        colour = self._style_colour() if self._point_colors is None \
+            else self._point_colors[points]
+        return self._lit(colour, normal, ray, poses, view)
+
+    def _style_colour(self) -> NDArray[np.float64]:
+        """``(1, 3)`` linear RGB of the style's colour."""
+        return np.array([srgb_to_linear(c) for c in self.style.color])[None, :]
+
+    def _lit(self, colour: NDArray[np.float64], normal: NDArray[np.float64],
+             ray: NDArray[np.float64], poses: ViewPoses, view: int) -> NDArray[np.float64]:
+        """Linear RGB ``colour * (ambient + sun * max(0, n . l))`` of pixels of ``colour``
+        ``(n, 3)`` or ``(1, 3)`` whose surface has ``normal`` ``(n, 3)`` (any length, turned
+        towards the camera along the pixel's ``ray``)."""
+        style = self.style
+        normal = normal / np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+        facing = np.einsum("ij,ij->i", normal, ray)
+        normal[facing > 0] *= -1.0  # a back face seen with culling off
         towards_light = -light_direction(style, poses.forward[view], poses.up[view],
                                          poses.right[view])
         diffuse = np.clip(normal @ towards_light, 0.0, None)
         sun = _SUN * style.light_intensity / _DEFAULT_SUN
         ambient = _AMBIENT * style.ambient_intensity / _DEFAULT_AMBIENT
-        if paint is None:
-            colour = np.array([srgb_to_linear(c) for c in style.color])[None, :]
-        else:
-            colour = paint.colors(faces, np.stack([1.0 - u - v, u, v], axis=1))
         return colour * (ambient + sun * diffuse)[:, None]
+
+
+def _pixel_rays(hit: NDArray[np.int64], poses: ViewPoses, view: int,
+                focal: float) -> NDArray[np.float64]:
+    """``(len(hit), 3)`` float64 rays (not unit) through the centres of the pixels ``hit``
+    (flat indices) of view ``view`` at focal length ``focal`` pixels, as
+    :meth:`ViewPoses.pixel_rays <vptoolkit.camera.ViewPoses.pixel_rays>` makes them."""
+    row, column = np.divmod(hit, poses.resolution)
+    half = poses.resolution / 2.0
+    across = (column + 0.5 - half) / focal
+    down = (row + 0.5 - half) / focal
+    return (poses.forward[view][None, :] + across[:, None] * poses.right[view][None, :]
+            - down[:, None] * poses.up[view][None, :])
+
+
+_Shader = Callable[[NDArray[np.int64], NDArray[np.int32], ViewPoses, int, float],
+                   NDArray[np.float64]]
+"""Linear RGB of hit pixels from their flat indices, the IDs they see, the poses, the view
+and the focal length (:meth:`SoftwareRenderer._shade`, :meth:`SoftwareRenderer._shade_points`)."""
 
 
 class _Paint:

@@ -74,6 +74,7 @@ __all__ = [
     "sphere_map",
     "save_figure",
     "sphere_map_file",
+    "read_quality_maps",
 ]
 
 BEST_COLOR = "#ff0000"
@@ -470,13 +471,15 @@ def save_figure(figure: Figure, path: str | os.PathLike[str], *, dpi: int = 100)
     return target
 
 
-def _read_quality(source: Path) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                                         tuple[str, ...], str]:
-    """``views``, ``normalized``, the column names and the title of a ``ViewQuality`` .npz.
+def read_quality_maps(source: Path) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                             tuple[str, ...], str]:
+    """``views`` ``(n_views, 3)``, ``normalized`` ``(n_views, M)``, the ``M`` column names
+    and the title (its ``name``, else the file's stem) of a ``ViewQuality`` .npz.
 
     A file without ``measures`` (written before measures were named) holds
     the paper's four; a file naming a measure the registry does not know is
-    refused (``ViewQuality.save_npz`` writes registered names only).
+    refused (``ViewQuality.save_npz`` writes registered names only). Raises
+    InputError naming the file.
     """
     try:
         with open(source, "rb") as stream:
@@ -549,7 +552,7 @@ def sphere_map_file(
         does not record ``measure``, or that measure has no finite value.
     """
     source = as_path(quality_path, "quality_path")
-    views, normalized, names, name = _read_quality(source)
+    views, normalized, names, name = read_quality_maps(source)
     try:
         column = 0 if measure is None else _column(measure, names)
     except InputError as err:

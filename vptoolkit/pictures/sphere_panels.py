@@ -38,7 +38,7 @@ from vptoolkit.pictures.sphere_map import (
     _new_figure,
     _predicted_rows,
     _quality_matrix,
-    _read_quality,
+    read_quality_maps,
     save_figure,
     sphere_grid,
 )
@@ -166,7 +166,7 @@ def sphere_maps_file(
         does not record one of ``measures``.
     """
     source = as_path(quality_path, "quality_path")
-    views, normalized, names, name = _read_quality(source)
+    views, normalized, names, name = read_quality_maps(source)
     try:
         columns = (list(range(len(names))) if measures is None
                    else [_column(measure, names) for measure in measures])

@@ -1,4 +1,4 @@
-"""Thumbnails of a collection of meshes, from each mesh's best (or a predicted) view.
+"""Thumbnails of a collection of models, from each model's best (or a predicted) view.
 
 :func:`render_thumbnails` draws one picture per entry of a collection (a
 folder, a glob, a model file or ``@list.txt``:
@@ -11,7 +11,10 @@ the entry ``a/b.off`` is ``OUT/a/b.off.png`` (the key and ``.png``, so
 ``b.off`` and ``b.obj`` never share a picture). Each model is drawn in its
 own colours and texture where its file has them
 (:func:`vptoolkit.io.load_with_appearance`, read again in this process),
-framed as the engine's style says (``RenderStyle.margin``).
+framed as the engine's style says (``RenderStyle.margin``). A folder may
+mix meshes and point clouds: a cloud is searched on its points and drawn
+as splats by the software engine (the Open3D engine refuses it, one line
+in the failures); a prediction (``predictor``) takes meshes only.
 
 By default each direction comes from the anytime search
 (:class:`~vptoolkit.collection.methods.SearchMethod`, a
@@ -165,7 +168,8 @@ class PredictedMethod:
                 "camera": self.settings.camera.to_dict()}
 
     def __call__(self, mesh: Mesh | PointCloud) -> Answer:
-        """The predicted direction of a mesh (thumbnails read only meshes)."""
+        """The predicted direction of a mesh (a predictor reads surfaces: a point cloud is
+        refused in one line)."""
         mesh = require_surface(mesh)
         direction = resolve_direction(mesh, self.predictor, measure=self.names[0])[None]
         poses, intrinsics = cameras(mesh, self.settings.camera, direction,
@@ -178,15 +182,19 @@ ThumbnailMethod = SearchMethod | MeasureMethod | ViewSetMethod | PredictedMethod
 """The methods a thumbnail's direction comes from; each has the camera its pictures use."""
 
 
-def _stood_up(mesh: Mesh, direction: NDArray[np.float64], up: tuple[float, float, float]
-              ) -> tuple[Mesh, NDArray[np.float64]]:
-    """The mesh and view direction turned together so that the mesh's own up axis
+def _stood_up(model: Mesh | PointCloud, direction: NDArray[np.float64],
+              up: tuple[float, float, float]
+              ) -> tuple[Mesh | PointCloud, NDArray[np.float64]]:
+    """The model and view direction turned together so that the model's own up axis
     (:func:`vptoolkit.upright.resting_up`, as the search with ``up="auto"`` found it) is the
-    picture's ``up``: the same view, upright."""
+    picture's ``up``: the same view, upright (a cloud's normals turn with its points)."""
     from vptoolkit.upright import resting_up, rotation_between
 
-    turn = rotation_between(resting_up(mesh), up)
-    return replace(mesh, vertices=mesh.vertices @ turn.T), direction @ turn.T
+    turn = rotation_between(resting_up(model), up)
+    if isinstance(model, PointCloud):
+        normals = None if model.normals is None else model.normals @ turn.T
+        return replace(model, points=model.points @ turn.T, normals=normals), direction @ turn.T
+    return replace(model, vertices=model.vertices @ turn.T), direction @ turn.T
 
 
 def picture_name(key: str) -> str:
@@ -194,12 +202,12 @@ def picture_name(key: str) -> str:
     return f"{key}.png"
 
 
-def model_appearance(entry: Entry, model: Mesh) -> Appearance | None:
+def model_appearance(entry: Entry, model: Mesh | PointCloud) -> Appearance | None:
     """The appearance of an entry's file, if it is local and belongs to ``model``.
 
     The file is read again (:func:`vptoolkit.io.load_with_appearance`); a
-    remote entry, a model whose counts differ from ``model``'s, or a file
-    whose colours cannot be read (a warning names it) give None: the
+    remote entry, a model whose kind or counts differ from ``model``'s, or a
+    file whose colours cannot be read (a warning names it) give None: the
     picture is then drawn in the style's colour.
     """
     if is_remote_entry(entry.path):
@@ -211,8 +219,11 @@ def model_appearance(entry: Entry, model: Mesh) -> Appearance | None:
     except VptoolkitError as err:
         warnings.warn(f"{entry.key}: drawn without its colours ({one_line(err)})", stacklevel=2)
         return None
-    if not isinstance(read, Mesh) or (read.n_vertices, read.n_faces) != (model.n_vertices,
-                                                                        model.n_faces):
+    if isinstance(model, PointCloud):
+        if not isinstance(read, PointCloud) or read.n_points != model.n_points:
+            return None
+    elif not isinstance(read, Mesh) or (read.n_vertices, read.n_faces) != (model.n_vertices,
+                                                                          model.n_faces):
         return None
     return None if appearance.is_empty else appearance
 
@@ -352,7 +363,7 @@ def render_thumbnails(
         def draw(result: EntryResult) -> EntryResult:
             assert result.answer is not None and result.model is not None  # answered entries
             image_path = target / picture_name(result.entry.key)
-            model = require_surface(result.model)  # a run that draws reads meshes only
+            model = result.model
             try:
                 appearance = model_appearance(result.entry, model)
                 if isinstance(method, ViewSetMethod):

@@ -1,4 +1,4 @@
-"""Pictures of a mesh from chosen view directions: given, best for a measure, or predicted.
+"""Pictures of a model from chosen view directions: given, best for a measure, or predicted.
 
 A picture for view direction ``v`` shows what the measures scored for ``v``:
 the eye, target and field of view are those of
@@ -22,6 +22,11 @@ inscribed in the image. With ``RenderStyle(up=Camera().up)`` pixel ``(x,
 y)`` of a picture ``size`` pixels wide is pixel ``(x, y)`` of the measures'
 triangle-ID image at resolution ``size`` (with ``margin=None``).
 
+A model is a mesh or a point cloud (:func:`vptoolkit.io.objects.model_of`
+takes either, or another library's object): the software engine draws a
+cloud as the measures' splats, so a cloud's best view is found and drawn
+the same way.
+
 Every function takes the model's ``appearance``
 (:func:`vptoolkit.io.load_with_appearance`) to draw it in its own colours.
 
@@ -42,10 +47,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.appearance import Appearance
 from vptoolkit.errors import InputError
+from vptoolkit.io import require_surface
+from vptoolkit.io.objects import model_of
 from vptoolkit.measures.quality import ViewQuality
 from vptoolkit.measures.registry import PAPER_MEASURES, canonical_name, measure_index
-from vptoolkit.mesh import Mesh, MeshLike, as_mesh
+from vptoolkit.mesh import Mesh, MeshLike
 from vptoolkit.pictures.engine import Engine, drawing_engine
+from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 from vptoolkit.sphere import as_directions
 
@@ -60,9 +68,9 @@ __all__ = [
 ]
 
 DirectionSource = Callable[[Mesh], ArrayLike] | ArrayLike
-"""A view direction for a mesh: ``(3,)`` or ``(M, 3)`` (one per measure, by default
+"""A view direction for a model: ``(3,)`` or ``(M, 3)`` (one per measure, by default
 the paper's four in ``PAPER_MEASURES`` order), or a callable returning either from a
-:class:`~vptoolkit.mesh.Mesh` (e.g. a trained network's prediction)."""
+:class:`~vptoolkit.mesh.Mesh` (e.g. a trained network's prediction; it takes meshes)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -84,14 +92,16 @@ class RenderedView:
     label: str
 
 
-def render_views(mesh: MeshLike, directions: ArrayLike, *, engine: Engine | None = None,
+def render_views(mesh: MeshLike | PointCloud, directions: ArrayLike, *,
+                 engine: Engine | None = None,
                  appearance: Appearance | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from several view directions with one engine.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike or PointCloud
+        The model: a mesh, or a point cloud (drawn as splats by the engines that
+        draw clouds, :mod:`vptoolkit.pictures.engine`).
     directions : (n, 3) or (3,) array_like
         View directions from the model centre towards the camera.
     engine : Engine, optional
@@ -105,19 +115,21 @@ def render_views(mesh: MeshLike, directions: ArrayLike, *, engine: Engine | None
     -------
     images : (n, size, size, 3) uint8
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     with drawing_engine(engine) as active:
         return active.render(mesh, directions, appearance=appearance)
 
 
-def render_view(mesh: MeshLike, direction: ArrayLike, *, engine: Engine | None = None,
+def render_view(mesh: MeshLike | PointCloud, direction: ArrayLike, *,
+                engine: Engine | None = None,
                 appearance: Appearance | None = None) -> NDArray[np.uint8]:
     """Draw a mesh from one view direction.
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike or PointCloud
+        The model: a mesh, or a point cloud (drawn as splats by the engines that
+        draw clouds, :mod:`vptoolkit.pictures.engine`).
     direction : (3,) array_like
         View direction from the model centre towards the camera.
     engine, appearance
@@ -137,21 +149,21 @@ def render_view(mesh: MeshLike, direction: ArrayLike, *, engine: Engine | None =
     MeasurementError
         If the frame failed in every attempt.
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     unit = as_directions(direction, name="direction")
     if len(unit) != 1:
         raise InputError(f"direction: expected one direction, got {len(unit)}")
     return render_views(mesh, unit, engine=engine, appearance=appearance)[0]
 
 
-def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
+def resolve_direction(mesh: MeshLike | PointCloud, source: DirectionSource, *,
                       measure: str = "VE",
                       measures: Sequence[str] | None = None) -> NDArray[np.float64]:
     """The view direction a direction source gives for a mesh and measure.
 
     Parameters
     ----------
-    mesh : MeshLike
+    mesh : MeshLike or PointCloud
         The model (passed to ``source`` if it is callable).
     source : (3,) or (M, 3) array_like, or callable
         A direction, one direction per measure of ``measures``, or a callable
@@ -175,12 +187,13 @@ def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
     ------
     InputError
         On an unknown measure or one the source does not give, a wrong shape,
-        or a zero or non-finite vector.
+        or a zero or non-finite vector; a point cloud with a callable source
+        (:class:`~vptoolkit.errors.MeshLoadError`: it takes meshes).
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     rows = tuple(getattr(source, "measures", PAPER_MEASURES) if measures is None else measures)
     column = measure_index(measure, rows)
-    value = source(mesh) if callable(source) else source
+    value = source(require_surface(mesh)) if callable(source) else source
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as err:
@@ -196,7 +209,7 @@ def resolve_direction(mesh: MeshLike, source: DirectionSource, *,
 
 
 def render_best(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud,
     *,
     measure: str = "VE",
     quality: ViewQuality | None = None,
@@ -211,8 +224,9 @@ def render_best(
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike or PointCloud
+        The model: a mesh, or a point cloud (drawn as splats by the engines that
+        draw clouds, :mod:`vptoolkit.pictures.engine`).
     measure : str
         Any registered measure name, in any case (default: "VE").
     quality : ViewQuality, optional
@@ -236,7 +250,7 @@ def render_best(
     InputError
         On an unknown measure, or an engine whose camera is not the measures'.
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     measure = canonical_name(measure)
     settings = MeasureSettings() if settings is None else check_settings(settings)
     if quality is None:
@@ -252,7 +266,7 @@ def render_best(
 
 
 def render_predicted(
-    mesh: MeshLike,
+    mesh: MeshLike | PointCloud,
     source: DirectionSource,
     *,
     measure: str = "VE",
@@ -263,8 +277,9 @@ def render_predicted(
 
     Parameters
     ----------
-    mesh : MeshLike
-        The model.
+    mesh : MeshLike or PointCloud
+        The model: a mesh, or a point cloud (drawn as splats by the engines that
+        draw clouds, :mod:`vptoolkit.pictures.engine`).
     source : (3,) or (M, 3) array_like, or callable
         See :func:`resolve_direction`; a callable gets the mesh and returns
         the prediction (the hook for ``vptool render --model``).
@@ -279,7 +294,7 @@ def render_predicted(
     RenderedView
         ``label`` reads e.g. ``"predicted VE"``.
     """
-    mesh = as_mesh(mesh)
+    mesh = model_of(mesh)
     direction = resolve_direction(mesh, source, measure=measure)
     image = render_view(mesh, direction, engine=engine, appearance=appearance)
     return RenderedView(image, direction, f"predicted {canonical_name(measure)}")

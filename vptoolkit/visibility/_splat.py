@@ -266,3 +266,35 @@ def splat_batch(
                 resolution, frames[thread], row_low[thread], row_high[thread],
                 id_counts[thread], touched[thread], out_ids[view], out_counts[view],
             )
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def splat_ids(
+    points: NDArray[np.float64],
+    radii: NDArray[np.float64],
+    normals: NDArray[np.float64],
+    flatness: float,
+    cull: bool,
+    eye: NDArray[np.float64],
+    right: NDArray[np.float64],
+    up: NDArray[np.float64],
+    forward: NDArray[np.float64],
+    focal: float,
+    resolution: int,
+    near: float,
+    far: float,
+    ids: NDArray[np.int32],
+) -> None:
+    """The point-ID image of one view: ``ids`` (``resolution**2``, row-major) gets the
+    index of the nearest splat at each pixel centre, -1 where none is.
+
+    The splats and the z-buffer are :func:`splat_batch`'s (the same
+    :func:`_splat_view`), so a pixel shows the point it counts for.
+    """
+    frame = np.zeros(resolution * resolution, dtype=np.int64)
+    row_low = np.full(resolution, resolution, dtype=np.int64)
+    row_high = np.full(resolution, -1, dtype=np.int64)
+    _splat_view(points, radii, normals, flatness, cull, eye, right, up, forward, focal,
+                resolution, near, far, frame, row_low, row_high)
+    for j in range(resolution * resolution):
+        ids[j] = np.int32((frame[j] & _ID_MASK) - 1)

@@ -32,7 +32,7 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
 from vptoolkit.camera import Camera
 from vptoolkit.checks import check_float, check_int
@@ -190,6 +190,43 @@ class PointScene:
                 n_faces=self.n_points,
                 first_view=start,
             )
+
+    def id_images(self, view_directions: ArrayLike,
+                  resolution: int = RESOLUTION) -> NDArray[np.int32]:
+        """The point-ID images of the views: which point's splat each pixel shows.
+
+        The splats and z-buffer of :meth:`histograms` (:func:`._splat.splat_ids`),
+        so the pixels of point ``i`` in view ``v`` are those it is counted for.
+
+        Parameters
+        ----------
+        view_directions : (n_views, 3) array_like
+            Directions from the centre to the camera.
+        resolution : int
+            Image side in pixels (default: :data:`vptoolkit.conventions.RESOLUTION`).
+
+        Returns
+        -------
+        images : (n_views, resolution, resolution) int32
+            Index of the point seen through each pixel centre, ``-1`` where no
+            splat is; row 0 at the top, column 0 at the left.
+        """
+        from vptoolkit.visibility._splat import splat_ids
+
+        resolution = check_int(resolution, "resolution", minimum=1, maximum=MAX_RESOLUTION)
+        directions = as_directions(view_directions, name="view_directions")
+        poses = self.camera.poses(directions, centre=self.centre, diagonal=self.diagonal,
+                                  resolution=resolution)
+        near, far = _depth_range(self.camera, self.diagonal)
+        cull = bool(self.camera.cull_back_faces and self._normals.shape[1] == 3)
+        images = np.empty((len(directions), resolution * resolution), dtype=np.int32)
+        for view in range(len(directions)):
+            splat_ids(self._points, self._radii, self._normals, self._flatness, cull,
+                      poses.eyes[view], poses.right[view], poses.up[view], poses.forward[view],
+                      poses.focal_px, resolution, near, far, images[view])
+        seen = images >= 0
+        images[seen] = self._order[images[seen]]
+        return images.reshape(len(directions), resolution, resolution)
 
 
 def iter_point_histograms(
