@@ -83,7 +83,9 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
     """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
-    folder of meshes (category = parent folder). Each model is loaded, cleaned,
+    folder of meshes (category = parent folder; a model's name is its path
+    under SRC without the suffix, folders joined by "__": a/teapot.stl is
+    a__teapot). Each model is loaded, cleaned,
     sampled and measured; bad inputs are recorded as failures and the build
     goes on. Rerunning the same command resumes an interrupted build. Exit code
     1 when some inputs failed. --dry-run sizes the build first: the models per

@@ -6,10 +6,17 @@ Source layout (:func:`discover_models`)
     (its grandparent when the parent is ``train`` or ``test``), and files
     directly in the source folder get the source folder's name. Every suffix
     :data:`vptoolkit.io.SUPPORTED_SUFFIXES` names is read; hidden files and
-    folders (``.name``) are skipped. A model's name is its file stem and
-    must be unique in the dataset: files with the same stem (``a.off`` and
-    ``a.obj``, ``a.off`` under ``train/`` and ``test/``, or ``chair/a.off``
-    and ``table/a.off``) are all recorded as failures
+    folders (``.name``) are skipped.
+
+Names (:func:`model_name`)
+    A model's name is its path relative to the source folder without the
+    suffix, its parts joined by :data:`~vptoolkit.conventions.NAME_SEPARATOR`
+    (``__``): ``SRC/teapot.stl`` is ``teapot``, ``SRC/a/teapot.stl`` is
+    ``a__teapot``, ``SRC/chair/train/chair_0001.off`` is
+    ``chair__train__chair_0001``. So ``a/teapot.stl`` and ``b/teapot.stl``
+    are two models, and the files directly in the source folder keep their
+    stems as names. Files that still give one name (``a.off`` and ``a.obj``,
+    or ``a/b.off`` and ``a__b.off``) are all recorded as failures
     (:func:`split_duplicates`), as nothing tells which one is meant.
 
 Splits (:func:`assign_split`)
@@ -32,9 +39,10 @@ import hashlib
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from vptoolkit.checks import as_path, check_int
+from vptoolkit.conventions import NAME_SEPARATOR
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part
 from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
@@ -44,6 +52,7 @@ __all__ = [
     "SourceModel",
     "assign_split",
     "discover_models",
+    "model_name",
     "model_seed",
     "models_outside",
     "split_duplicates",
@@ -70,7 +79,7 @@ class SourceModel:
     category : str
         Category (parent folder name, see :func:`discover_models`).
     name : str
-        File stem, the model's name.
+        The model's name, :func:`model_name` of ``source``.
     folder_split : str or None
         ``"train"`` or ``"test"`` when the file sits in a folder of that
         name (ModelNet layout), else None.
@@ -155,9 +164,25 @@ def _source_model(root: Path, path: Path) -> SourceModel:
         path=path,
         source=path.relative_to(root).as_posix(),
         category=category,
-        name=path.stem,
+        name=model_name(path.relative_to(root).as_posix()),
         folder_split=folder_split,
     )
+
+
+def model_name(source: str) -> str:
+    """The name of the model at ``source``, a ``/``-separated path relative to the source folder.
+
+    The path without its last suffix, its parts joined by
+    :data:`~vptoolkit.conventions.NAME_SEPARATOR`; a file directly in the
+    source folder keeps its stem.
+
+    Examples
+    --------
+    >>> model_name("teapot.stl"), model_name("a/teapot.stl")
+    ('teapot', 'a__teapot')
+    """
+    parts = PurePosixPath(source).parts
+    return NAME_SEPARATOR.join((*parts[:-1], PurePosixPath(parts[-1]).stem))
 
 
 def _check_categories(categories: Iterable[str] | None) -> list[str] | None:
@@ -185,7 +210,8 @@ def split_duplicates(
     """Separate the models a store can hold from duplicates and unusable names (failures).
 
     A name must be unique within the dataset (SCHEMA.md), so ``chair/a.off``
-    and ``table/a.off`` clash as much as ``chair/a.off`` and ``chair/a.obj``;
+    and ``chair/a.obj`` clash (both ``chair__a``), as do ``chair/a.off`` and
+    ``chair__a.off``;
     and a name or category must be usable as a path part
     (:func:`vptoolkit.files.check_path_part`: a file stem holding a backslash
     or a control character is legal on Linux but not in a store).
