@@ -1,11 +1,12 @@
-"""Where a build's models come from: mesh files, their ids, categories and splits.
+"""Where a build's models come from: mesh and point-cloud files, their ids, categories, splits.
 
 Source layout (:func:`discover_models`)
     A ModelNet40-style tree ``<category>/<train|test>/<name>.off`` or any
-    folder of meshes: a model's category is the name of its parent folder
+    folder of meshes and point clouds: a model's category is the name of its parent folder
     (its grandparent when the parent is ``train`` or ``test``), and files
     directly in the source folder get the source folder's name. Every suffix
-    :data:`vptoolkit.io.SUPPORTED_SUFFIXES` names is read; hidden files and
+    :data:`vptoolkit.io.MODEL_SUFFIXES` names is read (a file holding points
+    only is a point cloud, measured on its points); hidden files and
     folders (``.name``) are skipped.
 
 Names (:func:`model_name`)
@@ -45,7 +46,7 @@ from vptoolkit.checks import as_path, check_int
 from vptoolkit.conventions import NAME_SEPARATOR
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part
-from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
+from vptoolkit.io import MODEL_SUFFIXES, find_model_files
 
 __all__ = [
     "SPLIT_FRACTIONS",
@@ -68,7 +69,7 @@ _FOLDER_SPLITS = ("train", "test")
 
 @dataclass(frozen=True)
 class SourceModel:
-    """One mesh file found in a source folder.
+    """One model file (a mesh or a point cloud) found in a source folder.
 
     Attributes
     ----------
@@ -103,7 +104,7 @@ class SourceModel:
 def discover_models(
     src: str | os.PathLike[str], categories: Iterable[str] | None = None
 ) -> list[SourceModel]:
-    """Find the mesh files under a source folder.
+    """Find the model files (meshes and point clouds) under a source folder.
 
     Parameters
     ----------
@@ -112,7 +113,7 @@ def discover_models(
         any folder of meshes. A file's category is its parent folder's name,
         or its grandparent's when the parent is ``train`` or ``test``; files
         directly in ``src`` get ``src``'s own name. Files whose suffix is not
-        in :data:`~vptoolkit.io.SUPPORTED_SUFFIXES` and hidden files and
+        in :data:`~vptoolkit.io.MODEL_SUFFIXES` and hidden files and
         folders (name starting with ``.``) are ignored.
     categories : iterable of str, optional
         Keep only these categories (default: all).
@@ -136,10 +137,10 @@ def discover_models(
         raise InputError(f"{root}: source is not a folder")
     root = root.resolve()
     wanted = _check_categories(categories)
-    models = [_source_model(root, path) for path in find_mesh_files(root)]
+    models = [_source_model(root, path) for path in find_model_files(root)]
     if not models:
         raise InputError(
-            f"{root}: no mesh files found (looked for {', '.join(SUPPORTED_SUFFIXES)})"
+            f"{root}: no mesh files found (looked for {', '.join(MODEL_SUFFIXES)})"
         )
     if wanted is not None:
         found = {model.category for model in models}
