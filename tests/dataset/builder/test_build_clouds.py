@@ -15,6 +15,7 @@ from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import BuildResult, build_dataset
 from vptoolkit.dataset.store.reader import open_store
+from vptoolkit.errors import InputError
 from vptoolkit.io import load
 from vptoolkit.measures.quality import compute_view_quality
 from vptoolkit.samples import sample_path
@@ -66,6 +67,13 @@ def test_clouds_and_a_mesh_build_one_store(scans, built):
     assert records["scans__bunny"]["n_faces"] == records["scans__bunny"]["n_vertices"] == 0
     assert records["scans__bunny"]["cleaning"] is None
     assert records["scans__few"]["source"] == "scans/few.pcd"
+
+
+def test_face_features_of_a_cloud_are_refused_in_one_line(built):
+    with open_dataset(built.path) as dataset, \
+            pytest.raises(InputError, match=r"^scans__bunny: stored without faces .*"
+                                            r"--point-features none\)$"):
+        dataset.point_features("scans__bunny", ["face_area"])
 
 
 def test_a_clouds_labels_are_those_of_its_points(scans, built):
