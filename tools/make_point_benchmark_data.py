@@ -2,7 +2,8 @@
 
 For the models of one split of a mesh collection (a ``name,split`` CSV):
 
-1. ``OUT/meshes/<category>/``: links to the models' files, the source of
+1. ``OUT/meshes/``: links to the models' files at their paths under the
+   collection (so each keeps its name and category), the source of
 2. ``OUT/labels/``: a dataset store built from them (``vptool build-dataset``'s
    :func:`~vptoolkit.dataset.builder.run.build_dataset`: cleaned meshes, their
    20000 area-uniform surface points with normals and the paper's four
@@ -42,6 +43,7 @@ import numpy as np
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
 from vptoolkit.dataset.builder.run import build_dataset
+from vptoolkit.dataset.builder.sources import model_name
 from vptoolkit.files import write_bytes_atomic, write_json_atomic
 from vptoolkit.io import find_mesh_files
 from vptoolkit.mesh import Mesh
@@ -85,14 +87,20 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
 
 
 def link_models(meshes: Path, splits: Path, split: str, links: Path) -> int:
-    """Link the files of the ``split`` models under ``links/<category>/``; their number."""
+    """Link the files of the ``split`` models under ``links``, at their paths under ``meshes``.
+
+    A file is a model of the CSV when its build name
+    (:func:`~vptoolkit.dataset.builder.sources.model_name` of its path under
+    ``meshes``) is; returns how many were linked.
+    """
     with splits.open(newline="", encoding="utf-8") as stream:
         wanted = {row["name"] for row in csv.DictReader(stream) if row["split"] == split}
     count = 0
     for path in find_mesh_files(meshes):
-        if path.stem not in wanted:
+        relative = path.relative_to(meshes)
+        if model_name(relative.as_posix()) not in wanted:
             continue
-        target = links / path.parent.name / path.name
+        target = links / relative
         target.parent.mkdir(parents=True, exist_ok=True)
         if not target.is_symlink():
             target.symlink_to(path.resolve())

@@ -14,9 +14,10 @@ module, layer by layer):
   texture, kept apart; reading models (decided by content) and writing
   meshes, OFF/OBJ/PLY/STL/glTF/NPY; small licensed sample meshes;
   ``Predictions`` (names and directions) and its ``.npz``.
-- ``geometry``, ``point_areas``, ``sphere``, ``camera``, ``upright``, ``rotations``,
-  ``settings``: face areas, bounding and principal frames; the surface area
-  each point of a cloud stands for; Fibonacci view directions and the
+- ``geometry``, ``point_areas``, ``cloud_sample``, ``sphere``, ``camera``, ``upright``,
+  ``rotations``, ``settings``: face areas, bounding and principal frames; the
+  surface area each point of a cloud stands for; the points a dataset stores
+  of a cloud (its own, thinned or repeated, normals kept or fit); Fibonacci view directions and the
   principal-frame coarse sphere; the pinhole camera; a model's up axis;
   seeded rotations; ``MeasureSettings``, how the measures draw a model.
 - ``visibility``: per-view, per-face pixel counts (numba rasteriser or

@@ -17,6 +17,18 @@ Views
     (:func:`vptoolkit.sphere.fibonacci_sphere`). A view direction ``v`` is a
     unit vector from the model's bounding-box centre towards the camera.
 
+Model names
+    A model built from a source folder (``vptool build-dataset``) is named
+    by its path relative to that folder without the file suffix, the path's
+    parts joined by ``NAME_SEPARATOR = "__"``: ``SRC/teapot.stl`` is
+    ``teapot``, ``SRC/a/teapot.stl`` is ``a__teapot`` and
+    ``SRC/airplane/train/airplane_0001.off`` is
+    ``airplane__train__airplane_0001``. The separator is not ``/`` because
+    a name is also one file or folder name (an exported mesh, a store
+    record checked by :func:`vptoolkit.files.check_path_part`). Names are
+    unique within a dataset; two files that give one name (``a.off`` and
+    ``a.obj``, or ``a/b.off`` and ``a__b.off``) are both refused.
+
 Releases
     ``DATASET_VERSION = "1.0.0"`` is the version a release gets unless it is
     given one (:func:`vptoolkit.dataset.release.pack.pack_release`, ``vptool pack
@@ -47,6 +59,7 @@ __all__ = [
     "SEED",
     "SPLITS",
     "Split",
+    "NAME_SEPARATOR",
     "DATASET_VERSION",
     "FOV_DEG",
     "DISTANCE_FACTOR",
@@ -78,6 +91,9 @@ Split: TypeAlias = Literal["train", "validation", "val", "test"] | None
 """A ``split`` argument: one split of :data:`SPLITS` (``"val"`` an alias of
 ``"validation"``), or None for every model. The command line's ``--split all``
 is None (:func:`vptoolkit.cli.options.split_option`)."""
+
+NAME_SEPARATOR: Final = "__"
+"""Joins the folder parts and the file stem of a model's path into its name (see above)."""
 
 DATASET_VERSION: Final = "1.0.0"
 """Version ``MAJOR.MINOR.PATCH`` of a release packed without one."""

@@ -17,7 +17,7 @@ LAYERS = {
     "parallel": 0, "_numba": 0, "_version": 0,
     "mesh": 1, "point_cloud": 1, "appearance": 1, "io": 1, "samples": 1, "predictions": 4,
     "geometry": 2, "sphere": 2, "camera": 2, "rotations": 2, "settings": 2, "upright": 2,
-    "point_areas": 2,
+    "point_areas": 2, "cloud_sample": 2,
     "visibility": 3,
     "measures": 4, "view_sets": 4,
     "clean": 5, "points": 5, "point_features": 5, "_face_location": 5,

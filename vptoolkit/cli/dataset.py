@@ -80,11 +80,14 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
                   dry_run: bool, calibrate: int | None) -> None:
-    """Build a viewpoint-quality dataset from the meshes under SRC into OUT.
+    """Build a viewpoint-quality dataset from the meshes and point clouds under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
-    folder of meshes (category = parent folder). Each model is loaded, cleaned,
-    sampled and measured; bad inputs are recorded as failures and the build
+    folder of meshes and point clouds (category = parent folder; a model's
+    name is its path under SRC without the suffix, folders joined by "__":
+    a/teapot.stl is a__teapot). Each model is loaded, cleaned, sampled and
+    measured (a point cloud is measured on its points and stores its own
+    points, uncleaned and without faces); bad inputs are recorded as failures and the build
     goes on. Rerunning the same command resumes an interrupted build. Exit code
     1 when some inputs failed. --dry-run sizes the build first: the models per
     category and split, and the hours and disk estimated from --calibrate

@@ -487,6 +487,12 @@ class ViewpointDataset:
             The names' columns (:func:`vptoolkit.point_features.feature_width`),
             in the stored points' coordinates; row ``i`` belongs to
             ``self[key]["points"][i]``.
+
+        Raises
+        ------
+        InputError
+            If the model is stored without faces (a point cloud): it has no
+            faces to read the features of.
         """
         from vptoolkit.mesh import Mesh
         from vptoolkit.point_features import check_feature_names, locate_faces, point_features
@@ -494,8 +500,12 @@ class ViewpointDataset:
         names = check_feature_names(names)
         row = self.row(key)
         vertices, faces = self.mesh(key)
-        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64),
-                    name=str(self._shared.records[row]["name"]))
+        name = str(self._shared.records[row]["name"])
+        if not len(faces):
+            raise InputError(f"{name}: stored without faces (a point cloud), so it has no "
+                             f"point features of faces ({', '.join(names)}); train without "
+                             "them (--point-features none)")
+        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name=name)
         points = np.asarray(self._shared.reader().array("points")[row], dtype=np.float64)
         return point_features(mesh, locate_faces(mesh, points), names)
 

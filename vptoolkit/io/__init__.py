@@ -67,8 +67,8 @@ from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.point_cloud import MAX_POINTS, PointCloud, voxel_subset
 
 __all__ = ["MODEL_SUFFIXES", "POINT_SUFFIXES", "SUPPORTED_SUFFIXES", "WRITABLE_SUFFIXES",
-           "find_mesh_files", "load", "load_mesh", "load_with_appearance", "require_surface",
-           "save_mesh"]
+           "find_mesh_files", "find_model_files", "load", "load_mesh", "load_with_appearance",
+           "require_surface", "save_mesh"]
 
 #: Suffixes of the formats that hold meshes, read by :func:`load` and :func:`load_mesh`
 #: (compared case-insensitively); PLY, OBJ and OFF may hold points only.
@@ -133,6 +133,26 @@ def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
     InputError
         If ``folder`` is not an existing folder.
     """
+    return _find_files(folder, SUPPORTED_SUFFIXES)
+
+
+def find_model_files(folder: str | os.PathLike[str]) -> list[Path]:
+    """The model files below a folder, meshes and point clouds, in sorted order.
+
+    As :func:`find_mesh_files` with every suffix of :data:`MODEL_SUFFIXES`
+    (any letter case): what :func:`load` reads as a mesh or a point cloud.
+
+    Raises
+    ------
+    InputError
+        If ``folder`` is not an existing folder.
+    """
+    return _find_files(folder, MODEL_SUFFIXES)
+
+
+def _find_files(folder: str | os.PathLike[str], suffixes: tuple[str, ...]) -> list[Path]:
+    """``folder / relative path`` of the files below ``folder`` ending in ``suffixes``, sorted,
+    hidden files and folders skipped."""
     root = as_path(folder, "folder")
     if not root.is_dir():
         raise InputError(f"{root}: not a folder")
@@ -141,7 +161,7 @@ def find_mesh_files(folder: str | os.PathLike[str]) -> list[Path]:
         subfolders[:] = sorted(name for name in subfolders if not name.startswith("."))
         found.extend(
             Path(parent) / name for name in files
-            if not name.startswith(".") and Path(name).suffix.lower() in SUPPORTED_SUFFIXES
+            if not name.startswith(".") and Path(name).suffix.lower() in suffixes
         )
     return sorted(found)
 

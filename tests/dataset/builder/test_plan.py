@@ -52,10 +52,11 @@ def src(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_spread_over_categories_takes_one_category_after_another(src):
-    models = discover_models(src)  # cup: bottle, mug, teapot; shape: angle_block, suzanne, table
+    models = discover_models(src)  # cup: test__teapot, train__bottle, train__mug; shape: ...
     assert [m.name for m in spread_over_categories(models, 4)] == [
-        "bottle", "mug", "angle_block", "lego"]
-    assert [m.name for m in spread_over_categories(models, 2)] == ["bottle", "angle_block"]
+        "cup__test__teapot", "cup__train__bottle", "shape__test__suzanne", "toy__train__lego"]
+    assert [m.name for m in spread_over_categories(models, 2)] == [
+        "cup__test__teapot", "shape__test__suzanne"]
     assert spread_over_categories(models, 100) == models
     with pytest.raises(InputError, match="max_models"):
         spread_over_categories(models, 0)
@@ -68,7 +69,8 @@ def test_max_models_builds_that_subset_with_the_full_splits_and_resumes_only_wit
     assert result.n_models == 4 and result.n_failures == 0
     with open_store(result.path) as store:
         records = {record["name"]: record for record in store.models()}
-    assert sorted(records) == ["angle_block", "bottle", "lego", "mug"]
+    assert sorted(records) == ["cup__test__teapot", "cup__train__bottle", "shape__test__suzanne",
+                               "toy__train__lego"]
     splits = {m.name: split_of(m, 0) for m in discover_models(src)}
     assert {name: record["split"] for name, record in records.items()} == {
         name: splits[name] for name in records}

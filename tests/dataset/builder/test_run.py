@@ -29,7 +29,7 @@ from vptoolkit import parallel
 from vptoolkit.dataset.builder import compute
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.dataset.builder.run import BuildResult, build_dataset
-from vptoolkit.dataset.builder.sources import assign_split
+from vptoolkit.dataset.builder.sources import assign_split, model_name
 from vptoolkit.dataset.builder.staging import STAGING_DIR
 from vptoolkit.dataset.store.reader import open_store
 from vptoolkit.dataset.store.schema import ARRAY_NAMES, STRING_ARRAYS, string_values
@@ -51,7 +51,8 @@ TREE = {
     "shape/train/empty.obj": MALFORMED / "empty.obj",
     "shape/test/ply_empty_header.ply": MALFORMED / "ply_empty_header.ply",
 }
-GOOD = ["bottle", "mug", "teapot", "angle_block", "suzanne", "table"]  # (category, name) order
+GOOD = ["cup__test__teapot", "cup__train__bottle", "cup__train__mug", "shape__test__suzanne",
+        "shape__train__angle_block", "shape__train__table"]  # (category, name) order
 BAD = {"shape/test/ply_empty_header.ply", "shape/train/empty.obj"}
 
 
@@ -105,7 +106,7 @@ def test_build_stores_every_model_with_records_splits_and_failures(src, referenc
     assert [m["name"] for m in models] == GOOD
     by_name = {m["name"]: m for m in models}
     for relative in TREE:
-        name = Path(relative).stem
+        name = model_name(relative)
         if relative in BAD:
             continue
         record = by_name[name]
@@ -174,7 +175,7 @@ def test_build_measures_what_the_pipeline_measures(src, reference):
     from vptoolkit.measures.quality import compute_view_quality
 
     _, stored = reference
-    row = GOOD.index("table")
+    row = GOOD.index("shape__train__table")
     cleaned, _ = clean_mesh(load_mesh(src / "shape/train/table.obj"), max_faces=2000)
     quality = compute_view_quality(cleaned, MeasureSettings(views=60, resolution=64))
     assert np.array_equal(stored["arrays"]["quality_raw"][row], quality.raw.astype(np.float32),
@@ -256,7 +257,7 @@ def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_pa
     after = read_store(result.path)
     old = {m["name"]: m for m in before["models"]}
     new = {m["name"]: m for m in after["models"]}
-    assert set(new) == set(old) | {"torus", "lego"}
+    assert set(new) == set(old) | {"shape__train__torus", "cup__test__lego"}
     for name, record in old.items():
         assert new[name]["split"] == record["split"]
         row_old = GOOD.index(name)
@@ -268,7 +269,7 @@ def test_rerun_reuses_staged_models_and_adding_a_model_moves_nothing(src, tmp_pa
     # a changed source file is measured again, not taken from the staging folder,
     # and so is a staged file that cannot be read
     os.utime(grown / "cup/train/mug.obj", ns=(1, 1))
-    (staging,) = (out / STAGING_DIR).glob("m-shape__table-*.npz")
+    (staging,) = (out / STAGING_DIR).glob("m-shape__shape__train__table-*.npz")
     staging.write_bytes(b"PK\x03\x04 not a zip")
     again = build_dataset(grown, out, options)
     assert again.n_resumed == 8
@@ -279,7 +280,7 @@ def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monk
     measure = compute._measure_model
 
     def broken_on_mug(task):
-        if task.name == "mug":
+        if task.name == "cup__train__mug":
             raise ZeroDivisionError("something\nnobody expected")
         return measure(task)
 
@@ -290,14 +291,15 @@ def test_unexpected_error_is_a_failure_and_the_batch_goes_on(src, tmp_path, monk
     assert reasons["cup/train/mug.obj"] == (
         "cup/train/mug.obj: unexpected ZeroDivisionError: something nobody expected"
     )
-    assert [m["name"] for m in read_store(result.path)["models"]] == [n for n in GOOD if n != "mug"]
+    assert [m["name"] for m in read_store(result.path)["models"]] == [
+        n for n in GOOD if n != "cup__train__mug"]
 
 
 def test_a_missing_package_in_a_worker_is_retried_on_the_next_run(src, tmp_path, monkeypatch):
     measure = compute._measure_model
 
     def no_pymeshlab_for_teapot(task):
-        if task.name == "teapot":
+        if task.name == "cup__test__teapot":
             raise MissingDependencyError("pymeshlab: not importable; install it with pip")
         return measure(task)
 
@@ -320,27 +322,57 @@ def test_a_missing_package_stops_the_build_before_any_work(src, tmp_path, monkey
     build_dataset(src, tmp_path / "out", replace(SMALL, clean=False), categories=["cup"])
 
 
-def test_duplicate_names_are_failures_not_overwrites(tmp_path):
+def test_files_that_give_one_name_are_failures_not_overwrites(tmp_path):
     root = make_tree(tmp_path / "src", {
         "cup/train/a.obj": sample_path("table"),
         "cup/train/a.off": sample_path("ballA"),
-        "cup/train/b.obj": sample_path("bottle"),
-        "cup/test/b.obj": sample_path("bottle"),
+        "cup/b.obj": sample_path("bottle"),
+        "cup__b.obj": sample_path("bottle"),
         "plate/train/b.ply": sample_path("suzanne"),
         "plate/train/c.stl": sample_path("teapot"),
     })
     result = build_dataset(root, tmp_path / "out", replace(SMALL, clean=False))
-    assert result.n_models == 1 and result.n_failures == 5
-    assert read_store(result.path)["models"][0]["name"] == "c"
+    assert result.n_models == 2 and result.n_failures == 4
+    assert [m["name"] for m in read_store(result.path)["models"]] == [
+        "plate__train__b", "plate__train__c"]
     reasons = {f["source"]: f["reason"] for f in result.failures}
-    assert set(reasons) == {"cup/train/a.obj", "cup/train/a.off", "cup/test/b.obj",
-                            "cup/train/b.obj", "plate/train/b.ply"}
+    assert set(reasons) == {"cup/train/a.obj", "cup/train/a.off", "cup/b.obj", "cup__b.obj"}
     assert reasons["cup/train/a.off"] == (
-        "cup/train/a.off: duplicate model name 'a' (2 files: cup/train/a.obj, cup/train/a.off); "
-        "names must be unique, rename all but one"
+        "cup/train/a.off: duplicate model name 'cup__train__a' (2 files: cup/train/a.obj, "
+        "cup/train/a.off); names must be unique, rename all but one"
     )
-    assert ("3 files: cup/test/b.obj, cup/train/b.obj, plate/train/b.ply"
-            in reasons["plate/train/b.ply"])
+    assert "2 files: cup/b.obj, cup__b.obj" in reasons["cup__b.obj"]
+
+
+@pytest.fixture(scope="module")
+def two_teapots(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The teapot twice, as ``a/teapot.stl`` and ``b/teapot.stl``, and the mug beside them."""
+    return make_tree(tmp_path_factory.mktemp("teapots") / "src", {
+        "a/teapot.stl": sample_path("teapot"),
+        "b/teapot.stl": sample_path("teapot"),
+        "b/mug.obj": sample_path("mug"),
+    })
+
+
+def test_equal_stems_in_two_folders_are_two_models(two_teapots, tmp_path):
+    options = replace(SMALL, clean=False)
+    first = build_dataset(two_teapots, tmp_path / "one", options)
+    assert (first.n_models, first.n_failures) == (3, 0)
+    stored = read_store(first.path)
+    assert [(m["name"], m["category"], m["source"]) for m in stored["models"]] == [
+        ("a__teapot", "a", "a/teapot.stl"), ("b__mug", "b", "b/mug.obj"),
+        ("b__teapot", "b", "b/teapot.stl")]
+    assert stored["attrs"]["class_names"] == ["a", "b"]
+    # one file, two names: the same measures, its own seeded point sample
+    assert np.array_equal(stored["arrays"]["quality_raw"][0], stored["arrays"]["quality_raw"][2],
+                          equal_nan=True)
+    assert not np.array_equal(stored["arrays"]["points"][0], stored["arrays"]["points"][2])
+
+    again = build_dataset(two_teapots, tmp_path / "one", options)
+    assert again.n_resumed == 3
+    assert_same_dataset(read_store(again.path), stored, same_created=True)
+    two = build_dataset(two_teapots, tmp_path / "two", options, workers=2)
+    assert_same_dataset(read_store(two.path), stored)
 
 
 def test_a_name_no_store_can_hold_is_a_failure_not_a_failed_build(tmp_path):
@@ -388,7 +420,8 @@ def test_zarr_and_hdf5_hold_the_same_dataset(src, tmp_path):
                                categories=["shape"])
     assert zarr_build.path.name == "dataset.zarr" and hdf5_build.path.name == "dataset.h5"
     in_zarr, in_hdf5 = read_store(zarr_build.path), read_store(hdf5_build.path)
-    assert [m["name"] for m in in_zarr["models"]] == ["angle_block", "suzanne", "table"]
+    assert [m["name"] for m in in_zarr["models"]] == [
+        "shape__test__suzanne", "shape__train__angle_block", "shape__train__table"]
     assert all(m["cleaning"] is None for m in in_zarr["models"])
     assert in_zarr["attrs"]["cleaning"] == {"enabled": False, "max_faces": 2000, "remesh": False}
     assert_same_dataset(in_zarr, in_hdf5)

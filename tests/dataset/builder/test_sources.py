@@ -9,7 +9,12 @@ import pytest
 
 from fixtures.builds import make_tree
 from fixtures.paths import MALFORMED
-from vptoolkit.dataset.builder.sources import assign_split, discover_models
+from vptoolkit.dataset.builder.sources import (
+    assign_split,
+    discover_models,
+    model_name,
+    split_duplicates,
+)
 from vptoolkit.errors import InputError
 from vptoolkit.samples import sample_path
 
@@ -26,14 +31,30 @@ def test_discover_models_reads_a_modelnet_tree_and_a_flat_folder(tmp_path):
     })
     models = discover_models(root)
     assert [(m.category, m.name, m.folder_split, m.source) for m in models] == [
-        ("chair", "chair_0001", "train", "chair/train/chair_0001.off"),
-        ("chair", "chair_0002", "test", "chair/test/chair_0002.off"),
-        ("loose", "bunny", None, "loose/bunny.ply"),
+        ("chair", "chair__test__chair_0002", "test", "chair/test/chair_0002.off"),
+        ("chair", "chair__train__chair_0001", "train", "chair/train/chair_0001.off"),
+        ("loose", "loose__bunny", None, "loose/bunny.ply"),
         ("meshes", "top", None, "top.stl"),
     ]
     assert all(m.path.is_absolute() and m.path.is_file() for m in models)
-    assert models[0].model_id == "chair/chair_0001"
-    assert [m.name for m in discover_models(root, ["loose", "meshes"])] == ["bunny", "top"]
+    assert models[1].model_id == "chair/chair__train__chair_0001"
+    assert [m.name for m in discover_models(root, ["loose", "meshes"])] == ["loose__bunny", "top"]
+
+
+def test_a_name_is_the_path_under_the_source_without_its_suffix():
+    assert model_name("teapot.stl") == "teapot"
+    assert model_name("a/teapot.stl") == "a__teapot"
+    assert model_name("chair/train/chair_0001.off") == "chair__train__chair_0001"
+    assert model_name("a/b.tar.obj") == "a__b.tar"
+
+
+def test_equal_stems_in_two_folders_are_two_models_of_their_folders(tmp_path):
+    root = make_tree(tmp_path / "src", {"a/teapot.stl": sample_path("teapot"),
+                                        "b/teapot.stl": sample_path("teapot")})
+    models = discover_models(root)
+    assert [(m.category, m.name) for m in models] == [("a", "a__teapot"), ("b", "b__teapot")]
+    unique, failures = split_duplicates(models)
+    assert unique == models and failures == []
 
 
 def test_discover_models_rejects_bad_sources(tmp_path):

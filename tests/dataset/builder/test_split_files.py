@@ -24,12 +24,12 @@ pytest.importorskip("zarr")
 TINY = BuildOptions(MeasureSettings(views=20, resolution=16), n_points=16, clean=False)
 
 
-def source(root: Path) -> Path:
-    """Four sample meshes: kitchen/{mug,bottle}, furniture/{table,lego}."""
+def source(root: Path, folder: str = "") -> Path:
+    """Four sample meshes: kitchen/{mug,bottle}, furniture/{table,lego} (under ``folder``)."""
     for category, names in (("kitchen", ("mug", "bottle")), ("furniture", ("table", "lego"))):
-        (root / category).mkdir(parents=True)
+        (root / category / folder).mkdir(parents=True)
         for name in names:
-            shutil.copy(sample_path(f"{name}.obj"), root / category / f"{name}.obj")
+            shutil.copy(sample_path(f"{name}.obj"), root / category / folder / f"{name}.obj")
     return root
 
 
@@ -47,7 +47,8 @@ def test_csv_and_small_txt_are_read(tmp_path):
     small.write_text("".join(f"objfiles/{'chair' if i % 2 else 'lamp'}/train/m{i}.obj\n"
                              for i in range(20)))
     chairs = read_split_file(small, ["chair"])
-    assert [name for name, split in chairs.items() if split != "train"] == ["m17", "m19"]
+    assert [name for name, split in chairs.items() if split != "train"] == [
+        "chair__train__m17", "chair__train__m19"]
     assert len(read_split_file(small)) == 20
 
 
@@ -98,17 +99,18 @@ def test_build_dataset_with_a_cell_too_big_for_csv_is_one_line(tmp_path, extra):
 def test_build_takes_its_split_from_a_csv(tmp_path):
     src = source(tmp_path / "src")
     csv = tmp_path / "splits.csv"
-    csv.write_text("name,split\nmug,test\nbottle,val\ntable,train\nlego,train\nchair_9,test\n")
+    csv.write_text("name,split\nkitchen__mug,test\nkitchen__bottle,val\nfurniture__table,train\n"
+                   "furniture__lego,train\nmug,test\n")
     result = build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(csv)))
-    assert stored_splits(result.path) == {"mug": "test", "bottle": "val", "table": "train",
-                                          "lego": "train"}
-    assert result.split_file.n_placed == 4 and result.split_file.not_in_source == ("chair_9",)
+    assert stored_splits(result.path) == {"kitchen__mug": "test", "kitchen__bottle": "val",
+                                          "furniture__table": "train", "furniture__lego": "train"}
+    assert result.split_file.n_placed == 4 and result.split_file.not_in_source == ("mug",)
     with open_store(result.path) as store:
         assert store.attrs["split_file"]["name"] == "splits.csv"
 
 
 def test_build_applies_the_papers_rule_to_small_txt(tmp_path):
-    src = source(tmp_path / "src")
+    src = source(tmp_path / "src", "train")
     small = tmp_path / "small.txt"
     names = ["k0", "k1", "k2", "k3", "k4", "k5", "k6", "k7", "mug", "bottle"]
     lines = [f"objfiles/kitchen/train/{name}.obj\n" for name in names]
@@ -116,14 +118,15 @@ def test_build_applies_the_papers_rule_to_small_txt(tmp_path):
     small.write_text("".join(lines))
     result = build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(small)),
                            categories=["kitchen"])
-    assert stored_splits(result.path) == {"mug": "val", "bottle": "test"}
+    assert stored_splits(result.path) == {"kitchen__train__mug": "val",
+                                          "kitchen__train__bottle": "test"}
     assert result.split_file.n_placed == 2 and len(result.split_file.not_in_source) == 8
 
 
 def test_a_model_the_file_does_not_place_is_refused_before_any_work(tmp_path):
     src = source(tmp_path / "src")
     csv = tmp_path / "splits.csv"
-    csv.write_text("name,split\nmug,train\nbottle,train\n")
+    csv.write_text("name,split\nkitchen__mug,train\nkitchen__bottle,train\n")
     with pytest.raises(InputError, match=r"does not place 2 of the 4 models .*lego\.obj") \
             as caught:
         build_dataset(src, tmp_path / "out", replace(TINY, splits=SplitFile.read(csv)))
@@ -133,12 +136,12 @@ def test_a_model_the_file_does_not_place_is_refused_before_any_work(tmp_path):
 def test_resume_refuses_an_edited_split_file(tmp_path):
     src = source(tmp_path / "src")
     csv = tmp_path / "splits.csv"
-    csv.write_text("name,split\nmug,test\nbottle,val\ntable,train\nlego,train\n")
+    csv.write_text("name,split\nkitchen__mug,test\nkitchen__bottle,val\nfurniture__table,train\nfurniture__lego,train\n")
     out = tmp_path / "out"
     build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
     again = build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
     assert again.n_resumed == 4
-    csv.write_text("name,split\nmug,train\nbottle,val\ntable,train\nlego,train\n")
+    csv.write_text("name,split\nkitchen__mug,train\nkitchen__bottle,val\nfurniture__table,train\nfurniture__lego,train\n")
     with pytest.raises(InputError, match="splits_sha256="):
         build_dataset(src, out, replace(TINY, splits=SplitFile.read(csv)))
     with pytest.raises(InputError, match="splits_sha256="):
@@ -148,14 +151,14 @@ def test_resume_refuses_an_edited_split_file(tmp_path):
 def test_build_dataset_says_how_many_the_file_placed(tmp_path):
     src = source(tmp_path / "src")
     csv = tmp_path / "splits.csv"
-    csv.write_text("name,split\nmug,test\nbottle,val\ntable,train\nlego,train\nvase,test\n")
+    csv.write_text("name,split\nkitchen__mug,test\nkitchen__bottle,val\nfurniture__table,train\nfurniture__lego,train\nvase,test\n")
     result = CliRunner().invoke(main, ["build-dataset", str(src), str(tmp_path / "out"),
                                        "--views", "20", "--resolution", "16", "--points", "16",
                                        "--no-clean", "--splits", str(csv)])
     assert result.exit_code == 0, result.output
     assert f"split from {csv}: placed 4 models" in result.stdout
     assert "1 names in" in result.stderr and "vase" in result.stderr
-    csv.write_text("name,split\nmug,test\n")
+    csv.write_text("name,split\nkitchen__mug,test\n")
     refused = CliRunner().invoke(main, ["build-dataset", str(src), str(tmp_path / "new"),
                                         "--views", "20", "--no-clean", "--splits", str(csv)])
     assert refused.exit_code == 2 and refused.stderr.count("\n") == 1
@@ -202,7 +205,8 @@ def test_split_command_writes_a_file_build_dataset_reads(tmp_path):
     assert result.exit_code == 0, result.output
     assert "2 train, 2 validation models in 2 categories" in result.output
     written = read_split_file(tmp_path / "splits.csv")
-    assert sorted(written) == ["bottle", "lego", "mug", "table"]
+    assert sorted(written) == ["furniture__lego", "furniture__table", "kitchen__bottle",
+                               "kitchen__mug"]
     assert sorted(written.values()) == ["train", "train", "validation", "validation"]
     built = build_dataset(src, tmp_path / "out",
                           replace(TINY, splits=SplitFile.read(tmp_path / "splits.csv")))
@@ -214,10 +218,9 @@ def test_split_leaves_out_names_a_split_file_cannot_hold(tmp_path):
     from vptoolkit.dataset.builder.split_files import write_split_file
 
     src = source(tmp_path / "src")
-    category = next(path for path in src.iterdir() if path.is_dir())
-    mesh = next(category.iterdir())
-    for name in (" lead", "=cmd()", "tab\there"):
-        shutil.copy(mesh, category / f"{name}{mesh.suffix}")
+    mesh = next(next(path for path in src.iterdir() if path.is_dir()).iterdir())
+    for name in (" lead", "=cmd()", "tab\there"):  # in SRC itself, so the stem is the name
+        shutil.copy(mesh, src / f"{name}{mesh.suffix}")
     result = CliRunner().invoke(main, ["split", str(src), "-o", str(tmp_path / "splits.csv")])
     assert result.exit_code == 0, result.output
     warnings = [line for line in result.stderr.splitlines() if line.startswith("vptool: warning")]
@@ -226,6 +229,7 @@ def test_split_leaves_out_names_a_split_file_cannot_hold(tmp_path):
     assert any("'=cmd()' starts with a spreadsheet formula character" in line
                for line in warnings)
     assert any("cannot name a file or folder" in line for line in warnings)
-    assert sorted(read_split_file(tmp_path / "splits.csv")) == ["bottle", "lego", "mug", "table"]
+    assert sorted(read_split_file(tmp_path / "splits.csv")) == [
+        "furniture__lego", "furniture__table", "kitchen__bottle", "kitchen__mug"]
     with pytest.raises(InputError, match="formula"):
         write_split_file(tmp_path / "other.csv", {"=cmd()": "train"})

@@ -9,6 +9,11 @@ and the seconds per stage) or a :class:`FailedModel` with a one-line reason;
 it never raises. The caller stages the result
 (:mod:`vptoolkit.dataset.builder.staging`).
 
+A file that :func:`vptoolkit.io.load` reads as a point cloud is measured on
+its points (the measures defined on points only), is not cleaned, stores
+points taken from its own (:func:`vptoolkit.cloud_sample.sample_cloud`) and
+zero vertices and faces.
+
 Determinism
     Everything comes from the task: the point sample is seeded with
     ``task.seed`` (from the split seed and the model id), and the cleaning
@@ -31,6 +36,7 @@ from vptoolkit.checks import one_line
 from vptoolkit.dataset.builder.options import BuildOptions
 from vptoolkit.errors import MissingDependencyError, VptoolkitError
 from vptoolkit.files import sha256_file
+from vptoolkit.point_cloud import PointCloud
 
 if TYPE_CHECKING:
     from vptoolkit.measures.quality import ViewQuality
@@ -189,50 +195,25 @@ def process_model(task: ModelTask) -> ModelResult:
 
 
 def _measure_model(task: ModelTask) -> MeasuredModel:
-    from vptoolkit.clean import clean_mesh
-    from vptoolkit.io import load_mesh
-    from vptoolkit.points import sample_surface
+    from vptoolkit.io import load
 
     path = Path(task.path)
     seconds: dict[str, float] = {}
     started = time.perf_counter()
     source_sha256 = sha256_file(path)
-    mesh = load_mesh(path)
+    model = load(path)
     seconds["load"] = time.perf_counter() - started
-    cleaning = None
-    started = time.perf_counter()
-    options = task.options
-    if options.clean:
-        mesh, report = clean_mesh(mesh, max_faces=options.max_faces, remesh=options.remesh)
-        cleaning = _without_timings(report.to_dict())
-    seconds["clean"] = time.perf_counter() - started
-    started = time.perf_counter()
-    quality, view_set = _quality_and_view_set(mesh, options)
-    seconds["measure"] = time.perf_counter() - started
-    started = time.perf_counter()
-    sample = sample_surface(mesh, options.n_points, seed=task.seed)
-    seconds["sample"] = time.perf_counter() - started
-    columns = np.arange(quality.raw.shape[1])
-    raw = quality.raw.astype(np.float32)
-    arrays: dict[str, NDArray[Any]] = {
-        "points": sample.points.astype(np.float32),
-        "normals": sample.normals.astype(np.float32),
-        "quality": quality.normalized.astype(np.float32),
-        "quality_raw": raw,
-        "best_index": quality.best_index.astype(np.int64),
-        "best_value": raw[quality.best_index, columns],
-        "worst_index": quality.worst_index.astype(np.int64),
-        "worst_value": raw[quality.worst_index, columns],
-        "vertices": mesh.vertices.astype(np.float32),
-        "faces": mesh.faces.astype(np.int32),
-    }
+    if isinstance(model, PointCloud):
+        arrays, cleaning, view_set = _cloud_arrays(model, task, seconds)
+    else:
+        arrays, cleaning, view_set = _mesh_arrays(model, task, seconds)
     record = {
         "name": task.name,
         "category": task.category,
         "source": task.source,
         "source_sha256": source_sha256,
-        "n_vertices": mesh.n_vertices,
-        "n_faces": mesh.n_faces,
+        "n_vertices": len(arrays["vertices"]),
+        "n_faces": len(arrays["faces"]),
         "cleaning": cleaning,
         "view_set": view_set.record(),
     }
@@ -245,32 +226,108 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     )
 
 
-def _quality_and_view_set(mesh: Mesh, options: BuildOptions) -> tuple[ViewQuality, ViewSet]:
-    """The build's measures of a mesh and its coverage view set, from one drawing of its views.
+def _mesh_arrays(mesh: Mesh, task: ModelTask, seconds: dict[str, float]
+                 ) -> tuple[dict[str, NDArray[Any]], dict[str, Any] | None, ViewSet]:
+    """A mesh's arrays (cleaned, measured, sampled on its faces), cleaning report and view set."""
+    from vptoolkit.clean import clean_mesh
+    from vptoolkit.points import sample_surface
+
+    options = task.options
+    cleaning = None
+    started = time.perf_counter()
+    if options.clean:
+        mesh, report = clean_mesh(mesh, max_faces=options.max_faces, remesh=options.remesh)
+        cleaning = _without_timings(report.to_dict())
+    seconds["clean"] = time.perf_counter() - started
+    started = time.perf_counter()
+    quality, view_set = _quality_and_view_set(mesh, options)
+    seconds["measure"] = time.perf_counter() - started
+    started = time.perf_counter()
+    sample = sample_surface(mesh, options.n_points, seed=task.seed)
+    seconds["sample"] = time.perf_counter() - started
+    arrays = _arrays(quality, sample.points, sample.normals, mesh.vertices, mesh.faces)
+    return arrays, cleaning, view_set
+
+
+def _cloud_arrays(cloud: PointCloud, task: ModelTask, seconds: dict[str, float]
+                  ) -> tuple[dict[str, NDArray[Any]], None, ViewSet]:
+    """A point cloud's arrays, no cleaning report and its view set.
+
+    The measures are those of its points (splatted, each weighing the area it
+    stands for); a measure not defined on points is an InputError naming it.
+    The stored points are :func:`~vptoolkit.cloud_sample.sample_cloud`'s; a
+    cloud has no surface, so it stores zero vertices and zero faces and is
+    not cleaned.
+    """
+    from vptoolkit.cloud_sample import sample_cloud
+
+    seconds["clean"] = 0.0
+    started = time.perf_counter()
+    quality, view_set = _quality_and_view_set(cloud, task.options)
+    seconds["measure"] = time.perf_counter() - started
+    started = time.perf_counter()
+    sample = sample_cloud(cloud, task.options.n_points, seed=task.seed)
+    seconds["sample"] = time.perf_counter() - started
+    arrays = _arrays(quality, sample.points, sample.normals, np.zeros((0, 3)),
+                     np.zeros((0, 3), dtype=np.int64))
+    return arrays, None, view_set
+
+
+def _arrays(quality: ViewQuality, points: NDArray[np.float64], normals: NDArray[np.float64],
+            vertices: NDArray[np.float64], faces: NDArray[np.int64]) -> dict[str, NDArray[Any]]:
+    """One model's arrays (:data:`~vptoolkit.dataset.store.schema.ENTRY_ARRAYS`), schema dtypes."""
+    columns = np.arange(quality.raw.shape[1])
+    raw = quality.raw.astype(np.float32)
+    return {
+        "points": points.astype(np.float32),
+        "normals": normals.astype(np.float32),
+        "quality": quality.normalized.astype(np.float32),
+        "quality_raw": raw,
+        "best_index": quality.best_index.astype(np.int64),
+        "best_value": raw[quality.best_index, columns],
+        "worst_index": quality.worst_index.astype(np.int64),
+        "worst_value": raw[quality.worst_index, columns],
+        "vertices": vertices.astype(np.float32),
+        "faces": faces.astype(np.int32),
+    }
+
+
+def _quality_and_view_set(model: Mesh | PointCloud, options: BuildOptions
+                          ) -> tuple[ViewQuality, ViewSet]:
+    """The build's measures of a model and its coverage view set, from one drawing of its views.
 
     The views are drawn once (with the depth and silhouette statistics only when
-    a chosen measure needs them); the measures
+    a chosen measure needs them; a point cloud's points splatted by a
+    :class:`~vptoolkit.measures.session.MeasuringSession`, which refuses a
+    measure not defined on points); the measures
     (:func:`~vptoolkit.measures.quality.compute_view_quality` with
     ``measures=options.measures``: the paper's four streamed from the pixel
     counts, any others from the registry) and the greedy coverage set of
     :data:`VIEW_SET_VIEWS` views (:func:`~vptoolkit.view_sets.search.best_view_set`)
     read the same pixel counts, as :func:`~vptoolkit.view_sets.search.measure_view_set`
-    does for the four.
+    does for the four. A cloud's coverage counts the area its points stand for.
     """
     from vptoolkit.geometry import face_areas
     from vptoolkit.measures.quality import compute_view_quality
     from vptoolkit.measures.registry import get_measure
+    from vptoolkit.measures.session import MeasuringSession
     from vptoolkit.view_sets.search import best_view_set
     from vptoolkit.view_sets.visibility import FaceVisibility
     from vptoolkit.visibility import iter_view_histograms
 
     settings = options.measure
     directions = settings.directions()
-    features = any(get_measure(name).needs_image_statistics for name in options.measures)
-    runs = tuple(iter_view_histograms(mesh, settings, view_directions=directions,
-                                      features=features))
-    visibility = FaceVisibility(directions, face_areas(mesh), runs, mesh.name)
-    quality = compute_view_quality(mesh, settings, measures=options.measures,
+    if isinstance(model, PointCloud):
+        session = MeasuringSession(model, options.measures, settings)
+        runs = tuple(session.draw(directions))
+        areas = session.areas
+    else:
+        features = any(get_measure(name).needs_image_statistics for name in options.measures)
+        runs = tuple(iter_view_histograms(model, settings, view_directions=directions,
+                                          features=features))
+        areas = face_areas(model)
+    visibility = FaceVisibility(directions, areas, runs, model.name)
+    quality = compute_view_quality(model, settings, measures=options.measures,
                                    view_directions=visibility.views, histograms=runs)
     return quality, best_view_set(visibility, VIEW_SET_VIEWS)
 

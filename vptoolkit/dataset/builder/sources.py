@@ -1,15 +1,23 @@
-"""Where a build's models come from: mesh files, their ids, categories and splits.
+"""Where a build's models come from: mesh and point-cloud files, their ids, categories, splits.
 
 Source layout (:func:`discover_models`)
     A ModelNet40-style tree ``<category>/<train|test>/<name>.off`` or any
-    folder of meshes: a model's category is the name of its parent folder
+    folder of meshes and point clouds: a model's category is the name of its parent folder
     (its grandparent when the parent is ``train`` or ``test``), and files
     directly in the source folder get the source folder's name. Every suffix
-    :data:`vptoolkit.io.SUPPORTED_SUFFIXES` names is read; hidden files and
-    folders (``.name``) are skipped. A model's name is its file stem and
-    must be unique in the dataset: files with the same stem (``a.off`` and
-    ``a.obj``, ``a.off`` under ``train/`` and ``test/``, or ``chair/a.off``
-    and ``table/a.off``) are all recorded as failures
+    :data:`vptoolkit.io.MODEL_SUFFIXES` names is read (a file holding points
+    only is a point cloud, measured on its points); hidden files and
+    folders (``.name``) are skipped.
+
+Names (:func:`model_name`)
+    A model's name is its path relative to the source folder without the
+    suffix, its parts joined by :data:`~vptoolkit.conventions.NAME_SEPARATOR`
+    (``__``): ``SRC/teapot.stl`` is ``teapot``, ``SRC/a/teapot.stl`` is
+    ``a__teapot``, ``SRC/chair/train/chair_0001.off`` is
+    ``chair__train__chair_0001``. So ``a/teapot.stl`` and ``b/teapot.stl``
+    are two models, and the files directly in the source folder keep their
+    stems as names. Files that still give one name (``a.off`` and ``a.obj``,
+    or ``a/b.off`` and ``a__b.off``) are all recorded as failures
     (:func:`split_duplicates`), as nothing tells which one is meant.
 
 Splits (:func:`assign_split`)
@@ -32,18 +40,20 @@ import hashlib
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from vptoolkit.checks import as_path, check_int
+from vptoolkit.conventions import NAME_SEPARATOR
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part
-from vptoolkit.io import SUPPORTED_SUFFIXES, find_mesh_files
+from vptoolkit.io import MODEL_SUFFIXES, find_model_files
 
 __all__ = [
     "SPLIT_FRACTIONS",
     "SourceModel",
     "assign_split",
     "discover_models",
+    "model_name",
     "model_seed",
     "models_outside",
     "split_duplicates",
@@ -59,7 +69,7 @@ _FOLDER_SPLITS = ("train", "test")
 
 @dataclass(frozen=True)
 class SourceModel:
-    """One mesh file found in a source folder.
+    """One model file (a mesh or a point cloud) found in a source folder.
 
     Attributes
     ----------
@@ -70,7 +80,7 @@ class SourceModel:
     category : str
         Category (parent folder name, see :func:`discover_models`).
     name : str
-        File stem, the model's name.
+        The model's name, :func:`model_name` of ``source``.
     folder_split : str or None
         ``"train"`` or ``"test"`` when the file sits in a folder of that
         name (ModelNet layout), else None.
@@ -94,7 +104,7 @@ class SourceModel:
 def discover_models(
     src: str | os.PathLike[str], categories: Iterable[str] | None = None
 ) -> list[SourceModel]:
-    """Find the mesh files under a source folder.
+    """Find the model files (meshes and point clouds) under a source folder.
 
     Parameters
     ----------
@@ -103,7 +113,7 @@ def discover_models(
         any folder of meshes. A file's category is its parent folder's name,
         or its grandparent's when the parent is ``train`` or ``test``; files
         directly in ``src`` get ``src``'s own name. Files whose suffix is not
-        in :data:`~vptoolkit.io.SUPPORTED_SUFFIXES` and hidden files and
+        in :data:`~vptoolkit.io.MODEL_SUFFIXES` and hidden files and
         folders (name starting with ``.``) are ignored.
     categories : iterable of str, optional
         Keep only these categories (default: all).
@@ -127,10 +137,10 @@ def discover_models(
         raise InputError(f"{root}: source is not a folder")
     root = root.resolve()
     wanted = _check_categories(categories)
-    models = [_source_model(root, path) for path in find_mesh_files(root)]
+    models = [_source_model(root, path) for path in find_model_files(root)]
     if not models:
         raise InputError(
-            f"{root}: no mesh files found (looked for {', '.join(SUPPORTED_SUFFIXES)})"
+            f"{root}: no mesh files found (looked for {', '.join(MODEL_SUFFIXES)})"
         )
     if wanted is not None:
         found = {model.category for model in models}
@@ -155,9 +165,25 @@ def _source_model(root: Path, path: Path) -> SourceModel:
         path=path,
         source=path.relative_to(root).as_posix(),
         category=category,
-        name=path.stem,
+        name=model_name(path.relative_to(root).as_posix()),
         folder_split=folder_split,
     )
+
+
+def model_name(source: str) -> str:
+    """The name of the model at ``source``, a ``/``-separated path relative to the source folder.
+
+    The path without its last suffix, its parts joined by
+    :data:`~vptoolkit.conventions.NAME_SEPARATOR`; a file directly in the
+    source folder keeps its stem.
+
+    Examples
+    --------
+    >>> model_name("teapot.stl"), model_name("a/teapot.stl")
+    ('teapot', 'a__teapot')
+    """
+    parts = PurePosixPath(source).parts
+    return NAME_SEPARATOR.join((*parts[:-1], PurePosixPath(parts[-1]).stem))
 
 
 def _check_categories(categories: Iterable[str] | None) -> list[str] | None:
@@ -185,7 +211,8 @@ def split_duplicates(
     """Separate the models a store can hold from duplicates and unusable names (failures).
 
     A name must be unique within the dataset (SCHEMA.md), so ``chair/a.off``
-    and ``table/a.off`` clash as much as ``chair/a.off`` and ``chair/a.obj``;
+    and ``chair/a.obj`` clash (both ``chair__a``), as do ``chair/a.off`` and
+    ``chair__a.off``;
     and a name or category must be usable as a path part
     (:func:`vptoolkit.files.check_path_part`: a file stem holding a backslash
     or a control character is legal on Linux but not in a store).

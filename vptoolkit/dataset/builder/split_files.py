@@ -7,7 +7,10 @@ The paper's rule (:func:`paper_split`)
     category filter (lines of other categories do not advance it); a model is
     train when ``index % 10`` is 0-7, validation at 8 and test at 9. The
     ``train``/``test`` folder in the line is ModelNet's own and is not the
-    paper's split.
+    paper's split. A line names the model that ``build-dataset`` names from
+    the same path under its source folder (:attr:`ListedModel.model_name`,
+    ``airplane__train__airplane_0001``), so the list places the models of a
+    build from the ``objfiles`` folder or a ModelNet40 tree.
 
 CSV (:func:`read_split_file`, :func:`write_split_file`)
     A header line ``name,split`` then one model per line; the split is one of
@@ -35,7 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from vptoolkit.checks import short_repr
-from vptoolkit.conventions import SPLITS
+from vptoolkit.conventions import NAME_SEPARATOR, SPLITS
 from vptoolkit.dataset.store.schema import published_split
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part, write_text_atomic
@@ -80,6 +83,16 @@ class ListedModel:
     folder: str
     name: str
     line: int
+
+    @property
+    def model_name(self) -> str:
+        """The name a build gives the file: its path, parts joined by ``__``.
+
+        ``<category>__<folder>__<name>``: the name of
+        :func:`~vptoolkit.dataset.builder.sources.model_name` for the line's
+        path under ``objfiles/``.
+        """
+        return NAME_SEPARATOR.join((self.category, self.folder, self.name))
 
     @property
     def stem_path(self) -> str:
@@ -188,7 +201,9 @@ def read_split_file(path: str | os.PathLike[str],
     Returns
     -------
     dict
-        Model name to split, one of :data:`~vptoolkit.conventions.SPLITS`.
+        Model name to split, one of :data:`~vptoolkit.conventions.SPLITS`:
+        a CSV's names as written, a ``small.txt`` line's
+        :attr:`ListedModel.model_name`.
 
     Raises
     ------
@@ -208,10 +223,10 @@ def read_split_file(path: str | os.PathLike[str],
         return _read_csv(source, text.lstrip("\ufeff"))
     splits: dict[str, str] = {}
     for model, split in paper_splits(read_model_list(source), categories):
-        if model.name in splits:
+        if model.model_name in splits:
             raise InputError(f"{source}: line {model.line} lists "
-                             f"{short_repr(model.name, _QUOTED_CHARS)} a second time")
-        splits[model.name] = split
+                             f"{short_repr(model.stem_path, _QUOTED_CHARS)} a second time")
+        splits[model.model_name] = split
     return splits
 
 
