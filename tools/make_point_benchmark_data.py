@@ -40,10 +40,10 @@ from pathlib import Path
 
 import numpy as np
 
+from vptoolkit.conventions import model_name
 from vptoolkit.data import open_dataset
 from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
 from vptoolkit.dataset.builder.run import build_dataset
-from vptoolkit.dataset.builder.sources import model_name
 from vptoolkit.files import write_bytes_atomic, write_json_atomic
 from vptoolkit.io import find_mesh_files
 from vptoolkit.mesh import Mesh

@@ -51,6 +51,7 @@ Exported cameras and pictures
 from __future__ import annotations
 
 import math
+from pathlib import PurePosixPath
 from typing import Final, Literal, TypeAlias
 
 __all__ = [
@@ -60,6 +61,7 @@ __all__ = [
     "SPLITS",
     "Split",
     "NAME_SEPARATOR",
+    "model_name",
     "DATASET_VERSION",
     "FOV_DEG",
     "DISTANCE_FACTOR",
@@ -94,6 +96,21 @@ is None (:func:`vptoolkit.cli.options.split_option`)."""
 
 NAME_SEPARATOR: Final = "__"
 """Joins the folder parts and the file stem of a model's path into its name (see above)."""
+
+
+def model_name(relative: str) -> str:
+    """The name of the model at ``relative``, a ``/``-separated path under the folder given.
+
+    The path without its last suffix, its parts joined by :data:`NAME_SEPARATOR`;
+    a file directly in the folder keeps its stem.
+
+    Examples
+    --------
+    >>> model_name("teapot.stl"), model_name("a/teapot.stl")
+    ('teapot', 'a__teapot')
+    """
+    parts = PurePosixPath(relative).parts
+    return NAME_SEPARATOR.join((*parts[:-1], PurePosixPath(parts[-1]).stem))
 
 DATASET_VERSION: Final = "1.0.0"
 """Version ``MAJOR.MINOR.PATCH`` of a release packed without one."""

@@ -18,8 +18,12 @@ a file whose suffix :func:`vptoolkit.io.load` reads (:data:`vptoolkit.io.MODEL_S
 anything else is an :class:`~vptoolkit.errors.InputError`. Where the work
 needs a surface (``requires="surface"``), a point cloud is refused with the
 one message of :func:`vptoolkit.io.require_surface`. A model is named by its
-file's stem, or by its name in the dataset; names must be unique over all
-inputs, and :func:`claim_name` is the one check (and message) for that.
+name in the dataset, or a file by its stem; files of one stem are named by
+the shortest tails of their paths that tell them apart, joined as ``vptool
+build-dataset`` joins a path (:func:`vptoolkit.conventions.model_name`):
+``a/teapot.stl`` beside ``b/teapot.obj`` are ``a__teapot`` and
+``b__teapot``. Names must be unique over all inputs, and :func:`claim_name` is
+the one check (and message) for that.
 Nothing is read until a :class:`ModelSource` is asked for its model, mesh,
 points or normals, so a caller can record a bad model and carry on.
 """
@@ -28,8 +32,9 @@ from __future__ import annotations
 
 import contextlib
 import os
+from collections import Counter
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, TypeAlias, overload
 
@@ -37,6 +42,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.checks import check_int
+from vptoolkit.conventions import model_name
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_cloud import MAX_POINTS, PointCloud
@@ -150,12 +156,13 @@ class ModelSource:
         return self.dataset
 
     def model(self) -> Mesh | PointCloud:
-        """The model: a file's as :func:`read_model` reads it with ``requires``, or the
-        stored, cleaned mesh."""
+        """The model, named :attr:`name`: a file's as :func:`read_model` reads it with
+        ``requires``, or the stored, cleaned mesh."""
         if self.kind == "stored":
             vertices, faces = self._stored().mesh(self.name)
             return Mesh(vertices.astype(np.float64), faces.astype(np.int64), name=self.name)
-        return read_model(self.origin, requires=self.requires, max_points=self.max_points)
+        model = read_model(self.origin, requires=self.requires, max_points=self.max_points)
+        return model if model.name == self.name else replace(model, name=self.name)
 
     def mesh(self) -> Mesh:
         """The model, which must be a mesh (:func:`vptoolkit.io.require_surface`)."""
@@ -273,6 +280,7 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
     entries = [inputs] if isinstance(inputs, (str, os.PathLike, ViewpointDataset)) else inputs
     with contextlib.ExitStack() as stack:
         sources: list[ModelSource] = []
+        files: list[int] = []  # rows of sources read from files
         for entry in entries:
             if isinstance(entry, ViewpointDataset):
                 sources += _stored_sources(entry, str(entry.path), split, purpose, requires)
@@ -288,10 +296,33 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
             elif suffix in MODEL_SUFFIXES and not path.is_dir():
                 sources.append(ModelSource(path.stem, "file", str(entry), requires=requires,
                                            max_points=max_points))
+                files.append(len(sources) - 1)
             elif _is_dataset(path):
                 opened = stack.enter_context(open_dataset(path))
                 sources += _stored_sources(opened, str(entry), split, purpose, requires)
             else:
                 raise InputError(f"{path.name}: not a model file ({', '.join(MODEL_SUFFIXES)}) "
                                  "or dataset")
-        yield sources
+        yield _named_by_path(sources, files)
+
+
+def _named_by_path(sources: list[ModelSource], files: list[int]) -> list[ModelSource]:
+    """``sources`` with each file at rows ``files`` named by the shortest tail of its path
+    that no other file there shares (:func:`~vptoolkit.conventions.model_name` of the tail):
+    its stem where that is unique."""
+    paths = [Path(os.path.abspath(sources[row].origin)).parts for row in files]
+    depth = [1] * len(paths)
+    while True:
+        tails = [model_name("/".join(parts[-k:])) for parts, k in zip(paths, depth)]
+        counts = Counter(tails)
+        longer = [i for i, tail in enumerate(tails)
+                  if counts[tail] > 1 and depth[i] < len(paths[i]) - 1]
+        if not longer:
+            break
+        for i in longer:
+            depth[i] += 1
+    named = list(sources)
+    for row, tail in zip(files, tails):
+        if tail != sources[row].name:
+            named[row] = replace(sources[row], name=tail)
+    return named

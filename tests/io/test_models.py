@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +70,9 @@ def test_a_point_cloud_is_refused_with_one_message_where_a_surface_is_needed(tmp
     with pytest.raises(MeshLoadError, match=message):
         read_model(path, requires="surface")
     assert isinstance(read_model(path), PointCloud)
-    with open_inputs([path, sample_path("mug.obj")], requires="surface") as sources:
+    mug = tmp_path / "mug.obj"
+    mug.write_bytes(sample_path("mug.obj").read_bytes())
+    with open_inputs([path, mug], requires="surface") as sources:
         assert [source.kind for source in sources] == ["file", "file"]
         with pytest.raises(MeshLoadError, match=message):
             sources[0].model()
@@ -163,3 +166,18 @@ def test_a_point_cloud_is_checked_once_like_a_mesh():
     cloud = PointCloud(np.eye(3))
     with pytest.raises(ValueError):
         cloud.points[0, 0] = 2.0
+
+
+def test_files_of_one_stem_are_named_by_the_tails_of_their_paths_that_differ(tmp_path):
+    for folder, sample, suffix in (("a", "teapot", ".stl"), ("b", "mug", ".obj")):
+        (tmp_path / folder).mkdir()
+        shutil.copy(sample_path(sample), tmp_path / folder / f"teapot{suffix}")
+    shutil.copy(sample_path("ballA"), tmp_path / "a" / "ballA.off")
+    with open_inputs([tmp_path / "a" / "teapot.stl", tmp_path / "b" / "teapot.obj"]) as sources:
+        assert [source.name for source in sources] == ["a__teapot", "b__teapot"]
+        assert [source.model().name for source in sources] == ["a__teapot", "b__teapot"]
+        assert sources[1].model().n_faces == load_mesh(sample_path("mug")).n_faces
+    with open_inputs([tmp_path / "a" / "teapot.stl", tmp_path / "a" / "ballA.off"]) as sources:
+        assert [source.name for source in sources] == ["teapot", "ballA"]
+    with open_inputs([tmp_path / "b" / "teapot.obj", sample_path("mug.obj")]) as sources:
+        assert [source.name for source in sources] == ["teapot", "mug"]

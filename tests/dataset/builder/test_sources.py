@@ -9,10 +9,10 @@ import pytest
 
 from fixtures.builds import make_tree
 from fixtures.paths import MALFORMED
+from vptoolkit.conventions import model_name
 from vptoolkit.dataset.builder.sources import (
     assign_split,
     discover_models,
-    model_name,
     split_duplicates,
 )
 from vptoolkit.errors import InputError

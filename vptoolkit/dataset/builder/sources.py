@@ -9,7 +9,7 @@ Source layout (:func:`discover_models`)
     only is a point cloud, measured on its points); hidden files and
     folders (``.name``) are skipped.
 
-Names (:func:`model_name`)
+Names (:func:`~vptoolkit.conventions.model_name`)
     A model's name is its path relative to the source folder without the
     suffix, its parts joined by :data:`~vptoolkit.conventions.NAME_SEPARATOR`
     (``__``): ``SRC/teapot.stl`` is ``teapot``, ``SRC/a/teapot.stl`` is
@@ -40,10 +40,10 @@ import hashlib
 import os
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from pathlib import Path, PurePosixPath
+from pathlib import Path
 
 from vptoolkit.checks import as_path, check_int
-from vptoolkit.conventions import NAME_SEPARATOR
+from vptoolkit.conventions import model_name
 from vptoolkit.errors import InputError
 from vptoolkit.files import check_path_part
 from vptoolkit.io import MODEL_SUFFIXES, find_model_files
@@ -53,7 +53,6 @@ __all__ = [
     "SourceModel",
     "assign_split",
     "discover_models",
-    "model_name",
     "model_seed",
     "models_outside",
     "split_duplicates",
@@ -80,7 +79,7 @@ class SourceModel:
     category : str
         Category (parent folder name, see :func:`discover_models`).
     name : str
-        The model's name, :func:`model_name` of ``source``.
+        The model's name, :func:`~vptoolkit.conventions.model_name` of ``source``.
     folder_split : str or None
         ``"train"`` or ``"test"`` when the file sits in a folder of that
         name (ModelNet layout), else None.
@@ -169,21 +168,6 @@ def _source_model(root: Path, path: Path) -> SourceModel:
         folder_split=folder_split,
     )
 
-
-def model_name(source: str) -> str:
-    """The name of the model at ``source``, a ``/``-separated path relative to the source folder.
-
-    The path without its last suffix, its parts joined by
-    :data:`~vptoolkit.conventions.NAME_SEPARATOR`; a file directly in the
-    source folder keeps its stem.
-
-    Examples
-    --------
-    >>> model_name("teapot.stl"), model_name("a/teapot.stl")
-    ('teapot', 'a__teapot')
-    """
-    parts = PurePosixPath(source).parts
-    return NAME_SEPARATOR.join((*parts[:-1], PurePosixPath(parts[-1]).stem))
 
 
 def _check_categories(categories: Iterable[str] | None) -> list[str] | None:
