@@ -122,7 +122,8 @@ class Sampler:
     """Resident memory of a ``vptool`` process and of the bench's other children, over time."""
 
     main: int
-    samples: list[tuple[float, int, int]] = field(default_factory=list)
+    streaming: Path | None = None
+    samples: list[tuple[float, int, int, bool]] = field(default_factory=list)
 
     @contextlib.contextmanager
     def running(self) -> Iterator[Sampler]:
@@ -132,8 +133,11 @@ class Sampler:
         def sample() -> None:
             while not stop.wait(SAMPLE_EVERY_S):
                 main, others = _tree_rss(os.getpid(), self.main)
+                is_streaming = self.streaming is not None and any(
+                    self.streaming.glob("*/.order.jsonl.partial"))
                 if main:
-                    self.samples.append((time.perf_counter() - started, main, others))
+                    self.samples.append((time.perf_counter() - started, main, others,
+                                         is_streaming))
 
         thread = threading.Thread(target=sample, daemon=True)
         thread.start()
@@ -162,7 +166,7 @@ class Run:
     peak_workers_mb: float
     table: bytes
     n_failed: int
-    memory: list[tuple[float, int, int]]
+    memory: list[tuple[float, int, int, bool]]
 
     @property
     def files_per_hour(self) -> float:
@@ -173,13 +177,16 @@ class Run:
         return self.wall / busy - 1.0 if busy else float("nan")
 
 
-def vptool(arguments: Sequence[str], log: Path, *, kill_when: Any = None) -> tuple[float, Sampler]:
-    """Run ``vptool arguments`` to its end (or SIGKILL it once ``kill_when()`` holds)."""
+def vptool(arguments: Sequence[str], log: Path, *, kill_when: Any = None,
+           streaming: Path | None = None) -> tuple[float, Sampler]:
+    """Run ``vptool arguments`` to its end (or SIGKILL it once ``kill_when()`` holds);
+    its samples say whether it was streaming entries into ``streaming`` (the run's
+    output folder, while its partial order file exists)."""
     started = time.perf_counter()
     with log.open("a") as stderr:
         process = subprocess.Popen([sys.executable, *VPTOOL, *arguments], stdout=stderr,
                                    stderr=stderr)
-        sampler = Sampler(process.pid)
+        sampler = Sampler(process.pid, streaming)
         with sampler.running():
             while process.poll() is None:
                 if kill_when is not None and kill_when():
@@ -321,22 +328,28 @@ def bench_list(work: Path, log: Path, n_lines: int, n_run: int) -> None:
             if index < n_run:
                 first.write(line)
     print(f"\na list of {n_lines} lines naming {len(SMALL_SAMPLES)} small sample files in "
-          "turn, best-view, 1 process, resident MB of the calling process over the run:")
-    for label, arguments in (
-            (f"--dry-run of all {n_lines} lines",
-             ["best-view", f"@{whole}", "-o", str(work / "listed-dry"), "--dry-run"]),
-            (f"a run of the first {n_run} lines",
-             ["best-view", f"@{head}", "-o", str(work / "listed-run")])):
-        wall, sampler = vptool(arguments, log)
-        rss = [s[1] / 1e6 for s in sampler.samples]
+          "turn, best-view, 1 process, resident MB of the calling process:")
+    out = work / "listed-run"
+    for label, arguments, streaming in (
+            (f"--dry-run of all {n_lines} lines, over the run",
+             ["best-view", f"@{whole}", "-o", str(work / "listed-dry"), "--dry-run"], None),
+            (f"a run of the first {n_run} lines, while it streams them",
+             ["best-view", f"@{head}", "-o", str(out)], out)):
+        wall, sampler = vptool(arguments, log, streaming=streaming)
+        rss = [s[1] / 1e6 for s in sampler.samples if streaming is None or s[3]]
         deciles = [rss[min(len(rss) - 1, len(rss) * k // 10)] for k in range(11)] if rss else []
-        # flat: once started (a quarter into the run), the peak stays within 5 % of that
+        # flat: once started (a quarter in), the peak stays within 5 % of the value then
         steady = rss[len(rss) // 4:] or rss
         growth = max(steady) / steady[0] - 1 if steady else 0.0
-        print(f"  {label}: {format_seconds(wall)}, at each tenth of the run: "
+        print(f"  {label}: {format_seconds(wall)}, at each tenth: "
               + " ".join(f"{value:.0f}" for value in deciles))
-        print(f"    peak after a quarter of the run over its value then: +{100 * growth:.1f} % "
+        print(f"    peak after a quarter over the value then: +{100 * growth:.1f} % "
               f"(flat, target <= 5 %: {'met' if growth <= 0.05 else 'MISSED'})")
+        if streaming is not None:
+            last = max((k for k, sample in enumerate(sampler.samples) if sample[3]), default=0)
+            after = [sample[1] / 1e6 for sample in sampler.samples[last + 1:]]
+            print(f"    then the table and predictions.npz of {n_run} rows: peak "
+                  f"{max(after, default=0):.0f} MB (predictions.npz reads the whole table)")
 
 
 def main() -> None:
@@ -350,8 +363,8 @@ def main() -> None:
                         help="files measured at the old thumbnail default (default: 8)")
     parser.add_argument("--list-lines", type=int, default=1_000_000,
                         help="lines of the list whose memory is sampled (default: 10^6)")
-    parser.add_argument("--list-run", type=int, default=50_000,
-                        help="of them, the lines a full run answers (default: 50,000)")
+    parser.add_argument("--list-run", type=int, default=100_000,
+                        help="of them, the lines a full run answers (default: 100,000)")
     parser.add_argument("--meshes", type=Path, default=MESHES,
                         help=f"the shared meshes folder (default: {MESHES}; "
                              "--quick uses the bundled samples only)")
@@ -365,7 +378,7 @@ def main() -> None:
     args = parser.parse_args()
     if args.quick:
         args.files, args.old_files = min(args.files, 12), 1
-        args.list_lines, args.list_run = 10_000, 500
+        args.list_lines, args.list_run = 10_000, 2000
     n_thumbs = args.thumbnail_files or max(1, args.files // 5)
 
     with printed_section(args.results, args.section), contextlib.ExitStack() as stack:
