@@ -19,8 +19,12 @@
     the staged records in discovery order: the same bytes whatever the
     worker count, the scheduler, the order of completion or a resume.
 ``timings.jsonl``
-    One ``{"key", "seconds"}`` line per entry answered by this run
-    (appended; timings differ from run to run, so they stay out of the table).
+    One line per entry answered by this run (appended; timings differ from
+    run to run, so they stay out of the table): ``{"key", "seconds", "read",
+    "answer", "finish", "stage"}``, the seconds of reading the file and of
+    the method's answer (in the worker), of ``finish`` (in this process,
+    e.g. drawing and writing a thumbnail) and of writing the staged record,
+    and ``seconds`` their sum.
 
 Work
     Entries are hashed in this process and answered by
@@ -35,9 +39,11 @@ Limits
     is drawn. An entry that takes
     longer than ``timeout`` seconds (default :data:`TIMEOUT_S`) is stopped by
     a ``SIGALRM`` timer in its worker (``signal.setitimer``; it interrupts
-    Python code between native calls, so one native call runs to its end)
-    and recorded as failed; on a Dask worker thread no timer can be set and
-    the cluster's own limits apply.
+    Python code between native calls, so one native call runs to its end,
+    and a hung native call is never stopped) and recorded as failed; the
+    timer's exception is a ``BaseException``, so no ``except Exception`` of
+    a reader can take it for a read error. On a Dask worker thread no timer
+    can be set and the cluster's own limits apply.
 
 Failures
     An entry that cannot be read, is a point cloud (no search draws a cloud
@@ -100,8 +106,9 @@ _ORDER_NAME = "order.jsonl"
 _LOCK_NAME = ".lock"
 
 
-class _TimeLimit(Exception):
-    """Raised in a worker by the entry's timer."""
+class _TimeLimit(BaseException):
+    """Raised in a worker by the entry's timer (not an ``Exception``: no reader's
+    ``except Exception`` takes it for its own error)."""
 
 
 @dataclass(frozen=True)
@@ -122,8 +129,10 @@ class EntryResult:
 
     ``is_staged`` says whether the outcome depends on the file and settings
     alone (staged, never tried again) or may change (a timeout, a lost
-    worker: tried again by the next run). ``model`` and ``answer.detail`` are
-    there for a caller that draws (``keep_model``), never stored.
+    worker: tried again by the next run). ``seconds`` is the worker's time,
+    ``read_seconds`` its part spent reading the file. ``model`` and
+    ``answer.detail`` are there for a caller that draws (``keep_model``),
+    never stored.
     """
 
     entry: Entry
@@ -131,6 +140,7 @@ class EntryResult:
     answer: Answer | None = None
     reason: str = ""
     seconds: float = 0.0
+    read_seconds: float = 0.0
     is_staged: bool = True
     model: Mesh | PointCloud | None = field(default=None, compare=False)
 
@@ -217,9 +227,11 @@ def read_model(path: str) -> Mesh | PointCloud:
 def answer_entry(task: EntryTask) -> EntryResult:
     """Worker: read, check and answer one entry within its limits (top level, picklable)."""
     started = time.perf_counter()
+    read = 0.0
     with _time_limit(task.timeout):
         try:
             mesh = read_model(task.entry.path)
+            read = time.perf_counter() - started
             count, kind = ((mesh.n_points, "points") if isinstance(mesh, PointCloud)
                            else (mesh.n_faces, "faces"))
             if count > task.max_faces:
@@ -230,13 +242,14 @@ def answer_entry(task: EntryTask) -> EntryResult:
             return EntryResult(task.entry, task.sha256,
                                reason=f"{task.entry.key}: took longer than {task.timeout:g} s "
                                       "(--timeout)",
-                               seconds=time.perf_counter() - started, is_staged=False)
+                               seconds=time.perf_counter() - started, read_seconds=read,
+                               is_staged=False)
         except (VptoolkitError, OSError, MemoryError) as err:
             return EntryResult(task.entry, task.sha256, reason=one_line(err),
-                               seconds=time.perf_counter() - started,
+                               seconds=time.perf_counter() - started, read_seconds=read,
                                is_staged=not isinstance(err, (OSError, MemoryError)))
     return EntryResult(task.entry, task.sha256, answer, seconds=time.perf_counter() - started,
-                       model=mesh if task.keep_model else None)
+                       read_seconds=read, model=mesh if task.keep_model else None)
 
 
 class _time_limit:  # noqa: N801 - a context manager, used like a function
@@ -272,6 +285,14 @@ def _cluster_lost(task: EntryTask, error: Exception) -> EntryResult:
     return EntryResult(task.entry, task.sha256,
                        reason=f"{task.entry.key}: lost on the cluster ({one_line(error)})",
                        is_staged=False)
+
+
+def _timing(result: EntryResult, finish: float, stage: float) -> dict[str, Any]:
+    """One line of ``timings.jsonl``: the entry's seconds by stage and in all."""
+    stages = {"read": result.read_seconds, "answer": result.seconds - result.read_seconds,
+              "finish": finish, "stage": stage}
+    return {"key": result.entry.key, "seconds": round(result.seconds + finish + stage, 4),
+            **{name: round(seconds, 4) for name, seconds in stages.items()}}
 
 
 def _staged_path(staging: Path, key: str, sha256: str) -> Path:
@@ -402,8 +423,10 @@ def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], m
             if scheduler is not None
             else run_tasks(answer_entry, tasks(), workers=workers, crashed=_worker_died))
         for result in results:
+            started = time.perf_counter()
             if finish is not None and result.answer is not None:
                 result = finish(result)
+            finished = time.perf_counter()
             if result.is_staged:
                 target = _staged_path(staging, result.entry.key, result.sha256)
                 target.parent.mkdir(exist_ok=True)
@@ -411,8 +434,8 @@ def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], m
                     stream.write(json_text(result.record(), indent=None).encode())
             else:
                 unstaged[(result.entry.key, result.sha256)] = result.reason
-            timings.write(json.dumps({"key": result.entry.key,
-                                      "seconds": round(result.seconds, 4)}) + "\n")
+            timings.write(json.dumps(_timing(result, finished - started,
+                                             time.perf_counter() - finished)) + "\n")
             timings.flush()
             bar.update(1)
     os.replace(order_partial, folder / _ORDER_NAME)
