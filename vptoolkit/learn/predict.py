@@ -278,17 +278,38 @@ def network_predictor(
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
-        prepared = []
-        for cloud, name, route in zip(points, names, routes):
-            n_points, n_fps = _input_sizes(networks[route][1], None, None)
-            wanted = networks[route][0].config.point_features
-            prepared.append(network_inputs(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
-                                           name=name, n_inputs=n_inputs,
-                                           features=features_of(cloud, name, wanted)))
+        features = [features_of(cloud, name, networks[route][0].config.point_features)
+                    for cloud, name, route in zip(points, names, routes)]
+
+        def inputs_of(position: int) -> NDArray[np.float32]:
+            n_points, n_fps = _input_sizes(networks[routes[position]][1], None, None)
+            return network_inputs(points[position], n_points=n_points, n_fps=n_fps, seed=seed,
+                                  name=names[position], n_inputs=n_inputs,
+                                  features=features[position])
+
+        prepared = _map_threads(inputs_of, len(points))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
     return predictor
+
+
+def _map_threads(function: Callable[[int], NDArray[np.float32]],
+                 count: int) -> list[NDArray[np.float32]]:
+    """``[function(0), ..., function(count - 1)]``, on as many threads as torch uses.
+
+    For the input draws of several models: each is a rule of its own points
+    (:func:`vptoolkit.learn.draws.network_indices`), so the answers are the
+    same on any number of threads, and numpy releases the GIL in their
+    farthest point sampling, which is most of their time.
+    """
+    workers = min(count, torch.get_num_threads())
+    if workers <= 1:
+        return [function(position) for position in range(count)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(function, range(count)))
 
 
 def stored_turn(stored: NDArray[Any], cloud: NDArray[Any], name: str) -> NDArray[np.float64]:
