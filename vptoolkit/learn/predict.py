@@ -46,6 +46,13 @@ the bundled ``default``) gets them from the faces the points were sampled on
 for meshes, from the stored mesh for datasets
 (:meth:`vptoolkit.data.ViewpointDataset.point_features`); a point file has
 none, and such a network refuses it.
+
+Size
+    About 630 lines for one concept, a loaded network answering models: the
+    three ways in (:func:`predict`, :func:`network_predictor`,
+    :class:`MeshPredictor`) share the routing, the surfaces and point
+    features each kind of model gives, and the refusals; the draws
+    (:mod:`vptoolkit.learn.draws`) and the consensus are their own modules.
 """
 
 from __future__ import annotations
