@@ -53,8 +53,9 @@ paper's input, and also answers bare point files."""
 CLOUD_MODELS: Final = {DEFAULT_MODEL: "points"}
 """The bundled network that answers a point cloud in place of a bundled one that reads
 what a cloud does not carry: ``"default"`` reads face areas, so a cloud gets
-``"points"``, coordinates alone (``docs/results.md``, networks for bare point
-clouds, compares feeding ``"default"`` each point's spacing area instead)."""
+``"points"``, coordinates alone. Feeding ``"default"`` each point's spacing area
+in place of its face area scores lower on VE and no higher on the other
+measures (``docs/results.md``, "Bare point clouds: which network")."""
 
 
 def is_bundled_model(path: str | os.PathLike[str]) -> bool:
