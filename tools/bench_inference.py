@@ -37,6 +37,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -59,7 +60,7 @@ from vptoolkit.samples import sample_path
 
 MESHES = ("bunny", "mug", "lego", "bottle", "table", "suzanne", "teapot", "Duck")
 CLOUD_POINTS = 20000
-INPUT = {"n_points": N_NETWORK_POINTS, "n_fps": N_FPS_POINTS, "seed": 0}
+INPUT: dict[str, Any] = {"n_points": N_NETWORK_POINTS, "n_fps": N_FPS_POINTS, "seed": 0}
 
 
 def median_ms(function: Callable[[], Any], repeats: int) -> float:
@@ -140,8 +141,8 @@ def main() -> None:
               f"load average {load_before:.2f}")
         print(f"{len(clouds)} clouds of {CLOUD_POINTS} points, {N_INPUTS} inputs of "
               f"{N_NETWORK_POINTS} points each, network 'points', in process")
-        singles = [median_times(lambda cloud=cloud, name=name: predictor([cloud], [name]),
-                                repeats) for name, cloud in clouds.items()]
+        singles = [median_times(functools.partial(predictor, [cloud], [name]), repeats)
+                   for name, cloud in clouds.items()]
         single, single_cpu = (statistics.median(times) for times in zip(*singles))
         batch_names = [names[i % len(names)] for i in range(batch)]
         batch_clouds = [clouds[name] for name in batch_names]
