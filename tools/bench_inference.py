@@ -8,11 +8,17 @@ network loaded once: the consensus of its answers to
 Printed:
 
 * single: one cloud per call, the median over the clouds and repeats;
-* batched: ``--batch`` clouds per call (the samples in turn), per cloud;
+* batched: ``--batch`` clouds per call (the samples in turn), per cloud: the
+  clouds' inputs are drawn on as many threads as torch uses, then go through
+  the network 64 inputs per forward pass (4 clouds; larger passes cost the
+  same per input on a CPU and hold more memory);
+* both as wall time and as the process's CPU time (all threads), which a
+  busy machine inflates less;
 * where the time of one cloud goes: the canonical order and content key of
   its points, the farthest point sampling, the whole choice of its inputs,
-  the point hierarchy of its inputs (no learned parameters), the network on
-  them (hierarchy included) and the consensus;
+  the Morton codes and their sort (the first level of the point hierarchy),
+  the whole point hierarchy of its inputs (no learned parameters), the
+  network on them (hierarchy included) and the consensus;
 * the 1-minute load average before and after, since the numbers are only
   meaningful on an otherwise idle machine.
 
@@ -23,6 +29,7 @@ Usage::
 
     python tools/bench_inference.py            # a few minutes
     python tools/bench_inference.py --quick    # 3 clouds, batch 8, fewer repeats
+    nice -n 10 python tools/bench_inference.py --repeats 1   # batch 64, one repeat
     python tools/bench_inference.py --json results.json
     python tools/bench_inference.py --results docs/benchmarks.md   # and its section ``inference``
 """
@@ -30,6 +37,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -45,25 +53,32 @@ from results_doc import add_results_option, printed_section
 from vptoolkit.io import load_mesh
 from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.draws import N_INPUTS, content_order, network_indices, network_inputs
-from vptoolkit.learn.hierarchy import build_hierarchy
+from vptoolkit.learn.hierarchy import build_hierarchy, input_level
 from vptoolkit.learn.predict import network_predictor, predict_directions
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, farthest_point_sampling, sample_surface
 from vptoolkit.samples import sample_path
 
 MESHES = ("bunny", "mug", "lego", "bottle", "table", "suzanne", "teapot", "Duck")
 CLOUD_POINTS = 20000
-INPUT = {"n_points": N_NETWORK_POINTS, "n_fps": N_FPS_POINTS, "seed": 0}
+INPUT: dict[str, Any] = {"n_points": N_NETWORK_POINTS, "n_fps": N_FPS_POINTS, "seed": 0}
 
 
 def median_ms(function: Callable[[], Any], repeats: int) -> float:
     """Median wall time of ``function`` over ``repeats`` calls after one warm-up, in ms."""
+    return median_times(function, repeats)[0]
+
+
+def median_times(function: Callable[[], Any], repeats: int) -> tuple[float, float]:
+    """Median wall and process CPU time (all threads) of ``function`` over ``repeats`` calls
+    after one warm-up, in ms."""
     function()
-    times = []
+    walls, cpus = [], []
     for _ in range(repeats):
-        started = time.perf_counter()
+        started, cpu = time.perf_counter(), time.process_time()
         function()
-        times.append(time.perf_counter() - started)
-    return statistics.median(times) * 1000.0
+        walls.append(time.perf_counter() - started)
+        cpus.append(time.process_time() - cpu)
+    return statistics.median(walls) * 1000.0, statistics.median(cpus) * 1000.0
 
 
 def sample_clouds(names: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -91,6 +106,7 @@ def bench_stages(clouds: dict[str, np.ndarray], repeats: int) -> dict[str, float
                     canonical, N_FPS_POINTS, rng=rng),
                 f"choose {N_INPUTS} inputs": lambda: network_indices(
                     cloud, n_inputs=N_INPUTS, **INPUT),
+                "Morton codes and sort": lambda: input_level(inputs),
                 f"hierarchy of {N_INPUTS} inputs": lambda: build_hierarchy(inputs, model.config),
                 f"network on {N_INPUTS} inputs": lambda: model(inputs),
                 "consensus": lambda: consensus_directions(answers),
@@ -107,6 +123,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=2, help="torch threads (default: 2)")
     parser.add_argument("--batch", type=int, default=64,
                         help="clouds per batched call (default: 64; 8 with --quick)")
+    parser.add_argument("--repeats", type=int,
+                        help="timed repeats of each call (default: 3; 1 with --quick)")
     parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
     add_results_option(parser, "inference")
     args = parser.parse_args()
@@ -116,21 +134,23 @@ def main() -> None:
         torch.set_num_threads(args.threads)
         names = MESHES[:3] if args.quick else MESHES
         batch = 8 if args.quick and args.batch == 64 else args.batch
-        repeats = 1 if args.quick else 3
+        repeats = args.repeats or (1 if args.quick else 3)
         clouds = sample_clouds(names)
         predictor = network_predictor("points", device="cpu")
         print(f"torch {torch.__version__}, {args.threads} threads, {os.cpu_count()} CPUs, "
               f"load average {load_before:.2f}")
         print(f"{len(clouds)} clouds of {CLOUD_POINTS} points, {N_INPUTS} inputs of "
               f"{N_NETWORK_POINTS} points each, network 'points', in process")
-        single = statistics.median(
-            median_ms(lambda cloud=cloud, name=name: predictor([cloud], [name]), repeats)
-            for name, cloud in clouds.items())
+        singles = [median_times(functools.partial(predictor, [cloud], [name]), repeats)
+                   for name, cloud in clouds.items()]
+        single, single_cpu = (statistics.median(times) for times in zip(*singles))
         batch_names = [names[i % len(names)] for i in range(batch)]
         batch_clouds = [clouds[name] for name in batch_names]
-        batched = median_ms(lambda: predictor(batch_clouds, batch_names), repeats) / batch
-        print(f"  {'single':<32} {single:8.1f} ms per cloud")
-        print(f"  {f'batch of {batch}':<32} {batched:8.1f} ms per cloud")
+        batched, batched_cpu = (ms / batch for ms in median_times(
+            lambda: predictor(batch_clouds, batch_names), repeats))
+        print(f"  {'single':<32} {single:8.1f} ms per cloud ({single_cpu:.1f} ms CPU)")
+        print(f"  {f'batch of {batch}':<32} {batched:8.1f} ms per cloud "
+              f"({batched_cpu:.1f} ms CPU)")
         stages = bench_stages(clouds, repeats)
         print("one cloud, by stage (median over the clouds):")
         for stage, ms in stages.items():
@@ -140,8 +160,10 @@ def main() -> None:
               "(timings mean little on a busy machine)")
         if args.json:
             results = {"threads": args.threads, "cpu_count": os.cpu_count(),
-                       "torch": torch.__version__, "single_ms": single, "batch": batch,
-                       "batched_ms_per_cloud": batched, "stages_ms": stages,
+                       "torch": torch.__version__, "single_ms": single,
+                       "single_cpu_ms": single_cpu, "batch": batch,
+                       "batched_ms_per_cloud": batched, "batched_cpu_ms_per_cloud": batched_cpu,
+                       "stages_ms": stages,
                        "load_average": [load_before, load_after]}
             args.json.write_text(json.dumps(results, indent=2) + "\n")
 

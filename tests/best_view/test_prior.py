@@ -54,7 +54,7 @@ def test_command_with_the_unoccluded_prior(tmp_path):
                                        "--json", "-o", str(out)])
     assert result.exit_code == 0, result.output
     entry = json.loads(result.stdout)["results"][0]
-    assert [stage["stage"] for stage in entry["stages"]] == ["coarse", "prior"]
+    assert [stage["stage"] for stage in entry["stages"]] == ["coarse", "prior (unoccluded)"]
     assert entry["views"] == 8 and out.exists()
 
 
@@ -101,7 +101,9 @@ def test_search_inputs_takes_a_prior_by_name_or_as_a_callable():
     named = search_inputs([mug], settings=EIGHT, prior="unoccluded")
     given = search_inputs([mug], settings=EIGHT, prior=UnoccludedPrior())
     np.testing.assert_array_equal(named.results[0].directions, given.results[0].directions)
-    assert [stage.name for stage in named.results[0].stages] == ["coarse", "prior"]
+    assert [stage.name for stage in named.results[0].stages] == ["coarse", "prior (unoccluded)"]
+    plain = search_inputs([mug], settings=EIGHT, prior=lambda mesh: UnoccludedPrior()(mesh))
+    assert [stage.name for stage in plain.results[0].stages] == ["coarse", "prior"]
     with pytest.raises(InputError, match="prior: expected one of"):
         search_inputs([mug], settings=EIGHT, prior=3.5)  # type: ignore[arg-type]
 

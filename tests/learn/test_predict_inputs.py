@@ -122,6 +122,19 @@ def test_the_answer_depends_on_the_points_not_the_file(tmp_path):
                                answered.directions[:2], atol=1e-5)
 
 
+def test_a_batch_on_two_threads_answers_each_cloud_as_it_is_answered_alone():
+    from vptoolkit.learn.model import torch_threads
+
+    mug, teapot = surface("mug.obj"), surface("teapot.stl")
+    network = network_predictor("points", device="cpu", n_inputs=4)
+    alone = np.concatenate([network([mug], ["mug"]), network([teapot], ["teapot"])])
+    with torch_threads(2):  # the input draws of the batch on two threads
+        together = network([teapot, mug[::-1], mug], ["t", "reversed", "m"])
+    # the same inputs, answered in another batch: equal up to the rounding of batched sums
+    np.testing.assert_allclose(together[[2, 0]], alone, atol=1e-5)
+    np.testing.assert_array_equal(together[1], together[2])  # order and name change nothing
+
+
 def test_the_consensus_is_one_of_the_single_input_answers(predictor):
     for name in MESHES:
         mesh = load_mesh(sample_path(name))

@@ -1,6 +1,7 @@
 """The network as the best-view search's prior: its candidates and the frames it tries."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,7 +9,11 @@ from click.testing import CliRunner
 
 from fixtures.environment import require_package
 from fixtures.meshes import box_mesh
-from vptoolkit.io import load_mesh
+from vptoolkit.best_view.search import SearchSettings, search_best_views
+from vptoolkit.errors import InputError
+from vptoolkit.io import load, load_mesh
+from vptoolkit.point_cloud import PointCloud
+from vptoolkit.points import sample_surface
 from vptoolkit.samples import sample_path
 
 require_package("torch")
@@ -16,6 +21,7 @@ require_package("torch")
 import torch  # noqa: E402
 
 from vptoolkit.cli import main  # noqa: E402
+from vptoolkit.learn.checkpoint import PRETRAINED  # noqa: E402
 from vptoolkit.learn.frame import canonical_frame  # noqa: E402
 from vptoolkit.learn.octahedral import sphere_map_directions  # noqa: E402
 from vptoolkit.learn.predict import MeshPredictor  # noqa: E402
@@ -70,8 +76,48 @@ def test_best_view_with_the_default_prior_draws_its_candidates_first():
                                        "--resolution", "48", "--prior", "default", "--json"])
     assert result.exit_code == 0, result.output
     stages = json.loads(result.stdout)["results"][0]["stages"]
-    assert [stage["stage"] for stage in stages][:2] == ["coarse", "prior"]
+    assert [stage["stage"] for stage in stages][:2] == ["coarse", "prior (network default)"]
     assert sum(stage["views"] for stage in stages) == 16
+
+
+@pytest.fixture(scope="module")
+def bunny_cloud(tmp_path_factory) -> Path:
+    """3000 points sampled on the bundled bunny, written by Open3D as a bare cloud (no
+    normals)."""
+    o3d = pytest.importorskip("open3d")
+    cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(
+        sample_surface(load_mesh(sample_path("bunny.ply")), 3000, seed=0).points))
+    path = tmp_path_factory.mktemp("cloud") / "bunny_cloud.ply"
+    o3d.io.write_point_cloud(str(path), cloud)
+    return path
+
+
+def test_the_default_prior_answers_a_bare_cloud_with_the_network_of_coordinates(
+        prior, bunny_cloud):
+    cloud = load(bunny_cloud)
+    assert isinstance(cloud, PointCloud) and cloud.normals is None
+    candidates = prior(cloud)
+    assert prior.label(cloud) == "network points"
+    assert prior.label(load_mesh(sample_path("bunny.ply"))) == "network default"
+    np.testing.assert_allclose(np.linalg.norm(candidates, axis=1), 1.0)
+    np.testing.assert_array_equal(candidates, NetworkPrior("points")(cloud))
+    found = search_best_views(cloud, SearchSettings(budget=8, resolution=32), prior=candidates)
+    assert [stage.name for stage in found.stages] == ["coarse", "prior"]
+
+
+def test_best_view_of_a_cloud_with_the_default_prior_names_the_network(bunny_cloud):
+    result = CliRunner().invoke(main, ["best-view", str(bunny_cloud), "--views", "8",
+                                       "--resolution", "32", "--prior", "default"])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("bunny_cloud: 8 views (7 coarse @ 32, "
+                                    "1 prior (network points) @ 32), ")
+
+
+def test_a_checkpoint_of_face_areas_refuses_a_bare_cloud_in_one_line(bunny_cloud):
+    face_areas = NetworkPrior(PRETRAINED)  # the default network's files, not its name
+    with pytest.raises(InputError, match=r"^bunny_cloud: the network reads point features "
+                                         r"\(face_area\) that a point cloud does not carry; "):
+        face_areas(load(bunny_cloud))
 
 
 def test_map_modes_are_the_highest_cells_far_enough_apart():

@@ -26,7 +26,9 @@ def test_quick_bench_prints_single_batched_and_stages(tmp_path: Path, run_tool: 
             if line.startswith("  ") and re.search(r"\d+\.\d ms", line)]
     assert rows == ["single", "batch of 8", "canonical order and key",
                     "farthest point sampling (1024)", "choose 16 inputs",
-                    "hierarchy of 16 inputs", "network on 16 inputs", "consensus"]
+                    "Morton codes and sort", "hierarchy of 16 inputs", "network on 16 inputs",
+                    "consensus"]
     written = json.loads((tmp_path / "inference.json").read_text())
     assert written["batch"] == 8 and written["threads"] == 1
     assert written["single_ms"] > 0 and written["batched_ms_per_cloud"] > 0
+    assert written["single_cpu_ms"] > 0 and written["batched_cpu_ms_per_cloud"] > 0

@@ -17,7 +17,9 @@ library and the command line alike:
     estimate (:mod:`vptoolkit.measures.unoccluded`): no image, no network.
 ``"default"``, or a checkpoint's path
     :class:`vptoolkit.learn.prior.NetworkPrior`, a network's answers (torch
-    is imported only then).
+    is imported only then); ``"default"`` answers a point cloud with the
+    bundled network of coordinates alone (``"points"``), as a cloud carries
+    no face areas.
 
 A callable is taken as it is. Directions point from the model's centre
 towards the camera, in the mesh's own coordinates.
@@ -65,7 +67,11 @@ class Prior(Protocol):
     :class:`~vptoolkit.errors.InputError` naming the mesh when it cannot
     answer. :class:`UnoccludedPrior` and
     :class:`vptoolkit.learn.prior.NetworkPrior` are priors; so is any
-    function of that signature.
+    function of that signature. A prior may also name what proposes a
+    model's candidates, ``prior.label(mesh) -> str`` (both shipped priors
+    do: ``"unoccluded"``, ``"network points"``), which
+    :func:`vptoolkit.best_view.run.search_inputs` puts in the name of the
+    search's prior stage.
     """
 
     def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
@@ -133,6 +139,10 @@ class UnoccludedPrior:
         estimated = {"VMI": "VKL"}  # the same closed form
         self.proposing = tuple(name for name in _PROPOSING
                                if name in {estimated.get(m, m) for m in searched})
+
+    def label(self, mesh: MeshLike | PointCloud) -> str:
+        """What proposes the candidates, for outputs: ``"unoccluded"``."""
+        return "unoccluded"
 
     def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` when no

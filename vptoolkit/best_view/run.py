@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike
 
-from vptoolkit.best_view.answer import BestViews
+from vptoolkit.best_view.answer import BestViews, SearchStage
 from vptoolkit.best_view.prior import resolve_prior
 from vptoolkit.best_view.search import (
     UNSEARCHABLE_NEEDS,
@@ -203,7 +203,8 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 candidates = prior(mesh) if prior is not None else None
                 proposing = time.perf_counter() - started  # part of the answer's cost
                 found = search_best_views(mesh, settings, prior=candidates, measures=measures)
-                results.append(replace(found, seconds=found.seconds + proposing))
+                results.append(replace(found, seconds=found.seconds + proposing,
+                                       stages=_named_prior(found.stages, prior, mesh)))
             except (InputError, MeasurementError) as error:
                 if claimed is not None:
                     names.discard(claimed)
@@ -211,3 +212,16 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 is_bad_input = is_bad_input and isinstance(error, InputError)
             bar.update(1)
     return SearchRun(tuple(results), tuple(failures), is_bad_input, measures)
+
+
+def _named_prior(stages: tuple[SearchStage, ...],
+                 prior: Callable[[Mesh | PointCloud], ArrayLike] | None,
+                 mesh: Mesh | PointCloud) -> tuple[SearchStage, ...]:
+    """``stages`` with the prior stage named ``prior (LABEL)`` where the prior names what
+    proposed (``prior.label(mesh)``, :class:`~vptoolkit.best_view.prior.Prior`)."""
+    label = getattr(prior, "label", None)
+    if not callable(label):
+        return stages
+    named = f"prior ({label(mesh)})"
+    return tuple(replace(stage, name=named) if stage.name == "prior" else stage
+                 for stage in stages)

@@ -25,6 +25,7 @@ __all__ = [
     "DEFAULT_MODEL",
     "PRETRAINED",
     "BUNDLED_MODELS",
+    "CLOUD_MODELS",
     "checkpoint_paths",
     "is_bundled_model",
     "read_json",
@@ -48,6 +49,13 @@ BUNDLED_MODELS: Final = {DEFAULT_MODEL: PRETRAINED, "points": PRETRAINED / "poin
 ``"default"`` reads each point's face area (``ModelConfig.point_features``),
 so it answers meshes and datasets; ``"points"`` reads coordinates alone, the
 paper's input, and also answers bare point files."""
+
+CLOUD_MODELS: Final = {DEFAULT_MODEL: "points"}
+"""The bundled network that answers a point cloud in place of a bundled one that reads
+what a cloud does not carry: ``"default"`` reads face areas, so a cloud gets
+``"points"``, coordinates alone. Feeding ``"default"`` each point's spacing area
+in place of its face area scores lower on VE and no higher on the other
+measures (``docs/results.md``, "Bare point clouds: which network")."""
 
 
 def is_bundled_model(path: str | os.PathLike[str]) -> bool:
@@ -85,8 +93,6 @@ def checkpoint_paths(path: str | os.PathLike[str]) -> tuple[Path, Path]:
     if path.suffix == ".json":
         return path.with_suffix(".safetensors"), path
     return path / "model.safetensors", path / "model.json"
-
-
 
 
 def write_safetensors_atomic(path: Path, tensors: Mapping[str, Tensor],

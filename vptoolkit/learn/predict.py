@@ -46,6 +46,13 @@ the bundled ``default``) gets them from the faces the points were sampled on
 for meshes, from the stored mesh for datasets
 (:meth:`vptoolkit.data.ViewpointDataset.point_features`); a point file has
 none, and such a network refuses it.
+
+Size
+    About 630 lines for one concept, a loaded network answering models: the
+    three ways in (:func:`predict`, :func:`network_predictor`,
+    :class:`MeshPredictor`) share the routing, the surfaces and point
+    features each kind of model gives, and the refusals; the draws
+    (:mod:`vptoolkit.learn.draws`) and the consensus are their own modules.
 """
 
 from __future__ import annotations
@@ -86,7 +93,7 @@ if TYPE_CHECKING:
 else:
     torch = require("torch", extra="learn")
 
-__all__ = ["MeshPredictor", "predict", "predict_directions", "mesh_surface",
+__all__ = ["MeshPredictor", "predict", "predict_directions", "mesh_surface", "cloud_surface",
            "network_predictor", "load_networks"]
 
 CATEGORY_MODELS_FORMAT: Final = "vptoolkit-category-models"
@@ -278,17 +285,38 @@ def network_predictor(
 
     def predictor(points: Sequence[NDArray[Any]], names: Sequence[str]) -> NDArray[np.float64]:
         routes = [_route(networks, name, lookup.get(name)) for name in names]
-        prepared = []
-        for cloud, name, route in zip(points, names, routes):
-            n_points, n_fps = _input_sizes(networks[route][1], None, None)
-            wanted = networks[route][0].config.point_features
-            prepared.append(network_inputs(cloud, n_points=n_points, n_fps=n_fps, seed=seed,
-                                           name=name, n_inputs=n_inputs,
-                                           features=features_of(cloud, name, wanted)))
+        features = [features_of(cloud, name, networks[route][0].config.point_features)
+                    for cloud, name, route in zip(points, names, routes)]
+
+        def inputs_of(position: int) -> NDArray[np.float32]:
+            n_points, n_fps = _input_sizes(networks[routes[position]][1], None, None)
+            return network_inputs(points[position], n_points=n_points, n_fps=n_fps, seed=seed,
+                                  name=names[position], n_inputs=n_inputs,
+                                  features=features[position])
+
+        prepared = _map_threads(inputs_of, len(points))
         return _predict_routed(networks, prepared, routes, batch_size=batch_size, device=device,
                                model_path=model_path)
 
     return predictor
+
+
+def _map_threads(function: Callable[[int], NDArray[np.float32]],
+                 count: int) -> list[NDArray[np.float32]]:
+    """``[function(0), ..., function(count - 1)]``, on as many threads as torch uses.
+
+    For the input draws of several models: each is a rule of its own points
+    (:func:`vptoolkit.learn.draws.network_indices`), so the answers are the
+    same on any number of threads, and numpy releases the GIL in their
+    farthest point sampling, which is most of their time.
+    """
+    workers = min(count, torch.get_num_threads())
+    if workers <= 1:
+        return [function(position) for position in range(count)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(function, range(count)))
 
 
 def stored_turn(stored: NDArray[Any], cloud: NDArray[Any], name: str) -> NDArray[np.float64]:
@@ -360,12 +388,12 @@ def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]
     return sorted({name for model, _ in networks.values() for name in model.config.point_features})
 
 
-def _features_refused(source: ModelSource, point_features: Sequence[str]) -> InputError:
+def _features_refused(where: str, point_features: Sequence[str]) -> InputError:
     """The one message for a point cloud given to a network that reads point features it
     does not carry (a cloud carries ``normal`` alone, where it has normals)."""
     carried = ("a point cloud without normals does not carry" if list(point_features) == ["normal"]
                else "a point cloud does not carry")
-    return InputError(f"{source.origin}: the network reads point features "
+    return InputError(f"{where}: the network reads point features "
                       f"({', '.join(sorted(point_features))}) that {carried}; "
                       "give the mesh, or a network of coordinates alone (--model points)")
 
@@ -373,6 +401,23 @@ def _features_refused(source: ModelSource, point_features: Sequence[str]) -> Inp
 def _cloud_features(cloud: PointCloud, point_features: Sequence[str]) -> bool:
     """Whether a point cloud carries ``point_features``: ``normal`` alone, with normals."""
     return list(point_features) == ["normal"] and cloud.normals is not None
+
+
+def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
+                  where: str | None = None) -> tuple[NDArray[np.float64],
+                                                     NDArray[np.float32] | None]:
+    """A point cloud's points as they are, and the ``point_features`` it carries (None for no
+    features).
+
+    A cloud carries ``normal`` alone, where it has normals; any other feature
+    is refused in one line naming ``where`` (default: the cloud's name).
+    """
+    if not point_features:
+        return np.array(cloud.points, dtype=np.float64), None
+    if not _cloud_features(cloud, point_features):
+        raise _features_refused(cloud.name if where is None else where, point_features)
+    assert cloud.normals is not None  # unit length, checked by PointCloud
+    return np.array(cloud.points, dtype=np.float64), cloud.normals.astype(np.float32)
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *,
@@ -385,10 +430,7 @@ def _source_surface(source: ModelSource, point_features: Sequence[str], *,
     if source.kind == "file":
         model = source.model()
         if isinstance(model, PointCloud):
-            if not _cloud_features(model, point_features):
-                raise _features_refused(source, point_features)
-            assert model.normals is not None  # unit length, checked by PointCloud
-            return np.array(model.points), model.normals.astype(np.float32)
+            return cloud_surface(model, point_features, where=source.origin)
         return mesh_surface(model, point_features, seed=seed)
     assert source.dataset is not None
     return source.points(seed=seed), source.dataset.point_features(source.position,
@@ -396,7 +438,7 @@ def _source_surface(source: ModelSource, point_features: Sequence[str], *,
 
 
 class MeshPredictor:
-    """A checkpoint loaded once, called on meshes: ``predictor(mesh) -> (n_measures, 3)``.
+    """A checkpoint loaded once, called on a mesh or cloud: ``predictor(mesh) -> (n_measures, 3)``.
 
     The hook behind ``vptool render --model`` and ``vptool thumbnails
     --model`` (a :data:`vptoolkit.pictures.views.DirectionSource`). A mesh becomes
@@ -404,7 +446,9 @@ class MeshPredictor:
     ``seed``), then ``n_inputs`` inputs of the checkpoint's input size chosen
     with generators seeded from ``seed`` and the points' content
     (:func:`vptoolkit.learn.draws.network_indices`); the answer is the consensus of the network's
-    answers to them, asked in one batch.
+    answers to them, asked in one batch. A point cloud
+    (:class:`~vptoolkit.point_cloud.PointCloud`) is drawn from as it is, with the point
+    features it carries (:func:`cloud_surface`).
 
     Parameters
     ----------
@@ -449,19 +493,28 @@ class MeshPredictor:
         self.seed = seed
         self.threads = threads
 
-    def inputs(self, mesh: MeshLike) -> NDArray[np.float32]:
-        """The network inputs of a mesh, ``(n_inputs, n_points, 3 + F) float32``.
+    def inputs(self, mesh: MeshLike | PointCloud) -> NDArray[np.float32]:
+        """The network inputs of a mesh or a point cloud, ``(n_inputs, n_points, 3 + F) float32``.
 
         As the class docstring says, with the ``F`` point features the network
-        reads (``model.config.point_features``) after the coordinates.
+        reads (``model.config.point_features``) after the coordinates. A point
+        cloud's own points are drawn from, with the features it carries
+        (:func:`cloud_surface`: ``normal`` alone, where it has normals; a
+        network that reads another feature refuses it in one line).
         """
-        mesh = as_mesh(mesh)  # once: a trimesh or Open3D mesh is converted here
-        points, features = mesh_surface(mesh, self.model.config.point_features, seed=self.seed)
+        if isinstance(mesh, PointCloud):
+            name = mesh.name
+            points, features = cloud_surface(mesh, self.model.config.point_features)
+        else:
+            mesh = as_mesh(mesh)  # once: a trimesh or Open3D mesh is converted here
+            name = mesh.name
+            points, features = mesh_surface(mesh, self.model.config.point_features,
+                                            seed=self.seed)
         return network_inputs(points, n_points=self.n_points, n_fps=self.n_fps,
-                              seed=self.seed, name=mesh.name, n_inputs=self.n_inputs,
+                              seed=self.seed, name=name, n_inputs=self.n_inputs,
                               features=features)
 
-    def __call__(self, mesh: MeshLike) -> NDArray[np.float64]:
+    def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Unit directions, one per measure, from the mesh centre towards the camera."""
         points = self.inputs(mesh)
         with torch_threads(self.threads):
@@ -567,7 +620,7 @@ def predict(
                     and Path(source.origin).suffix.lower() in POINT_SUFFIXES):
                 model = source.model()
                 if isinstance(model, PointCloud) and not _cloud_features(model, wanted):
-                    raise _features_refused(source, wanted)
+                    raise _features_refused(source.origin, wanted)
         for source in tqdm(sources, disable=not progress, desc="inputs", unit="model"):
             claim_name(seen, source.name)
             route = _route(networks, source.name,

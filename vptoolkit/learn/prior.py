@@ -29,6 +29,15 @@ dropped; the order is by mode rank, then frame, then measure (the
 network's head order).
 Directions point from the bounding-box centre towards the camera, in the
 mesh's own coordinates.
+
+A point cloud (:class:`~vptoolkit.point_cloud.PointCloud`) is answered by
+the network that reads what it carries: a bundled network that reads what a
+cloud does not (``"default"``, face areas) hands clouds to its stand-in of
+:data:`vptoolkit.learn.checkpoint.CLOUD_MODELS` (``"points"``, coordinates
+alone), the cloud's own points drawn as they are; any other checkpoint
+answers a cloud itself where the cloud carries its point features
+(``normal``, with normals) and refuses it in one line otherwise.
+:meth:`NetworkPrior.label` names the network that answers a model.
 """
 
 from __future__ import annotations
@@ -44,9 +53,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vptoolkit.errors import InputError
-from vptoolkit.io import require_surface
 from vptoolkit.io.objects import model_of
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
+from vptoolkit.learn.checkpoint import CLOUD_MODELS, DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_measure_names
 from vptoolkit.learn.frame import SIGN_AMBIGUITY, canonical_frame
 from vptoolkit.learn.model import torch_threads
@@ -92,6 +100,11 @@ class NetworkPrior:
     heads : tuple of str
         The network's measures that propose candidates, in head order
         (empty: the prior proposes nothing).
+    predictor : MeshPredictor
+        The network of meshes (``model_path``).
+    cloud_predictor : MeshPredictor
+        The network of point clouds: the bundled stand-in for ``"default"``
+        (:data:`vptoolkit.learn.checkpoint.CLOUD_MODELS`), else ``predictor``.
 
     Raises
     ------
@@ -125,15 +138,18 @@ class NetworkPrior:
                              "folder of one category's network inside it")
         searched = None if measures is None else check_measure_names(measures, text=True)
         self.predictor = MeshPredictor(model_path, seed=seed, threads=threads, n_inputs=1)
+        self.cloud_predictor = self.predictor
+        if is_bundled_model(model_path) and str(model_path) in CLOUD_MODELS:
+            self.cloud_predictor = MeshPredictor(CLOUD_MODELS[str(model_path)], seed=seed,
+                                                 threads=threads, n_inputs=1)
         own = self.predictor.measures
         self.heads = own if searched is None else tuple(name for name in own if name in searched)
-        self._columns = [own.index(name) for name in self.heads]
-        probe = np.zeros((self.predictor.n_points, self.predictor.model.config.input_channels),
-                         np.float32)  # a sphere, its point features 0
-        probe[:, :3] = fibonacci_sphere(self.predictor.n_points)
-        with torch_threads(threads):  # broken weights answer no direction at all: say so once
-            predict_directions(self.predictor.model, probe[None],
-                               checkpoint=self.predictor.checkpoint)
+        for predictor in dict.fromkeys((self.predictor, self.cloud_predictor)):
+            probe = np.zeros((predictor.n_points, predictor.model.config.input_channels),
+                             np.float32)  # a sphere, its point features 0
+            probe[:, :3] = fibonacci_sphere(predictor.n_points)
+            with torch_threads(threads):  # broken weights answer no direction: say so once
+                predict_directions(predictor.model, probe[None], checkpoint=predictor.checkpoint)
         self.min_angle_deg = float(min_angle_deg)
         self.modes = modes
         self.mode_angle_deg = float(mode_angle_deg)
@@ -160,16 +176,31 @@ class NetworkPrior:
             choices.append(axes * signs[:, None])
         return torch.stack(choices).to(points.dtype), centre
 
+    def network_of(self, mesh: MeshLike | PointCloud) -> MeshPredictor:
+        """The network that answers ``mesh``: :attr:`cloud_predictor` for a point cloud."""
+        return (self.cloud_predictor if isinstance(model_of(mesh), PointCloud)
+                else self.predictor)
+
+    def label(self, mesh: MeshLike | PointCloud) -> str:
+        """What proposes the candidates of ``mesh``, for outputs: ``"network default"`` for a
+        mesh, ``"network points"`` for a point cloud with the bundled ``default``."""
+        return f"network {self.network_of(mesh).checkpoint}"
+
     def __call__(self, mesh: MeshLike | PointCloud) -> NDArray[np.float64]:
         """Candidate unit directions ``(k, 3)``, most promising first; ``(0, 3)`` without heads.
 
-        A point cloud is refused in one line (the networks of this prior read a surface)."""
-        mesh = require_surface(model_of(mesh))
+        A point cloud is answered by :meth:`network_of` it (module docstring);
+        one whose checkpoint reads point features it does not carry is
+        refused in one line."""
+        mesh = model_of(mesh)
         if not self.heads:
             return np.zeros((0, 3))
-        model = self.predictor.model
-        points = torch.as_tensor(self.predictor.inputs(mesh)[0])
-        with torch_threads(self.predictor.threads), torch.inference_mode():
+        predictor = self.network_of(mesh)
+        model = predictor.model
+        columns = [predictor.measures.index(name) for name in self.heads
+                   if name in predictor.measures]
+        points = torch.as_tensor(predictor.inputs(mesh)[0])
+        with torch_threads(predictor.threads), torch.inference_mode():
             model.eval()
             if model.config.input_frame != "pca":
                 frames = torch.eye(3, dtype=points.dtype)[None]
@@ -178,14 +209,14 @@ class NetworkPrior:
                 frames, centre = self.frames(points[:, :3])
             outputs = model.forward_in_frames(points, frames, centre)
         # (F, M, 3), the searched measures' heads: rank 1
-        ranked = [outputs["directions"][:, self._columns].to(torch.float64).numpy()]
+        ranked = [outputs["directions"][:, columns].to(torch.float64).numpy()]
         if "maps" in outputs and self.modes > 1:
-            ranked += map_modes(outputs["maps"][:, self._columns], frames, self.modes,
+            ranked += map_modes(outputs["maps"][:, columns], frames, self.modes,
                                 self.mode_angle_deg)[1:]
         candidates = np.concatenate([rank.reshape(-1, 3) for rank in ranked])
         lengths = np.linalg.norm(candidates, axis=1, keepdims=True)
         if not (np.isfinite(lengths) & (lengths > 0.0)).all():
-            raise InputError(f"{self.predictor.checkpoint}: the network answers a zero or "
+            raise InputError(f"{predictor.checkpoint}: the network answers a zero or "
                              f"non-finite vector for {mesh.name}, not a direction; its weights "
                              "are broken")
         return distinct_directions(candidates / lengths, self.min_angle_deg)

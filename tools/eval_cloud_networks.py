@@ -1,0 +1,155 @@
+"""Which bundled network answers a bare point cloud best: coordinates alone, or the face-area
+network fed each point's local-spacing area.
+
+The bundled ``default`` network reads each point's face area
+(:func:`vptoolkit.point_features.face_area_feature`: ``clip(ln(A_f / A_mean) / 2,
+-3, 3)``), which a bare cloud does not carry; ``points`` reads coordinates
+alone. A cloud does carry the area each point stands for, from its local
+spacing (:func:`vptoolkit.point_areas.point_areas`, ``A_i = pi d_8^2 / 8``);
+this tool feeds the ``default`` network that area in place of the face area,
+normalised the same way (``clip(ln(A_i / mean_j A_j) / 2, -3, 3)``), without
+retraining, and scores both networks on the validation clouds of a point
+benchmark folder (``tools/make_point_benchmark_data.py``: ``manifest.json``,
+``labels/``, ``clouds/<name>_r<k>_{uniform,scan}.npz``) as
+``tools/bench_point_clouds.py`` does: each network answers the rotated cloud
+(the consensus of ``N_INPUTS`` inputs, :mod:`vptoolkit.learn.draws`), the
+answer is turned back by the cloud's rotation and scores the normalised
+quality of the nearest labelled view in % (:meth:`vptoolkit.data.ViewpointDataset.quality_of`),
+mean ± standard error over models, and the two networks are compared paired
+over models (:func:`vptoolkit.evaluate.protocol.paired_difference`).
+
+Usage::
+
+    python tools/eval_cloud_networks.py /work/bench-data/shapedb --rotations 1 \\
+        --results docs/results.md --section cloud_networks
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+from results_doc import (
+    add_results_option,
+    command_line,
+    comparison_table,
+    format_seconds,
+    machine,
+    markdown_table,
+    score_cells,
+    write_section,
+)
+
+from vptoolkit.data import open_dataset
+from vptoolkit.errors import VptoolkitError
+from vptoolkit.evaluate.protocol import ProtocolScores
+from vptoolkit.learn.consensus import consensus_directions
+from vptoolkit.learn.draws import N_INPUTS, network_inputs
+from vptoolkit.learn.model import load_model
+from vptoolkit.learn.predict import predict_directions
+from vptoolkit.point_areas import point_areas
+from vptoolkit.point_features import FACE_AREA_CLIP
+from vptoolkit.progress import progress_bar
+
+KINDS = ("uniform", "scan")
+COORDINATES = "points: coordinates alone"
+SPACING = "default: spacing area as face area"
+
+
+def spacing_feature(points: np.ndarray) -> np.ndarray:
+    """``clip(ln(A_i / mean_j A_j) / 2, -3, 3)`` of the spacing areas, ``(n, 1) float32``."""
+    areas = point_areas(points)
+    mean = float(areas.mean())
+    with np.errstate(divide="ignore"):
+        logs = np.log(areas / mean) / 2.0
+    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)[:, None]
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("source", type=Path, help="a point benchmark folder")
+    parser.add_argument("--models", type=int, help="the first N models (default: all)")
+    parser.add_argument("--rotations", type=int, default=1,
+                        help="the first rotations of each model (default: 1)")
+    parser.add_argument("--json", type=Path, help="write every model's scores here")
+    add_results_option(parser, "cloud_networks")
+    args = parser.parse_args(argv)
+    started = time.perf_counter()
+    try:
+        manifest = json.loads((args.source / "manifest.json").read_text(encoding="utf-8"))
+        full = open_dataset(args.source / manifest["labels"])
+        names = full.names[: args.models] if args.models else full.names
+        dataset = full.subset(names)
+        rotations = min(args.rotations, int(manifest["rotations"]))
+        networks = {COORDINATES: load_model("points"), SPACING: load_model("default")}
+        totals = {(kind, label): np.zeros((len(dataset), len(dataset.measures)))
+                  for kind in KINDS for label in networks}
+        with progress_bar(total=len(dataset) * rotations, description="clouds",
+                          unit="rotation") as bar:
+            for row, name in enumerate(dataset.names):
+                for k in range(rotations):
+                    for kind in KINDS:
+                        with np.load(args.source / "clouds" / f"{name}_r{k}_{kind}.npz",
+                                     allow_pickle=False) as arrays:
+                            points = np.asarray(arrays["points"], np.float64)
+                            rotation = np.asarray(arrays["rotation"], np.float64)
+                        for label, (model, config) in networks.items():
+                            features = spacing_feature(points) if label == SPACING else None
+                            inputs = network_inputs(points, n_points=config["input"]["n_points"],
+                                                    n_fps=config["input"]["n_fps"], seed=0,
+                                                    name=name, n_inputs=N_INPUTS,
+                                                    features=features)
+                            answer = consensus_directions(
+                                predict_directions(model, inputs)[None])[0]
+                            totals[kind, label][row] += 100.0 * np.diagonal(
+                                dataset.quality_of(row, answer @ rotation))
+                    bar.update(1)
+    except VptoolkitError as error:
+        print(f"eval_cloud_networks: error: {error}", file=sys.stderr)
+        return 2
+    scores = {key: ProtocolScores(tuple(dataset.names), tuple(dataset.categories),
+                                  total / rotations, rotations, dataset.measures)
+              for key, total in totals.items()}
+    lines = [
+        f"## Networks for bare point clouds, `{args.source.name}/`",
+        "",
+        f"Command: `{command_line(__file__, argv)}`; {datetime.now(timezone.utc):%Y-%m-%d}, "
+        f"{machine()}; wall time {format_seconds(time.perf_counter() - started)}.",
+        "",
+        f"{len(dataset)} models, {rotations} fixed rotation{'' if rotations == 1 else 's'} "
+        f"each; labels: cleaned mesh, {len(dataset.views)} views. Each network answers the "
+        f"rotated cloud (the consensus of {N_INPUTS} inputs), turned back, and scores the "
+        "normalised quality of the nearest labelled view, in %, mean ± standard error over "
+        "models. `points` reads coordinates alone; `default` (trained on each point's face "
+        "area) is fed each point's local-spacing area (`point_areas`, k = 8) normalised as "
+        "the face area is, `clip(ln(A_i / mean A) / 2, -3, 3)`, without retraining.",
+        "",
+    ]
+    for kind in KINDS:
+        rows = {label: scores[kind, label] for label in networks}
+        lines += [f"### {kind} clouds", ""]
+        lines += markdown_table(["network", "VE", "VR", "VKL", "VMI"],
+                                ([label, *score_cells(s)] for label, s in rows.items()))
+        lines += ["", "Paired over models, difference ± standard error in points (* beyond "
+                  "two standard errors):", ""]
+        lines += comparison_table(rows, SPACING)
+        lines += [""]
+    text = "\n".join(lines).rstrip()
+    print(text)
+    if args.results is not None:
+        write_section(args.results, args.section, text)
+    if args.json is not None:
+        args.json.write_text(json.dumps(
+            {f"{kind} / {label}": {"names": list(dataset.names),
+                                   "scores": scores[kind, label].scores.tolist()}
+             for kind, label in scores}, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
