@@ -315,8 +315,11 @@ def _named_by_path(sources: list[ModelSource], files: list[int]) -> list[ModelSo
     while True:
         tails = [model_name("/".join(parts[-k:])) for parts, k in zip(paths, depth)]
         counts = Counter(tails)
-        longer = [i for i, tail in enumerate(tails)
-                  if counts[tail] > 1 and depth[i] < len(paths[i]) - 1]
+        folders: dict[str, set[tuple[str, ...]]] = {}
+        for parts, tail in zip(paths, tails):
+            folders.setdefault(tail, set()).add(parts[:-1])
+        longer = [i for i, tail in enumerate(tails)  # equal stems in one folder stay equal
+                  if counts[tail] > 1 and len(folders[tail]) > 1 and depth[i] < len(paths[i]) - 1]
         if not longer:
             break
         for i in longer:

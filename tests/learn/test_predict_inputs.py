@@ -173,3 +173,14 @@ def test_a_bad_number_of_inputs_is_refused(n_inputs):
     for call in calls:
         with pytest.raises(InputError, match="^n_inputs: expected an integer from 1 to 64"):
             call()
+
+
+def test_the_bundled_network_hands_a_bare_cloud_to_the_network_of_coordinates(tmp_path):
+    cloud = tmp_path / "mug_points.npy"
+    np.save(cloud, surface("mug.obj"))
+    mixed = predict("default", [sample_path("teapot.stl"), cloud], device="cpu", n_inputs=2)
+    assert mixed.names == ("teapot", "mug_points")
+    alone = predict("points", cloud, device="cpu", n_inputs=2)
+    np.testing.assert_array_equal(mixed.directions[1], alone.directions[0])
+    mesh = predict("default", sample_path("teapot.stl"), device="cpu", n_inputs=2)
+    np.testing.assert_array_equal(mixed.directions[0], mesh.directions[0])

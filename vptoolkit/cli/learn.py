@@ -38,6 +38,8 @@ from vptoolkit.learn.schedule import PAPER_BATCH_SIZE, PAPER_EPOCHS, PAPER_LR
 
 if TYPE_CHECKING:
     from vptoolkit.data import ViewpointDataset
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.point_cloud import PointCloud
     from vptoolkit.predictions import Predictions
 
 
@@ -215,8 +217,9 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     model centre towards the camera, one per measure the network learnt.
     Without --model the network bundled with vptoolkit predicts (trained on
     real meshes; see docs/results.md); its points carry the area of their
-    mesh faces, so it answers meshes and datasets, and --model points, the
-    bundled network of coordinates alone, answers point files. A network
+    mesh faces, so it answers meshes and datasets, and point clouds, which
+    have no faces, go to the bundled network of coordinates alone (--model
+    points; --json names it as the predictor). A network
     answers --inputs draws of each model's points; the prediction is the
     answer most of the others agree with.
     --model unoccluded answers in closed form from normals with occlusion
@@ -292,13 +295,24 @@ def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predict
         by_name = {source.name: source for source in models}  # names are unique (claim_name)
         for name, directions in zip(predictions.names, predictions.directions, strict=True):
             source = by_name[name]
-            poses = camera.look_at(source.model(), directions, resolution=RESOLUTION)
+            model = source.model()
+            poses = camera.look_at(model, directions, resolution=RESOLUTION)
             records.append({"file": source.origin if source.kind == "file" else None,
                             "dataset": None if source.kind == "file" else str(dataset_path),
-                            "name": name, "predictor": predictor,
+                            "name": name, "predictor": _answered_by(predictor, model),
                             **answer_record(predictions.measures, directions, poses)})
     return records
 
 
 COMMANDS = (train, predict_command, evaluate)
 """The commands this module adds to ``vptool``."""
+
+
+def _answered_by(predictor: str, model: Mesh | PointCloud) -> str:
+    """The ``--model`` that answered ``model``: a bundled network that reads face areas
+    hands a point cloud to its network of coordinates
+    (:data:`~vptoolkit.learn.checkpoint.CLOUD_MODELS`)."""
+    from vptoolkit.learn.checkpoint import CLOUD_MODELS
+    from vptoolkit.point_cloud import PointCloud
+
+    return CLOUD_MODELS.get(predictor, predictor) if isinstance(model, PointCloud) else predictor

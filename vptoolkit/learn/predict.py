@@ -69,7 +69,7 @@ from vptoolkit.checks import short_repr
 from vptoolkit.conventions import Split
 from vptoolkit.errors import ArgumentError, InputError
 from vptoolkit.files import is_inside_folder
-from vptoolkit.learn.checkpoint import DEFAULT_MODEL, is_bundled_model
+from vptoolkit.learn.checkpoint import CLOUD_MODELS, DEFAULT_MODEL, is_bundled_model
 from vptoolkit.learn.config import check_input_sizes
 from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.draws import (
@@ -78,7 +78,7 @@ from vptoolkit.learn.draws import (
     network_inputs,
 )
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
-from vptoolkit.mesh import MeshLike, as_mesh
+from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.optional import require
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.point_features import FEATURE_WIDTHS, turn_features
@@ -420,15 +420,17 @@ def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
     return np.array(cloud.points, dtype=np.float64), cloud.normals.astype(np.float32)
 
 
-def _source_surface(source: ModelSource, point_features: Sequence[str], *,
-                    seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
+def _source_surface(source: ModelSource, point_features: Sequence[str], *, seed: int,
+                    model: Mesh | PointCloud | None = None,
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
     """An input model's surface points and their ``point_features`` (None for no features;
     a point cloud carries ``normal`` alone, where it has normals; any other is refused,
-    :func:`_features_refused`)."""
+    :func:`_features_refused`); ``model``: a file's model, read already."""
     if not point_features:
-        return source.points(seed=seed), None
+        return ((np.array(model.points, dtype=np.float64) if isinstance(model, PointCloud)
+                 else source.points(seed=seed)), None)
     if source.kind == "file":
-        model = source.model()
+        model = source.model() if model is None else model
         if isinstance(model, PointCloud):
             return cloud_surface(model, point_features, where=source.origin)
         return mesh_surface(model, point_features, seed=seed)
@@ -613,10 +615,12 @@ def predict(
         prepared.clear()
         routes.clear()
 
+    cloud_network = (CLOUD_MODELS.get(str(model_path))
+                     if is_bundled_model(model_path) and None in networks else None)
     with open_inputs(inputs, split=split) as sources:
         wanted = _features_read(networks)
         for source in sources:  # refused before any work: a points-only file for features
-            if (wanted and source.kind == "file"
+            if (wanted and cloud_network is None and source.kind == "file"
                     and Path(source.origin).suffix.lower() in POINT_SUFFIXES):
                 model = source.model()
                 if isinstance(model, PointCloud) and not _cloud_features(model, wanted):
@@ -625,9 +629,16 @@ def predict(
             claim_name(seen, source.name)
             route = _route(networks, source.name,
                            source.category if source.category is not None else category)
+            read = (source.model() if cloud_network is not None and source.kind == "file"
+                    else None)
+            if (cloud_network is not None and isinstance(read, PointCloud)
+                    and not _cloud_features(read, wanted)):
+                route = cloud_network  # the bundled network of what the cloud carries
+                if route not in networks:
+                    networks[route] = load_model(route)
             size, fps = _input_sizes(networks[route][1], n_points, n_fps)
             points, features = _source_surface(source, networks[route][0].config.point_features,
-                                               seed=seed)
+                                               seed=seed, model=read)
             names.append(source.name)
             routes.append(route)
             prepared.append(network_inputs(points, n_points=size, n_fps=fps, seed=seed,
