@@ -291,8 +291,10 @@ def test_predict_rejects_bad_inputs(trained, tmp_path):
     np.save(tmp_path / "a.npy", np.random.default_rng(0).normal(size=(500, 3)))
     (tmp_path / "b").mkdir()
     np.save(tmp_path / "b" / "a.npy", np.random.default_rng(1).normal(size=(500, 3)))
+    assert predict(plain, [tmp_path / "a.npy", tmp_path / "b" / "a.npy"]).names == ("a", "b__a")
+    np.savetxt(tmp_path / "a.xyz", np.random.default_rng(2).normal(size=(500, 3)))
     with pytest.raises(InputError, match="two models are named 'a'"):
-        predict(plain, [tmp_path / "a.npy", tmp_path / "b" / "a.npy"])
+        predict(plain, [tmp_path / "a.npy", tmp_path / "a.xyz"])
     with pytest.raises(InputError, match=r"\.npz"):
         Predictions(("a",), np.zeros((1, 4, 3))).save_npz(tmp_path / "out.npy")
 
