@@ -19,10 +19,10 @@ anything else is an :class:`~vptoolkit.errors.InputError`. Where the work
 needs a surface (``requires="surface"``), a point cloud is refused with the
 one message of :func:`vptoolkit.io.require_surface`. A model is named by its
 name in the dataset, or a file by its stem; files of one stem are named by
-the shortest tails of their paths that tell them apart, joined as ``vptool
-build-dataset`` joins a path (:func:`vptoolkit.conventions.model_name`):
-``a/teapot.stl`` beside ``b/teapot.obj`` are ``a__teapot`` and
-``b__teapot``. Names must be unique over all inputs, and :func:`claim_name` is
+their paths under the folder they share, as ``vptool build-dataset`` names
+a path (:func:`vptoolkit.conventions.model_name`): ``a/teapot.stl`` beside
+``b/teapot.obj`` are ``a__teapot`` and ``b__teapot``, ``x.npy`` beside
+``b/x.npy`` are ``x`` and ``b__x``. Names must be unique over all inputs, and :func:`claim_name` is
 the one check (and message) for that.
 Nothing is read until a :class:`ModelSource` is asked for its model, mesh,
 points or normals, so a caller can record a bad model and carry on.
@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -307,25 +306,18 @@ def open_inputs(inputs: (str | os.PathLike[str] | ViewpointDataset
 
 
 def _named_by_path(sources: list[ModelSource], files: list[int]) -> list[ModelSource]:
-    """``sources`` with each file at rows ``files`` named by the shortest tail of its path
-    that no other file there shares (:func:`~vptoolkit.conventions.model_name` of the tail):
-    its stem where that is unique."""
-    paths = [Path(os.path.abspath(sources[row].origin)).parts for row in files]
-    depth = [1] * len(paths)
-    while True:
-        tails = [model_name("/".join(parts[-k:])) for parts, k in zip(paths, depth)]
-        counts = Counter(tails)
-        folders: dict[str, set[tuple[str, ...]]] = {}
-        for parts, tail in zip(paths, tails):
-            folders.setdefault(tail, set()).add(parts[:-1])
-        longer = [i for i, tail in enumerate(tails)  # equal stems in one folder stay equal
-                  if counts[tail] > 1 and len(folders[tail]) > 1 and depth[i] < len(paths[i]) - 1]
-        if not longer:
-            break
-        for i in longer:
-            depth[i] += 1
+    """``sources`` with the files at rows ``files`` that share a stem named by their paths
+    under the folder those files share (:func:`~vptoolkit.conventions.model_name`)."""
+    paths = [Path(os.path.abspath(sources[row].origin)) for row in files]
+    by_stem: dict[str, list[int]] = {}
+    for i, path in enumerate(paths):
+        by_stem.setdefault(path.stem, []).append(i)
     named = list(sources)
-    for row, tail in zip(files, tails):
-        if tail != sources[row].name:
-            named[row] = replace(sources[row], name=tail)
+    for group in by_stem.values():
+        if len(group) < 2:
+            continue
+        common = Path(os.path.commonpath([paths[i].parent for i in group]))
+        for i in group:
+            named[files[i]] = replace(sources[files[i]],
+                                      name=model_name(paths[i].relative_to(common).as_posix()))
     return named

@@ -168,7 +168,7 @@ def test_a_point_cloud_is_checked_once_like_a_mesh():
         cloud.points[0, 0] = 2.0
 
 
-def test_files_of_one_stem_are_named_by_the_tails_of_their_paths_that_differ(tmp_path):
+def test_files_of_one_stem_are_named_by_their_paths_under_the_folder_they_share(tmp_path):
     for folder, sample, suffix in (("a", "teapot", ".stl"), ("b", "mug", ".obj")):
         (tmp_path / folder).mkdir()
         shutil.copy(sample_path(sample), tmp_path / folder / f"teapot{suffix}")
