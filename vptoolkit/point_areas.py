@@ -80,8 +80,13 @@ def point_radii(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64
     if not np.isfinite(cloud).all():
         raise InputError("points: coordinates must be finite")
     spatial = require("scipy.spatial", extra="measures")
-    distances, _ = spatial.cKDTree(cloud).query(cloud, k=k + 1)
-    return np.asarray(distances[:, k], dtype=np.float64) / math.sqrt(k)
+    from vptoolkit._numba import numba
+
+    # only the k-th neighbour's distance is kept ((n, 1), not (n, k + 1) distances and
+    # indices), the queries spread over numba's threads: the same distances, exactly
+    distances, _ = spatial.cKDTree(cloud).query(cloud, k=[k + 1],
+                                                workers=numba.get_num_threads())
+    return np.asarray(distances[:, 0], dtype=np.float64) / math.sqrt(k)
 
 
 def point_areas(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64]:
