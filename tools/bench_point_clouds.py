@@ -85,6 +85,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -136,6 +137,8 @@ PIVOT_RADII = (1.0, 2.0, 4.0)  # ball-pivoting radii, in mean nearest-neighbour 
 PLAIN = (16, 32)  # views and px of the mesh's plain search, the default cloud search's target
 DEFAULT_ROW = (f"`vptool best-view CLOUD` (SearchSettings(): {BUDGET} views @ "
                f"{SEARCH_RESOLUTION})")
+README_SECTION = "readme_point_clouds"  # the section of --readme that readme_table fills
+FEW_VIEWS = 8  # the budget of the README's many-clouds row
 SCORES_FILE = "scores.jsonl"
 SETTINGS_FILE = "settings.json"
 
@@ -170,6 +173,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         help=f"inputs of the network per cloud, their consensus answers "
                              f"(default: {N_INPUTS}, as vptool predict)")
     add_results_option(parser, "point_clouds")
+    parser.add_argument("--readme", type=Path,
+                        help="also write the short table of which answer to use for a cloud "
+                             f"into the {README_SECTION} section of this file (README.md)")
     parser.add_argument("--json", type=Path, help="write every row's numbers here")
     parser.add_argument("--quick", action="store_true",
                         help="a mesh folder's labels at 100 views and 64 px, 1 rotation, "
@@ -192,8 +198,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         parser.error(f"--scores: {args.scores} is not a folder")
     if args.report_only and args.scores is None:
         parser.error("--report-only: give --scores, the folder to report")
-    if args.results is not None and args.results.exists() and not args.results.is_file():
-        parser.error(f"--results: {args.results} is not a file")
+    for option, path in (("--results", args.results), ("--readme", args.readme)):
+        if path is not None and path.exists() and not path.is_file():
+            parser.error(f"{option}: {path} is not a file")
     if args.quick:
         args.budget_list, args.rotations, args.resolution, args.network_inputs = [8, 16], 1, 64, 2
     return args
@@ -407,14 +414,16 @@ class ScoreStore:
 
     Entries live in memory and, with a folder, are appended to
     ``folder/scores.jsonl`` one JSON line each as they are computed:
-    ``{"model", "rotation", "kind", "row", "scores", "seconds"}``, ``scores``
-    null where the answer made none (a failed reconstruction). The folder's
+    ``{"model", "rotation", "kind", "row", "scores", "seconds", "load"}``,
+    ``scores`` null where the answer made none (a failed reconstruction),
+    ``load`` the machine's 1-minute load average when it was done. The folder's
     ``settings.json`` records what the rows' labels do not name (the source,
     the network's inputs, quick), and a folder of other settings is refused.
     """
 
     def __init__(self, folder: Path | None, settings: dict[str, Any]) -> None:
         self.entries: dict[tuple[str, int, str, str], tuple[np.ndarray, float]] = {}
+        self.loads: dict[tuple[str, int, str, str], float] = {}
         self.path = None if folder is None else folder / SCORES_FILE
         if folder is None:
             return
@@ -436,6 +445,8 @@ class ScoreStore:
                     values = [np.nan if v is None else float(v)
                               for v in (entry["scores"] or [None] * 4)]
                     self.entries[key] = (np.asarray(values), float(entry["seconds"]))
+                    if entry.get("load") is not None:
+                        self.loads[key] = float(entry["load"])
                 except (ValueError, KeyError, TypeError):
                     continue  # a line cut short when a run was stopped
             if text and not text.endswith("\n"):
@@ -447,12 +458,14 @@ class ScoreStore:
 
     def add(self, name: str, rotation: int, kind: str, row: str, scores: np.ndarray,
             seconds: float) -> None:
-        self.entries[(name, rotation, kind, row)] = (scores, seconds)
+        key = (name, rotation, kind, row)
+        self.entries[key] = (scores, seconds)
+        self.loads[key] = load = os.getloadavg()[0]
         if self.path is not None:
             cells = [None if not np.isfinite(v) else float(v) for v in scores]
             line = json.dumps({"model": name, "rotation": rotation, "kind": kind, "row": row,
                                "scores": None if all(c is None for c in cells) else cells,
-                               "seconds": seconds})
+                               "seconds": seconds, "load": round(load, 2)})
             with self.path.open("a", encoding="utf-8") as stream:
                 stream.write(line + "\n")
 
@@ -512,6 +525,7 @@ class Covered:
     scores: dict[str, dict[str, ProtocolScores]]  # kind (or MESH_KIND) -> row -> scores
     ms: dict[str, dict[str, float]]  # kind -> row -> median ms per call
     failures: dict[str, dict[str, int]]  # kind -> row -> calls that gave no answer
+    loads: list[float]  # the 1-minute load averages recorded with the covered scores
 
 
 def covered(dataset: ViewpointDataset, keys: list[CaseKey], store: ScoreStore,
@@ -536,6 +550,8 @@ def covered(dataset: ViewpointDataset, keys: list[CaseKey], store: ScoreStore,
     scores: dict[str, dict[str, ProtocolScores]] = {}
     ms: dict[str, dict[str, float]] = {}
     failures: dict[str, dict[str, int]] = {}
+    loads = [store.loads[key] for key in store.loads
+             if key[0] in complete and key[1] in complete[key[0]]]
     for kind, row_labels in rows.items():
         scores[kind], ms[kind], failures[kind] = {}, {}, {}
         for label in row_labels:
@@ -555,7 +571,7 @@ def covered(dataset: ViewpointDataset, keys: list[CaseKey], store: ScoreStore,
                                                  fewest, dataset.measures)
             ms[kind][label] = 1000.0 * float(np.median(seconds))
             failures[kind][label] = failed
-    return Covered(subset, complete, scores, ms, failures)
+    return Covered(subset, complete, scores, ms, failures, loads)
 
 
 def kind_section(kind: str, rows: dict[str, tuple[str, ProtocolScores, float | None]],
@@ -587,6 +603,64 @@ def coverage_line(result: Covered, n_models: int, rotations: int) -> str:
               f"({counts.count(max(counts))} models with {max(counts)})")
     return (f"{n_cases} of {n_models * rotations} cases complete ({n_models} models x "
             f"{rotations} fixed rotations): {len(counts)} models, {spread}")
+
+
+def readme_table(numbers: dict[str, dict[str, Any]], coverage: str, source: str) -> str:
+    """The README's table of which answer to use for a point cloud, from one run's rows.
+
+    Parameters
+    ----------
+    numbers : dict
+        Cloud kind -> row label -> ``{"mean": [VE, VR, VKL, VMI] in %, "ms": median ms or
+        None}``, as ``--json`` writes them. Rows the run lacks (the 8-view search
+        at another resolution than the command's) are left out of the table.
+    coverage : str
+        Which models and rotations the numbers cover, for the text.
+    source : str
+        The run: its command, date and machine, quoted under the table.
+    """
+    uniform, scan = numbers["uniform"], numbers["scan"]
+    wanted = [
+        ("points, with or without normals", f"`vptool best-view cloud.ply` ({BUDGET} views)",
+         DEFAULT_ROW),
+        ("a million clouds", f"`vptool best-view cloud.ply --views {FEW_VIEWS}`",
+         f"anytime point search {FEW_VIEWS} @ {SEARCH_RESOLUTION}"),
+        ("points with normals, without drawing",
+         "`vptool predict -m unoccluded cloud.npy` (x y z nx ny nz)",
+         "unoccluded estimate, normals"),
+        ("points without normals, without drawing",
+         "`vptool predict -m points cloud.npy`: the network of coordinates alone",
+         "network of coordinates alone"),
+        ("time for a reconstruction", f"Open3D's Poisson (depth {POISSON_DEPTH}), then "
+         "`vptool best-view mesh.ply`", f"Poisson depth {POISSON_DEPTH} + mesh search "
+         f"{BUDGET} @ {SEARCH_RESOLUTION}"),
+        ("for comparison", "Open3D's hidden point removal from 100 directions, the one "
+         "that sees most", "Open3D hidden point removal, 100 views"),
+        ("the mesh itself", f"`vptool best-view mesh.ply` ({BUDGET} views)",
+         f"mesh search {BUDGET} @ {SEARCH_RESOLUTION} (the mesh itself)"),
+    ]
+
+    def mean(row: dict[str, Any]) -> str:
+        return " / ".join(f"{value:.1f}" for value in row["mean"])
+
+    table = markdown_table(
+        ["you have", "use", "uniform cloud", "scan", "ms (uniform / scan)"],
+        ([have, use, mean(uniform[label]), mean(scan[label]),
+          f"{uniform[label]['ms']:.0f} / {scan[label]['ms']:.0f}"]
+         for have, use, label in wanted if label in uniform), align="lllll")
+    return "\n".join([
+        f"For a point cloud, {coverage}: each answer sees the rotated uniform cloud "
+        "(area-uniform points with normals) and a virtual scan (partial, noisy, uneven), "
+        "scored against the labels of the model's cleaned mesh as above (VE / VR / VKL / "
+        "VMI), and its median time per cloud, the cloud in memory ([the whole "
+        "tables](docs/results.md#point-clouds-which-answer)):",
+        "",
+        *table,
+        "",
+        f"A random view scores {mean(uniform['random view (expectation)'])}.",
+        "",
+        f"From {source}.",
+    ])
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -653,6 +727,11 @@ def main(argv: list[str] | None = None) -> int:
         "reference; they are the same in both tables.",
         "",
     ]
+    if result.loads:
+        low, middle, high = np.percentile(result.loads, [0, 50, 100])
+        lines += [f"The machine's 1-minute load average while the scores were computed: "
+                        f"median {middle:.1f}, {low:.1f} to {high:.1f}; the times compare rows "
+                        "of this run only.", ""]
     random_scores = random_view_scores(result.dataset)
     numbers: dict[str, dict[str, Any]] = {}
     for kind in KINDS:
@@ -670,6 +749,12 @@ def main(argv: list[str] | None = None) -> int:
     print(text)
     if args.results is not None:
         write_section(args.results, args.section, text)
+    if args.readme is not None:
+        coverage = (f"{sum(len(ks) for ks in result.rotations.values())} (model, rotation) "
+                    f"cases of {len(result.rotations)} models of {where}")
+        write_section(args.readme, README_SECTION, readme_table(
+            numbers, coverage, f"`{command_line(__file__, argv)}`, "
+                               f"{datetime.now(timezone.utc):%Y-%m-%d}, {machine()}"))
     if args.json is not None:
         args.json.write_text(json.dumps(numbers, indent=2))
     return 0
