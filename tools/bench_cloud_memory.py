@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
             peak, wall, search = measure(path)
             lines.append(f"| {count:,} | {path.stat().st_size / 2**20:.1f} | {peak:.0f} | "
                          f"{wall:.1f} | {search:.1f} |")
-            print(lines[-1], flush=True)
+            print(lines[-1], file=sys.stderr, flush=True)  # as it goes; the table at the end
             if args.work is None:
                 path.unlink()
     text = "\n".join(lines)
