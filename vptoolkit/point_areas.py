@@ -82,11 +82,15 @@ def point_radii(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64
     spatial = require("scipy.spatial", extra="measures")
     from vptoolkit._numba import numba
 
-    # only the k-th neighbour's distance is kept ((n, 1), not (n, k + 1) distances and
-    # indices), the queries spread over numba's threads: the same distances, exactly
-    distances, _ = spatial.cKDTree(cloud).query(cloud, k=[k + 1],
-                                                workers=numba.get_num_threads())
-    return np.asarray(distances[:, 0], dtype=np.float64) / math.sqrt(k)
+    # The points are queried in the tree's leaf order, so that consecutive queries walk
+    # the same nodes, over numba's threads, and only the k-th neighbour's distance is
+    # kept ((n, 1), not (n, k + 1) distances and indices): the same distances, exactly.
+    tree = spatial.cKDTree(cloud)
+    leaf_order = tree.indices
+    distances = np.empty(len(cloud), dtype=np.float64)
+    distances[leaf_order] = tree.query(cloud[leaf_order], k=[k + 1],
+                                       workers=numba.get_num_threads())[0][:, 0]
+    return distances / math.sqrt(k)
 
 
 def point_areas(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64]:
