@@ -326,9 +326,9 @@ def reconstruction(points: np.ndarray, normals: np.ndarray, name: str, method: s
     if method == "poisson":
         made, densities = o3d.geometry.TriangleMesh.create_from_point_cloud_poisson(
             cloud, depth=POISSON_DEPTH)
-        densities = np.asarray(densities)
-        if len(densities):
-            made.remove_vertices_by_mask(densities < np.quantile(densities, POISSON_CROP))
+        density = np.asarray(densities)
+        if len(density):
+            made.remove_vertices_by_mask(density < np.quantile(density, POISSON_CROP))
     else:
         spacing = float(np.mean(np.asarray(cloud.compute_nearest_neighbor_distance())))
         made = o3d.geometry.TriangleMesh.create_from_point_cloud_ball_pivoting(
@@ -424,9 +424,10 @@ class ScoreStore:
     def __init__(self, folder: Path | None, settings: dict[str, Any]) -> None:
         self.entries: dict[tuple[str, int, str, str], tuple[np.ndarray, float]] = {}
         self.loads: dict[tuple[str, int, str, str], float] = {}
-        self.path = None if folder is None else folder / SCORES_FILE
+        self.path: Path | None = None
         if folder is None:
             return
+        self.path = path = folder / SCORES_FILE
         folder.mkdir(parents=True, exist_ok=True)
         recorded = folder / SETTINGS_FILE
         if recorded.is_file():
@@ -436,8 +437,8 @@ class ScoreStore:
                                  f"{settings}); give another --scores folder")
         else:
             recorded.write_text(json.dumps(settings, indent=2) + "\n", encoding="utf-8")
-        if self.path.is_file():
-            text = self.path.read_text(encoding="utf-8")
+        if path.is_file():
+            text = path.read_text(encoding="utf-8")
             for line in text.splitlines():
                 try:
                     entry = json.loads(line)
@@ -450,7 +451,7 @@ class ScoreStore:
                 except (ValueError, KeyError, TypeError):
                     continue  # a line cut short when a run was stopped
             if text and not text.endswith("\n"):
-                with self.path.open("a", encoding="utf-8") as stream:
+                with path.open("a", encoding="utf-8") as stream:
                     stream.write("\n")
 
     def has(self, name: str, rotation: int, kind: str, row: str) -> bool:
