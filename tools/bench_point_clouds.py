@@ -622,7 +622,7 @@ def readme_table(numbers: dict[str, dict[str, Any]], coverage: str, source: str)
     """
     uniform, scan = numbers["uniform"], numbers["scan"]
     wanted = [
-        ("points, with or without normals", f"`vptool best-view cloud.ply` ({BUDGET} views)",
+        ("one cloud, or a few", f"`vptool best-view cloud.ply` ({BUDGET} views)",
          DEFAULT_ROW),
         ("a million clouds", f"`vptool best-view cloud.ply --views {FEW_VIEWS}`",
          f"anytime point search {FEW_VIEWS} @ {SEARCH_RESOLUTION}"),
