@@ -62,10 +62,18 @@ def test_quick_run_scores_every_answer_for_both_cloud_kinds_and_resumes(
     mesh_rows = 2 + 1  # the plain search and the mesh searches at budgets 8 and 16
     assert len(stored) == 2 * (2 * cloud_rows + mesh_rows)
     # a rerun computes nothing and reports the same numbers from the kept scores
+    readme = tmp_path / "README.md"
     again = run_tool(TOOL, *common, "--report-only", "--json", str(tmp_path / "again.json"),
-                     timeout=600)
+                     "--readme", str(readme), timeout=600)
     assert again.returncode == 0, again.stderr[-2000:]
     assert json.loads((tmp_path / "again.json").read_text()) == rows
+    # the README's short table: the rows this run has, the command's default search first
+    table = readme.read_text()
+    assert "<!-- readme_point_clouds:start -->" in table
+    default_cells = " / ".join(f"{value:.1f}" for value in rows["uniform"][default]["mean"])
+    assert f"| one cloud, or a few | `vptool best-view cloud.ply` (64 views) | {default_cells} |" \
+        in table
+    assert "`vptool predict -m points cloud.npy`" in table
     assert (scores / "scores.jsonl").read_text().count("\n") == len(stored)
     # scores kept under other settings are refused, in one line
     settings = json.loads((scores / "settings.json").read_text())
