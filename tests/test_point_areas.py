@@ -39,6 +39,18 @@ def test_radius_is_the_kth_neighbour_distance_over_root_k():
     assert point_areas(points, k=4)[10] == pytest.approx(np.pi)
 
 
+def test_every_radius_is_its_own_points_kth_neighbour_distance_on_a_scan():
+    # an uneven, partial cloud, checked point by point against all pairwise distances:
+    # the queries' order and threads change nothing
+    from vptoolkit.scan import virtual_scan
+
+    points, _ = virtual_scan(load_mesh(sample_path("teapot.stl")), 3, resolution=48, seed=2)
+    pairwise = np.linalg.norm(points[:, None] - points[None], axis=2)
+    kth = np.sort(pairwise, axis=1)[:, 8]  # the point itself first, at 0
+    assert 500 < len(points) < 3000
+    np.testing.assert_allclose(point_radii(points, k=8), kth / np.sqrt(8), rtol=1e-12)
+
+
 @pytest.mark.parametrize(("points", "message"), [
     (np.zeros((10, 2)), r"points: expected an \(n, 3\) array"),
     (np.zeros((8, 3)), "need more than k = 8"),

@@ -80,8 +80,17 @@ def point_radii(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64
     if not np.isfinite(cloud).all():
         raise InputError("points: coordinates must be finite")
     spatial = require("scipy.spatial", extra="measures")
-    distances, _ = spatial.cKDTree(cloud).query(cloud, k=k + 1)
-    return np.asarray(distances[:, k], dtype=np.float64) / math.sqrt(k)
+    from vptoolkit._numba import numba
+
+    # The points are queried in the tree's leaf order, so that consecutive queries walk
+    # the same nodes, over numba's threads, and only the k-th neighbour's distance is
+    # kept ((n, 1), not (n, k + 1) distances and indices): the same distances, exactly.
+    tree = spatial.cKDTree(cloud)
+    leaf_order = tree.indices
+    distances = np.empty(len(cloud), dtype=np.float64)
+    distances[leaf_order] = tree.query(cloud[leaf_order], k=[k + 1],
+                                       workers=numba.get_num_threads())[0][:, 0]
+    return distances / math.sqrt(k)
 
 
 def point_areas(points: ArrayLike, *, k: int = NEIGHBOURS) -> NDArray[np.float64]:

@@ -5,8 +5,9 @@
 the projected vertices, and where the views' image statistics are asked
 for, the silhouette mask), allocated once per call and reused across batches
 of views, within :data:`FRAME_BUDGET_BYTES`. :func:`locality_order`
-reorders faces along a Morton curve so that consecutive faces touch
-neighbouring pixels and vertices. Plain numpy: no compiled code lives here.
+reorders faces along a Morton curve (:func:`morton_order` of their centroids)
+so that consecutive faces touch neighbouring pixels and vertices. Plain numpy:
+no compiled code lives here.
 """
 
 from __future__ import annotations
@@ -116,6 +117,23 @@ def threads_within_budget(*, resolution: int, n_faces: int, n_vertices: int,
     return int(max(1, min(numba.get_num_threads(), FRAME_BUDGET_BYTES // max(per_thread, 1))))
 
 
+def morton_order(centres: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Indices that sort ``(n, 3)`` positions along a Morton (Z-order) curve.
+
+    Each coordinate is scaled from the positions' bounding box to an integer
+    grid of 1024 cells per axis and the bits interleaved (x lowest); equal
+    codes keep their input order.
+    """
+    low = centres.min(axis=0)
+    extent = np.maximum(centres.max(axis=0) - low, 1e-300)
+    grid = ((centres - low) / extent * 1023.0).astype(np.uint64)
+    code = np.zeros(len(centres), dtype=np.uint64)
+    for bit in range(10):
+        for axis in range(3):
+            code |= ((grid[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
+    return np.argsort(code, kind="stable")
+
+
 def locality_order(
     vertices: NDArray[np.float64], faces: NDArray[np.int64]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int32]]:
@@ -134,15 +152,7 @@ def locality_order(
     local_faces : (n_faces, 3) int32
         The reordered faces, indexing the kept vertices.
     """
-    centroids = vertices[faces].mean(axis=1)
-    low = centroids.min(axis=0)
-    extent = np.maximum(centroids.max(axis=0) - low, 1e-300)
-    grid = ((centroids - low) / extent * 1023.0).astype(np.uint64)
-    code = np.zeros(len(faces), dtype=np.uint64)
-    for bit in range(10):
-        for axis in range(3):
-            code |= ((grid[:, axis] >> np.uint64(bit)) & np.uint64(1)) << np.uint64(3 * bit + axis)
-    face_order = np.argsort(code, kind="stable")
+    face_order = morton_order(vertices[faces].mean(axis=1))
     flat = faces[face_order].ravel()
     first_use = np.full(len(vertices), len(flat))
     np.minimum.at(first_use, flat, np.arange(len(flat)))

@@ -98,7 +98,7 @@ class PointScene:
     def __init__(self, points: ArrayLike, normals: ArrayLike | None = None,
                  camera: Camera | None = None, *, k: int = NEIGHBOURS,
                  splat_scale: float = SPLAT_SCALE, thickness: float = THICKNESS) -> None:
-        from vptoolkit.visibility._workspace import locality_order
+        from vptoolkit.visibility._workspace import morton_order
 
         own_radii = point_radii(points, k=k)
         cloud = np.asarray(points, dtype=np.float64)
@@ -116,9 +116,11 @@ class PointScene:
         self.areas = np.pi * own_radii**2
         self.radii = splat_scale * own_radii
         self.n_points = len(cloud)
-        # each point as a degenerate face: the rasteriser's Morton order of points
-        self._order, _, _ = locality_order(cloud, np.repeat(np.arange(self.n_points)[:, None], 3,
-                                                           axis=1))
+        # the rasteriser's Morton order of faces, for points: each point is the centroid of
+        # its degenerate face (x + x + x) / 3, rounded as that mean rounds, so the order and
+        # with it the z-buffer's ties are those of the faces (x itself would move a few
+        # points across a cell's border by one unit in the last place)
+        self._order = morton_order((cloud + cloud + cloud) / 3.0)
         self._points = np.ascontiguousarray(cloud[self._order])
         self._radii = np.ascontiguousarray(self.radii[self._order])
         self._workspaces: dict[int, RasterWorkspace] = {}
