@@ -358,7 +358,8 @@ def write_predictions(
         raise InputError(f"{path.name}: predictions must be saved as .npz")
     name_array = (names if isinstance(names, np.ndarray) and names.dtype.kind == "U"
                   and names.ndim == 1 else np.array([str(name) for name in names], dtype=str))
-    if len(np.unique(name_array)) != len(name_array):
+    ordered = np.sort(name_array)
+    if (ordered[1:] == ordered[:-1]).any():
         raise InputError("names: model names must be unique")
     measure_list = check_prediction_measures(measures)
     values = np.asarray(directions, dtype=np.float64)

@@ -161,8 +161,12 @@ def write_table_predictions(table: str | os.PathLike[str],
             values = batch.column(f"{name}_direction").filter(ok).flatten()
             directions[row:end, index] = values.to_numpy().reshape(-1, 3)
         row = end
-    _, first = np.unique(names, return_index=True)
-    if len(first) < n_ok:  # a list may name a file twice
-        kept = np.sort(first)
+    order = np.argsort(names, kind="stable")  # a key's rows in table order
+    ordered = names[order]
+    repeated = order[1:][ordered[1:] == ordered[:-1]]  # a list may name a file twice
+    del order, ordered
+    if len(repeated):
+        kept = np.ones(n_ok, dtype=bool)
+        kept[repeated] = False
         names, directions = names[kept], directions[kept]
     return write_predictions(path, names, directions, measures=measures)
