@@ -10,11 +10,11 @@ its own ``vptool`` process (what a user starts), and the bench prints:
 * files per hour with 1 and 2 local worker processes and with a Dask
   ``LocalCluster`` of 2 worker processes of 1 thread each
   (``--scheduler``); ``thumbnails`` runs over the first
-  ``--thumbnail-files`` files (it draws in the calling process);
+  ``--thumbnail-files`` files (the software engine draws in the workers);
 * where a file's time goes, summed over the run from ``timings.jsonl``:
-  read (load the file), answer (the search, in the worker), finish (draw
-  and write the thumbnail, in the calling process) and stage (write the
-  entry's record);
+  read (load the file), answer (the search), draw (draw the thumbnail and
+  encode its PNG), all three in the worker, finish (write the thumbnail, in
+  the calling process) and stage (write the entry's record);
 * peak resident memory of the calling process and of its workers together
   (sampled every 0.2 s with psutil; a Dask cluster's worker and nanny
   processes count as workers);
@@ -70,7 +70,7 @@ from vptoolkit.samples import sample_path
 MESHES = Path("/work/shared/data/meshes")
 MESH_FOLDERS = ("gazebo_models", "object_sim")
 SMALL_SAMPLES = ("table.obj", "ballA.off", "teapot.stl", "angle_block.STL")
-STAGES = ("read", "answer", "finish", "stage")
+STAGES = ("read", "answer", "draw", "finish", "stage")
 SAMPLE_EVERY_S = 0.2
 VPTOOL = ("-c", "from vptoolkit.cli import main; main()")
 
@@ -349,7 +349,7 @@ def bench_list(work: Path, log: Path, n_lines: int, n_run: int) -> None:
             last = max((k for k, sample in enumerate(sampler.samples) if sample[3]), default=0)
             after = [sample[1] / 1e6 for sample in sampler.samples[last + 1:]]
             print(f"    then the table and predictions.npz of {n_run} rows: peak "
-                  f"{max(after, default=0):.0f} MB (predictions.npz reads the whole table)")
+                  f"{max(after, default=0):.0f} MB")
 
 
 def main() -> None:
@@ -373,6 +373,9 @@ def main() -> None:
                              "10,000 lines (a smoke test)")
     parser.add_argument("--work", type=Path, help="keep the collections and outputs here "
                         "(default: a temporary folder, removed)")
+    parser.add_argument("--only", choices=("best-view", "thumbnails"),
+                        help="bench one command's runs over 1 and 2 processes and Dask, "
+                             "nothing else")
     parser.add_argument("--json", type=Path, help="also write the figures to this JSON file")
     add_results_option(parser, "collection")
     args = parser.parse_args()
@@ -394,13 +397,17 @@ def main() -> None:
         print(f"{args.files} files: {len(pool)} real meshes in turn "
               f"({'the samples' if args.quick else ', '.join(MESH_FOLDERS) + ', the samples'}), "
               f"hard links; {os.cpu_count()} CPUs, load average {load_before:.2f}")
-        best = bench_command("best-view", source, work, log)
-        print_runs("best-view", args.files, best)
-        pictures = bench_command("thumbnails", thumbs, work, log)
-        print_runs("thumbnails", n_thumbs, pictures)
-        bench_old_default(old, work, log, pictures["1 process"])
-        bench_kill(source, work, log, args.files, best["1 process"])
-        bench_list(work, log, args.list_lines, args.list_run)
+        best = pictures = {}
+        if args.only != "thumbnails":
+            best = bench_command("best-view", source, work, log)
+            print_runs("best-view", args.files, best)
+        if args.only != "best-view":
+            pictures = bench_command("thumbnails", thumbs, work, log)
+            print_runs("thumbnails", n_thumbs, pictures)
+        if args.only is None:
+            bench_old_default(old, work, log, pictures["1 process"])
+            bench_kill(source, work, log, args.files, best["1 process"])
+            bench_list(work, log, args.list_lines, args.list_run)
         print(f"\nload average {load_before:.2f} before, {os.getloadavg()[0]:.2f} after; "
               f"the bench took {format_seconds(time.perf_counter() - started)}")
         if args.json:

@@ -319,7 +319,7 @@ def read_predictions(path: str | os.PathLike[str]) -> Predictions:
 
 def write_predictions(
     path: str | os.PathLike[str],
-    names: Sequence[str],
+    names: Sequence[str] | NDArray[np.str_],
     directions: ArrayLike,
     *,
     measures: Sequence[str] = PAPER_MEASURES,
@@ -330,8 +330,11 @@ def write_predictions(
     ----------
     path : path-like
         Target file; must end in ``.npz``.
-    names : sequence of str
-        Model names, unique.
+    names : sequence of str, or (n_models,) unicode array
+        Model names, unique. A unicode array (e.g. millions of keys of a
+        collection's table) is written as it is, without a Python string per
+        name; it must have the width of its longest name, as a sequence's
+        array gets, for the same bytes.
     directions : (n_models, n_measures, 3) array_like
         One direction per model and measure, stored as float64.
     measures : sequence of str
@@ -353,15 +356,17 @@ def write_predictions(
     path = Path(path)
     if path.suffix.lower() != ".npz":
         raise InputError(f"{path.name}: predictions must be saved as .npz")
-    name_list = [str(name) for name in names]
-    if len(set(name_list)) != len(name_list):
+    name_array = (names if isinstance(names, np.ndarray) and names.dtype.kind == "U"
+                  and names.ndim == 1 else np.array([str(name) for name in names], dtype=str))
+    ordered = np.sort(name_array)
+    if (ordered[1:] == ordered[:-1]).any():
         raise InputError("names: model names must be unique")
     measure_list = check_prediction_measures(measures)
     values = np.asarray(directions, dtype=np.float64)
-    if values.shape != (len(name_list), len(measure_list), 3):
-        raise InputError(f"directions: expected shape ({len(name_list)}, {len(measure_list)}, 3), "
+    if values.shape != (len(name_array), len(measure_list), 3):
+        raise InputError(f"directions: expected shape ({len(name_array)}, {len(measure_list)}, 3), "
                          f"got {values.shape}")
     with atomic_write(path) as handle:
-        np.savez(handle, names=np.array(name_list, dtype=str),
-                 directions=values, measures=np.array(measure_list, dtype=str))
+        np.savez(handle, names=name_array, directions=values,
+                 measures=np.array(measure_list, dtype=str))
     return path

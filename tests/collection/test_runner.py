@@ -20,10 +20,11 @@ from fixtures.paths import MALFORMED
 from vptoolkit.best_view.search import SearchSettings
 from vptoolkit.collection.methods import Answer, SearchMethod
 from vptoolkit.collection.runner import MAX_MODEL_FACES, run_collection
-from vptoolkit.collection.table import ROWS_PER_GROUP, read_predictions
+from vptoolkit.collection.table import ROWS_PER_GROUP, write_table_predictions
 from vptoolkit.errors import InputError
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_cloud import PointCloud
+from vptoolkit.predictions import read_predictions
 from vptoolkit.samples import sample_path
 
 METHOD = SearchMethod(SearchSettings(budget=12, resolution=32))
@@ -74,13 +75,15 @@ def test_every_entry_gets_a_row_with_its_answer_or_reason(collection: Path, tmp_
     timings = [json.loads(line) for line in (run.folder / "timings.jsonl").read_text().splitlines()]
     assert sorted(line["key"] for line in timings) == sorted(rows)
     for line in timings:  # the stages add up to the entry's seconds
-        assert set(line) == {"key", "seconds", "read", "answer", "finish", "stage"}
+        assert set(line) == {"key", "seconds", "read", "answer", "draw", "finish", "stage"}
         assert min(line["read"], line["answer"], line["finish"], line["stage"]) >= 0
+        assert line["draw"] == 0  # nothing drawn in the workers
         assert line["seconds"] == pytest.approx(
             line["read"] + line["answer"] + line["finish"] + line["stage"], abs=1e-3)
     assert next(line for line in timings if line["key"] == "ballA.off")["read"] > 0
-    predictions = read_predictions(run.table)
-    assert predictions.names == ("a/teapot.stl", "b/teapot.stl", "ballA.off")
+    npz = write_table_predictions(run.table, tmp_path / "predictions.npz")
+    assert npz is not None
+    assert read_predictions(npz).names == ("a/teapot.stl", "b/teapot.stl", "ballA.off")
 
 
 def test_the_table_has_the_same_bytes_with_one_and_two_workers(collection: Path, tmp_path: Path):
@@ -216,7 +219,8 @@ def test_a_list_naming_a_file_twice_gives_two_rows_and_one_prediction(collection
     listing.write_text(f"{collection}/ballA.off\n{collection}/ballA.off\n")
     run = run_collection(f"@{listing}", tmp_path / "out", METHOD)
     assert [row["status"] for row in _rows(run.table)] == ["ok", "ok"]
-    assert read_predictions(run.table).names == (f"{collection}/ballA.off",)
+    npz = write_table_predictions(run.table, tmp_path / "predictions.npz")
+    assert npz is not None and read_predictions(npz).names == (f"{collection}/ballA.off",)
 
 
 @pytest.mark.slow

@@ -179,3 +179,50 @@ def test_view_set_thumbnails_draw_with_the_camera_of_the_settings(mesh_folder: P
                            out / "nested" / "ball.stl.png"]
     record = json.loads(result.index.read_text())["thumbnails"][0]
     assert len(record["direction"]) == 2 and record["label"].startswith("view set of 2")
+
+
+def _drawn(out: Path) -> dict[str, bytes]:
+    """Every picture below ``out``, by its path there."""
+    return {str(path.relative_to(out)): path.read_bytes() for path in sorted(out.rglob("*.png"))}
+
+
+def _draw_seconds(out: Path) -> list[float]:
+    """The seconds each entry spent drawing in its worker (the run's timings)."""
+    (timings,) = out.rglob("timings.jsonl")
+    return [json.loads(line)["draw"] for line in timings.read_text().splitlines()]
+
+
+@pytest.mark.slow
+@pytest.mark.usefixtures("taken_dashboard_port")
+def test_pictures_drawn_by_workers_are_the_bytes_drawn_here(mesh_folder: Path, tmp_path: Path):
+    require_package("distributed")
+    from distributed import LocalCluster
+
+    from fixtures.environment import DASK_DASHBOARD
+    from vptoolkit.pictures.software_engine import SoftwareRenderer
+    from vptoolkit.pictures.thumbnails import render_thumbnails
+    from vptoolkit.samples import sample_path
+
+    class HereRenderer(SoftwareRenderer):
+        """The software engine, drawing in this process (only the software engine's own
+        class is sent to the workers)."""
+
+    shutil.copy(sample_path("Duck.glb"), mesh_folder / "Duck.glb")  # drawn in its colours
+    search = SearchSettings(budget=12, resolution=32, up="auto")
+    with HereRenderer(size=48) as engine:
+        render_thumbnails(mesh_folder, tmp_path / "here", search=search, engine=engine)
+    here = _drawn(tmp_path / "here")
+    assert sorted(here) == ["Duck.glb.png", "cube.obj.png", "cube.off.png",
+                            "nested/ball.stl.png"]
+    assert set(_draw_seconds(tmp_path / "here")) == {0.0}
+    with open_renderer(size=48) as engine:
+        for workers in (1, 2):
+            out = tmp_path / f"workers-{workers}"
+            render_thumbnails(mesh_folder, out, search=search, engine=engine, workers=workers)
+            assert _drawn(out) == here, workers
+        assert max(_draw_seconds(out)) > 0  # drawn in the workers
+        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                          dashboard_address=DASK_DASHBOARD) as cluster:
+            render_thumbnails(mesh_folder, tmp_path / "dask", search=search, engine=engine,
+                              scheduler=cluster.scheduler_address)
+    assert _drawn(tmp_path / "dask") == here

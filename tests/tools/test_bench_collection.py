@@ -36,6 +36,8 @@ def test_quick_bench_measures_runs_resume_and_memory(tmp_path: Path, run_tool: R
         for run in runs.values():
             assert run["files_per_hour"] > 0 and run["failed"] == 0
             assert run["peak_main_mb"] > 0 and set(run["stages"]) == {
-                "read", "answer", "finish", "stage"}
+                "read", "answer", "draw", "finish", "stage"}
         assert runs["2 processes"]["peak_workers_mb"] > 0
-    assert figures["thumbnails"]["1 process"]["stages"]["finish"] > 0  # drawn in the caller
+    pictures = figures["thumbnails"]["2 processes"]["stages"]
+    assert pictures["draw"] > 0 and pictures["finish"] > 0  # drawn in the workers, written here
+    assert figures["best-view"]["2 processes"]["stages"]["draw"] == 0

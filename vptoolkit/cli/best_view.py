@@ -200,14 +200,11 @@ def _search_collection(source: str, output: Path | None, search: SearchSettings,
     if output is None:
         raise InputError("--output: a collection needs -o OUT, the output folder")
     from vptoolkit.collection.runner import run_collection
-    from vptoolkit.collection.table import read_predictions
+    from vptoolkit.collection.table import write_table_predictions
 
     run = run_collection(source, output, method, max_faces=max_faces, timeout=timeout,
                          workers=workers, scheduler=scheduler, progress=True)
-    predictions = read_predictions(run.table)
-    npz = run.folder / "predictions.npz"
-    if predictions.names:
-        predictions.save_npz(npz)
+    write_table_predictions(run.table, run.folder / "predictions.npz")
     if as_json:
         click.echo(output_json({"table": str(run.table), "entries": run.n_entries,
                                "done": run.n_done, "resumed": run.n_resumed,

@@ -349,7 +349,8 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
               help="Draw each mesh's K-view coverage set, chosen from --views measured views, "
                    "as a contact sheet instead.")
 @size_option()
-@workers_option("Local worker processes finding the views.", default=1)
+@workers_option("Local worker processes finding the views and, with --engine software, "
+                "drawing the pictures.", default=1)
 @scheduler_option()
 @budget_option()
 @search_resolution_option()
@@ -378,7 +379,9 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
     its file has them, magnified until it fills the picture up to --margin.
     OUT/thumbnails.json records directions and the files skipped with their
     reasons (exit status 1 if any); OUT/index.html shows the pictures, a page
-    at a time; rerunning the command draws only what is missing. --up auto
+    at a time; rerunning the command draws only what is missing. The software
+    engine draws in the workers (--workers, --scheduler); --engine open3d and
+    --model draw in this process. --up auto
     stands each model on the side it rests on (+y or +z, docs/conventions.md).
     The search keeps the camera within --elevation of the horizon of --up
     (default 0 to 60 degrees: at or above the horizon, as product pictures

@@ -21,17 +21,20 @@
 ``timings.jsonl``
     One line per entry answered by this run (appended; timings differ from
     run to run, so they stay out of the table): ``{"key", "seconds", "read",
-    "answer", "finish", "stage"}``, the seconds of reading the file and of
-    the method's answer (in the worker), of ``finish`` (in this process,
-    e.g. drawing and writing a thumbnail) and of writing the staged record,
-    and ``seconds`` their sum.
+    "answer", "draw", "finish", "stage"}``, the seconds of reading the file,
+    of the method's answer and of ``draw`` (in the worker, e.g. drawing a
+    thumbnail and encoding its PNG), of ``finish`` (in this process, e.g.
+    writing that PNG) and of writing the staged record, and ``seconds``
+    their sum.
 
 Work
     Entries are hashed in this process and answered by
     :func:`vptoolkit.parallel.run_tasks` (``workers`` processes, at most
     twice as many tasks in flight) or :func:`vptoolkit.parallel.run_on_cluster`
     (a Dask scheduler's workers, which must see the files under the same
-    paths), one :class:`EntryTask` each.
+    paths), one :class:`EntryTask` each. What a worker makes of an answer
+    (``draw``) comes back with it as bytes, so that this process stays the
+    one writer of the output folder and ``finish`` has only to write.
 
 Limits
     A file with more than ``max_faces`` faces (default :data:`MAX_MODEL_FACES`)
@@ -64,7 +67,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -113,7 +116,8 @@ class _TimeLimit(BaseException):
 
 @dataclass(frozen=True)
 class EntryTask:
-    """One entry to answer: the file, its key and hash, the method and the limits."""
+    """One entry to answer: the file, its key and hash, the method and the limits, and
+    what the worker does with the answer (``draw``, see :func:`run_collection`)."""
 
     entry: Entry
     sha256: str
@@ -121,6 +125,7 @@ class EntryTask:
     max_faces: int
     timeout: float
     keep_model: bool = False
+    draw: Callable[[EntryResult], EntryResult] | None = None
 
 
 @dataclass(frozen=True)
@@ -130,9 +135,10 @@ class EntryResult:
     ``is_staged`` says whether the outcome depends on the file and settings
     alone (staged, never tried again) or may change (a timeout, a lost
     worker: tried again by the next run). ``seconds`` is the worker's time,
-    ``read_seconds`` its part spent reading the file. ``model`` and
-    ``answer.detail`` are there for a caller that draws (``keep_model``),
-    never stored.
+    ``read_seconds`` its part spent reading the file and ``draw_seconds``
+    its part spent in ``draw``. ``model`` and ``answer.detail`` are there
+    for a caller that draws (``keep_model``) and ``output`` for the one that
+    writes what ``draw`` made (e.g. a PNG's bytes); none of them is stored.
     """
 
     entry: Entry
@@ -143,6 +149,8 @@ class EntryResult:
     read_seconds: float = 0.0
     is_staged: bool = True
     model: Mesh | PointCloud | None = field(default=None, compare=False)
+    draw_seconds: float = 0.0
+    output: bytes = field(default=b"", compare=False, repr=False)
 
     def record(self) -> dict[str, Any]:
         """The JSON record staged and written as a table row."""
@@ -225,7 +233,8 @@ def read_model(path: str) -> Mesh | PointCloud:
 
 
 def answer_entry(task: EntryTask) -> EntryResult:
-    """Worker: read, check and answer one entry within its limits (top level, picklable)."""
+    """Worker: read, check and answer one entry, then ``task.draw`` it, within its limits
+    (top level, picklable)."""
     started = time.perf_counter()
     read = 0.0
     with _time_limit(task.timeout):
@@ -238,6 +247,10 @@ def answer_entry(task: EntryTask) -> EntryResult:
                 raise InputError(f"{task.entry.key}: {count} {kind}, more than the "
                                  f"limit of {task.max_faces} (--max-faces)")
             answer = task.method(mesh)
+            result = EntryResult(task.entry, task.sha256, answer, read_seconds=read, model=mesh)
+            answered = time.perf_counter()
+            if task.draw is not None:
+                result = task.draw(result)
         except _TimeLimit:
             return EntryResult(task.entry, task.sha256,
                                reason=f"{task.entry.key}: took longer than {task.timeout:g} s "
@@ -248,8 +261,10 @@ def answer_entry(task: EntryTask) -> EntryResult:
             return EntryResult(task.entry, task.sha256, reason=one_line(err),
                                seconds=time.perf_counter() - started, read_seconds=read,
                                is_staged=not isinstance(err, (OSError, MemoryError)))
-    return EntryResult(task.entry, task.sha256, answer, seconds=time.perf_counter() - started,
-                       read_seconds=read, model=mesh if task.keep_model else None)
+    ended = time.perf_counter()
+    return replace(result, seconds=ended - started,
+                   draw_seconds=ended - answered if task.draw is not None else 0.0,
+                   model=result.model if task.keep_model else None)
 
 
 class _time_limit:  # noqa: N801 - a context manager, used like a function
@@ -289,8 +304,9 @@ def _cluster_lost(task: EntryTask, error: Exception) -> EntryResult:
 
 def _timing(result: EntryResult, finish: float, stage: float) -> dict[str, Any]:
     """One line of ``timings.jsonl``: the entry's seconds by stage and in all."""
-    stages = {"read": result.read_seconds, "answer": result.seconds - result.read_seconds,
-              "finish": finish, "stage": stage}
+    stages = {"read": result.read_seconds,
+              "answer": result.seconds - result.read_seconds - result.draw_seconds,
+              "draw": result.draw_seconds, "finish": finish, "stage": stage}
     return {"key": result.entry.key, "seconds": round(result.seconds + finish + stage, 4),
             **{name: round(seconds, 4) for name, seconds in stages.items()}}
 
@@ -319,6 +335,7 @@ def run_collection(
     timeout: float = TIMEOUT_S,
     workers: int = 1,
     scheduler: str | None = None,
+    draw: Callable[[EntryResult], EntryResult] | None = None,
     finish: Callable[[EntryResult], EntryResult] | None = None,
     progress: bool = False,
 ) -> CollectionRun:
@@ -342,10 +359,18 @@ def run_collection(
     scheduler : str, optional
         A running Dask scheduler's address, as ``build-dataset --scheduler``;
         not with ``workers > 1``.
+    draw : callable, optional
+        Called in the worker with every answered entry and its model, within
+        the entry's time limit, e.g. to draw its picture; returns the result
+        that comes back, which may be a failure or carry ``output`` bytes
+        for ``finish`` to write. It must be picklable (a top-level class's
+        instance) and derive everything from its entry, so its output is the
+        same whatever the worker, as the table is.
     finish : callable, optional
         Called in this process with every answered entry before it is staged
-        (with its model, e.g. to draw it); returns the result to stage, which
-        may be a failure.
+        (with its model when there is no ``draw``, e.g. to draw it in this
+        process; with ``draw``'s ``output``, e.g. to write it); returns the
+        result to stage, which may be a failure.
     progress : bool
         A progress bar on stderr: files per second and time left (default: False).
 
@@ -383,11 +408,12 @@ def run_collection(
     staging.mkdir(parents=True, exist_ok=True)
     with exclusive_lock(folder / _LOCK_NAME, f"{folder}: another run is writing this folder"):
         return _run(source, folder, record, method, n_entries, max_faces, float(timeout),
-                    workers, scheduler, finish, progress)
+                    workers, scheduler, draw, finish, progress)
 
 
 def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], method: Method,
          n_entries: int, max_faces: int, timeout: float, workers: int, scheduler: str | None,
+         draw: Callable[[EntryResult], EntryResult] | None,
          finish: Callable[[EntryResult], EntryResult] | None, progress: bool) -> CollectionRun:
     """The body of :func:`run_collection`, with the folder locked."""
     staging = folder / "staging"
@@ -412,7 +438,7 @@ def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], m
                     bar.update(1)
                     continue
                 yield EntryTask(entry, sha256, method, max_faces, timeout,
-                                keep_model=finish is not None)
+                                keep_model=finish is not None and draw is None, draw=draw)
 
     with progress_bar(total=n_entries, description="files", unit="file",
                       enabled=progress) as bar, \

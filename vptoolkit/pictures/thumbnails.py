@@ -4,9 +4,20 @@
 folder, a glob, a model file or ``@list.txt``:
 :func:`vptoolkit.collection.discover.discover`) through the collection
 runner (:func:`vptoolkit.collection.runner.run_collection`): the directions
-are found in worker processes or on a Dask cluster, while one engine (an
-:class:`~vptoolkit.pictures.engine.Engine`) draws in this process, so a
-start-up such as that of Open3D's render child is paid once. The picture of
+are found in worker processes or on a Dask cluster.
+
+Where pictures are drawn
+    With the software engine (the default,
+    :class:`~vptoolkit.pictures.software_engine.SoftwareRenderer`), each
+    worker draws the entries it answered with an engine of the same size,
+    camera, style and supersampling (:class:`PictureDrawing`) and sends back
+    the PNG's bytes; this process only writes them, so ``workers`` and a
+    cluster speed the drawing up too, and the pictures are the same bytes
+    whoever drew them. Any other engine draws in this process: the Open3D
+    engine is one offscreen renderer (a render child) per process, started
+    once and not picklable. A ``predictor`` answers in this process, so its
+    pictures are drawn here with either engine. This process is the one
+    writer of the output folder either way. The picture of
 the entry ``a/b.off`` is ``OUT/a/b.off.png`` (the key and ``.png``, so
 ``b.off`` and ``b.obj`` never share a picture). Each model is drawn in its
 own colours and texture where its file has them
@@ -26,8 +37,8 @@ coverage set as a contact sheet; ``predictor`` takes the direction from a
 direction source (:class:`PredictedMethod`, in this process).
 
 State
-    A picture is drawn before its entry is staged, so a rerun after
-    ``kill -9`` redraws nothing done. The run's table is
+    A picture is written (atomically) before its entry is staged, so a rerun
+    after ``kill -9`` redraws nothing done and loses only the entries in flight. The run's table is
     ``OUT/.runs/<digest>/table.parquet``; ``OUT/thumbnails.json`` records the
     measure, the method's settings, the size, one
     ``{"source", "image", "direction", "label"}`` record per picture and the
@@ -50,6 +61,7 @@ from numpy.typing import NDArray
 
 from vptoolkit.appearance import Appearance
 from vptoolkit.best_view.search import SearchSettings
+from vptoolkit.camera import Camera
 from vptoolkit.checks import as_path, check_int, one_line
 from vptoolkit.collection.discover import Entry, is_remote_entry
 from vptoolkit.collection.methods import (
@@ -67,20 +79,21 @@ from vptoolkit.collection.runner import (
     run_collection,
 )
 from vptoolkit.errors import InputError, VptoolkitError
-from vptoolkit.files import atomic_write
+from vptoolkit.files import atomic_write, write_bytes_atomic
 from vptoolkit.io import require_surface
 from vptoolkit.measures.registry import canonical_name
 from vptoolkit.mesh import Mesh
 from vptoolkit.optional import require
 from vptoolkit.pictures.engine import Engine, drawing_engine
-from vptoolkit.pictures.png import save_png
+from vptoolkit.pictures.png import png_bytes
+from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.thumbnail_index import ThumbnailCard, write_thumbnail_index
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
 from vptoolkit.point_cloud import PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 
-__all__ = ["PredictedMethod", "ThumbnailFailure", "ThumbnailResult", "picture_name",
-           "render_thumbnails", "thumbnail_method", "ThumbnailMethod"]
+__all__ = ["PictureDrawing", "PredictedMethod", "ThumbnailFailure", "ThumbnailResult",
+           "picture_name", "render_thumbnails", "thumbnail_method", "ThumbnailMethod"]
 
 _INDEX_NAME = "thumbnails.json"
 RUNS_FOLDER = ".runs"
@@ -195,6 +208,77 @@ def _stood_up(model: Mesh | PointCloud, direction: NDArray[np.float64],
         normals = None if model.normals is None else model.normals @ turn.T
         return replace(model, points=model.points @ turn.T, normals=normals), direction @ turn.T
     return replace(model, vertices=model.vertices @ turn.T), direction @ turn.T
+
+
+def _picture(result: EntryResult, engine: Engine, method: ThumbnailMethod, rows: slice,
+             is_stood_up: bool) -> NDArray[np.uint8]:
+    """The thumbnail of an answered entry (with its model): the chosen view, stood up
+    when the search put the model's own up axis up, or a view set's contact sheet."""
+    assert result.answer is not None and result.model is not None  # answered entries
+    model = result.model
+    appearance = model_appearance(result.entry, model)
+    if isinstance(method, ViewSetMethod):
+        from vptoolkit.pictures.contact_sheet import view_set_sheet
+
+        image, _ = view_set_sheet(model, view_set=result.answer.detail,
+                                  settings=method.settings, engine=engine,
+                                  appearance=appearance)
+        return image
+    direction = result.answer.directions[rows][0]
+    if is_stood_up:
+        model, direction = _stood_up(model, direction, engine.style.up)
+    return engine.render(model, direction, appearance=appearance)[0]
+
+
+@dataclass(frozen=True)
+class PictureDrawing:
+    """Draw an answered entry's thumbnail in the worker that answered it, as PNG bytes.
+
+    The ``draw`` of :func:`~vptoolkit.collection.runner.run_collection`
+    that :func:`render_thumbnails` gives with the software engine: picklable
+    (the engine's settings, not the engine), it draws each entry with a
+    :class:`~vptoolkit.pictures.software_engine.SoftwareRenderer` of these
+    settings, so the bytes are those this process would draw.
+
+    Attributes
+    ----------
+    size : int
+        The picture's side, in pixels.
+    camera : Camera
+        The engine's camera (the method's).
+    style : RenderStyle
+        The engine's shading, up and margin.
+    supersampling : int
+        The engine's samples per pixel along each axis.
+    method : ThumbnailMethod
+        The method that answered (a view set is drawn as a contact sheet).
+    rows : slice
+        The answer's rows the picture shows (the measure's, or every view of a set).
+    is_stood_up : bool
+        Whether the model is turned to stand on its own up axis (a search
+        with ``up="auto"``).
+    """
+
+    size: int
+    camera: Camera
+    style: RenderStyle
+    supersampling: int
+    method: ThumbnailMethod
+    rows: slice
+    is_stood_up: bool
+
+    def __call__(self, result: EntryResult) -> EntryResult:
+        """The entry with its picture's PNG bytes as ``output`` (no model), or a failure
+        with its one-line reason."""
+        from vptoolkit.pictures.software_engine import SoftwareRenderer
+
+        try:
+            with SoftwareRenderer(size=self.size, camera=self.camera, style=self.style,
+                                  supersampling=self.supersampling) as engine:
+                image = _picture(result, engine, self.method, self.rows, self.is_stood_up)
+            return replace(result, model=None, output=png_bytes(image))
+        except VptoolkitError as err:
+            return replace(result, answer=None, reason=one_line(err), model=None)
 
 
 def picture_name(key: str) -> str:
@@ -314,7 +398,8 @@ def render_thumbnails(
     predictor : (3,) or (4, 3) array_like, or callable, optional
         Direction source (see :func:`vptoolkit.pictures.views.resolve_direction`);
         a callable gets each :class:`~vptoolkit.mesh.Mesh`, e.g. a trained
-        network's prediction. It runs in this process.
+        network's prediction. It runs in this process, and the pictures are
+        drawn there too.
     predictor_name : str
         What ``predictor`` is, for the run's record, which names its output
         folder: give each predictor its own name, or a rerun takes the
@@ -324,14 +409,17 @@ def render_thumbnails(
         contact sheet (:func:`vptoolkit.pictures.contact_sheet.view_set_sheet`),
         a tile of the engine's size per view; its record lists every direction.
     workers : int
-        Processes finding the directions, as ``build-dataset --workers``
-        (default: 1, in this process).
+        Processes finding the directions and, with the software engine,
+        drawing the pictures, as ``build-dataset --workers`` (default: 1, in
+        this process).
     scheduler : str, optional
         A Dask scheduler's address instead of ``workers``.
     engine : Engine, optional
         The engine that draws, its size the thumbnails' side; its camera
         must be the method's (default: a software engine of 512 pixels with
-        that camera, made for this call).
+        that camera, made for this call). A software engine's settings draw
+        in the workers (module docstring); any other engine draws in this
+        process.
     max_faces, timeout
         The per-file limits of :func:`vptoolkit.collection.runner.run_collection`.
     progress : bool
@@ -355,39 +443,33 @@ def render_thumbnails(
     method = thumbnail_method(measure, search, settings, predictor, predictor_name, view_set)
     rows = _drawn_rows(method.names, measure)
 
+    is_stood_up = search is not None and search.up == "auto"
     with drawing_engine(engine, camera=method.settings.camera) as active:
         active.start()  # fail fast, in one line, when no engine can run here
+        from vptoolkit.pictures.software_engine import SoftwareRenderer
 
+        in_workers = (PictureDrawing(active.size, active.camera, active.style,
+                                     active.supersampling, method, rows, is_stood_up)
+                      if type(active) is SoftwareRenderer else None)
         drawn = [0]
 
-        def draw(result: EntryResult) -> EntryResult:
-            assert result.answer is not None and result.model is not None  # answered entries
-            image_path = target / picture_name(result.entry.key)
-            model = result.model
+        def write(result: EntryResult) -> EntryResult:
+            """Write the entry's picture (drawn by its worker, or here); stage the result."""
             try:
-                appearance = model_appearance(result.entry, model)
-                if isinstance(method, ViewSetMethod):
-                    from vptoolkit.pictures.contact_sheet import view_set_sheet
-
-                    image, _ = view_set_sheet(model, view_set=result.answer.detail,
-                                              settings=method.settings, engine=active,
-                                              appearance=appearance)
-                else:
-                    direction = result.answer.directions[rows][0]
-                    if search is not None and search.up == "auto":
-                        model, direction = _stood_up(model, direction, active.style.up)
-                    image = active.render(model, direction, appearance=appearance)[0]
+                payload = result.output if in_workers is not None else png_bytes(
+                    _picture(result, active, method, rows, is_stood_up))
+                image_path = target / picture_name(result.entry.key)
                 image_path.parent.mkdir(parents=True, exist_ok=True)
-                save_png(image, image_path)
+                write_bytes_atomic(image_path, payload)
                 drawn[0] += 1
             except (VptoolkitError, OSError) as err:
                 return replace(result, answer=None, reason=one_line(err), model=None)
-            return replace(result, model=None)
+            return replace(result, model=None, output=b"")
 
         target.mkdir(parents=True, exist_ok=True)
         run = run_collection(source, target / RUNS_FOLDER, method, max_faces=max_faces,
                              timeout=timeout, workers=workers, scheduler=scheduler,
-                             finish=draw, progress=progress)
+                             draw=in_workers, finish=write, progress=progress)
         size = active.size
     cards = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
     if isinstance(method, ViewSetMethod):
