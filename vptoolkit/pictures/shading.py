@@ -439,12 +439,25 @@ def texture_lookup(texture: NDArray[np.float32], uv: NDArray[np.float64], *,
         return texture[row, column].astype(np.float64)
     left, top = np.floor(x), np.floor(y)
     dx, dy = (x - left)[:, None], (y - top)[:, None]
-    c0 = np.mod(left.astype(np.int64), width)
-    c1 = np.mod(c0 + 1, width)
-    r0 = np.mod(top.astype(np.int64), height)
-    r1 = np.mod(r0 + 1, height)
-    return ((1 - dy) * ((1 - dx) * texture[r0, c0] + dx * texture[r0, c1])
-            + dy * ((1 - dx) * texture[r1, c0] + dx * texture[r1, c1]))
+    # left in [-1, width - 1] and top in [-1, height - 1] (x, y >= -1/2 and below the
+    # side): the neighbours wrap by one comparison each, not an integer division
+    c0 = left.astype(np.int64)
+    c0[c0 < 0] += width
+    c1 = c0 + 1
+    c1[c1 == width] = 0
+    row = top.astype(np.int64)
+    row[row < 0] += height
+    below = row + 1
+    below[below == height] = 0
+    r0, r1 = row * width, below * width  # flat row starts: np.take on the flat
+    # image is several times faster than texture[row, column]
+    texels = texture.reshape(height * width, -1)
+
+    def texel(start: NDArray[np.int64], column: NDArray[np.int64]) -> NDArray[np.float32]:
+        return np.take(texels, start + column, axis=0)
+
+    return ((1 - dy) * ((1 - dx) * texel(r0, c0) + dx * texel(r0, c1))
+            + dy * ((1 - dx) * texel(r1, c0) + dx * texel(r1, c1)))
 
 
 def srgb_to_linear(value: float) -> float:
