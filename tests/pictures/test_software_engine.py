@@ -239,3 +239,68 @@ def test_framing_magnifies_about_the_centre():
     assert abs((after[0] + after[2]) / 2 - centre) <= 1.5  # about the same centre
     with pytest.raises(InputError, match="margin"):
         RenderStyle(margin=0.5)
+
+
+# ------------------------------------------------------------------ the same bits as numpy's plain paths
+def plain_texture_lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """Bilinear texture lookup by np.mod wrapping and [row, column] indexing."""
+    height, width = texture.shape[:2]
+    x = np.mod(uv[:, 0], 1.0) * width - 0.5
+    y = (1.0 - np.mod(uv[:, 1], 1.0)) * height - 0.5
+    left, top = np.floor(x), np.floor(y)
+    dx, dy = (x - left)[:, None], (y - top)[:, None]
+    c0 = np.mod(left.astype(np.int64), width)
+    c1 = np.mod(c0 + 1, width)
+    r0 = np.mod(top.astype(np.int64), height)
+    r1 = np.mod(r0 + 1, height)
+    return ((1 - dy) * ((1 - dx) * texture[r0, c0] + dx * texture[r0, c1])
+            + dy * ((1 - dx) * texture[r1, c0] + dx * texture[r1, c1]))
+
+
+def test_texture_lookup_has_the_bits_of_the_plain_lookup():
+    from vptoolkit.pictures.shading import texture_lookup
+
+    rng = np.random.default_rng(3)
+    texture = rng.random((5, 7, 3)).astype(np.float32)
+    edges = np.array([0.0, 1.0, -1e-20, 1.0 - 1e-17, -3.0, 2.5, 1 / 14, 0.5 / 5])
+    uv = np.concatenate([rng.uniform(-3.0, 3.0, (5000, 2)),
+                         np.stack(np.meshgrid(edges, edges), axis=-1).reshape(-1, 2)])
+    assert np.array_equal(texture_lookup(texture, uv), plain_texture_lookup(texture, uv))
+
+
+def test_block_means_and_cross_products_have_numpys_bits():
+    from vptoolkit.pictures.software_engine import _cross, _downsample
+
+    rng = np.random.default_rng(4)
+    for factor in (1, 2, 3, 4):
+        linear = rng.random(((37 * factor) ** 2, 3)) ** 3
+        assert np.array_equal(_downsample(linear, 37, factor),
+                              linear.reshape(37, factor, 37, factor, 3).mean(axis=(1, 3)))
+    a, b = rng.normal(size=(2, 4000, 3)) * 10.0 ** rng.integers(-5, 5, (2, 4000, 1))
+    assert np.array_equal(_cross(a, b), np.cross(a, b))
+
+
+@pytest.mark.parametrize("supersampling", [2, 3])
+def test_pictures_have_the_bytes_of_the_plain_numpy_paths(monkeypatch, supersampling):
+    """The textured duck and a cloud drawn as by np.cross, reshape-mean and the plain
+    texture lookup: the same pixels."""
+    from vptoolkit.io import load_with_appearance
+    from vptoolkit.pictures import software_engine
+    from vptoolkit.point_cloud import PointCloud
+
+    duck, appearance = load_with_appearance(sample_path("Duck.glb"))
+    cloud = PointCloud(duck.vertices)
+    directions = [[0.3, 0.4, 1.0], [-1.0, 0.2, -0.5]]
+
+    def pictures() -> list[np.ndarray]:
+        with SoftwareRenderer(size=48, supersampling=supersampling) as renderer:
+            return [renderer.render(duck, directions, appearance=appearance),
+                    renderer.render(cloud, directions)]
+
+    fast = pictures()
+    monkeypatch.setattr(software_engine, "_cross", np.cross)
+    monkeypatch.setattr(software_engine, "texture_lookup", plain_texture_lookup)
+    monkeypatch.setattr(software_engine, "_downsample", lambda linear, size, factor:
+                        linear.reshape(size, factor, size, factor, 3).mean(axis=(1, 3)))
+    for mine, plain in zip(fast, pictures()):
+        assert np.array_equal(mine, plain)

@@ -418,7 +418,7 @@ def texture_lookup(texture: NDArray[np.float32], uv: NDArray[np.float64], *,
         The image in linear RGB (:func:`srgb8_to_linear` of the stored
         sRGB), its first row the top (``v = 1``).
     uv : (n, 2) float64
-        ``(u, v)`` with ``(0, 0)`` the bottom-left corner of the image and
+        Finite ``(u, v)`` with ``(0, 0)`` the bottom-left corner of the image and
         ``(1, 1)`` its top-right (glTF's ``REPEAT`` wrapping outside).
     bilinear : bool
         Blend the four texels around each point, weighted by distance, in
