@@ -241,7 +241,7 @@ def test_framing_magnifies_about_the_centre():
         RenderStyle(margin=0.5)
 
 
-# ------------------------------------------------------------------ the same bits as numpy's plain paths
+# ----------------------------------------------------------- the bits of numpy's plain paths
 def plain_texture_lookup(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """Bilinear texture lookup by np.mod wrapping and [row, column] indexing."""
     height, width = texture.shape[:2]
