@@ -219,8 +219,8 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
     return _model(path, _read(path), max_points)[0]
 
 
-def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointCloud,
-                                                                  Appearance]:
+def load_with_appearance(path: str | os.PathLike[str], *,
+                         max_points: int = MAX_POINTS) -> tuple[Mesh | PointCloud, Appearance]:
     """Read a model file and how it looks: :func:`load`'s model and its appearance.
 
     The appearance is an :class:`~vptoolkit.appearance.Appearance`.
@@ -236,6 +236,8 @@ def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointClou
     ----------
     path : str or os.PathLike
         A file as for :func:`load`.
+    max_points : int
+        As for :func:`load`: a larger point cloud and its colours are thinned alike.
 
     Returns
     -------
@@ -252,8 +254,9 @@ def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointClou
         If the file has a texture and Pillow is not installed.
     """
     path = as_path(path, "path")
+    max_points = check_int(max_points, "max_points", minimum=1)
     reading = _read(path, appearance=True)
-    model, faces = _model(path, reading, MAX_POINTS)
+    model, faces = _model(path, reading, max_points)
     file_name = path.name or str(path)
     try:
         return model, _appearance(reading, faces)
