@@ -477,8 +477,8 @@ def render_thumbnails(
 
         target.mkdir(parents=True, exist_ok=True)
         run = run_collection(source, target / RUNS_FOLDER, method, max_faces=max_faces,
-                             max_points=max_points, timeout=timeout, workers=workers, scheduler=scheduler,
-                             draw=in_workers, finish=write, progress=progress)
+                             max_points=max_points, timeout=timeout, workers=workers,
+                             scheduler=scheduler, draw=in_workers, finish=write, progress=progress)
         size = active.size
     cards = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
     if isinstance(method, ViewSetMethod):
