@@ -331,12 +331,13 @@ def max_points_option() -> Callable[[Decorated], Decorated]:
     from vptoolkit.point_cloud import MAX_POINTS
 
     return click.option("--max-points", default=MAX_POINTS, show_default=True,
-                        type=click.IntRange(1),
-                        help="A point cloud file of more points is thinned on reading to one "
-                             "point per cell of the finest voxel grid that leaves at most N "
-                             "(vptoolkit.point_cloud.voxel_subset), printing one warning line "
-                             "on stderr that names the file and the counts before and after. "
-                             "Meshes are never thinned.")
+                        type=click.IntRange(1), metavar="N",
+                        help="A point cloud file of more points is thinned on reading to the "
+                             "first point of each occupied voxel, the voxels grown from side "
+                             "extent/N^(1/3) by 1.25 until at most N are occupied "
+                             "(vptoolkit.point_cloud.voxel_subset); a thinned file prints one "
+                             "warning line on stderr naming it and the counts before and "
+                             "after. Meshes are never thinned.")
 
 
 def budget_option() -> Callable[[Decorated], Decorated]:
