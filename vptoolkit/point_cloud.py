@@ -132,15 +132,35 @@ def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int
     if len(points) <= max_points:
         return np.arange(len(points), dtype=np.int64)
     low = points.min(axis=0)
-    extent = float(np.ptp(points, axis=0).max())
-    scaled = (points - low) / extent if extent > 0 else np.zeros_like(points)
+    high = points.max(axis=0)
+    extent = float((high - low).max())
     side = 1.0 / max(max_points, 1) ** (1.0 / 3.0)
     while True:
-        cells = np.floor(scaled / side).astype(np.int64)
-        _, first = np.unique(cells, axis=0, return_index=True)
+        _, first = np.unique(_cell_keys(points, low, high, extent, side), return_index=True)
         if len(first) <= max_points:
             return np.sort(first).astype(np.int64)
         side *= 1.25
+
+
+def _cell_keys(points: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],
+               extent: float, side: float) -> NDArray[np.int64]:
+    """The row-major index of each point's cell (:func:`voxel_subset`), one axis at a time.
+
+    A point's cell along an axis is ``floor(((p - low) / extent) / side)`` (0 when
+    ``extent`` is 0), at most that of ``high``; one int64 key per point, built
+    column by column, holds no ``(n_points, 3)`` temporary, and equal keys are
+    equal cells.
+    """
+    keys = np.zeros(len(points), dtype=np.int64)
+    for axis in range(3):
+        if extent > 0:
+            cells = np.floor((points[:, axis] - low[axis]) / extent / side).astype(np.int64)
+            size = int(np.floor((high[axis] - low[axis]) / extent / side)) + 1
+        else:
+            cells, size = np.zeros(len(points), dtype=np.int64), 1
+        keys *= size
+        keys += cells
+    return keys
 
 
 def _on_one_line(points: NDArray[np.float64]) -> bool:

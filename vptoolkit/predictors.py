@@ -45,6 +45,7 @@ from vptoolkit.measures.unoccluded import (
     unoccluded_measures,
 )
 from vptoolkit.mesh import Mesh
+from vptoolkit.point_cloud import MAX_POINTS
 from vptoolkit.predictions import Predictions
 from vptoolkit.sphere import coarse_directions
 
@@ -76,6 +77,7 @@ def predict_unoccluded(
     split: Split = "test",
     n_directions: int = UNOCCLUDED_DIRECTIONS,
     measures: str | Iterable[str] | None = None,
+    max_points: int = MAX_POINTS,
 ) -> Predictions:
     """:func:`~vptoolkit.measures.unoccluded.unoccluded_best_views` of mesh files, point files
     with normals and dataset splits.
@@ -97,6 +99,10 @@ def predict_unoccluded(
         The measures to answer, any of
         :data:`~vptoolkit.measures.unoccluded.UNOCCLUDED_MEASURES` (default:
         the paper's four).
+    max_points : int
+        Most points a point cloud file keeps; a larger one is thinned on
+        reading (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
 
     Returns
     -------
@@ -117,7 +123,7 @@ def predict_unoccluded(
     names = unoccluded_measures(measures)
     seen: set[str] = set()
     answers: list[NDArray[np.float64]] = []
-    with open_inputs(inputs, split=split) as sources:
+    with open_inputs(inputs, split=split, max_points=max_points) as sources:
         for source in sources:
             claim_name(seen, source.name)
             model = source.model() if source.kind == "file" else None
@@ -139,7 +145,8 @@ def predict_unoccluded(
 
 def resolve_predictor(spec: str | os.PathLike[str] | Callable[..., Predictions], *,
                       seed: int = 0, category: str | None = None, device: str = "auto",
-                      n_inputs: int | None = None, progress: bool = False) -> Predictor:
+                      n_inputs: int | None = None, progress: bool = False,
+                      max_points: int = MAX_POINTS) -> Predictor:
     """The predictor that ``spec`` names, with one call signature (:class:`Predictor`).
 
     Parameters
@@ -153,6 +160,10 @@ def resolve_predictor(spec: str | os.PathLike[str] | Callable[..., Predictions],
         unoccluded estimate has no use for them.
     n_inputs : int, optional
         A network's inputs per model (default: its :data:`~vptoolkit.learn.draws.N_INPUTS`).
+    max_points : int
+        Most points a point cloud file keeps, for the network and the
+        unoccluded estimate alike (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`); a callable reads its own.
 
     Returns
     -------
@@ -172,10 +183,11 @@ def resolve_predictor(spec: str | os.PathLike[str] | Callable[..., Predictions],
         if n_inputs is not None:
             raise InputError("n_inputs: 'unoccluded' asks no network, so it takes no network "
                              "inputs (--inputs); drop one of them")
-        return predict_unoccluded
+        return functools.partial(predict_unoccluded, max_points=max_points)
     if isinstance(spec, (str, os.PathLike)):
         return functools.partial(_predict_network, spec, seed=seed, category=category,
-                                 device=device, n_inputs=n_inputs, progress=progress)
+                                 device=device, n_inputs=n_inputs, progress=progress,
+                                 max_points=max_points)
     if callable(spec):
         return spec
     raise InputError(f"model: expected one of {', '.join(map(repr, PREDICTOR_NAMES))}, a "
@@ -184,7 +196,7 @@ def resolve_predictor(spec: str | os.PathLike[str] | Callable[..., Predictions],
 
 def _predict_network(model: str | os.PathLike[str], inputs: Inputs, *, split: Split = "test",
                      seed: int, category: str | None, device: str, n_inputs: int | None,
-                     progress: bool) -> Predictions:
+                     progress: bool, max_points: int) -> Predictions:
     """A network's predictions; point files are checked before the network is loaded."""
     from pathlib import Path
 
@@ -198,6 +210,7 @@ def _predict_network(model: str | os.PathLike[str], inputs: Inputs, *, split: Sp
     for entry in entries:
         if isinstance(entry, (str, os.PathLike)) and Path(entry).suffix.lower() in POINT_SUFFIXES \
                 and Path(entry).is_file():
-            read_model(Path(entry))
+            read_model(Path(entry), max_points=max_points)
     return predict(model, inputs, split=split, seed=seed, progress=progress, category=category,
-                   device=device, n_inputs=N_INPUTS if n_inputs is None else n_inputs)
+                   device=device, n_inputs=N_INPUTS if n_inputs is None else n_inputs,
+                   max_points=max_points)

@@ -181,6 +181,17 @@ def test_a_dask_cluster_gives_the_same_bytes(collection: Path, tmp_path: Path):
     assert remote.table.read_bytes() == local.table.read_bytes()
 
 
+def test_max_points_names_another_folder_and_the_default_keeps_its_name():
+    from vptoolkit.collection.runner import settings_digest
+    from vptoolkit.point_cloud import MAX_POINTS
+
+    default, record = settings_digest(METHOD, MAX_MODEL_FACES)
+    assert "max_points" not in record
+    assert settings_digest(METHOD, MAX_MODEL_FACES, MAX_POINTS)[0] == default
+    thinned, record = settings_digest(METHOD, MAX_MODEL_FACES, 5000)
+    assert thinned != default and record["max_points"] == 5000
+
+
 def test_two_runs_never_write_one_folder_at_once(collection: Path, tmp_path: Path):
     from vptoolkit.collection.runner import settings_digest
     from vptoolkit.files import exclusive_lock

@@ -217,3 +217,30 @@ def test_commands_read_clouds_where_points_suffice_and_refuse_them_elsewhere(tmp
     assert result.stderr.count("\n") == 1 and "bunny.xyzn: a point cloud (1000 points" in (
         result.stderr)
     assert not (tmp_path / "out.npy").exists()
+
+
+def _voxel_rule(points, max_points):
+    """The rule of voxel_subset written out on (n, 3) cells: the reference its int64 keys
+    must match index for index."""
+    if len(points) <= max_points:
+        return np.arange(len(points))
+    low = points.min(axis=0)
+    extent = float(np.ptp(points, axis=0).max())
+    scaled = (points - low) / extent if extent > 0 else np.zeros_like(points)
+    side = 1.0 / max_points ** (1.0 / 3.0)
+    while True:
+        _, first = np.unique(np.floor(scaled / side).astype(np.int64), axis=0,
+                             return_index=True)
+        if len(first) <= max_points:
+            return np.sort(first)
+        side *= 1.25
+
+
+@pytest.mark.parametrize("max_points", [1, 7, 200, 999])
+def test_voxel_subset_keeps_the_first_point_of_each_cell_of_the_rule(sample, max_points):
+    points = sample[0]
+    flat = points * np.array([1.0, 0.0, 1.0])  # one axis of zero extent
+    repeated = np.repeat(points[:50], 20, axis=0)  # many points per cell, in file order
+    for cloud in (points, flat, repeated, np.zeros((30, 3))):
+        np.testing.assert_array_equal(voxel_subset(cloud, max_points),
+                                      _voxel_rule(cloud, max_points))

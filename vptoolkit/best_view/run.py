@@ -41,7 +41,7 @@ from vptoolkit.errors import InputError, MeasurementError
 from vptoolkit.inputs import ModelSource, claim_name, open_inputs
 from vptoolkit.measures.registry import PAPER_MEASURES, all_measures
 from vptoolkit.mesh import Mesh
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 from vptoolkit.predictions import Predictions
 from vptoolkit.progress import progress_bar
 from vptoolkit.sphere import fibonacci_sphere
@@ -115,6 +115,7 @@ def search_inputs(
     split: Split = "test",
     prior: str | os.PathLike[str] | Callable[[Mesh | PointCloud], ArrayLike] | None = None,
     measures: str | Sequence[str] | None = None,
+    max_points: int = MAX_POINTS,
     progress: bool = False,
 ) -> SearchRun:
     """:func:`~vptoolkit.best_view.search.search_best_views` over model files and a dataset
@@ -146,6 +147,10 @@ def search_inputs(
         (:func:`~vptoolkit.best_view.search.searchable_measures`); default:
         with ``dataset``, the measures it records that a search can evaluate
         (:func:`recorded_searchable`), else the paper's four.
+    max_points : int
+        Most points a point cloud file keeps; a larger one is thinned on
+        reading (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
     progress : bool
         Show a progress bar over the meshes on stderr (default: False).
 
@@ -163,7 +168,8 @@ def search_inputs(
     chosen = check_search_settings(settings)
     names = None if measures is None else searchable_measures(measures)
     entries = [*inputs, *([] if dataset is None else [dataset])]
-    with open_inputs(entries, split=split, purpose="search") as sources:
+    with open_inputs(entries, split=split, purpose="search",
+                     max_points=max_points) as sources:
         if names is None:
             stored = next((source.dataset for source in sources if source.dataset is not None),
                           None)

@@ -19,6 +19,7 @@ from vptoolkit.cli.options import (
     cache_dir_option,
     elevation_option,
     face_limit_option,
+    max_points_option,
     measures_option,
     scheduler_option,
     search_resolution_option,
@@ -83,11 +84,13 @@ def is_collection(inputs: tuple[str, ...]) -> bool:
 @up_option(allow_auto=True)
 @elevation_option(None)
 @cache_dir_option()
+@max_points_option()
 def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
               dataset_path: Path | str | None, split: Split, measures: tuple[str, ...] | None,
               output: Path | None, as_json: bool, cache_dir: Path | None, workers: int,
               scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
-              up: tuple[float, float, float] | str, elevation: tuple[float, float] | None) -> None:
+              up: tuple[float, float, float] | str, elevation: tuple[float, float] | None,
+              max_points: int) -> None:
     """Find the best view per measure of INPUTS within a budget of drawn views.
 
     INPUTS are mesh files, or one collection: a folder (walked recursively),
@@ -128,7 +131,8 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
                             up="auto" if isinstance(up, str) else up, elevation=elevation)
     if is_collection(inputs):
         _search_collection(inputs[0], output, search, prior, measures, workers,
-                           scheduler, max_faces, timeout, dry_run, dataset_path, as_json)
+                           scheduler, max_faces, max_points, timeout, dry_run, dataset_path,
+                           as_json)
         return
     if workers != 1 or scheduler is not None or dry_run:
         raise InputError("--workers: --workers, --scheduler and --dry-run take a collection "
@@ -150,7 +154,7 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
                    else stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
         run = search_inputs(meshes, settings=search,
                             dataset=dataset, split=split, prior=prior, measures=measures,
-                            progress=True)
+                            max_points=max_points, progress=True)
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:
@@ -180,8 +184,8 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
 
 def _search_collection(source: str, output: Path | None, search: SearchSettings, prior: str,
                        measures: tuple[str, ...] | None, workers: int,
-                       scheduler: str | None, max_faces: int, timeout: float, dry_run: bool,
-                       dataset_path: Path | str | None, as_json: bool) -> None:
+                       scheduler: str | None, max_faces: int, max_points: int, timeout: float,
+                       dry_run: bool, dataset_path: Path | str | None, as_json: bool) -> None:
     """``best-view`` of a collection (see the command's help)."""
     from vptoolkit.best_view.search import searchable_measures
     from vptoolkit.collection.methods import SearchMethod
@@ -194,7 +198,7 @@ def _search_collection(source: str, output: Path | None, search: SearchSettings,
         from vptoolkit.collection.plan import plan_collection
 
         for line in plan_collection(source, method, workers=workers, max_faces=max_faces,
-                                    timeout=timeout).lines():
+                                    timeout=timeout, max_points=max_points).lines():
             click.echo(line)
         return
     if output is None:
@@ -202,8 +206,8 @@ def _search_collection(source: str, output: Path | None, search: SearchSettings,
     from vptoolkit.collection.runner import run_collection
     from vptoolkit.collection.table import write_table_predictions
 
-    run = run_collection(source, output, method, max_faces=max_faces, timeout=timeout,
-                         workers=workers, scheduler=scheduler, progress=True)
+    run = run_collection(source, output, method, max_faces=max_faces, max_points=max_points,
+                         timeout=timeout, workers=workers, scheduler=scheduler, progress=True)
     write_table_predictions(run.table, run.folder / "predictions.npz")
     if as_json:
         click.echo(output_json({"table": str(run.table), "entries": run.n_entries,

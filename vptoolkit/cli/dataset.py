@@ -17,6 +17,7 @@ from vptoolkit.cli.options import (
     cache_dir_option,
     comma_list,
     max_faces_option,
+    max_points_option,
     measures_option,
     points_option,
     resolution_option,
@@ -74,12 +75,13 @@ from vptoolkit.settings import MAX_RESOLUTION
 @click.option("--calibrate", type=click.IntRange(0),
               help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
               "0: count only).")
+@max_points_option()
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   categories: str | None, n_views: int, resolution: int,
                   measure_names: tuple[str, ...], n_points: int, max_faces: int,
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
-                  dry_run: bool, calibrate: int | None) -> None:
+                  dry_run: bool, calibrate: int | None, max_points: int) -> None:
     """Build a viewpoint-quality dataset from the meshes and point clouds under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
@@ -117,7 +119,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
         measures=measure_names, n_points=n_points,
         max_faces=max_faces, clean=not no_clean, remesh=remesh, split_seed=split_seed,
         splits=None if split_file is None else SplitFile.read(split_file),
-        max_models=max_models, format=store_format)
+        max_models=max_models, format=store_format, max_points=max_points)
     if dry_run:
         from vptoolkit.dataset.builder.plan import plan_build
 

@@ -20,6 +20,7 @@ from vptoolkit.cli.options import (
     ExistingPath,
     cache_dir_option,
     device_option,
+    max_points_option,
     measures_option,
     parse_point_features,
     seed_option,
@@ -204,10 +205,11 @@ def train(dataset: Path | str, output: Path, labels: str, epochs: int, batch_siz
                    "--json).")
 @device_option()
 @cache_dir_option()
+@max_points_option()
 def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | str | None,
                     split: Split, output: Path | None, seed: int, category: str | None,
                     n_inputs: int | None, as_json: bool, device: str,
-                    cache_dir: Path | None) -> None:
+                    cache_dir: Path | None, max_points: int) -> None:
     """Predict the best view per measure of meshes, point files or a dataset.
 
     INPUTS are mesh files or point clouds, told apart by content: a PLY, OBJ
@@ -245,7 +247,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
     from vptoolkit.predictors import resolve_predictor
 
     predictor = resolve_predictor(model, seed=seed, category=category, device=device,
-                                  n_inputs=n_inputs, progress=True)
+                                  n_inputs=n_inputs, progress=True, max_points=max_points)
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")
@@ -256,7 +258,7 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
         if dataset_path is not None:
             sources.append(stack.enter_context(open_dataset(dataset_path, cache_dir=cache_dir)))
         predictions = predictor(sources, split=split)
-        records = (_answer_records(sources, predictions, split, model, dataset_path)
+        records = (_answer_records(sources, predictions, split, model, dataset_path, max_points)
                    if as_json else None)
     if output is not None:
         predictions.save_npz(output)
@@ -276,9 +278,10 @@ def predict_command(inputs: tuple[Path, ...], model: str, dataset_path: Path | s
 
 def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predictions,
                     split: Split, predictor: str,
-                    dataset_path: Path | str | None) -> list[dict[str, Any]]:
+                    dataset_path: Path | str | None, max_points: int) -> list[dict[str, Any]]:
     """The ``predict --json`` record of every model of ``predictions``, in their order
-    (``dataset_path``: the ``--dataset`` given, which names a stored model's dataset).
+    (``dataset_path``: the ``--dataset`` given, which names a stored model's dataset;
+    ``max_points``: the ``--max-points`` the models were read with).
 
     Each model is read again for its bounding box, which places the cameras
     (:meth:`vptoolkit.camera.Camera.look_at` at ``RESOLUTION`` pixels); the
@@ -291,7 +294,7 @@ def _answer_records(sources: list[Path | ViewpointDataset], predictions: Predict
 
     camera = Camera()
     records: list[dict[str, Any]] = []
-    with open_inputs(sources, split=split) as models:
+    with open_inputs(sources, split=split, max_points=max_points) as models:
         by_name = {source.name: source for source in models}  # names are unique (claim_name)
         for name, directions in zip(predictions.names, predictions.directions, strict=True):
             source = by_name[name]

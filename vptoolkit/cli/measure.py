@@ -13,6 +13,7 @@ from vptoolkit.cli.options import (
     MEASURE_NAME,
     MESH,
     max_faces_option,
+    max_points_option,
     measures_option,
     points_option,
     resolution_option,
@@ -35,8 +36,9 @@ from vptoolkit.files import atomic_write, check_output_folder, output_json, writ
               help="Write views, raw and normalised measures, their names and the camera "
                    "to this .npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the result as JSON.")
+@max_points_option()
 def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, backend: str,
-             output: Path | None, as_json: bool) -> None:
+             output: Path | None, as_json: bool, max_points: int) -> None:
     """Compute viewpoint quality measures of MESH for every view; print the best views.
 
     By default the paper's four: VE and VR (higher is better), VKL and VMI
@@ -64,7 +66,7 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before the work, not after
-    loaded = read_model(mesh)
+    loaded = read_model(mesh, max_points=max_points)
     started = time.perf_counter()
     quality = compute_view_quality(loaded, settings, measures=names, progress=True)
     seconds = time.perf_counter() - started
@@ -108,9 +110,10 @@ def measures(mesh: Path, names: tuple[str, ...], n_views: int, resolution: int, 
 @click.option("-o", "--output", type=click.Path(dir_okay=False, path_type=Path),
               help="Write indices, directions and cumulative coverage to this .npz.")
 @click.option("--json", "as_json", is_flag=True, help="Print the set as JSON.")
+@max_points_option()
 def views(mesh: Path, k: int | None, objective: str, target: float | None, measure: str,
           n_views: int, resolution: int, min_pixels: int, output: Path | None,
-          as_json: bool) -> None:
+          as_json: bool, max_points: int) -> None:
     """Choose views of MESH that together show the whole model.
 
     A greedy search over the sampled views: each pick adds the view that best
@@ -135,7 +138,7 @@ def views(mesh: Path, k: int | None, objective: str, target: float | None, measu
     if output is not None:
         check_suffix(output, ".npz")
         check_output_folder(output, "--output")  # before drawing the views
-    loaded = read_model(mesh)
+    loaded = read_model(mesh, max_points=max_points)
     started = time.perf_counter()
     _, view_set = measure_view_set(
         loaded, 4 if k is None and target is None else k, settings=settings,

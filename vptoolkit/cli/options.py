@@ -46,6 +46,7 @@ __all__ = [
     "resolution_option",
     "points_option",
     "max_faces_option",
+    "max_points_option",
     "budget_option",
     "search_resolution_option",
     "seed_option",
@@ -322,6 +323,21 @@ def max_faces_option(help: str | None) -> Callable[[Decorated], Decorated]:
 
     return click.option("--max-faces", default=MAX_FACES, show_default=True,
                         type=click.IntRange(4), help=help)
+
+
+def max_points_option() -> Callable[[Decorated], Decorated]:
+    """``--max-points N``: the most points a point cloud file keeps on reading, at least 1
+    (default ``MAX_POINTS`` of :mod:`vptoolkit.point_cloud`; :func:`vptoolkit.io.load`)."""
+    from vptoolkit.point_cloud import MAX_POINTS
+
+    return click.option("--max-points", default=MAX_POINTS, show_default=True,
+                        type=click.IntRange(1), metavar="N",
+                        help="A point cloud file of more points is thinned on reading to the "
+                             "first point of each occupied voxel, the voxels grown from side "
+                             "extent/N^(1/3) by 1.25 until at most N are occupied "
+                             "(vptoolkit.point_cloud.voxel_subset); a thinned file prints one "
+                             "warning line on stderr naming it and the counts before and "
+                             "after. Meshes are never thinned.")
 
 
 def budget_option() -> Callable[[Decorated], Decorated]:

@@ -27,6 +27,7 @@ from vptoolkit.cli.options import (
     engine_option,
     face_limit_option,
     margin_option,
+    max_points_option,
     parse_measures,
     resolution_option,
     scheduler_option,
@@ -75,9 +76,10 @@ Vector = tuple[float, float, float]
 @click.option("--json", "as_json", is_flag=True,
               help="Print the file, name, views drawn (direction, camera pose, intrinsics) and "
                    "the PNG written as JSON.")
+@max_points_option()
 def render(mesh: Path, output: Path, view: Vector | None, best: str | None, model_path: str | None,
            view_set_k: int | None, measure: str, size: int, n_views: int, resolution: int,
-           up: Vector | str, margin: float, engine: str, as_json: bool) -> None:
+           up: Vector | str, margin: float, engine: str, as_json: bool, max_points: int) -> None:
     """Draw MESH (a mesh or a point cloud) through the measures' camera into a PNG picture.
 
     Give exactly one of --view, --best, --model or --view-set. The picture shows
@@ -114,7 +116,7 @@ def render(mesh: Path, output: Path, view: Vector | None, best: str | None, mode
     check_suffix(output, ".png")
     check_output_folder(output, "--output")
     settings = MeasureSettings(views=n_views, resolution=resolution)
-    loaded, appearance = load_with_appearance(mesh)
+    loaded, appearance = load_with_appearance(mesh, max_points=max_points)
     if model_path is not None:  # the network reads surfaces
         loaded = require_surface(loaded, mesh.name)
     if up == "auto":
@@ -199,9 +201,10 @@ def _picture_record(source: Path, model: Mesh | PointCloud, output: Path, engine
 @click.option("--json", "as_json", is_flag=True,
               help="Print the file, name, best view of each measure drawn (direction, camera "
                    "pose, intrinsics) and the PNG written as JSON.")
+@max_points_option()
 def sphere_map(source: Path, output: Path, measure: str | None, measures_text: str | None,
                predicted: Vector | None, n_views: int, resolution: int, dpi: int,
-               as_json: bool) -> None:
+               as_json: bool, max_points: int) -> None:
     """Draw measures over the view sphere as Mercator maps.
 
     SOURCE is the .npz of vptool measures -o (drawn as recorded), or a mesh
@@ -268,7 +271,7 @@ def sphere_map(source: Path, output: Path, measure: str | None, measures_text: s
     from vptoolkit.settings import MeasureSettings
 
     names = (measure,) if measure is not None else parse_measures(measures_text or "paper")
-    loaded = read_model(source)
+    loaded = read_model(source, max_points=max_points)
     quality = compute_view_quality(loaded, MeasureSettings(views=n_views, resolution=resolution),
                                    measures=names, progress=True)
     title = f"{quality.name}: {len(quality.views)} views at {quality.resolution} px"
@@ -362,11 +365,12 @@ def report(dataset: Path | str, output: Path, split: Split, predictions: Path | 
 @engine_option()
 @click.option("--dry-run", is_flag=True, help="Count the files of SRC and estimate hours and "
               "disk from a few, drawing and writing nothing.")
+@max_points_option()
 def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
                view_set_k: int | None, size: int, workers: int, scheduler: str | None,
                budget: int, resolution: int, max_faces: int, timeout: float,
                up: Vector | str, elevation: tuple[float, float] | None, margin: float,
-               engine: str, dry_run: bool) -> None:
+               engine: str, dry_run: bool, max_points: int) -> None:
     """Draw a thumbnail of every model of SRC from its best view into OUT.
 
     SRC is a folder (walked recursively), a quoted glob, one model file or
@@ -427,7 +431,8 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
         # a shaded PNG takes about a byte per pixel of the picture (a sheet: per tile)
         pixels = size * size * (view_set_k or 1)
         for line in plan_collection(src, method, workers=workers, extra_bytes_per_file=pixels,
-                                    max_faces=max_faces, timeout=timeout).lines():
+                                    max_faces=max_faces, timeout=timeout,
+                                    max_points=max_points).lines():
             click.echo(line)
         return
     if up == "auto" and search is None:
@@ -439,8 +444,8 @@ def thumbnails(src: str, out: Path, measure: str, model_path: str | None,
         result = render_thumbnails(src, out, measure=measure, search=search, settings=settings,
                                    predictor=predictor, predictor_name=model_path or "",
                                    view_set=view_set_k, workers=workers, scheduler=scheduler,
-                                   engine=drawing, max_faces=max_faces, timeout=timeout,
-                                   progress=True)
+                                   engine=drawing, max_faces=max_faces,
+                                   max_points=max_points, timeout=timeout, progress=True)
     click.echo(f"wrote {result.n_drawn} thumbnails to {out} ({len(result.done)} in all), "
                f"{len(result.failures)} skipped")
     for failure in result.failures:

@@ -21,6 +21,7 @@ from vptoolkit.collection.discover import discover, is_remote_entry
 from vptoolkit.collection.methods import Method
 from vptoolkit.collection.runner import MAX_MODEL_FACES, TIMEOUT_S, EntryTask, answer_entry
 from vptoolkit.files import json_text
+from vptoolkit.point_cloud import MAX_POINTS
 
 __all__ = ["CollectionPlan", "plan_collection", "SAMPLED_FILES"]
 
@@ -77,7 +78,7 @@ def _duration(seconds: float) -> str:
 def plan_collection(source: str | os.PathLike[str], method: Method, *, workers: int = 1,
                     sampled: int = SAMPLED_FILES, extra_bytes_per_file: int = 0,
                     max_faces: int = MAX_MODEL_FACES, timeout: float = TIMEOUT_S,
-                    ) -> CollectionPlan:
+                    max_points: int = MAX_POINTS) -> CollectionPlan:
     """Count ``source`` and estimate the time and disk of running ``method`` over it.
 
     Parameters
@@ -92,7 +93,7 @@ def plan_collection(source: str | os.PathLike[str], method: Method, *, workers: 
         Files answered to time (default: :data:`SAMPLED_FILES`; 0 counts only).
     extra_bytes_per_file : int
         Output beyond the staged record and the table row, e.g. a picture.
-    max_faces, timeout
+    max_faces, timeout, max_points
         As :func:`vptoolkit.collection.runner.run_collection` takes them.
     """
     from vptoolkit.best_view.run import load_kernels
@@ -112,7 +113,7 @@ def plan_collection(source: str | os.PathLike[str], method: Method, *, workers: 
         if len(seconds) < sampled:
             if not seconds:
                 load_kernels()
-            result = answer_entry(EntryTask(entry, "", method, max_faces, timeout))
+            result = answer_entry(EntryTask(entry, "", method, max_faces, timeout, max_points))
             if result.answer is not None:
                 seconds.append(result.seconds)
                 record_bytes.append(len(json_text(result.record(), indent=None)))

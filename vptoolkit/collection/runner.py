@@ -39,7 +39,9 @@ Work
 Limits
     A file with more than ``max_faces`` faces (default :data:`MAX_MODEL_FACES`)
     (a point cloud: more points) is refused after reading, before any view
-    is drawn. An entry that takes
+    is drawn; a point cloud of more than ``max_points`` points (default
+    :data:`~vptoolkit.point_cloud.MAX_POINTS`) is first thinned on reading
+    (:func:`vptoolkit.io.load`), with a warning naming the file. An entry that takes
     longer than ``timeout`` seconds (default :data:`TIMEOUT_S`) is stopped by
     a ``SIGALRM`` timer in its worker (``signal.setitimer``; it interrupts
     Python code between native calls, so one native call runs to its end,
@@ -90,7 +92,7 @@ from vptoolkit.files import (
 )
 from vptoolkit.mesh import Mesh
 from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 from vptoolkit.progress import progress_bar
 
 __all__ = ["MAX_MODEL_FACES", "TIMEOUT_S", "CollectionRun", "EntryResult", "EntryTask",
@@ -124,6 +126,7 @@ class EntryTask:
     method: Method
     max_faces: int
     timeout: float
+    max_points: int = MAX_POINTS
     keep_model: bool = False
     draw: Callable[[EntryResult], EntryResult] | None = None
 
@@ -196,25 +199,32 @@ class CollectionRun:
     failures: tuple[tuple[str, str], ...]
 
 
-def settings_digest(method: Method, max_faces: int) -> tuple[str, dict[str, Any]]:
-    """The output folder's name and its ``settings.json`` for a method and face limit.
+def settings_digest(method: Method, max_faces: int,
+                    max_points: int = MAX_POINTS) -> tuple[str, dict[str, Any]]:
+    """The output folder's name and its ``settings.json`` for a method and the read limits.
 
     The digest is the first 16 hex digits of the SHA-256 of the record's
     canonical JSON (sorted keys, no spaces). ``image_up`` names the image up of
     the table's camera poses (``PICTURE_UP``, or a search's own ``up``), so a
-    folder whose poses put another axis up is never resumed into.
+    folder whose poses put another axis up is never resumed into. ``max_points``
+    (how far a point cloud is thinned on reading, which changes its answers) is
+    recorded only when it is not :data:`~vptoolkit.point_cloud.MAX_POINTS`, so the
+    folder of the default settings keeps its name.
     """
-    record = {"method": method.record(), "max_faces": max_faces,
-              "image_up": list(PICTURE_UP)}
+    record: dict[str, Any] = {"method": method.record(), "max_faces": max_faces,
+                              "image_up": list(PICTURE_UP)}
+    if max_points != MAX_POINTS:
+        record["max_points"] = max_points
     text = json.dumps(record, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16], record
 
 
-def read_model(path: str) -> Mesh | PointCloud:
+def read_model(path: str, max_points: int = MAX_POINTS) -> Mesh | PointCloud:
     """Read one collection entry as the model its method takes.
 
     The one place a collection reads a file: through
-    :func:`vptoolkit.inputs.read_model`, which decides by content. A point
+    :func:`vptoolkit.inputs.read_model`, which decides by content and thins a
+    cloud of more than ``max_points`` points (:func:`vptoolkit.io.load`). A point
     cloud goes to every method (the search, every view measured, a view set:
     the session splats it) and to the pictures (the software engine splats
     it too); a URL (remote entries are not fetched) is refused in one line.
@@ -229,7 +239,7 @@ def read_model(path: str) -> Mesh | PointCloud:
 
     if is_remote_entry(path):
         raise InputError(f"{path}: a URL; collections read local files only")
-    return read_input(path)
+    return read_input(path, max_points=max_points)
 
 
 def answer_entry(task: EntryTask) -> EntryResult:
@@ -239,7 +249,7 @@ def answer_entry(task: EntryTask) -> EntryResult:
     read = 0.0
     with _time_limit(task.timeout):
         try:
-            mesh = read_model(task.entry.path)
+            mesh = read_model(task.entry.path, task.max_points)
             read = time.perf_counter() - started
             count, kind = ((mesh.n_points, "points") if isinstance(mesh, PointCloud)
                            else (mesh.n_faces, "faces"))
@@ -332,6 +342,7 @@ def run_collection(
     method: Method,
     *,
     max_faces: int = MAX_MODEL_FACES,
+    max_points: int = MAX_POINTS,
     timeout: float = TIMEOUT_S,
     workers: int = 1,
     scheduler: str | None = None,
@@ -351,6 +362,10 @@ def run_collection(
         What every entry gets (:mod:`vptoolkit.collection.methods`).
     max_faces : int
         Refuse a model with more faces (default: :data:`MAX_MODEL_FACES`).
+    max_points : int
+        Thin a point cloud of more points on reading, as :func:`vptoolkit.io.load`
+        (default: :data:`~vptoolkit.point_cloud.MAX_POINTS`); part of the digest
+        when not the default.
     timeout : float
         Seconds one entry may take (default: :data:`TIMEOUT_S`).
     workers : int
@@ -392,6 +407,7 @@ def run_collection(
     require("pyarrow", extra="dataset")
     workers = check_int(workers, "workers", minimum=1)
     max_faces = check_int(max_faces, "max_faces", minimum=1)
+    max_points = check_int(max_points, "max_points", minimum=1)
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
         raise InputError(f"timeout: expected a positive number of seconds, got {timeout!r}")
     progress = check_bool(progress, "progress")
@@ -402,17 +418,18 @@ def run_collection(
     if method.in_process and (workers != 1 or scheduler is not None):
         raise InputError("workers: this method runs in this process; drop workers and scheduler")
     n_entries = sum(1 for _ in discover(source))  # a first pass: the bar's total, streamed
-    digest, record = settings_digest(method, max_faces)
+    digest, record = settings_digest(method, max_faces, max_points)
     folder = as_path(out, "out") / digest
     staging = folder / "staging"
     staging.mkdir(parents=True, exist_ok=True)
     with exclusive_lock(folder / _LOCK_NAME, f"{folder}: another run is writing this folder"):
-        return _run(source, folder, record, method, n_entries, max_faces, float(timeout),
-                    workers, scheduler, draw, finish, progress)
+        return _run(source, folder, record, method, n_entries, max_faces, max_points,
+                    float(timeout), workers, scheduler, draw, finish, progress)
 
 
 def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], method: Method,
-         n_entries: int, max_faces: int, timeout: float, workers: int, scheduler: str | None,
+         n_entries: int, max_faces: int, max_points: int, timeout: float, workers: int,
+         scheduler: str | None,
          draw: Callable[[EntryResult], EntryResult] | None,
          finish: Callable[[EntryResult], EntryResult] | None, progress: bool) -> CollectionRun:
     """The body of :func:`run_collection`, with the folder locked."""
@@ -437,7 +454,7 @@ def _run(source: str | os.PathLike[str], folder: Path, record: dict[str, Any], m
                     counts["resumed"] += 1
                     bar.update(1)
                     continue
-                yield EntryTask(entry, sha256, method, max_faces, timeout,
+                yield EntryTask(entry, sha256, method, max_faces, timeout, max_points,
                                 keep_model=finish is not None and draw is None, draw=draw)
 
     with progress_bar(total=n_entries, description="files", unit="file",

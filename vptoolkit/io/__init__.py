@@ -9,8 +9,9 @@ library's object, into a :class:`~vptoolkit.mesh.Mesh` or a
 its suffix: a PLY, OBJ or OFF with faces is a mesh, one with vertices and no
 faces is a point cloud (as trimesh's loader decides), a points-only
 format is always one. A point cloud larger than ``max_points`` is thinned,
-with a warning (:func:`load`). :func:`require_surface` is the one check (and message) where a
-surface is needed, and :func:`load_mesh` is the two together.
+with a warning, given once per file and ``max_points`` in a process
+(:func:`load`). :func:`require_surface` is the one check (and message) where
+a surface is needed, and :func:`load_mesh` is the two together.
 :func:`load_with_appearance` also returns the
 :class:`~vptoolkit.appearance.Appearance` (colours, texture coordinates,
 texture) the same file holds; only the picture code reads it, and it is a
@@ -85,6 +86,10 @@ MODEL_SUFFIXES: tuple[str, ...] = SUPPORTED_SUFFIXES + POINT_SUFFIXES
 WRITABLE_SUFFIXES: tuple[str, ...] = (".off", ".ply", ".obj", ".stl")
 
 _log = logging.getLogger(__name__)
+
+_thinning_warned: set[tuple[str, int, int]] = set()
+"""``(absolute path, points read, max_points)`` of every thinning warned of in this process:
+a file read again the same way (a check before the work, a picture's colours) warns once."""
 
 _FORMAT_LABELS = {".gltf": "glTF"}
 """Format names in messages where the upper-case suffix is not the name."""
@@ -190,7 +195,9 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
         :data:`~vptoolkit.point_cloud.MAX_POINTS`, 20 million). A larger
         cloud is thinned to at most this many by
         :func:`~vptoolkit.point_cloud.voxel_subset`, never silently: a
-        warning names the file and both counts. Meshes are never thinned.
+        warning (logger ``vptoolkit.io``) names the file and both counts,
+        once per file, point count and ``max_points`` in a process.
+        Meshes are never thinned.
 
     Returns
     -------
@@ -219,8 +226,8 @@ def load(source: str | os.PathLike[str] | Any, *, name: str | None = None,
     return _model(path, _read(path), max_points)[0]
 
 
-def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointCloud,
-                                                                  Appearance]:
+def load_with_appearance(path: str | os.PathLike[str], *,
+                         max_points: int = MAX_POINTS) -> tuple[Mesh | PointCloud, Appearance]:
     """Read a model file and how it looks: :func:`load`'s model and its appearance.
 
     The appearance is an :class:`~vptoolkit.appearance.Appearance`.
@@ -236,6 +243,8 @@ def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointClou
     ----------
     path : str or os.PathLike
         A file as for :func:`load`.
+    max_points : int
+        As for :func:`load`: a larger point cloud and its colours are thinned alike.
 
     Returns
     -------
@@ -252,8 +261,9 @@ def load_with_appearance(path: str | os.PathLike[str]) -> tuple[Mesh | PointClou
         If the file has a texture and Pillow is not installed.
     """
     path = as_path(path, "path")
+    max_points = check_int(max_points, "max_points", minimum=1)
     reading = _read(path, appearance=True)
-    model, faces = _model(path, reading, MAX_POINTS)
+    model, faces = _model(path, reading, max_points)
     file_name = path.name or str(path)
     try:
         return model, _appearance(reading, faces)
@@ -342,7 +352,7 @@ def _model(path: Path, reading: Reading, max_points: int) -> tuple[Mesh | PointC
     file_name = path.name or str(path)
     if len(reading.polygons[1]) == 0 and len(reading.vertices):  # vertices and no faces
         if len(reading.vertices) > max_points and np.isfinite(reading.vertices).all():
-            reading = _thinned(reading, max_points, file_name)
+            reading = _thinned(reading, max_points, path)
         try:
             return PointCloud(reading.vertices, reading.normals, name=path.stem), None
         except InputError as err:
@@ -357,12 +367,17 @@ def _model(path: Path, reading: Reading, max_points: int) -> tuple[Mesh | PointC
         raise MeshLoadError(f"{file_name}: invalid mesh ({err})") from err
 
 
-def _thinned(reading: Reading, max_points: int, file_name: str) -> Reading:
-    """A point cloud reading thinned to at most ``max_points`` (:func:`voxel_subset`), warned."""
+def _thinned(reading: Reading, max_points: int, path: Path) -> Reading:
+    """A point cloud reading thinned to at most ``max_points`` (:func:`voxel_subset`), warned
+    once (:data:`_thinning_warned`)."""
     kept = voxel_subset(reading.vertices, max_points)
-    _log.warning("%s: %s points, more than max_points=%s; kept %s, one per voxel "
-                 "(vptoolkit.point_cloud.voxel_subset)", file_name, f"{len(reading.vertices):,}",
-                 f"{max_points:,}", f"{len(kept):,}")
+    file_name = path.name or str(path)
+    warned = (os.path.abspath(path), len(reading.vertices), max_points)
+    if warned not in _thinning_warned:
+        _thinning_warned.add(warned)
+        _log.warning("%s: %s points, more than max_points=%s; kept %s, one per voxel "
+                     "(vptoolkit.point_cloud.voxel_subset)", file_name,
+                     f"{len(reading.vertices):,}", f"{max_points:,}", f"{len(kept):,}")
     return reading._replace(
         vertices=reading.vertices[kept],
         normals=None if reading.normals is None else reading.normals[kept],

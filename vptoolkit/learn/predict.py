@@ -80,7 +80,7 @@ from vptoolkit.learn.draws import (
 from vptoolkit.learn.model import ViewpointNet, load_model, resolve_device, torch_threads
 from vptoolkit.mesh import Mesh, MeshLike, as_mesh
 from vptoolkit.optional import require
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 from vptoolkit.point_features import FEATURE_WIDTHS, turn_features
 from vptoolkit.points import N_FPS_POINTS, N_NETWORK_POINTS, N_SURFACE_POINTS
 from vptoolkit.predictions import Predictions
@@ -539,6 +539,7 @@ def predict(
     category: str | None = None,
     device: str = "auto",
     n_inputs: int = N_INPUTS,
+    max_points: int = MAX_POINTS,
 ) -> Predictions:
     """Predict the best view of every input model for each measure.
 
@@ -576,6 +577,10 @@ def predict(
     n_inputs : int
         Network inputs per model, 1 to 64, whose answers' consensus is the
         prediction (default: :data:`N_INPUTS`; 1 asks the network once).
+    max_points : int
+        Most points a point cloud file keeps; a larger one is thinned on
+        reading (:func:`vptoolkit.io.load`; default:
+        :data:`~vptoolkit.point_cloud.MAX_POINTS`).
 
     Returns
     -------
@@ -617,7 +622,7 @@ def predict(
 
     cloud_network = (CLOUD_MODELS.get(str(model_path))
                      if is_bundled_model(model_path) and None in networks else None)
-    with open_inputs(inputs, split=split) as sources:
+    with open_inputs(inputs, split=split, max_points=max_points) as sources:
         wanted = _features_read(networks)
         for source in sources:  # refused before any work: a points-only file for features
             if (wanted and cloud_network is None and source.kind == "file"

@@ -89,7 +89,7 @@ from vptoolkit.pictures.png import png_bytes
 from vptoolkit.pictures.shading import RenderStyle
 from vptoolkit.pictures.thumbnail_index import ThumbnailCard, write_thumbnail_index
 from vptoolkit.pictures.views import DirectionSource, resolve_direction
-from vptoolkit.point_cloud import PointCloud
+from vptoolkit.point_cloud import MAX_POINTS, PointCloud
 from vptoolkit.settings import MeasureSettings, check_settings
 
 __all__ = ["PictureDrawing", "PredictedMethod", "ThumbnailFailure", "ThumbnailResult",
@@ -211,12 +211,13 @@ def _stood_up(model: Mesh | PointCloud, direction: NDArray[np.float64],
 
 
 def _picture(result: EntryResult, engine: Engine, method: ThumbnailMethod, rows: slice,
-             is_stood_up: bool) -> NDArray[np.uint8]:
-    """The thumbnail of an answered entry (with its model): the chosen view, stood up
-    when the search put the model's own up axis up, or a view set's contact sheet."""
+             is_stood_up: bool, max_points: int) -> NDArray[np.uint8]:
+    """The thumbnail of an answered entry (with its model, read with ``max_points``): the
+    chosen view, stood up when the search put the model's own up axis up, or a view set's
+    contact sheet."""
     assert result.answer is not None and result.model is not None  # answered entries
     model = result.model
-    appearance = model_appearance(result.entry, model)
+    appearance = model_appearance(result.entry, model, max_points)
     if isinstance(method, ViewSetMethod):
         from vptoolkit.pictures.contact_sheet import view_set_sheet
 
@@ -257,6 +258,8 @@ class PictureDrawing:
     is_stood_up : bool
         Whether the model is turned to stand on its own up axis (a search
         with ``up="auto"``).
+    max_points : int
+        The ``max_points`` the entries were read with (their colours are read alike).
     """
 
     size: int
@@ -266,6 +269,7 @@ class PictureDrawing:
     method: ThumbnailMethod
     rows: slice
     is_stood_up: bool
+    max_points: int
 
     def __call__(self, result: EntryResult) -> EntryResult:
         """The entry with its picture's PNG bytes as ``output`` (no model), or a failure
@@ -275,7 +279,8 @@ class PictureDrawing:
         try:
             with SoftwareRenderer(size=self.size, camera=self.camera, style=self.style,
                                   supersampling=self.supersampling) as engine:
-                image = _picture(result, engine, self.method, self.rows, self.is_stood_up)
+                image = _picture(result, engine, self.method, self.rows, self.is_stood_up,
+                                 self.max_points)
             return replace(result, model=None, output=png_bytes(image))
         except VptoolkitError as err:
             return replace(result, answer=None, reason=one_line(err), model=None)
@@ -286,10 +291,12 @@ def picture_name(key: str) -> str:
     return f"{key}.png"
 
 
-def model_appearance(entry: Entry, model: Mesh | PointCloud) -> Appearance | None:
+def model_appearance(entry: Entry, model: Mesh | PointCloud,
+                     max_points: int) -> Appearance | None:
     """The appearance of an entry's file, if it is local and belongs to ``model``.
 
-    The file is read again (:func:`vptoolkit.io.load_with_appearance`); a
+    The file is read again (:func:`vptoolkit.io.load_with_appearance`, a point
+    cloud thinned by ``max_points`` as ``model`` was); a
     remote entry, a model whose kind or counts differ from ``model``'s, or a
     file whose colours cannot be read (a warning names it) give None: the
     picture is then drawn in the style's colour.
@@ -299,7 +306,7 @@ def model_appearance(entry: Entry, model: Mesh | PointCloud) -> Appearance | Non
     from vptoolkit.io import load_with_appearance
 
     try:
-        read, appearance = load_with_appearance(entry.path)
+        read, appearance = load_with_appearance(entry.path, max_points=max_points)
     except VptoolkitError as err:
         warnings.warn(f"{entry.key}: drawn without its colours ({one_line(err)})", stacklevel=2)
         return None
@@ -373,6 +380,7 @@ def render_thumbnails(
     scheduler: str | None = None,
     engine: Engine | None = None,
     max_faces: int = MAX_MODEL_FACES,
+    max_points: int = MAX_POINTS,
     timeout: float = TIMEOUT_S,
     progress: bool = False,
 ) -> ThumbnailResult:
@@ -420,7 +428,7 @@ def render_thumbnails(
         that camera, made for this call). A software engine's settings draw
         in the workers (module docstring); any other engine draws in this
         process.
-    max_faces, timeout
+    max_faces, max_points, timeout
         The per-file limits of :func:`vptoolkit.collection.runner.run_collection`.
     progress : bool
         Show a progress bar on stderr (default: False).
@@ -449,7 +457,8 @@ def render_thumbnails(
         from vptoolkit.pictures.software_engine import SoftwareRenderer
 
         in_workers = (PictureDrawing(active.size, active.camera, active.style,
-                                     active.supersampling, method, rows, is_stood_up)
+                                     active.supersampling, method, rows, is_stood_up,
+                                     max_points)
                       if type(active) is SoftwareRenderer else None)
         drawn = [0]
 
@@ -457,7 +466,7 @@ def render_thumbnails(
             """Write the entry's picture (drawn by its worker, or here); stage the result."""
             try:
                 payload = result.output if in_workers is not None else png_bytes(
-                    _picture(result, active, method, rows, is_stood_up))
+                    _picture(result, active, method, rows, is_stood_up, max_points))
                 image_path = target / picture_name(result.entry.key)
                 image_path.parent.mkdir(parents=True, exist_ok=True)
                 write_bytes_atomic(image_path, payload)
@@ -468,8 +477,8 @@ def render_thumbnails(
 
         target.mkdir(parents=True, exist_ok=True)
         run = run_collection(source, target / RUNS_FOLDER, method, max_faces=max_faces,
-                             timeout=timeout, workers=workers, scheduler=scheduler,
-                             draw=in_workers, finish=write, progress=progress)
+                             max_points=max_points, timeout=timeout, workers=workers,
+                             scheduler=scheduler, draw=in_workers, finish=write, progress=progress)
         size = active.size
     cards = _write_index(target / _INDEX_NAME, run.table, method, measure, rows, size, source)
     if isinstance(method, ViewSetMethod):

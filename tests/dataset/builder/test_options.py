@@ -55,6 +55,16 @@ def test_the_staging_record_gives_back_equal_options():
     assert BuildOptions.from_dict(record) != replace(options, n_points=201)
 
 
+def test_max_points_is_recorded_and_an_older_record_read_the_default():
+    options = BuildOptions(max_points=5000)
+    assert BuildOptions.from_dict(options.to_dict()) == options != BuildOptions()
+    record = BuildOptions().to_dict()
+    del record["max_points"]  # a build.json written before the option
+    assert BuildOptions.from_dict(record) == BuildOptions()
+    with pytest.raises(InputError, match="^max_points: must be at least 1, got 0$"):
+        BuildOptions(max_points=0)
+
+
 def test_a_record_with_missing_or_unknown_keys_is_refused():
     record = BuildOptions().to_dict()
     del record["n_points"]

@@ -201,7 +201,7 @@ def _measure_model(task: ModelTask) -> MeasuredModel:
     seconds: dict[str, float] = {}
     started = time.perf_counter()
     source_sha256 = sha256_file(path)
-    model = load(path)
+    model = load(path, max_points=task.options.max_points)
     seconds["load"] = time.perf_counter() - started
     if isinstance(model, PointCloud):
         arrays, cleaning, view_set = _cloud_arrays(model, task, seconds)

@@ -10,7 +10,7 @@ and the options part of the store's attributes
 its owner: ``N_VIEWS``, ``RESOLUTION`` and ``Camera()`` through
 :class:`~vptoolkit.settings.MeasureSettings`, the paper's four measures
 (:data:`~vptoolkit.measures.registry.PAPER_MEASURES`), ``N_SURFACE_POINTS``,
-``MAX_FACES``, ``SEED`` and :data:`DEFAULT_FORMAT`.
+``MAX_FACES``, ``MAX_POINTS``, ``SEED`` and :data:`DEFAULT_FORMAT`.
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from vptoolkit.clean.simplify import MAX_FACES
 from vptoolkit.conventions import SEED
 from vptoolkit.errors import InputError
 from vptoolkit.measures.registry import PAPER_MEASURES, resolve_measures
+from vptoolkit.point_cloud import MAX_POINTS
 from vptoolkit.points import MAX_SURFACE_POINTS, N_SURFACE_POINTS
 from vptoolkit.settings import MeasureSettings, check_settings
 
@@ -42,7 +43,7 @@ DEFAULT_FORMAT: Final = "zarr"
 """Store format of a build unless it is given one."""
 
 _KEYS = ("format", "measure", "measures", "n_points", "max_faces", "clean", "remesh",
-         "split_seed", "splits_sha256", "max_models")
+         "split_seed", "splits_sha256", "max_models", "max_points")
 
 
 @dataclass(frozen=True)
@@ -142,6 +143,10 @@ class BuildOptions:
         are left out instead of recorded as failures (default: None, every model).
     format : {"zarr", "hdf5"}
         Store format (default: ``DEFAULT_FORMAT`` = "zarr").
+    max_points : int
+        Most points a point cloud file keeps, at least 1; a larger one is
+        thinned on reading (:func:`vptoolkit.io.load`; default: ``MAX_POINTS``
+        = 20 million). Meshes are never thinned.
 
     Raises
     ------
@@ -160,6 +165,7 @@ class BuildOptions:
     splits: SplitFile | None = None
     max_models: int | None = None
     format: StoreFormat = DEFAULT_FORMAT
+    max_points: int = MAX_POINTS
 
     def __post_init__(self) -> None:
         checked: dict[str, Any] = {
@@ -173,6 +179,7 @@ class BuildOptions:
             "split_seed": check_int(self.split_seed, "split_seed"),
             "max_models": None if self.max_models is None
             else check_int(self.max_models, "max_models", minimum=1),
+            "max_points": check_int(self.max_points, "max_points", minimum=1),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)
@@ -203,6 +210,7 @@ class BuildOptions:
             "split_seed": self.split_seed,
             "splits_sha256": None if self.splits is None else self.splits.sha256,
             "max_models": self.max_models,
+            "max_points": self.max_points,
         }
 
     @classmethod
@@ -210,10 +218,13 @@ class BuildOptions:
         """The options of a :meth:`to_dict` record; a missing or unknown key is an InputError.
 
         A record made before builds chose their measures has no ``measures``: the
-        paper's four, which it was built with.
+        paper's four, which it was built with; one made before point clouds were
+        thinned by option has no ``max_points``: ``MAX_POINTS``, which it read with.
         """
         if isinstance(record, dict) and "measures" not in record:
             record = {**record, "measures": list(PAPER_MEASURES)}
+        if isinstance(record, dict) and "max_points" not in record:
+            record = {**record, "max_points": MAX_POINTS}
         record = check_keys(record, _KEYS, "build options")
         digest = record["splits_sha256"]
         return cls(
@@ -227,6 +238,7 @@ class BuildOptions:
             splits=None if digest is None else SplitFile(sha256=digest),
             max_models=record["max_models"],
             format=record["format"],
+            max_points=record["max_points"],
         )
 
     def store_attrs(self) -> dict[str, Any]:
