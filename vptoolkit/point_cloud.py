@@ -109,9 +109,15 @@ class PointCloud:
 def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int64]:
     """Indices of at most ``max_points`` points, one per cell of the finest fitting voxel grid.
 
-    The grid's cubic cells start at the side ``extent / max_points^(1/3)``
-    (``extent`` the largest side of the bounding box) and grow by a factor
-    of 1.25 until at most ``max_points`` cells hold points; each occupied
+    Cubic cells of side ``side * extent`` (``extent`` the largest side of the
+    bounding box), ``side`` from the sequence ``max_points^(-1/3) * 1.25^k``
+    (``k`` any integer, down to :data:`_FINEST_SIDE`): the smallest side of
+    the sequence at which at most ``max_points`` cells hold points. The search
+    starts at ``k = 0`` (as fine as a solid of ``max_points`` cells needs),
+    grows the cells while too many are occupied and, where that first grid
+    fits, shrinks them while they still fit, so a surface, which fills only a
+    shell of a solid's cells, keeps between about ``max_points / 1.25^2`` and
+    ``max_points`` points, not the far fewer of the first grid. Each occupied
     cell keeps its first point in input order. The result is deterministic
     and spreads the kept points evenly over the shape, unlike a random subset
     that keeps dense regions dense.
@@ -134,12 +140,29 @@ def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int
     low = points.min(axis=0)
     high = points.max(axis=0)
     extent = float((high - low).max())
-    side = 1.0 / max(max_points, 1) ** (1.0 / 3.0)
-    while True:
-        _, first = np.unique(_cell_keys(points, low, high, extent, side), return_index=True)
-        if len(first) <= max_points:
-            return np.sort(first).astype(np.int64)
-        side *= 1.25
+
+    def firsts(k: int) -> NDArray[np.int64]:
+        side = float(max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k))
+        return np.unique(_cell_keys(points, low, high, extent, side), return_index=True)[1]
+
+    k = 0
+    first = firsts(k)
+    if len(first) > max_points:
+        while len(first) > max_points:
+            k += 1
+            first = firsts(k)
+    else:
+        while max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k - 1) >= _FINEST_SIDE:
+            finer = firsts(k - 1)
+            if len(finer) > max_points:
+                break
+            k, first = k - 1, finer
+    return np.sort(first).astype(np.int64)
+
+
+_FINEST_SIDE = 1e-6
+"""The finest cell side of :func:`voxel_subset`, a share of the extent: ``10^6`` cells an
+axis, so a cell's key (``< 10^18``) fits an int64."""
 
 
 def _cell_keys(points: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64],

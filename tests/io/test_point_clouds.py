@@ -227,13 +227,13 @@ def _voxel_rule(points, max_points):
     low = points.min(axis=0)
     extent = float(np.ptp(points, axis=0).max())
     scaled = (points - low) / extent if extent > 0 else np.zeros_like(points)
-    side = 1.0 / max_points ** (1.0 / 3.0)
-    while True:
-        _, first = np.unique(np.floor(scaled / side).astype(np.int64), axis=0,
-                             return_index=True)
-        if len(first) <= max_points:
-            return np.sort(first)
-        side *= 1.25
+
+    def firsts(side):
+        return np.unique(np.floor(scaled / side).astype(np.int64), axis=0, return_index=True)[1]
+
+    sides = [float(max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k)) for k in range(-80, 80)]
+    fitting = [side for side in sides if side >= 1e-6 and len(firsts(side)) <= max_points]
+    return np.sort(firsts(min(fitting)))
 
 
 @pytest.mark.parametrize("max_points", [1, 7, 200, 999])

@@ -333,8 +333,8 @@ def max_points_option() -> Callable[[Decorated], Decorated]:
     return click.option("--max-points", default=MAX_POINTS, show_default=True,
                         type=click.IntRange(1), metavar="N",
                         help="A point cloud file of more points is thinned on reading to the "
-                             "first point of each occupied voxel, the voxels grown from side "
-                             "extent/N^(1/3) by 1.25 until at most N are occupied "
+                             "first point of each occupied voxel, the finest voxels of side "
+                             "extent/N^(1/3)*1.25^k with at most N occupied "
                              "(vptoolkit.point_cloud.voxel_subset); a thinned file prints one "
                              "warning line on stderr naming it and the counts before and "
                              "after. Meshes are never thinned.")
