@@ -34,8 +34,8 @@ Dask (:func:`run_on_cluster`)
     is yielded. A Dask nanny starts its workers with
     ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes glibc's mmap threshold
     at 128 KiB: every array above that is then a fresh ``mmap`` whose pages
-    fault in anew (about ten times the page faults of a plain process, and a
-    third more CPU time in a search). The first task in such a worker sets
+    fault in anew (about ten times the page faults of a plain process, and
+    more CPU time in a search). The first task in such a worker sets
     glibc's thresholds to the ceiling of its own dynamic ones (mmap above
     32 MiB, trim above 64 MiB), so the heap is reused as in a plain process.
 """
