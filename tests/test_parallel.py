@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import pytest
 
+from fixtures.environment import DASK_DASHBOARD, require_package
 from vptoolkit.errors import InputError
-from vptoolkit.parallel import check_scheduler_address, run_tasks
+from vptoolkit.parallel import check_scheduler_address, run_on_cluster, run_tasks
 
 
 def _square(number: int) -> int:
@@ -20,6 +22,21 @@ def _square_or_die(number: int) -> int:
     if number == 3:
         os._exit(11)
     return number * number
+
+
+def _page_faults_of_arrays(n_arrays: int) -> tuple[str | None, int]:
+    """Dask's ``MALLOC_TRIM_THRESHOLD_`` here, and the minor page faults of ``n_arrays``
+    arrays of 1 MiB made and freed in turn."""
+    import resource
+
+    import numpy as np
+
+    np.ones(2**17)  # the first may grow the heap
+    before = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt
+    for _ in range(n_arrays):
+        np.ones(2**17)
+    faults = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt - before
+    return os.environ.get("MALLOC_TRIM_THRESHOLD_"), faults
 
 
 def _pid_and_threads(number: int) -> tuple[int, int]:
@@ -112,3 +129,20 @@ def test_scheduler_addresses_are_accepted(address, expected):
 def test_other_addresses_are_bad_input(address, message):
     with pytest.raises(InputError, match=message):
         check_scheduler_address(address)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's malloc thresholds")
+def test_a_dask_worker_reuses_the_heap_for_large_arrays():
+    require_package("distributed")
+    from distributed import LocalCluster
+
+    n_arrays, pages = 20, 2**20 // os.sysconf("SC_PAGE_SIZE")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=DASK_DASHBOARD) as cluster:
+        [(trim, faults)] = run_on_cluster(_page_faults_of_arrays, [n_arrays],
+                                          address=cluster.scheduler_address,
+                                          failed=lambda task, error: (None, -1),
+                                          name=lambda task: "faults")
+    assert trim == "65536"  # Dask's default, which alone would fault every array's pages in
+    assert 0 <= faults < pages  # freshly mapped arrays would fault n_arrays * pages
