@@ -32,6 +32,7 @@ def test_searches_are_parsed(tool: ModuleType) -> None:
 @pytest.mark.slow
 def test_a_built_dataset_is_trained_and_scored_on_its_validation_split(
         tool: ModuleType, tmp_path: Path) -> None:
+    from vptoolkit.conventions import model_name
     from vptoolkit.dataset.builder.options import BuildOptions, SplitFile
     from vptoolkit.dataset.builder.run import build_dataset
     from vptoolkit.dataset.builder.split_files import class_split, write_split_file
@@ -41,8 +42,8 @@ def test_a_built_dataset_is_trained_and_scored_on_its_validation_split(
     shapes = tmp_path / "shapes"
     write_collection(shapes, n_per_category=3, categories=("bottle", "table"), seed=0,
                      layout="flat")
-    split = class_split([(category, f"{category}_{i:04d}") for category in ("bottle", "table")
-                         for i in range(1, 4)])
+    split = class_split([(category, model_name(f"{category}/{category}_{i:04d}.off"))
+                         for category in ("bottle", "table") for i in range(1, 4)])
     write_split_file(tmp_path / "splits.csv", split)
     options = BuildOptions(MeasureSettings(views=40, resolution=32), n_points=600, clean=False,
                            splits=SplitFile.read(tmp_path / "splits.csv"))
