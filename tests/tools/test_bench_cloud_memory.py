@@ -23,7 +23,7 @@ def test_a_small_cloud_is_written_searched_and_measured(tmp_path: Path,
     row = next(line for line in result.stdout.splitlines() if line.startswith("| 3,000 |"))
     _, _, file_mib, peak_mib, wall_s, search_s, _ = row.split("|")
     # a fresh Python with numpy and numba holds tens of MiB at least; the search is in the wall
-    assert float(peak_mib) > 30 and 0 < float(search_s) <= float(wall_s)
+    assert float(peak_mib) > 30 and 0 <= float(search_s) <= float(wall_s)  # 0.1 s steps
     assert float(file_mib) == round((work / "bunny_3000.npy").stat().st_size / 2**20, 1)
     assert_section_holds(results, "cloud_memory", result.stdout)
 

@@ -26,7 +26,9 @@ def test_quick_bench_measures_runs_resume_and_memory(tmp_path: Path, run_tool: R
     assert_section_holds(results, "collection", result.stdout)
     out = result.stdout
     assert out.count("the same table bytes in every run: yes") == 2
-    assert "(the 8 not staged: yes); table bytes as an uninterrupted run: identical" in out
+    # the kill lands once 4 of 12 are staged; more may be staged by then on a fast machine
+    assert re.search(r"\(the \d+ not staged: yes\); table bytes as an uninterrupted run: "
+                     r"identical", out)
     assert re.search(r"median over the same 1 files, 1 process:\n  old default \d", out)
     assert len(re.findall(r"at each tenth:( \d+){11}\n", out)) == 2
     figures = json.loads((tmp_path / "collection.json").read_text())
