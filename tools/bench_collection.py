@@ -67,7 +67,6 @@ from results_doc import add_results_option, format_seconds, printed_section
 from vptoolkit.collection.discover import is_model_file
 from vptoolkit.samples import sample_path
 
-MESHES = Path("/work/shared/data/meshes")
 MESH_FOLDERS = ("gazebo_models", "object_sim")
 SMALL_SAMPLES = ("table.obj", "ballA.off", "teapot.stl", "angle_block.STL")
 STAGES = ("read", "answer", "draw", "finish", "stage")
@@ -365,9 +364,10 @@ def main() -> None:
                         help="lines of the list whose memory is sampled (default: 10^6)")
     parser.add_argument("--list-run", type=int, default=100_000,
                         help="of them, the lines a full run answers (default: 100,000)")
-    parser.add_argument("--meshes", type=Path, default=MESHES,
-                        help=f"the shared meshes folder (default: {MESHES}; "
-                             "--quick uses the bundled samples only)")
+    parser.add_argument("--meshes", type=Path,
+                        help="a folder holding gazebo_models/ and object_sim/ (licensed real "
+                             "meshes), used beside the bundled samples (default: the samples "
+                             "alone; --quick uses the samples alone)")
     parser.add_argument("--quick", action="store_true",
                         help="the samples, 12 files, 4 thumbnails, 1 old thumbnail, a list of "
                              "10,000 lines (a smoke test)")
@@ -390,12 +390,13 @@ def main() -> None:
         work.mkdir(parents=True, exist_ok=True)
         started = time.perf_counter()
         load_before = os.getloadavg()[0]
-        pool = mesh_pool(None if args.quick else args.meshes)
+        meshes = None if args.quick else args.meshes
+        pool = mesh_pool(meshes)
         source = build_collection(work / "collection", pool, args.files)
         thumbs = build_collection(work / "thumbnail-collection", pool, n_thumbs)
         old = build_collection(work / "old-collection", pool, min(args.old_files, n_thumbs))
-        print(f"{args.files} files: {len(pool)} real meshes in turn "
-              f"({'the samples' if args.quick else ', '.join(MESH_FOLDERS) + ', the samples'}), "
+        folders = "the samples" if meshes is None else f"{', '.join(MESH_FOLDERS)}, the samples"
+        print(f"{args.files} files: {len(pool)} real meshes in turn ({folders}), "
               f"hard links; {os.cpu_count()} CPUs, load average {load_before:.2f}")
         best = pictures = {}
         if args.only != "thumbnails":
