@@ -12,7 +12,9 @@ from vptoolkit.errors import InputError
 from vptoolkit.io import load_mesh
 from vptoolkit.mesh import Mesh
 from vptoolkit.point_features import (
+    CLOUD_FEATURES,
     FACE_AREA_CLIP,
+    FACE_FEATURES,
     FEATURE_WIDTHS,
     POINT_FEATURES,
     check_feature_names,
@@ -21,6 +23,7 @@ from vptoolkit.point_features import (
     locate_faces,
     normal_feature,
     point_features,
+    spacing_area_feature,
     turn_features,
 )
 from vptoolkit.points import sample_surface
@@ -37,6 +40,13 @@ def square() -> Mesh:
     """The docstring's 2 x 2 square: faces of areas 1, 1 and 2 (their mean 4/3)."""
     vertices = np.array([[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0], [1, 1, 0]], float)
     return Mesh(vertices, np.array([[0, 1, 4], [1, 2, 4], [2, 3, 0]]), "square")
+
+
+def on_faces(mesh: Mesh, index) -> dict:
+    """``point_features``'s arguments for points at the centroids of the faces ``index``."""
+    index = np.asarray(index)
+    return {"points": mesh.vertices[mesh.faces[index]].mean(axis=1), "mesh": mesh,
+            "face_index": index}
 
 
 def face_areas(mesh: Mesh) -> np.ndarray:
@@ -179,7 +189,7 @@ def test_bad_feature_names_are_refused(names, problem):
 @pytest.mark.parametrize("names", [["curvature"], ["face_area", "face_area"], "face_area"])
 def test_point_features_refuses_bad_names(names):
     with pytest.raises(InputError, match="^point_features: "):
-        point_features(square(), np.array([0, 1]), names)
+        point_features(names=names, **on_faces(square(), np.array([0, 1])))
 
 
 def test_good_names_come_back_as_a_tuple():
@@ -198,22 +208,22 @@ def test_names_read_from_a_command_line():
 
 
 def test_no_names_give_an_empty_float32_block():
-    features = point_features(square(), np.array([0, 2, 1]), ())
+    features = point_features(names=(), **on_faces(square(), np.array([0, 2, 1])))
     assert features.shape == (3, 0) and features.dtype == np.float32
 
 
 def test_the_columns_follow_the_names():
     index = np.array([2, 0, 1, 2])
-    features = point_features(square(), index, ["face_area"])
+    features = point_features(names=["face_area"], **on_faces(square(), index))
     assert features.shape == (4, 1) and features.dtype == np.float32
     np.testing.assert_array_equal(features[:, 0], face_area_feature(square(), index))
-    assert feature_width(POINT_FEATURES) == sum(FEATURE_WIDTHS.values()) == 4
-    for order in (POINT_FEATURES, POINT_FEATURES[::-1]):
-        every = point_features(square(), index, order)
+    assert feature_width(POINT_FEATURES) == sum(FEATURE_WIDTHS.values()) == 8
+    for order in (FACE_FEATURES, FACE_FEATURES[::-1]):
+        every = point_features(names=order, **on_faces(square(), index))
         assert every.shape == (4, feature_width(order)) and every.dtype == np.float32
         start = 0
         for name in order:
-            alone = point_features(square(), index, [name])
+            alone = point_features(names=[name], **on_faces(square(), index))
             np.testing.assert_array_equal(every[:, start:start + FEATURE_WIDTHS[name]], alone)
             start += FEATURE_WIDTHS[name]
 
@@ -241,8 +251,8 @@ def test_normals_turn_with_the_mesh_and_ignore_moving_and_scaling(bunny):
     turned = Mesh(3.0 * bunny.vertices @ rotation.T + 5.0, bunny.faces, "turned")
     np.testing.assert_allclose(normal_feature(turned, index),
                                normal_feature(bunny, index) @ rotation.T, atol=1e-5)
-    features = point_features(bunny, index, POINT_FEATURES)
-    np.testing.assert_allclose(point_features(turned, index, POINT_FEATURES),
+    features = point_features(names=POINT_FEATURES, **on_faces(bunny, index))
+    np.testing.assert_allclose(point_features(names=POINT_FEATURES, **on_faces(turned, index)),
                                turn_features(features, POINT_FEATURES, rotation.T), atol=1e-5)
 
 
@@ -372,3 +382,52 @@ def test_a_huge_feature_list_is_echoed_cut_short(names):
     with pytest.raises(InputError) as raised:
         check_feature_names(names)
     assert len(str(raised.value)) < 200 and "..." in str(raised.value)
+
+
+# the cloud features: from the points alone
+
+
+def test_cloud_features_need_no_faces_and_follow_the_spacing(bunny):
+    sample = sample_surface(bunny, 20000, seed=1)
+    features = point_features(sample.points, CLOUD_FEATURES)
+    assert features.shape == (20000, 4) and features.dtype == np.float32
+    # an area-uniform sample: the spacing area is noise about 0 (spread about 1/sqrt(8) / 2)
+    assert abs(float(np.median(features[:, 0]))) < 0.1
+    assert 0.1 < float(features[:, 0].std()) < 0.3
+    # estimated normals lie along the true ones, up to the sign the outward rule picks
+    agreement = np.abs(np.sum(features[:, 1:] * sample.normals, axis=1))
+    assert np.median(agreement) > 0.98
+    np.testing.assert_allclose(np.linalg.norm(features[:, 1:], axis=1), 1.0, rtol=1e-5)
+
+
+def test_a_denser_half_reads_a_smaller_spacing_area(bunny):
+    points = sample_surface(bunny, 20000, seed=2).points
+    left = points[:, 0] < np.median(points[:, 0])
+    denser = np.concatenate([points[left], sample_surface(bunny, 60000, seed=3).points])
+    denser = denser[denser[:, 0] < np.median(points[:, 0])]
+    cloud = np.concatenate([denser, points[~left]])
+    feature = spacing_area_feature(cloud)
+    dense, sparse = feature[: len(denser)], feature[len(denser):]
+    # about four times the points per area on the left: ln(4) / 2 = 0.69 apart
+    assert 0.5 < float(np.median(sparse) - np.median(dense)) < 0.9
+
+
+def test_cloud_features_turn_with_the_points_and_ignore_moving_and_scaling(bunny):
+    points = sample_surface(bunny, 5000, seed=4).points
+    rotation = random_rotation(np.random.default_rng(5))
+    features = point_features(points, CLOUD_FEATURES)
+    moved = point_features(2.5 * points @ rotation.T - 7.0, CLOUD_FEATURES)
+    np.testing.assert_allclose(moved, turn_features(features, CLOUD_FEATURES, rotation.T),
+                               atol=1e-4)
+
+
+def test_face_features_of_bare_points_are_refused_in_one_line(bunny):
+    points = sample_surface(bunny, 100, seed=0).points
+    with pytest.raises(InputError, match=r"^point_features: face_area reads the faces under "
+                                         r"the points, and these have none"):
+        point_features(points, ["spacing_area", "face_area"])
+
+
+def test_a_cloud_of_repeated_points_has_no_spacing_to_compare():
+    with pytest.raises(InputError, match="no spacing to compare"):
+        spacing_area_feature(np.zeros((20, 3)) + [[1.0, 2.0, 3.0]])

@@ -1,26 +1,30 @@
-"""Which bundled network answers a bare point cloud best: coordinates alone, or the face-area
-network fed each point's local-spacing area.
+"""Which network answers a bare point cloud best: the bundled ones, networks trained on
+what a cloud carries, and the face-area network fed each point's local-spacing area.
 
 The bundled ``default`` network reads each point's face area
 (:func:`vptoolkit.point_features.face_area_feature`: ``clip(ln(A_f / A_mean) / 2,
 -3, 3)``), which a bare cloud does not carry; ``points`` reads coordinates
 alone. A cloud does carry the area each point stands for, from its local
 spacing (:func:`vptoolkit.point_areas.point_areas`, ``A_i = pi d_8^2 / 8``);
-this tool feeds the ``default`` network that area in place of the face area,
+one row feeds the ``default`` network that area in place of the face area,
 normalised the same way (``clip(ln(A_i / mean_j A_j) / 2, -3, 3)``), without
-retraining, and scores both networks on the validation clouds of a point
-benchmark folder (``tools/make_point_benchmark_data.py``: ``manifest.json``,
-``labels/``, ``clouds/<name>_r<k>_{uniform,scan}.npz``) as
-``tools/bench_point_clouds.py`` does: each network answers the rotated cloud
-(the consensus of ``N_INPUTS`` inputs, :mod:`vptoolkit.learn.draws`), the
-answer is turned back by the cloud's rotation and scores the normalised
-quality of the nearest labelled view in % (:meth:`vptoolkit.data.ViewpointDataset.quality_of`),
-mean ± standard error over models, and the two networks are compared paired
-over models (:func:`vptoolkit.evaluate.protocol.paired_difference`).
+retraining. Each ``--model`` adds a checkpoint, which reads the features a
+cloud carries (:data:`vptoolkit.point_features.CLOUD_FEATURES`, computed from
+the cloud as :func:`vptoolkit.learn.predict.cloud_surface` does) or none. All
+are scored on the validation clouds of a point benchmark folder
+(``tools/make_point_benchmark_data.py``: ``manifest.json``, ``labels/``,
+``clouds/<name>_r<k>_{uniform,scan}.npz``) as ``tools/bench_point_clouds.py``
+does: each network answers the rotated cloud (the consensus of ``N_INPUTS``
+inputs, :mod:`vptoolkit.learn.draws`), the answer is turned back by the
+cloud's rotation and scores the normalised quality of the nearest labelled
+view in % (:meth:`vptoolkit.data.ViewpointDataset.quality_of`), mean ±
+standard error over models, and every network is compared with ``points``
+paired over models (:func:`vptoolkit.evaluate.protocol.paired_difference`).
 
 Usage::
 
     python tools/eval_cloud_networks.py /work/bench-data/shapedb --rotations 1 \\
+        --model runs/cloud_features --model runs/coordinates \\
         --results docs/results.md --section cloud_networks
 """
 
@@ -37,7 +41,6 @@ import numpy as np
 from results_doc import (
     add_results_option,
     command_line,
-    comparison_table,
     format_seconds,
     machine,
     markdown_table,
@@ -47,13 +50,12 @@ from results_doc import (
 
 from vptoolkit.data import open_dataset
 from vptoolkit.errors import VptoolkitError
-from vptoolkit.evaluate.protocol import ProtocolScores
+from vptoolkit.evaluate.protocol import ProtocolScores, paired_difference
 from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.draws import N_INPUTS, network_inputs
 from vptoolkit.learn.model import load_model
 from vptoolkit.learn.predict import predict_directions
-from vptoolkit.point_areas import point_areas
-from vptoolkit.point_features import FACE_AREA_CLIP
+from vptoolkit.point_features import point_features, spacing_area_feature
 from vptoolkit.progress import progress_bar
 
 KINDS = ("uniform", "scan")
@@ -62,12 +64,20 @@ SPACING = "default: spacing area as face area"
 
 
 def spacing_feature(points: np.ndarray) -> np.ndarray:
-    """``clip(ln(A_i / mean_j A_j) / 2, -3, 3)`` of the spacing areas, ``(n, 1) float32``."""
-    areas = point_areas(points)
-    mean = float(areas.mean())
-    with np.errstate(divide="ignore"):
-        logs = np.log(areas / mean) / 2.0
-    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)[:, None]
+    """The spacing area normalised as the face area is, ``(n, 1) float32``
+    (:func:`vptoolkit.point_features.spacing_area_feature`)."""
+    return spacing_area_feature(points)[:, None]
+
+
+def difference_cells(scores: ProtocolScores, reference: ProtocolScores) -> list[str]:
+    """``scores`` minus ``reference`` per measure, paired over models, starred beyond 2 SE."""
+    delta, sem = paired_difference(scores, reference)
+    return [f"{d:+.1f} ± {e:.1f}{' *' if abs(d) > 2 * e else ''}" for d, e in zip(delta, sem)]
+
+
+def _label(path: Path) -> str:
+    """A checkpoint's row label: its folder's name, or the file's stem."""
+    return path.name if path.is_dir() else path.stem
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,6 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--models", type=int, help="the first N models (default: all)")
     parser.add_argument("--rotations", type=int, default=1,
                         help="the first rotations of each model (default: 1)")
+    parser.add_argument("--model", action="append", default=[], type=Path,
+                        help="another checkpoint to score, labelled by its folder's name "
+                             "(repeatable)")
     parser.add_argument("--json", type=Path, help="write every model's scores here")
     add_results_option(parser, "cloud_networks")
     args = parser.parse_args(argv)
@@ -87,6 +100,8 @@ def main(argv: list[str] | None = None) -> int:
         dataset = full.subset(names)
         rotations = min(args.rotations, int(manifest["rotations"]))
         networks = {COORDINATES: load_model("points"), SPACING: load_model("default")}
+        for path in args.model:
+            networks[_label(path)] = load_model(path)
         totals = {(kind, label): np.zeros((len(dataset), len(dataset.measures)))
                   for kind in KINDS for label in networks}
         with progress_bar(total=len(dataset) * rotations, description="clouds",
@@ -99,7 +114,9 @@ def main(argv: list[str] | None = None) -> int:
                             points = np.asarray(arrays["points"], np.float64)
                             rotation = np.asarray(arrays["rotation"], np.float64)
                         for label, (model, config) in networks.items():
-                            features = spacing_feature(points) if label == SPACING else None
+                            features = (spacing_feature(points) if label == SPACING
+                                        else point_features(points, model.config.point_features)
+                                        if model.config.point_features else None)
                             inputs = network_inputs(points, n_points=config["input"]["n_points"],
                                                     n_fps=config["input"]["n_fps"], seed=0,
                                                     name=name, n_inputs=N_INPUTS,
@@ -127,7 +144,9 @@ def main(argv: list[str] | None = None) -> int:
         "normalised quality of the nearest labelled view, in %, mean ± standard error over "
         "models. `points` reads coordinates alone; `default` (trained on each point's face "
         "area) is fed each point's local-spacing area (`point_areas`, k = 8) normalised as "
-        "the face area is, `clip(ln(A_i / mean A) / 2, -3, 3)`, without retraining.",
+        "the face area is, `clip(ln(A_i / mean A) / 2, -3, 3)`, without retraining. "
+        "Any other network reads the cloud features it was trained on (`spacing_area`, "
+        "`estimated_normal`), computed from the whole cloud, or none.",
         "",
     ]
     for kind in KINDS:
@@ -135,9 +154,11 @@ def main(argv: list[str] | None = None) -> int:
         lines += [f"### {kind} clouds", ""]
         lines += markdown_table(["network", "VE", "VR", "VKL", "VMI"],
                                 ([label, *score_cells(s)] for label, s in rows.items()))
-        lines += ["", "Paired over models, difference ± standard error in points (* beyond "
-                  "two standard errors):", ""]
-        lines += comparison_table(rows, SPACING)
+        lines += ["", "Paired over models, each network minus `points`, difference ± "
+                  "standard error in points (* beyond two standard errors):", ""]
+        lines += markdown_table(["network minus points", "VE", "VR", "VKL", "VMI"],
+                                ([label, *difference_cells(rows[label], rows[COORDINATES])]
+                                 for label in rows if label != COORDINATES))
         lines += [""]
     text = "\n".join(lines).rstrip()
     print(text)

@@ -1,4 +1,4 @@
-"""Per-point features that a point cloud alone does not carry: the tessellation under each point.
+"""Per-point features a network reads beside the coordinates: from faces, or from the points.
 
 Points sampled uniformly by area (:func:`vptoolkit.points.sample_surface`)
 describe the shape, not how it is cut into faces. Viewpoint entropy and
@@ -19,7 +19,28 @@ point feature gives each point a number from its mesh:
     (:func:`vptoolkit.geometry.face_normals`), in the mesh's coordinates; the
     zero vector on a degenerate face. Three columns, a vector: it turns with
     the points (:func:`turn_features`), and a mesh wound inconsistently
-    gives normals of both signs, as it is.
+    gives normals of both signs, as it is. A point cloud that has normals
+    carries this one as its own normals.
+
+Those two (:data:`FACE_FEATURES`) need the faces. Two more
+(:data:`CLOUD_FEATURES`) are computed from the points alone, the whole
+surface sample or cloud a network's inputs are drawn from, so a mesh, a
+dataset's stored points and a bare point cloud all carry them, the same way:
+
+``"spacing_area"``
+    ``clip(ln(A_i / mean_j A_j) / 2, -3, 3)`` with ``A_i = pi d_8^2 / 8`` the
+    area of surface point ``i`` stands for, from the distance to its 8th
+    nearest point (:func:`vptoolkit.point_areas.point_areas`): the
+    face-area feature's normalisation applied to the sampling's own spacing.
+    On an area-uniform sample it is noise about 0 (a relative spread of
+    ``1 / sqrt(8)``); on a scan it follows the scanner's distance and angle.
+    One column.
+
+``"estimated_normal"``
+    The unit normal of the plane through the point and its 8 nearest
+    points, turned away from the centroid of all the points
+    (:func:`vptoolkit.cloud_sample.estimate_normals`). Three columns, a
+    vector that turns with the points.
 
 :func:`point_features` stacks named features, ``(n, F)`` with ``F =``
 :func:`feature_width`, in the order given; :data:`POINT_FEATURES` lists the
@@ -43,14 +64,21 @@ from vptoolkit.errors import InputError
 from vptoolkit.geometry import face_areas, face_normals
 from vptoolkit.mesh import MeshLike, as_mesh
 
-__all__ = ["POINT_FEATURES", "FEATURE_WIDTHS", "FACE_AREA_CLIP", "check_feature_names",
-           "face_area_feature", "feature_width", "locate_faces", "normal_feature",
-           "point_features", "turn_features"]
+__all__ = ["POINT_FEATURES", "FACE_FEATURES", "CLOUD_FEATURES", "FEATURE_WIDTHS",
+           "FACE_AREA_CLIP", "check_feature_names", "face_area_feature", "feature_width",
+           "locate_faces", "normal_feature", "spacing_area_feature", "point_features",
+           "turn_features"]
 
-POINT_FEATURES: Final = ("face_area", "normal")
+FACE_FEATURES: Final = ("face_area", "normal")
+"""Features read from the face under each point: a mesh's, or a dataset's stored mesh's."""
+
+CLOUD_FEATURES: Final = ("spacing_area", "estimated_normal")
+"""Features computed from the points alone, which every model carries, a bare cloud too."""
+
+POINT_FEATURES: Final = FACE_FEATURES + CLOUD_FEATURES
 """Names :func:`point_features` computes."""
 
-FEATURE_WIDTHS: Final = {"face_area": 1, "normal": 3}
+FEATURE_WIDTHS: Final = {"face_area": 1, "normal": 3, "spacing_area": 1, "estimated_normal": 3}
 """Columns of each feature: 1 for a number, 3 for a vector that turns with the points."""
 
 FACE_AREA_CLIP: Final = 3.0
@@ -194,22 +222,84 @@ def turn_features(features: Any, names: Sequence[str], turn: Any) -> Any:
     return turned
 
 
-def point_features(mesh: MeshLike, face_index: ArrayLike,
-                   names: Sequence[str]) -> NDArray[np.float32]:
-    """The named features of points lying on the faces ``face_index`` of ``mesh``.
+def spacing_area_feature(points: ArrayLike) -> NDArray[np.float32]:
+    """The ``"spacing_area"`` feature of a cloud's points.
+
+    Parameters
+    ----------
+    points : (n, 3) array_like
+        The whole cloud or surface sample, more than 8 points.
+
+    Returns
+    -------
+    feature : (n,) float32
+        ``clip(ln(A_i / mean_j A_j) / 2, -3, 3)`` of the spacing areas
+        (:func:`vptoolkit.point_areas.point_areas`, ``k = 8``); unitless and
+        unchanged by rotating, moving or scaling the points. A point with 8
+        others at its place gets -3.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> grid = np.stack(np.meshgrid(np.arange(10.0), np.arange(10.0), [0.0]), -1).reshape(-1, 3)
+    >>> spaced = np.concatenate([grid, 3.0 * grid + [40.0, 0.0, 0.0]])  # 3x the spacing
+    >>> feature = spacing_area_feature(spaced)
+    >>> round(float(feature[150] - feature[50]), 3)  # ln(9) / 2: nine times the area
+    1.099
+    """
+    from vptoolkit.point_areas import point_areas
+
+    areas = point_areas(points)
+    mean = float(areas.mean())
+    if not mean > 0.0:
+        raise InputError("points: every point lies on 8 others, no spacing to compare")
+    with np.errstate(divide="ignore"):
+        logs = np.log(areas / mean) / 2.0
+    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)
+
+
+def point_features(points: ArrayLike, names: Sequence[str], *, mesh: MeshLike | None = None,
+                   face_index: ArrayLike | None = None) -> NDArray[np.float32]:
+    """The named features of ``points``: the whole surface sample or cloud.
+
+    Parameters
+    ----------
+    points : (n, 3) array_like
+        The points, in the mesh's coordinates where there is one.
+    names : sequence of str
+        Names of :data:`POINT_FEATURES`, in order.
+    mesh : MeshLike, optional
+        The mesh the points lie on, for :data:`FACE_FEATURES`.
+    face_index : (n,) int, optional
+        The face of ``mesh`` each point lies on, for :data:`FACE_FEATURES`.
 
     Returns
     -------
     features : (n, F) float32
         The columns of each name (:data:`FEATURE_WIDTHS`), in the order given
         (``(n, 0)`` for no names).
+
+    Raises
+    ------
+    InputError
+        For a bad name, or a face feature asked of points without their
+        mesh and faces (a point cloud).
     """
+    from vptoolkit.cloud_sample import estimate_normals
+
     names = check_feature_names(names)
+    cloud = np.asarray(points, dtype=np.float64)
+    faceless = [name for name in names if name in FACE_FEATURES]
+    if faceless and (mesh is None or face_index is None):
+        raise InputError(f"point_features: {', '.join(faceless)} reads the faces under the "
+                         "points, and these have none (a point cloud carries "
+                         f"{', '.join(CLOUD_FEATURES)})")
     columns = {"face_area": lambda: face_area_feature(mesh, face_index)[:, None],
-               "normal": lambda: normal_feature(mesh, face_index)}
-    n = len(np.asarray(face_index))
+               "normal": lambda: normal_feature(mesh, face_index),
+               "spacing_area": lambda: spacing_area_feature(cloud)[:, None],
+               "estimated_normal": lambda: estimate_normals(cloud).astype(np.float32)}
     return np.concatenate([columns[name]() for name in names], axis=1) if names else (
-        np.zeros((n, 0), np.float32))
+        np.zeros((len(cloud), 0), np.float32))
 
 
 def locate_faces(mesh: MeshLike, points: ArrayLike) -> NDArray[np.int64]:

@@ -45,7 +45,8 @@ TURN = random_rotation(np.random.default_rng(11))
 def surface_cloud(mesh: Mesh, n: int, seed: int) -> np.ndarray:
     """(n, 7): points sampled on ``mesh``, their face area and their face normal."""
     sample = sample_surface(mesh, n, seed=seed)
-    return np.column_stack([sample.points, point_features(mesh, sample.face_index, NORMALS)])
+    features = point_features(sample.points, NORMALS, mesh=mesh, face_index=sample.face_index)
+    return np.column_stack([sample.points, features])
 
 
 def turned(cloud: np.ndarray | torch.Tensor, rotation: np.ndarray) -> np.ndarray:
@@ -206,7 +207,7 @@ def test_a_network_of_normals_reads_the_normals_of_an_n6_point_file(tmp_path):
                             seed=0), checkpoint, metadata={"input": INPUT})
     mesh = load_mesh(sample_path("teapot.stl"))
     sample = sample_surface(mesh, 2048, seed=0)
-    normals = point_features(mesh, sample.face_index, ("normal",))
+    normals = point_features(sample.points, ("normal",), mesh=mesh, face_index=sample.face_index)
     with_normals, bare = tmp_path / "with.npy", tmp_path / "bare.npy"
     np.save(with_normals, np.column_stack([sample.points, 3.0 * normals]))  # any length
     np.save(bare, sample.points)

@@ -115,8 +115,11 @@ def evaluate(predictions: Path, dataset_path: Path | str, split: Split, measure:
               callback=lambda ctx, param, value: parse_point_features(value),
               help="What each input point carries besides its coordinates, comma-separated: "
                    "face_area, the relative area of the mesh face under it (the tessellation "
-                   "VE and VMI weigh); normal, that face's normal; or none, coordinates alone "
-                   "(the paper's input).")
+                   "VE and VMI weigh); normal, that face's normal; spacing_area, the relative "
+                   "area of surface the point stands for, from its 8th neighbour's distance; "
+                   "estimated_normal, the normal of the plane through its 8 nearest points; "
+                   "or none, coordinates alone (the paper's input). The last two and none "
+                   "need no faces: a network trained on them answers bare point clouds.")
 @device_option()
 @click.option("--threads", type=click.IntRange(1, 1024), help="Torch threads (default: torch's).")
 @click.option("--resume", is_flag=True, help="Continue the run stored at --output.")

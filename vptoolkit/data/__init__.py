@@ -467,12 +467,15 @@ class ViewpointDataset:
         return np.asarray(vertices, dtype=np.float32), np.asarray(faces, dtype=np.int32)
 
     def point_features(self, key: int | str, names: Sequence[str]) -> NDArray[np.float32]:
-        """Features of one model's stored surface points, from its stored mesh.
+        """Features of one model's stored surface points.
 
-        Each point's face is the nearest face of the cleaned mesh
+        Face features (:data:`vptoolkit.point_features.FACE_FEATURES`) read
+        each point's face: the nearest face of the stored mesh
         (:func:`vptoolkit.point_features.locate_faces`, numba from the
-        ``measures`` extra); the features are
-        :func:`vptoolkit.point_features.point_features` of those faces.
+        ``measures`` extra). Cloud features
+        (:data:`vptoolkit.point_features.CLOUD_FEATURES`) come from the
+        stored points alone. Both are
+        :func:`vptoolkit.point_features.point_features`.
 
         Parameters
         ----------
@@ -491,23 +494,32 @@ class ViewpointDataset:
         Raises
         ------
         InputError
-            If the model is stored without faces (a point cloud): it has no
-            faces to read the features of.
+            If a face feature is asked of a model stored without faces (a
+            point cloud).
         """
         from vptoolkit.mesh import Mesh
-        from vptoolkit.point_features import check_feature_names, locate_faces, point_features
+        from vptoolkit.point_features import (
+            CLOUD_FEATURES,
+            FACE_FEATURES,
+            check_feature_names,
+            locate_faces,
+            point_features,
+        )
 
         names = check_feature_names(names)
         row = self.row(key)
-        vertices, faces = self.mesh(key)
         name = str(self._shared.records[row]["name"])
+        points = np.asarray(self._shared.reader().array("points")[row], dtype=np.float64)
+        if not any(feature in FACE_FEATURES for feature in names):
+            return point_features(points, names)
+        vertices, faces = self.mesh(key)
         if not len(faces):
             raise InputError(f"{name}: stored without faces (a point cloud), so it has no "
-                             f"point features of faces ({', '.join(names)}); train without "
-                             "them (--point-features none)")
+                             f"point features of faces ({', '.join(names)}); train with the "
+                             f"features of points ({', '.join(CLOUD_FEATURES)}) or none "
+                             "(--point-features none)")
         mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name=name)
-        points = np.asarray(self._shared.reader().array("points")[row], dtype=np.float64)
-        return point_features(mesh, locate_faces(mesh, points), names)
+        return point_features(points, names, mesh=mesh, face_index=locate_faces(mesh, points))
 
     def view_set(self, key: int | str, k: int | None = None) -> ViewSet | None:
         """The model's greedy coverage view set, as the build stored it.

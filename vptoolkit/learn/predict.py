@@ -42,10 +42,13 @@ network; meshes and point files need ``category``; they must all predict the
 same measures.
 
 A network that reads point features (``ModelConfig.point_features``, such as
-the bundled ``default``) gets them from the faces the points were sampled on
-for meshes, from the stored mesh for datasets
-(:meth:`vptoolkit.data.ViewpointDataset.point_features`); a point file has
-none, and such a network refuses it.
+the bundled ``default``) gets the face features from the faces the points were
+sampled on for meshes, from the stored mesh for datasets
+(:meth:`vptoolkit.data.ViewpointDataset.point_features`), and the cloud
+features (:data:`vptoolkit.point_features.CLOUD_FEATURES`) from the points
+the inputs are drawn from. A point file carries the cloud features (and
+``normal`` where it has normals); a network that reads a face feature
+refuses it.
 
 Size
     About 630 lines for one concept, a loaded network answering models: the
@@ -372,14 +375,15 @@ def _predict_routed(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any
 def mesh_surface(mesh: MeshLike, point_features: Sequence[str], *,
                  seed: int) -> tuple[NDArray[np.float64], NDArray[np.float32] | None]:
     """A mesh's 20000 surface points (:func:`vptoolkit.points.sample_surface`, ``seed``), and
-    their ``point_features`` from the faces they were sampled on (None for no features)."""
+    their ``point_features`` (None for no features): face features from the faces they were
+    sampled on, cloud features from the points."""
     from vptoolkit.point_features import point_features as features_of
     from vptoolkit.points import sample_surface
 
     mesh = as_mesh(mesh)
     sample = sample_surface(mesh, N_SURFACE_POINTS, seed=seed)
-    features = (features_of(mesh, sample.face_index, point_features) if point_features
-                else None)
+    features = (features_of(sample.points, point_features, mesh=mesh,
+                            face_index=sample.face_index) if point_features else None)
     return sample.points, features
 
 
@@ -390,17 +394,24 @@ def _features_read(networks: dict[str | None, tuple[ViewpointNet, dict[str, Any]
 
 def _features_refused(where: str, point_features: Sequence[str]) -> InputError:
     """The one message for a point cloud given to a network that reads point features it
-    does not carry (a cloud carries ``normal`` alone, where it has normals)."""
-    carried = ("a point cloud without normals does not carry" if list(point_features) == ["normal"]
+    does not carry (a cloud carries the cloud features, and ``normal`` where it has normals)."""
+    from vptoolkit.point_features import CLOUD_FEATURES
+
+    missing = sorted(set(point_features) - set(CLOUD_FEATURES))
+    carried = ("a point cloud without normals does not carry" if missing == ["normal"]
                else "a point cloud does not carry")
     return InputError(f"{where}: the network reads point features "
-                      f"({', '.join(sorted(point_features))}) that {carried}; "
-                      "give the mesh, or a network of coordinates alone (--model points)")
+                      f"({', '.join(missing)}) that {carried}; "
+                      "give the mesh, or a network for point clouds (--model points)")
 
 
 def _cloud_features(cloud: PointCloud, point_features: Sequence[str]) -> bool:
-    """Whether a point cloud carries ``point_features``: ``normal`` alone, with normals."""
-    return list(point_features) == ["normal"] and cloud.normals is not None
+    """Whether a point cloud carries ``point_features``: the cloud features
+    (:data:`vptoolkit.point_features.CLOUD_FEATURES`), and ``normal`` where it has normals."""
+    from vptoolkit.point_features import CLOUD_FEATURES
+
+    carried = set(CLOUD_FEATURES) | ({"normal"} if cloud.normals is not None else set())
+    return set(point_features) <= carried
 
 
 def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
@@ -409,15 +420,29 @@ def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
     """A point cloud's points as they are, and the ``point_features`` it carries (None for no
     features).
 
-    A cloud carries ``normal`` alone, where it has normals; any other feature
-    is refused in one line naming ``where`` (default: the cloud's name).
+    A cloud carries the cloud features (computed from its points), and
+    ``normal`` where it has normals (its own); a face feature is refused in
+    one line naming ``where`` (default: the cloud's name).
     """
+    from vptoolkit.point_features import CLOUD_FEATURES
+    from vptoolkit.point_features import point_features as features_of
+
+    points = np.array(cloud.points, dtype=np.float64)
     if not point_features:
-        return np.array(cloud.points, dtype=np.float64), None
+        return points, None
     if not _cloud_features(cloud, point_features):
         raise _features_refused(cloud.name if where is None else where, point_features)
-    assert cloud.normals is not None  # unit length, checked by PointCloud
-    return np.array(cloud.points, dtype=np.float64), cloud.normals.astype(np.float32)
+    computed = features_of(points, [name for name in point_features if name in CLOUD_FEATURES])
+    columns, start = [], 0
+    for name in point_features:
+        if name == "normal":
+            assert cloud.normals is not None  # unit length, checked by PointCloud
+            columns.append(cloud.normals.astype(np.float32))
+        else:
+            width = FEATURE_WIDTHS[name]
+            columns.append(computed[:, start:start + width])
+            start += width
+    return points, np.concatenate(columns, axis=1)
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *, seed: int,
@@ -501,8 +526,9 @@ class MeshPredictor:
         As the class docstring says, with the ``F`` point features the network
         reads (``model.config.point_features``) after the coordinates. A point
         cloud's own points are drawn from, with the features it carries
-        (:func:`cloud_surface`: ``normal`` alone, where it has normals; a
-        network that reads another feature refuses it in one line).
+        (:func:`cloud_surface`: the cloud features, and ``normal`` where it
+        has normals; a network that reads a face feature refuses it in one
+        line).
         """
         if isinstance(mesh, PointCloud):
             name = mesh.name
