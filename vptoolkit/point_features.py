@@ -294,11 +294,18 @@ def point_features(points: ArrayLike, names: Sequence[str], *, mesh: MeshLike | 
         raise InputError(f"point_features: {', '.join(faceless)} reads the faces under the "
                          "points, and these have none (a point cloud carries "
                          f"{', '.join(CLOUD_FEATURES)})")
-    columns = {"face_area": lambda: face_area_feature(mesh, face_index)[:, None],
-               "normal": lambda: normal_feature(mesh, face_index),
-               "spacing_area": lambda: spacing_area_feature(cloud)[:, None],
-               "estimated_normal": lambda: estimate_normals(cloud).astype(np.float32)}
-    return np.concatenate([columns[name]() for name in names], axis=1) if names else (
+
+    def column(name: str) -> NDArray[np.float32]:
+        if name == "spacing_area":
+            return spacing_area_feature(cloud)[:, None]
+        if name == "estimated_normal":
+            return estimate_normals(cloud).astype(np.float32)
+        assert mesh is not None and face_index is not None  # checked above
+        if name == "face_area":
+            return face_area_feature(mesh, face_index)[:, None]
+        return normal_feature(mesh, face_index)
+
+    return np.concatenate([column(name) for name in names], axis=1) if names else (
         np.zeros((len(cloud), 0), np.float32))
 
 

@@ -45,6 +45,8 @@ def test_command_json_lists_directions_views_resolutions_and_seconds():
                                        "--resolution", "48", "--json"])
     assert result.exit_code == 0, result.output
     entry = json.loads(result.stdout)["results"][0]
+    assert entry["file"] == str(sample_path("mug.obj")) and entry["dataset"] is None
+    assert entry["name"] == "mug"
     assert entry["views"] == 8 and entry["resolution"] == 48 and entry["seconds"] > 0
     assert sum(stage["views"] for stage in entry["stages"]) == 8
     assert set(entry["best"]) == set(PAPER_MEASURES)

@@ -69,12 +69,16 @@ class SearchRun:
         an :class:`~vptoolkit.errors.InputError`), none a measurement failure.
     measures : tuple of str
         The searched measures, the same for every mesh (default: the paper's four).
+    files : tuple of str or None
+        The file each result was read from, in the order of ``results``; None
+        for a dataset's model (default: none recorded).
     """
 
     results: tuple[BestViews, ...]
     failures: tuple[tuple[str, str], ...]
     is_bad_input: bool = True
     measures: tuple[str, ...] = PAPER_MEASURES
+    files: tuple[str | None, ...] = ()
 
     @property
     def predictions(self) -> Predictions:
@@ -194,6 +198,7 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
     if sources:
         load_kernels()
     results: list[BestViews] = []
+    files: list[str | None] = []
     failures: list[tuple[str, str]] = []
     is_bad_input = True
     names: set[str] = set()
@@ -211,13 +216,14 @@ def _search_all(sources: list[ModelSource], settings: SearchSettings,
                 found = search_best_views(mesh, settings, prior=candidates, measures=measures)
                 results.append(replace(found, seconds=found.seconds + proposing,
                                        stages=_named_prior(found.stages, prior, mesh)))
+                files.append(source.origin if source.kind == "file" else None)
             except (InputError, MeasurementError) as error:
                 if claimed is not None:
                     names.discard(claimed)
                 failures.append((source.label, one_line(error)))
                 is_bad_input = is_bad_input and isinstance(error, InputError)
             bar.update(1)
-    return SearchRun(tuple(results), tuple(failures), is_bad_input, measures)
+    return SearchRun(tuple(results), tuple(failures), is_bad_input, measures, tuple(files))
 
 
 def _named_prior(stages: tuple[SearchStage, ...],

@@ -158,7 +158,12 @@ def best_view(inputs: tuple[str, ...], budget: int, resolution: int, prior: str,
     if output is not None and run.results:
         run.predictions.save_npz(output)
     if as_json:
-        click.echo(output_json({"results": [result.summary() for result in run.results],
+        dataset_name = None if dataset_path is None else str(dataset_path)
+        click.echo(output_json({"results": [
+                                   {"file": file,
+                                    "dataset": None if file is not None else dataset_name,
+                                    **result.summary()}
+                                   for file, result in zip(run.files, run.results)],
                                "failures": [{"input": where, "error": why}
                                             for where, why in run.failures]}, indent=2))
     else:
