@@ -76,12 +76,19 @@ from vptoolkit.settings import MAX_RESOLUTION
               help=f"Models --dry-run builds for its estimate (default: {CALIBRATION_MODELS}; "
               "0: count only).")
 @max_points_option()
+@click.option("--sampling", type=click.Choice(["uniform", "scan"]), default="uniform",
+              show_default=True,
+              help="A mesh's stored points: area-uniform on its surface, or a virtual scan "
+                   "(3 seeded range images of 128 px, range noise 0.005 of the diagonal) "
+                   "drawn to --points; the labels are the mesh's either way, so a network "
+                   "trained on it learns from scanner-like points.")
 def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
                   categories: str | None, n_views: int, resolution: int,
                   measure_names: tuple[str, ...], n_points: int, max_faces: int,
                   no_clean: bool, remesh: bool, workers: int, scheduler: str | None,
                   split_seed: int, split_file: Path | None, max_models: int | None,
-                  dry_run: bool, calibrate: int | None, max_points: int) -> None:
+                  dry_run: bool, calibrate: int | None, max_points: int,
+                  sampling: str) -> None:
     """Build a viewpoint-quality dataset from the meshes and point clouds under SRC into OUT.
 
     SRC is a ModelNet40-style tree (<category>/<train|test>/<name>.off) or any
@@ -102,6 +109,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --dry-run
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair --workers 2
       vptool build-dataset ModelNet40/ out/ --categories airplane --measures VE,NVT,SL
+      vptool build-dataset meshes/ scans/ --sampling scan
       vptool build-dataset ModelNet40/ out/ --categories airplane,chair \\
           --splits data/ModelNet40/small.txt
     """
@@ -119,7 +127,7 @@ def build_dataset(src: Path, out: Path, store_format: Literal["zarr", "hdf5"],
         measures=measure_names, n_points=n_points,
         max_faces=max_faces, clean=not no_clean, remesh=remesh, split_seed=split_seed,
         splits=None if split_file is None else SplitFile.read(split_file),
-        max_models=max_models, format=store_format, max_points=max_points)
+        max_models=max_models, format=store_format, max_points=max_points, sampling=sampling)
     if dry_run:
         from vptoolkit.dataset.builder.plan import plan_build
 

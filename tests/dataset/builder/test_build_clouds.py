@@ -132,3 +132,29 @@ def test_a_store_of_clouds_packs_and_verifies(built, tmp_path):
     with open_dataset(release.path) as dataset:
         assert dataset.names == ["meshes__mug", "scans__bare", "scans__bunny", "scans__few"]
         assert len(dataset.mesh("scans__bunny")[1]) == 0
+
+
+def test_scan_sampling_stores_a_virtual_scan_with_the_meshs_labels(scans, built, tmp_path):
+    from vptoolkit.cloud_sample import sample_cloud
+    from vptoolkit.dataset.builder.sources import model_seed
+    from vptoolkit.mesh import Mesh
+    from vptoolkit.point_cloud import PointCloud
+    from vptoolkit.scan import virtual_scan
+
+    source = tmp_path / "src"
+    shutil.copytree(scans / "meshes", source / "meshes")
+    scanned = build_dataset(source, tmp_path / "scanned", replace(TINY, sampling="scan"))
+    with open_dataset(scanned.path) as dataset, open_dataset(built.path) as uniform:
+        assert dataset.names == ["meshes__mug"]
+        item = dataset["meshes__mug"]
+        np.testing.assert_array_equal(item["quality"], uniform["meshes__mug"]["quality"])
+        assert dataset.attrs["sampling"] == "scan" and "sampling" not in uniform.attrs
+        vertices, faces = dataset.mesh("meshes__mug")
+        mesh = Mesh(vertices.astype(np.float64), faces.astype(np.int64), name="mug")
+    seed = model_seed(TINY.split_seed, "meshes/meshes__mug")
+    points, normals = virtual_scan(mesh, seed=seed)
+    expected = sample_cloud(PointCloud(points, normals), 500, seed=seed)
+    np.testing.assert_allclose(item["points"], expected.points, atol=1e-5)
+    np.testing.assert_allclose(item["normals"], expected.normals, atol=1e-5)
+    with pytest.raises(InputError, match="^sampling: expected one of uniform, scan"):
+        replace(TINY, sampling="poisson")

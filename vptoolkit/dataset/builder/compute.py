@@ -34,11 +34,12 @@ from numpy.typing import NDArray
 
 from vptoolkit.checks import one_line
 from vptoolkit.dataset.builder.options import BuildOptions
-from vptoolkit.errors import MissingDependencyError, VptoolkitError
+from vptoolkit.errors import InputError, MissingDependencyError, VptoolkitError
 from vptoolkit.files import sha256_file
 from vptoolkit.point_cloud import PointCloud
 
 if TYPE_CHECKING:
+    from vptoolkit.cloud_sample import CloudSample
     from vptoolkit.measures.quality import ViewQuality
     from vptoolkit.mesh import Mesh
     from vptoolkit.view_sets.result import ViewSet
@@ -243,10 +244,27 @@ def _mesh_arrays(mesh: Mesh, task: ModelTask, seconds: dict[str, float]
     quality, view_set = _quality_and_view_set(mesh, options)
     seconds["measure"] = time.perf_counter() - started
     started = time.perf_counter()
-    sample = sample_surface(mesh, options.n_points, seed=task.seed)
+    sample = (_scan_sample(mesh, options.n_points, task.seed) if options.sampling == "scan"
+              else sample_surface(mesh, options.n_points, seed=task.seed))
     seconds["sample"] = time.perf_counter() - started
     arrays = _arrays(quality, sample.points, sample.normals, mesh.vertices, mesh.faces)
     return arrays, cleaning, view_set
+
+
+def _scan_sample(mesh: Mesh, n_points: int, seed: int) -> CloudSample:
+    """``n_points`` points of a virtual scan of ``mesh`` (``BuildOptions.sampling="scan"``).
+
+    The default scanner (:func:`vptoolkit.scan.virtual_scan`, seeded with
+    ``seed``), then :func:`vptoolkit.cloud_sample.sample_cloud`'s rule with the
+    same seed; each point keeps the normal of the face under it.
+    """
+    from vptoolkit.cloud_sample import sample_cloud
+    from vptoolkit.scan import virtual_scan
+
+    points, normals = virtual_scan(mesh, seed=seed)
+    if not len(points):
+        raise InputError(f"{mesh.name}: no scanner sees the mesh, nothing to sample")
+    return sample_cloud(PointCloud(points, normals, name=mesh.name), n_points, seed=seed)
 
 
 def _cloud_arrays(cloud: PointCloud, task: ModelTask, seconds: dict[str, float]

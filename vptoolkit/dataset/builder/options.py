@@ -43,7 +43,10 @@ DEFAULT_FORMAT: Final = "zarr"
 """Store format of a build unless it is given one."""
 
 _KEYS = ("format", "measure", "measures", "n_points", "max_faces", "clean", "remesh",
-         "split_seed", "splits_sha256", "max_models", "max_points")
+         "split_seed", "splits_sha256", "max_models", "max_points", "sampling")
+
+SAMPLINGS: Final = ("uniform", "scan")
+"""How a mesh's stored points are taken (:attr:`BuildOptions.sampling`)."""
 
 
 @dataclass(frozen=True)
@@ -147,6 +150,19 @@ class BuildOptions:
         Most points a point cloud file keeps, at least 1; a larger one is
         thinned on reading (:func:`vptoolkit.io.load`; default: ``MAX_POINTS``
         = 20 million). Meshes are never thinned.
+    sampling : {"uniform", "scan"}
+        How a mesh's ``n_points`` stored points are taken (default:
+        "uniform"): area-uniform on its surface
+        (:func:`vptoolkit.points.sample_surface`), or a virtual scan of it
+        (:func:`vptoolkit.scan.virtual_scan`: 3 range images of
+        ``SCAN_RESOLUTION`` px from seeded directions, range noise
+        ``SCAN_NOISE`` of the diagonal, seeded by the model's sample seed),
+        drawn to ``n_points`` by :func:`vptoolkit.cloud_sample.sample_cloud`'s
+        rule (distinct points when the scan has more, every point and repeats
+        when it has fewer), each with the normal of the face it lies on. The
+        labels are the mesh's either way: a store of scans trains a network
+        on the partial, uneven points a scanner gives. A point cloud keeps its
+        own points.
 
     Raises
     ------
@@ -166,6 +182,7 @@ class BuildOptions:
     max_models: int | None = None
     format: StoreFormat = DEFAULT_FORMAT
     max_points: int = MAX_POINTS
+    sampling: str = "uniform"
 
     def __post_init__(self) -> None:
         checked: dict[str, Any] = {
@@ -189,6 +206,9 @@ class BuildOptions:
         if self.format not in FORMATS:
             raise InputError(
                 f"format: expected one of {', '.join(FORMATS)}, got {self.format!r}")
+        if self.sampling not in SAMPLINGS:
+            raise InputError(f"sampling: expected one of {', '.join(SAMPLINGS)}, got "
+                             f"{self.sampling!r}")
         if self.remesh and not self.clean:
             raise InputError("remesh: remeshing is a cleaning step; it needs clean=True")
 
@@ -211,6 +231,7 @@ class BuildOptions:
             "splits_sha256": None if self.splits is None else self.splits.sha256,
             "max_models": self.max_models,
             "max_points": self.max_points,
+            "sampling": self.sampling,
         }
 
     @classmethod
@@ -219,12 +240,15 @@ class BuildOptions:
 
         A record made before builds chose their measures has no ``measures``: the
         paper's four, which it was built with; one made before point clouds were
-        thinned by option has no ``max_points``: ``MAX_POINTS``, which it read with.
+        thinned by option has no ``max_points``: ``MAX_POINTS``, which it read with;
+        one made before scans has no ``sampling``: "uniform".
         """
         if isinstance(record, dict) and "measures" not in record:
             record = {**record, "measures": list(PAPER_MEASURES)}
         if isinstance(record, dict) and "max_points" not in record:
             record = {**record, "max_points": MAX_POINTS}
+        if isinstance(record, dict) and "sampling" not in record:
+            record = {**record, "sampling": "uniform"}
         record = check_keys(record, _KEYS, "build options")
         digest = record["splits_sha256"]
         return cls(
@@ -239,6 +263,7 @@ class BuildOptions:
             max_models=record["max_models"],
             format=record["format"],
             max_points=record["max_points"],
+            sampling=record["sampling"],
         )
 
     def store_attrs(self) -> dict[str, Any]:
@@ -246,7 +271,8 @@ class BuildOptions:
 
         ``measures``, ``resolution``, ``backend``, ``camera``, ``cleaning``
         (``enabled``, ``max_faces``, ``remesh``), ``split_seed`` and, with
-        ``splits``, ``split_file`` (``name``, ``sha256``); the writer adds
+        ``splits``, ``split_file`` (``name``, ``sha256``), and with scanned
+        points, ``sampling`` (``"scan"``); the writer adds
         ``higher_is_better`` from the registry, and ``n_views`` and
         ``n_points`` from the arrays.
         """
@@ -262,4 +288,6 @@ class BuildOptions:
         if self.splits is not None:
             name = self.splits.path.name if self.splits.path is not None else None
             attrs["split_file"] = {"name": name, "sha256": self.splits.sha256}
+        if self.sampling != "uniform":
+            attrs["sampling"] = self.sampling
         return attrs
