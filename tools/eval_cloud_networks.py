@@ -49,7 +49,7 @@ from results_doc import (
 )
 
 from vptoolkit.data import open_dataset
-from vptoolkit.errors import VptoolkitError
+from vptoolkit.errors import InputError, VptoolkitError
 from vptoolkit.evaluate.protocol import ProtocolScores, paired_difference
 from vptoolkit.learn.consensus import consensus_directions
 from vptoolkit.learn.draws import N_INPUTS, network_inputs
@@ -89,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", action="append", default=[], type=Path,
                         help="another checkpoint to score, labelled by its folder's name "
                              "(repeatable)")
+    parser.add_argument("--versus", action="append", default=[],
+                        help="also compare every network with this row, paired (a --model's "
+                             "label, repeatable; `points` always)")
     parser.add_argument("--json", type=Path, help="write every model's scores here")
     add_results_option(parser, "cloud_networks")
     args = parser.parse_args(argv)
@@ -102,6 +105,10 @@ def main(argv: list[str] | None = None) -> int:
         networks = {COORDINATES: load_model("points"), SPACING: load_model("default")}
         for path in args.model:
             networks[_label(path)] = load_model(path)
+        unknown = [label for label in args.versus if label not in networks]
+        if unknown:
+            raise InputError(f"--versus: {', '.join(unknown)} is not a row; rows: "
+                             f"{', '.join(networks)}")
         totals = {(kind, label): np.zeros((len(dataset), len(dataset.measures)))
                   for kind in KINDS for label in networks}
         with progress_bar(total=len(dataset) * rotations, description="clouds",
@@ -154,11 +161,12 @@ def main(argv: list[str] | None = None) -> int:
         lines += [f"### {kind} clouds", ""]
         lines += markdown_table(["network", "VE", "VR", "VKL", "VMI"],
                                 ([label, *score_cells(s)] for label, s in rows.items()))
-        lines += ["", "Paired over models, each network minus `points`, difference ± "
-                  "standard error in points (* beyond two standard errors):", ""]
-        lines += markdown_table(["network minus points", "VE", "VR", "VKL", "VMI"],
-                                ([label, *difference_cells(rows[label], rows[COORDINATES])]
-                                 for label in rows if label != COORDINATES))
+        for reference in (COORDINATES, *args.versus):
+            lines += ["", f"Paired over models, each network minus `{reference}`, difference "
+                      "± standard error in points (* beyond two standard errors):", ""]
+            lines += markdown_table([f"network minus {reference}", "VE", "VR", "VKL", "VMI"],
+                                    ([label, *difference_cells(rows[label], rows[reference])]
+                                     for label in rows if label != reference))
         lines += [""]
     text = "\n".join(lines).rstrip()
     print(text)

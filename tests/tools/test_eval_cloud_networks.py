@@ -35,21 +35,43 @@ def _bench_folder(root: Path, build: Path) -> Path:
     return root
 
 
-def test_both_networks_are_scored_on_both_kinds_and_written(
+def test_the_networks_are_scored_on_both_kinds_paired_and_written(
         tmp_path: Path, run_tool: RunTool, features_dataset: Path) -> None:
+    import dataclasses
+
+    from fixtures.networks import TINY_CONFIG
+    from vptoolkit.learn.model import ViewpointNet, save_model
+    from vptoolkit.point_features import CLOUD_FEATURES
+
     folder = _bench_folder(tmp_path / "bench", features_dataset)
+    checkpoint = tmp_path / "cloud_net"
+    save_model(ViewpointNet(dataclasses.replace(TINY_CONFIG, point_features=CLOUD_FEATURES),
+                            seed=0), checkpoint, metadata={"input": {"n_points": 512,
+                                                                     "n_fps": 128}})
     results = tmp_path / "results.md"
     result = run_tool("eval_cloud_networks.py", str(folder), "--results", str(results),
+                      "--model", str(checkpoint), "--versus", "cloud_net",
                       "--json", str(tmp_path / "scores.json"), timeout=600)
     assert result.returncode == 0, result.stderr[-2000:]
     scores = json.loads((tmp_path / "scores.json").read_text())
     assert set(scores) == {f"{kind} / {network}" for kind in ("uniform", "scan")
                            for network in ("points: coordinates alone",
-                                           "default: spacing area as face area")}
+                                           "default: spacing area as face area", "cloud_net")}
     for entry in scores.values():
         values = np.array(entry["scores"])
         assert values.shape == (2, 4) and len(entry["names"]) == 2
         assert ((values >= 0.0) & (values <= 100.0)).all()
     text = results.read_text()
     assert "<!-- cloud_networks:start -->" in text and "### scan clouds" in text
-    assert "default: spacing area as face area minus" in text
+    assert "| network minus points: coordinates alone |" in text
+    assert "| network minus cloud_net |" in text
+
+
+def test_an_unknown_versus_row_is_one_line(tmp_path: Path, run_tool: RunTool,
+                                           features_dataset: Path) -> None:
+    folder = _bench_folder(tmp_path / "bench", features_dataset)
+    result = run_tool("eval_cloud_networks.py", str(folder), "--versus", "nothing")
+    assert result.returncode == 2
+    assert result.stderr.strip().endswith("--versus: nothing is not a row; rows: "
+                                          "points: coordinates alone, default: spacing area "
+                                          "as face area")
