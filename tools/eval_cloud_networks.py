@@ -14,8 +14,8 @@ the cloud as :func:`vptoolkit.learn.predict.cloud_surface` does) or none. All
 are scored on the validation clouds of a point benchmark folder
 (``tools/make_point_benchmark_data.py``: ``manifest.json``, ``labels/``,
 ``clouds/<name>_r<k>_{uniform,scan}.npz``) as ``tools/bench_point_clouds.py``
-does: each network answers the rotated cloud (the consensus of ``N_INPUTS``
-inputs, :mod:`vptoolkit.learn.draws`), the answer is turned back by the
+does: each network answers the rotated cloud (the consensus of ``--inputs``
+inputs, default ``N_INPUTS``, :mod:`vptoolkit.learn.draws`), the answer is turned back by the
 cloud's rotation and scores the normalised quality of the nearest labelled
 view in % (:meth:`vptoolkit.data.ViewpointDataset.quality_of`), mean ±
 standard error over models, and every network is compared with ``points``
@@ -89,6 +89,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--model", action="append", default=[], type=Path,
                         help="another checkpoint to score, labelled by its folder's name "
                              "(repeatable)")
+    parser.add_argument("--inputs", type=int, default=N_INPUTS,
+                        help=f"network inputs per cloud, their consensus answers (default: "
+                             f"{N_INPUTS})")
     parser.add_argument("--versus", action="append", default=[],
                         help="also compare every network with this row, paired (a --model's "
                              "label, repeatable; `points` always)")
@@ -126,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
                                         if model.config.point_features else None)
                             inputs = network_inputs(points, n_points=config["input"]["n_points"],
                                                     n_fps=config["input"]["n_fps"], seed=0,
-                                                    name=name, n_inputs=N_INPUTS,
+                                                    name=name, n_inputs=args.inputs,
                                                     features=features)
                             answer = consensus_directions(
                                 predict_directions(model, inputs)[None])[0]
@@ -147,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         f"{len(dataset)} models, {rotations} fixed rotation{'' if rotations == 1 else 's'} "
         f"each; labels: cleaned mesh, {len(dataset.views)} views. Each network answers the "
-        f"rotated cloud (the consensus of {N_INPUTS} inputs), turned back, and scores the "
+        f"rotated cloud (the consensus of {args.inputs} inputs), turned back, and scores the "
         "normalised quality of the nearest labelled view, in %, mean ± standard error over "
         "models. `points` reads coordinates alone; `default` (trained on each point's face "
         "area) is fed each point's local-spacing area (`point_areas`, k = 8) normalised as "
