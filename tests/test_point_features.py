@@ -428,6 +428,12 @@ def test_face_features_of_bare_points_are_refused_in_one_line(bunny):
         point_features(points, ["spacing_area", "face_area"])
 
 
-def test_a_cloud_of_repeated_points_has_no_spacing_to_compare():
-    with pytest.raises(InputError, match="no spacing to compare"):
-        spacing_area_feature(np.zeros((20, 3)) + [[1.0, 2.0, 3.0]])
+def test_repeated_points_count_once_and_too_few_distinct_points_are_refused(bunny):
+    points = sample_surface(bunny, 3000, seed=6).points
+    repeated = np.concatenate([points, points[::3], points[::7]])
+    features = point_features(repeated, CLOUD_FEATURES)
+    np.testing.assert_allclose(features[:3000], point_features(points, CLOUD_FEATURES),
+                               atol=1e-6)
+    np.testing.assert_array_equal(features[3000:4000], features[:3000:3])
+    with pytest.raises(InputError, match="^points: 8 distinct points, need more than 8"):
+        spacing_area_feature(np.repeat(points[:8], 50, axis=0))

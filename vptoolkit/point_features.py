@@ -42,6 +42,9 @@ dataset's stored points and a bare point cloud all carry them, the same way:
     (:func:`vptoolkit.cloud_sample.estimate_normals`). Three columns, a
     vector that turns with the points.
 
+A point given more than once (a stored sample drawn with repeats from a cloud
+of fewer points) counts once in both neighbourhoods.
+
 :func:`point_features` stacks named features, ``(n, F)`` with ``F =``
 :func:`feature_width`, in the order given; :data:`POINT_FEATURES` lists the
 names. Whoever turns points turns their vector features alike
@@ -228,15 +231,21 @@ def spacing_area_feature(points: ArrayLike) -> NDArray[np.float32]:
     Parameters
     ----------
     points : (n, 3) array_like
-        The whole cloud or surface sample, more than 8 points.
+        The whole cloud or surface sample, more than 8 distinct points.
 
     Returns
     -------
     feature : (n,) float32
         ``clip(ln(A_i / mean_j A_j) / 2, -3, 3)`` of the spacing areas
-        (:func:`vptoolkit.point_areas.point_areas`, ``k = 8``); unitless and
-        unchanged by rotating, moving or scaling the points. A point with 8
-        others at its place gets -3.
+        (:func:`vptoolkit.point_areas.point_areas`, ``k = 8``) of the distinct
+        points, the mean over them; a point given more than once (a sample
+        drawn with repeats) is one point of surface and gets its value each
+        time. Unitless and unchanged by rotating, moving or scaling the points.
+
+    Raises
+    ------
+    InputError
+        For 8 distinct points or fewer.
 
     Examples
     --------
@@ -246,16 +255,29 @@ def spacing_area_feature(points: ArrayLike) -> NDArray[np.float32]:
     >>> feature = spacing_area_feature(spaced)
     >>> round(float(feature[150] - feature[50]), 3)  # ln(9) / 2: nine times the area
     1.099
+    >>> bool((spacing_area_feature(np.concatenate([spaced, spaced[:7]]))[:200] == feature).all())
+    True
     """
     from vptoolkit.point_areas import point_areas
 
-    areas = point_areas(points)
-    mean = float(areas.mean())
-    if not mean > 0.0:
-        raise InputError("points: every point lies on 8 others, no spacing to compare")
+    distinct, inverse = _distinct(points)
+    areas = point_areas(distinct)
     with np.errstate(divide="ignore"):
-        logs = np.log(areas / mean) / 2.0
-    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)
+        logs = np.log(areas / float(areas.mean())) / 2.0
+    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)[inverse]
+
+
+def _distinct(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
+    """The distinct rows of ``points`` and each point's row among them; more than 8 or an
+    InputError (the neighbourhoods of the cloud features need 8 other points)."""
+    cloud = np.asarray(points, dtype=np.float64)
+    if cloud.ndim != 2 or cloud.shape[1] != 3:
+        raise InputError(f"points: expected an (n, 3) array, got shape {cloud.shape}")
+    distinct, inverse = np.unique(cloud, axis=0, return_inverse=True)
+    if len(distinct) <= 8:
+        raise InputError(f"points: {len(distinct)} distinct points, need more than 8 for the "
+                         "features of their neighbourhoods")
+    return distinct, inverse.reshape(-1)
 
 
 def point_features(points: ArrayLike, names: Sequence[str], *, mesh: MeshLike | None = None,
@@ -299,7 +321,7 @@ def point_features(points: ArrayLike, names: Sequence[str], *, mesh: MeshLike | 
         if name == "spacing_area":
             return spacing_area_feature(cloud)[:, None]
         if name == "estimated_normal":
-            return estimate_normals(cloud).astype(np.float32)
+            return estimate_normals(_distinct(cloud)[0], cloud).astype(np.float32)
         assert mesh is not None and face_index is not None  # checked above
         if name == "face_area":
             return face_area_feature(mesh, face_index)[:, None]

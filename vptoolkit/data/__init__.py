@@ -494,8 +494,9 @@ class ViewpointDataset:
         Raises
         ------
         InputError
-            If a face feature is asked of a model stored without faces (a
-            point cloud).
+            Naming the model: a face feature asked of a model stored without
+            faces (a point cloud), or cloud features of 8 distinct points or
+            fewer.
         """
         from vptoolkit.mesh import Mesh
         from vptoolkit.point_features import (
@@ -511,7 +512,10 @@ class ViewpointDataset:
         name = str(self._shared.records[row]["name"])
         points = np.asarray(self._shared.reader().array("points")[row], dtype=np.float64)
         if not any(feature in FACE_FEATURES for feature in names):
-            return point_features(points, names)
+            try:
+                return point_features(points, names)
+            except InputError as error:
+                raise InputError(f"{name}: {error}") from None
         vertices, faces = self.mesh(key)
         if not len(faces):
             raise InputError(f"{name}: stored without faces (a point cloud), so it has no "
