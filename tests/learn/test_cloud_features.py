@@ -83,3 +83,13 @@ def test_the_estimated_normals_turn_with_a_turned_cloud():
         point_features(points @ rotation.T, CLOUD_FEATURES),
         turn_features(point_features(points, CLOUD_FEATURES), CLOUD_FEATURES, rotation.T),
         atol=1e-4)
+
+
+def test_the_protocol_predictor_needs_no_dataset_for_cloud_features(checkpoint):
+    from vptoolkit.learn.predict import network_predictor
+    from vptoolkit.point_cloud import PointCloud
+
+    points = surface("teapot.stl", 3000, seed=5)
+    answer = network_predictor(checkpoint, n_inputs=2, device="cpu")([points], ["teapot"])
+    expected = MeshPredictor(checkpoint, n_inputs=2)(PointCloud(points, name="teapot"))
+    np.testing.assert_allclose(answer[0], expected, atol=1e-6)

@@ -237,7 +237,9 @@ def network_predictor(
     Each cloud becomes ``n_inputs`` network inputs as in :func:`predict` (the
     checkpoint's input size, seeded from ``seed`` and the points' content,
     :func:`vptoolkit.learn.draws.network_indices`), and the answer is their
-    consensus. A network that reads point features
+    consensus. A network that reads the cloud features alone
+    (:data:`vptoolkit.point_features.CLOUD_FEATURES`) computes them from each
+    cloud given. One that reads face features
     (``ModelConfig.point_features``) takes them from ``dataset``: the clouds
     must be its models' stored points, in stored order, turned about the
     origin or not, as :func:`vptoolkit.evaluate.protocol.score_protocol`
@@ -264,7 +266,10 @@ def network_predictor(
     n_inputs = check_n_inputs(n_inputs)
     networks = load_networks(model_path)
     lookup = dict(categories or {})
-    reads = _features_read(networks)
+    from vptoolkit.point_features import CLOUD_FEATURES
+    from vptoolkit.point_features import point_features as cloud_features_of
+
+    reads = [name for name in _features_read(networks) if name not in CLOUD_FEATURES]
     if reads and dataset is None:
         raise InputError(f"{model_path}: the network reads point features ({', '.join(reads)}); "
                          "pass the dataset the points come from")
@@ -276,6 +281,8 @@ def network_predictor(
                     wanted: tuple[str, ...]) -> NDArray[np.float32] | None:
         if not wanted:
             return None
+        if set(wanted) <= set(CLOUD_FEATURES):  # from the points given, as for a point file
+            return cloud_features_of(cloud, wanted)
         assert dataset is not None
         if (name, wanted) not in cached:
             turns = any(FEATURE_WIDTHS[feature] > 1 for feature in wanted)
