@@ -3,8 +3,9 @@
 A cloud is 20,000 surface points of a bundled sample mesh (seed 0); the
 answer is what :func:`vptoolkit.learn.predict.network_predictor` gives with
 the bundled network of coordinates alone (``points``), in process, the
-network loaded once: the consensus of its answers to
-:data:`~vptoolkit.learn.draws.N_INPUTS` inputs of 4096 points per cloud.
+network loaded once: the consensus of its answers to ``--inputs`` inputs of
+4096 points per cloud (default :data:`~vptoolkit.learn.draws.N_INPUTS`, as
+``vptool predict --inputs``).
 Printed:
 
 * single: one cloud per call, the median over the clouds and repeats;
@@ -29,6 +30,7 @@ Usage::
 
     python tools/bench_inference.py            # a few minutes
     python tools/bench_inference.py --quick    # 3 clouds, batch 8, fewer repeats
+    python tools/bench_inference.py --inputs 1 # the network asked once a cloud
     nice -n 10 python tools/bench_inference.py --repeats 1   # batch 64, one repeat
     python tools/bench_inference.py --json results.json
     python tools/bench_inference.py --results docs/benchmarks.md   # and its section ``inference``
@@ -87,7 +89,8 @@ def sample_clouds(names: tuple[str, ...]) -> dict[str, np.ndarray]:
             for name in names}
 
 
-def bench_stages(clouds: dict[str, np.ndarray], repeats: int) -> dict[str, float]:
+def bench_stages(clouds: dict[str, np.ndarray], repeats: int,
+                 n_inputs: int = N_INPUTS) -> dict[str, float]:
     """Where the time of one cloud goes, in ms, the median over the clouds."""
     from vptoolkit.learn.model import load_model
 
@@ -95,7 +98,7 @@ def bench_stages(clouds: dict[str, np.ndarray], repeats: int) -> dict[str, float
     model.eval()
     stages: dict[str, list[float]] = {}
     for name, cloud in clouds.items():
-        inputs = torch.from_numpy(network_inputs(cloud, name=name, **INPUT))
+        inputs = torch.from_numpy(network_inputs(cloud, name=name, n_inputs=n_inputs, **INPUT))
         answers = predict_directions(model, inputs)[None]
         canonical = cloud[content_order(cloud)[0]]
         rng = np.random.default_rng(0)
@@ -104,11 +107,11 @@ def bench_stages(clouds: dict[str, np.ndarray], repeats: int) -> dict[str, float
                 "canonical order and key": lambda: content_order(cloud),
                 f"farthest point sampling ({N_FPS_POINTS})": lambda: farthest_point_sampling(
                     canonical, N_FPS_POINTS, rng=rng),
-                f"choose {N_INPUTS} inputs": lambda: network_indices(
-                    cloud, n_inputs=N_INPUTS, **INPUT),
+                f"choose {n_inputs} inputs": lambda: network_indices(
+                    cloud, n_inputs=n_inputs, **INPUT),
                 "Morton codes and sort": lambda: input_level(inputs),
-                f"hierarchy of {N_INPUTS} inputs": lambda: build_hierarchy(inputs, model.config),
-                f"network on {N_INPUTS} inputs": lambda: model(inputs),
+                f"hierarchy of {n_inputs} inputs": lambda: build_hierarchy(inputs, model.config),
+                f"network on {n_inputs} inputs": lambda: model(inputs),
                 "consensus": lambda: consensus_directions(answers),
             }
             for stage, function in timed.items():
@@ -125,6 +128,9 @@ def main() -> None:
                         help="clouds per batched call (default: 64; 8 with --quick)")
     parser.add_argument("--repeats", type=int,
                         help="timed repeats of each call (default: 3; 1 with --quick)")
+    parser.add_argument("--inputs", type=int, default=N_INPUTS,
+                        help=f"network inputs per cloud, their consensus answers (default: "
+                             f"{N_INPUTS})")
     parser.add_argument("--json", type=Path, help="also write the results to this JSON file")
     add_results_option(parser, "inference")
     args = parser.parse_args()
@@ -136,10 +142,10 @@ def main() -> None:
         batch = 8 if args.quick and args.batch == 64 else args.batch
         repeats = args.repeats or (1 if args.quick else 3)
         clouds = sample_clouds(names)
-        predictor = network_predictor("points", device="cpu")
+        predictor = network_predictor("points", device="cpu", n_inputs=args.inputs)
         print(f"torch {torch.__version__}, {args.threads} threads, {os.cpu_count()} CPUs, "
               f"load average {load_before:.2f}")
-        print(f"{len(clouds)} clouds of {CLOUD_POINTS} points, {N_INPUTS} inputs of "
+        print(f"{len(clouds)} clouds of {CLOUD_POINTS} points, {args.inputs} inputs of "
               f"{N_NETWORK_POINTS} points each, network 'points', in process")
         singles = [median_times(functools.partial(predictor, [cloud], [name]), repeats)
                    for name, cloud in clouds.items()]
@@ -151,7 +157,7 @@ def main() -> None:
         print(f"  {'single':<32} {single:8.1f} ms per cloud ({single_cpu:.1f} ms CPU)")
         print(f"  {f'batch of {batch}':<32} {batched:8.1f} ms per cloud "
               f"({batched_cpu:.1f} ms CPU)")
-        stages = bench_stages(clouds, repeats)
+        stages = bench_stages(clouds, repeats, args.inputs)
         print("one cloud, by stage (median over the clouds):")
         for stage, ms in stages.items():
             print(f"  {stage:<32} {ms:8.1f} ms")
@@ -160,6 +166,7 @@ def main() -> None:
               "(timings mean little on a busy machine)")
         if args.json:
             results = {"threads": args.threads, "cpu_count": os.cpu_count(),
+                       "inputs": args.inputs,
                        "torch": torch.__version__, "single_ms": single,
                        "single_cpu_ms": single_cpu, "batch": batch,
                        "batched_ms_per_cloud": batched, "batched_cpu_ms_per_cloud": batched_cpu,

@@ -32,3 +32,13 @@ def test_quick_bench_prints_single_batched_and_stages(tmp_path: Path, run_tool: 
     assert written["batch"] == 8 and written["threads"] == 1
     assert written["single_ms"] > 0 and written["batched_ms_per_cloud"] > 0
     assert written["single_cpu_ms"] > 0 and written["batched_cpu_ms_per_cloud"] > 0
+
+
+@pytest.mark.slow
+def test_inputs_sets_the_consensus_size(tmp_path: Path, run_tool: RunTool) -> None:
+    result = run_tool("bench_inference.py", "--quick", "--threads", "1", "--inputs", "1",
+                      "--json", str(tmp_path / "inference.json"))
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "1 inputs of 4096 points each" in result.stdout
+    assert "network on 1 inputs" in result.stdout
+    assert json.loads((tmp_path / "inference.json").read_text())["inputs"] == 1
