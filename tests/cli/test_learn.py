@@ -37,7 +37,8 @@ def test_train_refuses_unknown_point_features_before_any_work(runner, tmp_path):
                                   "--point-features", "face_area,curvature"])
     assert result.exit_code == 2
     assert result.stderr == ("vptool: error: --point-features: unknown ['curvature'], expected "
-                             "names of ['face_area', 'normal']\n")
+                             "names of ['face_area', 'normal', 'spacing_area', "
+                             "'estimated_normal']\n")
     assert not (tmp_path / "m").exists()
 
 
