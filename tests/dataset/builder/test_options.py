@@ -65,6 +65,18 @@ def test_max_points_is_recorded_and_an_older_record_read_the_default():
         BuildOptions(max_points=0)
 
 
+def test_sampling_is_recorded_and_an_older_record_reads_uniform():
+    options = BuildOptions(sampling="scan")
+    assert BuildOptions.from_dict(options.to_dict()) == options != BuildOptions()
+    assert options.store_attrs()["sampling"] == "scan"
+    assert "sampling" not in BuildOptions().store_attrs()  # default builds keep their bytes
+    record = BuildOptions().to_dict()
+    del record["sampling"]  # a build.json written before the option
+    assert BuildOptions.from_dict(record) == BuildOptions()
+    with pytest.raises(InputError, match="^sampling: expected one of uniform, scan, got 'x'$"):
+        BuildOptions(sampling="x")
+
+
 def test_a_record_with_missing_or_unknown_keys_is_refused():
     record = BuildOptions().to_dict()
     del record["n_points"]
