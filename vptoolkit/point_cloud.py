@@ -141,9 +141,11 @@ def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int
     high = points.max(axis=0)
     extent = float((high - low).max())
 
+    def side(k: int) -> float:
+        return float(max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k))
+
     def firsts(k: int) -> NDArray[np.int64]:
-        side = float(max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k))
-        return np.unique(_cell_keys(points, low, high, extent, side), return_index=True)[1]
+        return np.unique(_cell_keys(points, low, high, extent, side(k)), return_index=True)[1]
 
     k = 0
     first = firsts(k)
@@ -152,7 +154,7 @@ def voxel_subset(points: NDArray[np.float64], max_points: int) -> NDArray[np.int
             k += 1
             first = firsts(k)
     else:
-        while max_points ** (-1.0 / 3.0) * 1.25 ** np.float64(k - 1) >= _FINEST_SIDE:
+        while side(k - 1) >= _FINEST_SIDE:
             finer = firsts(k - 1)
             if len(finer) > max_points:
                 break

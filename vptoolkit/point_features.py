@@ -258,13 +258,18 @@ def spacing_area_feature(points: ArrayLike) -> NDArray[np.float32]:
     >>> bool((spacing_area_feature(np.concatenate([spaced, spaced[:7]]))[:200] == feature).all())
     True
     """
+    distinct, inverse = _distinct(points)
+    return _spacing_area(distinct)[inverse]
+
+
+def _spacing_area(distinct: NDArray[np.float64]) -> NDArray[np.float32]:
+    """:func:`spacing_area_feature` of points that are all distinct."""
     from vptoolkit.point_areas import point_areas
 
-    distinct, inverse = _distinct(points)
     areas = point_areas(distinct)
     with np.errstate(divide="ignore"):
         logs = np.log(areas / float(areas.mean())) / 2.0
-    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)[inverse]
+    return np.clip(logs, -FACE_AREA_CLIP, FACE_AREA_CLIP).astype(np.float32)
 
 
 def _distinct(points: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
@@ -317,11 +322,14 @@ def point_features(points: ArrayLike, names: Sequence[str], *, mesh: MeshLike | 
                          "points, and these have none (a point cloud carries "
                          f"{', '.join(CLOUD_FEATURES)})")
 
+    if any(name in CLOUD_FEATURES for name in names):  # once for both cloud features
+        distinct, inverse = _distinct(cloud)
+
     def column(name: str) -> NDArray[np.float32]:
         if name == "spacing_area":
-            return spacing_area_feature(cloud)[:, None]
-        if name == "estimated_normal":
-            return estimate_normals(_distinct(cloud)[0], cloud).astype(np.float32)
+            return _spacing_area(distinct)[inverse, None]
+        if name == "estimated_normal":  # a repeated point has its distinct point's normal
+            return estimate_normals(distinct).astype(np.float32)[inverse]
         assert mesh is not None and face_index is not None  # checked above
         if name == "face_area":
             return face_area_feature(mesh, face_index)[:, None]

@@ -431,7 +431,6 @@ def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
     ``normal`` where it has normals (its own); a face feature is refused in
     one line naming ``where`` (default: the cloud's name).
     """
-    from vptoolkit.point_features import CLOUD_FEATURES
     from vptoolkit.point_features import point_features as features_of
 
     points = np.array(cloud.points, dtype=np.float64)
@@ -439,17 +438,12 @@ def cloud_surface(cloud: PointCloud, point_features: Sequence[str], *,
         return points, None
     if not _cloud_features(cloud, point_features):
         raise _features_refused(cloud.name if where is None else where, point_features)
-    computed = features_of(points, [name for name in point_features if name in CLOUD_FEATURES])
-    columns, start = [], 0
-    for name in point_features:
-        if name == "normal":
-            assert cloud.normals is not None  # unit length, checked by PointCloud
-            columns.append(cloud.normals.astype(np.float32))
-        else:
-            width = FEATURE_WIDTHS[name]
-            columns.append(computed[:, start:start + width])
-            start += width
-    return points, np.concatenate(columns, axis=1)
+    if "normal" not in point_features:
+        return points, features_of(points, point_features)
+    assert cloud.normals is not None  # unit length, checked by PointCloud
+    return points, np.concatenate(
+        [cloud.normals.astype(np.float32) if name == "normal" else features_of(points, [name])
+         for name in point_features], axis=1)
 
 
 def _source_surface(source: ModelSource, point_features: Sequence[str], *, seed: int,
